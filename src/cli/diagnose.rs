@@ -1,0 +1,16 @@
+//! `volcomp diagnose`.
+use std::path::PathBuf;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input files.
+    pub inputs: Vec<PathBuf>,
+}
+
+pub fn run(_args: &Args) -> anyhow::Result<()> {
+    Err(super::NotBuilt {
+        command: "diagnose",
+        what: "the sim-to-real diagnosis is not built yet",
+    }
+    .into())
+}

@@ -1,0 +1,16 @@
+//! `volcomp error`.
+use std::path::PathBuf;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input files.
+    pub inputs: Vec<PathBuf>,
+}
+
+pub fn run(_args: &Args) -> anyhow::Result<()> {
+    Err(super::NotBuilt {
+        command: "error",
+        what: "the machine model is not built yet",
+    }
+    .into())
+}

@@ -1,0 +1,225 @@
+//! What the interpreter says about each block: the contract between the G-code
+//! front end and everything downstream (toolpath sampling, compensation, diff).
+//!
+//! All values are absolute, in mm and degrees (G20 input is converted), in the
+//! frame the block was programmed in. `gcode` knows nothing about kinematics:
+//! a part-frame target is reported as programmed, and the layers that know the
+//! machine turn it into joints.
+use crate::axes::Axes;
+use serde::{Deserialize, Serialize};
+
+/// The frame of a block's `X Y Z` words (gcode.md "Joint programs and tool-tip programs").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Frame {
+    /// Axis commands: X Y Z machine coordinates of the tool tip, A C degrees.
+    #[default]
+    Joint,
+    /// Tool tip in part coordinates (M428, G43.4, G234, TRAORI active); A C degrees.
+    Part,
+}
+
+/// Arc plane (G17/G18/G19).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Plane {
+    #[default]
+    XY,
+    ZX,
+    YZ,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum MotionKind {
+    /// G0.
+    Rapid,
+    /// G1.
+    Linear,
+    /// G2 (clockwise) or G3, about `centre` (absolute, same frame as the targets),
+    /// in `plane`; `turns` extra full turns (P word), helical along the plane normal.
+    Arc {
+        clockwise: bool,
+        centre: [f64; 3],
+        plane: Plane,
+        turns: u32,
+    },
+}
+
+/// Feed of a motion block.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Feed {
+    /// G0 at the machine's rapid rate.
+    Rapid,
+    /// G94: mm/min (converted from in/min under G20).
+    PerMinute(f64),
+    /// G93: the block takes 1/F minutes.
+    InverseTime(f64),
+}
+
+/// One motion block, absolute and resolved.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Motion {
+    pub kind: MotionKind,
+    pub frame: Frame,
+    /// G53: the targets are machine coordinates for this block only.
+    pub machine_coordinates: bool,
+    pub start: Axes,
+    pub end: Axes,
+    pub feed: Feed,
+    /// Duration in minutes from the programmed coordinates (effects.md rules:
+    /// XYZ path length / F, or √(Δa²+Δc²)/F when only A/C move, G0 at the rapid
+    /// rate, 1/F under G93). For part-frame blocks the toolpath layer recomputes
+    /// it from the machine path.
+    pub duration_min: f64,
+}
+
+impl Motion {
+    /// Points along the move at most `max_step` apart (XYZ distance in the move's
+    /// frame; rotary-only moves are stepped so that no axis moves more than
+    /// `max_step` degrees), excluding the start and including the end. Arcs are
+    /// interpolated on the circle (helix), A/C linearly in the arc parameter.
+    pub fn interpolate(&self, max_step: f64) -> Vec<Axes> {
+        let mut out = Vec::new();
+        self.interpolate_into(max_step, &mut out);
+        out
+    }
+
+    /// As [`Motion::interpolate`], appending to `out`.
+    pub fn interpolate_into(&self, max_step: f64, out: &mut Vec<Axes>) {
+        let step = if max_step.is_finite() && max_step > 0.0 {
+            max_step
+        } else {
+            0.5
+        };
+        match self.kind {
+            MotionKind::Rapid | MotionKind::Linear => {
+                let len = self.start.xyz_distance(&self.end);
+                let rot = (self.end.a - self.start.a)
+                    .abs()
+                    .max((self.end.c - self.start.c).abs());
+                let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
+                for i in 1..=n {
+                    out.push(self.start.lerp(&self.end, i as f64 / n as f64));
+                }
+            }
+            MotionKind::Arc {
+                clockwise,
+                centre,
+                plane,
+                turns,
+            } => {
+                let geometry = ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns);
+                let len = geometry.length();
+                let rot = (self.end.a - self.start.a)
+                    .abs()
+                    .max((self.end.c - self.start.c).abs());
+                let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
+                for i in 1..=n {
+                    let t = i as f64 / n as f64;
+                    let mut p = self.start.lerp(&self.end, t);
+                    let xyz = geometry.point(t);
+                    p.x = xyz[0];
+                    p.y = xyz[1];
+                    p.z = xyz[2];
+                    out.push(p);
+                }
+                if let Some(last) = out.last_mut() {
+                    *last = self.end;
+                }
+            }
+        }
+    }
+
+    /// XYZ path length in the move's frame (arc length for arcs), mm.
+    pub fn xyz_length(&self) -> f64 {
+        match self.kind {
+            MotionKind::Rapid | MotionKind::Linear => self.start.xyz_distance(&self.end),
+            MotionKind::Arc {
+                clockwise,
+                centre,
+                plane,
+                turns,
+            } => ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns).length(),
+        }
+    }
+}
+
+/// Circle (helix) geometry of an arc in its plane: in-plane coordinates (u, v),
+/// normal coordinate w.
+#[derive(Clone, Copy, Debug)]
+pub struct ArcGeometry {
+    plane: Plane,
+    centre_uv: [f64; 2],
+    radius_start: f64,
+    radius_end: f64,
+    angle_start: f64,
+    sweep: f64,
+    w_start: f64,
+    w_end: f64,
+}
+
+impl ArcGeometry {
+    pub fn new(start: &Axes, end: &Axes, centre: [f64; 3], plane: Plane, clockwise: bool, turns: u32) -> Self {
+        let (s, e, c) = (
+            to_plane(plane, start.xyz()),
+            to_plane(plane, end.xyz()),
+            to_plane(plane, centre),
+        );
+        let a0 = (s[1] - c[1]).atan2(s[0] - c[0]);
+        let a1 = (e[1] - c[1]).atan2(e[0] - c[0]);
+        let tau = std::f64::consts::TAU;
+        let mut sweep = a1 - a0;
+        if clockwise {
+            while sweep >= -1e-12 {
+                sweep -= tau;
+            }
+            sweep -= tau * turns as f64;
+        } else {
+            while sweep <= 1e-12 {
+                sweep += tau;
+            }
+            sweep += tau * turns as f64;
+        }
+        ArcGeometry {
+            plane,
+            centre_uv: [c[0], c[1]],
+            radius_start: ((s[0] - c[0]).powi(2) + (s[1] - c[1]).powi(2)).sqrt(),
+            radius_end: ((e[0] - c[0]).powi(2) + (e[1] - c[1]).powi(2)).sqrt(),
+            angle_start: a0,
+            sweep,
+            w_start: s[2],
+            w_end: e[2],
+        }
+    }
+
+    pub fn length(&self) -> f64 {
+        let r = 0.5 * (self.radius_start + self.radius_end);
+        let planar = r * self.sweep.abs();
+        let dw = self.w_end - self.w_start;
+        (planar * planar + dw * dw).sqrt()
+    }
+
+    /// Point at fraction `t` ∈ [0, 1] of the arc (XYZ).
+    pub fn point(&self, t: f64) -> [f64; 3] {
+        let ang = self.angle_start + self.sweep * t;
+        let r = self.radius_start + (self.radius_end - self.radius_start) * t;
+        let u = self.centre_uv[0] + r * ang.cos();
+        let v = self.centre_uv[1] + r * ang.sin();
+        let w = self.w_start + (self.w_end - self.w_start) * t;
+        from_plane(self.plane, [u, v, w])
+    }
+}
+
+fn to_plane(plane: Plane, p: [f64; 3]) -> [f64; 3] {
+    match plane {
+        Plane::XY => [p[0], p[1], p[2]],
+        Plane::ZX => [p[2], p[0], p[1]],
+        Plane::YZ => [p[1], p[2], p[0]],
+    }
+}
+
+fn from_plane(plane: Plane, q: [f64; 3]) -> [f64; 3] {
+    match plane {
+        Plane::XY => [q[0], q[1], q[2]],
+        Plane::ZX => [q[1], q[2], q[0]],
+        Plane::YZ => [q[2], q[0], q[1]],
+    }
+}

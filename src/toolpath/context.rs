@@ -1,0 +1,71 @@
+//! The context of a plan point: everything about the tool-path point that cut it
+//! (effects.md "Context of a plan point"). Built by the toolpath layer from the
+//! interpreted program and the machine; consumed by `predict`, `simulate` and
+//! `diagnose`, which need nothing else from the program or the kinematics.
+use crate::axes::Axes;
+use serde::{Deserialize, Serialize};
+
+/// Names of the squareness parameters, in the order of [`PointContext::squareness_jacobian`].
+pub const SQUARENESS_PARAMETERS: [&str; 3] = ["s_xy", "s_xz", "s_yz"];
+/// Names of the rotary location parameters of the `rotary_location` effect, in the
+/// order of [`PointContext::location_jacobian`].
+pub const LOCATION_PARAMETERS: [&str; 8] = [
+    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
+];
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointContext {
+    /// Plan point id (as in the CSV).
+    pub id: String,
+    /// Nominal plan point, part coordinates, mm.
+    pub point: [f64; 3],
+    /// Unit outward surface normal, part coordinates.
+    pub normal: [f64; 3],
+    /// Whether a path point lies within 0.5 mm of the contact point (formats.md).
+    pub cut: bool,
+    /// Program line (1-based) of the block that cut it.
+    pub line: usize,
+    /// Index of that block among the program's blocks (0-based).
+    pub block: usize,
+    /// Machining time in minutes since program start (end of the block reaching the point).
+    pub time_min: f64,
+    /// Joint position of the path point (mm, degrees).
+    pub joints: Axes,
+    /// Sign (−1, 0, +1) of each linear axis's most recent non-zero motion.
+    pub sigma: [f64; 3],
+    /// XYZ machine-path speed of the block arriving at the point, mm/s.
+    pub speed_mm_s: f64,
+    /// Curvature of the machine XYZ path at the point, 1/mm (0 where undefined).
+    pub curvature_per_mm: f64,
+    /// Unit principal normal (towards the centre of curvature), machine frame.
+    pub principal_normal: [f64; 3],
+    /// Nominal unit tool axis (tip towards spindle), part coordinates.
+    pub tool_axis: [f64; 3],
+    /// Cumulative G1/G2/G3 XYZ machine length up to the point, m.
+    pub cut_length_m: f64,
+    /// Predicted deviation n·e of the geometric model, µm.
+    pub predicted_um: f64,
+    /// ∂(tool tip, part coordinates, µm)/∂(s_xy, s_xz, s_yz in µrad): one row per parameter.
+    pub squareness_jacobian: [[f64; 3]; 3],
+    /// ∂(tool tip, part coordinates, µm)/∂(location parameter, µm or µrad), rows in
+    /// the order of [`LOCATION_PARAMETERS`].
+    pub location_jacobian: [[f64; 3]; 8],
+}
+
+impl PointContext {
+    /// Rotate a machine-frame vector into part coordinates: `Rz(−c)·Rx(−a)·v`
+    /// (effects.md "machine frame → part").
+    pub fn machine_to_part(&self, v: [f64; 3]) -> [f64; 3] {
+        machine_to_part(self.joints.a, self.joints.c, v)
+    }
+}
+
+/// `Rz(−c)·Rx(−a)·v`, `a` and `c` in degrees.
+pub fn machine_to_part(a_deg: f64, c_deg: f64, v: [f64; 3]) -> [f64; 3] {
+    let (sa, ca) = (-a_deg.to_radians()).sin_cos();
+    let (sc, cc) = (-c_deg.to_radians()).sin_cos();
+    // Rx(−a)
+    let r1 = [v[0], ca * v[1] - sa * v[2], sa * v[1] + ca * v[2]];
+    // Rz(−c)
+    [cc * r1[0] - sc * r1[1], sc * r1[0] + cc * r1[1], r1[2]]
+}

@@ -1,0 +1,6 @@
+//! The tool path in both frames: blocks sampled at ≤ 0.5 mm, joints and part
+//! coordinates of every path point, nearest path point of a plan point, and the
+//! context (time, direction, speed, curvature, …) that effects depend on.
+pub mod context;
+
+pub use context::PointContext;
