@@ -1,0 +1,1 @@
+//! Measured component-error tables (formats.md "Error table"). Under construction.
