@@ -4,9 +4,5 @@
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
 pub mod context;
-pub mod plan_match;
-pub mod walk;
 
 pub use context::PointContext;
-pub use plan_match::{PlanMatch, PlanMatcher};
-pub use walk::{PathPoint, PathWalker, WalkOptions};
