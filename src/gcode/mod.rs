@@ -4,6 +4,20 @@
 //! Invariants: `gcode` knows nothing about kinematics or machines; every block
 //! keeps its byte span, line number and raw text; numbers are f64; syntax and
 //! modal state are separate layers.
+//!
+//! Layers:
+//! - [`block`]: the syntax of one line ([`Block`], [`Word`]), lossless;
+//! - [`parser`]: one line's bytes → words (nom; grammar/gcode.ebnf);
+//! - [`reader`]: streaming [`BlockReader`] over any `BufRead`, and [`parse_program`];
+//! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
+pub mod block;
+pub mod error;
 pub mod motion;
+pub mod parser;
+pub mod reader;
 
+pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
+pub use error::{ErrorKind, GcodeError};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
+pub use parser::{parse_block, parse_line};
+pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};
