@@ -9,15 +9,24 @@
 //! - [`block`]: the syntax of one line ([`Block`], [`Word`]), lossless;
 //! - [`parser`]: one line's bytes → words (nom; grammar/gcode.ebnf);
 //! - [`reader`]: streaming [`BlockReader`] over any `BufRead`, and [`parse_program`];
+//! - [`modal`]: modal state and the meaning of G/M codes;
+//! - [`interpret`]: [`Interpreter`] → one [`BlockEvent`] per block (with the [`Motion`]);
 //! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
 pub mod block;
 pub mod error;
+pub mod interpret;
+pub mod modal;
 pub mod motion;
 pub mod parser;
 pub mod reader;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
+pub use interpret::{
+    BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_min,
+    interpret_program,
+};
+pub use modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
 pub use parser::{parse_block, parse_line};
 pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};

@@ -183,3 +183,106 @@ proptest! {
         }
     }
 }
+
+/// Round for snapshots (6 decimals, no negative zero).
+fn r6(v: f64) -> String {
+    let s = format!("{:.6}", v);
+    let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+    if s == "-0" { "0".into() } else { s }
+}
+
+fn axes6(a: &volcomp::axes::Axes) -> String {
+    format!(
+        "[{}, {}, {}, {}, {}]",
+        r6(a.x),
+        r6(a.y),
+        r6(a.z),
+        r6(a.a),
+        r6(a.c)
+    )
+}
+
+/// One line per motion block and per notable event.
+fn render_events(bytes: &[u8], options: volcomp::gcode::InterpretOptions) -> String {
+    use volcomp::gcode::{MotionKind, interpret_program};
+    let events = match interpret_program(bytes, options) {
+        Ok(e) => e,
+        Err(e) => return format!("ERROR {e}"),
+    };
+    let mut out = String::new();
+    for (_, ev) in &events {
+        let mut notes = Vec::new();
+        if let Some(f) = ev.frame_switch {
+            notes.push(format!("frame->{f:?}"));
+        }
+        if ev.home {
+            notes.push("home".into());
+        }
+        if ev.program_end {
+            notes.push("end".into());
+        }
+        if ev.skipped {
+            notes.push("skipped".into());
+        }
+        for w in &ev.warnings {
+            notes.push(format!("warn: {w}"));
+        }
+        if let Some(m) = &ev.motion {
+            let kind = match m.kind {
+                MotionKind::Rapid => "G0".to_string(),
+                MotionKind::Linear => "G1".to_string(),
+                MotionKind::Arc {
+                    clockwise,
+                    centre,
+                    plane,
+                    turns,
+                } => format!(
+                    "{} {:?} c=[{}, {}, {}]{}",
+                    if clockwise { "G2" } else { "G3" },
+                    plane,
+                    r6(centre[0]),
+                    r6(centre[1]),
+                    r6(centre[2]),
+                    if turns > 0 {
+                        format!(" +{turns}turns")
+                    } else {
+                        String::new()
+                    }
+                ),
+            };
+            let feed = match m.feed {
+                volcomp::gcode::Feed::Rapid => "rapid".to_string(),
+                volcomp::gcode::Feed::PerMinute(f) => format!("F{}mm/min", r6(f)),
+                volcomp::gcode::Feed::InverseTime(f) => format!("F{}/min(G93)", r6(f)),
+            };
+            out.push_str(&format!(
+                "L{} {} {:?}{} end={} {} dur={} t={}",
+                ev.line,
+                kind,
+                m.frame,
+                if m.machine_coordinates { " G53" } else { "" },
+                axes6(&m.end),
+                feed,
+                r6(m.duration_min),
+                r6(ev.time_min)
+            ));
+        } else if notes.is_empty() {
+            continue;
+        } else {
+            out.push_str(&format!("L{}", ev.line));
+        }
+        for n in notes {
+            out.push_str(&format!(" | {n}"));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[test]
+fn interpreted_targets_of_every_fixture() {
+    insta::glob!("../data/gcode", "*.nc", |path| {
+        let bytes = std::fs::read(path).unwrap();
+        insta::assert_snapshot!(render_events(&bytes, Default::default()));
+    });
+}
