@@ -11,6 +11,7 @@
 //! - [`reader`]: streaming [`BlockReader`] over any `BufRead`, and [`parse_program`];
 //! - [`modal`]: modal state and the meaning of G/M codes;
 //! - [`interpret`]: [`Interpreter`] → one [`BlockEvent`] per block (with the [`Motion`]);
+//! - [`rewrite`]: [`Rewriter`] → program text, unchanged blocks byte for byte;
 //! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
 pub mod block;
 pub mod error;
@@ -19,6 +20,7 @@ pub mod modal;
 pub mod motion;
 pub mod parser;
 pub mod reader;
+pub mod rewrite;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
@@ -30,3 +32,4 @@ pub use modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
 pub use parser::{parse_block, parse_line};
 pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};
+pub use rewrite::{RewriteError, RewriteOptions, Rewriter, Target};

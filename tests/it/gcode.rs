@@ -286,3 +286,256 @@ fn interpreted_targets_of_every_fixture() {
         insta::assert_snapshot!(render_events(&bytes, Default::default()));
     });
 }
+
+mod rewriting {
+    use volcomp::axes::Axes;
+    use volcomp::gcode::{
+        BlockReader, Feed, InterpretOptions, Interpreter, Motion, ReadOptions, RewriteOptions,
+        Rewriter, Target, interpret_program,
+    };
+
+    /// Rewrite a program, asking `plan` for the targets of every motion block
+    /// (`None` = same); returns the output.
+    pub fn rewrite(
+        bytes: &[u8],
+        plan: impl Fn(usize, &Motion) -> Option<(Vec<Axes>, Axes)>,
+    ) -> Vec<u8> {
+        let options = InterpretOptions::default();
+        let mut reader = BlockReader::new(bytes, ReadOptions::default());
+        let mut interpreter = Interpreter::new(options);
+        let mut rewriter = Rewriter::new(RewriteOptions::default(), options.initial_position);
+        let mut out = Vec::new();
+        while let Some(block) = reader.next_block() {
+            let block = block.unwrap();
+            let event = interpreter.interpret(block).unwrap();
+            let planned = event.motion.as_ref().and_then(|m| plan(block.line, m));
+            let target = match &planned {
+                None => Target::Same,
+                Some((via, end)) if via.is_empty() => Target::Move(*end),
+                Some((via, end)) => Target::Split { via, end: *end },
+            };
+            rewriter.emit(block, &event, target, &mut out).unwrap();
+        }
+        out
+    }
+
+    fn motions(bytes: &[u8]) -> Vec<(usize, Motion)> {
+        interpret_program(bytes, InterpretOptions::default())
+            .unwrap_or_else(|e| panic!("{e}\n{}", String::from_utf8_lossy(bytes)))
+            .into_iter()
+            .filter_map(|(b, e)| e.motion.map(|m| (b.line, m)))
+            .collect()
+    }
+
+    fn close(a: &Axes, b: &Axes, tol: f64) -> bool {
+        a.to_array()
+            .iter()
+            .zip(b.to_array())
+            .all(|(x, y)| (x - y).abs() <= tol)
+    }
+
+    fn offset(a: Axes, k: usize) -> Axes {
+        let s = if k % 2 == 0 { 1.0 } else { -1.0 };
+        Axes::new(
+            a.x + 0.0123 * s,
+            a.y - 0.0071,
+            a.z + 0.0049 * s,
+            a.a + 0.0031,
+            a.c - 0.0207 * s,
+        )
+    }
+
+    #[test]
+    fn unchanged_targets_give_the_same_bytes() {
+        for path in super::fixtures() {
+            let bytes = std::fs::read(&path).unwrap();
+            assert_eq!(rewrite(&bytes, |_, _| None), bytes, "{}", path.display());
+        }
+    }
+
+    #[test]
+    fn changing_one_axis_changes_only_that_word() {
+        let bytes = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/blind/01-backlash/program.nc"
+        ))
+        .unwrap();
+        let out = rewrite(&bytes, |line, m| {
+            (line == 10).then(|| {
+                (
+                    vec![],
+                    Axes {
+                        c: m.end.c + 0.01234,
+                        ..m.end
+                    },
+                )
+            })
+        });
+        let (a, b) = (
+            String::from_utf8(bytes).unwrap(),
+            String::from_utf8(out).unwrap(),
+        );
+        let diff: Vec<_> = a.lines().zip(b.lines()).filter(|(x, y)| x != y).collect();
+        assert_eq!(
+            diff,
+            vec![(
+                "N80 X-23.1840 Y-35.8426 Z-33.3938 A51.9344 C22.0802",
+                "N80 X-23.1840 Y-35.8426 Z-33.3938 A51.9344 C22.0925"
+            )]
+        );
+        assert_eq!(a.len() + 0, b.len());
+    }
+
+    #[test]
+    fn moved_targets_are_reached_in_every_fixture() {
+        for path in super::fixtures() {
+            let bytes = std::fs::read(&path).unwrap();
+            let before = motions(&bytes);
+            let out = rewrite(&bytes, |line, m| Some((vec![], offset(m.end, line))));
+            let after = motions(&out);
+            assert_eq!(before.len(), after.len(), "{}", path.display());
+            for ((line, m0), (_, m1)) in before.iter().zip(&after) {
+                let want = offset(m0.end, *line);
+                // 5-decimal inches or 4-decimal mm: half a unit of the last digit.
+                assert!(
+                    close(&m1.end, &want, 0.00013),
+                    "{}:{line}: {:?} vs {want:?}",
+                    path.display(),
+                    m1.end
+                );
+                assert_eq!(
+                    std::mem::discriminant(&m0.kind),
+                    std::mem::discriminant(&m1.kind)
+                );
+            }
+            // Lines that did not hold a move are untouched.
+            let text_in = String::from_utf8_lossy(&bytes).to_string();
+            let text_out = String::from_utf8_lossy(&out).to_string();
+            let moving: std::collections::HashSet<usize> = before.iter().map(|(l, _)| *l).collect();
+            for (i, (x, y)) in text_in.split('\n').zip(text_out.split('\n')).enumerate() {
+                if !moving.contains(&(i + 1)) {
+                    assert_eq!(x, y, "{}:{}", path.display(), i + 1);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn split_moves_reach_every_piece_and_keep_g93_time() {
+        for path in super::fixtures() {
+            let bytes = std::fs::read(&path).unwrap();
+            let before = motions(&bytes);
+            let plan = |line: usize, m: &Motion| {
+                let via = vec![
+                    offset(m.start.lerp(&m.end, 1.0 / 3.0), line),
+                    offset(m.start.lerp(&m.end, 2.0 / 3.0), line + 1),
+                ];
+                Some((via, m.end))
+            };
+            let out = rewrite(&bytes, plan);
+            let after = motions(&out);
+            // Every move becomes three (the offsets make every piece non-empty).
+            let mut k = 0;
+            for (line, m0) in &before {
+                let (via, end) = plan(*line, m0).unwrap();
+                let mut expect = via.clone();
+                expect.push(end);
+                let mut time = 0.0;
+                let mut n = 0;
+                for want in expect {
+                    let (_, got) = &after[k];
+                    assert!(
+                        close(&got.end, &want, 0.00013),
+                        "{}:{line}: {:?} vs {want:?}",
+                        path.display(),
+                        got.end
+                    );
+                    time += got.duration_min;
+                    k += 1;
+                    n += 1;
+                }
+                if let Feed::InverseTime(f) = m0.feed {
+                    assert_eq!(n, 3);
+                    approx::assert_relative_eq!(time, 1.0 / f, max_relative = 1e-6);
+                }
+            }
+            assert_eq!(k, after.len(), "{}", path.display());
+        }
+    }
+
+    #[test]
+    fn incremental_values_follow_the_emitted_program() {
+        let text = "G21 G91 G94\nG1 X1. Y1. F100\nX1. Y1.\nX1.\n";
+        let out = rewrite(text.as_bytes(), |line, m| {
+            (line == 2).then(|| {
+                (
+                    vec![],
+                    Axes {
+                        x: m.end.x + 0.5,
+                        ..m.end
+                    },
+                )
+            })
+        });
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "G21 G91 G94\nG1 X1.5000 Y1. F100\nX0.5000 Y1.\nX1.\n"
+        );
+    }
+
+    #[test]
+    fn inch_programs_are_written_back_in_inches() {
+        let text = "G20 G90 G94\nG1 X1. Y2. F10\n";
+        let out = rewrite(text.as_bytes(), |_, m| {
+            Some((
+                vec![],
+                Axes {
+                    x: m.end.x + 0.254,
+                    z: m.end.z - 0.0254,
+                    ..m.end
+                },
+            ))
+        });
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "G20 G90 G94\nG1 X1.01000 Y2. Z-0.00100 F10\n"
+        );
+    }
+
+    #[test]
+    fn split_under_g93_rescales_f_and_keeps_the_words() {
+        let text =
+            "N5 G21 G90 G93 G1 X0 Y0 Z0 A0 C0 F60.\nN10 X30. C30. F2.5 (cut)\r\nN20 G94 G0 Z5\n";
+        let out = rewrite(text.as_bytes(), |line, _| {
+            (line == 2).then(|| {
+                (
+                    vec![
+                        Axes::new(10.0, 0.0, 0.0, 0.0, 10.0),
+                        Axes::new(20.0, 0.0, 0.0, 0.0, 20.0),
+                    ],
+                    Axes::new(30.0, 0.0, 0.0, 0.0, 30.0),
+                )
+            })
+        });
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "N5 G21 G90 G93 G1 X0 Y0 Z0 A0 C0 F60.\n\
+             G1 X10.0000 C10.0000 F7.500000\r\n\
+             G1 X20.0000 C20.0000 F7.500000\r\n\
+             N10 X30. C30. F7.500000 (cut)\r\n\
+             N20 G94 G0 Z5\n"
+        );
+    }
+
+    #[test]
+    fn a_straightened_arc_restores_the_arc_mode_of_the_next_block() {
+        let text = "G21 G90 G94 G17\nG0 X10 Y0\nN30 G2 X0 Y10 I-10 J0 F100\nN40 X-10 Y0 I0 J-10\n";
+        let out = rewrite(text.as_bytes(), |line, m| {
+            (line == 3).then(|| (vec![Axes::new(7.0711, 7.0711, 0.0, 0.0, 0.0)], m.end))
+        });
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "G21 G90 G94 G17\nG0 X10 Y0\nG1 X7.0711 Y7.0711 F100\nN30 G1 X0 Y10 F100\nN40 G2 X-10 Y0 I0 J-10\n"
+        );
+    }
+}
