@@ -26,7 +26,8 @@
 //!   [`InterpretOptions::skip_deleted_blocks`].
 //! - Errors (unless `lenient`, which turns them into warnings and ignores the
 //!   offending word's effect): M98/M99, cutter compensation G41/G42 active during
-//!   a move, unknown G codes (assumed to change the geometry), axis words without
+//!   a move, unknown G codes (assumed to change the geometry; under `lenient`
+//!   the block's axis words are then ignored: no move), axis words without
 //!   a motion mode (lenient: G1), arcs without centre or with an unreachable R
 //!   (lenient: straight move), non-finite targets.
 use std::fmt;
@@ -153,8 +154,9 @@ pub struct BlockEvent {
     pub warnings: Vec<Warning>,
 }
 
-impl BlockEvent {
-    fn empty() -> Self {
+impl Default for BlockEvent {
+    /// An empty event (for [`Interpreter::interpret_into`]).
+    fn default() -> Self {
         BlockEvent {
             index: 0,
             line: 0,
@@ -223,7 +225,7 @@ impl Interpreter {
 
     /// Interpret one block into a new event.
     pub fn interpret(&mut self, block: &Block) -> Result<BlockEvent, GcodeError> {
-        let mut event = BlockEvent::empty();
+        let mut event = BlockEvent::default();
         self.interpret_into(block, &mut event)?;
         Ok(event)
     }
@@ -309,6 +311,7 @@ impl Interpreter {
         let mut home: Option<(i32, usize, usize)> = None;
         let mut motion_word: Option<(usize, usize)> = None;
         let mut end = false;
+        let mut unsupported = false;
 
         for kw in &block.keywords {
             modal.frame = match kw.keyword {
@@ -327,6 +330,7 @@ impl Interpreter {
             match w.letter {
                 b'G' => {
                     let Some(code) = w.code10() else {
+                        unsupported = true;
                         self.fail(
                             block,
                             event,
@@ -360,13 +364,16 @@ impl Interpreter {
                         GCode::WorkOffset | GCode::PassThrough => {}
                         GCode::Home => home = Some((code, w.start, w.end)),
                         GCode::CancelMotion => modal.motion = MotionMode::None,
-                        GCode::Unsupported => self.fail(
-                            block,
-                            event,
-                            ErrorKind::UnsupportedGCode(code_text('G', code)),
-                            w.start,
-                            w.end,
-                        )?,
+                        GCode::Unsupported => {
+                            unsupported = true;
+                            self.fail(
+                                block,
+                                event,
+                                ErrorKind::UnsupportedGCode(code_text('G', code)),
+                                w.start,
+                                w.end,
+                            )?
+                        }
                     }
                 }
                 b'M' => match w.code10().map(classify_m) {
@@ -432,7 +439,7 @@ impl Interpreter {
                 column: start + 1,
                 kind: WarningKind::Home(code_text('G', code)),
             });
-        } else if has_axes {
+        } else if has_axes && !unsupported {
             if modal.motion == MotionMode::None {
                 let at = words.axes.iter().flatten().map(|a| a.1).next().unwrap_or(0);
                 self.fail(block, event, ErrorKind::NoMotionMode, at, at + 1)?;
@@ -467,18 +474,20 @@ impl Interpreter {
                     new_position.set(axis, base + v);
                 }
             }
-            if !new_position.is_finite() {
-                return Err(self.error(block, ErrorKind::NonFinite, 0, block.raw.len()));
+            if new_position.is_finite() {
+                let m = self.motion(
+                    block,
+                    event,
+                    &modal,
+                    &words,
+                    new_position,
+                    machine_coordinates,
+                )?;
+                motion = Some(m);
+            } else {
+                self.fail(block, event, ErrorKind::NonFinite, 0, block.raw.len())?;
+                new_position = self.position;
             }
-            let m = self.motion(
-                block,
-                event,
-                &modal,
-                &words,
-                new_position,
-                machine_coordinates,
-            )?;
-            motion = Some(m);
         }
         if end {
             event.program_end = true;

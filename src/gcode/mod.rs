@@ -12,6 +12,7 @@
 //! - [`modal`]: modal state and the meaning of G/M codes;
 //! - [`interpret`]: [`Interpreter`] → one [`BlockEvent`] per block (with the [`Motion`]);
 //! - [`rewrite`]: [`Rewriter`] → program text, unchanged blocks byte for byte;
+//! - [`summary`]: what `volcomp check` reports ([`ProgramSummary`]);
 //! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
 pub mod block;
 pub mod error;
@@ -21,6 +22,7 @@ pub mod motion;
 pub mod parser;
 pub mod reader;
 pub mod rewrite;
+pub mod summary;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
@@ -33,3 +35,4 @@ pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
 pub use parser::{parse_block, parse_line};
 pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};
 pub use rewrite::{RewriteError, RewriteOptions, Rewriter, Target};
+pub use summary::ProgramSummary;

@@ -138,6 +138,8 @@ pub struct Rewriter {
     options: RewriteOptions,
     emitted: Axes,
     emitted_motion: MotionMode,
+    /// Motion mode of the original program after the last block.
+    original_motion: MotionMode,
     decimals: [u8; 5],
     edits: Vec<Edit>,
     text: String,
@@ -151,6 +153,7 @@ impl Rewriter {
             options,
             emitted: initial_position,
             emitted_motion: MotionMode::None,
+            original_motion: MotionMode::None,
             decimals: [0; 5],
             edits: Vec::new(),
             text: String::new(),
@@ -184,6 +187,7 @@ impl Rewriter {
             if has_motion_word(block) {
                 self.emitted_motion = event.modal.motion;
             }
+            self.original_motion = event.modal.motion;
             block.write_raw(out)?;
             return Ok(());
         };
@@ -253,8 +257,6 @@ impl Rewriter {
                         let printed = round_to(needed, dec);
                         appended[i] = Some(printed);
                         new_emitted.set(axis, base + printed * unit);
-                    } else {
-                        new_emitted.set(axis, base + implied * unit);
                     }
                 }
             }
@@ -329,7 +331,7 @@ impl Rewriter {
         } else {
             event.modal.motion
         };
-        if !has_motion_word(block) && self.emitted_motion != mode && !straighten {
+        if !has_motion_word(block) && self.emitted_motion != self.original_motion && !straighten {
             let at = block
                 .words
                 .first()
@@ -337,7 +339,7 @@ impl Rewriter {
                 .map(|w| w.end)
                 .unwrap_or_else(|| block.words.first().map(|w| w.start).unwrap_or(0));
             let from = self.text.len();
-            let word = mode.word();
+            let word = event.modal.motion.word();
             if at == 0 || block.words.first().is_some_and(|w| w.start == at) {
                 self.text.push_str(word);
                 self.text.push(' ');
@@ -357,6 +359,7 @@ impl Rewriter {
             });
         }
         self.emitted_motion = mode;
+        self.original_motion = event.modal.motion;
         self.emitted = new_emitted;
         self.write_edited(block, out)
     }

@@ -539,3 +539,186 @@ mod rewriting {
         );
     }
 }
+
+mod errors {
+    use volcomp::gcode::{InterpretOptions, interpret_program};
+
+    const BAD: [(&str, &str); 12] = [
+        ("unclosed comment", "G0 X0 Y0\nG1 X1 (no end F100\n"),
+        ("word without number", "G0 X0\nG1 X Y2 F100\n"),
+        ("parameter in an axis word", "G0 X0\nG1 X#100 F100\n"),
+        ("expression in an axis word", "G0 X0\nG1 X[1+2] F100\n"),
+        ("O-word subroutine", "%\nO100 sub\nG1 X1\nO100 endsub\n"),
+        ("named O-word", "o<probe> call\n"),
+        ("M98 call", "G0 X0\nN20 M98 P1000\n"),
+        (
+            "cutter compensation during a move",
+            "G0 X0 Y0\nG41 D1 G1 X10 Y0 F300\n",
+        ),
+        ("unknown geometric G code", "G0 X0\nG92 X10 Y10\n"),
+        ("unexpected character", "G0 X0\nG1 X1 = 5\n"),
+        ("axis words without motion mode", "G21 G90\nX10 Y10\n"),
+        ("arc R too small", "G0 X0 Y0\nG2 X10 Y0 R2 F100\n"),
+    ];
+
+    fn render(text: &str, lenient: bool) -> String {
+        let options = InterpretOptions {
+            lenient,
+            ..Default::default()
+        };
+        match interpret_program(text.as_bytes(), options) {
+            Ok(events) => {
+                let warnings: Vec<String> = events
+                    .iter()
+                    .flat_map(|(_, e)| e.warnings.iter().map(|w| w.to_string()))
+                    .collect();
+                format!("ok; warnings:\n{}", warnings.join("\n"))
+            }
+            Err(e) => e.with_path("bad.nc").to_string(),
+        }
+    }
+
+    #[test]
+    fn bad_input_is_located_with_a_caret_and_a_hint() {
+        let mut all = String::new();
+        for (name, text) in BAD {
+            let msg = render(text, false);
+            assert!(msg.contains("--> bad.nc:"), "{name}: {msg}");
+            assert!(msg.contains('^') && msg.contains("hint:"), "{name}: {msg}");
+            all.push_str(&format!("=== {name}\n{msg}\n\n"));
+        }
+        insta::assert_snapshot!(all);
+    }
+
+    #[test]
+    fn lenient_passes_bad_input_through_with_warnings() {
+        let mut all = String::new();
+        for (name, text) in BAD {
+            let msg = render(text, true);
+            assert!(msg.starts_with("ok"), "{name}: {msg}");
+            assert!(msg.contains("--lenient"), "{name}: {msg}");
+            all.push_str(&format!("=== {name}\n{msg}\n\n"));
+        }
+        insta::assert_snapshot!(all);
+    }
+
+    #[test]
+    fn column_points_at_the_spot() {
+        let e = interpret_program(b"G0 X0\nN7 G1 Y 2 X#3\n", Default::default()).unwrap_err();
+        assert_eq!((e.line, e.column), (2, 12));
+    }
+}
+
+mod robustness {
+    use proptest::prelude::*;
+    use volcomp::axes::Axes;
+    use volcomp::gcode::{
+        BlockReader, InterpretOptions, Interpreter, ReadOptions, RewriteOptions, Rewriter, Target,
+    };
+
+    /// Bytes that look like G-code often enough to reach the interpreter.
+    fn gcode_ish() -> impl Strategy<Value = Vec<u8>> {
+        prop::collection::vec(
+            prop_oneof![
+                4 => prop::sample::select(b"GMXYZACFIJKRPNO0123456789.-+ \n\r();/%#[]gxyzTRAOI".to_vec()),
+                1 => any::<u8>(),
+            ],
+            0..300,
+        )
+    }
+
+    fn run(bytes: &[u8], lenient: bool, moves: &[(f64, f64)]) -> Vec<u8> {
+        let options = InterpretOptions {
+            lenient,
+            ..Default::default()
+        };
+        let mut reader = BlockReader::new(bytes, ReadOptions { lenient });
+        let mut interpreter = Interpreter::new(options);
+        let mut rewriter = Rewriter::new(RewriteOptions::default(), options.initial_position);
+        let mut out = Vec::new();
+        let mut k = 0;
+        while let Some(block) = reader.next_block() {
+            let Ok(block) = block else { continue };
+            let Ok(event) = interpreter.interpret(block) else {
+                continue;
+            };
+            let target = match (&event.motion, moves.get(k)) {
+                (Some(m), Some(&(dx, dc))) => {
+                    k += 1;
+                    Target::Move(Axes {
+                        x: m.end.x + dx,
+                        c: m.end.c + dc,
+                        ..m.end
+                    })
+                }
+                _ => Target::Same,
+            };
+            let _ = rewriter.emit(block, &event, target, &mut out);
+        }
+        out
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        #[test]
+        fn no_panic_on_any_bytes(
+            bytes in prop_oneof![gcode_ish(), prop::collection::vec(any::<u8>(), 0..300)],
+            lenient in any::<bool>(),
+            moves in prop::collection::vec((-1e3f64..1e3, -1e4f64..1e4), 0..4),
+        ) {
+            run(&bytes, lenient, &moves);
+            // With every target unchanged, a lenient run reproduces the input.
+            if lenient {
+                prop_assert_eq!(run(&bytes, true, &[]), bytes);
+            }
+        }
+    }
+}
+
+mod check_command {
+    use std::process::Command;
+
+    #[test]
+    fn check_summarises_a_program() {
+        let path = super::fixture_dir().join("tcp_linuxcnc_demo.nc");
+        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .arg("check")
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains("motion blocks: 6 (G0 2, G1 4"), "{text}");
+        assert!(text.contains("2 switches, 4 part-frame"), "{text}");
+        assert!(text.contains("G93 inverse-time moves: 4"), "{text}");
+    }
+
+    #[test]
+    fn check_fails_with_a_located_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.nc");
+        std::fs::write(&path, "G0 X0\nG1 X1 Y#2\n").unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .arg("check")
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert!(
+            err.contains("bad.nc:2:8") && err.contains("^") && err.contains("--lenient"),
+            "{err}"
+        );
+        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .args(["check", "--lenient"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+    }
+}
