@@ -2,3 +2,4 @@
 mod cli;
 mod gcode;
 mod kinematics;
+mod toolpath;
