@@ -280,13 +280,7 @@ impl Rewriter {
                     push_number(&mut self.text, v, dec);
                 }
             }
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
 
         // Arc words.
@@ -313,13 +307,7 @@ impl Rewriter {
                         self.text.push_str(if ctx.lowercase { " f" } else { " F" });
                         let dec = feed_decimals(new_f, 0, &self.options);
                         push_number(&mut self.text, new_f, dec);
-                        let to = self.text.len();
-                        self.edits.push(Edit {
-                            start: at,
-                            end: at,
-                            from,
-                            to,
-                        });
+                        self.record(from, at, at);
                     }
                 }
             }
@@ -348,20 +336,25 @@ impl Rewriter {
                 self.text.push_str(word);
             }
             if ctx.lowercase {
-                self.text.make_ascii_lowercase();
+                self.text[from..].make_ascii_lowercase();
             }
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
         self.emitted_motion = mode;
         self.original_motion = event.modal.motion;
         self.emitted = new_emitted;
         self.write_edited(block, out)
+    }
+
+    /// Record that `raw[start..end]` becomes the text written since `from`.
+    fn record(&mut self, from: usize, start: usize, end: usize) {
+        let to = self.text.len();
+        self.edits.push(Edit {
+            start,
+            end,
+            from,
+            to,
+        });
     }
 
     /// Replace a word's number; returns the printed value.
@@ -370,13 +363,7 @@ impl Rewriter {
         let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
         self.text.push(letter);
         let printed = push_number(&mut self.text, value, dec);
-        let to = self.text.len();
-        self.edits.push(Edit {
-            start: w.start,
-            end: w.end,
-            from,
-            to,
-        });
+        self.record(from, w.start, w.end);
         printed
     }
 
@@ -387,12 +374,7 @@ impl Rewriter {
             start -= 1;
         }
         let at = self.text.len();
-        self.edits.push(Edit {
-            start,
-            end: w.end,
-            from: at,
-            to: at,
-        });
+        self.record(at, start, w.end);
     }
 
     /// A split arc's last part becomes a G1: G2/G3 → G1, I J K R P removed.
@@ -408,13 +390,7 @@ impl Rewriter {
                     has_word = true;
                     let from = self.text.len();
                     self.text.push_str(if ctx.lowercase { "g1" } else { "G1" });
-                    let to = self.text.len();
-                    self.edits.push(Edit {
-                        start: w.start,
-                        end: w.end,
-                        from,
-                        to,
-                    });
+                    self.record(from, w.start, w.end);
                 }
                 b'I' | b'J' | b'K' | b'R' | b'P' => self.remove_word(block, w),
                 _ => {}
@@ -432,16 +408,10 @@ impl Rewriter {
                 None => self.text.push_str("G1 "),
             }
             if ctx.lowercase {
-                self.text.make_ascii_lowercase();
+                self.text[from..].make_ascii_lowercase();
             }
-            let to = self.text.len();
             let at = at.unwrap_or_else(|| block.words.first().map(|w| w.start).unwrap_or(0));
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
     }
 
@@ -528,13 +498,7 @@ impl Rewriter {
                 .unwrap_or(0);
             let from = self.text.len();
             self.text.push_str(&missing);
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
     }
 

@@ -383,7 +383,7 @@ mod rewriting {
                 "N80 X-23.1840 Y-35.8426 Z-33.3938 A51.9344 C22.0925"
             )]
         );
-        assert_eq!(a.len() + 0, b.len());
+        assert_eq!(a.len(), b.len());
     }
 
     #[test]
