@@ -210,7 +210,7 @@ impl Rewriter {
             for (k, v) in via.iter().enumerate() {
                 self.piece(block, &ctx, k == 0, *v, fractions[k], out)?;
             }
-            feed_scale = 1.0 / fractions[via.len()];
+            feed_scale = 1.0 / fractions[via.len()].max(1e-9);
         }
 
         let start_moved = !same_point(&self.emitted, &motion.start, &ctx);

@@ -119,16 +119,20 @@ fn line_strategy() -> impl Strategy<Value = (String, Vec<(char, f64)>)> {
             "(a);b",
         ])),
         any::<bool>(),
+        prop::sample::select(vec!["", "", "", "/", " /", "%"]),
     )
-        .prop_map(|(n, words, comment, tight)| {
-            let mut text = String::new();
+        .prop_map(|(n, words, comment, tight, prefix)| {
+            if prefix == "%" {
+                return ("%".to_string(), Vec::new());
+            }
+            let mut text = prefix.to_string();
             let mut expect = Vec::new();
             if let Some(n) = n {
                 text.push_str(&format!("N{n}"));
                 expect.push(('N', n as f64));
             }
             for (w, letter, value) in words {
-                if !text.is_empty() && !tight {
+                if !text.trim_start().trim_start_matches('/').is_empty() && !tight {
                     text.push(' ');
                 }
                 text.push_str(&w);
@@ -166,6 +170,25 @@ proptest! {
             let got: Vec<(char, f64)> = b.words.iter().map(|w| (w.letter as char, w.value)).collect();
             prop_assert_eq!(&got, e);
         }
+    }
+
+    #[test]
+    fn numbers_parse_exactly_like_str_parse(
+        int in 0u64..100_000_000_000_000_000,
+        dec in 0usize..25,
+        neg in any::<bool>(),
+    ) {
+        let digits = int.to_string();
+        let text = if dec == 0 {
+            digits
+        } else {
+            let padded = format!("{:0>width$}", digits, width = dec + 1);
+            let (a, b) = padded.split_at(padded.len() - dec);
+            format!("{a}.{b}")
+        };
+        let text = if neg { format!("-{text}") } else { text };
+        let b = &parse_program(&format!("X{text}")).unwrap()[0];
+        prop_assert_eq!(b.words[0].value.to_bits(), text.parse::<f64>().unwrap().to_bits(), "{}", text);
     }
 
     #[test]
@@ -327,7 +350,7 @@ mod rewriting {
             .collect()
     }
 
-    fn close(a: &Axes, b: &Axes, tol: f64) -> bool {
+    pub fn close(a: &Axes, b: &Axes, tol: f64) -> bool {
         a.to_array()
             .iter()
             .zip(b.to_array())
@@ -642,14 +665,21 @@ mod robustness {
             let Ok(event) = interpreter.interpret(block) else {
                 continue;
             };
+            let via;
             let target = match (&event.motion, moves.get(k)) {
                 (Some(m), Some(&(dx, dc))) => {
                     k += 1;
-                    Target::Move(Axes {
+                    let end = Axes {
                         x: m.end.x + dx,
                         c: m.end.c + dc,
                         ..m.end
-                    })
+                    };
+                    if k % 2 == 0 {
+                        via = [m.start.lerp(&end, 0.5), m.start.lerp(&end, 0.5), end];
+                        Target::Split { via: &via, end }
+                    } else {
+                        Target::Move(end)
+                    }
                 }
                 _ => Target::Same,
             };
@@ -720,5 +750,133 @@ mod check_command {
             .output()
             .unwrap();
         assert!(out.status.success());
+    }
+}
+
+mod rewrite_property {
+    use proptest::prelude::*;
+    use volcomp::axes::Axes;
+    use volcomp::gcode::{InterpretOptions, interpret_program};
+
+    const FRAGMENTS: [&str; 40] = [
+        "G0",
+        "G1",
+        "G1",
+        "G2",
+        "G3",
+        "G91",
+        "G90",
+        "G20",
+        "G21",
+        "G93",
+        "G94",
+        "G17",
+        "G18",
+        "G19",
+        "G90.1",
+        "G91.1",
+        "M428",
+        "M429",
+        "G43.4 H1",
+        "G49",
+        "TRAORI",
+        "TRAFOOF",
+        "G53",
+        "X1.5",
+        "Y-2",
+        "Z.5",
+        "A10",
+        "C400",
+        "x 3 .25",
+        "I1",
+        "J-1",
+        "K2",
+        "R5",
+        "R-5",
+        "F100",
+        "F2.5",
+        "N10",
+        "(c)",
+        "; c",
+        "G91 G28 Z0",
+    ];
+
+    fn program() -> impl Strategy<Value = String> {
+        prop::collection::vec(
+            (
+                prop::collection::vec(prop::sample::select(FRAGMENTS.to_vec()), 0..5),
+                any::<bool>(),
+            ),
+            1..25,
+        )
+        .prop_map(|lines| {
+            let mut text = String::from("G21 G90 G94 G17 G0 X0 Y0 Z0 A0 C0\n");
+            for (words, crlf) in lines {
+                // A ';' comment must come last on its line.
+                let (mut body, tail): (Vec<&str>, Vec<&str>) =
+                    words.into_iter().partition(|w| !w.starts_with(';'));
+                body.extend(tail.into_iter().take(1));
+                text.push_str(&body.join(" "));
+                text.push_str(if crlf { "\r\n" } else { "\n" });
+            }
+            text
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Moved and split targets of any valid program are reached when the
+        /// output is read back, block by block.
+        #[test]
+        fn rewritten_programs_reach_the_requested_targets(
+            text in program(),
+            seed in 0u64..1000,
+            split in any::<bool>(),
+        ) {
+            let bytes = text.as_bytes();
+            let Ok(before) = interpret_program(bytes, InterpretOptions::default()) else {
+                return Ok(());
+            };
+            let delta = |line: usize, k: usize| {
+                let s = ((seed as usize + line * 7 + k * 3) % 11) as f64 - 5.0;
+                (0.0137 * s, -0.0071 * s, 0.0043 * s, 0.011 * s, -0.023 * s)
+            };
+            let shift = |a: Axes, line: usize, k: usize| {
+                let d = delta(line, k);
+                Axes::new(a.x + d.0, a.y + d.1, a.z + d.2, a.a + d.3, a.c + d.4)
+            };
+            let plan = |line: usize, m: &volcomp::gcode::Motion| {
+                let end = shift(m.end, line, 0);
+                let via = if split && line % 2 == 0 {
+                    vec![shift(m.start.lerp(&m.end, 0.5), line, 1)]
+                } else {
+                    vec![]
+                };
+                Some((via, end))
+            };
+            let out = super::rewriting::rewrite(bytes, plan);
+            let after = interpret_program(&out, InterpretOptions::default())
+                .map_err(|e| TestCaseError::fail(format!("{e}\n--- in:\n{text}\n--- out:\n{}", String::from_utf8_lossy(&out))))?;
+            // (target, is an intermediate piece: dropped when it has zero length)
+            let mut want = Vec::new();
+            for (b, e) in &before {
+                if let Some(m) = &e.motion {
+                    let (via, end) = plan(b.line, m).unwrap();
+                    want.extend(via.into_iter().map(|v| (v, true)));
+                    want.push((end, false));
+                }
+            }
+            let got: Vec<Axes> = after.iter().filter_map(|(_, e)| e.motion.map(|m| m.end)).collect();
+            let mut k = 0;
+            for (w, piece) in &want {
+                if k < got.len() && super::rewriting::close(&got[k], w, 1.3e-4) {
+                    k += 1;
+                } else {
+                    prop_assert!(*piece, "target {:?} not reached (got {:?})\n--- in:\n{}\n--- out:\n{}", w, got.get(k), text, String::from_utf8_lossy(&out));
+                }
+            }
+            prop_assert_eq!(k, got.len(), "extra moves\n--- in:\n{}\n--- out:\n{}", text, String::from_utf8_lossy(&out));
+        }
     }
 }
