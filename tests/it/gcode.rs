@@ -369,6 +369,66 @@ mod rewriting {
     }
 
     #[test]
+    fn rewrite_stream_matches_the_block_api_and_counts() {
+        use volcomp::gcode::{RewriteStats, rewrite_stream};
+        let plan = |line: usize, m: &Motion| {
+            (line % 3 == 0).then(|| (vec![m.start.lerp(&m.end, 0.5)], offset(m.end, line)))
+        };
+        for path in super::fixtures() {
+            let bytes = std::fs::read(&path).unwrap();
+            let mut out = Vec::new();
+            let stats = rewrite_stream(
+                &bytes[..],
+                &mut out,
+                InterpretOptions::default(),
+                RewriteOptions::default(),
+                |block, event, via| {
+                    let (v, end) = plan(block.line, event.motion.as_ref()?)?;
+                    via.extend(v);
+                    Some(end)
+                },
+            )
+            .unwrap();
+            assert_eq!(out, rewrite(&bytes, plan), "{}", path.display());
+            assert_eq!(stats.blocks, bytes.split_inclusive(|&b| b == b'\n').count());
+        }
+        let bytes = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/blind/01-backlash/program.nc"
+        ))
+        .unwrap();
+        let mut out = Vec::new();
+        let stats = rewrite_stream(
+            &bytes[..],
+            &mut out,
+            InterpretOptions::default(),
+            RewriteOptions::default(),
+            |block, event, via| {
+                let m = event.motion.as_ref()?;
+                (block.line == 10 || block.line == 20).then(|| {
+                    if block.line == 20 {
+                        via.push(m.start.lerp(&m.end, 0.5));
+                    }
+                    Axes {
+                        c: m.end.c + 0.01,
+                        ..m.end
+                    }
+                })
+            },
+        )
+        .unwrap();
+        assert_eq!(
+            stats,
+            RewriteStats {
+                blocks: 3318,
+                motions: 3313,
+                rewritten: 2,
+                pieces: 1
+            }
+        );
+    }
+
+    #[test]
     fn unchanged_targets_give_the_same_bytes() {
         for path in super::fixtures() {
             let bytes = std::fs::read(&path).unwrap();
