@@ -59,6 +59,14 @@ fn crlf_and_missing_final_newline_are_remembered() {
 }
 
 #[test]
+fn a_byte_order_mark_is_kept_and_ignored() {
+    let text = "\u{feff}%\nG0 X1\n";
+    let blocks = parse_program(text).unwrap();
+    assert!(blocks[0].percent);
+    assert_eq!(print_program(&blocks), text.as_bytes());
+}
+
+#[test]
 fn exact_values_survive() {
     let b = &parse_program("G93 G1 X  16.339 F30070.6535 y 1 0.5\n").unwrap()[0];
     let v: Vec<f64> = b.words.iter().map(|w| w.value).collect();
@@ -938,5 +946,83 @@ mod rewrite_property {
             }
             prop_assert_eq!(k, got.len(), "extra moves\n--- in:\n{}\n--- out:\n{}", text, String::from_utf8_lossy(&out));
         }
+    }
+}
+
+mod interpreting {
+    use volcomp::gcode::{
+        Feed, Frame, InterpretOptions, MotionKind, WarningKind, interpret_program,
+    };
+
+    fn motions(text: &str, options: InterpretOptions) -> Vec<volcomp::gcode::BlockEvent> {
+        interpret_program(text.as_bytes(), options)
+            .unwrap()
+            .into_iter()
+            .map(|(_, e)| e)
+            .collect()
+    }
+
+    #[test]
+    fn unknown_letters_are_warned_about_once() {
+        let ev = motions("G0 X0 B5\nG1 X1 B6 F100 U1\n", Default::default());
+        let w: Vec<_> = ev
+            .iter()
+            .flat_map(|e| e.warnings.iter().map(|w| w.kind.clone()))
+            .collect();
+        assert_eq!(
+            w,
+            vec![
+                WarningKind::UnknownLetter('B'),
+                WarningKind::UnknownLetter('U')
+            ]
+        );
+    }
+
+    #[test]
+    fn initial_frame_g53_and_rapid_rate() {
+        let options = InterpretOptions {
+            initial_frame: Frame::Part,
+            rapid_mm_per_min: 5000.0,
+            ..Default::default()
+        };
+        let ev = motions("G0 X10\nG91 G53 G0 Z-100\nG0 Z100\n", options);
+        let m0 = ev[0].motion.unwrap();
+        assert_eq!(m0.frame, Frame::Part);
+        let m1 = ev[1].motion.unwrap();
+        assert!(m1.machine_coordinates);
+        assert_eq!(m1.end.z, -100.0, "G53 is absolute even under G91");
+        approx::assert_relative_eq!(m1.duration_min, (100.0f64.powi(2) * 1.0).sqrt() / 5000.0);
+        let m2 = ev[2].motion.unwrap();
+        assert!(!m2.machine_coordinates);
+        assert_eq!(m2.end.z, 0.0, "G91 again for the next block");
+        assert_eq!(m2.feed, Feed::Rapid);
+    }
+
+    #[test]
+    fn time_starts_at_the_first_target_and_rotary_moves_use_degrees() {
+        let ev = motions("G0 X100\nG1 C90 F45\nG93 G1 A10 F4\n", Default::default());
+        assert_eq!(ev[0].time_min, 0.0);
+        approx::assert_relative_eq!(ev[1].motion.unwrap().duration_min, 2.0);
+        approx::assert_relative_eq!(ev[2].motion.unwrap().duration_min, 0.25);
+        approx::assert_relative_eq!(ev[2].time_min, 2.25);
+    }
+
+    #[test]
+    fn r_arcs_in_inches_pick_the_right_centre() {
+        let ev = motions(
+            "G20 G17 G0 X1 Y0\nG3 X0 Y1 R1 F10\nG3 X1 Y0 R-1\n",
+            Default::default(),
+        );
+        let MotionKind::Arc { centre, .. } = ev[1].motion.unwrap().kind else {
+            panic!()
+        };
+        approx::assert_abs_diff_eq!(centre[0], 0.0, epsilon = 1e-9);
+        approx::assert_abs_diff_eq!(centre[1], 0.0, epsilon = 1e-9);
+        let m = ev[2].motion.unwrap();
+        approx::assert_relative_eq!(
+            m.xyz_length(),
+            1.5 * std::f64::consts::PI * 25.4,
+            max_relative = 1e-9
+        );
     }
 }
