@@ -376,27 +376,39 @@ mod rewriting {
         )
     }
 
+    fn stream(
+        bytes: &[u8],
+        plan: impl FnMut(
+            &volcomp::gcode::Block,
+            &volcomp::gcode::BlockEvent,
+            &mut Vec<Axes>,
+        ) -> Option<Axes>,
+    ) -> (Vec<u8>, volcomp::gcode::RewriteStats) {
+        let mut out = Vec::new();
+        let stats = volcomp::gcode::rewrite_stream(
+            bytes,
+            &mut out,
+            InterpretOptions::default(),
+            RewriteOptions::default(),
+            plan,
+        )
+        .unwrap();
+        (out, stats)
+    }
+
     #[test]
     fn rewrite_stream_matches_the_block_api_and_counts() {
-        use volcomp::gcode::{RewriteStats, rewrite_stream};
+        use volcomp::gcode::RewriteStats;
         let plan = |line: usize, m: &Motion| {
             (line % 3 == 0).then(|| (vec![m.start.lerp(&m.end, 0.5)], offset(m.end, line)))
         };
         for path in super::fixtures() {
             let bytes = std::fs::read(&path).unwrap();
-            let mut out = Vec::new();
-            let stats = rewrite_stream(
-                &bytes[..],
-                &mut out,
-                InterpretOptions::default(),
-                RewriteOptions::default(),
-                |block, event, via| {
-                    let (v, end) = plan(block.line, event.motion.as_ref()?)?;
-                    via.extend(v);
-                    Some(end)
-                },
-            )
-            .unwrap();
+            let (out, stats) = stream(&bytes, |block, event, via| {
+                let (v, end) = plan(block.line, event.motion.as_ref()?)?;
+                via.extend(v);
+                Some(end)
+            });
             assert_eq!(out, rewrite(&bytes, plan), "{}", path.display());
             assert_eq!(stats.blocks, bytes.split_inclusive(|&b| b == b'\n').count());
         }
@@ -405,26 +417,18 @@ mod rewriting {
             "/tests/data/blind/01-backlash/program.nc"
         ))
         .unwrap();
-        let mut out = Vec::new();
-        let stats = rewrite_stream(
-            &bytes[..],
-            &mut out,
-            InterpretOptions::default(),
-            RewriteOptions::default(),
-            |block, event, via| {
-                let m = event.motion.as_ref()?;
-                (block.line == 10 || block.line == 20).then(|| {
-                    if block.line == 20 {
-                        via.push(m.start.lerp(&m.end, 0.5));
-                    }
-                    Axes {
-                        c: m.end.c + 0.01,
-                        ..m.end
-                    }
-                })
-            },
-        )
-        .unwrap();
+        let (_, stats) = stream(&bytes, |block, event, via| {
+            let m = event.motion.as_ref()?;
+            (block.line == 10 || block.line == 20).then(|| {
+                if block.line == 20 {
+                    via.push(m.start.lerp(&m.end, 0.5));
+                }
+                Axes {
+                    c: m.end.c + 0.01,
+                    ..m.end
+                }
+            })
+        });
         assert_eq!(
             stats,
             RewriteStats {
