@@ -67,10 +67,12 @@ pub fn contexts(
                 return Ok(not_cut(p));
             };
             let pp = &m.point;
-            let errors = model.errors_at(&pp.joints).map_err(|source| CutError::Lookup {
-                id: p.id.clone(),
-                source,
-            })?;
+            let errors = model
+                .errors_at(&pp.joints)
+                .map_err(|source| CutError::Lookup {
+                    id: p.id.clone(),
+                    source,
+                })?;
             let e = kin.volumetric_error(&pp.joints, &errors).e_um;
             Ok(PointContext {
                 id: p.id.clone(),

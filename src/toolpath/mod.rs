@@ -4,9 +4,9 @@
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
 pub mod context;
+pub mod cut;
 pub mod plan_match;
 pub mod program;
-// pub mod cut; (needs inspection::PlanPoint)
 pub mod walk;
 
 pub use context::PointContext;
