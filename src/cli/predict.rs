@@ -1,10 +1,8 @@
 //! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
 use super::common::{FrameArg, MachineArgs, open_input};
-use crate::gcode::InterpretOptions;
 use crate::inspection::Plan;
 use crate::io::{write_file_atomic, write_json_atomic};
 use crate::predict::{html, predict_path, predict_plan};
-use crate::toolpath::WalkOptions;
 use crate::toolpath::cut::CutOptions;
 use std::path::PathBuf;
 
@@ -49,20 +47,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("note: no --report or --html given; printing the summary only");
     }
     let (machine, model) = args.machine.load()?;
-    let options = CutOptions {
-        interpret: InterpretOptions {
-            initial_frame: args.frame.into(),
-            rapid_mm_per_min: machine.rapid_mm_per_min,
-            lenient: args.lenient,
-            ..InterpretOptions::default()
-        },
-        walk: WalkOptions {
-            step_mm: 0.5,
-            rapid_mm_per_min: machine.rapid_mm_per_min,
-        },
-        tool_radius: machine.tool.radius,
-        max_distance_mm: 0.5,
-    };
+    let mut options = CutOptions::for_machine(&machine, args.frame.into());
+    options.interpret.lenient = args.lenient;
     let input = open_input(&args.program)?;
     let report = match &args.plan {
         Some(plan_path) => {
