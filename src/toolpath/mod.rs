@@ -13,3 +13,4 @@ pub use context::PointContext;
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use program::{WalkSummary, walk_program};
 pub use walk::{PathPoint, PathWalker, WalkOptions};
+pub use cut::{CutError, CutOptions, build_contexts};
