@@ -100,12 +100,11 @@ fn scan_number(line: &[u8], mut p: usize) -> Result<Number, NumberError> {
             if point {
                 decimals += 1;
             }
-            match mantissa
-                .checked_mul(10)
-                .and_then(|m| m.checked_add((b - b'0') as u64))
-            {
-                Some(m) => mantissa = m,
-                None => exact = false,
+            // 19 digits always fit in a u64; longer numbers take the slow path.
+            if ndigits <= 19 {
+                mantissa = mantissa * 10 + (b - b'0') as u64;
+            } else {
+                exact = false;
             }
             end = p + 1;
         } else if b == b'.' {
