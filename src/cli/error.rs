@@ -1,16 +1,291 @@
-//! `volcomp error`.
-use std::path::PathBuf;
+//! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
+use anyhow::{Context, anyhow};
+use clap::ValueEnum;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use crate::axes::Axes;
+use crate::kinematics::VolumetricError;
+use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
 
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    /// Input files.
-    pub inputs: Vec<PathBuf>,
+const AFTER_HELP: &str = "\
+Examples:
+  volcomp error machines/ref-trt.toml --at 10,20,-30,15,45
+  volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --json
+  volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
+  volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
+  volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
+
+The pose is X,Y,Z (mm), A,C (degrees). With --frame joint (default) X Y Z are the
+machine coordinates of the tool tip; with --frame part they are the tool tip in part
+coordinates (converted with the nominal kinematics). e is actual minus nominal tool
+tip in part coordinates (µm); the tool-axis error is in µrad.";
+
+/// Frame of the X Y Z of a pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PoseFrame {
+    /// Machine (joint) coordinates of the tool tip.
+    Joint,
+    /// Tool tip in part coordinates.
+    Part,
 }
 
-pub fn run(_args: &Args) -> anyhow::Result<()> {
-    Err(super::NotBuilt {
-        command: "error",
-        what: "the machine model is not built yet",
+/// Out-of-table lookups.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Extrapolate {
+    /// A position outside a table is an error (default).
+    Error,
+    /// Hold the table's end value (and say how often it happened).
+    Hold,
+}
+
+impl From<Extrapolate> for ExtrapolationPolicy {
+    fn from(e: Extrapolate) -> Self {
+        match e {
+            Extrapolate::Error => ExtrapolationPolicy::Error,
+            Extrapolate::Hold => ExtrapolationPolicy::Hold,
+        }
     }
-    .into())
+}
+
+#[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
+#[command(group = clap::ArgGroup::new("pose_source").required(true).args(["at", "poses"]))]
+pub struct Args {
+    /// Machine file (TOML).
+    pub machine: PathBuf,
+    /// One pose: X,Y,Z,A,C (mm, degrees).
+    #[arg(long, value_name = "X,Y,Z,A,C", allow_hyphen_values = true)]
+    pub at: Option<String>,
+    /// Many poses: a CSV file with the header `x,y,z,a,c`, one pose per row.
+    #[arg(long, value_name = "FILE.csv")]
+    pub poses: Option<PathBuf>,
+    /// Frame of X Y Z.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: PoseFrame,
+    /// Print JSON (`{"e_um": [..], "axis_urad": [..]}`, a list of them with --poses).
+    #[arg(long)]
+    pub json: bool,
+    /// Also print each parameter's contribution to e, largest first (single pose).
+    #[arg(long, short)]
+    pub verbose: bool,
+    /// What a lookup outside an error table does.
+    #[arg(long, value_enum, default_value = "error")]
+    pub extrapolate: Extrapolate,
+}
+
+/// Load a machine and fit its error model, printing what was not measured to stderr.
+pub(crate) fn load_model(path: &Path, policy: ExtrapolationPolicy) -> anyhow::Result<(Machine, ErrorModel)> {
+    let options = crate::machine::LoadOptions {
+        extrapolation: policy,
+    };
+    let machine = Machine::load_with(path, &options)?;
+    let model_options = crate::machine::ModelOptions {
+        extrapolation: policy,
+        ..Default::default()
+    };
+    let model = ErrorModel::from_machine(&machine, &model_options)
+        .with_context(|| format!("fitting the error tables of {}", path.display()))?;
+    for axis in crate::axes::Axis::ALL {
+        match machine.table(axis) {
+            None => eprintln!("note: {}: no error table for axis {} (its errors are taken as zero)", machine.name, axis.letter()),
+            Some(table) if !table.missing.is_empty() => eprintln!(
+                "note: {}: {} does not measure {} (taken as zero)",
+                machine.name,
+                table.path.display(),
+                table.missing.join(", ")
+            ),
+            Some(_) => {}
+        }
+    }
+    Ok((machine, model))
+}
+
+/// Parse `X,Y,Z,A,C`.
+pub(crate) fn parse_pose(text: &str) -> anyhow::Result<Axes> {
+    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+    if fields.len() != 5 {
+        return Err(crate::cli::UsageError(format!(
+            "--at expects five comma-separated numbers X,Y,Z,A,C, got \"{text}\""
+        ))
+        .into());
+    }
+    let mut v = [0.0; 5];
+    for (slot, (field, name)) in v.iter_mut().zip(fields.iter().zip(["X", "Y", "Z", "A", "C"])) {
+        *slot = field
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| crate::cli::UsageError(format!("--at: {name} = \"{field}\" is not a finite number")))?;
+    }
+    Ok(Axes::from_array(v))
+}
+
+/// Read a pose CSV (`x,y,z,a,c` header, any column order, `#` comments). Returns the
+/// poses with their 1-based line numbers.
+pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
+    let text = crate::io::read_to_string(path)?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (header_line, header) = lines
+        .next()
+        .ok_or_else(|| anyhow!("{}: empty file (expected the header x,y,z,a,c)", path.display()))?;
+    let names: Vec<String> = header.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
+    let mut index = [usize::MAX; 5];
+    for (slot, want) in index.iter_mut().zip(["x", "y", "z", "a", "c"]) {
+        *slot = names.iter().position(|n| n == want).ok_or_else(|| {
+            anyhow!(
+                "{}:{header_line}: header lacks column `{want}` (expected x,y,z,a,c, got \"{header}\")",
+                path.display()
+            )
+        })?;
+    }
+    let mut out = Vec::new();
+    for (line, row) in lines {
+        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+        if fields.len() != names.len() {
+            return Err(anyhow!(
+                "{}:{line}: expected {} fields, got {}",
+                path.display(),
+                names.len(),
+                fields.len()
+            ));
+        }
+        let mut v = [0.0; 5];
+        for (k, (slot, col)) in v.iter_mut().zip(index).enumerate() {
+            *slot = fields[col].parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
+                anyhow!(
+                    "{}:{line}: field {} (`{}`) = \"{}\" is not a finite number",
+                    path.display(),
+                    col + 1,
+                    ["x", "y", "z", "a", "c"][k],
+                    fields[col]
+                )
+            })?;
+        }
+        out.push((line, Axes::from_array(v)));
+    }
+    Ok(out)
+}
+
+/// The JSON object of one pose (formats.md).
+#[derive(Serialize)]
+struct PoseJson<'a> {
+    e_um: [f64; 3],
+    axis_urad: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    contributions: Option<&'a [crate::machine::Contribution]>,
+}
+
+fn fmt3(v: [f64; 3], decimals: usize) -> String {
+    format!("({:>10.*}, {:>10.*}, {:>10.*})", decimals, v[0], decimals, v[1], decimals, v[2])
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.poses.is_some() && args.verbose {
+        return Err(crate::cli::UsageError("--verbose applies to a single pose (--at)".into()).into());
+    }
+    // Validate the pose before the (slower) fit.
+    let single = args.at.as_deref().map(parse_pose).transpose()?;
+    let (machine, model) = load_model(&args.machine, args.extrapolate.into())?;
+    let kin = model.kinematics();
+    let to_joints = |pose: &Axes| match args.frame {
+        PoseFrame::Joint => *pose,
+        PoseFrame::Part => kin.joints_from_part(pose),
+    };
+
+    if let Some(pose) = single {
+        let joints = to_joints(&pose);
+        let v = model.volumetric_error(&joints)?;
+        let contributions = if args.verbose {
+            Some(model.contributions(&joints)?)
+        } else {
+            None
+        };
+        if args.json {
+            let obj = PoseJson {
+                e_um: v.e_um,
+                axis_urad: v.axis_urad,
+                contributions: contributions.as_deref(),
+            };
+            println!("{}", serde_json::to_string_pretty(&obj)?);
+        } else {
+            println!("machine {} ({})", machine.name, machine.source.display());
+            let j = joints;
+            println!(
+                "joints  X {:.4} Y {:.4} Z {:.4} mm  A {:.4} C {:.4} deg",
+                j.x, j.y, j.z, j.a, j.c
+            );
+            let tip = kin.nominal_tip(&joints);
+            println!("tip (part) {} mm", fmt3(tip, 4));
+            println!("e         {} um   |e| = {:.4} um", fmt3(v.e_um, 4), v.magnitude_um());
+            println!("tool axis {} urad", fmt3(v.axis_urad, 4));
+            if let Some(list) = &contributions {
+                println!("contributions (each parameter alone, largest |e| first):");
+                println!("  {:<6} {:>12}  {:>34}  {:>9}", "param", "value", "e (um)", "|e| um");
+                for c in list {
+                    let unit = if is_length(c.parameter) { "um" } else { "urad" };
+                    println!(
+                        "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
+                        c.parameter,
+                        c.value,
+                        unit,
+                        fmt3(c.e_um, 4),
+                        c.magnitude_um()
+                    );
+                }
+            }
+        }
+    } else if let Some(path) = &args.poses {
+        let poses = read_poses(path)?;
+        let results: Vec<VolumetricError> = poses
+            .par_iter()
+            .map(|(line, pose)| {
+                model
+                    .volumetric_error(&to_joints(pose))
+                    .with_context(|| format!("{}:{line}", path.display()))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        if args.json {
+            let list: Vec<PoseJson> = results
+                .iter()
+                .map(|v| PoseJson {
+                    e_um: v.e_um,
+                    axis_urad: v.axis_urad,
+                    contributions: None,
+                })
+                .collect();
+            println!("{}", serde_json::to_string(&list)?);
+        } else {
+            println!("machine {} ({}), {} poses from {}", machine.name, machine.source.display(), results.len(), path.display());
+            println!("{:>6}  {:>34}  {:>9}", "line", "e (um)", "|e| um");
+            for ((line, _), v) in poses.iter().zip(&results) {
+                println!("{line:>6}  {}  {:>9.4}", fmt3(v.e_um, 4), v.magnitude_um());
+            }
+            let mags: Vec<f64> = results.iter().map(|v| v.magnitude_um()).collect();
+            let max = mags.iter().copied().fold(0.0, f64::max);
+            let rms = if mags.is_empty() {
+                0.0
+            } else {
+                (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
+            };
+            println!("max |e| = {max:.4} um, rms |e| = {rms:.4} um");
+        }
+    }
+    let held = model.held_lookups();
+    if held > 0 {
+        eprintln!("note: {held} table lookups were outside a table's range and held its end value");
+    }
+    Ok(())
+}
+
+/// Whether a parameter is a length (µm) rather than an angle (µrad).
+fn is_length(name: &str) -> bool {
+    matches!(
+        name.as_bytes(),
+        [b'E', b'X' | b'Y' | b'Z', _] | [b'E', b'X' | b'Y' | b'Z', b'0', _]
+    )
 }

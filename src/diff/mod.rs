@@ -1,1 +1,194 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! `diff`: block-by-block comparison of two programs.
+//!
+//! Alignment ([`align`]) pairs the blocks of A and B; this module accumulates what
+//! changed: per-axis statistics of the end-target changes of paired motion blocks,
+//! counts of added, removed, changed and unchanged blocks, and the largest changes
+//! with their line numbers. Streaming: memory is bounded by the alignment window
+//! and the number of largest changes kept.
+pub mod align;
+
+use crate::axes::Axis;
+use align::{Aligned, BlockSummary};
+use serde::Serialize;
+
+/// Statistics of the change of one axis over paired motion blocks (B − A), in mm
+/// (X Y Z) or degrees (A C).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct AxisChange {
+    pub axis: char,
+    pub max_abs: f64,
+    pub mean_abs: f64,
+    pub rms: f64,
+    /// Signed change at `max_abs`.
+    pub max_signed: f64,
+}
+
+/// One of the largest changes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LargeChange {
+    pub line_a: usize,
+    pub line_b: usize,
+    /// |Δ(X, Y, Z)|, µm.
+    pub xyz_change_um: f64,
+    /// Δ per axis (X Y Z in µm, A C in millidegrees).
+    pub delta: [f64; 5],
+}
+
+/// The diff report (`--report` JSON).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct DiffReport {
+    pub blocks_a: usize,
+    pub blocks_b: usize,
+    pub paired: usize,
+    pub unchanged: usize,
+    pub changed: usize,
+    pub added: usize,
+    pub removed: usize,
+    /// Paired motion blocks whose targets were compared.
+    pub motion_pairs: usize,
+    pub axes: Vec<AxisChange>,
+    /// |Δ(X, Y, Z)| over paired motion blocks, µm.
+    pub max_xyz_change_um: f64,
+    pub rms_xyz_change_um: f64,
+    pub largest: Vec<LargeChange>,
+    /// Lines of the first added and removed blocks (up to `largest` many).
+    pub added_lines: Vec<usize>,
+    pub removed_lines: Vec<usize>,
+}
+
+impl DiffReport {
+    pub fn is_identical(&self) -> bool {
+        self.changed == 0 && self.added == 0 && self.removed == 0
+    }
+}
+
+/// Accumulates a [`DiffReport`] from aligned blocks.
+#[derive(Debug)]
+pub struct DiffAccumulator {
+    report: DiffReport,
+    sum_abs: [f64; 5],
+    sum_sq: [f64; 5],
+    sum_sq_xyz: f64,
+    keep: usize,
+}
+
+impl DiffAccumulator {
+    /// `keep`: how many of the largest changes (and added/removed lines) to keep.
+    pub fn new(keep: usize) -> Self {
+        let mut report = DiffReport::default();
+        report.axes = Axis::ALL
+            .iter()
+            .map(|a| AxisChange {
+                axis: a.letter(),
+                ..AxisChange::default()
+            })
+            .collect();
+        DiffAccumulator {
+            report,
+            sum_abs: [0.0; 5],
+            sum_sq: [0.0; 5],
+            sum_sq_xyz: 0.0,
+            keep,
+        }
+    }
+
+    pub fn push(&mut self, item: &Aligned) {
+        let r = &mut self.report;
+        match item {
+            Aligned::Added(b) => {
+                r.blocks_b += 1;
+                r.added += 1;
+                if r.added_lines.len() < self.keep {
+                    r.added_lines.push(b.line);
+                }
+            }
+            Aligned::Removed(a) => {
+                r.blocks_a += 1;
+                r.removed += 1;
+                if r.removed_lines.len() < self.keep {
+                    r.removed_lines.push(a.line);
+                }
+            }
+            Aligned::Pair(a, b) => {
+                r.blocks_a += 1;
+                r.blocks_b += 1;
+                r.paired += 1;
+                let same = same_block(a, b);
+                if same {
+                    r.unchanged += 1;
+                } else {
+                    r.changed += 1;
+                }
+                if let (Some((_, ta)), Some((_, tb))) = (&a.motion, &b.motion) {
+                    r.motion_pairs += 1;
+                    let (va, vb) = (ta.to_array(), tb.to_array());
+                    let mut delta = [0.0; 5];
+                    for i in 0..5 {
+                        let d = vb[i] - va[i];
+                        delta[i] = d;
+                        self.sum_abs[i] += d.abs();
+                        self.sum_sq[i] += d * d;
+                        let ax = &mut r.axes[i];
+                        if d.abs() > ax.max_abs {
+                            ax.max_abs = d.abs();
+                            ax.max_signed = d;
+                        }
+                    }
+                    let xyz_um =
+                        (delta[0].powi(2) + delta[1].powi(2) + delta[2].powi(2)).sqrt() * 1e3;
+                    self.sum_sq_xyz += xyz_um * xyz_um;
+                    r.max_xyz_change_um = r.max_xyz_change_um.max(xyz_um);
+                    if xyz_um > 0.0 || delta[3] != 0.0 || delta[4] != 0.0 {
+                        let change = LargeChange {
+                            line_a: a.line,
+                            line_b: b.line,
+                            xyz_change_um: xyz_um,
+                            delta: [
+                                delta[0] * 1e3,
+                                delta[1] * 1e3,
+                                delta[2] * 1e3,
+                                delta[3] * 1e3,
+                                delta[4] * 1e3,
+                            ],
+                        };
+                        insert_largest(&mut r.largest, change, self.keep);
+                    }
+                }
+            }
+        }
+    }
+
+    pub fn finish(mut self) -> DiffReport {
+        let n = self.report.motion_pairs.max(1) as f64;
+        for i in 0..5 {
+            self.report.axes[i].mean_abs = self.sum_abs[i] / n;
+            self.report.axes[i].rms = (self.sum_sq[i] / n).sqrt();
+        }
+        self.report.rms_xyz_change_um = (self.sum_sq_xyz / n).sqrt();
+        self.report
+    }
+}
+
+/// Do two paired blocks say the same thing (same words, same targets)?
+fn same_block(a: &BlockSummary, b: &BlockSummary) -> bool {
+    a.key == b.key && a.motion == b.motion && a.number == b.number
+}
+
+fn insert_largest(list: &mut Vec<LargeChange>, change: LargeChange, keep: usize) {
+    if keep == 0 {
+        return;
+    }
+    if list.len() == keep
+        && list
+            .last()
+            .is_some_and(|last| last.xyz_change_um >= change.xyz_change_um)
+    {
+        return;
+    }
+    let pos = list
+        .iter()
+        .position(|c| c.xyz_change_um < change.xyz_change_um)
+        .unwrap_or(list.len());
+    list.insert(pos, change);
+    list.truncate(keep);
+}

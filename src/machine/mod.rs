@@ -3,4 +3,12 @@
 //!
 //! Invariants: `machine` reads files but never prints; every error names the file
 //! and the key or line.
+pub mod definition;
+pub mod error_model;
 pub mod table;
+
+pub use definition::{
+    DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,
+    MachineError, Tool,
+};
+pub use error_model::{Contribution, ErrorModel, LookupError, ModelError, ModelOptions};

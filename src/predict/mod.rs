@@ -1,1 +1,50 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! `predict`: the predicted deviation of every plan point (formats.md: `n · e` at
+//! the path point that cut it) and the profile error of the part, or, without a
+//! plan, the volumetric error along the path block by block.
+pub mod html;
+
+use serde::Serialize;
+
+/// One plan point in the predict report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PredictedPoint {
+    pub id: String,
+    /// Predicted deviation `n · e`, µm (absent when not cut).
+    pub deviation_um: Option<f64>,
+    pub cut: bool,
+    /// Program line of the block that cut the point.
+    pub line: Option<usize>,
+    /// Plan point and normal (part coordinates).
+    pub point: [f64; 3],
+    pub normal: [f64; 3],
+    /// Volumetric error at the cutting path point, µm, part coordinates.
+    pub e_um: Option<[f64; 3]>,
+    /// Distance of the contact point from the plan point, mm.
+    pub distance_mm: Option<f64>,
+}
+
+/// Error along the path at the end of one block (no plan).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BlockError {
+    pub line: usize,
+    pub e_um: [f64; 3],
+    pub norm_um: f64,
+    pub axis_urad: [f64; 3],
+}
+
+/// The `predict --report` JSON (formats.md fields first; more follow).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PredictReport {
+    pub profile_um: f64,
+    pub range_um: f64,
+    pub points: Vec<PredictedPoint>,
+    pub points_total: usize,
+    pub points_cut: usize,
+    pub match_distance_mm: f64,
+    /// Without a plan: the error at every block end, and its maximum and RMS.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<BlockError>,
+    pub max_error_um: f64,
+    pub rms_error_um: f64,
+    pub seconds: f64,
+}

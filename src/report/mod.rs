@@ -1,1 +1,2 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! Reports: SVG charts and self-contained HTML pages (no I/O here).
+pub mod svg;

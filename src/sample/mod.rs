@@ -1,1 +1,2 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! Bundled sample parts: deterministic generators of programs and inspection plans.
+pub mod saddle;

@@ -1,6 +1,8 @@
 //! The tool path in both frames: blocks sampled at ≤ 0.5 mm, joints and part
 //! coordinates of every path point, nearest path point of a plan point, and the
 //! context (time, direction, speed, curvature, …) that effects depend on.
+//!
+//! Invariant: this is where programs meet kinematics for reading; it writes nothing.
 pub mod context;
 
 pub use context::PointContext;

@@ -10,7 +10,15 @@ fn help_lists_commands_and_examples() {
     let out = volcomp().arg("--help").output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
-    for cmd in ["fit", "error", "compensate", "predict", "diff", "simulate", "diagnose"] {
+    for cmd in [
+        "fit",
+        "error",
+        "compensate",
+        "predict",
+        "diff",
+        "simulate",
+        "diagnose",
+    ] {
         assert!(text.contains(cmd), "help lacks {cmd}:\n{text}");
     }
     assert!(text.contains("Examples:"));

@@ -1,0 +1,93 @@
+//! Volumetric error per pose: the chain alone (baseline), the 30 table lookups, and
+//! both together (what compensate and predict call), on the reference machine; and
+//! poses per second over a batch, one thread vs two (rayon).
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::hint::black_box;
+use std::path::Path;
+use volcomp::axes::Axes;
+use volcomp::machine::{ErrorModel, Machine, ModelOptions};
+
+fn reference_model() -> ErrorModel {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("machines/ref-trt.toml");
+    let machine = Machine::load(&path).expect("ref-trt loads");
+    ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("fit")
+}
+
+/// Poses inside the reference machine's tables, C over several turns.
+fn poses(n: usize) -> Vec<Axes> {
+    let mut rng = ChaCha8Rng::seed_from_u64(2016);
+    (0..n)
+        .map(|_| {
+            Axes::new(
+                rng.random_range(-200.0..200.0),
+                rng.random_range(-150.0..150.0),
+                rng.random_range(-200.0..100.0),
+                rng.random_range(-110.0..110.0),
+                rng.random_range(-1080.0..1080.0),
+            )
+        })
+        .collect()
+}
+
+fn per_pose(c: &mut Criterion) {
+    let model = reference_model();
+    let kin = *model.kinematics();
+    let set = poses(1024);
+    let errors: Vec<_> = set.iter().map(|p| model.errors_at(p).expect("inside")).collect();
+    let mut group = c.benchmark_group("per_pose");
+    group.throughput(Throughput::Elements(set.len() as u64));
+    group.bench_function("chain_only", |b| {
+        b.iter(|| {
+            for (p, e) in set.iter().zip(&errors) {
+                black_box(kin.volumetric_error(black_box(p), e));
+            }
+        })
+    });
+    group.bench_function("lookups_only_30", |b| {
+        b.iter(|| {
+            for p in &set {
+                black_box(model.errors_at(black_box(p)).expect("inside"));
+            }
+        })
+    });
+    group.bench_function("lookups_and_chain", |b| {
+        b.iter(|| {
+            for p in &set {
+                black_box(model.volumetric_error(black_box(p)).expect("inside"));
+            }
+        })
+    });
+    group.finish();
+}
+
+fn batch(c: &mut Criterion) {
+    let model = reference_model();
+    let set = poses(100_000);
+    let mut group = c.benchmark_group("batch_100k");
+    group.throughput(Throughput::Elements(set.len() as u64));
+    group.sample_size(10);
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        group.bench_with_input(BenchmarkId::new("rayon_threads", threads), &threads, |b, _| {
+            b.iter(|| {
+                pool.install(|| {
+                    let worst = set
+                        .par_iter()
+                        .map(|p| model.volumetric_error(p).expect("inside").magnitude_um())
+                        .reduce(|| 0.0, f64::max);
+                    black_box(worst)
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, per_pose, batch);
+criterion_main!(benches);

@@ -1,0 +1,237 @@
+//! Block alignment of two programs, streaming.
+//!
+//! Two blocks *match* when both carry the same N number (when both have one), or
+//! else when both are motion blocks of the same kind whose end targets agree within
+//! the match tolerance, or else when their words (without N and comments) are equal.
+//! The aligner walks both programs with a bounded look-ahead window: at each step it
+//! pairs matching blocks, or takes the shortest run of insertions (blocks only in
+//! B, such as the pieces of a split move) or deletions that restores a match, or
+//! else pairs the two blocks as a substitution. Memory is bounded by the window.
+use crate::axes::Axes;
+use std::collections::VecDeque;
+
+/// What the aligner needs of a block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockSummary {
+    /// Program line, 1-based.
+    pub line: usize,
+    /// N number, if written.
+    pub number: Option<u64>,
+    /// Motion kind code (0 = G0, 1 = G1, 2 = G2, 3 = G3) and absolute end target of a
+    /// motion block, in mm/degrees.
+    pub motion: Option<(u8, Axes)>,
+    /// The block's words without N number and comments, normalised (upper case, no spaces).
+    pub key: String,
+}
+
+/// One step of the alignment.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Aligned {
+    /// Present in both (possibly changed).
+    Pair(BlockSummary, BlockSummary),
+    /// Only in A.
+    Removed(BlockSummary),
+    /// Only in B.
+    Added(BlockSummary),
+}
+
+/// Settings of the alignment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlignOptions {
+    /// Motion blocks whose targets differ by less than this (mm, and degrees) match.
+    pub match_tolerance: f64,
+    /// Largest run of insertions or deletions looked for.
+    pub window: usize,
+}
+
+impl Default for AlignOptions {
+    fn default() -> Self {
+        AlignOptions {
+            match_tolerance: 0.05,
+            window: 256,
+        }
+    }
+}
+
+/// Do `a` and `b` match (see the module docs)?
+pub fn blocks_match(a: &BlockSummary, b: &BlockSummary, tolerance: f64) -> bool {
+    if let (Some(na), Some(nb)) = (a.number, b.number) {
+        return na == nb;
+    }
+    match (&a.motion, &b.motion) {
+        (Some((ka, ta)), Some((kb, tb))) => {
+            ka == kb
+                && ta
+                    .to_array()
+                    .iter()
+                    .zip(tb.to_array())
+                    .all(|(x, y)| (x - y).abs() <= tolerance)
+        }
+        (None, None) => a.key == b.key,
+        _ => false,
+    }
+}
+
+/// Streaming aligner over two block iterators.
+pub struct Aligner<A, B>
+where
+    A: Iterator<Item = BlockSummary>,
+    B: Iterator<Item = BlockSummary>,
+{
+    a: A,
+    b: B,
+    buf_a: VecDeque<BlockSummary>,
+    buf_b: VecDeque<BlockSummary>,
+    options: AlignOptions,
+    /// Queued output of the last step.
+    out: VecDeque<Aligned>,
+}
+
+impl<A, B> Aligner<A, B>
+where
+    A: Iterator<Item = BlockSummary>,
+    B: Iterator<Item = BlockSummary>,
+{
+    pub fn new(a: A, b: B, options: AlignOptions) -> Self {
+        Aligner {
+            a,
+            b,
+            buf_a: VecDeque::new(),
+            buf_b: VecDeque::new(),
+            options,
+            out: VecDeque::new(),
+        }
+    }
+
+    fn fill(&mut self) {
+        let want = self.options.window + 1;
+        while self.buf_a.len() < want {
+            match self.a.next() {
+                Some(x) => self.buf_a.push_back(x),
+                None => break,
+            }
+        }
+        while self.buf_b.len() < want {
+            match self.b.next() {
+                Some(x) => self.buf_b.push_back(x),
+                None => break,
+            }
+        }
+    }
+
+    fn step(&mut self) {
+        self.fill();
+        let tol = self.options.match_tolerance;
+        match (self.buf_a.front(), self.buf_b.front()) {
+            (None, None) => {}
+            (Some(_), None) => {
+                let x = self.buf_a.pop_front().expect("front");
+                self.out.push_back(Aligned::Removed(x));
+            }
+            (None, Some(_)) => {
+                let x = self.buf_b.pop_front().expect("front");
+                self.out.push_back(Aligned::Added(x));
+            }
+            (Some(fa), Some(fb)) => {
+                if blocks_match(fa, fb, tol) {
+                    let x = self.buf_a.pop_front().expect("front");
+                    let y = self.buf_b.pop_front().expect("front");
+                    self.out.push_back(Aligned::Pair(x, y));
+                    return;
+                }
+                // Shortest run of insertions in B or deletions from A that restores a match.
+                let insert = self
+                    .buf_b
+                    .iter()
+                    .skip(1)
+                    .position(|b| blocks_match(fa, b, tol));
+                let delete = self
+                    .buf_a
+                    .iter()
+                    .skip(1)
+                    .position(|a| blocks_match(a, fb, tol));
+                match (insert, delete) {
+                    (Some(i), d) if d.is_none_or(|d| i <= d) => {
+                        for _ in 0..=i {
+                            let y = self.buf_b.pop_front().expect("buffered");
+                            self.out.push_back(Aligned::Added(y));
+                        }
+                    }
+                    (_, Some(d)) => {
+                        for _ in 0..=d {
+                            let x = self.buf_a.pop_front().expect("buffered");
+                            self.out.push_back(Aligned::Removed(x));
+                        }
+                    }
+                    _ => {
+                        let x = self.buf_a.pop_front().expect("front");
+                        let y = self.buf_b.pop_front().expect("front");
+                        self.out.push_back(Aligned::Pair(x, y));
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl<A, B> Iterator for Aligner<A, B>
+where
+    A: Iterator<Item = BlockSummary>,
+    B: Iterator<Item = BlockSummary>,
+{
+    type Item = Aligned;
+
+    fn next(&mut self) -> Option<Aligned> {
+        if self.out.is_empty() {
+            self.step();
+        }
+        self.out.pop_front()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn motion(line: usize, x: f64) -> BlockSummary {
+        BlockSummary {
+            line,
+            number: None,
+            motion: Some((1, Axes::new(x, 0.0, 0.0, 0.0, 0.0))),
+            key: format!("G1X{x}"),
+        }
+    }
+
+    #[test]
+    fn split_moves_are_insertions() {
+        let a = vec![motion(1, 0.0), motion(2, 10.0), motion(3, 20.0)];
+        let b = vec![
+            motion(1, 0.0001),
+            motion(2, 5.0),
+            motion(3, 10.0002),
+            motion(4, 20.0),
+        ];
+        let out: Vec<Aligned> =
+            Aligner::new(a.into_iter(), b.into_iter(), AlignOptions::default()).collect();
+        let kinds: Vec<&str> = out
+            .iter()
+            .map(|x| match x {
+                Aligned::Pair(..) => "pair",
+                Aligned::Added(_) => "added",
+                Aligned::Removed(_) => "removed",
+            })
+            .collect();
+        assert_eq!(kinds, vec!["pair", "added", "pair", "pair"]);
+    }
+
+    #[test]
+    fn n_numbers_decide_when_both_have_them() {
+        let mut a = motion(1, 0.0);
+        a.number = Some(10);
+        let mut b = motion(1, 3.0);
+        b.number = Some(10);
+        assert!(blocks_match(&a, &b, 0.05));
+        b.number = Some(20);
+        assert!(!blocks_match(&a, &b, 0.05));
+    }
+}

@@ -1,0 +1,311 @@
+//! The machine's error model: a fitted SMEM curve (cubic NURBS, `crate::nurbs`) for
+//! every measured table column, plus the position-independent scalars, and the
+//! lookup `joints → ErrorValues → VolumetricError`.
+//!
+//! Lookup policy (formats.md): linear axes are looked up by position (mm), A by
+//! angle (degrees); a C table over one revolution wraps (`c` reduced modulo 360 into
+//! the table's range, for any number of turns); outside a table's range a lookup is
+//! [`LookupError::OutOfRange`] unless the policy is [`ExtrapolationPolicy::Hold`],
+//! which holds the end value and counts it ([`ErrorModel::held_lookups`]).
+//! Unmeasured axes and columns contribute zero.
+//!
+//! Invariants: built once, then read-only and `Sync` (the hold counter is atomic):
+//! compensate and predict call [`ErrorModel::volumetric_error`] from many threads;
+//! the lookup allocates nothing; every returned value is finite (inputs are checked).
+use super::definition::{ExtrapolationPolicy, Machine, axis_slot};
+use crate::axes::{Axes, Axis};
+use crate::kinematics::error_values::{COMPONENT_NAMES, PARAMETER_COUNT, PARAMETER_NAMES};
+use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
+use crate::nurbs::{FitError, FitOptions, ParameterKind, SmemCurve, fit_parameter};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// How the model is built.
+#[derive(Clone, Debug, Default)]
+pub struct ModelOptions {
+    pub fit: FitOptions,
+    pub extrapolation: ExtrapolationPolicy,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{}: cannot fit {parameter}: {source}", table.display())]
+    Fit {
+        table: PathBuf,
+        parameter: String,
+        source: FitError,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LookupError {
+    #[error("joint position is not finite: {0:?}")]
+    NotFinite(Axes),
+    #[error(
+        "{axis:?} = {position} is outside the {axis:?} error table ({} to {}); \
+the model is not defined there (use --extrapolate hold to hold the end values)",
+        range[0], range[1]
+    )]
+    OutOfRange {
+        axis: Axis,
+        position: f64,
+        range: [f64; 2],
+    },
+}
+
+/// Curves of one measured axis.
+#[derive(Clone, Debug)]
+struct AxisCurves {
+    axis: Axis,
+    /// First and last table position.
+    range: [f64; 2],
+    /// C over one revolution: positions wrap modulo 360 into `range`.
+    wrap: bool,
+    /// One curve per component (δx δy δz εx εy εz), `None` = not measured.
+    curves: [Option<SmemCurve>; 6],
+}
+
+/// The effect of one parameter alone at a pose (first order).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Contribution {
+    /// kinematics.md name (`EXX`, `s_xy`, `EY0A`, ...).
+    pub parameter: &'static str,
+    /// The parameter's value at the pose, µm or µrad.
+    pub value: f64,
+    /// e with only this parameter non-zero, µm.
+    pub e_um: [f64; 3],
+    /// Tool-axis error with only this parameter non-zero, µrad.
+    pub axis_urad: [f64; 3],
+}
+
+impl Contribution {
+    pub fn magnitude_um(&self) -> f64 {
+        crate::kinematics::transform::norm(self.e_um)
+    }
+}
+
+/// See the module documentation.
+#[derive(Debug)]
+pub struct ErrorModel {
+    kinematics: Kinematics,
+    axes: [Option<AxisCurves>; 5],
+    scalars: ErrorValues,
+    policy: ExtrapolationPolicy,
+    held: AtomicU64,
+}
+
+impl Clone for ErrorModel {
+    fn clone(&self) -> Self {
+        ErrorModel {
+            kinematics: self.kinematics,
+            axes: self.axes.clone(),
+            scalars: self.scalars,
+            policy: self.policy,
+            held: AtomicU64::new(self.held.load(Ordering::Relaxed)),
+        }
+    }
+}
+
+impl ErrorModel {
+    /// Fit every measured column of `machine`'s tables (in parallel) and collect its
+    /// scalars. A column with fewer rows than the fit needs is an error naming it.
+    pub fn from_machine(machine: &Machine, options: &ModelOptions) -> Result<ErrorModel, ModelError> {
+        let mut jobs = Vec::new();
+        for (slot, axis) in Axis::ALL.into_iter().enumerate() {
+            let Some(table) = machine.table(axis) else {
+                continue;
+            };
+            for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
+                if let Some(column) = table.columns.iter().find(|c| c.name == *name) {
+                    jobs.push((slot, k, *name, table, column));
+                }
+            }
+        }
+        let fitted: Vec<(usize, usize, SmemCurve)> = jobs
+            .par_iter()
+            .map(|(slot, k, name, table, column)| {
+                let kind = if *k < 3 {
+                    ParameterKind::Length
+                } else {
+                    ParameterKind::Angle
+                };
+                fit_parameter(&table.positions, &column.values, kind, &options.fit)
+                    .map(|curve| (*slot, *k, curve))
+                    .map_err(|source| ModelError::Fit {
+                        table: table.path.clone(),
+                        parameter: name.to_string(),
+                        source,
+                    })
+            })
+            .collect::<Result<_, _>>()?;
+        let mut axes: [Option<AxisCurves>; 5] = Default::default();
+        for axis in Axis::ALL {
+            if let Some(table) = machine.table(axis) {
+                let (Some(first), Some(last)) = (table.positions.first(), table.positions.last())
+                else {
+                    continue;
+                };
+                axes[axis_slot(axis)] = Some(AxisCurves {
+                    axis,
+                    range: [*first, *last],
+                    wrap: axis == Axis::C && table.one_revolution,
+                    curves: Default::default(),
+                });
+            }
+        }
+        for (slot, k, curve) in fitted {
+            if let Some(ac) = axes[slot].as_mut() {
+                ac.curves[k] = Some(curve);
+            }
+        }
+        Ok(ErrorModel {
+            kinematics: machine.kinematics_model(),
+            axes,
+            scalars: machine.scalar_errors(),
+            policy: options.extrapolation,
+            held: AtomicU64::new(0),
+        })
+    }
+
+    /// A model with no measured tables: only the scalars of `scalars` (component
+    /// errors ignored). For nominal machines and tests.
+    pub fn scalars_only(kinematics: Kinematics, scalars: ErrorValues) -> ErrorModel {
+        let mut values = ErrorValues::ZERO;
+        values.squareness = scalars.squareness;
+        values.location = scalars.location;
+        ErrorModel {
+            kinematics,
+            axes: Default::default(),
+            scalars: values,
+            policy: ExtrapolationPolicy::Error,
+            held: AtomicU64::new(0),
+        }
+    }
+
+    pub fn kinematics(&self) -> &Kinematics {
+        &self.kinematics
+    }
+
+    pub fn policy(&self) -> ExtrapolationPolicy {
+        self.policy
+    }
+
+    /// Change the out-of-range policy.
+    pub fn set_policy(&mut self, policy: ExtrapolationPolicy) {
+        self.policy = policy;
+    }
+
+    /// How many single-axis lookups held an end value since the model was built (or
+    /// since [`ErrorModel::reset_held_lookups`]).
+    pub fn held_lookups(&self) -> u64 {
+        self.held.load(Ordering::Relaxed)
+    }
+
+    pub fn reset_held_lookups(&self) {
+        self.held.store(0, Ordering::Relaxed);
+    }
+
+    /// The fitted curve of a parameter (`"EXX"`...), if measured.
+    pub fn curve(&self, parameter: &str) -> Option<&SmemCurve> {
+        let index = ErrorValues::index_of(parameter)?;
+        if index >= 30 {
+            return None;
+        }
+        self.axes[index / 6].as_ref()?.curves[index % 6].as_ref()
+    }
+
+    /// Table range `[first, last]` of a measured axis, and whether it wraps.
+    pub fn table_range(&self, axis: Axis) -> Option<([f64; 2], bool)> {
+        self.axes[axis_slot(axis)]
+            .as_ref()
+            .map(|ac| (ac.range, ac.wrap))
+    }
+
+    /// Names of the fitted parameters, in kinematics.md order.
+    pub fn fitted_parameters(&self) -> Vec<&'static str> {
+        (0..30)
+            .filter(|i| {
+                self.axes[i / 6]
+                    .as_ref()
+                    .is_some_and(|ac| ac.curves[i % 6].is_some())
+            })
+            .map(|i| PARAMETER_NAMES[i])
+            .collect()
+    }
+
+    /// The position at which `ac` is looked up for joint value `joint`.
+    #[inline]
+    fn table_position(&self, ac: &AxisCurves, joint: f64) -> Result<f64, LookupError> {
+        let [lo, hi] = ac.range;
+        let p = if ac.wrap {
+            lo + (joint - lo).rem_euclid(360.0)
+        } else {
+            joint
+        };
+        let tol = 1e-9 * (1.0 + p.abs());
+        if p < lo - tol || p > hi + tol {
+            match self.policy {
+                ExtrapolationPolicy::Error => {
+                    return Err(LookupError::OutOfRange {
+                        axis: ac.axis,
+                        position: joint,
+                        range: ac.range,
+                    });
+                }
+                ExtrapolationPolicy::Hold => {
+                    self.held.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+        Ok(p.clamp(lo, hi))
+    }
+
+    /// Values of all 43 parameters at `joints` (mm, degrees).
+    pub fn errors_at(&self, joints: &Axes) -> Result<ErrorValues, LookupError> {
+        if !joints.is_finite() {
+            return Err(LookupError::NotFinite(*joints));
+        }
+        let mut values = self.scalars;
+        for (slot, ac) in self.axes.iter().enumerate() {
+            let Some(ac) = ac else { continue };
+            let p = self.table_position(ac, joints.get(ac.axis))?;
+            for (out, curve) in values.component[slot].iter_mut().zip(&ac.curves) {
+                if let Some(curve) = curve {
+                    *out = curve.value_at(p);
+                }
+            }
+        }
+        Ok(values)
+    }
+
+    /// Volumetric and tool-axis error at `joints`: the lookup plus the chain.
+    #[inline]
+    pub fn volumetric_error(&self, joints: &Axes) -> Result<VolumetricError, LookupError> {
+        let errors = self.errors_at(joints)?;
+        Ok(self.kinematics.volumetric_error(joints, &errors))
+    }
+
+    /// The e of each parameter alone at `joints` (first order: every other parameter
+    /// zero), largest |e| first; parameters that are zero there are left out.
+    pub fn contributions(&self, joints: &Axes) -> Result<Vec<Contribution>, LookupError> {
+        let errors = self.errors_at(joints)?;
+        let mut out: Vec<Contribution> = (0..PARAMETER_COUNT)
+            .filter_map(|i| {
+                let value = errors.get_index(i)?;
+                if value == 0.0 {
+                    return None;
+                }
+                let v = self.kinematics.volumetric_error(joints, &errors.only(i));
+                Some(Contribution {
+                    parameter: PARAMETER_NAMES[i],
+                    value,
+                    e_um: v.e_um,
+                    axis_urad: v.axis_urad,
+                })
+            })
+            .collect();
+        out.sort_by(|a, b| b.magnitude_um().total_cmp(&a.magnitude_um()));
+        Ok(out)
+    }
+}

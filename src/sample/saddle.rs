@@ -1,0 +1,208 @@
+//! The saddle sample: a five-axis ball-end finishing program for a saddle-style
+//! bicycle seat like the seed paper's (§4.3, Fig. 14; blank 100 × 80 × 40 mm) and
+//! its 372-point inspection plan (the paper measured 372 points).
+//!
+//! Everything here is deterministic: the same options give the same bytes.
+//!
+//! Geometry (part coordinates, mm; origin at the centre of the blank's bottom face):
+//! `z(x, y) = 28 + 0.0036 x² − 0.0075 y² − 0.00002 x³` over x ∈ [−50, 50],
+//! y ∈ [−40, 40]: high along the centre line, falling off to both sides, rising
+//! towards the back, a little lower at the nose. Its heights stay within the blank
+//! (16.0 mm … 39.5 mm).
+//!
+//! Tool path: zig-zag raster of lines y = const (stepover 1.5 mm) with points every
+//! 1.5 mm in x; at every point the ball centre is `p + R n` and the tool axis `u` is
+//! the surface normal tilted sideways (towards −y, in the plane of n and −y) by an
+//! angle that varies over the part, `θ = 15° + 5° cos(π x / 100) cos(π y / 80)`, so A
+//! and C move throughout. The tool tip is `p + R n − R u`, so the contact point of
+//! every path point is exactly the surface point `p`.
+//!
+//! Plan: x = −45 … 45 step 3 (31) × y = −33 … 33 step 6 (12) = 372 points, all
+//! of them path points.
+
+/// Height of the saddle surface at (x, y), mm.
+pub fn height(x: f64, y: f64) -> f64 {
+    28.0 + 0.0036 * x * x - 0.0075 * y * y - 0.00002 * x * x * x
+}
+
+/// Unit outward normal (towards the tool) of the saddle surface at (x, y).
+pub fn normal(x: f64, y: f64) -> [f64; 3] {
+    let dzdx = 2.0 * 0.0036 * x - 3.0 * 0.00002 * x * x;
+    let dzdy = -2.0 * 0.0075 * y;
+    normalise([-dzdx, -dzdy, 1.0])
+}
+
+/// Tilt of the tool axis away from the normal, degrees.
+pub fn tilt_degrees(x: f64, y: f64) -> f64 {
+    use std::f64::consts::PI;
+    15.0 + 5.0 * (PI * x / 100.0).cos() * (PI * y / 80.0).cos()
+}
+
+/// Unit tool axis (tip towards spindle) at surface point (x, y): the normal tilted
+/// towards −y by [`tilt_degrees`].
+pub fn tool_axis(x: f64, y: f64) -> [f64; 3] {
+    let n = normal(x, y);
+    // Direction −y made orthogonal to n.
+    let d = [0.0, -1.0, 0.0];
+    let dn = dot(d, n);
+    let t = normalise([d[0] - dn * n[0], d[1] - dn * n[1], d[2] - dn * n[2]]);
+    let th = tilt_degrees(x, y).to_radians();
+    let (s, c) = th.sin_cos();
+    normalise([
+        c * n[0] + s * t[0],
+        c * n[1] + s * t[1],
+        c * n[2] + s * t[2],
+    ])
+}
+
+/// Raster settings of the sample program.
+#[derive(Clone, Copy, Debug)]
+pub struct SaddleOptions {
+    /// Ball-end radius, mm.
+    pub tool_radius: f64,
+    /// Distance between raster lines, mm.
+    pub stepover: f64,
+    /// Distance between points along a line, mm.
+    pub point_spacing: f64,
+    /// Half extents of the raster in x and y, mm.
+    pub x_extent: f64,
+    pub y_extent: f64,
+    /// Feed, mm/min.
+    pub feed: f64,
+    /// Safe height above the part for rapids (part z, mm).
+    pub clearance: f64,
+}
+
+impl Default for SaddleOptions {
+    fn default() -> Self {
+        SaddleOptions {
+            tool_radius: 3.0,
+            stepover: 1.5,
+            point_spacing: 1.5,
+            x_extent: 48.0,
+            y_extent: 39.0,
+            feed: 1200.0,
+            clearance: 50.0,
+        }
+    }
+}
+
+/// One cutter location: the tool tip and axis in part coordinates, and the surface
+/// point it cuts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutterLocation {
+    pub surface: [f64; 3],
+    pub normal: [f64; 3],
+    pub tip: [f64; 3],
+    pub axis: [f64; 3],
+}
+
+pub fn cutter_location(x: f64, y: f64, radius: f64) -> CutterLocation {
+    let p = [x, y, height(x, y)];
+    let n = normal(x, y);
+    let u = tool_axis(x, y);
+    let tip = [
+        p[0] + radius * (n[0] - u[0]),
+        p[1] + radius * (n[1] - u[1]),
+        p[2] + radius * (n[2] - u[2]),
+    ];
+    CutterLocation {
+        surface: p,
+        normal: n,
+        tip,
+        axis: u,
+    }
+}
+
+/// The raster, line by line (zig-zag: odd lines run in −x).
+pub fn raster(options: &SaddleOptions) -> Vec<Vec<CutterLocation>> {
+    let lines = grid(-options.y_extent, options.y_extent, options.stepover);
+    let xs = grid(-options.x_extent, options.x_extent, options.point_spacing);
+    lines
+        .iter()
+        .enumerate()
+        .map(|(i, &y)| {
+            let mut row: Vec<CutterLocation> = xs
+                .iter()
+                .map(|&x| cutter_location(x, y, options.tool_radius))
+                .collect();
+            if i % 2 == 1 {
+                row.reverse();
+            }
+            row
+        })
+        .collect()
+}
+
+/// The 372 inspection points `(x, y, z, normal)`, ids 1…372 row by row.
+pub fn plan_points() -> Vec<([f64; 3], [f64; 3])> {
+    let mut out = Vec::with_capacity(372);
+    for y in grid(-33.0, 33.0, 6.0) {
+        for x in grid(-45.0, 45.0, 3.0) {
+            out.push(([x, y, height(x, y)], normal(x, y)));
+        }
+    }
+    out
+}
+
+/// `lo, lo + step, …, hi` computed without accumulating rounding error.
+fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
+    let n = ((hi - lo) / step).round() as usize;
+    (0..=n).map(|i| lo + step * i as f64).collect()
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalise(v: [f64; 3]) -> [f64; 3] {
+    let n = dot(v, v).sqrt();
+    [v[0] / n, v[1] / n, v[2] / n]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plan_has_372_points_on_raster_lines() {
+        let plan = plan_points();
+        assert_eq!(plan.len(), 372);
+        let o = SaddleOptions::default();
+        for (p, _) in &plan {
+            let line = (p[1] + o.y_extent) / o.stepover;
+            assert!((line - line.round()).abs() < 1e-9);
+            let col = (p[0] + o.x_extent) / o.point_spacing;
+            assert!((col - col.round()).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn surface_stays_inside_blank() {
+        for x in grid(-50.0, 50.0, 1.0) {
+            for y in grid(-40.0, 40.0, 1.0) {
+                let z = height(x, y);
+                assert!((0.0..=40.0).contains(&z), "z({x},{y}) = {z}");
+            }
+        }
+    }
+
+    #[test]
+    fn tool_axis_is_tilted_by_theta_from_normal() {
+        for &(x, y) in &[(0.0, 0.0), (30.0, -20.0), (-45.0, 33.0)] {
+            let n = normal(x, y);
+            let u = tool_axis(x, y);
+            let angle = dot(n, u).clamp(-1.0, 1.0).acos().to_degrees();
+            assert!((angle - tilt_degrees(x, y)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn contact_point_of_cutter_location_is_the_surface_point() {
+        let cl = cutter_location(12.0, -7.5, 3.0);
+        for i in 0..3 {
+            let contact = cl.tip[i] + 3.0 * cl.axis[i] - 3.0 * cl.normal[i];
+            assert!((contact - cl.surface[i]).abs() < 1e-12);
+        }
+    }
+}

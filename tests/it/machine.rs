@@ -1,0 +1,222 @@
+//! Machine files (validation, error messages) and the error model's lookup policy.
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use volcomp::axes::{Axes, Axis};
+use volcomp::machine::{
+    ErrorModel, ExtrapolationPolicy, LoadOptions, LookupError, Machine, ModelOptions,
+};
+
+fn project(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// The reference machine's model, fitted once for the whole test binary.
+fn ref_model() -> &'static (Machine, ErrorModel) {
+    static MODEL: OnceLock<(Machine, ErrorModel)> = OnceLock::new();
+    MODEL.get_or_init(|| {
+        let machine = Machine::load(&project("machines/ref-trt.toml")).expect("ref-trt loads");
+        let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("fit");
+        (machine, model)
+    })
+}
+
+const REF_TEXT: &str = include_str!("../../machines/ref-trt.toml");
+
+/// A scratch directory holding the reference tables and `machine.toml` = `text`.
+fn scratch(text: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tables = dir.path().join("ref-trt");
+    std::fs::create_dir(&tables).expect("mkdir");
+    for axis in ["x", "y", "z", "a", "c"] {
+        std::fs::copy(
+            project(&format!("machines/ref-trt/{axis}.csv")),
+            tables.join(format!("{axis}.csv")),
+        )
+        .expect("copy table");
+    }
+    let path = dir.path().join("machine.toml");
+    std::fs::write(&path, text).expect("write machine");
+    (dir, path)
+}
+
+/// The load error of `text`, with the scratch directory replaced by `<dir>`.
+fn load_error(text: &str, options: &LoadOptions) -> String {
+    let (dir, path) = scratch(text);
+    let err = match Machine::load_with(&path, options) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    };
+    err.replace(&dir.path().display().to_string(), "<dir>")
+}
+
+#[test]
+fn reference_machine_loads() {
+    let (m, model) = ref_model();
+    assert_eq!(m.name, "ref-trt");
+    assert_eq!(m.limits.x, [-200.0, 200.0]);
+    assert_eq!(m.limits.c, None);
+    assert_eq!(m.rapid_mm_per_min, 30000.0);
+    assert_eq!(m.squareness, [-39.9, 32.8, 14.5]);
+    assert_eq!(m.location[0], 12.7);
+    assert!(Axis::ALL.iter().all(|a| m.table(*a).is_some()));
+    assert_eq!(model.fitted_parameters().len(), 30);
+    assert!(!m.conventional_directions);
+}
+
+#[test]
+fn linuxcnc_sim_machine_is_nominal() {
+    let m = Machine::load(&project("machines/xyzac-trt.toml")).expect("loads");
+    assert_eq!(m.geometry.y_offset, 20.0);
+    assert_eq!(m.geometry.z_offset, 10.0);
+    assert_eq!(m.limits.c, Some([-36000.0, 36000.0]));
+    assert!(Axis::ALL.iter().all(|a| m.table(*a).is_none()));
+    let model = ErrorModel::from_machine(&m, &ModelOptions::default()).expect("model");
+    let v = model
+        .volumetric_error(&Axes::new(10.0, -20.0, 30.0, -45.0, 7200.5))
+        .expect("lookup");
+    assert!(v.e_um.iter().chain(&v.axis_urad).all(|x| x.abs() < 1e-9), "{v:?}");
+}
+
+#[test]
+fn unknown_key_is_named() {
+    let text = REF_TEXT.replace("[tool]\n", "[tool]\nlenght = 90.0\n");
+    insta::assert_snapshot!(load_error(&text, &LoadOptions::default()));
+}
+
+#[test]
+fn missing_table_is_named() {
+    let text = REF_TEXT.replace("ref-trt/y.csv", "ref-trt/y-missing.csv");
+    let msg = load_error(&text, &LoadOptions::default());
+    // The OS message differs between systems: keep the part we own.
+    let msg = msg.split(": cannot read").next().unwrap_or(&msg).to_string();
+    insta::assert_snapshot!(msg);
+}
+
+#[test]
+fn bad_tool_chain_is_named() {
+    let text = REF_TEXT.replace(r#"tool_chain = ["X", "Y", "Z"]"#, r#"tool_chain = ["X", "X", "Z"]"#);
+    insta::assert_snapshot!(load_error(&text, &LoadOptions::default()));
+}
+
+#[test]
+fn other_kinematics_is_refused() {
+    let text = REF_TEXT.replace(r#"kinematics = "xyzac-trt""#, r#"kinematics = "xyzbc-trt""#);
+    insta::assert_snapshot!(load_error(&text, &LoadOptions::default()));
+}
+
+#[test]
+fn limits_not_covered_by_a_table() {
+    let text = REF_TEXT.replace("x = [-200.0, 200.0]", "x = [-250.0, 200.0]");
+    insta::assert_snapshot!(load_error(&text, &LoadOptions::default()));
+    // Holding the end values accepts it.
+    let (_dir, path) = scratch(&text);
+    let hold = LoadOptions {
+        extrapolation: ExtrapolationPolicy::Hold,
+    };
+    assert!(Machine::load_with(&path, &hold).is_ok());
+}
+
+#[test]
+fn non_finite_and_reversed_values_are_named() {
+    let text = REF_TEXT.replace("length = 100.0", "length = nan");
+    insta::assert_snapshot!("tool_length_nan", load_error(&text, &LoadOptions::default()));
+    let text = REF_TEXT.replace("a = [-110.0, 110.0]", "a = [110.0, -110.0]");
+    insta::assert_snapshot!("limits_reversed", load_error(&text, &LoadOptions::default()));
+}
+
+#[test]
+fn c_lookup_wraps_over_any_number_of_turns() {
+    let (_, model) = ref_model();
+    let base = Axes::new(10.0, -20.0, -30.0, 15.0, 37.5);
+    let e0 = model.errors_at(&base).expect("inside");
+    for k in [-7i32, -1, 1, 3, 100] {
+        let j = Axes { c: base.c + 360.0 * k as f64, ..base };
+        let e = model.errors_at(&j).expect("wraps");
+        for i in 0..6 {
+            assert!(
+                (e.component[4][i] - e0.component[4][i]).abs() < 1e-9,
+                "k = {k}, column {i}: {} vs {}",
+                e.component[4][i],
+                e0.component[4][i]
+            );
+        }
+    }
+    // The volumetric error differs (C moves the part), the lookup does not.
+    assert!(model.errors_at(&Axes { c: -322.5, ..base }).is_ok());
+}
+
+#[test]
+fn out_of_range_is_an_error_naming_axis_and_range() {
+    let (_, model) = ref_model();
+    let err = model
+        .errors_at(&Axes::new(250.0, 0.0, 0.0, 0.0, 0.0))
+        .expect_err("outside X");
+    assert_eq!(
+        err,
+        LookupError::OutOfRange {
+            axis: Axis::X,
+            position: 250.0,
+            range: [-200.0, 200.0]
+        }
+    );
+    insta::assert_snapshot!(err.to_string());
+    assert!(model.errors_at(&Axes::new(0.0, 0.0, 0.0, 0.0, f64::NAN)).is_err());
+}
+
+#[test]
+fn hold_policy_holds_the_end_value_and_counts() {
+    let (_, model) = ref_model();
+    let mut model = model.clone();
+    model.set_policy(ExtrapolationPolicy::Hold);
+    model.reset_held_lookups();
+    let end = model.errors_at(&Axes::new(200.0, 0.0, 0.0, 0.0, 0.0)).expect("end");
+    let past = model.errors_at(&Axes::new(260.0, 0.0, 0.0, 0.0, 0.0)).expect("held");
+    assert_eq!(end.component[0], past.component[0]);
+    assert_eq!(model.held_lookups(), 1);
+    let _ = model.errors_at(&Axes::new(0.0, 0.0, 0.0, -130.0, 0.0)).expect("held A");
+    assert_eq!(model.held_lookups(), 2);
+}
+
+#[test]
+fn model_reproduces_the_tables_within_the_fit_error() {
+    let (m, model) = ref_model();
+    for axis in Axis::ALL {
+        let table = m.table(axis).expect("table");
+        for column in &table.columns {
+            let curve = model.curve(&column.name).expect("fitted");
+            let emax = curve.stats().emax;
+            for (p, v) in table.positions.iter().zip(&column.values) {
+                let mut j = Axes::default();
+                j.set(axis, *p);
+                let got = model.errors_at(&j).expect("inside").get(&column.name).expect("name");
+                assert!(
+                    (got - v).abs() <= emax + 1e-9,
+                    "{} at {p}: {got} vs table {v} (emax {emax})",
+                    column.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn contributions_sum_to_e_to_first_order() {
+    let (_, model) = ref_model();
+    let j = Axes::new(120.0, -80.0, -150.0, 60.0, 200.0);
+    let v = model.volumetric_error(&j).expect("inside");
+    let parts = model.contributions(&j).expect("inside");
+    let mut sum = [0.0; 3];
+    for c in &parts {
+        for i in 0..3 {
+            sum[i] += c.e_um[i];
+        }
+    }
+    for i in 0..3 {
+        assert!((sum[i] - v.e_um[i]).abs() < 0.05, "{sum:?} vs {:?}", v.e_um);
+    }
+    assert!(
+        parts
+            .windows(2)
+            .all(|w| w[0].magnitude_um() >= w[1].magnitude_um())
+    );
+}
