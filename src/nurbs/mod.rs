@@ -21,6 +21,7 @@ pub mod parameterization;
 pub mod plot;
 pub mod problem;
 pub mod smem;
+pub mod surface;
 
 pub use curve::NurbsCurve;
 pub use genetic::GaSettings;
@@ -30,3 +31,4 @@ pub use smem::{
     FitError, FitOptions, FitStats, KnotMethod, ParameterKind, SmemCurve, SmemCurveData,
     fit_parameter,
 };
+pub use surface::{NurbsSurface, SurfaceError, SurfaceFitOptions, fit_surface};
