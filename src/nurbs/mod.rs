@@ -22,6 +22,7 @@ pub mod plot;
 pub mod problem;
 pub mod smem;
 pub mod surface;
+pub mod synthetic;
 
 pub use curve::NurbsCurve;
 pub use genetic::GaSettings;
