@@ -199,8 +199,9 @@ fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
         },
     )
     .unwrap();
-    assert!(!capped.stats().met);
-    assert_eq!(capped.stats().control_points, 6);
+    // Missed, and said so; the best fit up to the cap is returned.
+    assert!(!capped.stats().met && capped.stats().emax > 0.01);
+    assert!(capped.stats().control_points <= 6);
 }
 
 #[test]
