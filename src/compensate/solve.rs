@@ -16,7 +16,6 @@
 //! Rotary errors are not corrected through A and C: the tool-axis error (µrad)
 //! remains, as in the seed paper, which moves only X, Y, Z.
 use crate::axes::Axes;
-use crate::kinematics::Kinematics;
 use crate::machine::{ErrorModel, LookupError};
 
 /// Residual at which the solve stops, mm (1 nm).
@@ -52,11 +51,8 @@ pub struct Solved {
 }
 
 /// Joints `q` with `r_act(q) = nominal_tip(nominal)`, starting from `nominal`.
-pub fn solve_joints(
-    kinematics: &Kinematics,
-    model: &ErrorModel,
-    nominal: &Axes,
-) -> Result<Solved, SolveError> {
+pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveError> {
+    let kinematics = model.kinematics();
     if !nominal.is_finite() {
         return Err(SolveError::NotFinite(*nominal));
     }

@@ -527,7 +527,9 @@ impl Interpreter {
                 match self.arc_centre(block, event, modal, words, &start, &end, clockwise)? {
                     Some(centre) => {
                         let turns = match words.p {
-                            Some(p) if p >= 1.0 && p < 1e6 => (p.round() as u32).saturating_sub(1),
+                            Some(p) if (1.0..1e6).contains(&p) => {
+                                (p.round() as u32).saturating_sub(1)
+                            }
                             _ => 0,
                         };
                         MotionKind::Arc {
@@ -678,8 +680,11 @@ impl Interpreter {
 /// Duration of a move by the effects.md rules, minutes.
 pub fn duration_min(m: &Motion, rapid_mm_per_min: f64) -> f64 {
     let length = m.xyz_length();
-    let rotary = (m.end.a - m.start.a).hypot(m.end.c - m.start.c);
-    let path = if length > 1e-9 { length } else { rotary };
+    let path = if length > 1e-9 {
+        length
+    } else {
+        (m.end.a - m.start.a).hypot(m.end.c - m.start.c)
+    };
     let t = match m.feed {
         Feed::Rapid => path / rapid_mm_per_min,
         Feed::PerMinute(f) => path / f,

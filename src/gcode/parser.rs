@@ -159,6 +159,7 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     let Block {
         raw,
         line: line_no,
+        offset,
         words,
         keywords,
         comments,
@@ -174,7 +175,13 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     };
     let pos_of = |rest: &[u8]| len - rest.len();
 
-    let mut pos = ws(line).map(|(r, _)| pos_of(r)).unwrap_or(0);
+    // A UTF-8 byte order mark at the start of the file is kept but not read.
+    let bom = if *offset == 0 && line.starts_with(b"\xEF\xBB\xBF") {
+        3
+    } else {
+        0
+    };
+    let mut pos = ws(&line[bom..]).map(|(r, _)| pos_of(r)).unwrap_or(bom);
     if pos < len && line[pos] == b'%' {
         *percent = true;
         return Ok(());

@@ -265,7 +265,10 @@ impl Source<'_> {
             return Err(self.invalid(
                 value.span(),
                 key,
-                format!("expected [min, max] with min < max, got [{}, {}]", v[0], v[1]),
+                format!(
+                    "expected [min, max] with min < max, got [{}, {}]",
+                    v[0], v[1]
+                ),
             ));
         }
         Ok(v)

@@ -150,8 +150,13 @@ impl<'k> PathWalker<'k> {
         let rotary = ((end_joints.a - start_joints.a).powi(2)
             + (end_joints.c - start_joints.c).powi(2))
         .sqrt();
-        let duration = block_duration(&motion.feed, machine_len, rotary, self.options.rapid_mm_per_min)
-            .unwrap_or(motion.duration_min);
+        let duration = block_duration(
+            &motion.feed,
+            machine_len,
+            rotary,
+            self.options.rapid_mm_per_min,
+        )
+        .unwrap_or(motion.duration_min);
         self.time_min += duration;
         let speed = if machine_len <= SAME_POINT_MM || duration <= 0.0 {
             0.0
@@ -309,7 +314,12 @@ impl<'k> PathWalker<'k> {
 
 /// Duration of a block (minutes) by effects.md's rules, from its machine XYZ length
 /// (mm) and rotary sweep (degrees); `None` when the feed gives no time (F0).
-pub fn block_duration(feed: &Feed, machine_len_mm: f64, rotary_deg: f64, rapid: f64) -> Option<f64> {
+pub fn block_duration(
+    feed: &Feed,
+    machine_len_mm: f64,
+    rotary_deg: f64,
+    rapid: f64,
+) -> Option<f64> {
     let len = if machine_len_mm > SAME_POINT_MM {
         machine_len_mm
     } else {

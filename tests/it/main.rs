@@ -4,3 +4,4 @@ mod diagnose;
 mod gcode;
 mod inspection;
 mod kinematics;
+mod toolpath;
