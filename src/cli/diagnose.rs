@@ -8,6 +8,7 @@ use crate::toolpath::PointContext;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
+
 const AFTER_HELP: &str = "\
 The report (JSON) holds the gap (measured and predicted profile, residual RMS, noise floor),
 its localisation (worst points and blocks, by time, region, A/C and direction of travel),
@@ -21,8 +22,8 @@ Examples:
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Machine file (TOML) whose fitted tables make the prediction.
-    pub machine: PathBuf,
+    #[command(flatten)]
+    pub machine: super::common::MachineArgs,
     /// Program (G-code) that cut the part.
     pub program: PathBuf,
     /// Measurement (CSV: id,x,y,z,i,j,k,mx,my,mz).
@@ -36,6 +37,10 @@ pub struct Args {
     /// Probing noise (µm, one σ) when known; estimated from the data otherwise.
     #[arg(long)]
     pub noise_um: Option<f64>,
+    /// Also write the tool-path context of every plan point (JSON), for checks
+    /// and test fixtures.
+    #[arg(long, value_name = "FILE")]
+    pub dump_contexts: Option<PathBuf>,
 }
 
 /// Contexts of a plan's points and the true volumetric error (µm, part frame)
@@ -45,19 +50,38 @@ pub(crate) struct PartContexts {
     pub truth_um: Vec<[f64; 3]>,
 }
 
-/// Build the contexts of `plan` cut by `program` on `machine`.
+/// Build the contexts of `plan` cut by `program` on `machine` (and, for
+/// `simulate`, the volumetric error of the machine's own tables at each: the truth).
 pub(crate) fn contexts(
-    machine: &Path,
+    machine: &super::common::MachineArgs,
     program: &Path,
     plan: &Plan,
-    with_truth: bool,
 ) -> anyhow::Result<PartContexts> {
-    let _ = (machine, program, plan, with_truth);
-    Err(super::NotBuilt {
-        command: "diagnose/simulate",
-        what: "the tool-path contexts (toolpath::build_contexts) are not built yet",
-    }
-    .into())
+    use crate::toolpath::cut::{CutOptions, contexts, match_plan, volumetric_errors};
+    let (machine_def, model) = machine.load()?;
+    let options = CutOptions {
+        interpret: crate::gcode::InterpretOptions {
+            rapid_mm_per_min: machine_def.rapid_mm_per_min,
+            ..Default::default()
+        },
+        walk: crate::toolpath::WalkOptions {
+            step_mm: 0.5,
+            rapid_mm_per_min: machine_def.rapid_mm_per_min,
+        },
+        tool_radius: machine_def.tool.radius,
+        max_distance_mm: 0.5,
+    };
+    let input = super::common::open_input(program)?;
+    let (matches, _) = match_plan(input, program, &model, &plan.points, &options)?;
+    let built = contexts(&model, &plan.points, &matches)?;
+    let truth_um = volumetric_errors(&model, &plan.points, &matches)?
+        .into_iter()
+        .map(|e| e.unwrap_or([0.0; 3]))
+        .collect();
+    Ok(PartContexts {
+        contexts: built,
+        truth_um,
+    })
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -67,7 +91,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     let measurement = Measurement::read(&args.measured)?;
-    let part = contexts(&args.machine, &args.program, &measurement.plan(), false)?;
+    let part = contexts(&args.machine, &args.program, &measurement.plan())?;
+    if let Some(path) = &args.dump_contexts {
+        crate::io::write_json_atomic(path, &part.contexts)?;
+    }
     let options = DiagnoseOptions {
         noise_um: args.noise_um,
         ..DiagnoseOptions::default()

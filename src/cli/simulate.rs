@@ -21,8 +21,8 @@ Examples:
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Machine file (TOML); its error tables are the truth.
-    pub machine: PathBuf,
+    #[command(flatten)]
+    pub machine: super::common::MachineArgs,
     /// Program (G-code) that cuts the part.
     pub program: PathBuf,
     /// Inspection plan (CSV: id,x,y,z,i,j,k).
@@ -51,7 +51,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     let plan = Plan::read(&args.plan)?;
-    let part = super::diagnose::contexts(&args.machine, &args.program, &plan, true)?;
+    let part = super::diagnose::contexts(&args.machine, &args.program, &plan)?;
     let options = SimulateOptions {
         noise_um: args.noise_um,
         seed: args.seed,

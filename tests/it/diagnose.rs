@@ -552,3 +552,84 @@ fn diagnosis_of_372_points_takes_well_under_two_seconds() {
     assert_eq!(r.selected, vec!["backlash".to_string()]);
     assert!(secs < 2.0, "{secs} s for {n} points");
 }
+
+/// The blind cases of an independent implementation (tests/data/blind), with the
+/// contexts our toolpath layer builds for them (tests/data/diagnose/*-contexts.json,
+/// written by `volcomp diagnose … --dump-contexts` on ref-trt; regenerate them when
+/// the toolpath or the SMEM fit changes).
+struct BlindCase {
+    name: &'static str,
+    contexts: Vec<PointContext>,
+    measured_um: Vec<f64>,
+    expected_predicted_um: Vec<f64>,
+    truth: Vec<Effect>,
+}
+
+fn blind_case(name: &'static str) -> BlindCase {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let contexts: Vec<PointContext> = serde_json::from_str(
+        &std::fs::read_to_string(root.join(format!("diagnose/{name}-contexts.json"))).unwrap(),
+    )
+    .unwrap();
+    let dir = root.join("blind").join(name);
+    let m = volcomp::inspection::Measurement::read(&dir.join("measured.csv")).unwrap();
+    let expected: std::collections::HashMap<String, f64> = std::fs::read_to_string(dir.join("expected_predicted.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_once(','))
+        .map(|(id, v)| (id.to_string(), v.parse().unwrap()))
+        .collect();
+    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+    let truth = truth["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            let kind = EffectKind::from_name(e["name"].as_str().unwrap()).unwrap();
+            let pairs: Vec<(&str, f64)> = e["params"].as_object().unwrap().iter().map(|(k, v)| (k.as_str(), v.as_f64().unwrap())).collect();
+            Effect::from_pairs(kind, &pairs).unwrap()
+        })
+        .collect();
+    assert_eq!(contexts.len(), m.points.len());
+    for (c, p) in contexts.iter().zip(&m.points) {
+        assert_eq!(c.id, p.plan.id);
+    }
+    BlindCase {
+        name,
+        expected_predicted_um: contexts.iter().map(|c| expected[&c.id]).collect(),
+        measured_um: m.deviations_um(),
+        contexts,
+        truth,
+    }
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = v.collect();
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+#[test]
+fn blind_cases_of_the_reference_implementation() {
+    for name in ["01-backlash", "02-thermal_drift", "03-none"] {
+        let case = blind_case(name);
+        assert!(case.contexts.iter().all(|c| c.cut), "{name}: every plan point is cut");
+        // Our prediction (fitted tables) vs the reference's true-function prediction.
+        let pred_diff = rms(case.contexts.iter().zip(&case.expected_predicted_um).map(|(c, e)| c.predicted_um - e));
+        // Our effect formulas vs the reference's: measured − expected − Σ n·Δ is the noise.
+        let leftover = rms((0..case.contexts.len()).map(|i| {
+            let c = &case.contexts[i];
+            case.measured_um[i] - case.expected_predicted_um[i] - case.truth.iter().map(|e| e.deviation_um(c)).sum::<f64>()
+        }));
+        println!("{name}: prediction vs expected_predicted RMS {pred_diff:.3} µm; measured − expected − effects RMS {leftover:.3} µm (noise 0.3)");
+        assert!(pred_diff < 0.6, "{name}: {pred_diff}");
+        assert!(leftover < 0.36, "{name}: effect formulas disagree with the reference ({leftover} µm)");
+        let r = diagnose(&case.contexts, &case.measured_um, &DiagnoseOptions::default()).unwrap();
+        let want: Vec<String> = case.truth.iter().map(|e| e.kind.name().to_string()).collect();
+        assert_eq!(r.selected, want, "{}: {:?}", case.name, r.selection_notes);
+        if !want.is_empty() {
+            assert_eq!(r.effects[0].name, want[0]);
+            assert!(r.effects[0].shrink_pct > 80.0);
+        }
+    }
+}
