@@ -29,6 +29,50 @@ pub enum CutError {
     Gcode(#[from] GcodeError),
     #[error("plan point {id}: {source}")]
     Lookup { id: String, source: LookupError },
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+}
+
+impl CutOptions {
+    /// The usual settings for a machine: its rapid rate and ball radius, 0.5 mm
+    /// sampling and matching distance (formats.md), the given start frame.
+    pub fn for_machine(
+        machine: &crate::machine::Machine,
+        initial_frame: crate::gcode::Frame,
+    ) -> Self {
+        CutOptions {
+            interpret: InterpretOptions {
+                initial_frame,
+                rapid_mm_per_min: machine.rapid_mm_per_min,
+                ..InterpretOptions::default()
+            },
+            walk: WalkOptions {
+                step_mm: 0.5,
+                rapid_mm_per_min: machine.rapid_mm_per_min,
+            },
+            tool_radius: machine.tool.radius,
+            max_distance_mm: 0.5,
+        }
+    }
+}
+
+/// The context of every plan point (plan order) for the program in file `program`.
+pub fn build_contexts(
+    model: &ErrorModel,
+    program: &Path,
+    plan: &[PlanPoint],
+    options: &CutOptions,
+) -> Result<Vec<PointContext>, CutError> {
+    let file = std::fs::File::open(program).map_err(|source| CutError::Read {
+        path: program.to_path_buf(),
+        source,
+    })?;
+    let input = std::io::BufReader::with_capacity(1 << 16, file);
+    let (matches, _) = match_plan(input, program, model, plan, options)?;
+    contexts(model, plan, &matches)
 }
 
 /// Walk the program and match every plan point to the path point that cut it.
@@ -67,10 +111,12 @@ pub fn contexts(
                 return Ok(not_cut(p));
             };
             let pp = &m.point;
-            let errors = model.errors_at(&pp.joints).map_err(|source| CutError::Lookup {
-                id: p.id.clone(),
-                source,
-            })?;
+            let errors = model
+                .errors_at(&pp.joints)
+                .map_err(|source| CutError::Lookup {
+                    id: p.id.clone(),
+                    source,
+                })?;
             let e = kin.volumetric_error(&pp.joints, &errors).e_um;
             Ok(PointContext {
                 id: p.id.clone(),

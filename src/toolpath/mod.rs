@@ -4,12 +4,13 @@
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
 pub mod context;
+pub mod cut;
 pub mod plan_match;
 pub mod program;
-// pub mod cut; (needs inspection::PlanPoint)
 pub mod walk;
 
 pub use context::PointContext;
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use program::{WalkSummary, walk_program};
 pub use walk::{PathPoint, PathWalker, WalkOptions};
+pub use cut::{CutError, CutOptions, build_contexts};
