@@ -8,7 +8,6 @@ use crate::toolpath::PointContext;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
-
 const AFTER_HELP: &str = "\
 The report (JSON) holds the gap (measured and predicted profile, residual RMS, noise floor),
 its localisation (worst points and blocks, by time, region, A/C and direction of travel),
@@ -26,6 +25,9 @@ pub struct Args {
     pub machine: super::common::MachineArgs,
     /// Program (G-code) that cut the part.
     pub program: PathBuf,
+    /// Frame of X Y Z at program start.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: super::common::FrameArg,
     /// Measurement (CSV: id,x,y,z,i,j,k,mx,my,mz).
     pub measured: PathBuf,
     /// Report file (JSON; `-` for stdout).
@@ -55,22 +57,12 @@ pub(crate) struct PartContexts {
 pub(crate) fn contexts(
     machine: &super::common::MachineArgs,
     program: &Path,
+    frame: super::common::FrameArg,
     plan: &Plan,
 ) -> anyhow::Result<PartContexts> {
     use crate::toolpath::cut::{CutOptions, contexts, match_plan, volumetric_errors};
     let (machine_def, model) = machine.load()?;
-    let options = CutOptions {
-        interpret: crate::gcode::InterpretOptions {
-            rapid_mm_per_min: machine_def.rapid_mm_per_min,
-            ..Default::default()
-        },
-        walk: crate::toolpath::WalkOptions {
-            step_mm: 0.5,
-            rapid_mm_per_min: machine_def.rapid_mm_per_min,
-        },
-        tool_radius: machine_def.tool.radius,
-        max_distance_mm: 0.5,
-    };
+    let options = CutOptions::for_machine(&machine_def, frame.into());
     let input = super::common::open_input(program)?;
     let (matches, _) = match_plan(input, program, &model, &plan.points, &options)?;
     let built = contexts(&model, &plan.points, &matches)?;
@@ -91,7 +83,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     let measurement = Measurement::read(&args.measured)?;
-    let part = contexts(&args.machine, &args.program, &measurement.plan())?;
+    let part = contexts(
+        &args.machine,
+        &args.program,
+        args.frame,
+        &measurement.plan(),
+    )?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &part.contexts)?;
     }

@@ -98,7 +98,8 @@ pub fn main() -> i32 {
         Ok(()) => 0,
         Err(err) => {
             eprintln!("error: {err:#}");
-            if err.downcast_ref::<NotBuilt>().is_some() || err.downcast_ref::<UsageError>().is_some()
+            if err.downcast_ref::<NotBuilt>().is_some()
+                || err.downcast_ref::<UsageError>().is_some()
             {
                 2
             } else {

@@ -25,6 +25,9 @@ pub struct Args {
     pub machine: super::common::MachineArgs,
     /// Program (G-code) that cuts the part.
     pub program: PathBuf,
+    /// Frame of X Y Z at program start.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: super::common::FrameArg,
     /// Inspection plan (CSV: id,x,y,z,i,j,k).
     pub plan: PathBuf,
     /// Output measurement (CSV: id,x,y,z,i,j,k,mx,my,mz; `-` for stdout).
@@ -39,6 +42,10 @@ pub struct Args {
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Also write the tool-path context of every plan point (JSON), for checks
+    /// and test fixtures.
+    #[arg(long, value_name = "FILE")]
+    pub dump_contexts: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -51,7 +58,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     let plan = Plan::read(&args.plan)?;
-    let part = super::diagnose::contexts(&args.machine, &args.program, &plan)?;
+    let part = super::diagnose::contexts(&args.machine, &args.program, args.frame, &plan)?;
+    if let Some(path) = &args.dump_contexts {
+        crate::io::write_json_atomic(path, &part.contexts)?;
+    }
     let options = SimulateOptions {
         noise_um: args.noise_um,
         seed: args.seed,
@@ -69,7 +79,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             if effects.is_empty() {
                 "no unmodelled effect".to_string()
             } else {
-                effects.iter().map(Effect::to_spec).collect::<Vec<_>>().join(" + ")
+                effects
+                    .iter()
+                    .map(Effect::to_spec)
+                    .collect::<Vec<_>>()
+                    .join(" + ")
             },
             args.noise_um,
             args.seed

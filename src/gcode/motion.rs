@@ -106,7 +106,8 @@ impl Motion {
                 plane,
                 turns,
             } => {
-                let geometry = ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns);
+                let geometry =
+                    ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns);
                 let len = geometry.length();
                 let rot = (self.end.a - self.start.a)
                     .abs()
@@ -157,7 +158,14 @@ pub struct ArcGeometry {
 }
 
 impl ArcGeometry {
-    pub fn new(start: &Axes, end: &Axes, centre: [f64; 3], plane: Plane, clockwise: bool, turns: u32) -> Self {
+    pub fn new(
+        start: &Axes,
+        end: &Axes,
+        centre: [f64; 3],
+        plane: Plane,
+        clockwise: bool,
+        turns: u32,
+    ) -> Self {
         let (s, e, c) = (
             to_plane(plane, start.xyz()),
             to_plane(plane, end.xyz()),
