@@ -22,7 +22,7 @@ use crate::gcode::{
 use crate::machine::{ErrorModel, Limits};
 use rayon::prelude::*;
 use serde::Serialize;
-use solve::{SolveError, solve_joints};
+use solve::{SolveError, first_order_joints, solve_joints};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -153,6 +153,25 @@ fn compensate_target(
     Ok((out, solved.residual_mm))
 }
 
+/// First-order estimate of [`compensate_target`] (one error evaluation, no limits).
+fn estimate_target(model: &ErrorModel, frame: Frame, target: &Axes) -> Result<Axes, PointError> {
+    let kin = model.kinematics();
+    let nominal = match frame {
+        Frame::Joint => *target,
+        Frame::Part => kin.joints_from_part(target),
+    };
+    let q = first_order_joints(model, &nominal).map_err(PointError::Solve)?;
+    Ok(match frame {
+        Frame::Joint => q,
+        Frame::Part => {
+            let mut p = kin.part_from_joints(&q);
+            p.a = target.a;
+            p.c = target.c;
+            p
+        }
+    })
+}
+
 #[derive(Debug)]
 enum PointError {
     Solve(SolveError),
@@ -226,7 +245,7 @@ fn plan_motion(
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
         let tm = 0.5 * (t0 + t1);
         let nominal_mid = point_along(motion, arc.as_ref(), tm);
-        let (cm, _) = compensate_target(model, frame, &nominal_mid, limits)?;
+        let estimate = estimate_target(model, frame, &nominal_mid)?;
         // What the control would do between the compensated ends.
         let n0 = point_along(motion, arc.as_ref(), t0);
         let n1 = point_along(motion, arc.as_ref(), t1);
@@ -245,8 +264,9 @@ fn plan_motion(
             }
             v
         });
-        let needs_split = xyz_gap(&cm, &straight) > tol_mm;
+        let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
         if needs_split && depth < options.max_split_depth {
+            let (cm, _) = compensate_target(model, frame, &nominal_mid, limits)?;
             // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
             stack.push((t0, tm, c0, cm, depth + 1));

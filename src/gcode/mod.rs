@@ -51,8 +51,8 @@ pub mod summary;
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
 pub use interpret::{
-    BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_min,
-    interpret_program,
+    BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_from_lengths,
+    duration_min, interpret_program,
 };
 pub use modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};

@@ -78,9 +78,10 @@ use std::io::Write;
 use crate::axes::{Axes, Axis};
 
 use super::block::{Block, Word};
-use super::interpret::{BlockEvent, from_plane, to_plane};
+use super::interpret::BlockEvent;
 use super::modal::{Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m};
 use super::motion::{Feed, MotionKind};
+use super::motion::{from_plane, to_plane};
 
 /// Rewriter settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

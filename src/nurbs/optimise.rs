@@ -42,7 +42,7 @@ pub struct Refined {
 }
 
 /// Random restarts of the grid local search besides UKM, EPM and LAM.
-const RANDOM_STARTS: usize = 3;
+const RANDOM_STARTS: usize = 4;
 
 struct Memo<'a> {
     problem: &'a FitProblem,
@@ -90,8 +90,22 @@ fn snap(knots: &[f64], segments: usize) -> Vec<usize> {
     idx
 }
 
-/// Step 1 of the module doc: the best grid knot set found by local search.
-pub fn grid_search(problem: &FitProblem, n: usize, segments: usize, seed: u64) -> GridResult {
+/// Grids with at most this many knot combinations are searched exhaustively.
+pub const EXACT_SEARCH_LIMIT: u64 = 2_000;
+
+/// Perturbation rounds of the iterated local search.
+const KICKS: usize = 12;
+
+/// Step 1 of the module doc: the best grid knot sets found (best first, at most
+/// `keep`, distinct local optima), by exact enumeration when the grid has at most
+/// [`EXACT_SEARCH_LIMIT`] combinations, else by iterated local search.
+pub fn grid_search_top(
+    problem: &FitProblem,
+    n: usize,
+    segments: usize,
+    seed: u64,
+    keep: usize,
+) -> Vec<GridResult> {
     let p = problem.degree;
     let k = n - p;
     let mut memo = Memo {
@@ -103,12 +117,17 @@ pub fn grid_search(problem: &FitProblem, n: usize, segments: usize, seed: u64) -
     };
     if k == 0 || segments < k + 1 {
         let (emax, erms) = memo.score(&[]);
-        return GridResult {
+        return vec![GridResult {
             indices: Vec::new(),
             emax,
             erms,
             evaluations: memo.evaluations,
-        };
+        }];
+    }
+    if super::exhaustive::combinations(segments - 1, k) <= EXACT_SEARCH_LIMIT {
+        if let Ok(r) = super::exhaustive::search(problem, n, segments, EXACT_SEARCH_LIMIT) {
+            return vec![r];
+        }
     }
     let mut starts = vec![
         snap(&knot_placement::uniform(n, p), segments),
@@ -122,31 +141,77 @@ pub fn grid_search(problem: &FitProblem, n: usize, segments: usize, seed: u64) -
         ),
     ];
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut all: Vec<usize> = (1..segments).collect();
     for _ in 0..RANDOM_STARTS {
-        all.shuffle(&mut rng);
-        let mut s = all[..k].to_vec();
-        s.sort_unstable();
-        starts.push(s);
+        starts.push(random_indices(&mut rng, segments, k));
     }
     starts.dedup();
-    let mut best: Option<(Vec<usize>, (f64, f64))> = None;
+    let mut optima: Vec<(Vec<usize>, (f64, f64))> = Vec::new();
     for start in starts {
-        let (idx, score) = local_search(&mut memo, start, segments);
+        optima.push(local_search(&mut memo, start, segments));
+    }
+    let order = |a: &(Vec<usize>, (f64, f64)), b: &(Vec<usize>, (f64, f64))| {
+        a.1.0
+            .total_cmp(&b.1.0)
+            .then(a.1.1.total_cmp(&b.1.1))
+            .then_with(|| a.0.cmp(&b.0))
+    };
+    optima.sort_by(order);
+    // Iterated local search: kick the incumbent (move two knots at random), descend.
+    for _ in 0..KICKS {
+        let mut kicked = optima[0].0.clone();
+        for _ in 0..2.min(k) {
+            let j = rng.random_range(0..k);
+            let free: Vec<usize> = (1..segments)
+                .filter(|t| kicked.binary_search(t).is_err())
+                .collect();
+            if free.is_empty() {
+                break;
+            }
+            kicked[j] = free[rng.random_range(0..free.len())];
+            kicked.sort_unstable();
+        }
+        optima.push(local_search(&mut memo, kicked, segments));
+        optima.sort_by(order);
+    }
+    optima.dedup_by(|a, b| a.0 == b.0);
+    let evaluations = memo.evaluations;
+    optima
+        .into_iter()
+        .take(keep.max(1))
+        .map(|(indices, (emax, erms))| GridResult {
+            indices,
+            emax,
+            erms,
+            evaluations,
+        })
+        .collect()
+}
+
+/// The best grid knot set of [`grid_search_top`].
+pub fn grid_search(problem: &FitProblem, n: usize, segments: usize, seed: u64) -> GridResult {
+    grid_search_top(problem, n, segments, seed, 1).swap_remove(0)
+}
+
+/// Steps 1 and 2: refine the best few grid optima off the grid and keep the best.
+/// Never worse than the best grid knot set found.
+pub fn best_knots(problem: &FitProblem, n: usize, segments: usize, seed: u64) -> Refined {
+    let top = grid_search_top(problem, n, segments, seed, 3);
+    let mut evaluations = top[0].evaluations;
+    let weights = vec![1.0; n + 1];
+    let mut best: Option<Refined> = None;
+    for g in &top {
+        let r = refine_knots(problem, &grid_knots(&g.indices, segments), &weights);
+        evaluations += r.evaluations;
         if best
             .as_ref()
-            .is_none_or(|(bi, bs)| score < *bs || (score == *bs && idx < *bi))
+            .is_none_or(|b| (r.emax, r.erms) < (b.emax, b.erms))
         {
-            best = Some((idx, score));
+            best = Some(r);
         }
     }
-    let (indices, (emax, erms)) = best.unwrap_or_default();
-    GridResult {
-        indices,
-        emax,
-        erms,
-        evaluations: memo.evaluations,
-    }
+    let mut best = best.unwrap_or_else(|| refine_knots(problem, &[], &weights));
+    best.evaluations = evaluations;
+    best
 }
 
 fn local_search(

@@ -132,8 +132,7 @@ pub struct FitOptions {
     /// Optimise the weights when knots alone miss the tolerance (§3.2.3).
     pub optimise_weights: bool,
     /// Segments `M` of the candidate-knot grid for ga, exhaustive and best; `None` =
-    /// `2 (n − p) + 1` for ga and exhaustive (the paper's M = 13 for n = 9), and
-    /// `max(2 (n − p) + 1, samples − 1)` for best.
+    /// `2 (n − p) + 1` (the paper's M = 13 for n = 9; best refines off the grid).
     pub grid_segments: Option<usize>,
     /// Largest number of combinations the exhaustive method may enumerate.
     pub exhaustive_limit: u64,
@@ -353,11 +352,8 @@ fn validate(positions: &[f64], values: &[f64], degree: usize) -> Result<(), FitE
 
 /// The default grid `M` for `n + 1` control points (see [`FitOptions::grid_segments`]).
 pub fn default_grid_segments(method: KnotMethod, n: usize, p: usize, samples: usize) -> usize {
-    let base = 2 * (n - p) + 1;
-    match method {
-        KnotMethod::Best => base.max(samples - 1),
-        _ => base,
-    }
+    let _ = (method, samples);
+    2 * (n - p) + 1
 }
 
 /// Knots (and weights) for `count` control points with the chosen method.
@@ -405,10 +401,7 @@ fn place(
             (knot_placement::grid_knots(&r.indices, grid), Some(grid))
         }
         KnotMethod::Best => {
-            let r = optimise::grid_search(problem, n, grid, seed);
-            *evaluations += r.evaluations;
-            let start = knot_placement::grid_knots(&r.indices, grid);
-            let refined = optimise::refine_knots(problem, &start, &ones);
+            let refined = optimise::best_knots(problem, n, grid, seed);
             *evaluations += refined.evaluations;
             (refined.interior, Some(grid))
         }

@@ -1,0 +1,176 @@
+//! SMEM benchmarks: the shape of the paper's Tables 3 and 4 on a seeded 40-point
+//! curve like its Fig. 3 (p = 3, 10 control points), and the lookup speed.
+//!
+//! Run: `cargo bench --bench smem -- --warm-up-time 1 --measurement-time 3`
+//! The tables are measured once per run (wall-clock, single fits) and printed as
+//! markdown before criterion's lookup and fit timings. `SMEM_BENCH_MAX_M=25` skips
+//! the exhaustive searches of larger grids.
+use std::hint::black_box;
+use std::time::Instant;
+
+use criterion::{Criterion, Throughput};
+use volcomp::nurbs::exhaustive::combinations;
+use volcomp::nurbs::synthetic::paper_like_curve;
+use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, SmemCurve, fit_parameter};
+
+const SEED: u64 = 3;
+const CONTROL_POINTS: usize = 10;
+
+fn fit(method: KnotMethod, grid: Option<usize>, weights: bool) -> (SmemCurve, f64) {
+    let (x, y) = paper_like_curve(SEED);
+    let options = FitOptions {
+        method,
+        control_points: Some(CONTROL_POINTS),
+        grid_segments: grid,
+        optimise_weights: weights,
+        tolerance: Some(0.0),
+        exhaustive_limit: u64::MAX,
+        ..FitOptions::default()
+    };
+    let t = Instant::now();
+    let curve = fit_parameter(&x, &y, ParameterKind::Length, &options).expect("fit");
+    (curve, t.elapsed().as_secs_f64())
+}
+
+fn table3() {
+    println!(
+        "\n### Table 3 shape: knot methods, 40 points, p = 3, 10 control points (unit weights; ga/best on M = 13)\n"
+    );
+    println!("| method | Emax (um) | Erms (um) | time (s) |");
+    println!("|---|---|---|---|");
+    for method in KnotMethod::ALL {
+        let grid = matches!(
+            method,
+            KnotMethod::Ga | KnotMethod::Exhaustive | KnotMethod::Best
+        )
+        .then_some(13);
+        let (c, t) = fit(method, grid, false);
+        println!(
+            "| {} | {:.3} | {:.3} | {:.4} |",
+            method,
+            c.stats().emax,
+            c.stats().erms,
+            t
+        );
+    }
+    println!("\nWith weight optimisation (ga: weight GA; best: compass search on ln w):\n");
+    println!("| method | Emax (um) | Erms (um) | time (s) |");
+    println!("|---|---|---|---|");
+    for method in [KnotMethod::Ga, KnotMethod::Best] {
+        let (c, t) = fit(method, Some(13), true);
+        println!(
+            "| {} + weights | {:.3} | {:.3} | {:.4} |",
+            method,
+            c.stats().emax,
+            c.stats().erms,
+            t
+        );
+    }
+}
+
+fn table4() {
+    let max_m: usize = std::env::var("SMEM_BENCH_MAX_M")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(33);
+    println!(
+        "\n### Table 4 shape: exhaustive vs GA vs best on the grid M (10 control points, unit weights)\n"
+    );
+    println!(
+        "| M | C(M-1,6) | exhaustive Emax | t (s) | GA Emax | t (s) | GA - exh. | best Emax | t (s) | best - exh. |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for m in [13usize, 20, 25, 33] {
+        let count = combinations(m - 1, CONTROL_POINTS - 4);
+        let (ga, tga) = fit(KnotMethod::Ga, Some(m), false);
+        let (best, tb) = fit(KnotMethod::Best, Some(m), false);
+        if m > max_m {
+            println!(
+                "| {m} | {count} | (skipped) | | {:.3} | {:.3} | | {:.3} | {:.4} | |",
+                ga.stats().emax,
+                tga,
+                best.stats().emax,
+                tb
+            );
+            continue;
+        }
+        let (ex, tex) = fit(KnotMethod::Exhaustive, Some(m), false);
+        let e = ex.stats().emax;
+        println!(
+            "| {m} | {count} | {:.3} | {:.3} | {:.3} | {:.3} | {:+.3} | {:.3} | {:.4} | {:+.3} |",
+            e,
+            tex,
+            ga.stats().emax,
+            tga,
+            ga.stats().emax - e,
+            best.stats().emax,
+            tb,
+            best.stats().emax - e
+        );
+    }
+}
+
+fn criterion_benches(c: &mut Criterion) {
+    let (curve, _) = fit(KnotMethod::Best, None, true);
+    let (x0, x1) = curve.domain();
+    let queries: Vec<f64> = (0..1024)
+        .map(|i| x0 + (x1 - x0) * ((i * 7919) % 1024) as f64 / 1023.0)
+        .collect();
+    let mut group = c.benchmark_group("lookup");
+    group.throughput(Throughput::Elements(queries.len() as u64));
+    group.bench_function("value_at x1024", |b| {
+        b.iter(|| {
+            let mut s = 0.0;
+            for &q in &queries {
+                s += curve.value_at(black_box(q));
+            }
+            s
+        })
+    });
+    // Baseline in the same run: the paper's binary search on u (bisection to 1e-12).
+    let nurbs = curve.curve().clone();
+    group.bench_function("bisection x1024 (baseline)", |b| {
+        b.iter(|| {
+            let mut s = 0.0;
+            for &q in &queries {
+                let (mut lo, mut hi) = (0.0, 1.0);
+                while hi - lo > 1e-12 {
+                    let mid = 0.5 * (lo + hi);
+                    if nurbs.eval(mid)[0] < black_box(q) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                s += nurbs.eval(0.5 * (lo + hi))[1];
+            }
+            s
+        })
+    });
+    group.finish();
+    let (x, y) = paper_like_curve(SEED);
+    let problem = volcomp::nurbs::problem::FitProblem::new(
+        &x,
+        &y,
+        3,
+        volcomp::nurbs::Parameterization::Centripetal,
+    );
+    let interior = volcomp::nurbs::knot_placement::uniform(9, 3);
+    c.bench_function("evaluate one knot vector (LS + lookup + errors)", |b| {
+        b.iter(|| problem.emax(black_box(&interior), &[1.0; 10]))
+    });
+    let mut group = c.benchmark_group("fit 40 points, 10 control points");
+    group.sample_size(10);
+    for method in [KnotMethod::Ukm, KnotMethod::Ga, KnotMethod::Best] {
+        group.bench_function(method.name(), |b| b.iter(|| fit(method, Some(13), false)));
+    }
+    group.finish();
+}
+
+fn main() {
+    table3();
+    table4();
+    let mut c = Criterion::default().configure_from_args();
+    criterion_benches(&mut c);
+    c.final_summary();
+}
