@@ -3,11 +3,15 @@
 //! being told. Prints the matrix (rows: injected, columns: selected[0] or
 //! "none") and the top-1 accuracy.
 //!
-//!     cargo run --release --example confusion_matrix [-- SEEDS]
+//!     cargo run --release --example confusion_matrix [-- SEEDS [pairs] [saddle]]
+//!
+//! `saddle` uses the contexts our toolpath layer builds for the bundled saddle
+//! (samples/saddle.nc on ref-trt, fixture in tests/data/diagnose) instead of the
+//! synthetic raster; `pairs` also runs every pair of effects once.
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
-use volcomp::diagnose::synthetic::{SyntheticOptions, random_effect, saddle_raster};
+use volcomp::diagnose::synthetic::{SyntheticOptions, from_fixture, random_effect, saddle_raster};
 use volcomp::diagnose::{DiagnoseOptions, EffectKind, SimulateOptions, diagnose, simulate};
 
 fn main() {
@@ -15,8 +19,23 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(10);
-    let part = saddle_raster(&SyntheticOptions::default());
-    println!("synthetic saddle: {} points", part.contexts.len());
+    let args: Vec<String> = std::env::args().collect();
+    let part = if args.iter().any(|a| a == "saddle") {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/diagnose");
+        let json = std::fs::read_to_string(root.join("saddle-contexts.json")).expect("fixture");
+        let truth = volcomp::inspection::Measurement::read(&root.join("saddle-truth.csv"))
+            .expect("fixture");
+        let part = from_fixture(&json, &truth).expect("fixture");
+        println!(
+            "saddle (samples/saddle.nc on ref-trt): {} points",
+            part.contexts.len()
+        );
+        part
+    } else {
+        let part = saddle_raster(&SyntheticOptions::default());
+        println!("synthetic saddle raster: {} points", part.contexts.len());
+        part
+    };
     let mut names: Vec<&str> = EffectKind::ALL.iter().map(|k| k.name()).collect();
     names.push("none");
     let mut matrix = vec![vec![0usize; names.len()]; names.len()];
@@ -96,7 +115,7 @@ fn main() {
         }
     }
     let elapsed = start.elapsed().as_secs_f64();
-    if std::env::args().nth(2).as_deref() == Some("pairs") {
+    if args.iter().any(|a| a == "pairs") {
         let mut found = 0;
         let mut count = 0;
         for (i, a) in EffectKind::ALL.iter().enumerate() {

@@ -217,6 +217,7 @@ pub fn diagnose(
     let mut notes = Vec::new();
     let mut selected: Vec<EffectKind> = Vec::new();
     let mut selected_mse = mse_before;
+    let mut selected_params = 0usize;
     let mut selected_bic = bic_before;
     if options.max_selected >= 1 {
         let best = &candidates[0];
@@ -227,6 +228,7 @@ pub fn diagnose(
                 best.kind.name(), mse_before.sqrt(), best.mse.sqrt(), explained, options.min_explained_ratio, noise_floor
             ));
             selected.push(best.kind);
+            selected_params = best.kind.parameters().len();
             selected_mse = best.mse;
             selected_bic = best.bic;
         } else {
@@ -266,7 +268,16 @@ pub fn diagnose(
             }
         }
         match best_pair {
-            Some((kinds, mse, score, added)) if score < selected_bic => {
+            // A pair with more parameters than the single effect must also
+            // explain significantly more (≥ the ratio × noise floor) on held-out
+            // points; one with fewer or as many needs only the lower BIC.
+            Some((kinds, mse, score, added))
+                if score < selected_bic
+                    && (kinds.iter().map(|k| k.parameters().len()).sum::<usize>()
+                        <= selected_params
+                        || (selected_mse - mse).max(0.0).sqrt()
+                            >= options.min_explained_ratio * floor) =>
+            {
                 let names = format!("{} + {}", kinds[0].name(), kinds[1].name());
                 notes.push(format!(
                     "{names}: held-out RMS {:.3} → {:.3} µm (BIC {:.1} < {:.1}); each member adds ≥ {:.3} µm RMS ≥ {:.1} × noise floor: two effects selected",
@@ -279,9 +290,9 @@ pub fn diagnose(
                 selected = kinds;
                 selected_mse = mse;
             }
-            Some((kinds, _, score, _)) => notes.push(format!(
-                "best pair {} + {} has BIC {:.1} ≥ {:.1} of the single effect: one effect kept",
-                kinds[0].name(), kinds[1].name(), score, selected_bic
+            Some((kinds, mse, score, _)) => notes.push(format!(
+                "best pair {} + {} (BIC {:.1} vs {:.1}, held-out RMS {:.3} vs {:.3} µm) does not improve significantly on the single effect: one effect kept",
+                kinds[0].name(), kinds[1].name(), score, selected_bic, mse.sqrt(), selected_mse.sqrt()
             )),
             None => notes.push(format!(
                 "no pair whose members each add ≥ {:.1} × noise floor on held-out points: one effect kept",

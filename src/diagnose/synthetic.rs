@@ -348,3 +348,21 @@ pub fn random_effect(
     }
     Effect { kind, values }
 }
+
+/// A part from contexts (JSON, as `--dump-contexts` writes them) and a noise-free
+/// `simulate` of the same plan (the true volumetric error `e = (m − p)·1000`).
+pub fn from_fixture(
+    contexts_json: &str,
+    truth: &crate::inspection::Measurement,
+) -> Option<SyntheticPart> {
+    let contexts: Vec<PointContext> = serde_json::from_str(contexts_json).ok()?;
+    if contexts.len() != truth.points.len() {
+        return None;
+    }
+    let truth_um = truth
+        .points
+        .iter()
+        .map(|m| [0, 1, 2].map(|k| (m.measured[k] - m.plan.point[k]) * 1000.0))
+        .collect();
+    Some(SyntheticPart { contexts, truth_um })
+}
