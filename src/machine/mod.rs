@@ -4,6 +4,7 @@
 //! Invariants: `machine` reads files but never prints; every error names the file
 //! and the key or line.
 pub mod definition;
+pub mod error_map;
 pub mod error_model;
 pub mod table;
 

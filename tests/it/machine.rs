@@ -220,3 +220,121 @@ fn contributions_sum_to_e_to_first_order() {
             .all(|w| w[0].magnitude_um() >= w[1].magnitude_um())
     );
 }
+
+mod cli {
+    use super::project;
+    use std::process::Command;
+
+    fn volcomp() -> Command {
+        Command::new(env!("CARGO_BIN_EXE_volcomp"))
+    }
+
+    #[test]
+    fn error_at_one_pose_as_json_matches_the_library() {
+        let out = volcomp()
+            .args(["error"])
+            .arg(project("machines/ref-trt.toml"))
+            .args(["--at", "-10,20,-30,15,405", "--json"])
+            .output()
+            .expect("runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        let (_, model) = super::ref_model();
+        let want = model
+            .volumetric_error(&volcomp::axes::Axes::new(-10.0, 20.0, -30.0, 15.0, 405.0))
+            .expect("inside");
+        for i in 0..3 {
+            let got = v["e_um"][i].as_f64().expect("number");
+            assert!((got - want.e_um[i]).abs() < 1e-9, "{got} vs {}", want.e_um[i]);
+            let got = v["axis_urad"][i].as_f64().expect("number");
+            assert!((got - want.axis_urad[i]).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn error_poses_file_gives_one_object_per_row_in_order() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let poses = dir.path().join("poses.csv");
+        std::fs::write(
+            &poses,
+            "x,y,z,a,c\n# comment\n0,0,0,0,0\n100,-50,-100,45,1000\n-150,120,50,-90,-30\n",
+        )
+        .expect("write");
+        let out = volcomp()
+            .arg("error")
+            .arg(project("machines/ref-trt.toml"))
+            .arg("--poses")
+            .arg(&poses)
+            .arg("--json")
+            .output()
+            .expect("runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).expect("json list");
+        assert_eq!(v.len(), 3);
+        let (_, model) = super::ref_model();
+        let second = model
+            .volumetric_error(&volcomp::axes::Axes::new(100.0, -50.0, -100.0, 45.0, 1000.0))
+            .expect("inside");
+        let got = v[1]["e_um"][2].as_f64().expect("number");
+        assert!((got - second.e_um[2]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn error_reports_bad_input_with_file_and_line() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let poses = dir.path().join("poses.csv");
+        std::fs::write(&poses, "x,y,z,a,c\n0,0,0,0,0\n0,zero,0,0,0\n").expect("write");
+        let out = volcomp()
+            .arg("error")
+            .arg(project("machines/ref-trt.toml"))
+            .arg("--poses")
+            .arg(&poses)
+            .output()
+            .expect("runs");
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("poses.csv:3: field 2 (`y`)"), "{err}");
+        // Outside the table: exit 1, naming the axis.
+        let out = volcomp()
+            .arg("error")
+            .arg(project("machines/ref-trt.toml"))
+            .args(["--at", "0,0,150,0,0"])
+            .output()
+            .expect("runs");
+        assert_eq!(out.status.code(), Some(1));
+        assert!(String::from_utf8_lossy(&out.stderr).contains("Z = 150 is outside"));
+        // Usage: a malformed pose is exit 2.
+        let out = volcomp()
+            .arg("error")
+            .arg(project("machines/ref-trt.toml"))
+            .args(["--at", "1,2,3"])
+            .output()
+            .expect("runs");
+        assert_eq!(out.status.code(), Some(2));
+    }
+
+    #[test]
+    fn map_writes_svg_and_report() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let svg = dir.path().join("map.svg");
+        let report = dir.path().join("map.json");
+        let out = volcomp()
+            .arg("map")
+            .arg(project("machines/ref-trt.toml"))
+            .args(["--plane", "xz", "--at", "y=20", "--a", "30", "--c", "-45", "--grid", "9"])
+            .arg("--out")
+            .arg(&svg)
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .expect("runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = std::fs::read_to_string(&svg).expect("svg");
+        assert!(text.starts_with("<svg") && text.contains("|e|"));
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+        assert_eq!(r["map"]["points"].as_array().map(Vec::len), Some(81));
+        assert!(r["surface"]["emax_um"].as_f64().is_some());
+        assert!(r["max_um"].as_f64().expect("max") > 0.0);
+    }
+}

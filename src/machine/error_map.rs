@@ -1,0 +1,309 @@
+//! Volumetric error maps over a plane of the machine's workspace (the seed paper's
+//! Fig. 12): `e` on a regular grid of joint positions with the third linear axis
+//! and A, C fixed, and its drawing as an SVG heat map of |e| with arrows of the
+//! in-plane error.
+//!
+//! Invariants: the grid is `grid × grid` points including the range ends; values
+//! are stored row by row (`v` outer, `u` inner); arrows show `e` turned into the
+//! machine frame (`Rx(a)·Rz(c)·e`, the nominal rotation), so they lie in the plotted
+//! plane whatever A and C are; the report keeps `e` in part coordinates as
+//! everywhere else.
+use super::error_model::{ErrorModel, LookupError};
+use crate::axes::{Axes, Axis};
+use crate::kinematics::VolumetricError;
+use crate::report::svg::{Chart, ChartSpec, ColourMap};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// The plane of a map: its two in-plane axes and the normal axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Plane {
+    XY,
+    XZ,
+    YZ,
+}
+
+impl Plane {
+    /// `(u, v, normal)`.
+    pub fn axes(self) -> (Axis, Axis, Axis) {
+        match self {
+            Plane::XY => (Axis::X, Axis::Y, Axis::Z),
+            Plane::XZ => (Axis::X, Axis::Z, Axis::Y),
+            Plane::YZ => (Axis::Y, Axis::Z, Axis::X),
+        }
+    }
+
+    fn index(axis: Axis) -> usize {
+        match axis {
+            Axis::X => 0,
+            Axis::Y => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// What to map.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MapSpec {
+    pub plane: Plane,
+    /// Joint position of the normal axis, mm.
+    pub level: f64,
+    /// Rotary axes, degrees.
+    pub a: f64,
+    pub c: f64,
+    /// Ranges of the in-plane axes (joint mm), `min < max`.
+    pub u_range: [f64; 2],
+    pub v_range: [f64; 2],
+    /// Points per side (≥ 2).
+    pub grid: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapError {
+    #[error("the map grid needs at least 2 points per side (got {0})")]
+    Grid(usize),
+    #[error("map range {0:?} must be finite with min < max")]
+    Range([f64; 2]),
+    #[error("map level and angles must be finite")]
+    NotFinite,
+    #[error(transparent)]
+    Lookup(#[from] LookupError),
+    #[error("cannot fit a surface to the map: {0}")]
+    Surface(String),
+}
+
+/// The smooth surface of |e| over the map plane that the heat map draws.
+#[derive(Clone, Debug)]
+pub struct MapSurface {
+    u: Vec<f64>,
+    v: Vec<f64>,
+    values: Vec<f64>,
+}
+
+impl MapSurface {
+    /// |e| (µm) at `(u, v)`, clamped to the map's ranges.
+    pub fn value(&self, u: f64, v: f64) -> f64 {
+        let locate = |grid: &[f64], x: f64| {
+            let n = grid.len();
+            let x = x.clamp(grid[0], grid[n - 1]);
+            let i = grid.partition_point(|g| *g <= x).clamp(1, n - 1) - 1;
+            let t = (x - grid[i]) / (grid[i + 1] - grid[i]);
+            (i, t)
+        };
+        let (i, s) = locate(&self.u, u);
+        let (j, t) = locate(&self.v, v);
+        let nu = self.u.len();
+        let f = |ii: usize, jj: usize| self.values[jj * nu + ii];
+        (1.0 - s) * (1.0 - t) * f(i, j)
+            + s * (1.0 - t) * f(i + 1, j)
+            + (1.0 - s) * t * f(i, j + 1)
+            + s * t * f(i + 1, j + 1)
+    }
+}
+
+/// How well the drawn surface represents the grid values.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SurfaceFit {
+    /// What the heat map shows between grid points.
+    pub method: String,
+    /// Largest and RMS |surface − |e|| over the grid points, µm.
+    pub emax_um: f64,
+    pub erms_um: f64,
+}
+
+/// One grid point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MapPoint {
+    pub joints: Axes,
+    /// e (µm) and tool-axis error (µrad), part coordinates.
+    #[serde(flatten)]
+    pub error: VolumetricError,
+    /// e in the machine frame (µm), what the arrows show.
+    pub e_machine_um: [f64; 3],
+    pub magnitude_um: f64,
+}
+
+/// A computed map.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorMap {
+    pub spec: MapSpec,
+    /// Grid coordinates along u and v (joint mm).
+    pub u: Vec<f64>,
+    pub v: Vec<f64>,
+    /// `points[j * u.len() + i]` at `(u[i], v[j])`.
+    pub points: Vec<MapPoint>,
+}
+
+fn surface_fit_stats(surface: &MapSurface, map: &ErrorMap, method: &str) -> SurfaceFit {
+    let mut emax = 0.0f64;
+    let mut sum = 0.0;
+    for p in &map.points {
+        let (ua, va, _) = map.spec.plane.axes();
+        let d = surface.value(p.joints.get(ua), p.joints.get(va)) - p.magnitude_um;
+        emax = emax.max(d.abs());
+        sum += d * d;
+    }
+    SurfaceFit {
+        method: method.to_string(),
+        emax_um: emax,
+        erms_um: (sum / map.points.len().max(1) as f64).sqrt(),
+    }
+}
+
+fn linspace(range: [f64; 2], n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| range[0] + (range[1] - range[0]) * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// `Rx(a)·Rz(c)·v` with the effective (direction-convention) angles of `kin`.
+fn part_to_machine(kin: &crate::kinematics::Kinematics, a: f64, c: f64, v: [f64; 3]) -> [f64; 3] {
+    // The nominal tip map is affine with rotation Rx(a)·Rz(c): read it off the
+    // nominal machine point of two part points (keeps the convention in one place).
+    let o = kin.nominal_machine_point([0.0; 3], a, c);
+    let p = kin.nominal_machine_point(v, a, c);
+    [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
+}
+
+impl ErrorMap {
+    /// Evaluate `model` over the grid of `spec` (in parallel).
+    pub fn compute(model: &ErrorModel, spec: &MapSpec) -> Result<ErrorMap, MapError> {
+        if spec.grid < 2 {
+            return Err(MapError::Grid(spec.grid));
+        }
+        for r in [spec.u_range, spec.v_range] {
+            if !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1]) {
+                return Err(MapError::Range(r));
+            }
+        }
+        if !(spec.level.is_finite() && spec.a.is_finite() && spec.c.is_finite()) {
+            return Err(MapError::NotFinite);
+        }
+        let (ua, va, na) = spec.plane.axes();
+        let u = linspace(spec.u_range, spec.grid);
+        let v = linspace(spec.v_range, spec.grid);
+        let kin = *model.kinematics();
+        let points = (0..spec.grid * spec.grid)
+            .into_par_iter()
+            .map(|k| {
+                let mut joints = Axes::new(0.0, 0.0, 0.0, spec.a, spec.c);
+                joints.set(ua, u[k % spec.grid]);
+                joints.set(va, v[k / spec.grid]);
+                joints.set(na, spec.level);
+                let error = model.volumetric_error(&joints)?;
+                Ok(MapPoint {
+                    joints,
+                    error,
+                    e_machine_um: part_to_machine(&kin, spec.a, spec.c, error.e_um),
+                    magnitude_um: error.magnitude_um(),
+                })
+            })
+            .collect::<Result<Vec<_>, LookupError>>()?;
+        Ok(ErrorMap { spec: *spec, u, v, points })
+    }
+
+    /// The surface of |e| drawn by [`ErrorMap::to_svg`], and its error at the grid.
+    pub fn fit_surface(&self) -> Result<(MapSurface, SurfaceFit), MapError> {
+        let surface = MapSurface {
+            u: self.u.clone(),
+            v: self.v.clone(),
+            values: self.magnitudes(),
+        };
+        let fit = surface_fit_stats(&surface, self, "bilinear interpolation of the grid");
+        Ok((surface, fit))
+    }
+
+    /// |e| on the grid, row by row.
+    pub fn magnitudes(&self) -> Vec<f64> {
+        self.points.iter().map(|p| p.magnitude_um).collect()
+    }
+
+    /// Largest |e| over the grid, µm.
+    pub fn max_magnitude(&self) -> f64 {
+        self.points.iter().map(|p| p.magnitude_um).fold(0.0, f64::max)
+    }
+
+    /// The SVG heat map: |e| as cells coloured by `heat(u, v)` (the fitted surface,
+    /// or the grid values), arrows of the in-plane error at the grid points.
+    pub fn to_svg(&self, title: &str, heat: &dyn Fn(f64, f64) -> f64) -> String {
+        let (ua, va, _) = self.spec.plane.axes();
+        let x_label = format!("{} (mm)", ua.letter());
+        let y_label = format!("{} (mm)", va.letter());
+        let spec = ChartSpec {
+            width: 760.0,
+            height: 640.0,
+            title,
+            x_label: &x_label,
+            y_label: &y_label,
+            x_range: (self.spec.u_range[0], self.spec.u_range[1]),
+            y_range: (self.spec.v_range[0], self.spec.v_range[1]),
+            equal_aspect: true,
+        };
+        let mut chart = Chart::new(&spec);
+        // Heat map cells on a finer raster than the grid (the surface is smooth).
+        let cells = 60usize;
+        let du = (self.spec.u_range[1] - self.spec.u_range[0]) / cells as f64;
+        let dv = (self.spec.v_range[1] - self.spec.v_range[0]) / cells as f64;
+        let mut values = Vec::with_capacity(cells * cells);
+        for j in 0..cells {
+            for i in 0..cells {
+                let uc = self.spec.u_range[0] + (i as f64 + 0.5) * du;
+                let vc = self.spec.v_range[0] + (j as f64 + 0.5) * dv;
+                values.push((uc, vc, heat(uc, vc)));
+            }
+        }
+        let lo = values
+            .iter()
+            .map(|v| v.2)
+            .chain(self.magnitudes())
+            .fold(f64::INFINITY, f64::min)
+            .max(0.0);
+        let hi = values
+            .iter()
+            .map(|v| v.2)
+            .chain(self.magnitudes())
+            .fold(0.0, f64::max);
+        for (uc, vc, h) in &values {
+            let x0 = chart.x.map(uc - du / 2.0);
+            let x1 = chart.x.map(uc + du / 2.0);
+            let y0 = chart.y.map(vc + dv / 2.0);
+            let y1 = chart.y.map(vc - dv / 2.0);
+            let colour = ColourMap::Sequential.colour(*h, lo, hi);
+            chart
+                .svg
+                .rect(x0, y0, (x1 - x0) + 0.3, (y1 - y0) + 0.3, &colour, None);
+        }
+        // Arrows: longest in-plane error = 0.8 of a grid step.
+        let (iu, iv) = (Plane::index(ua), Plane::index(va));
+        let longest = self
+            .points
+            .iter()
+            .map(|p| p.e_machine_um[iu].hypot(p.e_machine_um[iv]))
+            .fold(0.0, f64::max);
+        let step_px = (chart.x.pixels_per_unit() * (self.u[1] - self.u[0]))
+            .min(chart.y.pixels_per_unit() * (self.v[1] - self.v[0]));
+        if longest > 0.0 {
+            let k = 0.8 * step_px / longest;
+            for p in &self.points {
+                let (pu, pv) = (p.joints.get(ua), p.joints.get(va));
+                let (eu, ev) = (p.e_machine_um[iu], p.e_machine_um[iv]);
+                if eu.hypot(ev) * k >= 1.0 {
+                    chart.arrow_pixels(pu, pv, eu * k, ev * k, "#ffffff");
+                }
+            }
+            let note = format!(
+                "arrows: in-plane error, longest {longest:.2} um = {:.0} px",
+                0.8 * step_px
+            );
+            chart.svg.text(
+                chart.x.p0,
+                spec.height - 26.0,
+                10.0,
+                "start",
+                &note,
+            );
+        }
+        chart.colour_bar(lo, hi, ColourMap::Sequential, "|e| um");
+        chart.finish()
+    }
+}
