@@ -1,1 +1,254 @@
-//! Measured component-error tables (formats.md "Error table"). Under construction.
+//! Measured component-error tables (formats.md "Error table"), one CSV per axis:
+//! a header `position,EXX,EYX,…` (columns in any order), then one row per measured
+//! position, positions strictly increasing; `#` lines and blank lines are ignored.
+//!
+//! Invariants of a read [`ErrorTable`]: at least [`MIN_ROWS`] rows, positions
+//! finite and strictly increasing, every value finite; each column is one of the six
+//! parameters `E{X,Y,Z,A,B,C}{axis}` of the table's axis, at most once; the
+//! parameters not in the file are listed in `missing` (not measured: zero).
+//! Every error names the file, the line and (where it applies) the column.
+use std::path::{Path, PathBuf};
+
+use crate::axes::Axis;
+
+/// Fewest rows a column needs to be fitted (the seed paper's minimum).
+pub const MIN_ROWS: usize = 8;
+
+/// The error directions of a table's columns, in the conventional order.
+pub const DIRECTIONS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
+
+/// One measured error parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TableColumn {
+    /// Parameter name, e.g. `EXX` (error in X of the X axis), `EAC`.
+    pub name: String,
+    /// One value per position: µm for E{X,Y,Z}*, µrad for E{A,B,C}*.
+    pub values: Vec<f64>,
+}
+
+impl TableColumn {
+    /// Is this an angular parameter (`EA?`, `EB?`, `EC?`), in µrad?
+    pub fn is_angular(&self) -> bool {
+        matches!(self.name.as_bytes().get(1), Some(b'A' | b'B' | b'C'))
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorTable {
+    pub path: PathBuf,
+    pub axis: Axis,
+    /// mm (linear axes) or degrees (rotary), strictly increasing.
+    pub positions: Vec<f64>,
+    /// In file order.
+    pub columns: Vec<TableColumn>,
+    /// Parameters of the axis the file does not carry (not measured, zero).
+    pub missing: Vec<String>,
+    /// A rotary table covering 0..360 degrees: lookups wrap (c mod 360).
+    pub one_revolution: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: line {line}{}: {message}", path.display(), column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        column: Option<String>,
+        message: String,
+    },
+}
+
+/// The parameter name of direction `d` on `axis`, e.g. `EXZ`.
+pub fn parameter_name(direction: char, axis: Axis) -> String {
+    format!("E{direction}{}", axis.letter())
+}
+
+impl ErrorTable {
+    /// Read and validate a table; `axis` None = infer it from the column names.
+    pub fn read(path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
+        let text = std::fs::read_to_string(path).map_err(|source| TableError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        ErrorTable::parse(&text, path, axis)
+    }
+
+    /// Parse `text` as the table `path` (named in errors).
+    pub fn parse(text: &str, path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
+        let err = |line: usize, column: Option<String>, message: String| TableError::Invalid {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message,
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        let Some((header_line, header)) = lines.next() else {
+            return Err(err(
+                1,
+                None,
+                "empty table: expected a header `position,EXX,...`".into(),
+            ));
+        };
+        let names: Vec<String> = header
+            .split(',')
+            .map(|s| s.trim().to_ascii_uppercase())
+            .collect();
+        let col_label = |i: usize, names: &[String]| {
+            format!(
+                "{} ({})",
+                i + 1,
+                names.get(i).map(String::as_str).unwrap_or("?")
+            )
+        };
+        let Some(pos_col) = names.iter().position(|n| n == "POSITION") else {
+            return Err(err(
+                header_line,
+                None,
+                format!(
+                    "missing header: expected a `position` column followed by error parameters like EXX, found `{header}`"
+                ),
+            ));
+        };
+        // The axis: given, or the last letter shared by every parameter column.
+        let mut inferred: Option<Axis> = axis;
+        let mut params: Vec<(usize, String)> = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            if i == pos_col {
+                continue;
+            }
+            let b = name.as_bytes();
+            let valid = b.len() == 3
+                && b[0] == b'E'
+                && DIRECTIONS.contains(&(b[1] as char))
+                && Axis::from_letter(b[2] as char).is_some();
+            if !valid {
+                return Err(err(
+                    header_line,
+                    Some(col_label(i, &names)),
+                    format!(
+                        "unknown column `{name}`: expected `position` or E<direction><axis> such as EXX, EAC"
+                    ),
+                ));
+            }
+            let col_axis = Axis::from_letter(b[2] as char).unwrap_or(Axis::X);
+            match inferred {
+                None => inferred = Some(col_axis),
+                Some(a) if a != col_axis => {
+                    return Err(err(
+                        header_line,
+                        Some(col_label(i, &names)),
+                        format!(
+                            "column `{name}` belongs to axis {}, but this is the table of axis {}",
+                            col_axis.letter(),
+                            a.letter()
+                        ),
+                    ));
+                }
+                _ => {}
+            }
+            if params.iter().any(|(_, n)| n == name) {
+                return Err(err(
+                    header_line,
+                    Some(col_label(i, &names)),
+                    format!("column `{name}` appears twice"),
+                ));
+            }
+            params.push((i, name.clone()));
+        }
+        let Some(axis) = inferred else {
+            return Err(err(header_line, None, "no error columns: cannot tell the axis (name the columns like EXX or give the axis)".into()));
+        };
+        let mut positions: Vec<f64> = Vec::new();
+        let mut values: Vec<Vec<f64>> = vec![Vec::new(); params.len()];
+        let mut last_line = header_line;
+        for (line, row) in lines {
+            last_line = line;
+            let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+            if fields.len() != names.len() {
+                return Err(err(
+                    line,
+                    None,
+                    format!(
+                        "{} fields, but the header has {} columns",
+                        fields.len(),
+                        names.len()
+                    ),
+                ));
+            }
+            let number = |i: usize| -> Result<f64, TableError> {
+                match fields[i].parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    _ => Err(err(
+                        line,
+                        Some(col_label(i, &names)),
+                        format!("`{}` is not a finite number", fields[i]),
+                    )),
+                }
+            };
+            let x = number(pos_col)?;
+            if let Some(&prev) = positions.last() {
+                if x <= prev {
+                    return Err(err(
+                        line,
+                        Some(col_label(pos_col, &names)),
+                        format!(
+                            "position {x} does not increase (previous row: {prev}); positions must be strictly increasing"
+                        ),
+                    ));
+                }
+            }
+            positions.push(x);
+            for (slot, (i, _)) in params.iter().enumerate() {
+                values[slot].push(number(*i)?);
+            }
+        }
+        if positions.len() < MIN_ROWS {
+            return Err(err(
+                last_line,
+                None,
+                format!(
+                    "{} rows, but at least {MIN_ROWS} are needed to fit a column",
+                    positions.len()
+                ),
+            ));
+        }
+        let present: Vec<&String> = params.iter().map(|(_, n)| n).collect();
+        let missing = DIRECTIONS
+            .iter()
+            .map(|&d| parameter_name(d, axis))
+            .filter(|n| !present.contains(&n))
+            .collect();
+        let first = positions[0];
+        let last = positions[positions.len() - 1];
+        let one_revolution = axis.is_rotary() && first == 0.0 && (last - 360.0).abs() < 1e-9;
+        let columns = params
+            .into_iter()
+            .zip(values)
+            .map(|((_, name), values)| TableColumn { name, values })
+            .collect();
+        Ok(ErrorTable {
+            path: path.to_path_buf(),
+            axis,
+            positions,
+            columns,
+            missing,
+            one_revolution,
+        })
+    }
+
+    /// The column of a parameter (e.g. "EXX"), if measured.
+    pub fn column(&self, name: &str) -> Option<&TableColumn> {
+        self.columns
+            .iter()
+            .find(|c| c.name.eq_ignore_ascii_case(name))
+    }
+}

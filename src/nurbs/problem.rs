@@ -1,0 +1,134 @@
+//! One curve-fitting problem: the data points of an error parameter, normalised
+//! and parameterised once, and the evaluation of a candidate (interior knots,
+//! weights) into a fitted curve and its errors. Every knot method and optimiser
+//! scores candidates through [`FitProblem::evaluate`], so they are compared on the
+//! same objective.
+//!
+//! Units and scaling: positions (mm or deg) and values (µm or µrad) have unrelated
+//! units, and the chord-based parameterisations depend on the scale. Both
+//! coordinates are mapped affinely to `[0, 1]` (position by its range, value by its
+//! range, or 1 when constant) before parameterising and fitting; NURBS are
+//! affine-invariant, so the control points are mapped back to table units exactly.
+//!
+//! Error measure (what the paper evaluates in Fig. 8): for each data point the
+//! curve is inverted at its position (`x(u) = x_k`) and the vertical error
+//! `|y(u) − y_k|` (table units) is taken; `emax` is the largest, `erms` the RMS.
+//! A candidate whose least-squares system is singular or whose `x(u)` folds back is
+//! infeasible (`None`).
+use super::curve::NurbsCurve;
+use super::knot_vector;
+use super::least_squares::fit_control_points;
+use super::lookup::CurveLookup;
+use super::parameterization::{Parameterization, parameterize};
+
+#[derive(Clone, Debug)]
+pub struct FitProblem {
+    pub degree: usize,
+    /// Raw data, table units.
+    pub positions: Vec<f64>,
+    pub values: Vec<f64>,
+    /// Normalised points (row-major pairs) and their parameters.
+    normalised: Vec<f64>,
+    pub params: Vec<f64>,
+    origin: [f64; 2],
+    scale: [f64; 2],
+}
+
+/// A fitted candidate and its errors at the data points (table units).
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    pub curve: NurbsCurve,
+    pub lookup: CurveLookup,
+    pub emax: f64,
+    pub erms: f64,
+}
+
+impl FitProblem {
+    /// `positions` strictly increasing and finite, `values` finite, same length,
+    /// at least `degree + 2` points (checked by the caller, `smem::fit_parameter`).
+    pub fn new(
+        positions: &[f64],
+        values: &[f64],
+        degree: usize,
+        parameterization: Parameterization,
+    ) -> FitProblem {
+        let m = positions.len();
+        let x0 = positions[0];
+        let sx = positions[m - 1] - x0;
+        let (ymin, ymax) = values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let sy = if ymax > ymin { ymax - ymin } else { 1.0 };
+        let pts: Vec<[f64; 2]> = positions
+            .iter()
+            .zip(values)
+            .map(|(&x, &y)| [(x - x0) / sx, (y - ymin) / sy])
+            .collect();
+        let params = parameterize(&pts, parameterization);
+        FitProblem {
+            degree,
+            positions: positions.to_vec(),
+            values: values.to_vec(),
+            normalised: pts.iter().flatten().copied().collect(),
+            params,
+            origin: [x0, ymin],
+            scale: [sx, sy],
+        }
+    }
+
+    pub fn samples(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Fit with clamped knots on `[0, 1]` with these interior knots and weights
+    /// (`weights.len() = interior.len() + degree + 1`).
+    pub fn evaluate(&self, interior: &[f64], weights: &[f64]) -> Option<Candidate> {
+        let p = self.degree;
+        let knots = knot_vector::clamped(p, interior, 0.0, 1.0);
+        if !knot_vector::is_valid_clamped(&knots, p)
+            || !knot_vector::schoenberg_whitney(&knots, p, &self.params)
+        {
+            return None;
+        }
+        let ctrl =
+            fit_control_points(&self.params, &self.normalised, 2, p, &knots, weights).ok()?;
+        let points: Vec<[f64; 2]> = ctrl
+            .chunks_exact(2)
+            .map(|c| {
+                [
+                    self.origin[0] + self.scale[0] * c[0],
+                    self.origin[1] + self.scale[1] * c[1],
+                ]
+            })
+            .collect();
+        let curve = NurbsCurve::new(p, knots, weights.to_vec(), points).ok()?;
+        let lookup = CurveLookup::new(&curve).ok()?;
+        let (emax, erms) = self.errors(&lookup);
+        Some(Candidate {
+            curve,
+            lookup,
+            emax,
+            erms,
+        })
+    }
+
+    /// `emax` of a candidate, `+∞` when infeasible: the optimisers' objective.
+    pub fn emax(&self, interior: &[f64], weights: &[f64]) -> f64 {
+        self.evaluate(interior, weights)
+            .map_or(f64::INFINITY, |c| c.emax)
+    }
+
+    /// Vertical errors at the data points through the exact inversion.
+    pub fn errors(&self, lookup: &CurveLookup) -> (f64, f64) {
+        let mut emax = 0.0f64;
+        let mut sum = 0.0;
+        for (&x, &y) in self.positions.iter().zip(&self.values) {
+            let e = (lookup.value_at(x) - y).abs();
+            emax = emax.max(e);
+            sum += e * e;
+        }
+        (emax, (sum / self.positions.len() as f64).sqrt())
+    }
+}
