@@ -36,7 +36,10 @@ fn per_pose(c: &mut Criterion) {
     let model = reference_model();
     let kin = *model.kinematics();
     let set = poses(1024);
-    let errors: Vec<_> = set.iter().map(|p| model.errors_at(p).expect("inside")).collect();
+    let errors: Vec<_> = set
+        .iter()
+        .map(|p| model.errors_at(p).expect("inside"))
+        .collect();
     let mut group = c.benchmark_group("per_pose");
     group.throughput(Throughput::Elements(set.len() as u64));
     group.bench_function("chain_only", |b| {
@@ -74,17 +77,21 @@ fn batch(c: &mut Criterion) {
             .num_threads(threads)
             .build()
             .expect("pool");
-        group.bench_with_input(BenchmarkId::new("rayon_threads", threads), &threads, |b, _| {
-            b.iter(|| {
-                pool.install(|| {
-                    let worst = set
-                        .par_iter()
-                        .map(|p| model.volumetric_error(p).expect("inside").magnitude_um())
-                        .reduce(|| 0.0, f64::max);
-                    black_box(worst)
+        group.bench_with_input(
+            BenchmarkId::new("rayon_threads", threads),
+            &threads,
+            |b, _| {
+                b.iter(|| {
+                    pool.install(|| {
+                        let worst = set
+                            .par_iter()
+                            .map(|p| model.volumetric_error(p).expect("inside").magnitude_um())
+                            .reduce(|| 0.0, f64::max);
+                        black_box(worst)
+                    })
                 })
-            })
-        });
+            },
+        );
     }
     group.finish();
 }

@@ -68,6 +68,10 @@ pub struct Args {
     /// What a lookup outside an error table does.
     #[arg(long, value_enum, default_value = "error")]
     pub extrapolate: Extrapolate,
+    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
+    /// or best (the default; see `volcomp fit`).
+    #[arg(long, default_value = "best", value_name = "METHOD")]
+    pub fit_method: crate::nurbs::KnotMethod,
 }
 
 fn usage(msg: String) -> anyhow::Error {
@@ -76,9 +80,11 @@ fn usage(msg: String) -> anyhow::Error {
 
 /// `z=0` → 0 for the normal axis `normal`.
 fn parse_level(text: &str, normal: Axis) -> anyhow::Result<f64> {
-    let (name, value) = text
-        .split_once('=')
-        .ok_or_else(|| usage(format!("--at expects AXIS=VALUE such as z=0, got \"{text}\"")))?;
+    let (name, value) = text.split_once('=').ok_or_else(|| {
+        usage(format!(
+            "--at expects AXIS=VALUE such as z=0, got \"{text}\""
+        ))
+    })?;
     let axis = Axis::from_letter(name.trim().chars().next().unwrap_or('?'));
     if axis != Some(normal) || name.trim().len() != 1 {
         return Err(usage(format!(
@@ -96,7 +102,11 @@ fn parse_level(text: &str, normal: Axis) -> anyhow::Result<f64> {
 
 /// `U0:U1,V0:V1`.
 fn parse_ranges(text: &str) -> anyhow::Result<[[f64; 2]; 2]> {
-    let bad = || usage(format!("--range expects U0:U1,V0:V1 with U0 < U1 and V0 < V1, got \"{text}\""));
+    let bad = || {
+        usage(format!(
+            "--range expects U0:U1,V0:V1 with U0 < U1 and V0 < V1, got \"{text}\""
+        ))
+    };
     let parts: Vec<&str> = text.split(',').collect();
     if parts.len() != 2 {
         return Err(bad());
@@ -125,7 +135,10 @@ struct Report<'a> {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.grid < 2 || args.grid > 401 {
-        return Err(usage(format!("--grid must be between 2 and 401 (got {})", args.grid)));
+        return Err(usage(format!(
+            "--grid must be between 2 and 401 (got {})",
+            args.grid
+        )));
     }
     if !(args.a.is_finite() && args.c.is_finite()) {
         return Err(usage("--a and --c must be finite".into()));
@@ -137,7 +150,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => 0.0,
     };
     let ranges = args.range.as_deref().map(parse_ranges).transpose()?;
-    let (machine, model) = load_model(&args.machine, args.extrapolate.into())?;
+    let (machine, model) = load_model(&args.machine, args.extrapolate.into(), args.fit_method)?;
     let travel = |axis: Axis| machine.limits.get(axis).unwrap_or([-100.0, 100.0]);
     let [u_range, v_range] = ranges.unwrap_or([travel(ua), travel(va)]);
     let spec = MapSpec {

@@ -199,7 +199,12 @@ impl ErrorMap {
                 })
             })
             .collect::<Result<Vec<_>, LookupError>>()?;
-        Ok(ErrorMap { spec: *spec, u, v, points })
+        Ok(ErrorMap {
+            spec: *spec,
+            u,
+            v,
+            points,
+        })
     }
 
     /// The surface of |e| drawn by [`ErrorMap::to_svg`], and its error at the grid.
@@ -220,7 +225,10 @@ impl ErrorMap {
 
     /// Largest |e| over the grid, µm.
     pub fn max_magnitude(&self) -> f64 {
-        self.points.iter().map(|p| p.magnitude_um).fold(0.0, f64::max)
+        self.points
+            .iter()
+            .map(|p| p.magnitude_um)
+            .fold(0.0, f64::max)
     }
 
     /// The SVG heat map: |e| as cells coloured by `heat(u, v)` (the fitted surface,
@@ -295,13 +303,9 @@ impl ErrorMap {
                 "arrows: in-plane error, longest {longest:.2} um = {:.0} px",
                 0.8 * step_px
             );
-            chart.svg.text(
-                chart.x.p0,
-                spec.height - 26.0,
-                10.0,
-                "start",
-                &note,
-            );
+            chart
+                .svg
+                .text(chart.x.p0, spec.height - 26.0, 10.0, "start", &note);
         }
         chart.colour_bar(lo, hi, ColourMap::Sequential, "|e| um");
         chart.finish()

@@ -110,7 +110,10 @@ impl Clone for ErrorModel {
 impl ErrorModel {
     /// Fit every measured column of `machine`'s tables (in parallel) and collect its
     /// scalars. A column with fewer rows than the fit needs is an error naming it.
-    pub fn from_machine(machine: &Machine, options: &ModelOptions) -> Result<ErrorModel, ModelError> {
+    pub fn from_machine(
+        machine: &Machine,
+        options: &ModelOptions,
+    ) -> Result<ErrorModel, ModelError> {
         let mut jobs = Vec::new();
         for (slot, axis) in Axis::ALL.into_iter().enumerate() {
             let Some(table) = machine.table(axis) else {
