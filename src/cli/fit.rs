@@ -1,16 +1,271 @@
-//! `volcomp fit`.
-use std::path::PathBuf;
+//! `volcomp fit`: the SMEM of every error table of a machine, or of one table.
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use rayon::prelude::*;
+
+use crate::axes::Axis;
+use crate::machine::table::ErrorTable;
+use crate::nurbs::plot::{PlotLabels, plot_fit};
+use crate::nurbs::{
+    FitOptions, KnotMethod, ParameterFit, ParameterKind, SmemModelFile, fit_parameter, fnv1a64,
+};
+
+const AFTER_HELP: &str = "\
+Examples:
+  volcomp fit machines/ref-trt.toml
+  volcomp fit machines/ref-trt.toml --report fit.json --plot fit-plots
+  volcomp fit machines/ref-trt/x.csv --method ga --seed 7
+  volcomp fit machines/ref-trt/a.csv --tol 0.3 --tol-angle 0.8 --method exhaustive --control-points 8
+
+Each measured column is fitted with a cubic NURBS (He et al. 2016): knots by the chosen
+method, weights optimised, control points added until the largest error at the measured
+points is within tolerance (default 0.5 um for lengths, 1.0 urad for angles). A parameter
+that misses its tolerance is reported and makes the command fail (exit 1) after the
+report is written.";
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Input files.
-    pub inputs: Vec<PathBuf>,
+    /// A machine file (TOML, its [errors] tables are fitted) or one error table (CSV).
+    pub input: PathBuf,
+    /// Tolerance on the largest error at the measured points, in table units
+    /// (um for lengths; also urad for angles unless --tol-angle is given).
+    #[arg(long, value_name = "UM")]
+    pub tol: Option<f64>,
+    /// Tolerance for angular parameters, urad.
+    #[arg(long, value_name = "URAD")]
+    pub tol_angle: Option<f64>,
+    /// Knot placement: ukm, epm, lam, ga, exhaustive or best.
+    #[arg(long, default_value = "best")]
+    pub method: KnotMethod,
+    /// Fixed number of control points (no adaptive growth).
+    #[arg(long, value_name = "N")]
+    pub control_points: Option<usize>,
+    /// Segments M of the candidate-knot grid (ga, exhaustive, best).
+    #[arg(long, value_name = "M")]
+    pub grid: Option<usize>,
+    /// Keep all weights at 1 (plain B-spline fits).
+    #[arg(long)]
+    pub no_weights: bool,
+    /// Seed of the genetic algorithm and the optimiser's random restarts.
+    #[arg(long, default_value_t = 2016)]
+    pub seed: u64,
+    /// Axis of a CSV table (default: inferred from the column names).
+    #[arg(long, value_name = "AXIS", value_parser = parse_axis)]
+    pub axis: Option<Axis>,
+    /// Write the fit report (JSON) here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// Write one SVG per parameter (points, curve, knots) into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
 }
 
-pub fn run(_args: &Args) -> anyhow::Result<()> {
-    Err(super::NotBuilt {
-        command: "fit",
-        what: "the SMEM fitting is not built yet",
+fn parse_axis(s: &str) -> Result<Axis, String> {
+    let mut chars = s.chars();
+    match (chars.next().and_then(Axis::from_letter), chars.next()) {
+        (Some(a), None) => Ok(a),
+        _ => Err(format!("`{s}` is not an axis (X, Y, Z, A or C)")),
     }
-    .into())
+}
+
+/// The tables to fit: from a machine file or a single CSV.
+fn load_tables(args: &Args) -> anyhow::Result<Vec<ErrorTable>> {
+    let is_toml = args
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        if args.axis.is_some() {
+            return Err(super::UsageError(
+                "--axis applies to a CSV table, not a machine file".into(),
+            )
+            .into());
+        }
+        let machine = crate::machine::Machine::load(&args.input)?;
+        Ok(machine.tables.into_iter().flatten().collect())
+    } else {
+        Ok(vec![ErrorTable::read(&args.input, args.axis)?])
+    }
+}
+
+struct Job<'a> {
+    table: &'a ErrorTable,
+    column: usize,
+    kind: ParameterKind,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let started = Instant::now();
+    for (name, v) in [("--tol", args.tol), ("--tol-angle", args.tol_angle)] {
+        if let Some(t) = v {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(super::UsageError(format!(
+                    "{name} must be a positive number, got {t}"
+                ))
+                .into());
+            }
+        }
+    }
+    let tables = load_tables(args)?;
+    let base = FitOptions {
+        method: args.method,
+        control_points: args.control_points,
+        grid_segments: args.grid,
+        optimise_weights: !args.no_weights,
+        seed: args.seed,
+        ..FitOptions::default()
+    };
+    let jobs: Vec<Job<'_>> = tables
+        .iter()
+        .flat_map(|t| {
+            t.columns.iter().enumerate().map(move |(i, c)| Job {
+                table: t,
+                column: i,
+                kind: if c.is_angular() {
+                    ParameterKind::Angle
+                } else {
+                    ParameterKind::Length
+                },
+            })
+        })
+        .collect();
+    let hashes: Vec<u64> = tables
+        .iter()
+        .map(|t| {
+            std::fs::read(&t.path)
+                .map(|b| fnv1a64(&b))
+                .with_context(|| format!("cannot read {}", t.path.display()))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let fits = jobs
+        .par_iter()
+        .map(|job| {
+            let column = &job.table.columns[job.column];
+            let tolerance = match job.kind {
+                ParameterKind::Length => args.tol,
+                ParameterKind::Angle => args.tol_angle.or(args.tol),
+            };
+            let options = FitOptions {
+                tolerance,
+                ..base.clone()
+            };
+            fit_parameter(&job.table.positions, &column.values, job.kind, &options).with_context(
+                || format!("{}: cannot fit {}", job.table.path.display(), column.name),
+            )
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut report = SmemModelFile {
+        parameters: Vec::new(),
+        not_measured: Vec::new(),
+    };
+    println!("axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds");
+    for (job, curve) in jobs.iter().zip(&fits) {
+        let column = &job.table.columns[job.column];
+        let table_index = tables
+            .iter()
+            .position(|t| std::ptr::eq(t, job.table))
+            .unwrap_or(0);
+        let entry = ParameterFit::new(
+            job.table.axis.letter(),
+            &column.name,
+            job.kind.unit(),
+            curve,
+            &job.table.path.display().to_string(),
+            hashes[table_index],
+        );
+        println!(
+            "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
+            entry.axis,
+            entry.parameter,
+            entry.samples,
+            entry.control_points,
+            entry.emax,
+            entry.erms,
+            entry.tolerance,
+            entry.unit,
+            if entry.met { "yes" } else { "NO" },
+            entry.seconds
+        );
+        report.parameters.push(entry);
+    }
+    for t in &tables {
+        for m in &t.missing {
+            println!(
+                "{:<4}  {:<9}  not measured (taken as zero)",
+                t.axis.letter(),
+                m
+            );
+            report.not_measured.push(m.clone());
+        }
+    }
+    let missed: Vec<&str> = report
+        .parameters
+        .iter()
+        .filter(|p| !p.met)
+        .map(|p| p.parameter.as_str())
+        .collect();
+    println!(
+        "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
+        report.parameters.len(),
+        args.method,
+        started.elapsed().as_secs_f64(),
+        report.parameters.len() - missed.len()
+    );
+    if let Some(path) = &args.report {
+        crate::io::write_json_atomic(path, &report)?;
+        println!("report: {}", path.display());
+    }
+    if let Some(dir) = &args.plot {
+        write_plots(dir, &jobs, &fits)?;
+        println!("plots: {}", dir.display());
+    }
+    if !missed.is_empty() {
+        anyhow::bail!(
+            "{} parameter(s) miss their tolerance: {} (raise --tol or the control-point cap)",
+            missed.len(),
+            missed.join(", ")
+        );
+    }
+    Ok(())
+}
+
+fn write_plots(
+    dir: &Path,
+    jobs: &[Job<'_>],
+    fits: &[crate::nurbs::SmemCurve],
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (job, curve) in jobs.iter().zip(fits) {
+        let column = &job.table.columns[job.column];
+        let s = curve.stats();
+        let title = format!(
+            "{}: {} control points, {} knots, Emax {:.3} {}",
+            column.name,
+            s.control_points,
+            s.method,
+            s.emax,
+            job.kind.unit()
+        );
+        let x_label = if job.table.axis.is_rotary() {
+            "Axis position (deg)"
+        } else {
+            "Axis position (mm)"
+        };
+        let y_label = format!("Error ({})", job.kind.unit());
+        let svg = plot_fit(
+            &job.table.positions,
+            &column.values,
+            curve,
+            &PlotLabels {
+                title: &title,
+                x_label,
+                y_label: &y_label,
+            },
+        );
+        crate::io::write_file_atomic(&dir.join(format!("{}.svg", column.name)), svg.as_bytes())?;
+    }
+    Ok(())
 }

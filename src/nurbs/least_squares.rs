@@ -127,11 +127,12 @@ mod tests {
 
     #[test]
     fn singular_when_spans_are_empty() {
-        let knots = clamped(3, &[0.41, 0.42, 0.43], 0.0, 1.0);
-        let params = [0.0, 0.1, 0.2, 0.3, 0.7, 0.8, 0.9, 1.0];
+        // Four basis functions live on (0.4, 1] but only three data points do.
+        let knots = clamped(3, &[0.4, 0.5, 0.6, 0.7], 0.0, 1.0);
+        let params = [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.9, 0.95, 1.0];
         let data = params.to_vec();
         assert_eq!(
-            fit_control_points(&params, &data, 1, 3, &knots, &[1.0; 7]),
+            fit_control_points(&params, &data, 1, 3, &knots, &[1.0; 8]),
             Err(LeastSquaresError::Singular)
         );
     }

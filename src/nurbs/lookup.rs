@@ -162,6 +162,19 @@ impl CurveLookup {
                 x_end,
             });
         }
+        // The clamped ends interpolate the end control points: exact domain.
+        if let Some(first) = spans.first_mut() {
+            first.x_start = curve.points[0][0];
+        }
+        if let Some(last) = spans.last_mut() {
+            last.x_end = curve.points[n][0];
+        }
+        // Interior span ends by de Boor evaluation (shared by neighbouring spans).
+        for j in 1..spans.len() {
+            let x = curve.eval(spans[j].u0)[0];
+            spans[j - 1].x_end = x;
+            spans[j].x_start = x;
+        }
         let ends = spans[..spans.len() - 1].iter().map(|s| s.x_end).collect();
         Ok(CurveLookup {
             degree: p,

@@ -15,15 +15,20 @@ pub mod knot_placement;
 pub mod knot_vector;
 pub mod least_squares;
 pub mod lookup;
+pub mod model_file;
 pub mod optimise;
 pub mod parameterization;
+pub mod plot;
 pub mod problem;
 pub mod smem;
+pub mod surface;
 
 pub use curve::NurbsCurve;
 pub use genetic::GaSettings;
+pub use model_file::{ParameterFit, SmemModelFile, fnv1a64};
 pub use parameterization::Parameterization;
 pub use smem::{
     FitError, FitOptions, FitStats, KnotMethod, ParameterKind, SmemCurve, SmemCurveData,
     fit_parameter,
 };
+pub use surface::{NurbsSurface, SurfaceError, SurfaceFitOptions, fit_surface};

@@ -1,0 +1,183 @@
+//! Errors of the G-code front end: typed, located (file, line, column) and
+//! rendered like rustc diagnostics — the offending line, a caret under the spot,
+//! and a hint.
+//!
+//! Invariant: every [`GcodeError`] carries the 1-based line and 1-based byte
+//! column it is about and a copy of that line (lossily decoded, tabs kept), so
+//! it can be shown without the file.
+use std::fmt;
+use std::path::PathBuf;
+
+/// What went wrong.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ErrorKind {
+    #[error("unclosed comment: `(` is never closed on this line")]
+    UnclosedComment,
+    #[error("word `{0}` has no number")]
+    MissingNumber(char),
+    #[error("malformed number in word `{0}`")]
+    MalformedNumber(char),
+    #[error("number out of range in word `{0}`")]
+    NumberOutOfRange(char),
+    #[error("`#` parameters are not supported")]
+    Parameter,
+    #[error("`[expr]` expressions are not supported")]
+    Expression,
+    #[error("O-word subroutines and control flow are not supported (`{0}`)")]
+    Subroutine(String),
+    #[error("unexpected character `{0}`")]
+    UnexpectedCharacter(String),
+    #[error("subroutine call `{0}` is not supported")]
+    SubroutineCall(String),
+    #[error("cutter radius compensation {0} is active during a move")]
+    CutterCompensation(String),
+    #[error("`{0}` changes the geometry and is not understood")]
+    UnsupportedGCode(String),
+    #[error("axis words without a motion mode (G0, G1, G2 or G3)")]
+    NoMotionMode,
+    #[error("arc without a centre: give I/J/K or R")]
+    ArcWithoutCentre,
+    #[error("arc radius R{0} cannot reach the end point")]
+    ArcUnreachable(f64),
+    #[error("the target is not finite")]
+    NonFinite,
+    #[error("cannot read the input: {0}")]
+    Io(String),
+}
+
+impl ErrorKind {
+    /// How to fix it, shown under the caret.
+    pub fn hint(&self) -> &'static str {
+        match self {
+            ErrorKind::UnclosedComment => {
+                "close the comment with `)` on the same line, or pass --lenient to pass the line through untouched"
+            }
+            ErrorKind::MissingNumber(_) => {
+                "write a number after the letter (e.g. `X0`), or pass --lenient to pass the line through untouched"
+            }
+            ErrorKind::MalformedNumber(_) | ErrorKind::NumberOutOfRange(_) => {
+                "write a plain decimal number (e.g. `X-12.5`), or pass --lenient to pass the line through untouched"
+            }
+            ErrorKind::Parameter | ErrorKind::Expression => {
+                "post-process the program with numeric values only, or pass --lenient to pass the line through untouched (its geometry is then ignored)"
+            }
+            ErrorKind::Subroutine(_) | ErrorKind::SubroutineCall(_) => {
+                "expand subroutines in the CAM post-processor, or pass --lenient to pass the line through untouched (its geometry is then ignored)"
+            }
+            ErrorKind::UnexpectedCharacter(_) => {
+                "remove the character or put it in a comment, or pass --lenient to pass the line through untouched"
+            }
+            ErrorKind::CutterCompensation(_) => {
+                "post-process with cutter compensation in the CAM system (G40), or pass --lenient to interpret the moves as programmed"
+            }
+            ErrorKind::UnsupportedGCode(_) => {
+                "remove the code or expand it in the post-processor, or pass --lenient to pass it through (its effect on geometry is then ignored)"
+            }
+            ErrorKind::NoMotionMode => {
+                "program G0 or G1 before the first move, or pass --lenient to treat the move as G1"
+            }
+            ErrorKind::ArcWithoutCentre | ErrorKind::ArcUnreachable(_) => {
+                "check the arc words, or pass --lenient to treat the arc as a straight move"
+            }
+            ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::Io(_) => "check that the file exists and is readable",
+        }
+    }
+}
+
+/// An error located in the program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GcodeError {
+    pub kind: ErrorKind,
+    /// File, when known (set by [`GcodeError::with_path`]).
+    pub path: Option<PathBuf>,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based byte column.
+    pub column: usize,
+    /// Number of bytes the caret underlines (at least 1).
+    pub width: usize,
+    /// The line's text (lossily decoded).
+    pub source_line: String,
+}
+
+impl std::error::Error for GcodeError {}
+
+impl GcodeError {
+    /// An error at byte `start..end` (0-based) of line `line` whose bytes are `raw`.
+    pub fn at(kind: ErrorKind, line: usize, raw: &[u8], start: usize, end: usize) -> Self {
+        let start = start.min(raw.len());
+        let end = end.clamp(start, raw.len());
+        GcodeError {
+            kind,
+            path: None,
+            line,
+            column: start + 1,
+            width: (end - start).max(1),
+            source_line: String::from_utf8_lossy(raw).into_owned(),
+        }
+    }
+
+    /// Name the file in the rendering.
+    pub fn with_path(mut self, path: impl Into<PathBuf>) -> Self {
+        self.path = Some(path.into());
+        self
+    }
+}
+
+impl fmt::Display for GcodeError {
+    /// Renders like rustc:
+    ///
+    /// ```text
+    /// unclosed comment: `(` is never closed on this line
+    ///   --> part.nc:12:8
+    ///    |
+    /// 12 | N10 G1 (oops X1
+    ///    |        ^
+    ///    = hint: close the comment ...
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let file = self
+            .path
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "<input>".to_string());
+        let num = self.line.to_string();
+        let pad = " ".repeat(num.len());
+        writeln!(f, "{}", self.kind)?;
+        writeln!(f, "{pad}--> {file}:{}:{}", self.line, self.column)?;
+        writeln!(f, "{pad} |")?;
+        // Show the line up to a sane length, with control characters made visible.
+        let shown: String = self
+            .source_line
+            .chars()
+            .take(200)
+            .map(|c| {
+                if c.is_control() && c != '\t' {
+                    '�'
+                } else {
+                    c
+                }
+            })
+            .collect();
+        writeln!(f, "{num} | {shown}")?;
+        // The caret goes under the byte column; tabs in the prefix stay tabs.
+        let prefix: String = self
+            .source_line
+            .bytes()
+            .take(self.column.saturating_sub(1))
+            .map(|b| if b == b'\t' { '\t' } else { ' ' })
+            .collect();
+        // Count characters, not bytes, for the prefix when the line is UTF-8.
+        let prefix = match self.source_line.get(..self.column.saturating_sub(1)) {
+            Some(p) => p
+                .chars()
+                .map(|c| if c == '\t' { '\t' } else { ' ' })
+                .collect(),
+            None => prefix,
+        };
+        let carets = "^".repeat(self.width.min(80));
+        writeln!(f, "{pad} | {prefix}{carets}")?;
+        write!(f, "{pad} = hint: {}", self.kind.hint())
+    }
+}

@@ -1,0 +1,388 @@
+//! The line parser: bytes of one line → [`Block`] words, keywords and comments
+//! (grammar/gcode.ebnf is the exact grammar).
+//!
+//! Works on `&[u8]` so that any byte sequence is safe (non-UTF-8 bytes are
+//! allowed inside comments and are an error elsewhere). nom combinators read the
+//! trivia (white space, comments, keywords); numbers are scanned by hand because
+//! spaces may appear inside them (`X 1 0.5` is `X10.5`, as in LinuxCNC) and
+//! because they are the hot path: a number with at most 15 significant digits is
+//! converted as `mantissa / 10^decimals` (one correctly rounded division of two
+//! exact doubles, hence bit-identical to `str::parse::<f64>`), anything longer
+//! goes through `str::parse::<f64>` on the digits with the spaces removed.
+use nom::IResult;
+use nom::bytes::complete::{tag, tag_no_case, take_till, take_while};
+use nom::combinator::recognize;
+use nom::sequence::tuple;
+
+use super::block::{Block, Keyword, KeywordWord, Word};
+use super::error::{ErrorKind, GcodeError};
+
+fn is_space(b: u8) -> bool {
+    b == b' ' || b == b'\t' || b == b'\r'
+}
+
+fn ws(i: &[u8]) -> IResult<&[u8], &[u8]> {
+    take_while(is_space)(i)
+}
+
+fn paren_comment(i: &[u8]) -> IResult<&[u8], &[u8]> {
+    recognize(tuple((tag("("), take_till(|b| b == b')'), tag(")"))))(i)
+}
+
+fn keyword(i: &[u8]) -> IResult<&[u8], Keyword> {
+    if let Ok((rest, _)) = tag_no_case::<_, _, nom::error::Error<&[u8]>>("TRAFOOF")(i) {
+        return Ok((rest, Keyword::TraFoof));
+    }
+    let (rest, _) = tag_no_case("TRAORI")(i)?;
+    Ok((rest, Keyword::TraOri))
+}
+
+/// O-word control keywords of LinuxCNC (`O100 sub`, `o<x> call`, …).
+const O_KEYWORDS: [&str; 15] = [
+    "sub",
+    "endsub",
+    "call",
+    "do",
+    "while",
+    "endwhile",
+    "if",
+    "elseif",
+    "else",
+    "endif",
+    "repeat",
+    "endrepeat",
+    "return",
+    "break",
+    "continue",
+];
+
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// A scanned number: value, decimals, point, and the end of its last digit or point.
+struct Number {
+    value: f64,
+    decimals: u8,
+    point: bool,
+    end: usize,
+}
+
+enum NumberError {
+    Missing,
+    Malformed(usize),
+    OutOfRange,
+}
+
+/// Scan `[sign] digits [. digits]` with spaces allowed anywhere, from `p`.
+fn scan_number(line: &[u8], mut p: usize) -> Result<Number, NumberError> {
+    let len = line.len();
+    while p < len && is_space(line[p]) {
+        p += 1;
+    }
+    let mut negative = false;
+    if p < len && (line[p] == b'+' || line[p] == b'-') {
+        negative = line[p] == b'-';
+        p += 1;
+    }
+    let digits_from = p;
+    let mut mantissa: u64 = 0;
+    let mut exact = true;
+    let mut ndigits = 0usize;
+    let mut decimals = 0usize;
+    let mut point = false;
+    let mut end = p;
+    while p < len {
+        let b = line[p];
+        if b.is_ascii_digit() {
+            ndigits += 1;
+            if point {
+                decimals += 1;
+            }
+            match mantissa
+                .checked_mul(10)
+                .and_then(|m| m.checked_add((b - b'0') as u64))
+            {
+                Some(m) => mantissa = m,
+                None => exact = false,
+            }
+            end = p + 1;
+        } else if b == b'.' {
+            if point {
+                return Err(NumberError::Malformed(p));
+            }
+            point = true;
+            end = p + 1;
+        } else if !is_space(b) {
+            break;
+        }
+        p += 1;
+    }
+    if ndigits == 0 {
+        return Err(if point {
+            NumberError::Malformed(end.saturating_sub(1))
+        } else {
+            NumberError::Missing
+        });
+    }
+    let value = if exact && mantissa < (1u64 << 53) && decimals < POW10.len() {
+        mantissa as f64 / POW10[decimals]
+    } else {
+        let text: String = line[digits_from..end]
+            .iter()
+            .filter(|b| !is_space(**b))
+            .map(|&b| b as char)
+            .collect();
+        let text = if text.starts_with('.') {
+            format!("0{text}")
+        } else {
+            text
+        };
+        text.parse::<f64>()
+            .map_err(|_| NumberError::Malformed(digits_from))?
+    };
+    if !value.is_finite() {
+        return Err(NumberError::OutOfRange);
+    }
+    Ok(Number {
+        value: if negative { -value } else { value },
+        decimals: decimals.min(u8::MAX as usize) as u8,
+        point,
+        end,
+    })
+}
+
+/// Parse `block.raw` into `block`'s words, keywords and comments (they must be
+/// empty). On error the block is left partly filled; the caller decides.
+pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
+    let Block {
+        raw,
+        line: line_no,
+        words,
+        keywords,
+        comments,
+        percent,
+        deleted,
+        ..
+    } = block;
+    let line: &[u8] = raw;
+    let line_no = *line_no;
+    let len = line.len();
+    let err = |kind: ErrorKind, start: usize, end: usize| -> GcodeError {
+        GcodeError::at(kind, line_no, line, start, end)
+    };
+    let pos_of = |rest: &[u8]| len - rest.len();
+
+    let mut pos = ws(line).map(|(r, _)| pos_of(r)).unwrap_or(0);
+    if pos < len && line[pos] == b'%' {
+        *percent = true;
+        return Ok(());
+    }
+    if pos < len && line[pos] == b'/' {
+        *deleted = true;
+        pos += 1;
+    }
+    loop {
+        while pos < len && is_space(line[pos]) {
+            pos += 1;
+        }
+        if pos >= len {
+            break;
+        }
+        let c = line[pos];
+        match c {
+            b'(' => match paren_comment(&line[pos..]) {
+                Ok((rest, _)) => {
+                    let end = pos_of(rest);
+                    comments.push(pos..end);
+                    pos = end;
+                }
+                Err(_) => return Err(err(ErrorKind::UnclosedComment, pos, pos + 1)),
+            },
+            b';' => {
+                comments.push(pos..len);
+                break;
+            }
+            b'#' => return Err(err(ErrorKind::Parameter, pos, pos + 1)),
+            b'[' => return Err(err(ErrorKind::Expression, pos, pos + 1)),
+            _ if c.is_ascii_alphabetic() => {
+                let letter = c.to_ascii_uppercase();
+                if pos + 1 < len && line[pos + 1].is_ascii_alphabetic() {
+                    if let Ok((rest, kw)) = keyword(&line[pos..]) {
+                        let end = pos_of(rest);
+                        if rest.first().is_none_or(|b| !b.is_ascii_alphanumeric()) {
+                            keywords.push(KeywordWord {
+                                keyword: kw,
+                                start: pos,
+                                end,
+                            });
+                            pos = end;
+                            continue;
+                        }
+                    }
+                    return Err(err(ErrorKind::MissingNumber(letter as char), pos, pos + 1));
+                }
+                // Special starts of the value.
+                let mut q = pos + 1;
+                while q < len && is_space(line[q]) {
+                    q += 1;
+                }
+                if q < len {
+                    match line[q] {
+                        b'#' => return Err(err(ErrorKind::Parameter, q, q + 1)),
+                        b'[' => return Err(err(ErrorKind::Expression, q, q + 1)),
+                        b'<' if letter == b'O' => {
+                            let end = line[q..]
+                                .iter()
+                                .position(|&b| b == b'>')
+                                .map(|i| q + i + 1)
+                                .unwrap_or(len);
+                            let name = String::from_utf8_lossy(&line[pos..end]).into_owned();
+                            return Err(err(ErrorKind::Subroutine(name), pos, end));
+                        }
+                        _ => {}
+                    }
+                }
+                let number = match scan_number(line, pos + 1) {
+                    Ok(n) => n,
+                    Err(NumberError::Missing) => {
+                        return Err(err(ErrorKind::MissingNumber(letter as char), pos, pos + 1));
+                    }
+                    Err(NumberError::Malformed(at)) => {
+                        return Err(err(ErrorKind::MalformedNumber(letter as char), at, at + 1));
+                    }
+                    Err(NumberError::OutOfRange) => {
+                        return Err(err(
+                            ErrorKind::NumberOutOfRange(letter as char),
+                            pos,
+                            pos + 1,
+                        ));
+                    }
+                };
+                words.push(Word {
+                    letter,
+                    value: number.value,
+                    start: pos,
+                    end: number.end,
+                    decimals: number.decimals,
+                    point: number.point,
+                });
+                pos = number.end;
+                if letter == b'O' {
+                    let mut q = pos;
+                    while q < len && is_space(line[q]) {
+                        q += 1;
+                    }
+                    let word_end = q + line[q..]
+                        .iter()
+                        .take_while(|b| b.is_ascii_alphabetic())
+                        .count();
+                    if word_end > q + 1 {
+                        let text = &line[q..word_end];
+                        if O_KEYWORDS
+                            .iter()
+                            .any(|k| k.as_bytes().eq_ignore_ascii_case(text))
+                        {
+                            let name = String::from_utf8_lossy(&line[pos..word_end])
+                                .trim()
+                                .to_string();
+                            let start = words.last().map(|w| w.start).unwrap_or(pos);
+                            return Err(err(ErrorKind::Subroutine(name), start, word_end));
+                        }
+                    }
+                }
+            }
+            _ => {
+                // Show the whole (possibly multi-byte) character.
+                let end = (pos + 1..=len)
+                    .find(|&e| std::str::from_utf8(&line[pos..e]).is_ok())
+                    .filter(|&e| e - pos <= 4)
+                    .unwrap_or(pos + 1);
+                let shown = String::from_utf8_lossy(&line[pos..end]).into_owned();
+                return Err(err(ErrorKind::UnexpectedCharacter(shown), pos, end));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Parse one line of text (no line ending) into a fresh block; line number 1.
+pub fn parse_block(text: &str) -> Result<Block, GcodeError> {
+    let mut block = Block::default();
+    block.reset(1, 0);
+    block.raw.extend_from_slice(text.as_bytes());
+    block.ending = super::block::LineEnding::None;
+    parse_line(&mut block)?;
+    Ok(block)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(text: &str) -> Vec<(char, f64, u8)> {
+        parse_block(text)
+            .unwrap()
+            .words
+            .iter()
+            .map(|w| (w.letter as char, w.value, w.decimals))
+            .collect()
+    }
+
+    #[test]
+    fn numbers_in_every_spelling() {
+        assert_eq!(
+            words("x.5 X5. X+1 x-0.5 F30070.6535"),
+            vec![
+                ('X', 0.5, 1),
+                ('X', 5.0, 0),
+                ('X', 1.0, 0),
+                ('X', -0.5, 1),
+                ('F', 30070.6535, 4)
+            ]
+        );
+        assert_eq!(
+            words("X  16.339 F 159"),
+            vec![('X', 16.339, 3), ('F', 159.0, 0)]
+        );
+        assert_eq!(words("X 1 0.5"), vec![('X', 10.5, 1)]);
+        assert_eq!(words("g43.4H1"), vec![('G', 43.4, 1), ('H', 1.0, 0)]);
+    }
+
+    #[test]
+    fn fast_path_matches_str_parse() {
+        for text in [
+            "0.1",
+            "123456789.012345",
+            "30070.6535",
+            "1.000000000000000000001",
+        ] {
+            let b = parse_block(&format!("X{text}")).unwrap();
+            assert_eq!(b.words[0].value, text.parse::<f64>().unwrap(), "{text}");
+        }
+    }
+
+    #[test]
+    fn keywords_comments_and_errors() {
+        let b = parse_block("N5 TRAORI (tcp on) ; rest").unwrap();
+        assert_eq!(b.keywords[0].keyword, Keyword::TraOri);
+        assert_eq!(b.comments.len(), 2);
+        assert!(matches!(
+            parse_block("G1 (open").unwrap_err().kind,
+            ErrorKind::UnclosedComment
+        ));
+        assert!(matches!(
+            parse_block("G1 X Y1").unwrap_err().kind,
+            ErrorKind::MissingNumber('X')
+        ));
+        assert!(matches!(
+            parse_block("O100 sub").unwrap_err().kind,
+            ErrorKind::Subroutine(_)
+        ));
+        assert!(matches!(
+            parse_block("G1 X#1").unwrap_err().kind,
+            ErrorKind::Parameter
+        ));
+    }
+}

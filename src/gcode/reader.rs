@@ -1,0 +1,139 @@
+//! Streaming: one block per line from any `BufRead`, with memory that does not
+//! grow with the program (the line buffer and the block's word vectors are
+//! reused).
+//!
+//! ```
+//! use volcomp::gcode::{BlockReader, ReadOptions};
+//! let text = "%\nN10 G0 X1 Y2\r\nN20 G1 Z-1 F100";
+//! let mut reader = BlockReader::new(text.as_bytes(), ReadOptions::default());
+//! let mut n = 0;
+//! while let Some(block) = reader.next_block() {
+//!     let block = block.unwrap();
+//!     n += block.words.len();
+//! }
+//! assert_eq!(n, 7);
+//! ```
+use std::io::BufRead;
+
+use super::block::{Block, LineEnding};
+use super::error::{ErrorKind, GcodeError};
+use super::parser::parse_line;
+
+/// How to read.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReadOptions {
+    /// A line that cannot be parsed is returned as a block with no words and
+    /// `unparsed` set (kept verbatim) instead of an error.
+    pub lenient: bool,
+}
+
+/// Reads blocks one by one. [`BlockReader::next_block`] lends the reused block;
+/// the `Iterator` implementation clones it (convenient, allocates per block).
+pub struct BlockReader<R> {
+    input: R,
+    options: ReadOptions,
+    block: Block,
+    line: usize,
+    offset: u64,
+    done: bool,
+}
+
+impl<R: BufRead> BlockReader<R> {
+    pub fn new(input: R, options: ReadOptions) -> Self {
+        BlockReader {
+            input,
+            options,
+            block: Block::default(),
+            line: 0,
+            offset: 0,
+            done: false,
+        }
+    }
+
+    /// The next line as a block, `None` at the end of the input. After an error
+    /// of one line the reader goes on with the next; after an I/O error it stops.
+    pub fn next_block(&mut self) -> Option<Result<&Block, GcodeError>> {
+        if self.done {
+            return None;
+        }
+        self.line += 1;
+        self.block.reset(self.line, self.offset);
+        let n = match self.input.read_until(b'\n', &mut self.block.raw) {
+            Ok(n) => n,
+            Err(e) => {
+                self.done = true;
+                return Some(Err(GcodeError::at(
+                    ErrorKind::Io(e.to_string()),
+                    self.line,
+                    b"",
+                    0,
+                    0,
+                )));
+            }
+        };
+        if n == 0 {
+            self.done = true;
+            return None;
+        }
+        self.offset += n as u64;
+        let raw = &mut self.block.raw;
+        self.block.ending = if raw.last() == Some(&b'\n') {
+            raw.pop();
+            if raw.last() == Some(&b'\r') {
+                raw.pop();
+                LineEnding::CrLf
+            } else {
+                LineEnding::Lf
+            }
+        } else {
+            LineEnding::None
+        };
+        match parse_line(&mut self.block) {
+            Ok(()) => Some(Ok(&self.block)),
+            Err(e) => {
+                if self.options.lenient {
+                    self.block.words.clear();
+                    self.block.keywords.clear();
+                    self.block.comments.clear();
+                    self.block.unparsed = Some(Box::new(e));
+                    Some(Ok(&self.block))
+                } else {
+                    Some(Err(e))
+                }
+            }
+        }
+    }
+
+    /// Lines read so far.
+    pub fn lines_read(&self) -> usize {
+        self.line
+    }
+}
+
+impl<R: BufRead> Iterator for BlockReader<R> {
+    type Item = Result<Block, GcodeError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_block().map(|r| r.cloned())
+    }
+}
+
+/// Parse a whole program held in memory (strict: the first bad line is an error).
+pub fn parse_program(text: &str) -> Result<Vec<Block>, GcodeError> {
+    parse_program_bytes(text.as_bytes(), ReadOptions::default())
+}
+
+/// Parse a whole program from bytes with the given options.
+pub fn parse_program_bytes(bytes: &[u8], options: ReadOptions) -> Result<Vec<Block>, GcodeError> {
+    BlockReader::new(bytes, options).collect()
+}
+
+/// Write blocks back exactly as read.
+pub fn print_program(blocks: &[Block]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for b in blocks {
+        out.extend_from_slice(&b.raw);
+        out.extend_from_slice(b.ending.as_bytes());
+    }
+    out
+}

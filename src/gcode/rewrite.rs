@@ -1,0 +1,843 @@
+//! The rewriter: blocks + their events + new targets → program text.
+//!
+//! # Use (the compensator's loop)
+//!
+//! ```
+//! use volcomp::gcode::{BlockReader, Interpreter, InterpretOptions, ReadOptions,
+//!                      RewriteOptions, Rewriter, Target};
+//! let program = "G21 G90 G94\nG0 X0 Y0 Z5 A0 C0\nN10 G1 X10.000 F500 (cut)\n";
+//! let options = InterpretOptions::default();
+//! let mut reader = BlockReader::new(program.as_bytes(), ReadOptions::default());
+//! let mut interpreter = Interpreter::new(options);
+//! let mut rewriter = Rewriter::new(RewriteOptions::default(), options.initial_position);
+//! let mut out = Vec::new();
+//! while let Some(block) = reader.next_block() {
+//!     let block = block.unwrap();
+//!     let event = interpreter.interpret(block).unwrap();
+//!     let target = match &event.motion {
+//!         // compute the compensated absolute end (same frame as `motion.end`)
+//!         Some(m) if block.line == 3 => Target::Move(volcomp::axes::Axes { x: m.end.x + 0.0123, ..m.end }),
+//!         _ => Target::Same,
+//!     };
+//!     rewriter.emit(block, &event, target, &mut out).unwrap();
+//! }
+//! assert_eq!(String::from_utf8(out).unwrap(),
+//!            "G21 G90 G94\nG0 X0 Y0 Z5 A0 C0\nN10 G1 X10.0123 F500 (cut)\n");
+//! ```
+//!
+//! Feed every block to [`Rewriter::emit`] in order with its [`BlockEvent`] and a
+//! [`Target`]: [`Target::Same`] (keep the programmed target), [`Target::Move`]
+//! (a new absolute end) or [`Target::Split`] (intermediate absolute targets,
+//! then the end). Targets are absolute, in mm and degrees, in the block's own
+//! frame (the frame of `event.motion`), exactly like the interpreter's output.
+//!
+//! # Contract
+//! - A block is written byte for byte (raw text + its own line ending) when
+//!   nothing it must say changes: its target is the same, the program emitted so
+//!   far stands where the original stood (this matters under G91 and for arcs
+//!   whose centre is given relative to the start) and the emitted motion mode is
+//!   the original's.
+//! - Otherwise only the words that must change are rewritten; the N number,
+//!   comments, word order, letter case and every other word stay. A rewritten
+//!   axis word keeps its decimal count, at least [`RewriteOptions::min_decimals_mm`]
+//!   (mm and degrees) or [`RewriteOptions::min_decimals_inch`] (G20). A word that
+//!   would print the same number is kept as written. An axis that must move but has
+//!   no word gets one after the block's last axis word (X Y Z A C order among the
+//!   added ones).
+//! - G91: every emitted value is the difference to the previously *emitted*
+//!   target (the printed, rounded one, so rounding never accumulates). G20:
+//!   values are converted back to inches. G53: machine coordinates, absolute.
+//! - Arcs: when an arc's start (the previous emitted target) or end moves, its
+//!   centre is moved to the nearest point that is equidistant from the new start
+//!   and end (so the radius stays consistent) and its I/J/K (or R, same sign)
+//!   words are rewritten. A split arc becomes straight pieces and its last part
+//!   a `G1` (the I J K R P words are removed); pass points along the arc
+//!   (`Motion::interpolate`) as `via`.
+//! - Split: each intermediate target becomes a new line `G1 X… Y… Z… A… C…`
+//!   (`G0` for a rapid; only the axes that move, `G53` repeated when the block
+//!   has it), without an N number, with the block's line ending (`\n` when the
+//!   block is the unterminated last line), written *before* the rewritten block,
+//!   which then moves from the last intermediate target to the end. The first
+//!   piece repeats the block's modal words (units, distance, feed mode, plane,
+//!   work offset, tool length / tool-tip words with their H, M428/M429,
+//!   TRAORI/TRAFOOF) so that the pieces run in the block's state, and under G94
+//!   the block's F word. Under G93 every piece and the rewritten block get
+//!   `F = F_block / fraction`, the fraction of the XYZ length (rotary length
+//!   when the XYZ length is zero) the piece covers, so the pieces take the
+//!   block's time.
+//! - When the emitted motion mode differs from the block's (after a split or a
+//!   straightened arc) and the block has no motion word, the block's mode word
+//!   (`G2`…) is inserted after its N word.
+use std::io::Write;
+
+use crate::axes::{Axes, Axis};
+
+use super::block::{Block, Word};
+use super::interpret::{BlockEvent, from_plane, to_plane};
+use super::modal::{Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m};
+use super::motion::{Feed, MotionKind};
+
+/// Rewriter settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RewriteOptions {
+    /// Least decimals of a rewritten mm (or degree) value.
+    pub min_decimals_mm: u8,
+    /// Least decimals of a rewritten inch value.
+    pub min_decimals_inch: u8,
+    /// Least decimals of a recomputed G93 F.
+    pub min_decimals_feed: u8,
+    /// Least significant digits of a recomputed G93 F (time is 1/F, so its
+    /// relative precision is F's).
+    pub min_significant_feed: u8,
+}
+
+impl Default for RewriteOptions {
+    fn default() -> Self {
+        RewriteOptions {
+            min_decimals_mm: 4,
+            min_decimals_inch: 5,
+            min_decimals_feed: 4,
+            min_significant_feed: 7,
+        }
+    }
+}
+
+/// What to emit for a block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target<'a> {
+    /// The block's programmed target.
+    Same,
+    /// A new absolute end target (block's frame, mm and degrees).
+    Move(Axes),
+    /// Intermediate absolute targets, then the end.
+    Split { via: &'a [Axes], end: Axes },
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RewriteError {
+    #[error("line {line}: only a motion block can be given a new target")]
+    NotAMotion { line: usize },
+    #[error("line {line}: the new target is not finite")]
+    NonFinite { line: usize },
+    #[error("cannot write the program: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// One replacement in the raw line: `raw[start..end]` → `text[from..to]`.
+#[derive(Clone, Copy, Debug)]
+struct Edit {
+    start: usize,
+    end: usize,
+    from: usize,
+    to: usize,
+}
+
+/// Emits blocks; keeps the position and motion mode of the program written so far.
+#[derive(Clone, Debug)]
+pub struct Rewriter {
+    options: RewriteOptions,
+    emitted: Axes,
+    emitted_motion: MotionMode,
+    /// Motion mode of the original program after the last block.
+    original_motion: MotionMode,
+    decimals: [u8; 5],
+    edits: Vec<Edit>,
+    text: String,
+    line: Vec<u8>,
+}
+
+impl Rewriter {
+    /// `initial_position` must be the interpreter's (`InterpretOptions::initial_position`).
+    pub fn new(options: RewriteOptions, initial_position: Axes) -> Self {
+        Rewriter {
+            options,
+            emitted: initial_position,
+            emitted_motion: MotionMode::None,
+            original_motion: MotionMode::None,
+            decimals: [0; 5],
+            edits: Vec::new(),
+            text: String::new(),
+            line: Vec::new(),
+        }
+    }
+
+    /// Where the emitted program stands now (absolute, mm/deg, last block's frame).
+    pub fn emitted_position(&self) -> Axes {
+        self.emitted
+    }
+
+    /// Emit one block (see the module docs for the contract).
+    pub fn emit(
+        &mut self,
+        block: &Block,
+        event: &BlockEvent,
+        target: Target<'_>,
+        out: &mut dyn Write,
+    ) -> Result<(), RewriteError> {
+        for w in &block.words {
+            if let Some(axis) = Axis::from_letter(w.letter as char) {
+                let i = axis as usize;
+                self.decimals[i] = self.decimals[i].max(w.decimals);
+            }
+        }
+        let Some(motion) = event.motion.as_ref().filter(|_| !event.skipped) else {
+            if target != Target::Same {
+                return Err(RewriteError::NotAMotion { line: block.line });
+            }
+            if has_motion_word(block) {
+                self.emitted_motion = event.modal.motion;
+            }
+            self.original_motion = event.modal.motion;
+            block.write_raw(out)?;
+            return Ok(());
+        };
+        let (via, end): (&[Axes], Axes) = match target {
+            Target::Same => (&[], motion.end),
+            Target::Move(e) => (&[], e),
+            Target::Split { via, end } => (via, end),
+        };
+        if !end.is_finite() || !via.iter().all(Axes::is_finite) {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        let ctx = Context::new(block, event);
+        self.edits.clear();
+        self.text.clear();
+
+        // Split pieces, written before the block.
+        let mut feed_scale = 1.0;
+        if !via.is_empty() {
+            let fractions = fractions(self.emitted, via, end);
+            for (k, v) in via.iter().enumerate() {
+                self.piece(block, &ctx, k == 0, *v, fractions[k], out)?;
+            }
+            feed_scale = 1.0 / fractions[via.len()];
+        }
+
+        let start_moved = !same_point(&self.emitted, &motion.start, &ctx);
+        let end_moved = !same_point(&end, &motion.end, &ctx);
+        let straighten = matches!(motion.kind, MotionKind::Arc { .. }) && !via.is_empty();
+        let mut new_emitted = self.emitted;
+
+        // Axis words.
+        let mut last_axis_end = None;
+        let mut appended: [Option<f64>; 5] = [None; 5];
+        for axis in Axis::ALL {
+            let i = axis as usize;
+            let unit = ctx.unit(axis);
+            let base = if ctx.incremental {
+                self.emitted.get(axis)
+            } else {
+                0.0
+            };
+            let needed = (end.get(axis) - base) / unit;
+            let word = block
+                .words
+                .iter()
+                .rev()
+                .find(|w| w.letter == axis.letter() as u8);
+            match word {
+                Some(w) => {
+                    last_axis_end = Some(last_axis_end.unwrap_or(0).max(w.end));
+                    let dec = ctx.decimals(axis, w.decimals, &self.options);
+                    if (needed - w.value).abs() <= half_ulp(dec) {
+                        new_emitted.set(axis, base + w.value * unit);
+                    } else {
+                        let printed = self.replace_number(block, w, needed, dec);
+                        new_emitted.set(axis, base + printed * unit);
+                    }
+                }
+                None => {
+                    let implied = if ctx.incremental {
+                        0.0
+                    } else {
+                        self.emitted.get(axis) / unit
+                    };
+                    let dec = ctx.decimals(axis, self.decimals[i], &self.options);
+                    if (needed - implied).abs() > half_ulp(dec) {
+                        let printed = round_to(needed, dec);
+                        appended[i] = Some(printed);
+                        new_emitted.set(axis, base + printed * unit);
+                    }
+                }
+            }
+        }
+        if appended.iter().any(Option::is_some) {
+            let at = last_axis_end
+                .or_else(|| block.words.last().map(|w| w.end))
+                .unwrap_or(block.raw.len());
+            let lower = ctx.lowercase;
+            let from = self.text.len();
+            for axis in Axis::ALL {
+                if let Some(v) = appended[axis as usize] {
+                    let letter = if lower {
+                        axis.letter().to_ascii_lowercase()
+                    } else {
+                        axis.letter()
+                    };
+                    let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
+                    self.text.push(' ');
+                    self.text.push(letter);
+                    push_number(&mut self.text, v, dec);
+                }
+            }
+            let to = self.text.len();
+            self.edits.push(Edit {
+                start: at,
+                end: at,
+                from,
+                to,
+            });
+        }
+
+        // Arc words.
+        if let MotionKind::Arc { centre, plane, .. } = motion.kind {
+            if straighten {
+                self.straighten(block, &ctx);
+            } else if start_moved || end_moved {
+                self.move_arc_centre(block, &ctx, new_emitted, centre, plane);
+            }
+        }
+
+        // G93 feed of the block's last part.
+        if feed_scale != 1.0 {
+            if let Feed::InverseTime(f) = motion.feed {
+                let new_f = f * feed_scale;
+                match block.words.iter().rev().find(|w| w.letter == b'F') {
+                    Some(w) => {
+                        let dec = feed_decimals(new_f, w.decimals, &self.options);
+                        self.replace_number(block, w, new_f, dec);
+                    }
+                    None => {
+                        let at = block.words.last().map(|w| w.end).unwrap_or(0);
+                        let from = self.text.len();
+                        self.text.push_str(if ctx.lowercase { " f" } else { " F" });
+                        let dec = feed_decimals(new_f, 0, &self.options);
+                        push_number(&mut self.text, new_f, dec);
+                        let to = self.text.len();
+                        self.edits.push(Edit {
+                            start: at,
+                            end: at,
+                            from,
+                            to,
+                        });
+                    }
+                }
+            }
+        }
+
+        // Motion mode of the emitted program.
+        let mode = if straighten {
+            MotionMode::Linear
+        } else {
+            event.modal.motion
+        };
+        if !has_motion_word(block) && self.emitted_motion != self.original_motion && !straighten {
+            let at = block
+                .words
+                .first()
+                .filter(|w| w.letter == b'N')
+                .map(|w| w.end)
+                .unwrap_or_else(|| block.words.first().map(|w| w.start).unwrap_or(0));
+            let from = self.text.len();
+            let word = event.modal.motion.word();
+            if at == 0 || block.words.first().is_some_and(|w| w.start == at) {
+                self.text.push_str(word);
+                self.text.push(' ');
+            } else {
+                self.text.push(' ');
+                self.text.push_str(word);
+            }
+            if ctx.lowercase {
+                self.text.make_ascii_lowercase();
+            }
+            let to = self.text.len();
+            self.edits.push(Edit {
+                start: at,
+                end: at,
+                from,
+                to,
+            });
+        }
+        self.emitted_motion = mode;
+        self.original_motion = event.modal.motion;
+        self.emitted = new_emitted;
+        self.write_edited(block, out)
+    }
+
+    /// Replace a word's number; returns the printed value.
+    fn replace_number(&mut self, block: &Block, w: &Word, value: f64, dec: u8) -> f64 {
+        let from = self.text.len();
+        let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
+        self.text.push(letter);
+        let printed = push_number(&mut self.text, value, dec);
+        let to = self.text.len();
+        self.edits.push(Edit {
+            start: w.start,
+            end: w.end,
+            from,
+            to,
+        });
+        printed
+    }
+
+    /// Remove a word and the white space before it.
+    fn remove_word(&mut self, block: &Block, w: &Word) {
+        let mut start = w.start;
+        while start > 0 && matches!(block.raw[start - 1], b' ' | b'\t') {
+            start -= 1;
+        }
+        let at = self.text.len();
+        self.edits.push(Edit {
+            start,
+            end: w.end,
+            from: at,
+            to: at,
+        });
+    }
+
+    /// A split arc's last part becomes a G1: G2/G3 → G1, I J K R P removed.
+    fn straighten(&mut self, block: &Block, ctx: &Context) {
+        let mut has_word = false;
+        for w in &block.words {
+            match w.letter {
+                b'G' if matches!(
+                    w.code10().map(classify_g),
+                    Some(GCode::Motion(MotionMode::ArcCw | MotionMode::ArcCcw))
+                ) =>
+                {
+                    has_word = true;
+                    let from = self.text.len();
+                    self.text.push_str(if ctx.lowercase { "g1" } else { "G1" });
+                    let to = self.text.len();
+                    self.edits.push(Edit {
+                        start: w.start,
+                        end: w.end,
+                        from,
+                        to,
+                    });
+                }
+                b'I' | b'J' | b'K' | b'R' | b'P' => self.remove_word(block, w),
+                _ => {}
+            }
+        }
+        if !has_word {
+            let at = block
+                .words
+                .first()
+                .filter(|w| w.letter == b'N')
+                .map(|w| w.end);
+            let from = self.text.len();
+            match at {
+                Some(_) => self.text.push_str(" G1"),
+                None => self.text.push_str("G1 "),
+            }
+            if ctx.lowercase {
+                self.text.make_ascii_lowercase();
+            }
+            let to = self.text.len();
+            let at = at.unwrap_or_else(|| block.words.first().map(|w| w.start).unwrap_or(0));
+            self.edits.push(Edit {
+                start: at,
+                end: at,
+                from,
+                to,
+            });
+        }
+    }
+
+    /// Keep an arc valid after its start or end moved: centre → the nearest
+    /// point equidistant from both; rewrite I/J/K or R.
+    fn move_arc_centre(
+        &mut self,
+        block: &Block,
+        ctx: &Context,
+        new_end: Axes,
+        centre: [f64; 3],
+        plane: super::motion::Plane,
+    ) {
+        let s = to_plane(plane, self.emitted.xyz());
+        let e = to_plane(plane, new_end.xyz());
+        let c = to_plane(plane, centre);
+        let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
+        let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
+        let d = dx.hypot(dy);
+        let new_c = if d > 1e-12 {
+            let (nx, ny) = (-dy / d, dx / d);
+            let t = (c[0] - mx) * nx + (c[1] - my) * ny;
+            [mx + t * nx, my + t * ny, c[2]]
+        } else {
+            c
+        };
+        let unit = ctx.scale;
+        if let Some(w) = block.words.iter().rev().find(|w| w.letter == b'R') {
+            let r = (s[0] - new_c[0]).hypot(s[1] - new_c[1]) * w.value.signum() / unit;
+            let dec = w.decimals.max(ctx.min_linear(&self.options));
+            if (r - w.value).abs() > half_ulp(dec) {
+                self.replace_number(block, w, r, dec);
+            }
+            return;
+        }
+        let abs_c = from_plane(plane, new_c);
+        let start = self.emitted.xyz();
+        let letters: [(u8, usize); 2] = match plane {
+            super::motion::Plane::XY => [(b'I', 0), (b'J', 1)],
+            super::motion::Plane::ZX => [(b'I', 0), (b'K', 2)],
+            super::motion::Plane::YZ => [(b'J', 1), (b'K', 2)],
+        };
+        let mut missing = String::new();
+        for (letter, n) in letters {
+            let value = if ctx.arc_absolute {
+                abs_c[n] / unit
+            } else {
+                (abs_c[n] - start[n]) / unit
+            };
+            match block.words.iter().rev().find(|w| w.letter == letter) {
+                Some(w) => {
+                    let dec = w.decimals.max(ctx.min_linear(&self.options));
+                    if (value - w.value).abs() > half_ulp(dec) {
+                        self.replace_number(block, w, value, dec);
+                    }
+                }
+                None => {
+                    let dec = ctx.min_linear(&self.options);
+                    if value.abs() > half_ulp(dec) {
+                        missing.push(' ');
+                        missing.push(if ctx.lowercase {
+                            letter.to_ascii_lowercase() as char
+                        } else {
+                            letter as char
+                        });
+                        push_number(&mut missing, value, dec);
+                    }
+                }
+            }
+        }
+        if !missing.is_empty() {
+            let at = block
+                .words
+                .iter()
+                .filter(|w| {
+                    matches!(
+                        w.letter,
+                        b'X' | b'Y' | b'Z' | b'A' | b'C' | b'I' | b'J' | b'K'
+                    )
+                })
+                .map(|w| w.end)
+                .max()
+                .or_else(|| block.words.last().map(|w| w.end))
+                .unwrap_or(0);
+            let from = self.text.len();
+            self.text.push_str(&missing);
+            let to = self.text.len();
+            self.edits.push(Edit {
+                start: at,
+                end: at,
+                from,
+                to,
+            });
+        }
+    }
+
+    /// Write one split piece.
+    fn piece(
+        &mut self,
+        block: &Block,
+        ctx: &Context,
+        first: bool,
+        target: Axes,
+        fraction: f64,
+        out: &mut dyn Write,
+    ) -> Result<(), RewriteError> {
+        let mut line = String::new();
+        if first {
+            for span in modal_word_spans(block) {
+                line.push_str(&String::from_utf8_lossy(&block.raw[span.0..span.1]));
+                line.push(' ');
+            }
+        }
+        let mode = if ctx.rapid {
+            MotionMode::Rapid
+        } else {
+            MotionMode::Linear
+        };
+        line.push_str(mode.word());
+        if ctx.g53 {
+            line.push_str(" G53");
+        }
+        let mut moved = false;
+        let mut new_emitted = self.emitted;
+        for axis in Axis::ALL {
+            let unit = ctx.unit(axis);
+            let base = if ctx.incremental {
+                self.emitted.get(axis)
+            } else {
+                0.0
+            };
+            let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
+            let needed = (target.get(axis) - base) / unit;
+            let implied = if ctx.incremental {
+                0.0
+            } else {
+                self.emitted.get(axis) / unit
+            };
+            if (needed - implied).abs() > half_ulp(dec) {
+                line.push(' ');
+                line.push(axis.letter());
+                let printed = push_number(&mut line, needed, dec);
+                new_emitted.set(axis, base + printed * unit);
+                moved = true;
+            }
+        }
+        if !moved {
+            return Ok(());
+        }
+        if ctx.inverse_time {
+            if let Some(f) = ctx.feed {
+                line.push_str(" F");
+                let f = f / fraction.max(1e-12);
+                push_number(
+                    &mut line,
+                    f,
+                    feed_decimals(f, ctx.feed_decimals, &self.options),
+                );
+            }
+        } else if first {
+            if let Some(w) = block.words.iter().rev().find(|w| w.letter == b'F') {
+                line.push(' ');
+                line.push_str(&String::from_utf8_lossy(&block.raw[w.start..w.end]));
+            }
+        }
+        if ctx.lowercase {
+            line.make_ascii_lowercase();
+        }
+        out.write_all(line.as_bytes())?;
+        out.write_all(match block.ending {
+            super::block::LineEnding::CrLf => b"\r\n",
+            _ => b"\n",
+        })?;
+        self.emitted = new_emitted;
+        self.emitted_motion = mode;
+        Ok(())
+    }
+
+    fn write_edited(&mut self, block: &Block, out: &mut dyn Write) -> Result<(), RewriteError> {
+        if self.edits.is_empty() {
+            block.write_raw(out)?;
+            return Ok(());
+        }
+        self.edits.sort_by_key(|e| (e.start, e.end));
+        self.line.clear();
+        let mut pos = 0;
+        for e in &self.edits {
+            if e.start < pos {
+                continue;
+            }
+            self.line.extend_from_slice(&block.raw[pos..e.start]);
+            self.line
+                .extend_from_slice(&self.text.as_bytes()[e.from..e.to]);
+            pos = e.end;
+        }
+        self.line.extend_from_slice(&block.raw[pos..]);
+        self.line.extend_from_slice(block.ending.as_bytes());
+        out.write_all(&self.line)?;
+        Ok(())
+    }
+}
+
+/// What the rewriter needs to know about a motion block.
+struct Context {
+    scale: f64,
+    inch: bool,
+    incremental: bool,
+    arc_absolute: bool,
+    g53: bool,
+    rapid: bool,
+    inverse_time: bool,
+    /// The block's F under G93 (1/min).
+    feed: Option<f64>,
+    feed_decimals: u8,
+    lowercase: bool,
+}
+
+impl Context {
+    fn new(block: &Block, event: &BlockEvent) -> Self {
+        let motion = event.motion.as_ref();
+        let g53 = motion.is_some_and(|m| m.machine_coordinates);
+        let (rapid, inverse_time, feed) = match motion.map(|m| m.feed) {
+            Some(Feed::Rapid) => (true, false, None),
+            Some(Feed::InverseTime(f)) => (false, true, Some(f)),
+            _ => (false, false, None),
+        };
+        let lowercase = block
+            .words
+            .iter()
+            .find(|w| w.letter != b'N')
+            .and_then(|w| block.raw.get(w.start))
+            .is_some_and(|b| b.is_ascii_lowercase());
+        Context {
+            scale: event.modal.units.scale(),
+            inch: event.modal.units == Units::Inch,
+            incremental: event.modal.distance == Distance::Incremental && !g53,
+            arc_absolute: event.modal.arc_distance == Distance::Absolute,
+            g53,
+            rapid,
+            inverse_time,
+            feed,
+            feed_decimals: block
+                .words
+                .iter()
+                .rev()
+                .find(|w| w.letter == b'F')
+                .map(|w| w.decimals)
+                .unwrap_or(0),
+            lowercase,
+        }
+    }
+
+    fn unit(&self, axis: Axis) -> f64 {
+        if axis.is_rotary() { 1.0 } else { self.scale }
+    }
+
+    fn min_linear(&self, o: &RewriteOptions) -> u8 {
+        if self.inch {
+            o.min_decimals_inch
+        } else {
+            o.min_decimals_mm
+        }
+    }
+
+    fn decimals(&self, axis: Axis, written: u8, o: &RewriteOptions) -> u8 {
+        let min = if axis.is_rotary() {
+            o.min_decimals_mm
+        } else {
+            self.min_linear(o)
+        };
+        written.max(min).min(12)
+    }
+}
+
+/// Whether two points print the same at the rewriter's resolution (mm/deg).
+fn same_point(a: &Axes, b: &Axes, ctx: &Context) -> bool {
+    let tol = if ctx.inch { 0.5e-5 * 25.4 } else { 0.5e-4 };
+    Axis::ALL
+        .iter()
+        .all(|&ax| (a.get(ax) - b.get(ax)).abs() <= tol)
+}
+
+/// Fraction of the total length each segment of start → via… → end covers
+/// (XYZ length, rotary length when the XYZ length is zero, equal parts when both are).
+fn fractions(start: Axes, via: &[Axes], end: Axes) -> Vec<f64> {
+    let mut points = Vec::with_capacity(via.len() + 2);
+    points.push(start);
+    points.extend_from_slice(via);
+    points.push(end);
+    let xyz: Vec<f64> = points
+        .windows(2)
+        .map(|p| p[0].xyz_distance(&p[1]))
+        .collect();
+    let rot: Vec<f64> = points
+        .windows(2)
+        .map(|p| (p[1].a - p[0].a).hypot(p[1].c - p[0].c))
+        .collect();
+    let total_xyz: f64 = xyz.iter().sum();
+    let total_rot: f64 = rot.iter().sum();
+    let n = xyz.len() as f64;
+    if total_xyz > 1e-9 {
+        xyz.iter().map(|l| l / total_xyz).collect()
+    } else if total_rot > 1e-9 {
+        rot.iter().map(|l| l / total_rot).collect()
+    } else {
+        vec![1.0 / n; xyz.len()]
+    }
+}
+
+fn has_motion_word(block: &Block) -> bool {
+    block.words.iter().any(|w| {
+        w.letter == b'G'
+            && matches!(
+                w.code10().map(classify_g),
+                Some(GCode::Motion(_) | GCode::CancelMotion)
+            )
+    })
+}
+
+/// Byte spans of the block's modal words a split piece must repeat.
+fn modal_word_spans(block: &Block) -> Vec<(usize, usize)> {
+    let mut spans = Vec::new();
+    let mut tool_length = false;
+    for w in &block.words {
+        match w.letter {
+            b'G' => match w.code10().map(classify_g) {
+                Some(
+                    GCode::Plane(_)
+                    | GCode::Units(_)
+                    | GCode::Distance(_)
+                    | GCode::ArcDistance(_)
+                    | GCode::FeedMode(_)
+                    | GCode::WorkOffset
+                    | GCode::ToolLengthOff,
+                ) => spans.push((w.start, w.end)),
+                Some(GCode::ToolLength | GCode::ToolTip) => {
+                    tool_length = true;
+                    spans.push((w.start, w.end));
+                }
+                _ => {}
+            },
+            b'M' => {
+                if matches!(
+                    w.code10().map(classify_m),
+                    Some(MCode::ToolTipOn | MCode::ToolTipOff)
+                ) {
+                    spans.push((w.start, w.end));
+                }
+            }
+            _ => {}
+        }
+    }
+    if tool_length {
+        if let Some(h) = block.word(b'H') {
+            spans.push((h.start, h.end));
+        }
+    }
+    for k in &block.keywords {
+        spans.push((k.start, k.end));
+    }
+    spans.sort_unstable();
+    spans
+}
+
+/// Decimals of a recomputed F: the word's, at least `min_decimals_feed`, and
+/// enough for `min_significant_feed` significant digits.
+fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
+    let int_digits = if f.abs() >= 1.0 {
+        f.abs().log10().floor() as i32 + 1
+    } else {
+        0
+    };
+    let for_significance = (o.min_significant_feed as i32 - int_digits).clamp(0, 12) as u8;
+    written
+        .max(o.min_decimals_feed)
+        .max(for_significance)
+        .min(12)
+}
+
+fn half_ulp(decimals: u8) -> f64 {
+    0.5 * 10f64.powi(-(decimals as i32)) * (1.0 - 1e-9)
+}
+
+fn round_to(v: f64, decimals: u8) -> f64 {
+    let p = 10f64.powi(decimals as i32);
+    let r = (v * p).round() / p;
+    if r == 0.0 { 0.0 } else { r }
+}
+
+/// Append `value` with `decimals` decimals (no `-0`); returns the printed value.
+fn push_number(out: &mut String, value: f64, decimals: u8) -> f64 {
+    use std::fmt::Write as _;
+    let start = out.len();
+    let _ = write!(out, "{:.*}", decimals as usize, value);
+    if out[start..].starts_with('-') && out[start + 1..].bytes().all(|b| b == b'0' || b == b'.') {
+        out.remove(start);
+    }
+    out[start..].parse::<f64>().unwrap_or(value)
+}

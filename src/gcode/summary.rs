@@ -1,0 +1,178 @@
+//! What `volcomp check` reports about a program, accumulated block by block
+//! (streaming: constant memory apart from the first warnings it keeps).
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::block::Block;
+use super::interpret::BlockEvent;
+use super::modal::{GCode, MCode, classify_g, classify_m, code_text, is_known_letter};
+use super::motion::{Feed, Frame, MotionKind};
+
+/// How many warning messages a summary keeps (all are counted).
+pub const KEPT_WARNINGS: usize = 20;
+
+/// Motion blocks by kind.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct MotionCounts {
+    pub rapid: usize,
+    pub linear: usize,
+    pub arc_cw: usize,
+    pub arc_ccw: usize,
+}
+
+impl MotionCounts {
+    pub fn total(&self) -> usize {
+        self.rapid + self.linear + self.arc_cw + self.arc_ccw
+    }
+}
+
+/// Closed range of values seen (`None` before the first).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Range {
+    pub min: f64,
+    pub max: f64,
+}
+
+fn widen(r: &mut Option<Range>, v: f64) {
+    match r {
+        Some(r) => {
+            r.min = r.min.min(v);
+            r.max = r.max.max(v);
+        }
+        None => *r = Some(Range { min: v, max: v }),
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ProgramSummary {
+    /// Lines read (every line is a block).
+    pub lines: usize,
+    /// Lines with words or keywords.
+    pub blocks: usize,
+    pub comments: usize,
+    /// Lines with block delete `/`.
+    pub deleted_blocks: usize,
+    pub motion: MotionCounts,
+    pub frame_switches: usize,
+    /// Motion blocks in the part frame (tool-tip programming).
+    pub part_frame_motions: usize,
+    /// Motion blocks under G93.
+    pub inverse_time_motions: usize,
+    /// G53 moves.
+    pub machine_coordinate_motions: usize,
+    /// G28/G30 blocks.
+    pub home_blocks: usize,
+    /// Machining time, min (effects.md rules; from the first move's target).
+    pub time_min: f64,
+    /// Ranges of the programmed move targets (mm, degrees), over all frames.
+    pub x: Option<Range>,
+    pub y: Option<Range>,
+    pub z: Option<Range>,
+    pub a: Option<Range>,
+    pub c: Option<Range>,
+    /// Words with a letter the interpreter does not know, by letter.
+    pub unknown_words: BTreeMap<char, usize>,
+    pub warnings: usize,
+    /// The first [`KEPT_WARNINGS`] warnings, rendered.
+    pub first_warnings: Vec<String>,
+    /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
+    #[serde(skip)]
+    passed: BTreeMap<(u8, i32), usize>,
+}
+
+impl ProgramSummary {
+    /// Count one block and its event.
+    pub fn add(&mut self, block: &Block, event: &BlockEvent) {
+        self.lines += 1;
+        self.comments += block.comments.len();
+        if !block.is_empty() {
+            self.blocks += 1;
+        }
+        if block.deleted {
+            self.deleted_blocks += 1;
+        }
+        if event.frame_switch.is_some() {
+            self.frame_switches += 1;
+        }
+        if event.home {
+            self.home_blocks += 1;
+        }
+        self.time_min = event.time_min;
+        self.warnings += event.warnings.len();
+        for w in &event.warnings {
+            if self.first_warnings.len() < KEPT_WARNINGS {
+                self.first_warnings.push(w.to_string());
+            }
+        }
+        if !event.skipped {
+            for w in &block.words {
+                self.count_word(w.letter, w.code10());
+            }
+        }
+        if let Some(m) = &event.motion {
+            match m.kind {
+                MotionKind::Rapid => self.motion.rapid += 1,
+                MotionKind::Linear => self.motion.linear += 1,
+                MotionKind::Arc {
+                    clockwise: true, ..
+                } => self.motion.arc_cw += 1,
+                MotionKind::Arc { .. } => self.motion.arc_ccw += 1,
+            }
+            if m.frame == Frame::Part {
+                self.part_frame_motions += 1;
+            }
+            if matches!(m.feed, Feed::InverseTime(_)) {
+                self.inverse_time_motions += 1;
+            }
+            if m.machine_coordinates {
+                self.machine_coordinate_motions += 1;
+            }
+            let p = &m.end;
+            widen(&mut self.x, p.x);
+            widen(&mut self.y, p.y);
+            widen(&mut self.z, p.z);
+            widen(&mut self.a, p.a);
+            widen(&mut self.c, p.c);
+        }
+    }
+
+    fn count_word(&mut self, letter: u8, code10: Option<i32>) {
+        let key = match letter {
+            b'G' => match code10.map(classify_g) {
+                Some(
+                    GCode::WorkOffset | GCode::PassThrough | GCode::ToolLength | GCode::Unsupported,
+                ) => (b'G', code10.unwrap_or(0)),
+                _ => return,
+            },
+            b'M' => match code10.map(classify_m) {
+                Some(MCode::PassThrough | MCode::Subroutine) | None => (b'M', code10.unwrap_or(-1)),
+                _ => return,
+            },
+            b'S' | b'T' | b'D' | b'H' | b'Q' | b'L' | b'E' => (letter, i32::MIN),
+            _ => {
+                if !is_known_letter(letter) {
+                    *self.unknown_words.entry(letter as char).or_default() += 1;
+                }
+                return;
+            }
+        };
+        *self.passed.entry(key).or_default() += 1;
+    }
+
+    /// Codes and words passed through untouched (`G54`, `M3`, `S`, `T`, ...),
+    /// with their counts.
+    pub fn passed_through(&self) -> BTreeMap<String, usize> {
+        self.passed
+            .iter()
+            .map(|(&(letter, code), &n)| {
+                let name = if code == i32::MIN {
+                    (letter as char).to_string()
+                } else {
+                    code_text(letter as char, code)
+                };
+                (name, n)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,124 @@
+//! The fitted SMEM as a file (serde JSON): the `volcomp fit --report` format
+//! (formats.md: `{"parameters": [{"axis", "parameter", "samples",
+//! "control_points", "method", "emax", "erms", "knots", "weights", "seconds"}]}`)
+//! plus what is needed to rebuild each curve exactly (degree, control points) and
+//! to tie it to its data (the FNV-1a 64 hash of the table file, hex).
+use serde::{Deserialize, Serialize};
+
+use super::curve::NurbsCurve;
+use super::smem::{FitStats, KnotMethod, SmemCurve};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SmemModelFile {
+    pub parameters: Vec<ParameterFit>,
+    /// Parameters of the tables that were not measured (taken as zero).
+    #[serde(default)]
+    pub not_measured: Vec<String>,
+}
+
+/// One fitted error parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParameterFit {
+    /// Axis letter of the table ("X", …, "C").
+    pub axis: String,
+    /// Parameter name, e.g. "EXX".
+    pub parameter: String,
+    pub samples: usize,
+    /// Number of control points.
+    pub control_points: usize,
+    pub method: KnotMethod,
+    /// Largest and RMS error at the data points, µm or µrad.
+    pub emax: f64,
+    pub erms: f64,
+    pub tolerance: f64,
+    /// `emax <= tolerance`.
+    pub met: bool,
+    /// "um" or "urad".
+    pub unit: String,
+    pub seconds: f64,
+    pub degree: usize,
+    pub knots: Vec<f64>,
+    pub weights: Vec<f64>,
+    /// Control points `(position, value)` in table units.
+    pub points: Vec<[f64; 2]>,
+    /// The table file and the FNV-1a 64 hash of its bytes (16 hex digits).
+    pub table: String,
+    pub table_hash: String,
+}
+
+impl ParameterFit {
+    pub fn new(
+        axis: char,
+        parameter: &str,
+        unit: &str,
+        curve: &SmemCurve,
+        table: &str,
+        table_hash: u64,
+    ) -> ParameterFit {
+        let s = curve.stats();
+        ParameterFit {
+            axis: axis.to_string(),
+            parameter: parameter.to_string(),
+            samples: s.samples,
+            control_points: s.control_points,
+            method: s.method,
+            emax: s.emax,
+            erms: s.erms,
+            tolerance: s.tolerance,
+            met: s.met,
+            unit: unit.to_string(),
+            seconds: s.seconds,
+            degree: curve.degree(),
+            knots: curve.knots().to_vec(),
+            weights: curve.weights().to_vec(),
+            points: curve.control_points().to_vec(),
+            table: table.to_string(),
+            table_hash: format!("{table_hash:016x}"),
+        }
+    }
+
+    /// Rebuild the curve (validated; `x(u)` must be increasing).
+    pub fn to_curve(&self) -> Result<SmemCurve, String> {
+        let curve = NurbsCurve::new(
+            self.degree,
+            self.knots.clone(),
+            self.weights.clone(),
+            self.points.clone(),
+        )
+        .map_err(|e| e.to_string())?;
+        let stats = FitStats {
+            samples: self.samples,
+            control_points: self.control_points,
+            method: self.method,
+            emax: self.emax,
+            erms: self.erms,
+            tolerance: self.tolerance,
+            met: self.met,
+            grid_segments: None,
+            evaluations: 0,
+            seconds: self.seconds,
+        };
+        SmemCurve::from_curve(curve, stats).map_err(|e| e.to_string())
+    }
+}
+
+/// FNV-1a, 64 bits.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv_reference_values() {
+        assert_eq!(fnv1a64(b""), 0xcbf29ce484222325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63dc4c8601ec8c);
+    }
+}

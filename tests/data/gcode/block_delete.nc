@@ -1,0 +1,9 @@
+%
+O2010
+N10 G21 G90 G94 G17
+/N20 G0 X100. Y100.
+N30 G0 X1. Y1. Z1. A0 C0
+/ N40 M0 (optional stop)
+N50 G1 X2. F100.
+N60 M30
+%
