@@ -1,6 +1,6 @@
 //! `volcomp map`: the volumetric error over a plane of the workspace as an SVG heat
 //! map (|e|, with arrows of the in-plane error) and a JSON report.
-use super::error::{Extrapolate, load_model};
+use super::error::{ModelArgs, load_model};
 use crate::axes::Axis;
 use crate::machine::error_map::{ErrorMap, MapSpec, Plane, SurfaceFit};
 use anyhow::Context;
@@ -65,13 +65,8 @@ pub struct Args {
     /// JSON report: grid values and the surface fit error.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// What a lookup outside an error table does.
-    #[arg(long, value_enum, default_value = "error")]
-    pub extrapolate: Extrapolate,
-    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
-    /// or best (the default; see `volcomp fit`).
-    #[arg(long, default_value = "best", value_name = "METHOD")]
-    pub fit_method: crate::nurbs::KnotMethod,
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 fn usage(msg: String) -> anyhow::Error {
@@ -130,7 +125,8 @@ struct Report<'a> {
     map: &'a ErrorMap,
     max_um: f64,
     rms_um: f64,
-    surface: &'a SurfaceFit,
+    /// Fit errors of the NURBS surfaces: |e| (drawn), e_x, e_y, e_z.
+    surfaces: &'a [SurfaceFit],
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -150,7 +146,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => 0.0,
     };
     let ranges = args.range.as_deref().map(parse_ranges).transpose()?;
-    let (machine, model) = load_model(&args.machine, args.extrapolate.into(), args.fit_method)?;
+    let (machine, model) = load_model(&args.machine, &args.model)?;
     let travel = |axis: Axis| machine.limits.get(axis).unwrap_or([-100.0, 100.0]);
     let [u_range, v_range] = ranges.unwrap_or([travel(ua), travel(va)]);
     let spec = MapSpec {
@@ -164,7 +160,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let map = ErrorMap::compute(&model, &spec)
         .with_context(|| format!("mapping {} over the {:?} plane", machine.name, plane))?;
-    let (surface, summary) = map.fit_surface().context("fitting the map surface")?;
+    let surfaces = map.fit_surfaces().context("fitting the map surfaces")?;
     let title = format!(
         "{}: |e| over {}{} at {}={} mm, A={} C={}",
         machine.name,
@@ -175,7 +171,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.a,
         args.c
     );
-    let svg = map.to_svg(&title, &|u, v| surface.value(u, v));
+    let svg = map.to_svg(&title, &|u, v| surfaces.magnitude.eval(u, v));
     crate::io::write_file_atomic(&args.out, svg.as_bytes())?;
     let mags = map.magnitudes();
     let rms = (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt();
@@ -185,7 +181,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             map: &map,
             max_um: map.max_magnitude(),
             rms_um: rms,
-            surface: &summary,
+            surfaces: &surfaces.fits,
         };
         crate::io::write_json_atomic(path, &report)?;
     }
@@ -202,13 +198,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.a,
         args.c
     );
-    println!(
-        "|e|: max {:.3} um, rms {rms:.3} um; surface ({}) fit error max {:.2e} um, rms {:.2e} um",
-        map.max_magnitude(),
-        summary.method,
-        summary.emax_um,
-        summary.erms_um
-    );
+    println!("|e|: max {:.3} um, rms {rms:.3} um", map.max_magnitude());
+    for fit in &surfaces.fits {
+        println!(
+            "NURBS surface of {:<3} (degree {}, {}x{} control points): fit error max {:.2e} um, rms {:.2e} um",
+            fit.quantity,
+            fit.degree,
+            fit.control_points[0],
+            fit.control_points[1],
+            fit.emax_um,
+            fit.erms_um
+        );
+    }
     println!("wrote {}", args.out.display());
     if let Some(path) = &args.report {
         println!("wrote {}", path.display());

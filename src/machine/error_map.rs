@@ -11,6 +11,7 @@
 use super::error_model::{ErrorModel, LookupError};
 use crate::axes::{Axes, Axis};
 use crate::kinematics::VolumetricError;
+use crate::nurbs::{NurbsSurface, SurfaceFitOptions, fit_surface};
 use crate::report::svg::{Chart, ChartSpec, ColourMap};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -72,43 +73,25 @@ pub enum MapError {
     Surface(String),
 }
 
-/// The smooth surface of |e| over the map plane that the heat map draws.
-#[derive(Clone, Debug)]
-pub struct MapSurface {
-    u: Vec<f64>,
-    v: Vec<f64>,
-    values: Vec<f64>,
-}
-
-impl MapSurface {
-    /// |e| (µm) at `(u, v)`, clamped to the map's ranges.
-    pub fn value(&self, u: f64, v: f64) -> f64 {
-        let locate = |grid: &[f64], x: f64| {
-            let n = grid.len();
-            let x = x.clamp(grid[0], grid[n - 1]);
-            let i = grid.partition_point(|g| *g <= x).clamp(1, n - 1) - 1;
-            let t = (x - grid[i]) / (grid[i + 1] - grid[i]);
-            (i, t)
-        };
-        let (i, s) = locate(&self.u, u);
-        let (j, t) = locate(&self.v, v);
-        let nu = self.u.len();
-        let f = |ii: usize, jj: usize| self.values[jj * nu + ii];
-        (1.0 - s) * (1.0 - t) * f(i, j)
-            + s * (1.0 - t) * f(i + 1, j)
-            + (1.0 - s) * t * f(i, j + 1)
-            + s * t * f(i + 1, j + 1)
-    }
-}
-
-/// How well the drawn surface represents the grid values.
+/// How well a fitted NURBS surface represents the grid values.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SurfaceFit {
-    /// What the heat map shows between grid points.
-    pub method: String,
-    /// Largest and RMS |surface − |e|| over the grid points, µm.
+    /// What was fitted: `"|e|"`, `"e_x"`, `"e_y"`, `"e_z"` (µm, part coordinates).
+    pub quantity: String,
+    pub degree: usize,
+    pub control_points: [usize; 2],
+    /// Largest and RMS |surface − value| over the grid points, µm.
     pub emax_um: f64,
     pub erms_um: f64,
+}
+
+/// The fitted surfaces of a map: |e| (drawn) and the three components of e.
+#[derive(Clone, Debug)]
+pub struct MapSurfaces {
+    pub magnitude: NurbsSurface,
+    pub components: [NurbsSurface; 3],
+    /// Fit errors, in the order |e|, e_x, e_y, e_z.
+    pub fits: Vec<SurfaceFit>,
 }
 
 /// One grid point.
@@ -132,22 +115,6 @@ pub struct ErrorMap {
     pub v: Vec<f64>,
     /// `points[j * u.len() + i]` at `(u[i], v[j])`.
     pub points: Vec<MapPoint>,
-}
-
-fn surface_fit_stats(surface: &MapSurface, map: &ErrorMap, method: &str) -> SurfaceFit {
-    let mut emax = 0.0f64;
-    let mut sum = 0.0;
-    for p in &map.points {
-        let (ua, va, _) = map.spec.plane.axes();
-        let d = surface.value(p.joints.get(ua), p.joints.get(va)) - p.magnitude_um;
-        emax = emax.max(d.abs());
-        sum += d * d;
-    }
-    SurfaceFit {
-        method: method.to_string(),
-        emax_um: emax,
-        erms_um: (sum / map.points.len().max(1) as f64).sqrt(),
-    }
 }
 
 fn linspace(range: [f64; 2], n: usize) -> Vec<f64> {
@@ -207,15 +174,62 @@ impl ErrorMap {
         })
     }
 
-    /// The surface of |e| drawn by [`ErrorMap::to_svg`], and its error at the grid.
-    pub fn fit_surface(&self) -> Result<(MapSurface, SurfaceFit), MapError> {
-        let surface = MapSurface {
-            u: self.u.clone(),
-            v: self.v.clone(),
-            values: self.magnitudes(),
+    /// Fit tensor-product NURBS surfaces (cubic, or of degree grid − 1 for coarser
+    /// grids; `crate::nurbs::fit_surface`) to |e| and to each component of e.
+    pub fn fit_surfaces(&self) -> Result<MapSurfaces, MapError> {
+        let degree = (self.spec.grid - 1).min(3);
+        let options = SurfaceFitOptions {
+            degree_u: degree,
+            degree_v: degree,
+            ..Default::default()
         };
-        let fit = surface_fit_stats(&surface, self, "bilinear interpolation of the grid");
-        Ok((surface, fit))
+        let nu = self.u.len();
+        let grid_of = |f: &dyn Fn(&MapPoint) -> f64| -> Vec<Vec<f64>> {
+            (0..nu)
+                .map(|i| {
+                    (0..self.v.len())
+                        .map(|j| f(&self.points[j * nu + i]))
+                        .collect()
+                })
+                .collect()
+        };
+        let quantities: [(&str, Vec<Vec<f64>>); 4] = [
+            ("|e|", grid_of(&|p| p.magnitude_um)),
+            ("e_x", grid_of(&|p| p.error.e_um[0])),
+            ("e_y", grid_of(&|p| p.error.e_um[1])),
+            ("e_z", grid_of(&|p| p.error.e_um[2])),
+        ];
+        let mut surfaces = Vec::with_capacity(4);
+        let mut fits = Vec::with_capacity(4);
+        for (name, values) in &quantities {
+            let surface = fit_surface(&self.u, &self.v, values, &options)
+                .map_err(|e| MapError::Surface(e.to_string()))?;
+            let (mut emax, mut sum) = (0.0f64, 0.0);
+            for (i, row) in values.iter().enumerate() {
+                for (j, value) in row.iter().enumerate() {
+                    let d = surface.eval(self.u[i], self.v[j]) - value;
+                    emax = emax.max(d.abs());
+                    sum += d * d;
+                }
+            }
+            fits.push(SurfaceFit {
+                quantity: name.to_string(),
+                degree,
+                control_points: [surface.count_u, surface.count_v],
+                emax_um: emax,
+                erms_um: (sum / (nu * self.v.len()) as f64).sqrt(),
+            });
+            surfaces.push(surface);
+        }
+        let mut it = surfaces.into_iter();
+        match (it.next(), it.next(), it.next(), it.next()) {
+            (Some(magnitude), Some(x), Some(y), Some(z)) => Ok(MapSurfaces {
+                magnitude,
+                components: [x, y, z],
+                fits,
+            }),
+            _ => Err(MapError::Surface("internal: four surfaces expected".into())),
+        }
     }
 
     /// |e| on the grid, row by row.

@@ -6,6 +6,7 @@
 pub mod definition;
 pub mod error_map;
 pub mod error_model;
+pub mod resampled;
 pub mod table;
 
 pub use definition::{

@@ -5,9 +5,24 @@ use volcomp::axes::{Axes, Axis};
 use volcomp::machine::{
     ErrorModel, ExtrapolationPolicy, LoadOptions, LookupError, Machine, ModelOptions,
 };
+use volcomp::nurbs::{FitOptions, KnotMethod};
 
 fn project(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// Fast fit settings for tests (fixed control points, no search): the lookup and the
+/// chain are under test here, not the SMEM fit (tested in the nurbs module).
+fn fast_fit() -> ModelOptions {
+    ModelOptions {
+        fit: FitOptions {
+            method: KnotMethod::Epm,
+            control_points: Some(12),
+            optimise_weights: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
 }
 
 /// The reference machine's model, fitted once for the whole test binary.
@@ -15,9 +30,18 @@ fn ref_model() -> &'static (Machine, ErrorModel) {
     static MODEL: OnceLock<(Machine, ErrorModel)> = OnceLock::new();
     MODEL.get_or_init(|| {
         let machine = Machine::load(&project("machines/ref-trt.toml")).expect("ref-trt loads");
-        let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("fit");
+        let model = ErrorModel::from_machine(&machine, &fast_fit()).expect("fit");
         (machine, model)
     })
+}
+
+/// The reference model written as a fitted-model file (for the CLI's `--model`).
+fn ref_model_file(dir: &Path) -> PathBuf {
+    let (machine, model) = ref_model();
+    let file = model.to_model_file(machine).expect("model file");
+    let path = dir.join("fit.json");
+    std::fs::write(&path, serde_json::to_string(&file).expect("json")).expect("write");
+    path
 }
 
 const REF_TEXT: &str = include_str!("../../machines/ref-trt.toml");
@@ -70,7 +94,7 @@ fn linuxcnc_sim_machine_is_nominal() {
     assert_eq!(m.geometry.z_offset, 10.0);
     assert_eq!(m.limits.c, Some([-36000.0, 36000.0]));
     assert!(Axis::ALL.iter().all(|a| m.table(*a).is_none()));
-    let model = ErrorModel::from_machine(&m, &ModelOptions::default()).expect("model");
+    let model = ErrorModel::from_machine(&m, &fast_fit()).expect("model");
     let v = model
         .volumetric_error(&Axes::new(10.0, -20.0, 30.0, -45.0, 7200.5))
         .expect("lookup");
@@ -257,8 +281,92 @@ fn contributions_sum_to_e_to_first_order() {
     );
 }
 
+#[test]
+fn resampled_lookups_match_exact_lookups() {
+    let (machine, fast) = ref_model();
+    let exact = ErrorModel::from_machine(
+        machine,
+        &ModelOptions {
+            exact_lookups: true,
+            ..fast_fit()
+        },
+    )
+    .expect("fit");
+    let info = fast.lookup_resampling();
+    eprintln!("resampling: {info:?}");
+    assert_eq!(info.len(), 5);
+    for (axis, r) in &info {
+        let (intervals, deviation) = r.unwrap_or_else(|| panic!("{axis:?} not resampled"));
+        assert!(
+            intervals >= 512 && deviation <= 1e-6,
+            "{axis:?}: {intervals} {deviation}"
+        );
+    }
+    use proptest::prelude::*;
+    let mut runner = proptest::test_runner::TestRunner::new(proptest::test_runner::Config {
+        cases: 256,
+        ..Default::default()
+    });
+    let poses = (
+        -200.0..200.0f64,
+        -150.0..150.0f64,
+        -200.0..100.0f64,
+        -110.0..110.0f64,
+        -2000.0..2000.0f64,
+    );
+    runner
+        .run(&poses, |(x, y, z, a, c)| {
+            let j = Axes::new(x, y, z, a, c);
+            let (f, e) = (
+                fast.errors_at(&j).expect("in"),
+                exact.errors_at(&j).expect("in"),
+            );
+            for i in 0..30 {
+                let (p, q) = (f.get_index(i).expect("i"), e.get_index(i).expect("i"));
+                prop_assert!(
+                    (p - q).abs() <= 1.5e-6,
+                    "parameter {i} at {j:?}: {p} vs {q}"
+                );
+            }
+            Ok(())
+        })
+        .expect("resampled = exact within 1.5e-6");
+}
+
+#[test]
+fn model_file_round_trip_and_stale_tables() {
+    let (machine, model) = ref_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = ref_model_file(dir.path());
+    let back =
+        ErrorModel::from_model_file(machine, &path, &ModelOptions::default()).expect("reads");
+    let j = Axes::new(33.0, -44.0, -55.0, 66.0, 777.0);
+    let (a, b) = (
+        model.errors_at(&j).expect("in"),
+        back.errors_at(&j).expect("in"),
+    );
+    // serde_json's default float parsing may differ from the written value in the
+    // last bit; the curves are otherwise identical.
+    for i in 0..volcomp::kinematics::PARAMETER_COUNT {
+        let (x, y) = (a.get_index(i).expect("i"), b.get_index(i).expect("i"));
+        assert!((x - y).abs() < 1e-9, "{i}: {x} vs {y}");
+    }
+    // A table changed since the fit: refused, naming the parameter.
+    let text = REF_TEXT.to_string();
+    let (scratch_dir, scratch_path) = scratch(&text);
+    let x = scratch_dir.path().join("ref-trt/x.csv");
+    let mut table = std::fs::read_to_string(&x).expect("x");
+    table.push_str("# edited\n");
+    std::fs::write(&x, table).expect("write");
+    let edited = Machine::load(&scratch_path).expect("loads");
+    let err =
+        ErrorModel::from_model_file(&edited, &path, &ModelOptions::default()).expect_err("stale");
+    let msg = err.to_string();
+    assert!(msg.contains("EXX: was fitted to different data"), "{msg}");
+}
+
 mod cli {
-    use super::project;
+    use super::{project, ref_model_file};
     use std::process::Command;
 
     fn volcomp() -> Command {
@@ -267,9 +375,12 @@ mod cli {
 
     #[test]
     fn error_at_one_pose_as_json_matches_the_library() {
+        let dir = tempfile::tempdir().expect("tempdir");
         let out = volcomp()
             .args(["error"])
             .arg(project("machines/ref-trt.toml"))
+            .arg("--model")
+            .arg(ref_model_file(dir.path()))
             .args(["--at", "-10,20,-30,15,405", "--json"])
             .output()
             .expect("runs");
@@ -307,6 +418,8 @@ mod cli {
         let out = volcomp()
             .arg("error")
             .arg(project("machines/ref-trt.toml"))
+            .arg("--model")
+            .arg(ref_model_file(dir.path()))
             .arg("--poses")
             .arg(&poses)
             .arg("--json")
@@ -348,6 +461,8 @@ mod cli {
         let out = volcomp()
             .arg("error")
             .arg(project("machines/ref-trt.toml"))
+            .arg("--model")
+            .arg(ref_model_file(dir.path()))
             .args(["--at", "0,0,150,0,0"])
             .output()
             .expect("runs");
@@ -371,6 +486,8 @@ mod cli {
         let out = volcomp()
             .arg("map")
             .arg(project("machines/ref-trt.toml"))
+            .arg("--model")
+            .arg(ref_model_file(dir.path()))
             .args([
                 "--plane", "xz", "--at", "y=20", "--a", "30", "--c", "-45", "--grid", "9",
             ])
@@ -390,7 +507,8 @@ mod cli {
         let r: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
         assert_eq!(r["map"]["points"].as_array().map(Vec::len), Some(81));
-        assert!(r["surface"]["emax_um"].as_f64().is_some());
+        assert_eq!(r["surfaces"].as_array().map(Vec::len), Some(4));
+        assert!(r["surfaces"][0]["emax_um"].as_f64().is_some());
         assert!(r["max_um"].as_f64().expect("max") > 0.0);
     }
 }
