@@ -14,6 +14,7 @@
 //! the lookup allocates nothing; every returned value is finite (inputs are checked).
 use super::definition::{ExtrapolationPolicy, Machine, axis_slot};
 use super::resampled::ResampledAxis;
+use super::table::ErrorTable;
 use crate::axes::{Axes, Axis};
 use crate::kinematics::error_values::{COMPONENT_NAMES, PARAMETER_COUNT, PARAMETER_NAMES};
 use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
@@ -75,6 +76,15 @@ the model is not defined there (use --extrapolate hold to hold the end values)",
         position: f64,
         range: [f64; 2],
     },
+}
+
+/// FNV-1a 64 of a table file's bytes (what fitted-model files record).
+fn table_hash(table: &ErrorTable) -> Result<u64, ModelError> {
+    let bytes = std::fs::read(&table.path).map_err(|source| crate::io::InputError {
+        path: table.path.clone(),
+        source,
+    })?;
+    Ok(fnv1a64(&bytes))
 }
 
 /// Curves of one measured axis.
@@ -173,14 +183,7 @@ impl ErrorModel {
                 ac.curves[k] = Some(curve);
             }
         }
-        Self::resample(&mut axes, options);
-        Ok(ErrorModel {
-            kinematics: machine.kinematics_model(),
-            axes,
-            scalars: machine.scalar_errors(),
-            policy: options.extrapolation,
-            held: AtomicU64::new(0),
-        })
+        Ok(Self::assemble(machine, axes, options))
     }
 
     /// Use the curves of a fitted-model file (`volcomp fit --report FILE`) instead of
@@ -208,11 +211,7 @@ impl ErrorModel {
             let Some(table) = machine.table(axis) else {
                 continue;
             };
-            let bytes = std::fs::read(&table.path).map_err(|source| crate::io::InputError {
-                path: table.path.clone(),
-                source,
-            })?;
-            let hash = format!("{:016x}", fnv1a64(&bytes));
+            let hash = format!("{:016x}", table_hash(table)?);
             for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
                 if table.column(name).is_none() {
                     continue;
@@ -247,14 +246,7 @@ impl ErrorModel {
                 }
             }
         }
-        Self::resample(&mut axes, options);
-        Ok(ErrorModel {
-            kinematics: machine.kinematics_model(),
-            axes,
-            scalars: machine.scalar_errors(),
-            policy: options.extrapolation,
-            held: AtomicU64::new(0),
-        })
+        Ok(Self::assemble(machine, axes, options))
     }
 
     /// The fitted curves as a fitted-model file (the `volcomp fit --report` format),
@@ -268,11 +260,7 @@ impl ErrorModel {
             let Some(table) = machine.table(axis) else {
                 continue;
             };
-            let bytes = std::fs::read(&table.path).map_err(|source| crate::io::InputError {
-                path: table.path.clone(),
-                source,
-            })?;
-            let hash = fnv1a64(&bytes);
+            let hash = table_hash(table)?;
             for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
                 let curve = self.axes[slot]
                     .as_ref()
@@ -300,14 +288,25 @@ impl ErrorModel {
         Ok(file)
     }
 
-    /// Build the resampled stand-ins (in parallel) unless exact lookups are asked for.
-    fn resample(axes: &mut [Option<AxisCurves>; 5], options: &ModelOptions) {
-        if options.exact_lookups {
-            return;
+    /// The model of `machine` with the fitted `axes`: resampled (in parallel) unless
+    /// exact lookups are asked for, plus the machine's scalars.
+    fn assemble(
+        machine: &Machine,
+        mut axes: [Option<AxisCurves>; 5],
+        options: &ModelOptions,
+    ) -> ErrorModel {
+        if !options.exact_lookups {
+            axes.par_iter_mut().flatten().for_each(|ac| {
+                ac.resampled = ResampledAxis::build(&ac.curves, ac.range[0], ac.range[1]);
+            });
         }
-        axes.par_iter_mut().flatten().for_each(|ac| {
-            ac.resampled = ResampledAxis::build(&ac.curves, ac.range[0], ac.range[1]);
-        });
+        ErrorModel {
+            kinematics: machine.kinematics_model(),
+            axes,
+            scalars: machine.scalar_errors(),
+            policy: options.extrapolation,
+            held: AtomicU64::new(0),
+        }
     }
 
     /// Per measured axis: intervals of the resampled lookup and its largest deviation
