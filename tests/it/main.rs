@@ -5,5 +5,6 @@ mod fit;
 mod gcode;
 mod inspection;
 mod kinematics;
+mod machine;
 mod nurbs;
 mod toolpath;
