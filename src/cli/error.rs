@@ -1,8 +1,7 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
+use super::common::{ModelArgs, load_model};
 use crate::axes::Axes;
 use crate::kinematics::VolumetricError;
-use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
-use crate::nurbs::KnotMethod;
 use anyhow::{Context, anyhow};
 use clap::ValueEnum;
 use rayon::prelude::*;
@@ -33,24 +32,6 @@ pub enum PoseFrame {
     Part,
 }
 
-/// Out-of-table lookups.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Extrapolate {
-    /// A position outside a table is an error (default).
-    Error,
-    /// Hold the table's end value (and say how often it happened).
-    Hold,
-}
-
-impl From<Extrapolate> for ExtrapolationPolicy {
-    fn from(e: Extrapolate) -> Self {
-        match e {
-            Extrapolate::Error => ExtrapolationPolicy::Error,
-            Extrapolate::Hold => ExtrapolationPolicy::Hold,
-        }
-    }
-}
-
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 #[command(group = clap::ArgGroup::new("pose_source").required(true).args(["at", "poses"]))]
@@ -74,70 +55,6 @@ pub struct Args {
     pub verbose: bool,
     #[command(flatten)]
     pub model: ModelArgs,
-}
-
-/// How the error model is obtained (shared by `error` and `map`).
-#[derive(Debug, clap::Args)]
-pub struct ModelArgs {
-    /// What a lookup outside an error table does.
-    #[arg(long, value_enum, default_value = "error")]
-    pub extrapolate: Extrapolate,
-    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
-    /// or best (the default; see `volcomp fit`).
-    #[arg(
-        long,
-        default_value = "best",
-        value_name = "METHOD",
-        conflicts_with = "model"
-    )]
-    pub fit_method: KnotMethod,
-    /// Use the curves of a fitted-model file (`volcomp fit MACHINE --report FILE`)
-    /// instead of fitting the tables again (faster; checked against the tables).
-    #[arg(long, value_name = "FILE.json")]
-    pub model: Option<PathBuf>,
-    /// Evaluate the NURBS exactly at every lookup instead of the verified resampling
-    /// (which stays within 1e-6 µm/µrad of it and is several times faster).
-    #[arg(long)]
-    pub exact_lookups: bool,
-}
-
-/// Load a machine and fit its error model, printing what was not measured to stderr.
-pub(crate) fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
-    let policy: ExtrapolationPolicy = args.extrapolate.into();
-    let options = crate::machine::LoadOptions {
-        extrapolation: policy,
-    };
-    let machine = Machine::load_with(path, &options)?;
-    let model_options = crate::machine::ModelOptions {
-        extrapolation: policy,
-        fit: crate::nurbs::FitOptions {
-            method: args.fit_method,
-            ..Default::default()
-        },
-        exact_lookups: args.exact_lookups,
-    };
-    let model = match &args.model {
-        Some(file) => ErrorModel::from_model_file(&machine, file, &model_options)?,
-        None => ErrorModel::from_machine(&machine, &model_options)
-            .with_context(|| format!("fitting the error tables of {}", path.display()))?,
-    };
-    for axis in crate::axes::Axis::ALL {
-        match machine.table(axis) {
-            None => eprintln!(
-                "note: {}: no error table for axis {} (its errors are taken as zero)",
-                machine.name,
-                axis.letter()
-            ),
-            Some(table) if !table.missing.is_empty() => eprintln!(
-                "note: {}: {} does not measure {} (taken as zero)",
-                machine.name,
-                table.path.display(),
-                table.missing.join(", ")
-            ),
-            Some(_) => {}
-        }
-    }
-    Ok((machine, model))
 }
 
 /// Parse `X,Y,Z,A,C`.

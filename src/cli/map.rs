@@ -1,6 +1,6 @@
 //! `volcomp map`: the volumetric error over a plane of the workspace as an SVG heat
 //! map (|e|, with arrows of the in-plane error) and a JSON report.
-use super::error::{ModelArgs, load_model};
+use super::common::{ModelArgs, load_model};
 use crate::axes::Axis;
 use crate::machine::error_map::{ErrorMap, MapSpec, Plane, SurfaceFit};
 use anyhow::Context;
