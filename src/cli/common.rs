@@ -89,20 +89,26 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         None => ErrorModel::from_machine(&machine, &model_options)
             .with_context(|| format!("fitting the error tables of {}", path.display()))?,
     };
-    for axis in crate::axes::Axis::ALL {
-        match machine.table(axis) {
-            None => eprintln!(
-                "note: {}: no error table for axis {} (its errors are taken as zero)",
-                machine.name,
-                axis.letter()
-            ),
-            Some(table) if !table.missing.is_empty() => eprintln!(
+    let unmeasured: Vec<String> = crate::axes::Axis::ALL
+        .into_iter()
+        .filter(|axis| machine.table(*axis).is_none())
+        .map(|axis| axis.letter().to_string())
+        .collect();
+    if !unmeasured.is_empty() {
+        eprintln!(
+            "note: {}: no error table for {} (those errors are taken as zero)",
+            machine.name,
+            unmeasured.join(", ")
+        );
+    }
+    for table in machine.tables.iter().flatten() {
+        if !table.missing.is_empty() {
+            eprintln!(
                 "note: {}: {} does not measure {} (taken as zero)",
                 machine.name,
                 table.path.display(),
                 table.missing.join(", ")
-            ),
-            Some(_) => {}
+            );
         }
     }
     Ok((machine, model))

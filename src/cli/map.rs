@@ -59,6 +59,10 @@ pub struct Args {
     /// Grid points per side.
     #[arg(long, default_value_t = 21)]
     pub grid: usize,
+    /// Control points per direction of the fitted NURBS surfaces (least squares;
+    /// default min(grid, 12); equal to --grid interpolates the grid).
+    #[arg(long, value_name = "N")]
+    pub control: Option<usize>,
     /// SVG output file.
     #[arg(long, short)]
     pub out: PathBuf,
@@ -136,6 +140,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.grid
         )));
     }
+    if let Some(n) = args.control {
+        let min = (args.grid - 1).min(3) + 1;
+        if n < min || n > args.grid {
+            return Err(usage(format!(
+                "--control must be between {min} (degree + 1) and --grid = {} (got {n})",
+                args.grid
+            )));
+        }
+    }
     if !(args.a.is_finite() && args.c.is_finite()) {
         return Err(usage("--a and --c must be finite".into()));
     }
@@ -160,7 +173,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let map = ErrorMap::compute(&model, &spec)
         .with_context(|| format!("mapping {} over the {:?} plane", machine.name, plane))?;
-    let surfaces = map.fit_surfaces().context("fitting the map surfaces")?;
+    let surfaces = map
+        .fit_surfaces(args.control)
+        .context("fitting the map surfaces")?;
     let title = format!(
         "{}: |e| over {}{} at {}={} mm, A={} C={}",
         machine.name,

@@ -175,13 +175,16 @@ impl ErrorMap {
     }
 
     /// Fit tensor-product NURBS surfaces (cubic, or of degree grid − 1 for coarser
-    /// grids; `crate::nurbs::fit_surface`) to |e| and to each component of e.
-    pub fn fit_surfaces(&self) -> Result<MapSurfaces, MapError> {
+    /// grids; `crate::nurbs::fit_surface`, least squares) to |e| and to each component
+    /// of e, with `control` control points per direction (`None`: the nurbs default,
+    /// min(grid, 12); `grid` interpolates the grid values).
+    pub fn fit_surfaces(&self, control: Option<usize>) -> Result<MapSurfaces, MapError> {
         let degree = (self.spec.grid - 1).min(3);
         let options = SurfaceFitOptions {
             degree_u: degree,
             degree_v: degree,
-            ..Default::default()
+            control_u: control,
+            control_v: control,
         };
         let nu = self.u.len();
         let grid_of = |f: &dyn Fn(&MapPoint) -> f64| -> Vec<Vec<f64>> {

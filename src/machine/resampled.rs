@@ -124,7 +124,7 @@ impl ResampledAxis {
                 for (k, curve) in curves.iter().enumerate() {
                     if let Some(curve) = curve {
                         let d = (got[k] - curve.value_at(x)).abs();
-                        if !(d <= RESAMPLE_TOLERANCE) {
+                        if d.is_nan() || d > RESAMPLE_TOLERANCE {
                             return None;
                         }
                         worst = worst.max(d);

@@ -149,6 +149,20 @@ fn limits_not_covered_by_a_table() {
 }
 
 #[test]
+fn endless_c_needs_a_one_revolution_table() {
+    let (dir, path) = scratch(REF_TEXT);
+    // Drop the 360° row: the C table no longer spans one revolution.
+    let c = dir.path().join("ref-trt/c.csv");
+    let text = std::fs::read_to_string(&c).expect("c");
+    let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with("360")).collect();
+    std::fs::write(&c, kept.join("\n") + "\n").expect("write");
+    let err = Machine::load(&path)
+        .expect_err("endless C, partial table")
+        .to_string();
+    insta::assert_snapshot!(err.replace(&dir.path().display().to_string(), "<dir>"));
+}
+
+#[test]
 fn non_finite_and_reversed_values_are_named() {
     let text = REF_TEXT.replace("length = 100.0", "length = nan");
     insta::assert_snapshot!(
@@ -444,6 +458,21 @@ mod cli {
             .expect("inside");
         let got = v[1]["e_um"][2].as_f64().expect("number");
         assert!((got - second.e_um[2]).abs() < 1e-9);
+        // The same pose given as a part-frame target.
+        let kin = model.kinematics();
+        let joints = volcomp::axes::Axes::new(100.0, -50.0, -100.0, 45.0, 1000.0);
+        let tip = kin.nominal_tip(&joints);
+        let at = format!("{},{},{},45,1000", tip[0], tip[1], tip[2]);
+        let out = success(
+            on_reference("error", dir.path()).args(["--frame", "part", "--at", &at, "--json"]),
+        );
+        let p: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        let got = p["e_um"][2].as_f64().expect("number");
+        assert!(
+            (got - second.e_um[2]).abs() < 1e-6,
+            "{got} vs {}",
+            second.e_um[2]
+        );
     }
 
     #[test]
