@@ -1,16 +1,147 @@
-//! `volcomp diagnose`.
-use std::path::PathBuf;
+//! `volcomp diagnose`: explain the gap between a measured part and the geometric
+//! model's prediction (effects.md): where it lies, which unmodelled effect causes
+//! it, and how far it shrinks once that effect is added.
+use super::UsageError;
+use crate::diagnose::{DiagnoseOptions, DiagnoseReport, diagnose, html};
+use crate::inspection::{Measurement, Plan};
+use crate::toolpath::PointContext;
+use anyhow::Context;
+use std::path::{Path, PathBuf};
+
+const AFTER_HELP: &str = "\
+The report (JSON) holds the gap (measured and predicted profile, residual RMS, noise floor),
+its localisation (worst points and blocks, by time, region, A/C and direction of travel),
+every catalogue effect fitted and cross-validated (folds by region and by time), the
+selected effects (none, one or two) and the model after adding them. See docs/diagnose.md.
+
+Examples:
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3";
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Input files.
-    pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub machine: super::common::MachineArgs,
+    /// Program (G-code) that cut the part.
+    pub program: PathBuf,
+    /// Frame of X Y Z at program start.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: super::common::FrameArg,
+    /// Measurement (CSV: id,x,y,z,i,j,k,mx,my,mz).
+    pub measured: PathBuf,
+    /// Report file (JSON; `-` for stdout).
+    #[arg(long)]
+    pub report: PathBuf,
+    /// Also write a self-contained HTML report with residual maps and charts.
+    #[arg(long)]
+    pub html: Option<PathBuf>,
+    /// Probing noise (µm, one σ) when known; estimated from the data otherwise.
+    #[arg(long)]
+    pub noise_um: Option<f64>,
+    /// Also write the tool-path context of every plan point (JSON), for checks
+    /// and test fixtures.
+    #[arg(long, value_name = "FILE")]
+    pub dump_contexts: Option<PathBuf>,
 }
 
-pub fn run(_args: &Args) -> anyhow::Result<()> {
-    Err(super::NotBuilt {
-        command: "diagnose",
-        what: "the sim-to-real diagnosis is not built yet",
+/// Contexts of a plan's points and the true volumetric error (µm, part frame)
+/// at each (for `simulate`).
+pub(crate) struct PartContexts {
+    pub contexts: Vec<PointContext>,
+    pub truth_um: Vec<[f64; 3]>,
+}
+
+/// Build the contexts of `plan` cut by `program` on `machine` (and, for
+/// `simulate`, the volumetric error of the machine's own tables at each: the truth).
+pub(crate) fn contexts(
+    machine: &super::common::MachineArgs,
+    program: &Path,
+    frame: super::common::FrameArg,
+    plan: &Plan,
+) -> anyhow::Result<PartContexts> {
+    use crate::toolpath::cut::{CutOptions, contexts, match_plan, volumetric_errors};
+    let (machine_def, model) = machine.load()?;
+    let options = CutOptions::for_machine(&machine_def, frame.into());
+    let input = super::common::open_input(program)?;
+    let (matches, _) = match_plan(input, program, &model, &plan.points, &options)?;
+    let built = contexts(&model, &plan.points, &matches)?;
+    let truth_um = volumetric_errors(&model, &plan.points, &matches)?
+        .into_iter()
+        .map(|e| e.unwrap_or([0.0; 3]))
+        .collect();
+    Ok(PartContexts {
+        contexts: built,
+        truth_um,
+    })
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(s) = args.noise_um {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(UsageError(format!("--noise-um must be > 0, got {s}")).into());
+        }
     }
-    .into())
+    let measurement = Measurement::read(&args.measured)?;
+    let part = contexts(
+        &args.machine,
+        &args.program,
+        args.frame,
+        &measurement.plan(),
+    )?;
+    if let Some(path) = &args.dump_contexts {
+        crate::io::write_json_atomic(path, &part.contexts)?;
+    }
+    let options = DiagnoseOptions {
+        noise_um: args.noise_um,
+        ..DiagnoseOptions::default()
+    };
+    let report = diagnose(&part.contexts, &measurement.deviations_um(), &options)
+        .context("diagnosing the measurement")?;
+    crate::io::write_json_atomic(&args.report, &report)?;
+    if let Some(path) = &args.html {
+        crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
+    }
+    if !crate::io::is_stdio(&args.report) {
+        print!("{}", summary_text(&report));
+    }
+    Ok(())
+}
+
+/// The human summary printed by the command.
+pub fn summary_text(report: &DiagnoseReport) -> String {
+    let g = &report.gap;
+    let mut out = format!(
+        "{} points ({} used): measured profile {:.2} µm, predicted {:.2} µm; residual RMS {:.2} µm, noise floor {:.2} µm ({})\n",
+        report.points,
+        report.points_used,
+        g.measured_profile_um,
+        g.predicted_profile_um,
+        g.residual_rms_um,
+        g.noise_floor_um,
+        g.noise_floor_source
+    );
+    out.push_str(&format!(
+        "selected: {}\n",
+        if report.selected.is_empty() {
+            "none".to_string()
+        } else {
+            report.selected.join(", ")
+        }
+    ));
+    for e in report.effects.iter().take(3) {
+        out.push_str(&format!(
+            "  {:<16} held-out RMS {:.3} -> {:.3} µm ({:+.1} %)\n",
+            e.name, e.heldout_rms_before_um, e.heldout_rms_after_um, -e.shrink_pct
+        ));
+    }
+    out.push_str(&format!(
+        "after: predicted profile {:.2} µm, residual RMS {:.2} µm\n",
+        report.after.predicted_profile_um, report.after.residual_rms_um
+    ));
+    for s in &report.summary {
+        out.push_str(s);
+        out.push('\n');
+    }
+    out
 }

@@ -1,12 +1,13 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
+use crate::axes::Axes;
+use crate::kinematics::VolumetricError;
+use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
+use crate::nurbs::KnotMethod;
 use anyhow::{Context, anyhow};
 use clap::ValueEnum;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use crate::axes::Axes;
-use crate::kinematics::VolumetricError;
-use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
 
 const AFTER_HELP: &str = "\
 Examples:
@@ -15,6 +16,8 @@ Examples:
   volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
   volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
+  volcomp fit machines/ref-trt.toml --report fit.json
+  volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
 
 The pose is X,Y,Z (mm), A,C (degrees). With --frame joint (default) X Y Z are the
 machine coordinates of the tool tip; with --frame part they are the tool tip in part
@@ -69,26 +72,62 @@ pub struct Args {
     /// Also print each parameter's contribution to e, largest first (single pose).
     #[arg(long, short)]
     pub verbose: bool,
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+/// How the error model is obtained (shared by `error` and `map`).
+#[derive(Debug, clap::Args)]
+pub struct ModelArgs {
     /// What a lookup outside an error table does.
     #[arg(long, value_enum, default_value = "error")]
     pub extrapolate: Extrapolate,
+    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
+    /// or best (the default; see `volcomp fit`).
+    #[arg(
+        long,
+        default_value = "best",
+        value_name = "METHOD",
+        conflicts_with = "model"
+    )]
+    pub fit_method: KnotMethod,
+    /// Use the curves of a fitted-model file (`volcomp fit MACHINE --report FILE`)
+    /// instead of fitting the tables again (faster; checked against the tables).
+    #[arg(long, value_name = "FILE.json")]
+    pub model: Option<PathBuf>,
+    /// Evaluate the NURBS exactly at every lookup instead of the verified resampling
+    /// (which stays within 1e-6 µm/µrad of it and is several times faster).
+    #[arg(long)]
+    pub exact_lookups: bool,
 }
 
 /// Load a machine and fit its error model, printing what was not measured to stderr.
-pub(crate) fn load_model(path: &Path, policy: ExtrapolationPolicy) -> anyhow::Result<(Machine, ErrorModel)> {
+pub(crate) fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
+    let policy: ExtrapolationPolicy = args.extrapolate.into();
     let options = crate::machine::LoadOptions {
         extrapolation: policy,
     };
     let machine = Machine::load_with(path, &options)?;
     let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
-        ..Default::default()
+        fit: crate::nurbs::FitOptions {
+            method: args.fit_method,
+            ..Default::default()
+        },
+        exact_lookups: args.exact_lookups,
     };
-    let model = ErrorModel::from_machine(&machine, &model_options)
-        .with_context(|| format!("fitting the error tables of {}", path.display()))?;
+    let model = match &args.model {
+        Some(file) => ErrorModel::from_model_file(&machine, file, &model_options)?,
+        None => ErrorModel::from_machine(&machine, &model_options)
+            .with_context(|| format!("fitting the error tables of {}", path.display()))?,
+    };
     for axis in crate::axes::Axis::ALL {
         match machine.table(axis) {
-            None => eprintln!("note: {}: no error table for axis {} (its errors are taken as zero)", machine.name, axis.letter()),
+            None => eprintln!(
+                "note: {}: no error table for axis {} (its errors are taken as zero)",
+                machine.name,
+                axis.letter()
+            ),
             Some(table) if !table.missing.is_empty() => eprintln!(
                 "note: {}: {} does not measure {} (taken as zero)",
                 machine.name,
@@ -111,12 +150,17 @@ pub(crate) fn parse_pose(text: &str) -> anyhow::Result<Axes> {
         .into());
     }
     let mut v = [0.0; 5];
-    for (slot, (field, name)) in v.iter_mut().zip(fields.iter().zip(["X", "Y", "Z", "A", "C"])) {
+    for (slot, (field, name)) in v
+        .iter_mut()
+        .zip(fields.iter().zip(["X", "Y", "Z", "A", "C"]))
+    {
         *slot = field
             .parse::<f64>()
             .ok()
             .filter(|x| x.is_finite())
-            .ok_or_else(|| crate::cli::UsageError(format!("--at: {name} = \"{field}\" is not a finite number")))?;
+            .ok_or_else(|| {
+                crate::cli::UsageError(format!("--at: {name} = \"{field}\" is not a finite number"))
+            })?;
     }
     Ok(Axes::from_array(v))
 }
@@ -130,10 +174,16 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
         .enumerate()
         .map(|(i, l)| (i + 1, l.trim()))
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let (header_line, header) = lines
-        .next()
-        .ok_or_else(|| anyhow!("{}: empty file (expected the header x,y,z,a,c)", path.display()))?;
-    let names: Vec<String> = header.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
+    let (header_line, header) = lines.next().ok_or_else(|| {
+        anyhow!(
+            "{}: empty file (expected the header x,y,z,a,c)",
+            path.display()
+        )
+    })?;
+    let names: Vec<String> = header
+        .split(',')
+        .map(|s| s.trim().to_ascii_lowercase())
+        .collect();
     let mut index = [usize::MAX; 5];
     for (slot, want) in index.iter_mut().zip(["x", "y", "z", "a", "c"]) {
         *slot = names.iter().position(|n| n == want).ok_or_else(|| {
@@ -156,15 +206,19 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
         }
         let mut v = [0.0; 5];
         for (k, (slot, col)) in v.iter_mut().zip(index).enumerate() {
-            *slot = fields[col].parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                anyhow!(
-                    "{}:{line}: field {} (`{}`) = \"{}\" is not a finite number",
-                    path.display(),
-                    col + 1,
-                    ["x", "y", "z", "a", "c"][k],
-                    fields[col]
-                )
-            })?;
+            *slot = fields[col]
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{}:{line}: field {} (`{}`) = \"{}\" is not a finite number",
+                        path.display(),
+                        col + 1,
+                        ["x", "y", "z", "a", "c"][k],
+                        fields[col]
+                    )
+                })?;
         }
         out.push((line, Axes::from_array(v)));
     }
@@ -181,16 +235,22 @@ struct PoseJson<'a> {
 }
 
 fn fmt3(v: [f64; 3], decimals: usize) -> String {
-    format!("({:>10.*}, {:>10.*}, {:>10.*})", decimals, v[0], decimals, v[1], decimals, v[2])
+    format!(
+        "({:>10.*}, {:>10.*}, {:>10.*})",
+        decimals, v[0], decimals, v[1], decimals, v[2]
+    )
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.poses.is_some() && args.verbose {
-        return Err(crate::cli::UsageError("--verbose applies to a single pose (--at)".into()).into());
+        return Err(
+            crate::cli::UsageError("--verbose applies to a single pose (--at)".into()).into(),
+        );
     }
-    // Validate the pose before the (slower) fit.
+    // Validate the input before the (slower) fit.
     let single = args.at.as_deref().map(parse_pose).transpose()?;
-    let (machine, model) = load_model(&args.machine, args.extrapolate.into())?;
+    let many = args.poses.as_deref().map(read_poses).transpose()?;
+    let (machine, model) = load_model(&args.machine, &args.model)?;
     let kin = model.kinematics();
     let to_joints = |pose: &Axes| match args.frame {
         PoseFrame::Joint => *pose,
@@ -221,11 +281,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             );
             let tip = kin.nominal_tip(&joints);
             println!("tip (part) {} mm", fmt3(tip, 4));
-            println!("e         {} um   |e| = {:.4} um", fmt3(v.e_um, 4), v.magnitude_um());
+            println!(
+                "e         {} um   |e| = {:.4} um",
+                fmt3(v.e_um, 4),
+                v.magnitude_um()
+            );
             println!("tool axis {} urad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {
                 println!("contributions (each parameter alone, largest |e| first):");
-                println!("  {:<6} {:>12}  {:>34}  {:>9}", "param", "value", "e (um)", "|e| um");
+                println!(
+                    "  {:<6} {:>12}  {:>34}  {:>9}",
+                    "param", "value", "e (um)", "|e| um"
+                );
                 for c in list {
                     let unit = if is_length(c.parameter) { "um" } else { "urad" };
                     println!(
@@ -239,8 +306,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 }
             }
         }
-    } else if let Some(path) = &args.poses {
-        let poses = read_poses(path)?;
+    } else if let (Some(path), Some(poses)) = (&args.poses, many) {
         let results: Vec<VolumetricError> = poses
             .par_iter()
             .map(|(line, pose)| {
@@ -260,7 +326,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 .collect();
             println!("{}", serde_json::to_string(&list)?);
         } else {
-            println!("machine {} ({}), {} poses from {}", machine.name, machine.source.display(), results.len(), path.display());
+            println!(
+                "machine {} ({}), {} poses from {}",
+                machine.name,
+                machine.source.display(),
+                results.len(),
+                path.display()
+            );
             println!("{:>6}  {:>34}  {:>9}", "line", "e (um)", "|e| um");
             for ((line, _), v) in poses.iter().zip(&results) {
                 println!("{line:>6}  {}  {:>9.4}", fmt3(v.e_um, 4), v.magnitude_um());

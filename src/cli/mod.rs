@@ -10,6 +10,7 @@
 use clap::{Parser, Subcommand};
 
 pub mod check;
+pub mod common;
 pub mod compensate;
 pub mod diagnose;
 pub mod diff;

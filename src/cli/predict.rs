@@ -1,16 +1,125 @@
-//! `volcomp predict`.
+//! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
+use super::common::{FrameArg, MachineArgs, open_input};
+use crate::inspection::Plan;
+use crate::io::{write_file_atomic, write_json_atomic};
+use crate::predict::{html, predict_path, predict_plan};
+use crate::toolpath::cut::CutOptions;
 use std::path::PathBuf;
 
+const AFTER_HELP: &str = "\
+Examples:
+  volcomp predict machines/ref-trt.toml samples/saddle.nc --plan samples/saddle-plan.csv --report pred.json --html pred.html
+  volcomp predict machines/ref-trt.toml samples/saddle.nc --report path-errors.json
+
+With --plan, each plan point is assigned the tool-path point that cut it (the
+ball-end contact point t + R·u − R·n nearest the plan point, path sampled at
+0.5 mm in part coordinates); its predicted deviation is n·e, the volumetric error
+of that path point along the surface normal (µm, positive: material left). The
+profile error is 2·max|d| (and the range max d − min d). Without --plan the report
+lists the volumetric error at the end of every motion block, with its line.";
+
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Input files.
-    pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// Program (`-` for standard input).
+    pub program: PathBuf,
+    /// Inspection plan (CSV `id,x,y,z,i,j,k`, part coordinates).
+    #[arg(long, value_name = "PLAN.csv")]
+    pub plan: Option<PathBuf>,
+    /// Report (JSON).
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// Self-contained HTML report with pictures.
+    #[arg(long, value_name = "FILE.html")]
+    pub html: Option<PathBuf>,
+    /// Frame of X Y Z at program start.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: FrameArg,
+    /// Pass constructs that cannot be understood through with a warning.
+    #[arg(long)]
+    pub lenient: bool,
 }
 
-pub fn run(_args: &Args) -> anyhow::Result<()> {
-    Err(super::NotBuilt {
-        command: "predict",
-        what: "prediction is not built yet",
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.report.is_none() && args.html.is_none() {
+        eprintln!("note: no --report or --html given; printing the summary only");
     }
-    .into())
+    let (machine, model) = args.machine.load()?;
+    let mut options = CutOptions::for_machine(&machine, args.frame.into());
+    options.interpret.lenient = args.lenient;
+    let input = open_input(&args.program)?;
+    let report = match &args.plan {
+        Some(plan_path) => {
+            let plan = Plan::read(plan_path)?;
+            predict_plan(input, &args.program, &model, &plan, &options)?
+        }
+        None => predict_path(input, &args.program, &model, &options)?,
+    };
+    if let Some(path) = &args.report {
+        write_json_atomic(path, &report)?;
+    }
+    if let Some(path) = &args.html {
+        let title = format!(
+            "volcomp predict: {} on {}",
+            args.program.display(),
+            machine.name
+        );
+        write_file_atomic(path, html::render(&report, &title).as_bytes())?;
+    }
+    let to_stdout = super::common::writes_stdout(args.report.as_ref())
+        || super::common::writes_stdout(args.html.as_ref());
+    let text = if args.plan.is_some() {
+        let not_cut = report.points_total - report.points_cut;
+        let worst = report
+            .points
+            .iter()
+            .filter_map(|p| p.deviation_um.map(|d| (p, d)))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        format!(
+            "predicted profile error {:.2} µm (range {:.2} µm) over {} of {} plan points{}\n\
+volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}\n{:.3} s",
+            report.profile_um,
+            report.range_um,
+            report.points_cut,
+            report.points_total,
+            if not_cut > 0 {
+                format!(" ({not_cut} not cut)")
+            } else {
+                String::new()
+            },
+            report.max_error_um,
+            report.rms_error_um,
+            worst.map_or(String::new(), |(p, d)| format!(
+                "\nlargest deviation {d:.3} µm at plan point {} (line {})",
+                p.id,
+                p.line.unwrap_or(0)
+            )),
+            report.seconds
+        ) + &if report.max_path_offset_um > 0.5 {
+            format!(
+                "\nthe program's own path departs from the plan points by up to {:.2} µm along the normals \
+(a compensated program?): with it, the part would measure profile {:.2} µm (range {:.2} µm)",
+                report.max_path_offset_um, report.profile_with_path_um, report.range_with_path_um
+            )
+        } else {
+            String::new()
+        }
+    } else {
+        let worst = report
+            .blocks
+            .iter()
+            .max_by(|a, b| a.norm_um.total_cmp(&b.norm_um));
+        format!(
+            "{} motion blocks: volumetric error max {:.2} µm{}, RMS {:.2} µm\n{:.3} s",
+            report.blocks.len(),
+            report.max_error_um,
+            worst.map_or(String::new(), |b| format!(" (line {})", b.line)),
+            report.rms_error_um,
+            report.seconds
+        )
+    };
+    super::common::say(to_stdout, &text);
+    Ok(())
 }

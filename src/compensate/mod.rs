@@ -1,1 +1,514 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! `compensate`: rewrite a program so that the modelled actual tool tip lands on
+//! the programmed one.
+//!
+//! For every motion target the joints are solved ([`solve`]) so that the actual
+//! tool tip of the error model equals the nominal tip of the programmed target;
+//! part-frame (tool-tip control) targets are moved in part coordinates, through
+//! the nominal kinematics the control itself uses. A cutting move whose correction
+//! varies along it by more than the tolerance (the compensated straight move would
+//! miss the compensated path in between) is split at its midpoint, recursively.
+//! Rapids are compensated at their ends and never split.
+//!
+//! Streaming: blocks are read in chunks; within a chunk the solves run in parallel
+//! (rayon) and the output is written in order through `gcode::rewrite`, so memory
+//! does not grow with the program. Nothing is printed here.
+pub mod solve;
+
+use crate::axes::Axes;
+use crate::gcode::{
+    Block, BlockEvent, BlockReader, Frame, GcodeError, InterpretOptions, Interpreter, Motion,
+    MotionKind, ReadOptions, RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
+};
+use crate::machine::{ErrorModel, Limits};
+use rayon::prelude::*;
+use serde::Serialize;
+use solve::{SolveError, first_order_joints, solve_joints};
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Settings of a compensation run.
+#[derive(Clone, Debug)]
+pub struct CompensateOptions {
+    /// A cutting move is split where the correction along it departs from the
+    /// straight interpolation of its end corrections by more than this, µm.
+    pub tolerance_um: f64,
+    /// Deepest recursive halving of one move (2^depth pieces at most).
+    pub max_split_depth: u32,
+    pub interpret: InterpretOptions,
+    pub rewrite: RewriteOptions,
+    /// Blocks per chunk (memory and parallel grain).
+    pub chunk_blocks: usize,
+    /// Travel limits the compensated joints must respect (`None`: unchecked).
+    pub limits: Option<Limits>,
+}
+
+impl Default for CompensateOptions {
+    fn default() -> Self {
+        CompensateOptions {
+            tolerance_um: 0.5,
+            max_split_depth: 8,
+            interpret: InterpretOptions::default(),
+            rewrite: RewriteOptions::default(),
+            chunk_blocks: 4096,
+            limits: None,
+        }
+    }
+}
+
+/// The summary (`--report` JSON: formats.md fields first).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct CompensateReport {
+    pub blocks_read: usize,
+    pub blocks_changed: usize,
+    pub blocks_split: usize,
+    /// Largest and RMS |Δ(X, Y, Z)| of the motion targets, µm (block frame).
+    pub max_correction_um: f64,
+    pub rms_correction_um: f64,
+    pub seconds: f64,
+    /// Motion blocks and the new blocks the splits added.
+    pub motion_blocks: usize,
+    pub blocks_added: usize,
+    /// Largest solver residual, nm.
+    pub max_residual_nm: f64,
+    /// Line of the largest correction.
+    pub max_correction_line: usize,
+    /// Lookups that held a table's end value (`--extrapolate hold`).
+    pub held_lookups: u64,
+    pub tolerance_um: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CompensateError {
+    #[error(transparent)]
+    Gcode(#[from] GcodeError),
+    #[error("{path}:{line}: {source}")]
+    Solve {
+        path: PathBuf,
+        line: usize,
+        source: SolveError,
+    },
+    #[error(
+        "{path}:{line}: the compensated target puts {axis:?} at {value:.4}, outside its travel [{}, {}]; \
+the machine cannot cut this block as compensated (move the part or relax the limits in the machine file)",
+        range[0], range[1]
+    )]
+    OutsideTravel {
+        path: PathBuf,
+        line: usize,
+        axis: crate::axes::Axis,
+        value: f64,
+        range: [f64; 2],
+    },
+    #[error("{path}:{line}: {source}")]
+    Rewrite {
+        path: PathBuf,
+        line: usize,
+        source: RewriteError,
+    },
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// What to do with one motion block, computed in parallel.
+#[derive(Clone, Debug, Default)]
+struct Plan {
+    end: Option<Axes>,
+    via: Vec<Axes>,
+    correction_um: f64,
+    residual_mm: f64,
+}
+
+/// The compensated target of `target` (in `frame`), and the solve residual.
+fn compensate_target(
+    model: &ErrorModel,
+    frame: Frame,
+    target: &Axes,
+    limits: Option<&Limits>,
+) -> Result<(Axes, f64), PointError> {
+    let kin = model.kinematics();
+    let nominal = match frame {
+        Frame::Joint => *target,
+        Frame::Part => kin.joints_from_part(target),
+    };
+    let solved = solve_joints(model, &nominal).map_err(PointError::Solve)?;
+    if let Some(l) = limits
+        && let Some((axis, value, range)) = l.violated(&solved.joints)
+    {
+        return Err(PointError::Travel { axis, value, range });
+    }
+    let out = match frame {
+        Frame::Joint => solved.joints,
+        Frame::Part => {
+            let mut p = kin.part_from_joints(&solved.joints);
+            // A and C stay exactly as programmed.
+            p.a = target.a;
+            p.c = target.c;
+            p
+        }
+    };
+    Ok((out, solved.residual_mm))
+}
+
+/// First-order estimate of [`compensate_target`] (one error evaluation, no limits).
+fn estimate_target(model: &ErrorModel, frame: Frame, target: &Axes) -> Result<Axes, PointError> {
+    let kin = model.kinematics();
+    let nominal = match frame {
+        Frame::Joint => *target,
+        Frame::Part => kin.joints_from_part(target),
+    };
+    let q = first_order_joints(model, &nominal).map_err(PointError::Solve)?;
+    Ok(match frame {
+        Frame::Joint => q,
+        Frame::Part => {
+            let mut p = kin.part_from_joints(&q);
+            p.a = target.a;
+            p.c = target.c;
+            p
+        }
+    })
+}
+
+#[derive(Debug)]
+enum PointError {
+    Solve(SolveError),
+    Travel {
+        axis: crate::axes::Axis,
+        value: f64,
+        range: [f64; 2],
+    },
+}
+
+/// The frame in which a motion's targets are compensated (G53 targets are joints).
+fn frame_of(motion: &Motion) -> Frame {
+    if motion.machine_coordinates {
+        Frame::Joint
+    } else {
+        motion.frame
+    }
+}
+
+/// Point at fraction `t` of a motion (block frame).
+fn point_along(motion: &Motion, arc: Option<&ArcGeometry>, t: f64) -> Axes {
+    let mut p = motion.start.lerp(&motion.end, t);
+    if let Some(g) = arc {
+        let xyz = g.point(t);
+        p.x = xyz[0];
+        p.y = xyz[1];
+        p.z = xyz[2];
+    }
+    p
+}
+
+fn xyz_gap(a: &Axes, b: &Axes) -> f64 {
+    a.xyz_distance(b)
+}
+
+/// Plan one motion block: its compensated end (already solved), and split points.
+fn plan_motion(
+    model: &ErrorModel,
+    motion: &Motion,
+    start_comp: Option<Axes>,
+    end_comp: Axes,
+    options: &CompensateOptions,
+) -> Result<Vec<Axes>, PointError> {
+    let splittable = !matches!(motion.kind, MotionKind::Rapid);
+    let Some(start_comp) = start_comp.filter(|_| splittable) else {
+        return Ok(Vec::new());
+    };
+    let frame = frame_of(motion);
+    let arc = match motion.kind {
+        MotionKind::Arc {
+            clockwise,
+            centre,
+            plane,
+            turns,
+        } => Some(ArcGeometry::new(
+            &motion.start,
+            &motion.end,
+            centre,
+            plane,
+            clockwise,
+            turns,
+        )),
+        _ => None,
+    };
+    let tol_mm = options.tolerance_um * 1e-3;
+    let limits = options.limits.as_ref();
+    // Recursive halving on [t0, t1] with compensated ends c0, c1.
+    let mut via = Vec::new();
+    let mut stack = vec![(0.0f64, 1.0f64, start_comp, end_comp, 0u32)];
+    // Depth-first, left first, so `via` comes out in order.
+    while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
+        let tm = 0.5 * (t0 + t1);
+        let nominal_mid = point_along(motion, arc.as_ref(), tm);
+        let estimate = estimate_target(model, frame, &nominal_mid)?;
+        // What the control would do between the compensated ends.
+        let n0 = point_along(motion, arc.as_ref(), t0);
+        let n1 = point_along(motion, arc.as_ref(), t1);
+        let straight = Axes::from_array({
+            let (a, b, na, nb, nm) = (
+                c0.to_array(),
+                c1.to_array(),
+                n0.to_array(),
+                n1.to_array(),
+                nominal_mid.to_array(),
+            );
+            let mut v = [0.0; 5];
+            for i in 0..5 {
+                // The correction interpolated between the ends, applied at the nominal midpoint.
+                v[i] = nm[i] + 0.5 * ((a[i] - na[i]) + (b[i] - nb[i]));
+            }
+            v
+        });
+        let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
+        if needs_split && depth < options.max_split_depth {
+            let (cm, _) = compensate_target(model, frame, &nominal_mid, limits)?;
+            // Right half first on the stack so the left half is processed first.
+            stack.push((tm, t1, cm, c1, depth + 1));
+            stack.push((t0, tm, c0, cm, depth + 1));
+        } else if t1 < 1.0 {
+            via.push(c1);
+        }
+    }
+    if via.is_empty() {
+        return Ok(via);
+    }
+    if let Some(g) = &arc {
+        // A split arc becomes straight pieces: put them on the compensated arc
+        // densely enough that the chords stay within a tenth of the tolerance.
+        return densify_arc(model, motion, g, frame, options);
+    }
+    Ok(via)
+}
+
+/// Straight pieces along a compensated arc with chord error ≤ tolerance / 10.
+fn densify_arc(
+    model: &ErrorModel,
+    motion: &Motion,
+    arc: &ArcGeometry,
+    frame: Frame,
+    options: &CompensateOptions,
+) -> Result<Vec<Axes>, PointError> {
+    let r = arc_radius(motion, arc).max(1e-6);
+    let sag = (options.tolerance_um * 1e-4).max(1e-7);
+    let step = (8.0 * r * sag).sqrt();
+    let n = ((arc.length() / step).ceil() as usize).clamp(2, 100_000);
+    let mut via = Vec::with_capacity(n - 1);
+    for i in 1..n {
+        let p = point_along(motion, Some(arc), i as f64 / n as f64);
+        via.push(compensate_target(model, frame, &p, options.limits.as_ref())?.0);
+    }
+    Ok(via)
+}
+
+fn arc_radius(motion: &Motion, arc: &ArcGeometry) -> f64 {
+    let m = arc.point(0.5);
+    let s = motion.start.xyz();
+    let e = motion.end.xyz();
+    // Circumradius of start, middle, end.
+    let a = dist3(s, m);
+    let b = dist3(m, e);
+    let c = dist3(s, e);
+    let area2 = {
+        let u = [m[0] - s[0], m[1] - s[1], m[2] - s[2]];
+        let v = [e[0] - s[0], e[1] - s[1], e[2] - s[2]];
+        let w = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
+    };
+    if area2 < 1e-12 {
+        arc.length()
+    } else {
+        a * b * c / (2.0 * area2)
+    }
+}
+
+fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Compensate the program read from `input` (named `path` in messages) into
+/// `output`. `progress` is called after each chunk with the number of blocks done.
+pub fn compensate(
+    input: impl BufRead,
+    path: &Path,
+    output: &mut dyn Write,
+    model: &ErrorModel,
+    options: &CompensateOptions,
+    mut progress: impl FnMut(usize),
+) -> Result<CompensateReport, CompensateError> {
+    let started = Instant::now();
+    let held_before = model.held_lookups();
+    let mut reader = BlockReader::new(
+        input,
+        ReadOptions {
+            lenient: options.interpret.lenient,
+        },
+    );
+    let mut interpreter = Interpreter::new(options.interpret);
+    let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
+    let mut report = CompensateReport {
+        tolerance_um: options.tolerance_um,
+        ..CompensateReport::default()
+    };
+    let mut sum_sq = 0.0;
+    // Compensated end of the previous motion, in the frame it was programmed in.
+    let mut previous: Option<(Frame, Axes)> = None;
+    let mut chunk: Vec<(Block, BlockEvent)> = Vec::with_capacity(options.chunk_blocks);
+    let mut emitted = Vec::with_capacity(256);
+    let mut done = false;
+    while !done {
+        chunk.clear();
+        while chunk.len() < options.chunk_blocks {
+            match reader.next_block() {
+                None => {
+                    done = true;
+                    break;
+                }
+                Some(block) => {
+                    let block = block.map_err(|e| e.with_path(path))?;
+                    let event = interpreter
+                        .interpret(block)
+                        .map_err(|e| e.with_path(path))?;
+                    chunk.push((block.clone(), event));
+                }
+            }
+        }
+        // 1. Compensated end of every motion, in parallel.
+        let ends: Vec<Option<Result<(Axes, f64), PointError>>> =
+            chunk
+                .par_iter()
+                .map(|(_, event)| {
+                    event.motion.as_ref().filter(|_| !event.skipped).map(|m| {
+                        compensate_target(model, frame_of(m), &m.end, options.limits.as_ref())
+                    })
+                })
+                .collect();
+        let mut resolved: Vec<Option<(Axes, f64)>> = Vec::with_capacity(chunk.len());
+        for ((block, _), end) in chunk.iter().zip(ends) {
+            match end {
+                None => resolved.push(None),
+                Some(Ok(v)) => resolved.push(Some(v)),
+                Some(Err(e)) => return Err(point_error(path, block.line, e)),
+            }
+        }
+        // 2. Compensated start of every motion: the previous motion's compensated
+        //    end when it was programmed in the same frame.
+        let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
+        for ((_, event), end) in chunk.iter().zip(&resolved) {
+            match (&event.motion, end) {
+                (Some(m), Some((e, _))) if !event.skipped => {
+                    let f = frame_of(m);
+                    starts.push(previous.filter(|(pf, _)| *pf == f).map(|(_, p)| p));
+                    previous = Some((f, *e));
+                }
+                _ => starts.push(None),
+            }
+        }
+        // 3. Split points, in parallel.
+        let plans: Vec<Result<Plan, PointError>> = chunk
+            .par_iter()
+            .zip(resolved.par_iter())
+            .zip(starts.par_iter())
+            .map(|(((_, event), end), start)| {
+                let (Some(m), Some((end, residual))) = (&event.motion, end) else {
+                    return Ok(Plan::default());
+                };
+                let via = plan_motion(model, m, *start, *end, options)?;
+                let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
+                Ok(Plan {
+                    end: Some(*end),
+                    via,
+                    correction_um: (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3,
+                    residual_mm: *residual,
+                })
+            })
+            .collect();
+        // 4. Emit in order.
+        for ((block, event), plan) in chunk.iter().zip(plans) {
+            let plan = plan.map_err(|e| point_error(path, block.line, e))?;
+            report.blocks_read += 1;
+            let target = match plan.end {
+                None => Target::Same,
+                Some(end) => {
+                    report.motion_blocks += 1;
+                    sum_sq += plan.correction_um * plan.correction_um;
+                    if plan.correction_um > report.max_correction_um {
+                        report.max_correction_um = plan.correction_um;
+                        report.max_correction_line = block.line;
+                    }
+                    report.max_residual_nm = report.max_residual_nm.max(plan.residual_mm * 1e6);
+                    if plan.via.is_empty() {
+                        Target::Move(end)
+                    } else {
+                        report.blocks_split += 1;
+                        report.blocks_added += plan.via.len();
+                        Target::Split {
+                            via: &plan.via,
+                            end,
+                        }
+                    }
+                }
+            };
+            emitted.clear();
+            rewriter
+                .emit(block, event, target, &mut emitted)
+                .map_err(|source| CompensateError::Rewrite {
+                    path: path.to_path_buf(),
+                    line: block.line,
+                    source,
+                })?;
+            if !same_bytes(block, &emitted) {
+                report.blocks_changed += 1;
+            }
+            output
+                .write_all(&emitted)
+                .map_err(|source| CompensateError::Rewrite {
+                    path: path.to_path_buf(),
+                    line: block.line,
+                    source: RewriteError::Io(source),
+                })?;
+        }
+        progress(report.blocks_read);
+    }
+    report.rms_correction_um = if report.motion_blocks > 0 {
+        (sum_sq / report.motion_blocks as f64).sqrt()
+    } else {
+        0.0
+    };
+    report.held_lookups = model.held_lookups().saturating_sub(held_before);
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Whether the emitted bytes are the block's original line.
+fn same_bytes(block: &Block, emitted: &[u8]) -> bool {
+    let ending = block.ending.as_bytes();
+    emitted.len() == block.raw.len() + ending.len()
+        && emitted.starts_with(&block.raw)
+        && emitted.ends_with(ending)
+}
+
+fn point_error(path: &Path, line: usize, e: PointError) -> CompensateError {
+    match e {
+        PointError::Solve(source) => CompensateError::Solve {
+            path: path.to_path_buf(),
+            line,
+            source,
+        },
+        PointError::Travel { axis, value, range } => CompensateError::OutsideTravel {
+            path: path.to_path_buf(),
+            line,
+            axis,
+            value,
+            range,
+        },
+    }
+}

@@ -16,7 +16,6 @@
 //! Rotary errors are not corrected through A and C: the tool-axis error (µrad)
 //! remains, as in the seed paper, which moves only X, Y, Z.
 use crate::axes::Axes;
-use crate::kinematics::Kinematics;
 use crate::machine::{ErrorModel, LookupError};
 
 /// Residual at which the solve stops, mm (1 nm).
@@ -52,11 +51,8 @@ pub struct Solved {
 }
 
 /// Joints `q` with `r_act(q) = nominal_tip(nominal)`, starting from `nominal`.
-pub fn solve_joints(
-    kinematics: &Kinematics,
-    model: &ErrorModel,
-    nominal: &Axes,
-) -> Result<Solved, SolveError> {
+pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveError> {
+    let kinematics = model.kinematics();
     if !nominal.is_finite() {
         return Err(SolveError::NotFinite(*nominal));
     }
@@ -92,5 +88,27 @@ pub fn solve_joints(
         joints: *nominal,
         residual_um: residual * 1e3,
         iterations: MAX_ITERATIONS,
+    })
+}
+
+/// First-order compensated joints with one error evaluation: `q − M⁻¹·e(q)`, A and
+/// C as given. Its departure from the exact solve is the error's slope times the
+/// correction (≈ 1e-4 × tens of µm, a few nm), so it serves to decide whether a
+/// move must be split, never as output.
+pub fn first_order_joints(model: &ErrorModel, nominal: &Axes) -> Result<Axes, SolveError> {
+    if !nominal.is_finite() {
+        return Err(SolveError::NotFinite(*nominal));
+    }
+    let kinematics = model.kinematics();
+    let target = kinematics.nominal_tip(nominal);
+    let errors = model.errors_at(nominal)?;
+    let actual = kinematics.actual_tip_and_axis(nominal, &errors).tip;
+    let m_target = kinematics.nominal_machine_point(target, nominal.a, nominal.c);
+    let m_actual = kinematics.nominal_machine_point(actual, nominal.a, nominal.c);
+    Ok(Axes {
+        x: nominal.x + m_target[0] - m_actual[0],
+        y: nominal.y + m_target[1] - m_actual[1],
+        z: nominal.z + m_target[2] - m_actual[2],
+        ..*nominal
     })
 }

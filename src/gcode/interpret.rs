@@ -40,7 +40,7 @@ use super::modal::{
     CutterComp, Distance, GCode, MCode, ModalState, MotionMode, classify_g, classify_m, code_text,
     is_known_letter,
 };
-use super::motion::{Feed, Frame, Motion, MotionKind, Plane};
+use super::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
 
 /// Interpreter settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -527,7 +527,9 @@ impl Interpreter {
                 match self.arc_centre(block, event, modal, words, &start, &end, clockwise)? {
                     Some(centre) => {
                         let turns = match words.p {
-                            Some(p) if p >= 1.0 && p < 1e6 => (p.round() as u32).saturating_sub(1),
+                            Some(p) if (1.0..1e6).contains(&p) => {
+                                (p.round() as u32).saturating_sub(1)
+                            }
                             _ => 0,
                         };
                         MotionKind::Arc {
@@ -675,33 +677,30 @@ impl Interpreter {
     }
 }
 
-/// Duration of a move by the effects.md rules, minutes.
+/// Duration of a move by the effects.md rules, minutes, from its programmed
+/// coordinates (see [`duration_from_lengths`]).
 pub fn duration_min(m: &Motion, rapid_mm_per_min: f64) -> f64 {
-    let length = m.xyz_length();
     let rotary = (m.end.a - m.start.a).hypot(m.end.c - m.start.c);
-    let path = if length > 1e-9 { length } else { rotary };
-    let t = match m.feed {
+    duration_from_lengths(&m.feed, m.xyz_length(), rotary, rapid_mm_per_min)
+}
+
+/// Duration (minutes) of a move with XYZ path length `xyz_mm` and rotary length
+/// `rotary_deg` = √(Δa² + Δc²): the XYZ length over F, the rotary length over F
+/// when only A/C move, the rapid rate for G0, 1/F under G93; 0 when the feed gives
+/// no time (F0).
+pub fn duration_from_lengths(
+    feed: &Feed,
+    xyz_mm: f64,
+    rotary_deg: f64,
+    rapid_mm_per_min: f64,
+) -> f64 {
+    let path = if xyz_mm > 1e-9 { xyz_mm } else { rotary_deg };
+    let t = match *feed {
         Feed::Rapid => path / rapid_mm_per_min,
         Feed::PerMinute(f) => path / f,
         Feed::InverseTime(f) => 1.0 / f,
     };
     if t.is_finite() && t >= 0.0 { t } else { 0.0 }
-}
-
-pub(crate) fn to_plane(plane: Plane, p: [f64; 3]) -> [f64; 3] {
-    match plane {
-        Plane::XY => [p[0], p[1], p[2]],
-        Plane::ZX => [p[2], p[0], p[1]],
-        Plane::YZ => [p[1], p[2], p[0]],
-    }
-}
-
-pub(crate) fn from_plane(plane: Plane, q: [f64; 3]) -> [f64; 3] {
-    match plane {
-        Plane::XY => [q[0], q[1], q[2]],
-        Plane::ZX => [q[1], q[2], q[0]],
-        Plane::YZ => [q[2], q[0], q[1]],
-    }
 }
 
 /// Read and interpret a whole program held in memory (strict unless

@@ -3,17 +3,41 @@
 //!
 //! Invariants: `gcode` knows nothing about kinematics or machines; every block
 //! keeps its byte span, line number and raw text; numbers are f64; syntax and
-//! modal state are separate layers.
+//! modal state are separate layers. Every line of the input is one [`Block`]
+//! (blank and comment lines included), so block index = line − 1. No input
+//! makes any function here panic (proptested over arbitrary bytes).
 //!
 //! Layers:
 //! - [`block`]: the syntax of one line ([`Block`], [`Word`]), lossless;
-//! - [`parser`]: one line's bytes → words (nom; grammar/gcode.ebnf);
-//! - [`reader`]: streaming [`BlockReader`] over any `BufRead`, and [`parse_program`];
+//! - [`parser`]: one line's bytes → words (nom; `grammar/gcode.ebnf` is the
+//!   exact grammar);
+//! - [`reader`]: streaming [`BlockReader`] over any `BufRead` (reuses its
+//!   buffers: memory does not grow with the program), and [`parse_program`];
 //! - [`modal`]: modal state and the meaning of G/M codes;
-//! - [`interpret`]: [`Interpreter`] → one [`BlockEvent`] per block (with the [`Motion`]);
-//! - [`rewrite`]: [`Rewriter`] → program text, unchanged blocks byte for byte;
+//! - [`interpret`]: [`Interpreter`] → one [`BlockEvent`] per block (with the
+//!   [`Motion`], absolute, mm/deg, in the block's frame, and its duration); the
+//!   module docs list the decisions (initial position, G28, frames, G93);
+//! - [`rewrite`]: [`Rewriter`] / [`rewrite_stream`] → program text, unchanged
+//!   blocks byte for byte, changed blocks word by word, splits;
 //! - [`summary`]: what `volcomp check` reports ([`ProgramSummary`]);
 //! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
+//!
+//! Typical use (a compensator):
+//!
+//! ```
+//! use volcomp::gcode::{InterpretOptions, RewriteOptions, rewrite_stream};
+//! let program = "G21 G90 G93\nN10 G1 X10 Y0 Z0 A0 C0 F2.\n";
+//! let mut out = Vec::new();
+//! let stats = rewrite_stream(program.as_bytes(), &mut out, InterpretOptions::default(),
+//!     RewriteOptions::default(), |_block, event, via| {
+//!         let m = event.motion.as_ref()?;
+//!         via.push(m.start.lerp(&m.end, 0.5)); // split in two
+//!         Some(m.end)                           // keep the end
+//!     }).unwrap();
+//! assert_eq!(stats.pieces, 1);
+//! assert_eq!(String::from_utf8(out).unwrap(),
+//!            "G21 G90 G93\nG1 X5.0000 F4.000000\nN10 G1 X10 Y0 Z0 A0 C0 F4.000000\n");
+//! ```
 pub mod block;
 pub mod error;
 pub mod interpret;
@@ -27,12 +51,14 @@ pub mod summary;
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
 pub use interpret::{
-    BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_min,
-    interpret_program,
+    BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_from_lengths,
+    duration_min, interpret_program,
 };
 pub use modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
 pub use parser::{parse_block, parse_line};
 pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};
-pub use rewrite::{RewriteError, RewriteOptions, Rewriter, Target};
+pub use rewrite::{
+    Emitted, RewriteError, RewriteOptions, RewriteStats, Rewriter, Target, rewrite_stream,
+};
 pub use summary::ProgramSummary;

@@ -216,7 +216,8 @@ impl ArcGeometry {
     }
 }
 
-fn to_plane(plane: Plane, p: [f64; 3]) -> [f64; 3] {
+/// `(x, y, z)` → in-plane `(u, v)` and normal `w` coordinates of `plane`.
+pub(crate) fn to_plane(plane: Plane, p: [f64; 3]) -> [f64; 3] {
     match plane {
         Plane::XY => [p[0], p[1], p[2]],
         Plane::ZX => [p[2], p[0], p[1]],
@@ -224,7 +225,8 @@ fn to_plane(plane: Plane, p: [f64; 3]) -> [f64; 3] {
     }
 }
 
-fn from_plane(plane: Plane, q: [f64; 3]) -> [f64; 3] {
+/// Inverse of [`to_plane`].
+pub(crate) fn from_plane(plane: Plane, q: [f64; 3]) -> [f64; 3] {
     match plane {
         Plane::XY => [q[0], q[1], q[2]],
         Plane::ZX => [q[1], q[2], q[0]],

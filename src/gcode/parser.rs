@@ -88,27 +88,33 @@ fn scan_number(line: &[u8], mut p: usize) -> Result<Number, NumberError> {
     }
     let digits_from = p;
     let mut mantissa: u64 = 0;
-    let mut exact = true;
     let mut ndigits = 0usize;
     let mut decimals = 0usize;
     let mut point = false;
     let mut end = p;
-    while p < len {
-        let b = line[p];
-        if b.is_ascii_digit() {
+    loop {
+        // A run of digits (the hot loop), then a point, a space or the end.
+        let run_start = p;
+        while p < len && line[p].is_ascii_digit() {
+            // 19 digits always fit in a u64; with more the (wrapped) mantissa
+            // is not used: longer numbers take the slow path.
+            mantissa = mantissa
+                .wrapping_mul(10)
+                .wrapping_add((line[p] - b'0') as u64);
             ndigits += 1;
+            p += 1;
+        }
+        if p > run_start {
+            end = p;
             if point {
-                decimals += 1;
+                decimals += p - run_start;
             }
-            match mantissa
-                .checked_mul(10)
-                .and_then(|m| m.checked_add((b - b'0') as u64))
-            {
-                Some(m) => mantissa = m,
-                None => exact = false,
-            }
-            end = p + 1;
-        } else if b == b'.' {
+        }
+        if p >= len {
+            break;
+        }
+        let b = line[p];
+        if b == b'.' {
             if point {
                 return Err(NumberError::Malformed(p));
             }
@@ -119,6 +125,7 @@ fn scan_number(line: &[u8], mut p: usize) -> Result<Number, NumberError> {
         }
         p += 1;
     }
+    let exact = ndigits <= 19;
     if ndigits == 0 {
         return Err(if point {
             NumberError::Malformed(end.saturating_sub(1))
@@ -159,6 +166,7 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     let Block {
         raw,
         line: line_no,
+        offset,
         words,
         keywords,
         comments,
@@ -174,7 +182,13 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     };
     let pos_of = |rest: &[u8]| len - rest.len();
 
-    let mut pos = ws(line).map(|(r, _)| pos_of(r)).unwrap_or(0);
+    // A UTF-8 byte order mark at the start of the file is kept but not read.
+    let bom = if *offset == 0 && line.starts_with(b"\xEF\xBB\xBF") {
+        3
+    } else {
+        0
+    };
+    let mut pos = ws(&line[bom..]).map(|(r, _)| pos_of(r)).unwrap_or(bom);
     if pos < len && line[pos] == b'%' {
         *percent = true;
         return Ok(());

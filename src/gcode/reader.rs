@@ -11,7 +11,7 @@
 //!     let block = block.unwrap();
 //!     n += block.words.len();
 //! }
-//! assert_eq!(n, 7);
+//! assert_eq!(n, 8);
 //! ```
 use std::io::BufRead;
 

@@ -25,6 +25,11 @@
 //!            "G21 G90 G94\nG0 X0 Y0 Z5 A0 C0\nN10 G1 X10.0123 F500 (cut)\n");
 //! ```
 //!
+//! [`rewrite_stream`] runs that loop over a whole `BufRead` with a closure
+//! `(block, event, via_buffer) -> Option<new_end>` and counts what changed
+//! ([`RewriteStats`]); [`Rewriter::emit`] is the block-level API underneath and
+//! reports per block ([`Emitted`]: line rewritten, pieces added).
+//!
 //! Feed every block to [`Rewriter::emit`] in order with its [`BlockEvent`] and a
 //! [`Target`]: [`Target::Same`] (keep the programmed target), [`Target::Move`]
 //! (a new absolute end) or [`Target::Split`] (intermediate absolute targets,
@@ -73,9 +78,10 @@ use std::io::Write;
 use crate::axes::{Axes, Axis};
 
 use super::block::{Block, Word};
-use super::interpret::{BlockEvent, from_plane, to_plane};
+use super::interpret::BlockEvent;
 use super::modal::{Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m};
 use super::motion::{Feed, MotionKind};
+use super::motion::{from_plane, to_plane};
 
 /// Rewriter settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,6 +119,15 @@ pub enum Target<'a> {
     Split { via: &'a [Axes], end: Axes },
 }
 
+/// What [`Rewriter::emit`] wrote for a block.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Emitted {
+    /// The block's line differs from the input.
+    pub rewritten: bool,
+    /// New lines written before it (split pieces).
+    pub pieces: usize,
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum RewriteError {
     #[error("line {line}: only a motion block can be given a new target")]
@@ -121,6 +136,67 @@ pub enum RewriteError {
     NonFinite { line: usize },
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Input(#[from] super::error::GcodeError),
+}
+
+/// Totals of a [`rewrite_stream`] run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RewriteStats {
+    /// Lines read.
+    pub blocks: usize,
+    /// Motion blocks.
+    pub motions: usize,
+    /// Blocks whose line changed.
+    pub rewritten: usize,
+    /// New lines added by splits.
+    pub pieces: usize,
+}
+
+/// Read, interpret and rewrite a whole program, streaming. For every motion
+/// block `plan` gets the block, its event and an empty via buffer; it returns
+/// the new absolute end (`None`: keep the programmed target) and may push
+/// intermediate targets into the buffer (a split). Input errors carry the line
+/// and column (add the file with [`GcodeError::with_path`](super::error::GcodeError::with_path)).
+pub fn rewrite_stream(
+    input: impl std::io::BufRead,
+    out: &mut dyn Write,
+    interpret: super::interpret::InterpretOptions,
+    options: RewriteOptions,
+    mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
+) -> Result<RewriteStats, RewriteError> {
+    let mut reader = super::reader::BlockReader::new(
+        input,
+        super::reader::ReadOptions {
+            lenient: interpret.lenient,
+        },
+    );
+    let mut interpreter = super::interpret::Interpreter::new(interpret);
+    let mut rewriter = Rewriter::new(options, interpret.initial_position);
+    let mut event = BlockEvent::default();
+    let mut via = Vec::new();
+    let mut stats = RewriteStats::default();
+    while let Some(block) = reader.next_block() {
+        let block = block?;
+        interpreter.interpret_into(block, &mut event)?;
+        stats.blocks += 1;
+        via.clear();
+        let target = match event.motion.as_ref().filter(|_| !event.skipped) {
+            Some(_) => {
+                stats.motions += 1;
+                match plan(block, &event, &mut via) {
+                    None => Target::Same,
+                    Some(end) if via.is_empty() => Target::Move(end),
+                    Some(end) => Target::Split { via: &via, end },
+                }
+            }
+            None => Target::Same,
+        };
+        let emitted = rewriter.emit(block, &event, target, out)?;
+        stats.rewritten += emitted.rewritten as usize;
+        stats.pieces += emitted.pieces;
+    }
+    Ok(stats)
 }
 
 /// One replacement in the raw line: `raw[start..end]` → `text[from..to]`.
@@ -166,14 +242,14 @@ impl Rewriter {
         self.emitted
     }
 
-    /// Emit one block (see the module docs for the contract).
+    /// Emit one block (see the module docs for the contract); says what was written.
     pub fn emit(
         &mut self,
         block: &Block,
         event: &BlockEvent,
         target: Target<'_>,
         out: &mut dyn Write,
-    ) -> Result<(), RewriteError> {
+    ) -> Result<Emitted, RewriteError> {
         for w in &block.words {
             if let Some(axis) = Axis::from_letter(w.letter as char) {
                 let i = axis as usize;
@@ -189,7 +265,7 @@ impl Rewriter {
             }
             self.original_motion = event.modal.motion;
             block.write_raw(out)?;
-            return Ok(());
+            return Ok(Emitted::default());
         };
         let (via, end): (&[Axes], Axes) = match target {
             Target::Same => (&[], motion.end),
@@ -205,12 +281,15 @@ impl Rewriter {
 
         // Split pieces, written before the block.
         let mut feed_scale = 1.0;
+        let mut pieces = 0;
         if !via.is_empty() {
             let fractions = fractions(self.emitted, via, end);
             for (k, v) in via.iter().enumerate() {
-                self.piece(block, &ctx, k == 0, *v, fractions[k], out)?;
+                if self.piece(block, &ctx, pieces == 0, *v, fractions[k], out)? {
+                    pieces += 1;
+                }
             }
-            feed_scale = 1.0 / fractions[via.len()];
+            feed_scale = 1.0 / fractions[via.len()].max(1e-9);
         }
 
         let start_moved = !same_point(&self.emitted, &motion.start, &ctx);
@@ -280,13 +359,7 @@ impl Rewriter {
                     push_number(&mut self.text, v, dec);
                 }
             }
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
 
         // Arc words.
@@ -313,13 +386,7 @@ impl Rewriter {
                         self.text.push_str(if ctx.lowercase { " f" } else { " F" });
                         let dec = feed_decimals(new_f, 0, &self.options);
                         push_number(&mut self.text, new_f, dec);
-                        let to = self.text.len();
-                        self.edits.push(Edit {
-                            start: at,
-                            end: at,
-                            from,
-                            to,
-                        });
+                        self.record(from, at, at);
                     }
                 }
             }
@@ -348,20 +415,26 @@ impl Rewriter {
                 self.text.push_str(word);
             }
             if ctx.lowercase {
-                self.text.make_ascii_lowercase();
+                self.text[from..].make_ascii_lowercase();
             }
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
         self.emitted_motion = mode;
         self.original_motion = event.modal.motion;
         self.emitted = new_emitted;
-        self.write_edited(block, out)
+        let rewritten = self.write_edited(block, out)?;
+        Ok(Emitted { rewritten, pieces })
+    }
+
+    /// Record that `raw[start..end]` becomes the text written since `from`.
+    fn record(&mut self, from: usize, start: usize, end: usize) {
+        let to = self.text.len();
+        self.edits.push(Edit {
+            start,
+            end,
+            from,
+            to,
+        });
     }
 
     /// Replace a word's number; returns the printed value.
@@ -370,13 +443,7 @@ impl Rewriter {
         let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
         self.text.push(letter);
         let printed = push_number(&mut self.text, value, dec);
-        let to = self.text.len();
-        self.edits.push(Edit {
-            start: w.start,
-            end: w.end,
-            from,
-            to,
-        });
+        self.record(from, w.start, w.end);
         printed
     }
 
@@ -387,12 +454,7 @@ impl Rewriter {
             start -= 1;
         }
         let at = self.text.len();
-        self.edits.push(Edit {
-            start,
-            end: w.end,
-            from: at,
-            to: at,
-        });
+        self.record(at, start, w.end);
     }
 
     /// A split arc's last part becomes a G1: G2/G3 → G1, I J K R P removed.
@@ -408,13 +470,7 @@ impl Rewriter {
                     has_word = true;
                     let from = self.text.len();
                     self.text.push_str(if ctx.lowercase { "g1" } else { "G1" });
-                    let to = self.text.len();
-                    self.edits.push(Edit {
-                        start: w.start,
-                        end: w.end,
-                        from,
-                        to,
-                    });
+                    self.record(from, w.start, w.end);
                 }
                 b'I' | b'J' | b'K' | b'R' | b'P' => self.remove_word(block, w),
                 _ => {}
@@ -432,16 +488,10 @@ impl Rewriter {
                 None => self.text.push_str("G1 "),
             }
             if ctx.lowercase {
-                self.text.make_ascii_lowercase();
+                self.text[from..].make_ascii_lowercase();
             }
-            let to = self.text.len();
             let at = at.unwrap_or_else(|| block.words.first().map(|w| w.start).unwrap_or(0));
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
     }
 
@@ -528,17 +578,11 @@ impl Rewriter {
                 .unwrap_or(0);
             let from = self.text.len();
             self.text.push_str(&missing);
-            let to = self.text.len();
-            self.edits.push(Edit {
-                start: at,
-                end: at,
-                from,
-                to,
-            });
+            self.record(from, at, at);
         }
     }
 
-    /// Write one split piece.
+    /// Write one split piece; `false` when it has zero length (not written).
     fn piece(
         &mut self,
         block: &Block,
@@ -547,7 +591,7 @@ impl Rewriter {
         target: Axes,
         fraction: f64,
         out: &mut dyn Write,
-    ) -> Result<(), RewriteError> {
+    ) -> Result<bool, RewriteError> {
         let mut line = String::new();
         if first {
             for span in modal_word_spans(block) {
@@ -589,7 +633,7 @@ impl Rewriter {
             }
         }
         if !moved {
-            return Ok(());
+            return Ok(false);
         }
         if ctx.inverse_time {
             if let Some(f) = ctx.feed {
@@ -617,13 +661,14 @@ impl Rewriter {
         })?;
         self.emitted = new_emitted;
         self.emitted_motion = mode;
-        Ok(())
+        Ok(true)
     }
 
-    fn write_edited(&mut self, block: &Block, out: &mut dyn Write) -> Result<(), RewriteError> {
+    /// Write the block with its edits; `true` when it differs from the input.
+    fn write_edited(&mut self, block: &Block, out: &mut dyn Write) -> Result<bool, RewriteError> {
         if self.edits.is_empty() {
             block.write_raw(out)?;
-            return Ok(());
+            return Ok(false);
         }
         self.edits.sort_by_key(|e| (e.start, e.end));
         self.line.clear();
@@ -640,7 +685,8 @@ impl Rewriter {
         self.line.extend_from_slice(&block.raw[pos..]);
         self.line.extend_from_slice(block.ending.as_bytes());
         out.write_all(&self.line)?;
-        Ok(())
+        let body = &self.line[..self.line.len() - block.ending.as_bytes().len()];
+        Ok(body != &block.raw[..])
     }
 }
 

@@ -1,1 +1,259 @@
-//! (module under construction; see ARCHITECTURE.md)
+//! Inspection plans and measurements (formats.md): points on the nominal part
+//! surface with their unit outward normals, the measured points a CMM reports,
+//! deviations along the normal and the profile error.
+//!
+//! Invariants: every plan point has finite coordinates and a unit normal (a zero
+//! normal is rejected at read time); ids are unique within a plan; deviations are
+//! in µm, positive where material was left.
+use crate::io::{OutputError, read_to_string, write_atomic};
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+pub mod reader;
+
+#[derive(Debug, thiserror::Error)]
+pub enum InspectionError {
+    #[error(transparent)]
+    Read(#[from] crate::io::InputError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error("{}:{line}: header lacks column `{missing}` (expected columns {expected}, any order)", path.display())]
+    Header {
+        path: PathBuf,
+        line: usize,
+        missing: String,
+        expected: String,
+    },
+    #[error("{}:{line}: column `{column}`: {message}", path.display())]
+    Field {
+        path: PathBuf,
+        line: usize,
+        column: String,
+        message: String,
+    },
+    #[error("{}: no data rows (expected at least one point after the header)", path.display())]
+    Empty { path: PathBuf },
+}
+
+/// One point of an inspection plan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanPoint {
+    pub id: String,
+    /// Nominal point, part coordinates, mm.
+    pub point: [f64; 3],
+    /// Unit outward surface normal (out of the material, towards the tool).
+    pub normal: [f64; 3],
+}
+
+/// An inspection plan: the points in file order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    pub points: Vec<PlanPoint>,
+}
+
+/// A plan point with the measured point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredPoint {
+    pub plan: PlanPoint,
+    /// Measured point, part coordinates, mm.
+    pub measured: [f64; 3],
+}
+
+impl MeasuredPoint {
+    /// Deviation `d = (m − p)·n`, µm.
+    pub fn deviation_um(&self) -> f64 {
+        let p = &self.plan;
+        (0..3)
+            .map(|k| (self.measured[k] - p.point[k]) * p.normal[k])
+            .sum::<f64>()
+            * 1000.0
+    }
+}
+
+/// A measurement: the plan with measured points, in file order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    pub points: Vec<MeasuredPoint>,
+}
+
+impl Measurement {
+    /// The plan the measurement was taken on.
+    pub fn plan(&self) -> Plan {
+        Plan {
+            points: self.points.iter().map(|m| m.plan.clone()).collect(),
+        }
+    }
+
+    /// Deviations in µm, in point order.
+    pub fn deviations_um(&self) -> Vec<f64> {
+        self.points
+            .iter()
+            .map(MeasuredPoint::deviation_um)
+            .collect()
+    }
+}
+
+/// Profile error of a set of deviations (formats.md "Profile error").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Profile {
+    /// 2·max|d|, µm.
+    pub profile_um: f64,
+    /// max d − min d, µm.
+    pub range_um: f64,
+}
+
+/// Profile of deviations (0 for an empty set).
+pub fn profile(deviations_um: &[f64]) -> Profile {
+    if deviations_um.is_empty() {
+        return Profile {
+            profile_um: 0.0,
+            range_um: 0.0,
+        };
+    }
+    let max_abs = deviations_um.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    let hi = deviations_um
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let lo = deviations_um.iter().copied().fold(f64::INFINITY, f64::min);
+    Profile {
+        profile_um: 2.0 * max_abs,
+        range_um: hi - lo,
+    }
+}
+
+const PLAN_COLUMNS: [&str; 6] = ["x", "y", "z", "i", "j", "k"];
+const MEASUREMENT_COLUMNS: [&str; 9] = ["x", "y", "z", "i", "j", "k", "mx", "my", "mz"];
+
+fn plan_point(
+    path: &Path,
+    record: &reader::Record,
+    seen: &mut HashSet<String>,
+) -> Result<PlanPoint, InspectionError> {
+    let v = &record.values;
+    let norm = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
+    if norm < 1e-9 {
+        return Err(InspectionError::Field {
+            path: path.to_path_buf(),
+            line: record.line,
+            column: "i,j,k".into(),
+            message: "expected a non-zero surface normal, found (0, 0, 0)".into(),
+        });
+    }
+    if !seen.insert(record.id.clone()) {
+        return Err(InspectionError::Field {
+            path: path.to_path_buf(),
+            line: record.line,
+            column: "id".into(),
+            message: format!("expected unique ids, `{}` appears again", record.id),
+        });
+    }
+    Ok(PlanPoint {
+        id: record.id.clone(),
+        point: [v[0], v[1], v[2]],
+        normal: [v[3] / norm, v[4] / norm, v[5] / norm],
+    })
+}
+
+impl Plan {
+    /// Parse a plan CSV (`id,x,y,z,i,j,k`); `path` names the file in errors.
+    pub fn parse(path: &Path, text: &str) -> Result<Plan, InspectionError> {
+        let records = reader::read_records(path, text, &PLAN_COLUMNS)?;
+        if records.is_empty() {
+            return Err(InspectionError::Empty {
+                path: path.to_path_buf(),
+            });
+        }
+        let mut seen = HashSet::new();
+        let points = records
+            .iter()
+            .map(|r| plan_point(path, r, &mut seen))
+            .collect::<Result<_, _>>()?;
+        Ok(Plan { points })
+    }
+
+    pub fn read(path: &Path) -> Result<Plan, InspectionError> {
+        Plan::parse(path, &read_to_string(path)?)
+    }
+
+    /// Write the plan atomically (6 decimals).
+    pub fn write(&self, path: &Path) -> Result<(), InspectionError> {
+        write_atomic(path, |w| {
+            let io = |source| OutputError::Write {
+                path: path.to_path_buf(),
+                source,
+            };
+            writeln!(w, "id,x,y,z,i,j,k").map_err(io)?;
+            for p in &self.points {
+                writeln!(w, "{},{}", p.id, fmt6(&[p.point, p.normal].concat())).map_err(io)?;
+            }
+            Ok::<(), InspectionError>(())
+        })
+    }
+}
+
+impl Measurement {
+    /// Parse a measurement CSV (`id,x,y,z,i,j,k,mx,my,mz`).
+    pub fn parse(path: &Path, text: &str) -> Result<Measurement, InspectionError> {
+        let records = reader::read_records(path, text, &MEASUREMENT_COLUMNS)?;
+        if records.is_empty() {
+            return Err(InspectionError::Empty {
+                path: path.to_path_buf(),
+            });
+        }
+        let mut seen = HashSet::new();
+        let points = records
+            .iter()
+            .map(|r| {
+                Ok(MeasuredPoint {
+                    plan: plan_point(path, r, &mut seen)?,
+                    measured: [r.values[6], r.values[7], r.values[8]],
+                })
+            })
+            .collect::<Result<_, InspectionError>>()?;
+        Ok(Measurement { points })
+    }
+
+    pub fn read(path: &Path) -> Result<Measurement, InspectionError> {
+        Measurement::parse(path, &read_to_string(path)?)
+    }
+
+    /// Write the measurement atomically (6 decimals, as the blind examples).
+    pub fn write(&self, path: &Path) -> Result<(), InspectionError> {
+        write_atomic(path, |w| {
+            let io = |source| OutputError::Write {
+                path: path.to_path_buf(),
+                source,
+            };
+            writeln!(w, "id,x,y,z,i,j,k,mx,my,mz").map_err(io)?;
+            for m in &self.points {
+                let p = &m.plan;
+                writeln!(
+                    w,
+                    "{},{}",
+                    p.id,
+                    fmt6(&[p.point, p.normal, m.measured].concat())
+                )
+                .map_err(io)?;
+            }
+            Ok::<(), InspectionError>(())
+        })
+    }
+}
+
+/// Comma-separated values with 6 decimals (never `-0.000000`).
+fn fmt6(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|v| {
+            let s = format!("{v:.6}");
+            if s == "-0.000000" {
+                "0.000000".into()
+            } else {
+                s
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(",")
+}

@@ -142,7 +142,7 @@ pub enum MachineError {
         line: usize,
         column: usize,
         key: String,
-        source: TableError,
+        source: Box<TableError>,
     },
 }
 
@@ -265,7 +265,10 @@ impl Source<'_> {
             return Err(self.invalid(
                 value.span(),
                 key,
-                format!("expected [min, max] with min < max, got [{}, {}]", v[0], v[1]),
+                format!(
+                    "expected [min, max] with min < max, got [{}, {}]",
+                    v[0], v[1]
+                ),
             ));
         }
         Ok(v)
@@ -404,7 +407,7 @@ impl Machine {
                         line,
                         column,
                         key: key.clone(),
-                        source,
+                        source: Box::new(source),
                     }
                 })?;
                 if options.extrapolation == ExtrapolationPolicy::Error {

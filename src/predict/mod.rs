@@ -2,6 +2,9 @@
 //! the path point that cut it) and the profile error of the part, or, without a
 //! plan, the volumetric error along the path block by block.
 pub mod html;
+pub mod run;
+
+pub use run::{PredictError, predict_path, predict_plan};
 
 use serde::Serialize;
 
@@ -21,6 +24,11 @@ pub struct PredictedPoint {
     pub e_um: Option<[f64; 3]>,
     /// Distance of the contact point from the plan point, mm.
     pub distance_mm: Option<f64>,
+    /// `n·e + n·(c − p)`: the deviation including where the program's own path
+    /// puts the nominal contact point `c` relative to the plan point `p` (µm). Equal
+    /// to `deviation_um` (up to the program's rounding) when the path passes through
+    /// the plan points; for a compensated program it is what the part would measure.
+    pub deviation_with_path_um: Option<f64>,
 }
 
 /// Error along the path at the end of one block (no plan).
@@ -40,6 +48,11 @@ pub struct PredictReport {
     pub points: Vec<PredictedPoint>,
     pub points_total: usize,
     pub points_cut: usize,
+    /// Profile and range of `deviation_with_path_um` (extension: see docs/extensions.md).
+    pub profile_with_path_um: f64,
+    pub range_with_path_um: f64,
+    /// Largest |n·(c − p)| over the cut points, µm.
+    pub max_path_offset_um: f64,
     pub match_distance_mm: f64,
     /// Without a plan: the error at every block end, and its maximum and RMS.
     #[serde(skip_serializing_if = "Vec::is_empty")]

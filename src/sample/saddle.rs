@@ -11,11 +11,12 @@
 //! (16.0 mm … 39.5 mm).
 //!
 //! Tool path: zig-zag raster of lines y = const (stepover 1.5 mm) with points every
-//! 1.5 mm in x; at every point the ball centre is `p + R n` and the tool axis `u` is
-//! the surface normal tilted sideways (towards −y, in the plane of n and −y) by an
-//! angle that varies over the part, `θ = 15° + 5° cos(π x / 100) cos(π y / 80)`, so A
-//! and C move throughout. The tool tip is `p + R n − R u`, so the contact point of
-//! every path point is exactly the surface point `p`.
+//! 1.5 mm in x; at every point the ball centre is `p + R n` and the tool axis `u`
+//! leans from the vertical by `θ = 30° + 5° cos(π x / 100) cos(π y / 80)` towards
+//! the azimuth `−90° + 25° x / 50`, so its angle to the surface normal varies over
+//! the part and A and C move throughout, away from the A = 0 pole. The tool tip is
+//! `p + R n − R u`, so the contact point of every path point is exactly the
+//! surface point `p`.
 //!
 //! Plan: x = −45 … 45 step 3 (31) × y = −33 … 33 step 6 (12) = 372 points, all
 //! of them path points.
@@ -32,27 +33,26 @@ pub fn normal(x: f64, y: f64) -> [f64; 3] {
     normalise([-dzdx, -dzdy, 1.0])
 }
 
-/// Tilt of the tool axis away from the normal, degrees.
+/// Tilt of the tool axis from the vertical (part Z), degrees: 30° … 35° over the raster.
 pub fn tilt_degrees(x: f64, y: f64) -> f64 {
     use std::f64::consts::PI;
-    15.0 + 5.0 * (PI * x / 100.0).cos() * (PI * y / 80.0).cos()
+    30.0 + 5.0 * (PI * x / 100.0).cos() * (PI * y / 80.0).cos()
 }
 
-/// Unit tool axis (tip towards spindle) at surface point (x, y): the normal tilted
-/// towards −y by [`tilt_degrees`].
+/// Direction of the lean in the XY plane, degrees from +X: towards −Y, turning
+/// by ±25° across the part.
+pub fn lean_azimuth_degrees(x: f64) -> f64 {
+    -90.0 + 25.0 * x / 50.0
+}
+
+/// Unit tool axis (tip towards spindle) at surface point (x, y): leaning by
+/// [`tilt_degrees`] from the vertical towards [`lean_azimuth_degrees`]. Its angle
+/// to the surface normal varies over the part (about 0° … 60°), and it never comes
+/// near the vertical, where an A/C table's C axis is undetermined (the pole).
 pub fn tool_axis(x: f64, y: f64) -> [f64; 3] {
-    let n = normal(x, y);
-    // Direction −y made orthogonal to n.
-    let d = [0.0, -1.0, 0.0];
-    let dn = dot(d, n);
-    let t = normalise([d[0] - dn * n[0], d[1] - dn * n[1], d[2] - dn * n[2]]);
-    let th = tilt_degrees(x, y).to_radians();
-    let (s, c) = th.sin_cos();
-    normalise([
-        c * n[0] + s * t[0],
-        c * n[1] + s * t[1],
-        c * n[2] + s * t[2],
-    ])
+    let t = tilt_degrees(x, y).to_radians();
+    let phi = lean_azimuth_degrees(x).to_radians();
+    [t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos()]
 }
 
 /// Raster settings of the sample program.
@@ -82,7 +82,7 @@ impl Default for SaddleOptions {
             x_extent: 48.0,
             y_extent: 39.0,
             feed: 1200.0,
-            clearance: 50.0,
+            clearance: 30.0,
         }
     }
 }
@@ -188,12 +188,19 @@ mod tests {
     }
 
     #[test]
-    fn tool_axis_is_tilted_by_theta_from_normal() {
-        for &(x, y) in &[(0.0, 0.0), (30.0, -20.0), (-45.0, 33.0)] {
-            let n = normal(x, y);
-            let u = tool_axis(x, y);
-            let angle = dot(n, u).clamp(-1.0, 1.0).acos().to_degrees();
-            assert!((angle - tilt_degrees(x, y)).abs() < 1e-9);
+    fn tool_axis_leans_by_theta_and_stays_on_the_tool_side() {
+        for x in grid(-50.0, 50.0, 5.0) {
+            for y in grid(-40.0, 40.0, 5.0) {
+                let u = tool_axis(x, y);
+                let from_vertical = u[2].clamp(-1.0, 1.0).acos().to_degrees();
+                assert!((from_vertical - tilt_degrees(x, y)).abs() < 1e-9);
+                assert!(from_vertical >= 29.0, "near the pole at ({x}, {y})");
+                let to_normal = dot(normal(x, y), u).acos().to_degrees();
+                assert!(
+                    to_normal < 75.0,
+                    "axis {to_normal}° from the normal at ({x}, {y})"
+                );
+            }
         }
     }
 
@@ -205,4 +212,174 @@ mod tests {
             assert!((contact - cl.surface[i]).abs() < 1e-12);
         }
     }
+}
+
+/// The program texts and the plan of the saddle sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SaddleFiles {
+    /// Joint-frame program (axis commands).
+    pub joint_program: String,
+    /// The same tool path as a part-frame (tool-tip control, `G43.4`) program.
+    pub part_program: String,
+    /// Inspection plan CSV (`id,x,y,z,i,j,k`).
+    pub plan_csv: String,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum SampleError {
+    #[error("the saddle tool path needs an orientation the machine cannot reach: {0}")]
+    Inverse(#[from] crate::kinematics::InverseError),
+}
+
+/// Generate the saddle sample for a machine's nominal kinematics.
+pub fn generate(
+    kinematics: &crate::kinematics::Kinematics,
+    a_limits: Option<[f64; 2]>,
+    options: &SaddleOptions,
+) -> Result<SaddleFiles, SampleError> {
+    use crate::axes::Axes;
+    use crate::kinematics::InverseOptions;
+    use std::fmt::Write as _;
+
+    let mut joint = String::new();
+    let mut part = String::new();
+    let header = |out: &mut String, frame: &str| {
+        let _ = writeln!(out, "%");
+        let _ = writeln!(
+            out,
+            "O2016 (SADDLE SEAT - FIVE-AXIS BALL-END FINISHING - {frame})"
+        );
+        let _ = writeln!(
+            out,
+            "(BLANK 100 X 80 X 40 MM - BALL END R{} - ZIG-ZAG RASTER ALONG X - STEPOVER {} MM)",
+            options.tool_radius, options.stepover
+        );
+        let _ = writeln!(
+            out,
+            "(TOOL AXIS LEANING 30-35 DEG FROM VERTICAL TOWARDS -Y +-25 DEG; GENERATED BY VOLCOMP SAMPLE SADDLE)"
+        );
+    };
+    header(&mut joint, "JOINT FRAME");
+    header(&mut part, "TOOL-TIP CONTROL G43.4");
+    let mut n = 10;
+    let mut block = |out_j: &mut String, out_p: &mut String, j: &str, p: &str| {
+        let _ = writeln!(out_j, "N{n} {j}");
+        let _ = writeln!(out_p, "N{n} {p}");
+        n += 10;
+    };
+    block(&mut joint, &mut part, "G21 G90 G94 G17", "G21 G90 G94 G17");
+    block(
+        &mut joint,
+        &mut part,
+        "T1 M6 (BALL END R3)",
+        "T1 M6 (BALL END R3)",
+    );
+    block(&mut joint, &mut part, "S12000 M3", "S12000 M3");
+    let mut inverse = InverseOptions {
+        previous: Axes::new(0.0, 0.0, 0.0, 20.0, 180.0),
+        a_limits,
+    };
+    let fmt_axes = |a: &Axes| {
+        format!(
+            "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
+            a.x, a.y, a.z, a.a, a.c
+        )
+    };
+    let fmt_part = |t: [f64; 3], a: &Axes| {
+        format!(
+            "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
+            t[0], t[1], t[2], a.a, a.c
+        )
+    };
+    let raster = raster(options);
+    let mut first = true;
+    let mut last = Axes::default();
+    for (i, line) in raster.iter().enumerate() {
+        for (k, cl) in line.iter().enumerate() {
+            let joints = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
+            inverse.previous = joints;
+            if first {
+                // Approach: rapid above the first point along the tool axis
+                // (machine Z for a table-tilting machine), then plunge.
+                let above = Axes {
+                    z: joints.z + options.clearance,
+                    ..joints
+                };
+                let above_tip = kinematics.nominal_tip(&above);
+                block(
+                    &mut joint,
+                    &mut part,
+                    &format!("G0 {}", fmt_axes(&above)),
+                    &format!("G43.4 H1 G0 {}", fmt_part(above_tip, &above)),
+                );
+                block(
+                    &mut joint,
+                    &mut part,
+                    &format!("G1 Z{:.4} F400. (PLUNGE)", joints.z),
+                    &format!(
+                        "G1 X{:.4} Y{:.4} Z{:.4} F400. (PLUNGE)",
+                        cl.tip[0], cl.tip[1], cl.tip[2]
+                    ),
+                );
+                first = false;
+            } else {
+                let comment = if k == 0 {
+                    format!(" (LINE {} Y{:.1})", i + 1, cl.surface[1])
+                } else {
+                    String::new()
+                };
+                // The first move after the plunge sets the finishing feed.
+                let feed = if i == 0 && k == 1 {
+                    format!(" F{:.0}.", options.feed)
+                } else {
+                    String::new()
+                };
+                block(
+                    &mut joint,
+                    &mut part,
+                    &format!("{}{feed}{comment}", fmt_axes(&joints)),
+                    &format!("{}{feed}{comment}", fmt_part(cl.tip, &joints)),
+                );
+            }
+            last = joints;
+        }
+    }
+    let retract = Axes {
+        z: last.z + options.clearance,
+        ..last
+    };
+    let retract_tip = kinematics.nominal_tip(&retract);
+    block(
+        &mut joint,
+        &mut part,
+        &format!("G0 Z{:.4}", retract.z),
+        &format!(
+            "G0 X{:.4} Y{:.4} Z{:.4}",
+            retract_tip[0], retract_tip[1], retract_tip[2]
+        ),
+    );
+    block(&mut joint, &mut part, "M5", "G49 M5");
+    block(&mut joint, &mut part, "M30", "M30");
+    joint.push_str("%\n");
+    part.push_str("%\n");
+
+    let mut plan = String::from("id,x,y,z,i,j,k\n");
+    for (id, (p, nrm)) in plan_points().iter().enumerate() {
+        let _ = writeln!(
+            plan,
+            "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}",
+            id + 1,
+            p[0],
+            p[1],
+            p[2],
+            nrm[0],
+            nrm[1],
+            nrm[2]
+        );
+    }
+    Ok(SaddleFiles {
+        joint_program: joint,
+        part_program: part,
+        plan_csv: plan,
+    })
 }

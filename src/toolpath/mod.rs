@@ -4,5 +4,13 @@
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
 pub mod context;
+pub mod cut;
+pub mod plan_match;
+pub mod program;
+pub mod walk;
 
 pub use context::PointContext;
+pub use cut::{CutError, CutOptions, build_contexts};
+pub use plan_match::{PlanMatch, PlanMatcher};
+pub use program::{WalkSummary, walk_program};
+pub use walk::{PathPoint, PathWalker, WalkOptions};

@@ -8,7 +8,7 @@
 //! end point); rotary-only blocks in a row are the only thing that lengthens the
 //! window.
 use crate::axes::Axes;
-use crate::gcode::{Feed, Frame, Motion, MotionKind};
+use crate::gcode::{Frame, Motion, MotionKind, duration_from_lengths};
 use crate::kinematics::Kinematics;
 use std::collections::VecDeque;
 
@@ -150,8 +150,12 @@ impl<'k> PathWalker<'k> {
         let rotary = ((end_joints.a - start_joints.a).powi(2)
             + (end_joints.c - start_joints.c).powi(2))
         .sqrt();
-        let duration = block_duration(&motion.feed, machine_len, rotary, self.options.rapid_mm_per_min)
-            .unwrap_or(motion.duration_min);
+        let duration = duration_from_lengths(
+            &motion.feed,
+            machine_len,
+            rotary,
+            self.options.rapid_mm_per_min,
+        );
         self.time_min += duration;
         let speed = if machine_len <= SAME_POINT_MM || duration <= 0.0 {
             0.0
@@ -304,22 +308,6 @@ impl<'k> PathWalker<'k> {
         } else {
             self.samples.push(*end_joints);
         }
-    }
-}
-
-/// Duration of a block (minutes) by effects.md's rules, from its machine XYZ length
-/// (mm) and rotary sweep (degrees); `None` when the feed gives no time (F0).
-pub fn block_duration(feed: &Feed, machine_len_mm: f64, rotary_deg: f64, rapid: f64) -> Option<f64> {
-    let len = if machine_len_mm > SAME_POINT_MM {
-        machine_len_mm
-    } else {
-        rotary_deg
-    };
-    match *feed {
-        Feed::Rapid if rapid > 0.0 => Some(len / rapid),
-        Feed::PerMinute(f) if f > 0.0 => Some(len / f),
-        Feed::InverseTime(f) if f > 0.0 => Some(1.0 / f),
-        _ => None,
     }
 }
 

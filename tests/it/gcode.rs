@@ -59,6 +59,14 @@ fn crlf_and_missing_final_newline_are_remembered() {
 }
 
 #[test]
+fn a_byte_order_mark_is_kept_and_ignored() {
+    let text = "\u{feff}%\nG0 X1\n";
+    let blocks = parse_program(text).unwrap();
+    assert!(blocks[0].percent);
+    assert_eq!(print_program(&blocks), text.as_bytes());
+}
+
+#[test]
 fn exact_values_survive() {
     let b = &parse_program("G93 G1 X  16.339 F30070.6535 y 1 0.5\n").unwrap()[0];
     let v: Vec<f64> = b.words.iter().map(|w| w.value).collect();
@@ -119,16 +127,20 @@ fn line_strategy() -> impl Strategy<Value = (String, Vec<(char, f64)>)> {
             "(a);b",
         ])),
         any::<bool>(),
+        prop::sample::select(vec!["", "", "", "/", " /", "%"]),
     )
-        .prop_map(|(n, words, comment, tight)| {
-            let mut text = String::new();
+        .prop_map(|(n, words, comment, tight, prefix)| {
+            if prefix == "%" {
+                return ("%".to_string(), Vec::new());
+            }
+            let mut text = prefix.to_string();
             let mut expect = Vec::new();
             if let Some(n) = n {
                 text.push_str(&format!("N{n}"));
                 expect.push(('N', n as f64));
             }
             for (w, letter, value) in words {
-                if !text.is_empty() && !tight {
+                if !text.trim_start().trim_start_matches('/').is_empty() && !tight {
                     text.push(' ');
                 }
                 text.push_str(&w);
@@ -166,6 +178,25 @@ proptest! {
             let got: Vec<(char, f64)> = b.words.iter().map(|w| (w.letter as char, w.value)).collect();
             prop_assert_eq!(&got, e);
         }
+    }
+
+    #[test]
+    fn numbers_parse_exactly_like_str_parse(
+        int in 0u64..100_000_000_000_000_000,
+        dec in 0usize..25,
+        neg in any::<bool>(),
+    ) {
+        let digits = int.to_string();
+        let text = if dec == 0 {
+            digits
+        } else {
+            let padded = format!("{:0>width$}", digits, width = dec + 1);
+            let (a, b) = padded.split_at(padded.len() - dec);
+            format!("{a}.{b}")
+        };
+        let text = if neg { format!("-{text}") } else { text };
+        let b = &parse_program(&format!("X{text}")).unwrap()[0];
+        prop_assert_eq!(b.words[0].value.to_bits(), text.parse::<f64>().unwrap().to_bits(), "{}", text);
     }
 
     #[test]
@@ -327,7 +358,7 @@ mod rewriting {
             .collect()
     }
 
-    fn close(a: &Axes, b: &Axes, tol: f64) -> bool {
+    pub fn close(a: &Axes, b: &Axes, tol: f64) -> bool {
         a.to_array()
             .iter()
             .zip(b.to_array())
@@ -343,6 +374,70 @@ mod rewriting {
             a.a + 0.0031,
             a.c - 0.0207 * s,
         )
+    }
+
+    fn stream(
+        bytes: &[u8],
+        plan: impl FnMut(
+            &volcomp::gcode::Block,
+            &volcomp::gcode::BlockEvent,
+            &mut Vec<Axes>,
+        ) -> Option<Axes>,
+    ) -> (Vec<u8>, volcomp::gcode::RewriteStats) {
+        let mut out = Vec::new();
+        let stats = volcomp::gcode::rewrite_stream(
+            bytes,
+            &mut out,
+            InterpretOptions::default(),
+            RewriteOptions::default(),
+            plan,
+        )
+        .unwrap();
+        (out, stats)
+    }
+
+    #[test]
+    fn rewrite_stream_matches_the_block_api_and_counts() {
+        use volcomp::gcode::RewriteStats;
+        let plan = |line: usize, m: &Motion| {
+            (line % 3 == 0).then(|| (vec![m.start.lerp(&m.end, 0.5)], offset(m.end, line)))
+        };
+        for path in super::fixtures() {
+            let bytes = std::fs::read(&path).unwrap();
+            let (out, stats) = stream(&bytes, |block, event, via| {
+                let (v, end) = plan(block.line, event.motion.as_ref()?)?;
+                via.extend(v);
+                Some(end)
+            });
+            assert_eq!(out, rewrite(&bytes, plan), "{}", path.display());
+            assert_eq!(stats.blocks, bytes.split_inclusive(|&b| b == b'\n').count());
+        }
+        let bytes = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/blind/01-backlash/program.nc"
+        ))
+        .unwrap();
+        let (_, stats) = stream(&bytes, |block, event, via| {
+            let m = event.motion.as_ref()?;
+            (block.line == 10 || block.line == 20).then(|| {
+                if block.line == 20 {
+                    via.push(m.start.lerp(&m.end, 0.5));
+                }
+                Axes {
+                    c: m.end.c + 0.01,
+                    ..m.end
+                }
+            })
+        });
+        assert_eq!(
+            stats,
+            RewriteStats {
+                blocks: 3318,
+                motions: 3313,
+                rewritten: 2,
+                pieces: 1
+            }
+        );
     }
 
     #[test]
@@ -383,7 +478,7 @@ mod rewriting {
                 "N80 X-23.1840 Y-35.8426 Z-33.3938 A51.9344 C22.0925"
             )]
         );
-        assert_eq!(a.len() + 0, b.len());
+        assert_eq!(a.len(), b.len());
     }
 
     #[test]
@@ -642,14 +737,21 @@ mod robustness {
             let Ok(event) = interpreter.interpret(block) else {
                 continue;
             };
+            let via;
             let target = match (&event.motion, moves.get(k)) {
                 (Some(m), Some(&(dx, dc))) => {
                     k += 1;
-                    Target::Move(Axes {
+                    let end = Axes {
                         x: m.end.x + dx,
                         c: m.end.c + dc,
                         ..m.end
-                    })
+                    };
+                    if k % 2 == 0 {
+                        via = [m.start.lerp(&end, 0.5), m.start.lerp(&end, 0.5), end];
+                        Target::Split { via: &via, end }
+                    } else {
+                        Target::Move(end)
+                    }
                 }
                 _ => Target::Same,
             };
@@ -720,5 +822,211 @@ mod check_command {
             .output()
             .unwrap();
         assert!(out.status.success());
+    }
+}
+
+mod rewrite_property {
+    use proptest::prelude::*;
+    use volcomp::axes::Axes;
+    use volcomp::gcode::{InterpretOptions, interpret_program};
+
+    const FRAGMENTS: [&str; 40] = [
+        "G0",
+        "G1",
+        "G1",
+        "G2",
+        "G3",
+        "G91",
+        "G90",
+        "G20",
+        "G21",
+        "G93",
+        "G94",
+        "G17",
+        "G18",
+        "G19",
+        "G90.1",
+        "G91.1",
+        "M428",
+        "M429",
+        "G43.4 H1",
+        "G49",
+        "TRAORI",
+        "TRAFOOF",
+        "G53",
+        "X1.5",
+        "Y-2",
+        "Z.5",
+        "A10",
+        "C400",
+        "x 3 .25",
+        "I1",
+        "J-1",
+        "K2",
+        "R5",
+        "R-5",
+        "F100",
+        "F2.5",
+        "N10",
+        "(c)",
+        "; c",
+        "G91 G28 Z0",
+    ];
+
+    fn program() -> impl Strategy<Value = String> {
+        prop::collection::vec(
+            (
+                prop::collection::vec(prop::sample::select(FRAGMENTS.to_vec()), 0..5),
+                any::<bool>(),
+            ),
+            1..25,
+        )
+        .prop_map(|lines| {
+            let mut text = String::from("G21 G90 G94 G17 G0 X0 Y0 Z0 A0 C0\n");
+            for (words, crlf) in lines {
+                // A ';' comment must come last on its line.
+                let (mut body, tail): (Vec<&str>, Vec<&str>) =
+                    words.into_iter().partition(|w| !w.starts_with(';'));
+                body.extend(tail.into_iter().take(1));
+                text.push_str(&body.join(" "));
+                text.push_str(if crlf { "\r\n" } else { "\n" });
+            }
+            text
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Moved and split targets of any valid program are reached when the
+        /// output is read back, block by block.
+        #[test]
+        fn rewritten_programs_reach_the_requested_targets(
+            text in program(),
+            seed in 0u64..1000,
+            split in any::<bool>(),
+        ) {
+            let bytes = text.as_bytes();
+            let Ok(before) = interpret_program(bytes, InterpretOptions::default()) else {
+                return Ok(());
+            };
+            let delta = |line: usize, k: usize| {
+                let s = ((seed as usize + line * 7 + k * 3) % 11) as f64 - 5.0;
+                (0.0137 * s, -0.0071 * s, 0.0043 * s, 0.011 * s, -0.023 * s)
+            };
+            let shift = |a: Axes, line: usize, k: usize| {
+                let d = delta(line, k);
+                Axes::new(a.x + d.0, a.y + d.1, a.z + d.2, a.a + d.3, a.c + d.4)
+            };
+            let plan = |line: usize, m: &volcomp::gcode::Motion| {
+                let end = shift(m.end, line, 0);
+                let via = if split && line % 2 == 0 {
+                    vec![shift(m.start.lerp(&m.end, 0.5), line, 1)]
+                } else {
+                    vec![]
+                };
+                Some((via, end))
+            };
+            let out = super::rewriting::rewrite(bytes, plan);
+            let after = interpret_program(&out, InterpretOptions::default())
+                .map_err(|e| TestCaseError::fail(format!("{e}\n--- in:\n{text}\n--- out:\n{}", String::from_utf8_lossy(&out))))?;
+            // (target, is an intermediate piece: dropped when it has zero length)
+            let mut want = Vec::new();
+            for (b, e) in &before {
+                if let Some(m) = &e.motion {
+                    let (via, end) = plan(b.line, m).unwrap();
+                    want.extend(via.into_iter().map(|v| (v, true)));
+                    want.push((end, false));
+                }
+            }
+            let got: Vec<Axes> = after.iter().filter_map(|(_, e)| e.motion.map(|m| m.end)).collect();
+            let mut k = 0;
+            for (w, piece) in &want {
+                if k < got.len() && super::rewriting::close(&got[k], w, 1.3e-4) {
+                    k += 1;
+                } else {
+                    prop_assert!(*piece, "target {:?} not reached (got {:?})\n--- in:\n{}\n--- out:\n{}", w, got.get(k), text, String::from_utf8_lossy(&out));
+                }
+            }
+            prop_assert_eq!(k, got.len(), "extra moves\n--- in:\n{}\n--- out:\n{}", text, String::from_utf8_lossy(&out));
+        }
+    }
+}
+
+mod interpreting {
+    use volcomp::gcode::{
+        Feed, Frame, InterpretOptions, MotionKind, WarningKind, interpret_program,
+    };
+
+    fn motions(text: &str, options: InterpretOptions) -> Vec<volcomp::gcode::BlockEvent> {
+        interpret_program(text.as_bytes(), options)
+            .unwrap()
+            .into_iter()
+            .map(|(_, e)| e)
+            .collect()
+    }
+
+    #[test]
+    fn unknown_letters_are_warned_about_once() {
+        let ev = motions("G0 X0 B5\nG1 X1 B6 F100 U1\n", Default::default());
+        let w: Vec<_> = ev
+            .iter()
+            .flat_map(|e| e.warnings.iter().map(|w| w.kind.clone()))
+            .collect();
+        assert_eq!(
+            w,
+            vec![
+                WarningKind::UnknownLetter('B'),
+                WarningKind::UnknownLetter('U')
+            ]
+        );
+    }
+
+    #[test]
+    fn initial_frame_g53_and_rapid_rate() {
+        let options = InterpretOptions {
+            initial_frame: Frame::Part,
+            rapid_mm_per_min: 5000.0,
+            ..Default::default()
+        };
+        let ev = motions("G0 X10\nG91 G53 G0 Z-100\nG0 Z100\n", options);
+        let m0 = ev[0].motion.unwrap();
+        assert_eq!(m0.frame, Frame::Part);
+        let m1 = ev[1].motion.unwrap();
+        assert!(m1.machine_coordinates);
+        assert_eq!(m1.end.z, -100.0, "G53 is absolute even under G91");
+        approx::assert_relative_eq!(m1.duration_min, (100.0f64.powi(2) * 1.0).sqrt() / 5000.0);
+        let m2 = ev[2].motion.unwrap();
+        assert!(!m2.machine_coordinates);
+        assert_eq!(m2.end.z, 0.0, "G91 again for the next block");
+        assert_eq!(m2.feed, Feed::Rapid);
+    }
+
+    #[test]
+    fn time_starts_at_the_first_target_and_rotary_moves_use_degrees() {
+        let ev = motions("G0 X100\nG1 C90 F45\nG93 G1 A10 F4\n", Default::default());
+        assert_eq!(ev[0].time_min, 0.0);
+        approx::assert_relative_eq!(ev[1].motion.unwrap().duration_min, 2.0);
+        approx::assert_relative_eq!(ev[2].motion.unwrap().duration_min, 0.25);
+        approx::assert_relative_eq!(ev[2].time_min, 2.25);
+    }
+
+    #[test]
+    fn r_arcs_in_inches_pick_the_right_centre() {
+        let ev = motions(
+            "G20 G17 G0 X1 Y0\nG3 X0 Y1 R1 F10\nG3 X1 Y0 R-1\n",
+            Default::default(),
+        );
+        let MotionKind::Arc { centre, .. } = ev[1].motion.unwrap().kind else {
+            panic!()
+        };
+        approx::assert_abs_diff_eq!(centre[0], 0.0, epsilon = 1e-9);
+        approx::assert_abs_diff_eq!(centre[1], 0.0, epsilon = 1e-9);
+        let m = ev[2].motion.unwrap();
+        approx::assert_relative_eq!(
+            m.xyz_length(),
+            1.5 * std::f64::consts::PI * 25.4,
+            max_relative = 1e-9
+        );
     }
 }

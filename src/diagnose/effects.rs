@@ -1,0 +1,297 @@
+//! The catalogue of unmodelled effects (effects.md "The catalogue"): names,
+//! parameters, the displacement `Δ(ctx)` each adds to the cut surface, and the
+//! signature columns `n·∂Δ/∂θ` that the diagnosis fits.
+//!
+//! Invariants: every effect is linear in its parameters except `thermal_drift`,
+//! which is linear in `dx, dy, dz` for a fixed `tau` (its last parameter);
+//! displacements are µm in part coordinates; parameter order is the order of
+//! [`EffectKind::parameters`].
+use crate::toolpath::PointContext;
+use crate::toolpath::context::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
+use serde::{Deserialize, Serialize};
+
+/// The effects of the catalogue.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectKind {
+    ThermalDrift,
+    Backlash,
+    ServoLag,
+    ToolDeflection,
+    ToolWear,
+    RadiusOffset,
+    SetupError,
+    Squareness,
+    RotaryLocation,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum EffectError {
+    #[error("unknown effect `{name}` (valid effects: {valid})")]
+    UnknownEffect { name: String, valid: String },
+    #[error("effect `{effect}` has no parameter `{parameter}` (valid parameters: {valid})")]
+    UnknownParameter {
+        effect: String,
+        parameter: String,
+        valid: String,
+    },
+    #[error("effect `{effect}`: `{text}` is not `name=value` with a finite number")]
+    BadValue { effect: String, text: String },
+    #[error("effect `{effect}`: parameter `{parameter}` is given twice")]
+    Duplicate { effect: String, parameter: String },
+    #[error("effect `thermal_drift`: `tau` must be given and positive (minutes), found {tau}")]
+    BadTau { tau: f64 },
+}
+
+impl EffectKind {
+    pub const ALL: [EffectKind; 9] = [
+        EffectKind::ThermalDrift,
+        EffectKind::Backlash,
+        EffectKind::ServoLag,
+        EffectKind::ToolDeflection,
+        EffectKind::ToolWear,
+        EffectKind::RadiusOffset,
+        EffectKind::SetupError,
+        EffectKind::Squareness,
+        EffectKind::RotaryLocation,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::ThermalDrift => "thermal_drift",
+            EffectKind::Backlash => "backlash",
+            EffectKind::ServoLag => "servo_lag",
+            EffectKind::ToolDeflection => "tool_deflection",
+            EffectKind::ToolWear => "tool_wear",
+            EffectKind::RadiusOffset => "radius_offset",
+            EffectKind::SetupError => "setup_error",
+            EffectKind::Squareness => "squareness",
+            EffectKind::RotaryLocation => "rotary_location",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<EffectKind> {
+        EffectKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// All parameter names; for `thermal_drift` the nonlinear `tau` comes last.
+    pub fn parameters(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::ThermalDrift => &["dx", "dy", "dz", "tau"],
+            EffectKind::Backlash => &["bx", "by", "bz"],
+            EffectKind::ServoLag => &["k"],
+            EffectKind::ToolDeflection => &["c"],
+            EffectKind::ToolWear => &["w"],
+            EffectKind::RadiusOffset => &["r"],
+            EffectKind::SetupError => &["tx", "ty", "tz", "rx", "ry", "rz"],
+            EffectKind::Squareness => &SQUARENESS_PARAMETERS,
+            EffectKind::RotaryLocation => &LOCATION_PARAMETERS,
+        }
+    }
+
+    /// Units of each parameter (same order as [`EffectKind::parameters`]).
+    pub fn units(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::ThermalDrift => &["µm", "µm", "µm", "min"],
+            EffectKind::Backlash => &["µm", "µm", "µm"],
+            EffectKind::ServoLag => &["s²"],
+            EffectKind::ToolDeflection => &["µm"],
+            EffectKind::ToolWear => &["µm/m"],
+            EffectKind::RadiusOffset => &["µm"],
+            EffectKind::SetupError => &["µm", "µm", "µm", "µrad", "µrad", "µrad"],
+            EffectKind::Squareness => &["µrad", "µrad", "µrad"],
+            EffectKind::RotaryLocation => &["µm", "µm", "µrad", "µrad", "µm", "µm", "µrad", "µrad"],
+        }
+    }
+
+    /// Number of parameters the effect is linear in (all but `tau`).
+    pub fn linear_count(self) -> usize {
+        match self {
+            EffectKind::ThermalDrift => 3,
+            k => k.parameters().len(),
+        }
+    }
+
+    /// Does the effect have a nonlinear parameter (`tau`)?
+    pub fn is_nonlinear(self) -> bool {
+        self == EffectKind::ThermalDrift
+    }
+
+    /// Displacement (µm, part coordinates) per unit of each linear parameter at
+    /// `ctx`; `tau` (min) is used by `thermal_drift` only. Appends
+    /// [`EffectKind::linear_count`] vectors to `out`.
+    pub fn basis(self, ctx: &PointContext, tau: f64, out: &mut Vec<[f64; 3]>) {
+        let unit = |k: usize| {
+            let mut e = [0.0; 3];
+            e[k] = 1.0;
+            e
+        };
+        match self {
+            EffectKind::ThermalDrift => {
+                let f = 1.0 - (-ctx.time_min / tau).exp();
+                for k in 0..3 {
+                    out.push(scale(ctx.machine_to_part(unit(k)), f));
+                }
+            }
+            EffectKind::Backlash => {
+                for k in 0..3 {
+                    out.push(scale(ctx.machine_to_part(unit(k)), ctx.sigma[k] / 2.0));
+                }
+            }
+            EffectKind::ServoLag => {
+                let mm = ctx.speed_mm_s * ctx.speed_mm_s * ctx.curvature_per_mm;
+                out.push(scale(
+                    ctx.machine_to_part(ctx.principal_normal),
+                    mm * 1000.0,
+                ));
+            }
+            EffectKind::ToolDeflection => {
+                let (n, u) = (ctx.normal, ctx.tool_axis);
+                let nu = dot(n, u);
+                out.push([n[0] - nu * u[0], n[1] - nu * u[1], n[2] - nu * u[2]]);
+            }
+            EffectKind::ToolWear => out.push(scale(ctx.normal, ctx.cut_length_m)),
+            EffectKind::RadiusOffset => out.push(ctx.normal),
+            EffectKind::SetupError => {
+                let p = ctx.point;
+                for k in 0..3 {
+                    out.push(unit(k));
+                }
+                // ω_k e_k × p, ω in µrad and p in mm: × 1e-3 to µm.
+                out.push([0.0, -p[2] * 1e-3, p[1] * 1e-3]);
+                out.push([p[2] * 1e-3, 0.0, -p[0] * 1e-3]);
+                out.push([-p[1] * 1e-3, p[0] * 1e-3, 0.0]);
+            }
+            EffectKind::Squareness => out.extend_from_slice(&ctx.squareness_jacobian),
+            EffectKind::RotaryLocation => out.extend_from_slice(&ctx.location_jacobian),
+        }
+    }
+
+    /// Signature row at `ctx`: `n·∂Δ/∂θ_j` for the linear parameters (appended to `out`).
+    pub fn signature(self, ctx: &PointContext, tau: f64, out: &mut Vec<f64>) {
+        let mut basis = Vec::with_capacity(8);
+        self.basis(ctx, tau, &mut basis);
+        out.extend(basis.iter().map(|b| dot(ctx.normal, *b)));
+    }
+}
+
+/// An effect with parameter values (in the order of [`EffectKind::parameters`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Effect {
+    pub kind: EffectKind,
+    pub values: Vec<f64>,
+}
+
+impl Effect {
+    /// An effect with every parameter 0 (and `tau` = 1 min for `thermal_drift`).
+    pub fn zero(kind: EffectKind) -> Effect {
+        let mut values = vec![0.0; kind.parameters().len()];
+        if kind.is_nonlinear() {
+            values[3] = 1.0;
+        }
+        Effect { kind, values }
+    }
+
+    /// Build from named values; unnamed parameters are 0 (`tau` must be given).
+    pub fn from_pairs(kind: EffectKind, pairs: &[(&str, f64)]) -> Result<Effect, EffectError> {
+        let mut values = vec![0.0; kind.parameters().len()];
+        let mut given = vec![false; values.len()];
+        for (name, value) in pairs {
+            let Some(i) = kind.parameters().iter().position(|p| p == name) else {
+                return Err(EffectError::UnknownParameter {
+                    effect: kind.name().into(),
+                    parameter: name.to_string(),
+                    valid: kind.parameters().join(", "),
+                });
+            };
+            if given[i] {
+                return Err(EffectError::Duplicate {
+                    effect: kind.name().into(),
+                    parameter: name.to_string(),
+                });
+            }
+            if !value.is_finite() {
+                return Err(EffectError::BadValue {
+                    effect: kind.name().into(),
+                    text: format!("{name}={value}"),
+                });
+            }
+            given[i] = true;
+            values[i] = *value;
+        }
+        if kind.is_nonlinear() && values[3] <= 0.0 {
+            return Err(EffectError::BadTau { tau: values[3] });
+        }
+        Ok(Effect { kind, values })
+    }
+
+    /// Parse `name` or `name:k=v,k=v` (effects.md), e.g. `backlash:bx=6,by=0,bz=3`.
+    pub fn parse(spec: &str) -> Result<Effect, EffectError> {
+        let (name, rest) = match spec.split_once(':') {
+            Some((n, r)) => (n.trim(), r.trim()),
+            None => (spec.trim(), ""),
+        };
+        let kind = EffectKind::from_name(name).ok_or_else(|| EffectError::UnknownEffect {
+            name: name.to_string(),
+            valid: EffectKind::ALL.map(EffectKind::name).join(", "),
+        })?;
+        let mut pairs = Vec::new();
+        for item in rest.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let bad = || EffectError::BadValue {
+                effect: name.to_string(),
+                text: item.to_string(),
+            };
+            let (k, v) = item.split_once('=').ok_or_else(bad)?;
+            let v: f64 = v.trim().parse().map_err(|_| bad())?;
+            pairs.push((k.trim(), v));
+        }
+        Effect::from_pairs(kind, &pairs)
+    }
+
+    /// `tau` of `thermal_drift` (unused otherwise).
+    pub fn tau(&self) -> f64 {
+        if self.kind.is_nonlinear() {
+            self.values[3]
+        } else {
+            1.0
+        }
+    }
+
+    /// Displacement Δ (µm, part coordinates) at `ctx`.
+    pub fn displacement(&self, ctx: &PointContext) -> [f64; 3] {
+        let mut basis = Vec::with_capacity(8);
+        self.kind.basis(ctx, self.tau(), &mut basis);
+        let mut d = [0.0; 3];
+        for (b, v) in basis.iter().zip(&self.values) {
+            for k in 0..3 {
+                d[k] += b[k] * v;
+            }
+        }
+        d
+    }
+
+    /// Change of the measured deviation, `n·Δ` (µm).
+    pub fn deviation_um(&self, ctx: &PointContext) -> f64 {
+        dot(ctx.normal, self.displacement(ctx))
+    }
+
+    /// `name:k=v,...` (the CLI form; parses back to the same effect).
+    pub fn to_spec(&self) -> String {
+        let pairs: Vec<String> = self
+            .kind
+            .parameters()
+            .iter()
+            .zip(&self.values)
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        format!("{}:{}", self.kind.name(), pairs.join(","))
+    }
+}
+
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn scale(v: [f64; 3], s: f64) -> [f64; 3] {
+    [v[0] * s, v[1] * s, v[2] * s]
+}

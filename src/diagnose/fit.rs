@@ -1,0 +1,363 @@
+//! Fitting effects to residuals: signature columns over the used points, linear
+//! least squares (SVD on unit-RMS columns, minimum-norm where a combination of
+//! parameters is not identifiable), `tau` of `thermal_drift` profiled (log grid +
+//! golden section), and cross-validation with folds by region and by time.
+//!
+//! Invariant: every held-out prediction comes from a fit that did not see the
+//! point; no intercept is fitted (a constant offset along `n` is the
+//! `radius_offset` effect, so it must compete like any other effect).
+use super::effects::EffectKind;
+use crate::toolpath::PointContext;
+use nalgebra::{DMatrix, DVector};
+
+/// Signature columns of every effect over the used points.
+pub(crate) struct Signatures {
+    n: usize,
+    linear: Vec<(EffectKind, Vec<Vec<f64>>)>,
+    /// `n·(machine → part of e_k)` for thermal drift, k = x, y, z.
+    thermal_direction: [Vec<f64>; 3],
+    time: Vec<f64>,
+    /// Range searched for `tau`, minutes.
+    pub tau_range: (f64, f64),
+}
+
+impl Signatures {
+    pub fn new(contexts: &[&PointContext]) -> Signatures {
+        let n = contexts.len();
+        let mut linear = Vec::new();
+        for kind in EffectKind::ALL {
+            if kind.is_nonlinear() {
+                continue;
+            }
+            let mut cols = vec![Vec::with_capacity(n); kind.linear_count()];
+            let mut row = Vec::with_capacity(8);
+            for ctx in contexts {
+                row.clear();
+                kind.signature(ctx, 1.0, &mut row);
+                for (c, v) in cols.iter_mut().zip(&row) {
+                    c.push(*v);
+                }
+            }
+            linear.push((kind, cols));
+        }
+        let thermal_direction = [0, 1, 2].map(|k| {
+            contexts
+                .iter()
+                .map(|ctx| {
+                    let mut e = [0.0; 3];
+                    e[k] = 1.0;
+                    super::effects::dot(ctx.normal, ctx.machine_to_part(e))
+                })
+                .collect()
+        });
+        let time: Vec<f64> = contexts.iter().map(|c| c.time_min).collect();
+        let t_max = time.iter().copied().fold(0.0f64, f64::max).max(1e-3);
+        Signatures {
+            n,
+            linear,
+            thermal_direction,
+            time,
+            tau_range: ((t_max / 200.0).max(1e-3), 20.0 * t_max),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Columns of `kind` (for `thermal_drift` at `tau`).
+    pub fn columns(&self, kind: EffectKind, tau: f64) -> Vec<Vec<f64>> {
+        if kind.is_nonlinear() {
+            let f: Vec<f64> = self.time.iter().map(|t| 1.0 - (-t / tau).exp()).collect();
+            self.thermal_direction
+                .iter()
+                .map(|g| g.iter().zip(&f).map(|(a, b)| a * b).collect())
+                .collect()
+        } else {
+            self.linear
+                .iter()
+                .find(|(k, _)| *k == kind)
+                .map(|(_, c)| c.clone())
+                .unwrap_or_default()
+        }
+    }
+
+    fn design(&self, kinds: &[EffectKind], tau: f64) -> Vec<Vec<f64>> {
+        kinds.iter().flat_map(|k| self.columns(*k, tau)).collect()
+    }
+}
+
+/// Result of a linear least-squares fit.
+#[derive(Clone, Debug)]
+pub(crate) struct LinearFit {
+    pub coefs: Vec<f64>,
+    /// Diagonal of (XᵀX)⁺ in the original units (for standard errors).
+    pub inverse_diagonal: Vec<f64>,
+    pub sse: f64,
+    /// Numerical rank of the design on the fitted rows.
+    pub rank: usize,
+}
+
+/// Least squares of `y[rows]` on `cols[·][rows]` (minimum norm, relative
+/// singular-value cutoff 1e-5 on unit-RMS columns).
+pub(crate) fn least_squares(cols: &[Vec<f64>], rows: &[usize], y: &[f64]) -> LinearFit {
+    let p = cols.len();
+    let m = rows.len();
+    let scales: Vec<f64> = cols
+        .iter()
+        .map(|c| {
+            let ss: f64 = rows.iter().map(|&i| c[i] * c[i]).sum();
+            (ss / m.max(1) as f64).sqrt()
+        })
+        .collect();
+    let active: Vec<usize> = (0..p).filter(|&j| scales[j] > 1e-12).collect();
+    let mut coefs = vec![0.0; p];
+    let mut inverse_diagonal = vec![0.0; p];
+    let sse_of = |coefs: &[f64]| {
+        rows.iter()
+            .map(|&i| {
+                let f: f64 = (0..p).map(|j| coefs[j] * cols[j][i]).sum();
+                (y[i] - f).powi(2)
+            })
+            .sum::<f64>()
+    };
+    if active.is_empty() || m == 0 {
+        let sse = sse_of(&coefs);
+        return LinearFit {
+            coefs,
+            inverse_diagonal,
+            sse,
+            rank: 0,
+        };
+    }
+    // Normal equations of the unit-RMS columns, solved through the symmetric
+    // eigendecomposition (V Λ Vᵀ): x = V Λ⁺ Vᵀ Xᵀy with λ ≤ (cutoff·√λ_max)²
+    // dropped, which is the truncated-SVD solution without forming U.
+    let q = active.len();
+    let scaled: Vec<Vec<f64>> = active
+        .iter()
+        .map(|&j| rows.iter().map(|&i| cols[j][i] / scales[j]).collect())
+        .collect();
+    let yv: Vec<f64> = rows.iter().map(|&i| y[i]).collect();
+    let mut ata = DMatrix::zeros(q, q);
+    let mut aty = DVector::zeros(q);
+    for a in 0..q {
+        aty[a] = scaled[a].iter().zip(&yv).map(|(u, v)| u * v).sum();
+        for b in a..q {
+            let v: f64 = scaled[a].iter().zip(&scaled[b]).map(|(u, v)| u * v).sum();
+            ata[(a, b)] = v;
+            ata[(b, a)] = v;
+        }
+    }
+    let eig = ata.symmetric_eigen();
+    let l_max = eig.eigenvalues.max().max(0.0);
+    let cutoff = l_max * 1e-10; // singular values below 1e-5 × the largest
+    let rank = eig.eigenvalues.iter().filter(|l| **l > cutoff).count();
+    let v = &eig.eigenvectors;
+    let vty = v.transpose() * &aty;
+    for (c, &j) in active.iter().enumerate() {
+        let mut x = 0.0;
+        let mut d = 0.0;
+        for (k, l) in eig.eigenvalues.iter().enumerate() {
+            if *l > cutoff {
+                x += v[(c, k)] * vty[k] / l;
+                d += v[(c, k)] * v[(c, k)] / l;
+            }
+        }
+        coefs[j] = x / scales[j];
+        inverse_diagonal[j] = d / (scales[j] * scales[j]);
+    }
+    let sse = sse_of(&coefs);
+    LinearFit {
+        coefs,
+        inverse_diagonal,
+        sse,
+        rank,
+    }
+}
+
+/// A fitted set of effects.
+#[derive(Clone, Debug)]
+pub(crate) struct SetFit {
+    pub kinds: Vec<EffectKind>,
+    /// `tau` when the set holds `thermal_drift`.
+    pub tau: Option<f64>,
+    pub linear: LinearFit,
+}
+
+impl SetFit {
+    /// Contribution (µm) of the whole set at every used point.
+    pub fn contribution(&self, sig: &Signatures) -> Vec<f64> {
+        let cols = sig.design(&self.kinds, self.tau.unwrap_or(1.0));
+        (0..sig.len())
+            .map(|i| {
+                cols.iter()
+                    .zip(&self.linear.coefs)
+                    .map(|(c, b)| c[i] * b)
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Number of free parameters (linear + `tau`).
+    pub fn parameter_count(&self) -> usize {
+        self.kinds.iter().map(|k| k.parameters().len()).sum()
+    }
+}
+
+/// Fit a set of effects on `rows` (profiling `tau` when needed).
+pub(crate) fn fit_set(sig: &Signatures, kinds: &[EffectKind], rows: &[usize], y: &[f64]) -> SetFit {
+    let has_tau = kinds.iter().any(|k| k.is_nonlinear());
+    if !has_tau {
+        return SetFit {
+            kinds: kinds.to_vec(),
+            tau: None,
+            linear: least_squares(&sig.design(kinds, 1.0), rows, y),
+        };
+    }
+    let eval = |log_tau: f64| least_squares(&sig.design(kinds, log_tau.exp()), rows, y);
+    let (lo, hi) = (sig.tau_range.0.ln(), sig.tau_range.1.ln());
+    const GRID: usize = 16;
+    let grid: Vec<f64> = (0..GRID)
+        .map(|g| lo + (hi - lo) * g as f64 / (GRID - 1) as f64)
+        .collect();
+    let sses: Vec<f64> = grid.iter().map(|&g| eval(g).sse).collect();
+    let best = (0..GRID)
+        .min_by(|&a, &b| sses[a].total_cmp(&sses[b]))
+        .unwrap_or(0);
+    // Golden section between the grid neighbours of the best grid point.
+    let (mut a, mut b) = (grid[best.saturating_sub(1)], grid[(best + 1).min(GRID - 1)]);
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - ratio * (b - a);
+    let mut d = a + ratio * (b - a);
+    let (mut fc, mut fd) = (eval(c).sse, eval(d).sse);
+    for _ in 0..20 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - ratio * (b - a);
+            fc = eval(c).sse;
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + ratio * (b - a);
+            fd = eval(d).sse;
+        }
+    }
+    let mut log_tau = 0.5 * (a + b);
+    let mut linear = eval(log_tau);
+    if sses[best] < linear.sse {
+        log_tau = grid[best];
+        linear = eval(log_tau);
+    }
+    SetFit {
+        kinds: kinds.to_vec(),
+        tau: Some(log_tau.exp()),
+        linear,
+    }
+}
+
+/// Cross-validation folds: each scheme partitions the used points.
+#[derive(Clone, Debug)]
+pub(crate) struct Folds {
+    /// (scheme name, folds as lists of held-out rows).
+    pub schemes: Vec<(&'static str, Vec<Vec<usize>>)>,
+}
+
+impl Folds {
+    /// Region folds (a 3 × 3 grid of the plan by x and y terciles) and time
+    /// folds (`k` contiguous bands of equal point count, in cutting order).
+    pub fn new(contexts: &[&PointContext], k: usize) -> Folds {
+        let n = contexts.len();
+        let terciles = |axis: usize| {
+            let mut v: Vec<f64> = contexts.iter().map(|c| c.point[axis]).collect();
+            v.sort_by(f64::total_cmp);
+            let at = |f: f64| {
+                v.get(((n as f64 * f) as usize).min(n.saturating_sub(1)))
+                    .copied()
+                    .unwrap_or(0.0)
+            };
+            [at(1.0 / 3.0), at(2.0 / 3.0)]
+        };
+        let (tx, ty) = (terciles(0), terciles(1));
+        let band = |v: f64, t: [f64; 2]| usize::from(v >= t[0]) + usize::from(v >= t[1]);
+        let mut region = vec![Vec::new(); 9];
+        for (i, c) in contexts.iter().enumerate() {
+            region[band(c.point[0], tx) + 3 * band(c.point[1], ty)].push(i);
+        }
+        region.retain(|f| !f.is_empty());
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| {
+            contexts[a]
+                .time_min
+                .total_cmp(&contexts[b].time_min)
+                .then(a.cmp(&b))
+        });
+        let k = k.max(2);
+        let mut time = vec![Vec::new(); k];
+        for (rank, &i) in order.iter().enumerate() {
+            time[(rank * k / n.max(1)).min(k - 1)].push(i);
+        }
+        time.retain(|f| !f.is_empty());
+        Folds {
+            schemes: vec![("region", region), ("time", time)],
+        }
+    }
+}
+
+/// Held-out mean squared error of a set of effects over all schemes (each point
+/// is predicted once per scheme by a fit that did not see it).
+pub(crate) fn cross_validate(
+    sig: &Signatures,
+    folds: &Folds,
+    kinds: &[EffectKind],
+    y: &[f64],
+) -> f64 {
+    let n = sig.len();
+    let mut sse = 0.0;
+    let mut count = 0usize;
+    for (_, scheme) in &folds.schemes {
+        let mut held = vec![false; n];
+        for fold in scheme {
+            for &i in fold {
+                held[i] = true;
+            }
+            let train: Vec<usize> = (0..n).filter(|&i| !held[i]).collect();
+            for &i in fold {
+                held[i] = false;
+            }
+            if train.is_empty() {
+                for &i in fold {
+                    sse += y[i] * y[i];
+                    count += 1;
+                }
+                continue;
+            }
+            let fit = fit_set(sig, kinds, &train, y);
+            let cols = sig.design(kinds, fit.tau.unwrap_or(1.0));
+            for &i in fold {
+                let f: f64 = cols
+                    .iter()
+                    .zip(&fit.linear.coefs)
+                    .map(|(c, b)| c[i] * b)
+                    .sum();
+                sse += (y[i] - f).powi(2);
+                count += 1;
+            }
+        }
+    }
+    sse / count.max(1) as f64
+}
+
+/// Cosine between `v` and its projection on the span of `cols` (1 when `v` lies in it).
+pub(crate) fn span_cosine(cols: &[Vec<f64>], v: &[f64]) -> f64 {
+    let rows: Vec<usize> = (0..v.len()).collect();
+    let fit = least_squares(cols, &rows, v);
+    let vv: f64 = v.iter().map(|a| a * a).sum();
+    if vv <= 0.0 {
+        return 0.0;
+    }
+    ((vv - fit.sse).max(0.0) / vv).sqrt()
+}

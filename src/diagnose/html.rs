@@ -1,0 +1,236 @@
+//! `diagnose --html`: a self-contained page with residual maps over the part
+//! (before and after the selected effects), residual vs time, A and C, the
+//! effects table and the summary.
+//!
+//! Invariant: pure string building from the report (no I/O).
+use super::report::DiagnoseReport;
+use crate::report::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent};
+
+fn residual_map(report: &DiagnoseReport, after: bool, lim: f64) -> String {
+    let res = &report.residuals;
+    let x = extent(res.iter().map(|p| p.point[0]), 0.05);
+    let y = extent(res.iter().map(|p| p.point[1]), 0.05);
+    let title = if after {
+        "Residual after the selected effects"
+    } else {
+        "Residual: measured − predicted"
+    };
+    let mut chart = Chart::new(&ChartSpec {
+        width: 520.0,
+        height: 420.0,
+        title,
+        x_label: "x (mm)",
+        y_label: "y (mm)",
+        x_range: x,
+        y_range: y,
+        equal_aspect: true,
+    });
+    for p in res {
+        let v = if after {
+            p.residual_after_um
+        } else {
+            p.residual_um
+        };
+        let colour = ColourMap::Diverging.colour(v, -lim, lim);
+        let label = format!("{}: {:.2} µm", p.id, v);
+        chart.point(p.point[0], p.point[1], 4.0, &colour, Some(&label));
+    }
+    chart.colour_bar(-lim, lim, ColourMap::Diverging, "µm");
+    chart.finish()
+}
+
+fn scatter(
+    report: &DiagnoseReport,
+    key: impl Fn(&super::report::PointResidual) -> f64,
+    title: &str,
+    x_label: &str,
+) -> String {
+    let res = &report.residuals;
+    let xr = extent(res.iter().map(&key), 0.03);
+    let yr = extent(
+        res.iter()
+            .flat_map(|p| [p.residual_um, p.residual_after_um]),
+        0.08,
+    );
+    let mut chart = Chart::new(&ChartSpec {
+        width: 520.0,
+        height: 300.0,
+        title,
+        x_label,
+        y_label: "residual (µm)",
+        x_range: xr,
+        y_range: yr,
+        equal_aspect: false,
+    });
+    for p in res {
+        chart.point(key(p), p.residual_um, 2.5, "#b2182b", None);
+        chart.point(key(p), p.residual_after_um, 2.0, "#2166ac", None);
+    }
+    chart.legend(&[("#b2182b", "before"), ("#2166ac", "after")]);
+    chart.finish()
+}
+
+/// The HTML page of a report.
+pub fn render(report: &DiagnoseReport) -> String {
+    let mut page = HtmlPage::new("volcomp diagnose: the sim-to-real gap");
+    page.heading("Summary");
+    for s in &report.summary {
+        page.paragraph(s);
+    }
+    let g = &report.gap;
+    page.table(
+        &[
+            "points",
+            "used",
+            "measured profile µm",
+            "predicted profile µm",
+            "residual RMS µm",
+            "noise floor µm",
+            "after: profile µm",
+            "after: residual RMS µm",
+        ],
+        &[vec![
+            report.points.to_string(),
+            report.points_used.to_string(),
+            format!("{:.2}", g.measured_profile_um),
+            format!("{:.2}", g.predicted_profile_um),
+            format!("{:.3}", g.residual_rms_um),
+            format!("{:.3} ({})", g.noise_floor_um, g.noise_floor_source),
+            format!("{:.2}", report.after.predicted_profile_um),
+            format!("{:.3}", report.after.residual_rms_um),
+        ]],
+    );
+    page.heading("Effects (best first, cross-validated by region and by time)");
+    let rows: Vec<Vec<String>> = report
+        .effects
+        .iter()
+        .map(|e| {
+            let params: Vec<String> = e
+                .params
+                .iter()
+                .map(|(k, v)| format!("{k}={v:.3}"))
+                .collect();
+            vec![
+                e.name.clone(),
+                if report.selected.contains(&e.name) {
+                    "yes".into()
+                } else {
+                    String::new()
+                },
+                params.join(", "),
+                format!("{:.3}", e.heldout_rms_before_um),
+                format!("{:.3}", e.heldout_rms_after_um),
+                format!("{:.1}", e.shrink_pct),
+                format!("{:.1}", e.bic),
+                e.aliases.join(", "),
+            ]
+        })
+        .collect();
+    page.table(
+        &[
+            "effect",
+            "selected",
+            "parameters",
+            "held-out RMS before µm",
+            "after µm",
+            "shrink %",
+            "BIC",
+            "aliases",
+        ],
+        &rows,
+    );
+    let lim = report
+        .residuals
+        .iter()
+        .map(|p| p.residual_um.abs())
+        .fold(1e-3f64, f64::max);
+    page.heading("Where the gap lies");
+    page.figure(
+        &residual_map(report, false, lim),
+        "Residual over the part (same colour scale before and after).",
+    );
+    page.figure(
+        &residual_map(report, true, lim),
+        "Residual after adding the selected effects.",
+    );
+    page.figure(
+        &scatter(
+            report,
+            |p| p.time_min,
+            "Residual vs machining time",
+            "time (min)",
+        ),
+        "Red: before, blue: after.",
+    );
+    page.figure(
+        &scatter(report, |p| p.a_deg, "Residual vs A", "A (deg)"),
+        "",
+    );
+    page.figure(
+        &scatter(report, |p| p.c_deg, "Residual vs C", "C (deg)"),
+        "",
+    );
+    let l = &report.localization;
+    page.heading("Localisation");
+    page.table(
+        &["region", "points", "RMS µm", "mean µm"],
+        &l.by_region
+            .iter()
+            .map(|r| {
+                vec![
+                    r.name.clone(),
+                    r.points.to_string(),
+                    format!("{:.3}", r.rms_um),
+                    format!("{:.3}", r.mean_um),
+                ]
+            })
+            .collect::<Vec<_>>(),
+    );
+    page.table(
+        &["time from min", "to min", "points", "RMS µm", "mean µm"],
+        &l.by_time
+            .iter()
+            .map(|b| {
+                vec![
+                    format!("{:.2}", b.from_min),
+                    format!("{:.2}", b.to_min),
+                    b.points.to_string(),
+                    format!("{:.3}", b.rms_um),
+                    format!("{:.3}", b.mean_um),
+                ]
+            })
+            .collect::<Vec<_>>(),
+    );
+    page.table(
+        &["axis", "direction", "points", "RMS µm", "mean µm"],
+        &l.by_direction
+            .iter()
+            .map(|d| {
+                vec![
+                    d.axis.clone(),
+                    d.sign.clone(),
+                    d.points.to_string(),
+                    format!("{:.3}", d.rms_um),
+                    format!("{:.3}", d.mean_um),
+                ]
+            })
+            .collect::<Vec<_>>(),
+    );
+    page.table(
+        &["worst point", "residual µm", "line", "time min"],
+        &l.worst_points_detail
+            .iter()
+            .map(|w| {
+                vec![
+                    w.id.clone(),
+                    format!("{:.3}", w.residual_um),
+                    w.line.to_string(),
+                    format!("{:.2}", w.time_min),
+                ]
+            })
+            .collect::<Vec<_>>(),
+    );
+    page.heading("Selection");
+    page.preformatted(&report.selection_notes.join("\n"));
+    page.finish()
+}

@@ -1,0 +1,233 @@
+//! The diagnosis report (effects.md "volcomp diagnose"): the fixed JSON fields of
+//! the contract plus details (per-effect BIC, parameter standard errors, the
+//! machinist's summary, per-point residuals).
+//!
+//! Invariant: every number is finite; `effects` lists every catalogue effect,
+//! best first; `selected` names effects in `effects`.
+use super::effects::EffectKind;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiagnoseReport {
+    /// Points in the measurement.
+    pub points: usize,
+    /// Points used (cut by the program).
+    pub points_used: usize,
+    pub gap: Gap,
+    pub localization: Localization,
+    pub effects: Vec<EffectFit>,
+    pub selected: Vec<String>,
+    pub after: After,
+    /// What a machinist should do, one sentence per finding.
+    pub summary: Vec<String>,
+    /// Why the selection is what it is (one line per decision).
+    pub selection_notes: Vec<String>,
+    /// Per used point: measured, predicted, residual before and after.
+    pub residuals: Vec<PointResidual>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Gap {
+    pub measured_profile_um: f64,
+    pub predicted_profile_um: f64,
+    pub measured_range_um: f64,
+    pub predicted_range_um: f64,
+    pub residual_rms_um: f64,
+    pub residual_mean_um: f64,
+    pub noise_floor_um: f64,
+    /// `"estimated"` (from the data) or `"given"` (`--noise-um`).
+    pub noise_floor_source: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Localization {
+    /// Plan ids by |residual|, largest first.
+    pub worst_points: Vec<String>,
+    pub worst_points_detail: Vec<WorstPoint>,
+    /// Program lines by |mean residual| of the points they cut, largest first.
+    pub worst_blocks: Vec<BlockResidual>,
+    pub by_time: Vec<TimeBand>,
+    /// Quadrants about the centre of the plan's bounding box.
+    pub by_region: Vec<Region>,
+    pub by_a: Vec<AngleBand>,
+    pub by_c: Vec<AngleBand>,
+    /// By the sign of each linear axis's most recent motion.
+    pub by_direction: Vec<DirectionGroup>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WorstPoint {
+    pub id: String,
+    pub residual_um: f64,
+    pub point: [f64; 3],
+    pub time_min: f64,
+    pub line: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlockResidual {
+    pub line: usize,
+    pub residual_um: f64,
+    pub points: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeBand {
+    pub from_min: f64,
+    pub to_min: f64,
+    pub rms_um: f64,
+    pub mean_um: f64,
+    pub points: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Region {
+    pub name: String,
+    pub rms_um: f64,
+    pub mean_um: f64,
+    pub points: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AngleBand {
+    pub from_deg: f64,
+    pub to_deg: f64,
+    pub rms_um: f64,
+    pub mean_um: f64,
+    pub points: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DirectionGroup {
+    pub axis: String,
+    pub sign: String,
+    pub rms_um: f64,
+    pub mean_um: f64,
+    pub points: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EffectFit {
+    pub name: String,
+    /// Parameters fitted on all used points.
+    pub params: BTreeMap<String, f64>,
+    /// Standard errors of the linear parameters (noise from the fit's residual).
+    pub params_std: BTreeMap<String, f64>,
+    pub heldout_rms_before_um: f64,
+    pub heldout_rms_after_um: f64,
+    pub shrink_pct: f64,
+    pub aliases: Vec<String>,
+    /// Free parameters (linear + `tau`).
+    pub parameter_count: usize,
+    /// Numerical rank of the signature on this part (< linear parameters: some
+    /// combinations are not identifiable and reported at minimum norm).
+    pub rank: usize,
+    /// `n·ln(held-out MSE) + p·ln(n)`: lower is better.
+    pub bic: f64,
+    /// RMS of the fitted contribution n·Δ over the used points, µm.
+    pub contribution_rms_um: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct After {
+    pub predicted_profile_um: f64,
+    pub residual_rms_um: f64,
+    /// Held-out residual RMS of the selected set (cross-validated like `effects`).
+    pub heldout_rms_um: f64,
+    /// Parameters of the selected effects fitted jointly on all used points.
+    pub params: BTreeMap<String, BTreeMap<String, f64>>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointResidual {
+    pub id: String,
+    pub point: [f64; 3],
+    pub time_min: f64,
+    pub a_deg: f64,
+    pub c_deg: f64,
+    pub measured_um: f64,
+    pub predicted_um: f64,
+    pub residual_um: f64,
+    pub residual_after_um: f64,
+}
+
+fn p(params: &BTreeMap<String, f64>, name: &str) -> f64 {
+    params.get(name).copied().unwrap_or(0.0)
+}
+
+/// One sentence a machinist can act on, for a selected effect.
+pub fn machinist_sentence(
+    kind: EffectKind,
+    params: &BTreeMap<String, f64>,
+    max_cut_m: f64,
+) -> String {
+    match kind {
+        EffectKind::Backlash => {
+            let axes: Vec<String> = [("X", "bx"), ("Y", "by"), ("Z", "bz")]
+                .iter()
+                .filter(|(_, k)| p(params, k).abs() >= 1.0)
+                .map(|(a, k)| format!("{:.1} µm on {a}", p(params, k)))
+                .collect();
+            let list = if axes.is_empty() {
+                "below 1 µm".to_string()
+            } else {
+                axes.join(", ")
+            };
+            format!(
+                "Backlash of about {list} (bx={:.1}, by={:.1}, bz={:.1} µm): check the reversal (backlash) compensation of those axes and the ball-screw/nut preload.",
+                p(params, "bx"),
+                p(params, "by"),
+                p(params, "bz")
+            )
+        }
+        EffectKind::ThermalDrift => format!(
+            "Thermal drift of about ({:.1}, {:.1}, {:.1}) µm in machine X/Y/Z, settling with a time constant of {:.1} min: warm the machine up for at least {:.0} min before cutting, or enable/tune the thermal compensation.",
+            p(params, "dx"),
+            p(params, "dy"),
+            p(params, "dz"),
+            p(params, "tau"),
+            3.0 * p(params, "tau")
+        ),
+        EffectKind::ServoLag => format!(
+            "Servo lag (contour error ∝ v²κ) with k = {:.2e} s², i.e. about {:.1} µm at 1 mm/s² of centripetal acceleration: raise the position-loop gain or feed-forward, or slow down in tight curvature.",
+            p(params, "k"),
+            p(params, "k") * 1000.0
+        ),
+        EffectKind::ToolDeflection => format!(
+            "Tool deflection of about {:.1} µm across the tool axis: reduce the step-over or feed, use a shorter or stiffer tool, or add a finishing pass.",
+            p(params, "c")
+        ),
+        EffectKind::ToolWear => format!(
+            "Tool wear of about {:.2} µm per metre of cut ({:.1} µm by the end of this program): change the tool earlier or enable wear compensation.",
+            p(params, "w"),
+            p(params, "w") * max_cut_m
+        ),
+        EffectKind::RadiusOffset => format!(
+            "A constant offset of {:.1} µm along the surface normal: check the tool radius / length offset entered in the controller (re-measure the tool).",
+            p(params, "r")
+        ),
+        EffectKind::SetupError => format!(
+            "Workpiece set-up error: shift ({:.1}, {:.1}, {:.1}) µm and rotation ({:.0}, {:.0}, {:.0}) µrad: re-probe the part zero and alignment before cutting.",
+            p(params, "tx"),
+            p(params, "ty"),
+            p(params, "tz"),
+            p(params, "rx"),
+            p(params, "ry"),
+            p(params, "rz")
+        ),
+        EffectKind::Squareness => format!(
+            "Squareness errors beyond the machine file: s_xy={:.0}, s_xz={:.0}, s_yz={:.0} µrad: re-measure the axis squareness and update [squareness] in the machine file.",
+            p(params, "s_xy"),
+            p(params, "s_xz"),
+            p(params, "s_yz")
+        ),
+        EffectKind::RotaryLocation => {
+            let list: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v:.1}")).collect();
+            format!(
+                "Rotary-axis location errors beyond the machine file ({}; µm and µrad): re-run the A/C location test (ISO 230-7) and update [location].",
+                list.join(", ")
+            )
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! `simulate`: the measurement a real machine would give (effects.md
+//! "volcomp simulate"): nominal points moved by the geometric volumetric error of
+//! the true machine, plus every effect, plus Gaussian probing noise along `n`.
+//!
+//! Invariant: deterministic for a given seed (ChaCha8); uncut points are measured
+//! too (they exist on the part), with the same formula.
+use super::DiagnoseError;
+use super::effects::Effect;
+use crate::inspection::{MeasuredPoint, Measurement, PlanPoint};
+use crate::toolpath::PointContext;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+/// Settings of [`simulate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulateOptions {
+    /// Standard deviation of the probing noise along the normal, µm (≥ 0).
+    pub noise_um: f64,
+    /// Seed of the noise generator.
+    pub seed: u64,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        SimulateOptions {
+            noise_um: 0.3,
+            seed: 1,
+        }
+    }
+}
+
+/// `m = p + (e_true + ΣΔ)/1000 + noise·n/1000` (mm) for every context, where
+/// `truth_um[i]` is the true volumetric error `e` (µm, part coordinates) of
+/// context `i`.
+pub fn simulate(
+    contexts: &[PointContext],
+    truth_um: &[[f64; 3]],
+    effects: &[Effect],
+    options: &SimulateOptions,
+) -> Result<Measurement, DiagnoseError> {
+    if contexts.len() != truth_um.len() {
+        return Err(DiagnoseError::LengthMismatch {
+            what: "true volumetric errors",
+            expected: contexts.len(),
+            found: truth_um.len(),
+        });
+    }
+    if !(options.noise_um.is_finite() && options.noise_um >= 0.0) {
+        return Err(DiagnoseError::BadOption(format!(
+            "noise must be a finite number ≥ 0 µm, found {}",
+            options.noise_um
+        )));
+    }
+    let normal = Normal::new(0.0, options.noise_um.max(0.0))
+        .map_err(|e| DiagnoseError::BadOption(format!("noise: {e}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut points = Vec::with_capacity(contexts.len());
+    for (ctx, e) in contexts.iter().zip(truth_um) {
+        super::check_context(ctx)?;
+        if !e.iter().all(|v| v.is_finite()) {
+            return Err(DiagnoseError::NonFinite {
+                what: "true volumetric error",
+                id: ctx.id.clone(),
+            });
+        }
+        let mut total = *e;
+        for effect in effects {
+            let d = effect.displacement(ctx);
+            for k in 0..3 {
+                total[k] += d[k];
+            }
+        }
+        let noise = if options.noise_um > 0.0 {
+            normal.sample(&mut rng)
+        } else {
+            0.0
+        };
+        let measured =
+            [0, 1, 2].map(|k| ctx.point[k] + total[k] / 1000.0 + noise * ctx.normal[k] / 1000.0);
+        points.push(MeasuredPoint {
+            plan: PlanPoint {
+                id: ctx.id.clone(),
+                point: ctx.point,
+                normal: ctx.normal,
+            },
+            measured,
+        });
+    }
+    Ok(Measurement { points })
+}

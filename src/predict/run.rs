@@ -1,0 +1,160 @@
+//! Running a prediction: program + error model (+ plan) → [`PredictReport`].
+use super::{BlockError, PredictReport, PredictedPoint};
+use crate::gcode::{BlockReader, GcodeError, Interpreter, ReadOptions};
+use crate::inspection::{Plan, profile};
+use crate::machine::{ErrorModel, LookupError};
+use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
+use std::io::BufRead;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PredictError {
+    #[error(transparent)]
+    Gcode(#[from] GcodeError),
+    #[error(transparent)]
+    Cut(#[from] CutError),
+    #[error("{path}:{line}: {source}")]
+    Lookup {
+        path: String,
+        line: usize,
+        source: LookupError,
+    },
+}
+
+/// Predicted deviation of every plan point and the profile error of the part.
+pub fn predict_plan(
+    input: impl BufRead,
+    path: &Path,
+    model: &ErrorModel,
+    plan: &Plan,
+    options: &CutOptions,
+) -> Result<PredictReport, PredictError> {
+    let started = Instant::now();
+    let (matches, _) = match_plan(input, path, model, &plan.points, options)?;
+    let errors = volumetric_errors(model, &plan.points, &matches)?;
+    let mut points = Vec::with_capacity(plan.points.len());
+    let mut deviations = Vec::new();
+    let mut with_path = Vec::new();
+    let mut max_offset = 0.0f64;
+    let radius = options.tool_radius;
+    for ((p, m), e) in plan.points.iter().zip(&matches).zip(&errors) {
+        let n = p.normal;
+        let deviation = e.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
+        // Nominal contact point of the cutting path point, relative to the plan point.
+        let offset = m.map(|m| {
+            let t = m.point.tip;
+            let u = m.point.axis;
+            (0..3)
+                .map(|k| (t[k] + radius * u[k] - radius * n[k] - p.point[k]) * n[k])
+                .sum::<f64>()
+                * 1e3
+        });
+        let deviation_with_path = match (deviation, offset) {
+            (Some(d), Some(o)) => {
+                max_offset = max_offset.max(o.abs());
+                with_path.push(d + o);
+                Some(d + o)
+            }
+            _ => None,
+        };
+        if let Some(d) = deviation {
+            deviations.push(d);
+        }
+        points.push(PredictedPoint {
+            id: p.id.clone(),
+            deviation_um: deviation,
+            cut: m.is_some(),
+            line: m.map(|m| m.point.line),
+            point: p.point,
+            normal: p.normal,
+            e_um: *e,
+            distance_mm: m.map(|m| m.distance_mm),
+            deviation_with_path_um: deviation_with_path,
+        });
+    }
+    let prof = profile(&deviations);
+    let prof_path = profile(&with_path);
+    let magnitudes: Vec<f64> = errors
+        .iter()
+        .flatten()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .collect();
+    Ok(PredictReport {
+        profile_um: prof.profile_um,
+        range_um: prof.range_um,
+        points_total: points.len(),
+        points_cut: deviations.len(),
+        profile_with_path_um: prof_path.profile_um,
+        range_with_path_um: prof_path.range_um,
+        max_path_offset_um: max_offset,
+        points,
+        match_distance_mm: options.max_distance_mm,
+        blocks: Vec::new(),
+        max_error_um: magnitudes.iter().copied().fold(0.0, f64::max),
+        rms_error_um: rms(&magnitudes),
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Without a plan: the volumetric error at the end of every motion block.
+pub fn predict_path(
+    input: impl BufRead,
+    path: &Path,
+    model: &ErrorModel,
+    options: &CutOptions,
+) -> Result<PredictReport, PredictError> {
+    let started = Instant::now();
+    let mut reader = BlockReader::new(
+        input,
+        ReadOptions {
+            lenient: options.interpret.lenient,
+        },
+    );
+    let mut interpreter = Interpreter::new(options.interpret);
+    let kin = model.kinematics();
+    let mut blocks = Vec::new();
+    while let Some(block) = reader.next_block() {
+        let block = block.map_err(|e| e.with_path(path))?;
+        let event = interpreter
+            .interpret(block)
+            .map_err(|e| e.with_path(path))?;
+        let Some(m) = event.motion.as_ref().filter(|_| !event.skipped) else {
+            continue;
+        };
+        let joints = match (m.machine_coordinates, m.frame) {
+            (false, crate::gcode::Frame::Part) => kin.joints_from_part(&m.end),
+            _ => m.end,
+        };
+        let v = model
+            .volumetric_error(&joints)
+            .map_err(|source| PredictError::Lookup {
+                path: path.display().to_string(),
+                line: event.line,
+                source,
+            })?;
+        blocks.push(BlockError {
+            line: event.line,
+            e_um: v.e_um,
+            norm_um: v.magnitude_um(),
+            axis_urad: v.axis_urad,
+        });
+    }
+    let norms: Vec<f64> = blocks.iter().map(|b| b.norm_um).collect();
+    Ok(PredictReport {
+        max_error_um: norms.iter().copied().fold(0.0, f64::max),
+        rms_error_um: rms(&norms),
+        blocks,
+        match_distance_mm: options.max_distance_mm,
+        seconds: started.elapsed().as_secs_f64(),
+        ..PredictReport::default()
+    })
+}
+
+fn rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        0.0
+    } else {
+        (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+    }
+}
