@@ -284,9 +284,10 @@ impl CurveLookup {
             if !(next > lo && next < hi) {
                 next = 0.5 * (lo + hi);
             }
-            // Newton converges quadratically: after a step of 1e-8 the error is of
-            // order 1e-16 (the polynomials are cubic on s in [0, 1]).
-            if (next - s).abs() <= 1e-8 || hi - lo <= 1e-15 {
+            // Converged to round-off: a Newton step of 1e-12 leaves an error far below
+            // it. (Stopping earlier, at 1e-8, made value_at noisy at the 1e-12 level,
+            // which finite-difference slopes of callers amplify.)
+            if (next - s).abs() <= 1e-12 || hi - lo <= 1e-15 {
                 return (i, next);
             }
             s = next;
