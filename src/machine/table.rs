@@ -102,12 +102,10 @@ impl ErrorTable {
             .split(',')
             .map(|s| s.trim().to_ascii_uppercase())
             .collect();
-        let col_label = |i: usize, names: &[String]| {
-            format!(
-                "{} ({})",
-                i + 1,
-                names.get(i).map(String::as_str).unwrap_or("?")
-            )
+        let raw_names: Vec<&str> = header.split(',').map(str::trim).collect();
+        // Columns are named as written in the file.
+        let col_label = |i: usize, _names: &[String]| {
+            format!("{} ({})", i + 1, raw_names.get(i).copied().unwrap_or("?"))
         };
         let Some(pos_col) = names.iter().position(|n| n == "POSITION") else {
             return Err(err(

@@ -251,7 +251,8 @@ impl CurveLookup {
             if !(next > lo && next < hi) {
                 next = 0.5 * (lo + hi);
             }
-            if (next - s).abs() <= 1e-15 || hi - lo <= 1e-15 {
+            // Newton converges quadratically: a step of 1e-12 leaves an error far below it.
+            if (next - s).abs() <= 1e-12 || hi - lo <= 1e-15 {
                 return (i, next);
             }
             s = next;

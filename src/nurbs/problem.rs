@@ -41,6 +41,24 @@ pub struct Candidate {
     pub lookup: CurveLookup,
     pub emax: f64,
     pub erms: f64,
+    /// Vertical errors at the data points (table units, signed: curve − data).
+    pub residuals: Vec<f64>,
+}
+
+impl Candidate {
+    /// `(mean |e|^q)^(1/q)`: a smooth stand-in for `emax` (q → ∞).
+    pub fn lp_norm(&self, q: f64) -> f64 {
+        if self.emax == 0.0 {
+            return 0.0;
+        }
+        let mean = self
+            .residuals
+            .iter()
+            .map(|e| (e.abs() / self.emax).powf(q))
+            .sum::<f64>()
+            / self.residuals.len() as f64;
+        self.emax * mean.powf(1.0 / q)
+    }
 }
 
 impl FitProblem {
@@ -105,12 +123,15 @@ impl FitProblem {
             .collect();
         let curve = NurbsCurve::new(p, knots, weights.to_vec(), points).ok()?;
         let lookup = CurveLookup::new(&curve).ok()?;
-        let (emax, erms) = self.errors(&lookup);
+        let residuals = self.residuals(&lookup);
+        let emax = residuals.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        let erms = (residuals.iter().map(|e| e * e).sum::<f64>() / residuals.len() as f64).sqrt();
         Some(Candidate {
             curve,
             lookup,
             emax,
             erms,
+            residuals,
         })
     }
 
@@ -120,15 +141,12 @@ impl FitProblem {
             .map_or(f64::INFINITY, |c| c.emax)
     }
 
-    /// Vertical errors at the data points through the exact inversion.
-    pub fn errors(&self, lookup: &CurveLookup) -> (f64, f64) {
-        let mut emax = 0.0f64;
-        let mut sum = 0.0;
-        for (&x, &y) in self.positions.iter().zip(&self.values) {
-            let e = (lookup.value_at(x) - y).abs();
-            emax = emax.max(e);
-            sum += e * e;
-        }
-        (emax, (sum / self.positions.len() as f64).sqrt())
+    /// Vertical errors `y(u) − y_k` at the data points through the exact inversion.
+    pub fn residuals(&self, lookup: &CurveLookup) -> Vec<f64> {
+        self.positions
+            .iter()
+            .zip(&self.values)
+            .map(|(&x, &y)| lookup.value_at(x) - y)
+            .collect()
     }
 }

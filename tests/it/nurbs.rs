@@ -1,0 +1,274 @@
+//! The SMEM's NURBS layer: basis identities, exact reproduction, knot methods,
+//! GA reproducibility and quality, optimiser vs exhaustive search, lookup.
+use proptest::prelude::*;
+use volcomp::nurbs::basis::{basis_funs, find_span};
+use volcomp::nurbs::knot_vector::{clamped, greville};
+use volcomp::nurbs::least_squares::fit_control_points;
+use volcomp::nurbs::synthetic::paper_like_curve;
+use volcomp::nurbs::{
+    FitOptions, KnotMethod, NurbsCurve, ParameterKind, SmemCurve, SurfaceFitOptions, fit_parameter,
+    fit_surface,
+};
+
+fn sorted_interior(raw: Vec<f64>) -> Vec<f64> {
+    let mut v: Vec<f64> = raw.into_iter().map(|x| 0.02 + 0.96 * x).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup_by(|a, b| (*a - *b).abs() < 0.02);
+    v
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn basis_is_a_partition_of_unity(raw in prop::collection::vec(0.0..1.0f64, 0..8), p in 1usize..=5, u in 0.0..=1.0f64) {
+        let knots = clamped(p, &sorted_interior(raw), 0.0, 1.0);
+        let n = knots.len() - p - 2;
+        let span = find_span(n, p, u, &knots);
+        let mut out = [0.0; 8];
+        basis_funs(span, u, p, &knots, &mut out);
+        prop_assert!(out[..=p].iter().all(|&v| v >= -1e-15));
+        prop_assert!((out[..=p].iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    /// A cubic spline sampled densely and fitted with its own knots gives back its
+    /// control points.
+    #[test]
+    fn fitting_recovers_a_known_spline(raw in prop::collection::vec(0.0..1.0f64, 1..6), ys in prop::collection::vec(-20.0..20.0f64, 10)) {
+        let p = 3;
+        let knots = clamped(p, &sorted_interior(raw), 0.0, 1.0);
+        let count = knots.len() - p - 1;
+        // x control points at the Greville abscissae: x(u) = u, a function graph.
+        let points: Vec<[f64; 2]> = greville(&knots, p).into_iter().zip(&ys).map(|(g, &y)| [g, y]).collect();
+        let curve = NurbsCurve::new(p, knots.clone(), vec![1.0; count], points.clone()).unwrap();
+        let params: Vec<f64> = (0..=80).map(|k| k as f64 / 80.0).collect();
+        let data: Vec<f64> = params.iter().flat_map(|&u| curve.eval(u)).collect();
+        let ctrl = fit_control_points(&params, &data, 2, p, &knots, &vec![1.0; count]).unwrap();
+        for (i, pt) in points.iter().enumerate() {
+            prop_assert!((ctrl[2 * i] - pt[0]).abs() < 1e-9 && (ctrl[2 * i + 1] - pt[1]).abs() < 1e-9);
+        }
+    }
+
+    /// value_at inverts x(u) exactly on a fitted SMEM curve.
+    #[test]
+    fn lookup_round_trip(u in 0.0..=1.0f64) {
+        let c = paper_fit();
+        let [x, y] = c.curve().eval(u);
+        prop_assert!((c.value_at(x) - y).abs() < 1e-9);
+        prop_assert!((c.parameter_at(x) - u).abs() < 1e-9);
+    }
+}
+
+fn paper_fit() -> &'static SmemCurve {
+    static FIT: std::sync::OnceLock<SmemCurve> = std::sync::OnceLock::new();
+    FIT.get_or_init(|| {
+        let (x, y) = paper_like_curve(3);
+        fit_parameter(
+            &x,
+            &y,
+            ParameterKind::Length,
+            &FitOptions {
+                control_points: Some(10),
+                ..FitOptions::default()
+            },
+        )
+        .unwrap()
+    })
+}
+
+fn fixed(method: KnotMethod, grid: Option<usize>, seed: u64) -> SmemCurve {
+    let (x, y) = paper_like_curve(3);
+    let options = FitOptions {
+        method,
+        control_points: Some(10),
+        grid_segments: grid,
+        optimise_weights: false,
+        seed,
+        ..FitOptions::default()
+    };
+    fit_parameter(&x, &y, ParameterKind::Length, &options).unwrap()
+}
+
+#[test]
+fn ga_is_reproducible_with_a_seed() {
+    let a = fixed(KnotMethod::Ga, Some(20), 11);
+    let b = fixed(KnotMethod::Ga, Some(20), 11);
+    assert_eq!(a.knots(), b.knots());
+    assert_eq!(a.stats().emax, b.stats().emax);
+    // Weights GA too.
+    let (x, y) = paper_like_curve(3);
+    let o = FitOptions {
+        method: KnotMethod::Ga,
+        control_points: Some(8),
+        tolerance: Some(0.0),
+        seed: 5,
+        ..FitOptions::default()
+    };
+    let w1 = fit_parameter(&x, &y, ParameterKind::Length, &o).unwrap();
+    let w2 = fit_parameter(&x, &y, ParameterKind::Length, &o).unwrap();
+    assert_eq!(w1.weights(), w2.weights());
+    assert!(w1.weights().iter().any(|&w| w != 1.0));
+}
+
+#[test]
+fn ga_beats_the_classic_knot_methods() {
+    let ga = fixed(KnotMethod::Ga, Some(13), 2016).stats().emax;
+    for m in [KnotMethod::Ukm, KnotMethod::Epm, KnotMethod::Lam] {
+        let e = fixed(m, None, 0).stats().emax;
+        assert!(ga <= e, "ga {ga} vs {m} {e}");
+    }
+}
+
+#[test]
+fn best_reaches_the_exhaustive_grid_optimum() {
+    for m in [13, 16, 20] {
+        let ex = fixed(KnotMethod::Exhaustive, Some(m), 0).stats().emax;
+        let best = fixed(KnotMethod::Best, Some(m), 2016).stats().emax;
+        let ga = fixed(KnotMethod::Ga, Some(m), 2016).stats().emax;
+        assert!(
+            best <= ex + 1e-12,
+            "M = {m}: best {best} vs exhaustive {ex}"
+        );
+        assert!(
+            ga >= ex - 1e-12,
+            "M = {m}: nothing on the grid beats the exhaustive search"
+        );
+    }
+}
+
+#[test]
+fn weights_never_make_the_fit_worse() {
+    let (x, y) = paper_like_curve(3);
+    for method in [KnotMethod::Ga, KnotMethod::Best] {
+        let base = FitOptions {
+            method,
+            control_points: Some(9),
+            tolerance: Some(0.0),
+            ..FitOptions::default()
+        };
+        let unit = fit_parameter(
+            &x,
+            &y,
+            ParameterKind::Length,
+            &FitOptions {
+                optimise_weights: false,
+                ..base.clone()
+            },
+        )
+        .unwrap();
+        let weighted = fit_parameter(&x, &y, ParameterKind::Length, &base).unwrap();
+        assert!(weighted.stats().emax <= unit.stats().emax);
+    }
+}
+
+#[test]
+fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
+    let (x, y) = paper_like_curve(3);
+    let met = fit_parameter(
+        &x,
+        &y,
+        ParameterKind::Length,
+        &FitOptions {
+            tolerance: Some(1.2),
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(met.stats().met && met.stats().emax <= 1.2);
+    // One control point fewer does not meet it (the loop stops at the first count that does).
+    let fewer = fit_parameter(
+        &x,
+        &y,
+        ParameterKind::Length,
+        &FitOptions {
+            control_points: Some(met.stats().control_points - 1),
+            tolerance: Some(1.2),
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(fewer.stats().emax > 1.2);
+    let capped = fit_parameter(
+        &x,
+        &y,
+        ParameterKind::Length,
+        &FitOptions {
+            tolerance: Some(0.01),
+            max_control_points: Some(6),
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
+    // Missed, and said so; the best fit up to the cap is returned.
+    assert!(!capped.stats().met && capped.stats().emax > 0.01);
+    assert!(capped.stats().control_points <= 6);
+}
+
+#[test]
+fn fitted_curves_serialise_and_come_back_identical() {
+    let c = paper_fit();
+    let json = serde_json::to_string(c).unwrap();
+    let back: SmemCurve = serde_json::from_str(&json).unwrap();
+    for k in 0..=50 {
+        let x = 4.0 * k as f64;
+        assert!((back.value_at(x) - c.value_at(x)).abs() < 1e-12);
+    }
+    assert_eq!(back.stats().control_points, c.stats().control_points);
+    // A tampered file that folds back is refused.
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["control_points"][1][0] = serde_json::json!(190.0);
+    assert!(serde_json::from_value::<SmemCurve>(v).is_err());
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let o = FitOptions::default();
+    let x = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+    let mut y = [0.0; 8];
+    assert!(fit_parameter(&x[..4], &y[..4], ParameterKind::Length, &o).is_err());
+    y[3] = f64::NAN;
+    assert_eq!(
+        fit_parameter(&x, &y, ParameterKind::Length, &o)
+            .unwrap_err()
+            .to_string(),
+        "sample 3: value is not a finite number"
+    );
+    let xs = [0.0, 1.0, 2.0, 2.0, 4.0, 5.0, 6.0, 7.0];
+    assert_eq!(
+        fit_parameter(&xs, &[0.0; 8], ParameterKind::Length, &o)
+            .unwrap_err()
+            .to_string(),
+        "sample 3: position 2 does not increase"
+    );
+    // A constant error is fitted exactly.
+    let c = fit_parameter(&x, &[2.5; 8], ParameterKind::Angle, &o).unwrap();
+    assert!(c.stats().emax < 1e-12 && c.stats().control_points == 4);
+}
+
+#[test]
+fn surface_fit_reproduces_a_known_spline_surface() {
+    // A bicubic tensor spline with the knots the fitter will choose is reproduced.
+    let gu: Vec<f64> = (0..=20).map(|i| -150.0 + 15.0 * i as f64).collect();
+    let gv: Vec<f64> = (0..=12).map(|j| -60.0 + 10.0 * j as f64).collect();
+    let f = |x: f64, y: f64| 2.0 + 0.01 * x - 0.03 * y + 1e-4 * x * y + 2e-7 * x * x * x;
+    let values: Vec<Vec<f64>> = gu
+        .iter()
+        .map(|&x| gv.iter().map(|&y| f(x, y)).collect())
+        .collect();
+    let s = fit_surface(
+        &gu,
+        &gv,
+        &values,
+        &SurfaceFitOptions {
+            control_u: Some(7),
+            control_v: Some(5),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for i in 0..=30 {
+        let x = -150.0 + 10.0 * i as f64;
+        let y = -60.0 + 4.0 * i as f64;
+        assert!((s.eval(x, y) - f(x, y)).abs() < 1e-9);
+    }
+}
