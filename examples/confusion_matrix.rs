@@ -11,8 +11,26 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
+use volcomp::diagnose::synthetic::SyntheticPart;
 use volcomp::diagnose::synthetic::{SyntheticOptions, from_fixture, random_effect, saddle_raster};
-use volcomp::diagnose::{DiagnoseOptions, EffectKind, SimulateOptions, diagnose, simulate};
+use volcomp::diagnose::{
+    DiagnoseOptions, DiagnoseReport, Effect, EffectKind, SimulateOptions, diagnose, simulate,
+};
+
+/// Simulate `effects` at 0.3 µm noise and diagnose without telling.
+fn blind_run(part: &SyntheticPart, effects: &[Effect], seed: u64) -> DiagnoseReport {
+    let options = SimulateOptions {
+        noise_um: 0.3,
+        seed,
+    };
+    let m = simulate(&part.contexts, &part.truth_um, effects, &options).expect("simulate");
+    diagnose(
+        &part.contexts,
+        &m.deviations_um(),
+        &DiagnoseOptions::default(),
+    )
+    .expect("diagnose")
+}
 
 fn main() {
     let seeds: u64 = std::env::args()
@@ -50,22 +68,7 @@ fn main() {
                 .map(|k| random_effect(*k, &part.contexts, (2.0, 6.0), &mut rng))
                 .into_iter()
                 .collect();
-            let m = simulate(
-                &part.contexts,
-                &part.truth_um,
-                &effects,
-                &SimulateOptions {
-                    noise_um: 0.3,
-                    seed: 77 + seed,
-                },
-            )
-            .expect("simulate");
-            let report = diagnose(
-                &part.contexts,
-                &m.deviations_um(),
-                &DiagnoseOptions::default(),
-            )
-            .expect("diagnose");
+            let report = blind_run(&part, &effects, 77 + seed);
             let got = report
                 .selected
                 .first()
@@ -125,22 +128,7 @@ fn main() {
                     random_effect(*a, &part.contexts, (2.0, 6.0), &mut rng),
                     random_effect(*b, &part.contexts, (2.0, 6.0), &mut rng),
                 ];
-                let m = simulate(
-                    &part.contexts,
-                    &part.truth_um,
-                    &effects,
-                    &SimulateOptions {
-                        noise_um: 0.3,
-                        seed: count,
-                    },
-                )
-                .expect("simulate");
-                let report = diagnose(
-                    &part.contexts,
-                    &m.deviations_um(),
-                    &DiagnoseOptions::default(),
-                )
-                .expect("diagnose");
+                let report = blind_run(&part, &effects, count);
                 let ok = report.selected.len() == 2
                     && report.selected.iter().any(|s| s == a.name())
                     && report.selected.iter().any(|s| s == b.name());

@@ -248,25 +248,30 @@ pub fn diagnose(
                 .find(|c| c.kind == k)
                 .map_or(mse_before, |c| c.mse)
         };
-        let mut best_pair: Option<(Vec<EffectKind>, f64, f64, f64)> = None;
-        for (i, a) in EffectKind::ALL.iter().enumerate() {
-            for b in &EffectKind::ALL[i + 1..] {
-                let kinds = vec![*a, *b];
+        let pairs: Vec<(EffectKind, EffectKind)> = EffectKind::ALL
+            .iter()
+            .enumerate()
+            .flat_map(|(i, a)| EffectKind::ALL[i + 1..].iter().map(move |b| (*a, *b)))
+            .collect();
+        use rayon::prelude::*;
+        let scored: Vec<(Vec<EffectKind>, f64, f64, f64)> = pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                let kinds = vec![a, b];
                 let mse = cross_validate(&sig, &folds, &kinds, &r);
                 let p = a.parameters().len() + b.parameters().len();
-                let score = bic(mse, p);
                 // The smaller of the two members' added held-out RMS.
-                let added = (single_mse(*a) - mse)
-                    .min(single_mse(*b) - mse)
+                let added = (single_mse(a) - mse)
+                    .min(single_mse(b) - mse)
                     .max(0.0)
                     .sqrt();
-                if added >= options.min_explained_ratio * floor
-                    && best_pair.as_ref().is_none_or(|(_, _, s, _)| score < *s)
-                {
-                    best_pair = Some((kinds, mse, score, added));
-                }
-            }
-        }
+                (kinds, mse, bic(mse, p), added)
+            })
+            .collect();
+        let best_pair = scored
+            .into_iter()
+            .filter(|(_, _, _, added)| *added >= options.min_explained_ratio * floor)
+            .min_by(|x, y| x.2.total_cmp(&y.2));
         match best_pair {
             // A pair with more parameters than the single effect must also
             // explain significantly more (≥ the ratio × noise floor) on held-out

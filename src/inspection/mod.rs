@@ -156,20 +156,49 @@ fn plan_point(
     })
 }
 
+/// Parse the records of `columns` (the plan columns first) into points.
+fn parse_points<T>(
+    path: &Path,
+    text: &str,
+    columns: &[&str],
+    make: impl Fn(&reader::Record, PlanPoint) -> T,
+) -> Result<Vec<T>, InspectionError> {
+    let records = reader::read_records(path, text, columns)?;
+    if records.is_empty() {
+        return Err(InspectionError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    let mut seen = HashSet::new();
+    records
+        .iter()
+        .map(|r| Ok(make(r, plan_point(path, r, &mut seen)?)))
+        .collect()
+}
+
+/// Write `header` and one `id,values…` row per item atomically (6 decimals).
+fn write_rows<'a>(
+    path: &Path,
+    header: &str,
+    rows: impl Iterator<Item = (&'a str, Vec<f64>)>,
+) -> Result<(), InspectionError> {
+    write_atomic(path, |w| {
+        let io = |source| OutputError::Write {
+            path: path.to_path_buf(),
+            source,
+        };
+        writeln!(w, "{header}").map_err(io)?;
+        for (id, values) in rows {
+            writeln!(w, "{id},{}", fmt6(&values)).map_err(io)?;
+        }
+        Ok::<(), InspectionError>(())
+    })
+}
+
 impl Plan {
     /// Parse a plan CSV (`id,x,y,z,i,j,k`); `path` names the file in errors.
     pub fn parse(path: &Path, text: &str) -> Result<Plan, InspectionError> {
-        let records = reader::read_records(path, text, &PLAN_COLUMNS)?;
-        if records.is_empty() {
-            return Err(InspectionError::Empty {
-                path: path.to_path_buf(),
-            });
-        }
-        let mut seen = HashSet::new();
-        let points = records
-            .iter()
-            .map(|r| plan_point(path, r, &mut seen))
-            .collect::<Result<_, _>>()?;
+        let points = parse_points(path, text, &PLAN_COLUMNS, |_, p| p)?;
         Ok(Plan { points })
     }
 
@@ -179,39 +208,21 @@ impl Plan {
 
     /// Write the plan atomically (6 decimals).
     pub fn write(&self, path: &Path) -> Result<(), InspectionError> {
-        write_atomic(path, |w| {
-            let io = |source| OutputError::Write {
-                path: path.to_path_buf(),
-                source,
-            };
-            writeln!(w, "id,x,y,z,i,j,k").map_err(io)?;
-            for p in &self.points {
-                writeln!(w, "{},{}", p.id, fmt6(&[p.point, p.normal].concat())).map_err(io)?;
-            }
-            Ok::<(), InspectionError>(())
-        })
+        let rows = self
+            .points
+            .iter()
+            .map(|p| (p.id.as_str(), [p.point, p.normal].concat()));
+        write_rows(path, "id,x,y,z,i,j,k", rows)
     }
 }
 
 impl Measurement {
     /// Parse a measurement CSV (`id,x,y,z,i,j,k,mx,my,mz`).
     pub fn parse(path: &Path, text: &str) -> Result<Measurement, InspectionError> {
-        let records = reader::read_records(path, text, &MEASUREMENT_COLUMNS)?;
-        if records.is_empty() {
-            return Err(InspectionError::Empty {
-                path: path.to_path_buf(),
-            });
-        }
-        let mut seen = HashSet::new();
-        let points = records
-            .iter()
-            .map(|r| {
-                Ok(MeasuredPoint {
-                    plan: plan_point(path, r, &mut seen)?,
-                    measured: [r.values[6], r.values[7], r.values[8]],
-                })
-            })
-            .collect::<Result<_, InspectionError>>()?;
+        let points = parse_points(path, text, &MEASUREMENT_COLUMNS, |r, plan| MeasuredPoint {
+            plan,
+            measured: [r.values[6], r.values[7], r.values[8]],
+        })?;
         Ok(Measurement { points })
     }
 
@@ -221,24 +232,11 @@ impl Measurement {
 
     /// Write the measurement atomically (6 decimals, as the blind examples).
     pub fn write(&self, path: &Path) -> Result<(), InspectionError> {
-        write_atomic(path, |w| {
-            let io = |source| OutputError::Write {
-                path: path.to_path_buf(),
-                source,
-            };
-            writeln!(w, "id,x,y,z,i,j,k,mx,my,mz").map_err(io)?;
-            for m in &self.points {
-                let p = &m.plan;
-                writeln!(
-                    w,
-                    "{},{}",
-                    p.id,
-                    fmt6(&[p.point, p.normal, m.measured].concat())
-                )
-                .map_err(io)?;
-            }
-            Ok::<(), InspectionError>(())
-        })
+        let rows = self.points.iter().map(|m| {
+            let p = &m.plan;
+            (p.id.as_str(), [p.point, p.normal, m.measured].concat())
+        });
+        write_rows(path, "id,x,y,z,i,j,k,mx,my,mz", rows)
     }
 }
 

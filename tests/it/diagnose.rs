@@ -780,6 +780,20 @@ mod cli {
         path
     }
 
+    /// Run `volcomp COMMAND FILES... ARGS...`.
+    fn command(cmd: &str, files: &[&Path], args: &[&str]) -> std::process::Output {
+        volcomp().arg(cmd).args(files).args(args).output().unwrap()
+    }
+
+    fn ok(out: &std::process::Output) -> String {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
     #[test]
     fn simulate_then_diagnose_end_to_end() {
         let dir = tempfile::tempdir().unwrap();
@@ -787,45 +801,27 @@ mod cli {
         let program = data("tests/data/blind/01-backlash/program.nc");
         let plan = data("tests/data/blind/01-backlash/plan.csv");
         let measured = dir.path().join("meas.csv");
-        let out = volcomp()
-            .arg("simulate")
-            .args([machine.as_os_str(), program.as_os_str(), plan.as_os_str()])
-            .arg("-o")
-            .arg(&measured)
-            .args(["--effect", "backlash:bx=6,by=0,bz=3", "--seed", "4"])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let stdout = String::from_utf8_lossy(&out.stdout);
+        let effect = ["--effect", "backlash:bx=6,by=0,bz=3", "--seed", "4", "-o"];
+        let mut args: Vec<&str> = effect.to_vec();
+        args.push(measured.to_str().unwrap());
+        let stdout = ok(&command("simulate", &[&machine, &program, &plan], &args));
         assert!(
             stdout.contains("372 points (372 cut") && stdout.contains("backlash"),
             "{stdout}"
         );
         let report = dir.path().join("diag.json");
         let html = dir.path().join("diag.html");
-        let out = volcomp()
-            .arg("diagnose")
-            .args([
-                machine.as_os_str(),
-                program.as_os_str(),
-                measured.as_os_str(),
-            ])
-            .arg("--report")
-            .arg(&report)
-            .arg("--html")
-            .arg(&html)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let stdout = String::from_utf8_lossy(&out.stdout);
+        let args = [
+            "--report",
+            report.to_str().unwrap(),
+            "--html",
+            html.to_str().unwrap(),
+        ];
+        let stdout = ok(&command(
+            "diagnose",
+            &[&machine, &program, &measured],
+            &args,
+        ));
         assert!(
             stdout.contains("selected: backlash") && stdout.contains("Backlash of about"),
             "{stdout}"
@@ -846,28 +842,18 @@ mod cli {
         let machine = nominal_machine(dir.path());
         let program = data("tests/data/blind/01-backlash/program.nc");
         let plan = data("tests/data/blind/01-backlash/plan.csv");
-        let out = volcomp()
-            .arg("simulate")
-            .args([machine.as_os_str(), program.as_os_str(), plan.as_os_str()])
-            .args(["-o", "/dev/null", "--effect", "backlash:bq=1"])
-            .output()
-            .unwrap();
+        let args = ["-o", "/dev/null", "--effect", "backlash:bq=1"];
+        let out = command("simulate", &[&machine, &program, &plan], &args);
         assert_eq!(out.status.code(), Some(2));
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("bq") && err.contains("bx, by, bz"), "{err}");
         let missing = dir.path().join("missing.csv");
         let report = dir.path().join("r.json");
-        let out = volcomp()
-            .arg("diagnose")
-            .args([
-                machine.as_os_str(),
-                program.as_os_str(),
-                missing.as_os_str(),
-            ])
-            .arg("--report")
-            .arg(&report)
-            .output()
-            .unwrap();
+        let out = command(
+            "diagnose",
+            &[&machine, &program, &missing],
+            &["--report", report.to_str().unwrap()],
+        );
         assert_eq!(out.status.code(), Some(1));
         assert!(String::from_utf8_lossy(&out.stderr).contains("missing.csv"));
         assert!(!report.exists(), "nothing written on bad input");
