@@ -1,6 +1,6 @@
 //! A fast, verified stand-in for the exact SMEM lookups of one axis: the six fitted
 //! curves resampled on a uniform grid of positions as cubic Hermite pieces (value
-//! and slope at every node, from the exact lookups).
+//! and exact slope `y'(u)/x'(u)` at every node, from the exact lookups).
 //!
 //! Why: the exact lookup inverts `x(u) = position` by Newton's method on every call
 //! (~0.2 µs each, 30 per pose); the resampled axis needs one index computation and
@@ -35,27 +35,6 @@ pub struct ResampledAxis {
     max_deviation: f64,
 }
 
-/// Slope of `curve` at `x` by a second-order difference kept inside `[lo, hi]`.
-fn slope(curve: &SmemCurve, x: f64, step: f64, lo: f64, hi: f64) -> f64 {
-    if x - step >= lo && x + step <= hi {
-        (curve.value_at(x + step) - curve.value_at(x - step)) / (2.0 * step)
-    } else if x - step < lo {
-        let (f0, f1, f2) = (
-            curve.value_at(x),
-            curve.value_at(x + step),
-            curve.value_at(x + 2.0 * step),
-        );
-        (-3.0 * f0 + 4.0 * f1 - f2) / (2.0 * step)
-    } else {
-        let (f0, f1, f2) = (
-            curve.value_at(x),
-            curve.value_at(x - step),
-            curve.value_at(x - 2.0 * step),
-        );
-        (3.0 * f0 - 4.0 * f1 + f2) / (2.0 * step)
-    }
-}
-
 impl ResampledAxis {
     /// Resample `curves` over `[lo, hi]`, refining until the check passes.
     pub fn build(curves: &[Option<SmemCurve>; 6], lo: f64, hi: f64) -> Option<ResampledAxis> {
@@ -83,9 +62,6 @@ impl ResampledAxis {
         intervals: usize,
     ) -> ResampledAxis {
         let h = (hi - lo) / intervals as f64;
-        // Difference step: small against h (truncation ~ step²·f'''), large against
-        // rounding (~1e-16·|f|/step).
-        let step = 1e-3 * h;
         let nodes = (0..=intervals)
             .map(|i| {
                 let x = if i == intervals {
@@ -97,7 +73,7 @@ impl ResampledAxis {
                 for (k, curve) in curves.iter().enumerate() {
                     if let Some(curve) = curve {
                         node[k] = curve.value_at(x);
-                        node[6 + k] = slope(curve, x, step, lo, hi) * h;
+                        node[6 + k] = curve.slope_at(x) * h;
                     }
                 }
                 node

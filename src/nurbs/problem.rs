@@ -13,13 +13,19 @@
 //! Error measure (what the paper evaluates in Fig. 8): for each data point the
 //! curve is inverted at its position (`x(u) = x_k`) and the vertical error
 //! `|y(u) − y_k|` (table units) is taken; `emax` is the largest, `erms` the RMS.
-//! A candidate whose least-squares system is singular or whose `x(u)` folds back is
-//! infeasible (`None`).
+//! A candidate whose least-squares system is singular, whose control polygon does
+//! not advance in position, or whose `x(u)` folds back is infeasible (`None`).
 use super::curve::NurbsCurve;
 use super::knot_vector;
 use super::least_squares::fit_control_points;
 use super::lookup::CurveLookup;
 use super::parameterization::{Parameterization, parameterize};
+
+/// Least advance of consecutive control points in normalised position, as a
+/// fraction of the uniform spacing `1 / (n − 1)` (the table's range is 1): a
+/// fold-free curve whose slope stays bounded between the data points, as a
+/// machine's error function does.
+pub const MIN_CONTROL_ADVANCE: f64 = 0.2;
 
 #[derive(Clone, Debug)]
 pub struct FitProblem {
@@ -112,6 +118,20 @@ impl FitProblem {
         }
         let ctrl =
             fit_control_points(&self.params, &self.normalised, 2, p, &knots, weights).ok()?;
+        // The control polygon must advance in position, by at least a fraction of
+        // the uniform spacing: with positive weights that makes x(u) monotone (the
+        // variation-diminishing property), and it rules out near-cusps (a polygon
+        // folding back, or crawling, around two close knots) that pass the data
+        // points while jumping between them.
+        let n_ctrl = ctrl.len() / 2;
+        let min_advance = MIN_CONTROL_ADVANCE / (n_ctrl.max(2) - 1) as f64;
+        if ctrl
+            .chunks_exact(2)
+            .zip(ctrl.chunks_exact(2).skip(1))
+            .any(|(a, b)| !(b[0] - a[0] >= min_advance))
+        {
+            return None;
+        }
         let points: Vec<[f64; 2]> = ctrl
             .chunks_exact(2)
             .map(|c| {

@@ -307,6 +307,14 @@ impl SmemCurve {
     pub fn parameter_at(&self, position: f64) -> f64 {
         self.lookup.parameter_at(position)
     }
+
+    /// Exact slope `dy/dx = y'(u) / x'(u)` at `position` (table units per mm or
+    /// degree); `x'(u) > 0` everywhere by the fit's invariant.
+    pub fn slope_at(&self, position: f64) -> f64 {
+        let u = self.parameter_at(position);
+        let d = self.curve.derivatives(u, 1);
+        d[1][1] / d[1][0]
+    }
 }
 
 /// Check the data at the boundary: same lengths, finite, strictly increasing.

@@ -12,7 +12,7 @@ use volcomp::diff::{AlignOptions, Aligner, BlockSummaries};
 use volcomp::gcode::{
     BlockReader, Feed, Frame, InterpretOptions, Interpreter, ReadOptions, parse_block,
 };
-use volcomp::machine::{ErrorModel, ExtrapolationPolicy, Machine};
+use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 use volcomp::toolpath::{WalkOptions, walk_program};
 
 pub fn root() -> PathBuf {
@@ -23,11 +23,10 @@ pub fn root() -> PathBuf {
 pub fn ref_trt() -> &'static (Machine, ErrorModel) {
     static MODEL: OnceLock<(Machine, ErrorModel)> = OnceLock::new();
     MODEL.get_or_init(|| {
-        volcomp::cli::common::load_model(
-            &root().join("machines/ref-trt.toml"),
-            ExtrapolationPolicy::Error,
-        )
-        .expect("ref-trt loads")
+        let machine = Machine::load(&root().join("machines/ref-trt.toml")).expect("ref-trt loads");
+        let model =
+            ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("ref-trt fits");
+        (machine, model)
     })
 }
 
