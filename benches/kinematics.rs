@@ -1,6 +1,7 @@
 //! Volumetric error per pose: the chain alone (baseline), the 30 table lookups, and
 //! both together (what compensate and predict call), on the reference machine; and
-//! poses per second over a batch, one thread vs two (rayon).
+//! poses per second over a batch, one thread vs two (rayon). Baselines in the same
+//! run: the chain alone, and the exact (Newton-inverted) NURBS lookups.
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -10,10 +11,22 @@ use std::path::Path;
 use volcomp::axes::Axes;
 use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 
-fn reference_model() -> ErrorModel {
+/// The reference machine fitted with the default SMEM settings; `exact` selects the
+/// exact NURBS lookups instead of the resampled ones.
+fn reference_models() -> (ErrorModel, ErrorModel) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("machines/ref-trt.toml");
     let machine = Machine::load(&path).expect("ref-trt loads");
-    ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("fit")
+    let fast = ErrorModel::from_machine(&machine, &ModelOptions::default()).expect("fit");
+    let file = fast.to_model_file(&machine).expect("model file");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let model_path = dir.path().join("fit.json");
+    std::fs::write(&model_path, serde_json::to_string(&file).expect("json")).expect("write");
+    let exact_options = ModelOptions {
+        exact_lookups: true,
+        ..Default::default()
+    };
+    let exact = ErrorModel::from_model_file(&machine, &model_path, &exact_options).expect("read");
+    (fast, exact)
 }
 
 /// Poses inside the reference machine's tables, C over several turns.
@@ -33,7 +46,7 @@ fn poses(n: usize) -> Vec<Axes> {
 }
 
 fn per_pose(c: &mut Criterion) {
-    let model = reference_model();
+    let (model, exact) = reference_models();
     let kin = *model.kinematics();
     let set = poses(1024);
     let errors: Vec<_> = set
@@ -46,6 +59,13 @@ fn per_pose(c: &mut Criterion) {
         b.iter(|| {
             for (p, e) in set.iter().zip(&errors) {
                 black_box(kin.volumetric_error(black_box(p), e));
+            }
+        })
+    });
+    group.bench_function("exact_lookups_and_chain", |b| {
+        b.iter(|| {
+            for p in &set {
+                black_box(exact.volumetric_error(black_box(p)).expect("inside"));
             }
         })
     });
@@ -67,7 +87,7 @@ fn per_pose(c: &mut Criterion) {
 }
 
 fn batch(c: &mut Criterion) {
-    let model = reference_model();
+    let (model, _) = reference_models();
     let set = poses(100_000);
     let mut group = c.benchmark_group("batch_100k");
     group.throughput(Throughput::Elements(set.len() as u64));

@@ -1,7 +1,8 @@
 //! Arguments and helpers shared by the commands: the machine and its fitted error
 //! model, the program frame, input files and progress display.
 use crate::gcode::Frame;
-use crate::machine::{ErrorModel, ExtrapolationPolicy, LoadOptions, Machine, ModelOptions};
+use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
+use crate::nurbs::KnotMethod;
 use anyhow::Context;
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -9,10 +10,9 @@ use std::io::{BufRead, BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
 
 /// Out-of-table lookups.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Extrapolate {
     /// A position outside a table is an error (default).
-    #[default]
     Error,
     /// Hold the table's end value (and say how often it happened).
     Hold,
@@ -27,53 +27,88 @@ impl From<Extrapolate> for ExtrapolationPolicy {
     }
 }
 
-/// The machine file and how its error model is built.
+/// The machine file and how its error model is obtained.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MachineArgs {
     /// Machine file (TOML) with its error tables.
     #[arg(value_name = "MACHINE")]
     pub machine_file: PathBuf,
-    /// What a lookup outside an error table does.
-    #[arg(long, value_enum, default_value = "error")]
-    pub extrapolate: Extrapolate,
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 impl MachineArgs {
-    /// Load the machine and fit its error model.
+    /// Load the machine and its error model (fitted, or from `--model`).
     pub fn load(&self) -> anyhow::Result<(Machine, ErrorModel)> {
-        load_model(&self.machine_file, self.extrapolate.into())
+        load_model(&self.machine_file, &self.model)
     }
 }
 
+/// How the error model is obtained (shared by every command that loads a machine).
+#[derive(Debug, Clone, clap::Args)]
+pub struct ModelArgs {
+    /// What a lookup outside an error table does.
+    #[arg(long, value_enum, default_value = "error")]
+    pub extrapolate: Extrapolate,
+    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
+    /// or best (the default; see `volcomp fit`).
+    #[arg(
+        long,
+        default_value = "best",
+        value_name = "METHOD",
+        conflicts_with = "model"
+    )]
+    pub fit_method: KnotMethod,
+    /// Use the curves of a fitted-model file (`volcomp fit MACHINE --report FILE`)
+    /// instead of fitting the tables again (faster; checked against the tables).
+    #[arg(long, value_name = "FILE.json")]
+    pub model: Option<PathBuf>,
+    /// Evaluate the NURBS exactly at every lookup instead of the verified resampling
+    /// (which stays within 1e-6 µm/µrad of it and is several times faster).
+    #[arg(long)]
+    pub exact_lookups: bool,
+}
+
 /// Load a machine and fit its error model, printing what was not measured to stderr.
-pub fn load_model(
-    path: &Path,
-    policy: ExtrapolationPolicy,
-) -> anyhow::Result<(Machine, ErrorModel)> {
-    let options = LoadOptions {
+pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
+    let policy: ExtrapolationPolicy = args.extrapolate.into();
+    let options = crate::machine::LoadOptions {
         extrapolation: policy,
     };
     let machine = Machine::load_with(path, &options)?;
-    let model_options = ModelOptions {
+    let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
-        ..Default::default()
+        fit: crate::nurbs::FitOptions {
+            method: args.fit_method,
+            ..Default::default()
+        },
+        exact_lookups: args.exact_lookups,
     };
-    let model = ErrorModel::from_machine(&machine, &model_options)
-        .with_context(|| format!("fitting the error tables of {}", path.display()))?;
-    for axis in crate::axes::Axis::ALL {
-        match machine.table(axis) {
-            None => eprintln!(
-                "note: {}: no error table for axis {} (its errors are taken as zero)",
-                machine.name,
-                axis.letter()
-            ),
-            Some(table) if !table.missing.is_empty() => eprintln!(
+    let model = match &args.model {
+        Some(file) => ErrorModel::from_model_file(&machine, file, &model_options)?,
+        None => ErrorModel::from_machine(&machine, &model_options)
+            .with_context(|| format!("fitting the error tables of {}", path.display()))?,
+    };
+    let unmeasured: Vec<String> = crate::axes::Axis::ALL
+        .into_iter()
+        .filter(|axis| machine.table(*axis).is_none())
+        .map(|axis| axis.letter().to_string())
+        .collect();
+    if !unmeasured.is_empty() {
+        eprintln!(
+            "note: {}: no error table for {} (those errors are taken as zero)",
+            machine.name,
+            unmeasured.join(", ")
+        );
+    }
+    for table in machine.tables.iter().flatten() {
+        if !table.missing.is_empty() {
+            eprintln!(
                 "note: {}: {} does not measure {} (taken as zero)",
                 machine.name,
                 table.path.display(),
                 table.missing.join(", ")
-            ),
-            Some(_) => {}
+            );
         }
     }
     Ok((machine, model))

@@ -1,16 +1,135 @@
-//! `volcomp diff`.
+//! `volcomp diff`: what changed between two programs, block by block.
+use super::common::{FrameArg, open_input};
+use crate::diff::{AlignOptions, DiffOptions, diff_programs};
+use crate::gcode::InterpretOptions;
+use crate::io::write_json_atomic;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
+const AFTER_HELP: &str = "\
+Examples:
+  volcomp diff samples/saddle.nc saddle-comp.nc
+  volcomp diff samples/saddle.nc saddle-comp.nc --report diff.json --top 20
+  volcomp diff old.nc new.nc --match-tol 0.2
+
+Blocks are paired by N number when both programs number them, otherwise by a
+sequence alignment: motion blocks of the same kind whose targets agree within
+--match-tol pair up, the extra pieces of a split move count as added blocks.
+Changes are B − A of the interpreted end targets (absolute, mm and degrees);
+X Y Z changes are shown in µm, A C in millidegrees.";
+
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Input files.
-    pub inputs: Vec<PathBuf>,
+    /// The original program (`-` for standard input).
+    pub a: PathBuf,
+    /// The changed program, e.g. the compensated one.
+    pub b: PathBuf,
+    /// Write the report as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// Motion blocks whose targets differ by at most this (mm, degrees) are the same block.
+    #[arg(long, value_name = "MM", default_value_t = 0.05)]
+    pub match_tol: f64,
+    /// How many of the largest changes to list.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub top: usize,
+    /// Frame of X Y Z at program start (both programs).
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: FrameArg,
+    /// Pass constructs that cannot be understood through with a warning.
+    #[arg(long)]
+    pub lenient: bool,
 }
 
-pub fn run(_args: &Args) -> anyhow::Result<()> {
-    Err(super::NotBuilt {
-        command: "diff",
-        what: "the G-code / compensation work is not built yet",
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if !(args.match_tol.is_finite() && args.match_tol >= 0.0) {
+        return Err(super::UsageError(format!(
+            "--match-tol must be a non-negative number of mm (got {})",
+            args.match_tol
+        ))
+        .into());
     }
-    .into())
+    if crate::io::is_stdio(&args.a) && crate::io::is_stdio(&args.b) {
+        return Err(super::UsageError("only one of A and B can be `-`".into()).into());
+    }
+    let options = DiffOptions {
+        align: AlignOptions {
+            match_tolerance: args.match_tol,
+            ..AlignOptions::default()
+        },
+        interpret: InterpretOptions {
+            initial_frame: args.frame.into(),
+            lenient: args.lenient,
+            ..InterpretOptions::default()
+        },
+        top: args.top,
+    };
+    let report = diff_programs(
+        open_input(&args.a)?,
+        &args.a,
+        open_input(&args.b)?,
+        &args.b,
+        &options,
+    )?;
+    if let Some(path) = &args.report {
+        write_json_atomic(path, &report)?;
+    }
+    let text = summary_text(&report);
+    super::common::say(super::common::writes_stdout(args.report.as_ref()), &text);
+    Ok(())
+}
+
+/// The human summary: counts, a per-axis table and the largest changes.
+pub fn summary_text(r: &crate::diff::DiffReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "A: {} blocks, B: {} blocks; {} paired ({} unchanged, {} changed), {} added, {} removed",
+        r.blocks_a, r.blocks_b, r.paired, r.unchanged, r.changed, r.added, r.removed
+    );
+    if r.is_identical() {
+        let _ = write!(s, "no change");
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "{} paired motion blocks: |Δ(X,Y,Z)| max {:.3} µm, RMS {:.3} µm",
+        r.motion_pairs, r.max_xyz_change_um, r.rms_xyz_change_um
+    );
+    let _ = writeln!(s, "axis  unit  max Δ (signed)     mean |Δ|          RMS");
+    for a in &r.axes {
+        // X Y Z in µm, A C in millidegrees: both are the value × 1000.
+        let unit = if matches!(a.axis, 'A' | 'C') {
+            "mdeg"
+        } else {
+            "µm  "
+        };
+        let k = 1e3;
+        let _ = writeln!(
+            s,
+            "{:<4}  {unit} {:>15.3} {:>12.3} {:>12.3}",
+            a.axis,
+            a.max_signed * k,
+            a.mean_abs * k,
+            a.rms * k
+        );
+    }
+    if !r.largest.is_empty() {
+        let _ = writeln!(s, "largest changes (line A → line B: |Δxyz| µm):");
+        for c in &r.largest {
+            let _ = writeln!(
+                s,
+                "  {:>7} → {:<7} {:>10.3}",
+                c.line_a, c.line_b, c.xyz_change_um
+            );
+        }
+    }
+    if !r.added_lines.is_empty() {
+        let _ = writeln!(s, "first added lines (B): {:?}", r.added_lines);
+    }
+    if !r.removed_lines.is_empty() {
+        let _ = writeln!(s, "first removed lines (A): {:?}", r.removed_lines);
+    }
+    s.trim_end().to_string()
 }

@@ -1,7 +1,7 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
+use super::common::{ModelArgs, load_model};
 use crate::axes::Axes;
 use crate::kinematics::VolumetricError;
-use crate::machine::{ErrorModel, ExtrapolationPolicy, Machine};
 use anyhow::{Context, anyhow};
 use clap::ValueEnum;
 use rayon::prelude::*;
@@ -15,6 +15,8 @@ Examples:
   volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
   volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
+  volcomp fit machines/ref-trt.toml --report fit.json
+  volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
 
 The pose is X,Y,Z (mm), A,C (degrees). With --frame joint (default) X Y Z are the
 machine coordinates of the tool tip; with --frame part they are the tool tip in part
@@ -28,24 +30,6 @@ pub enum PoseFrame {
     Joint,
     /// Tool tip in part coordinates.
     Part,
-}
-
-/// Out-of-table lookups.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Extrapolate {
-    /// A position outside a table is an error (default).
-    Error,
-    /// Hold the table's end value (and say how often it happened).
-    Hold,
-}
-
-impl From<Extrapolate> for ExtrapolationPolicy {
-    fn from(e: Extrapolate) -> Self {
-        match e {
-            Extrapolate::Error => ExtrapolationPolicy::Error,
-            Extrapolate::Hold => ExtrapolationPolicy::Hold,
-        }
-    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -69,43 +53,8 @@ pub struct Args {
     /// Also print each parameter's contribution to e, largest first (single pose).
     #[arg(long, short)]
     pub verbose: bool,
-    /// What a lookup outside an error table does.
-    #[arg(long, value_enum, default_value = "error")]
-    pub extrapolate: Extrapolate,
-}
-
-/// Load a machine and fit its error model, printing what was not measured to stderr.
-pub(crate) fn load_model(
-    path: &Path,
-    policy: ExtrapolationPolicy,
-) -> anyhow::Result<(Machine, ErrorModel)> {
-    let options = crate::machine::LoadOptions {
-        extrapolation: policy,
-    };
-    let machine = Machine::load_with(path, &options)?;
-    let model_options = crate::machine::ModelOptions {
-        extrapolation: policy,
-        ..Default::default()
-    };
-    let model = ErrorModel::from_machine(&machine, &model_options)
-        .with_context(|| format!("fitting the error tables of {}", path.display()))?;
-    for axis in crate::axes::Axis::ALL {
-        match machine.table(axis) {
-            None => eprintln!(
-                "note: {}: no error table for axis {} (its errors are taken as zero)",
-                machine.name,
-                axis.letter()
-            ),
-            Some(table) if !table.missing.is_empty() => eprintln!(
-                "note: {}: {} does not measure {} (taken as zero)",
-                machine.name,
-                table.path.display(),
-                table.missing.join(", ")
-            ),
-            Some(_) => {}
-        }
-    }
-    Ok((machine, model))
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 /// Parse `X,Y,Z,A,C`.
@@ -215,9 +164,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::cli::UsageError("--verbose applies to a single pose (--at)".into()).into(),
         );
     }
-    // Validate the pose before the (slower) fit.
+    // Validate the input before the (slower) fit.
     let single = args.at.as_deref().map(parse_pose).transpose()?;
-    let (machine, model) = load_model(&args.machine, args.extrapolate.into())?;
+    let many = args.poses.as_deref().map(read_poses).transpose()?;
+    let (machine, model) = load_model(&args.machine, &args.model)?;
     let kin = model.kinematics();
     let to_joints = |pose: &Axes| match args.frame {
         PoseFrame::Joint => *pose,
@@ -273,8 +223,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 }
             }
         }
-    } else if let Some(path) = &args.poses {
-        let poses = read_poses(path)?;
+    } else if let (Some(path), Some(poses)) = (&args.poses, many) {
         let results: Vec<VolumetricError> = poses
             .par_iter()
             .map(|(line, pose)| {

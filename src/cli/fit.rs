@@ -180,14 +180,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
             entry.parameter,
-            entry.samples,
-            entry.control_points,
-            entry.emax,
-            entry.erms,
-            entry.tolerance,
+            entry.stats.samples,
+            entry.stats.control_points,
+            entry.stats.emax,
+            entry.stats.erms,
+            entry.stats.tolerance,
             entry.unit,
-            if entry.met { "yes" } else { "NO" },
-            entry.seconds
+            if entry.stats.met { "yes" } else { "NO" },
+            entry.stats.seconds
         );
         report.parameters.push(entry);
     }
@@ -204,7 +204,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let missed: Vec<&str> = report
         .parameters
         .iter()
-        .filter(|p| !p.met)
+        .filter(|p| !p.stats.met)
         .map(|p| p.parameter.as_str())
         .collect();
     println!(

@@ -359,8 +359,8 @@ pub fn compensate(
         ..CompensateReport::default()
     };
     let mut sum_sq = 0.0;
-    // Compensated end of the previous motion, in the frame it was programmed in.
-    let mut previous: Option<(Frame, Axes)> = None;
+    // Compensated end of the previous motion (the numbers written).
+    let mut previous: Option<Axes> = None;
     let mut chunk: Vec<(Block, BlockEvent)> = Vec::with_capacity(options.chunk_blocks);
     let mut emitted = Vec::with_capacity(256);
     let mut done = false;
@@ -405,9 +405,11 @@ pub fn compensate(
         for ((_, event), end) in chunk.iter().zip(&resolved) {
             match (&event.motion, end) {
                 (Some(m), Some((e, _))) if !event.skipped => {
-                    let f = frame_of(m);
-                    starts.push(previous.filter(|(pf, _)| *pf == f).map(|(_, p)| p));
-                    previous = Some((f, *e));
+                    // Across a frame switch too: the interpreter (and so the
+                    // control model of `toolpath`) starts the move from the last
+                    // written numbers, which are the compensated ones.
+                    starts.push(previous);
+                    previous = Some(*e);
                 }
                 _ => starts.push(None),
             }

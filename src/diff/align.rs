@@ -48,7 +48,7 @@ impl Default for AlignOptions {
     fn default() -> Self {
         AlignOptions {
             match_tolerance: 0.05,
-            window: 256,
+            window: 1024,
         }
     }
 }

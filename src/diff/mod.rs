@@ -6,6 +6,10 @@
 //! with their line numbers. Streaming: memory is bounded by the alignment window
 //! and the number of largest changes kept.
 pub mod align;
+pub mod program;
+
+pub use align::{AlignOptions, Aligner};
+pub use program::{BlockSummaries, DiffOptions, diff_programs};
 
 use crate::axes::Axis;
 use align::{Aligned, BlockSummary};

@@ -331,6 +331,13 @@ impl Kinematics {
 
     /// The actual chain of kinematics.md at `joints` with `errors`.
     pub(crate) fn chain(&self, joints: &Axes, errors: &ErrorValues) -> Chain {
+        self.chain_with(&self.rotations(joints.a, joints.c), joints, errors)
+    }
+
+    /// [`Kinematics::chain`] with the nominal rotations already computed: the rotary
+    /// zero offsets are added by the angle-sum formulas (one trigonometric call on a
+    /// large angle per axis instead of two).
+    fn chain_with(&self, rot: &Rotations, joints: &Axes, errors: &ErrorValues) -> Chain {
         let s = &errors.squareness;
         let directions = [
             [1.0, 0.0, 0.0],
@@ -369,17 +376,23 @@ impl Kinematics {
         let location_a_inv = location_a.inverse();
         let location_c_inv = location_c.inverse();
         let (a, c) = self.angles(joints.a, joints.c);
-        let angle_a = a + loc[l::EA0A] * URAD;
-        let angle_c = c + loc[l::EC0C] * URAD;
+        let (offset_a, offset_c) = (loc[l::EA0A] * URAD, loc[l::EC0C] * URAD);
+        let angle_a = a + offset_a;
+        let angle_c = c + offset_c;
+        // sin(θ + δ) = sin θ cos δ + cos θ sin δ, cos(θ + δ) = cos θ cos δ − sin θ sin δ.
+        let (so, co) = offset_a.sin_cos();
+        let rx = Affine::rot_x_sin_cos(rot.sa * co + rot.ca * so, rot.ca * co - rot.sa * so);
+        let (so, co) = offset_c.sin_cos();
+        let rz = Affine::rot_z_sin_cos(rot.sc * co + rot.cc * so, rot.cc * co - rot.sc * so);
         let error_a = component(errors, 3);
         let error_c = component(errors, 4);
         let table_a = location_a
-            .mul(&Affine::rot_x(angle_a))
+            .mul(&rx)
             .mul(&error_a)
             .mul(&location_a_inv)
             .about(self.geometry.a_point());
         let table_c = location_c
-            .mul(&Affine::rot_z(angle_c))
+            .mul(&rz)
             .mul(&error_c)
             .mul(&location_c_inv)
             .about(self.geometry.c_point());
@@ -414,8 +427,12 @@ impl Kinematics {
     /// Volumetric error `e = r_act − r_nom` (µm) and tool-axis error (µrad), part
     /// coordinates, at `joints` with the parameter values `errors` (µm, µrad).
     pub fn volumetric_error(&self, joints: &Axes, errors: &ErrorValues) -> VolumetricError {
-        let actual = self.actual_tip_and_axis(joints, errors);
         let rot = self.rotations(joints.a, joints.c);
+        let chain = self.chain_with(&rot, joints, errors);
+        let actual = TipAndAxis {
+            tip: chain.tip(self.tool_length),
+            axis: chain.axis(),
+        };
         let tip = self.nominal_tip_with(&rot, joints.xyz());
         let axis = Self::nominal_axis_with(&rot);
         let e = sub(actual.tip, tip);

@@ -34,6 +34,11 @@ impl Affine {
     /// Right-handed rotation about X by `angle` radians.
     pub fn rot_x(angle: f64) -> Affine {
         let (s, c) = angle.sin_cos();
+        Affine::rot_x_sin_cos(s, c)
+    }
+
+    /// Rotation about X from the sine and cosine of its angle.
+    pub const fn rot_x_sin_cos(s: f64, c: f64) -> Affine {
         Affine {
             m: [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
             t: [0.0; 3],
@@ -43,6 +48,11 @@ impl Affine {
     /// Right-handed rotation about Z by `angle` radians.
     pub fn rot_z(angle: f64) -> Affine {
         let (s, c) = angle.sin_cos();
+        Affine::rot_z_sin_cos(s, c)
+    }
+
+    /// Rotation about Z from the sine and cosine of its angle.
+    pub const fn rot_z_sin_cos(s: f64, c: f64) -> Affine {
         Affine {
             m: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
             t: [0.0; 3],

@@ -142,7 +142,7 @@ pub enum MachineError {
         line: usize,
         column: usize,
         key: String,
-        source: TableError,
+        source: Box<TableError>,
     },
 }
 
@@ -407,7 +407,7 @@ impl Machine {
                         line,
                         column,
                         key: key.clone(),
-                        source,
+                        source: Box::new(source),
                     }
                 })?;
                 if options.extrapolation == ExtrapolationPolicy::Error {

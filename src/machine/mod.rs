@@ -4,7 +4,9 @@
 //! Invariants: `machine` reads files but never prints; every error names the file
 //! and the key or line.
 pub mod definition;
+pub mod error_map;
 pub mod error_model;
+pub mod resampled;
 pub mod table;
 
 pub use definition::{

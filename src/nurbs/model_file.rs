@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::curve::NurbsCurve;
-use super::smem::{FitStats, KnotMethod, SmemCurve};
+use super::smem::{FitStats, SmemCurve};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SmemModelFile {
@@ -16,26 +16,19 @@ pub struct SmemModelFile {
     pub not_measured: Vec<String>,
 }
 
-/// One fitted error parameter.
+/// One fitted error parameter: the fit statistics (flattened: `samples`,
+/// `control_points`, `method`, `emax`, `erms`, `tolerance`, `met`, `seconds`, …)
+/// and the curve.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParameterFit {
     /// Axis letter of the table ("X", …, "C").
     pub axis: String,
     /// Parameter name, e.g. "EXX".
     pub parameter: String,
-    pub samples: usize,
-    /// Number of control points.
-    pub control_points: usize,
-    pub method: KnotMethod,
-    /// Largest and RMS error at the data points, µm or µrad.
-    pub emax: f64,
-    pub erms: f64,
-    pub tolerance: f64,
-    /// `emax <= tolerance`.
-    pub met: bool,
-    /// "um" or "urad".
+    /// "um" or "urad" (the unit of `emax`, `erms`, `tolerance`).
     pub unit: String,
-    pub seconds: f64,
+    #[serde(flatten)]
+    pub stats: FitStats,
     pub degree: usize,
     pub knots: Vec<f64>,
     pub weights: Vec<f64>,
@@ -55,19 +48,11 @@ impl ParameterFit {
         table: &str,
         table_hash: u64,
     ) -> ParameterFit {
-        let s = curve.stats();
         ParameterFit {
             axis: axis.to_string(),
             parameter: parameter.to_string(),
-            samples: s.samples,
-            control_points: s.control_points,
-            method: s.method,
-            emax: s.emax,
-            erms: s.erms,
-            tolerance: s.tolerance,
-            met: s.met,
             unit: unit.to_string(),
-            seconds: s.seconds,
+            stats: curve.stats().clone(),
             degree: curve.degree(),
             knots: curve.knots().to_vec(),
             weights: curve.weights().to_vec(),
@@ -86,19 +71,7 @@ impl ParameterFit {
             self.points.clone(),
         )
         .map_err(|e| e.to_string())?;
-        let stats = FitStats {
-            samples: self.samples,
-            control_points: self.control_points,
-            method: self.method,
-            emax: self.emax,
-            erms: self.erms,
-            tolerance: self.tolerance,
-            met: self.met,
-            grid_segments: None,
-            evaluations: 0,
-            seconds: self.seconds,
-        };
-        SmemCurve::from_curve(curve, stats).map_err(|e| e.to_string())
+        SmemCurve::from_curve(curve, self.stats.clone()).map_err(|e| e.to_string())
     }
 }
 

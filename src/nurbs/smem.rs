@@ -267,7 +267,8 @@ impl SmemCurve {
     /// The fitted error at `position` (table units): `y(u)` with `x(u) = position`,
     /// solved to round-off. `position` must lie in [`Self::domain`]; outside it the
     /// end value is returned (wrap-around and out-of-range policy belong to the
-    /// caller).
+    /// caller). A NaN position is a caller bug (checked at the boundary); it yields
+    /// some value of the curve, never a panic.
     #[inline]
     pub fn value_at(&self, position: f64) -> f64 {
         self.lookup.value_at(position)

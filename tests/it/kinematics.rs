@@ -199,6 +199,16 @@ proptest! {
         }
     }
 
+    /// Multi-turn C: the same errors at c and c + 360·k give the same e.
+    #[test]
+    fn multi_turn_c_is_periodic(kin in kinematics(), j in joints(), e in random_errors(), k in -100i32..100) {
+        let turned = Axes { c: j.c + 360.0 * f64::from(k), ..j };
+        let a = kin.volumetric_error(&j, &e);
+        let b = kin.volumetric_error(&turned, &e);
+        prop_assert!(close(a.e_um, b.e_um, 1e-6), "{a:?} vs {b:?}");
+        prop_assert!(close(a.axis_urad, b.axis_urad, 1e-6));
+    }
+
     #[test]
     fn zero_errors_give_zero_error(kin in kinematics(), j in joints()) {
         let v = kin.volumetric_error(&j, &ErrorValues::ZERO);

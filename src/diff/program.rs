@@ -1,0 +1,228 @@
+//! Reading a program as a stream of [`BlockSummary`] (reader + interpreter), and
+//! diffing two programs end to end.
+use super::align::{AlignOptions, Aligner, BlockSummary};
+use super::{DiffAccumulator, DiffReport};
+use crate::gcode::{
+    Block, BlockEvent, BlockReader, GcodeError, InterpretOptions, Interpreter, MotionKind,
+    ReadOptions,
+};
+use std::cell::RefCell;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// Settings of a diff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffOptions {
+    pub align: AlignOptions,
+    /// Interpreter settings used for both programs.
+    pub interpret: InterpretOptions,
+    /// How many of the largest changes (and added/removed lines) the report keeps.
+    pub top: usize,
+}
+
+impl Default for DiffOptions {
+    fn default() -> Self {
+        DiffOptions {
+            align: AlignOptions::default(),
+            interpret: InterpretOptions::default(),
+            top: 10,
+        }
+    }
+}
+
+/// Motion kind code of the alignment: 0 = G0, 1 = G1, 2 = G2, 3 = G3.
+pub fn motion_code(kind: &MotionKind) -> u8 {
+    match kind {
+        MotionKind::Rapid => 0,
+        MotionKind::Linear => 1,
+        MotionKind::Arc {
+            clockwise: true, ..
+        } => 2,
+        MotionKind::Arc { .. } => 3,
+    }
+}
+
+/// The block's words without N number and comments, upper-cased, whitespace removed.
+pub fn block_key(block: &Block) -> String {
+    let mut bytes = Vec::with_capacity(block.raw.len());
+    let n_span = block.word(b'N').map(|w| w.span());
+    for (i, &b) in block.raw.iter().enumerate() {
+        if b.is_ascii_whitespace()
+            || n_span.as_ref().is_some_and(|s| s.contains(&i))
+            || block.comments.iter().any(|c| c.contains(&i))
+        {
+            continue;
+        }
+        bytes.push(b.to_ascii_uppercase());
+    }
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// The summary of one interpreted block.
+pub fn summarize(block: &Block, event: &BlockEvent) -> BlockSummary {
+    BlockSummary {
+        line: block.line,
+        number: block
+            .block_number()
+            .filter(|n| *n >= 0.0 && n.fract() == 0.0 && *n < u64::MAX as f64)
+            .map(|n| n as u64),
+        motion: event
+            .motion
+            .as_ref()
+            .filter(|_| !event.skipped)
+            .map(|m| (motion_code(&m.kind), m.end)),
+        key: block_key(block),
+    }
+}
+
+/// Streaming block summaries of a program. Yields `Err` once for the first bad
+/// block (located, with the file name) and then ends.
+pub struct BlockSummaries<R> {
+    reader: BlockReader<R>,
+    interpreter: Interpreter,
+    path: PathBuf,
+    failed: bool,
+}
+
+impl<R: BufRead> BlockSummaries<R> {
+    pub fn new(input: R, path: &Path, interpret: InterpretOptions) -> Self {
+        BlockSummaries {
+            reader: BlockReader::new(
+                input,
+                ReadOptions {
+                    lenient: interpret.lenient,
+                },
+            ),
+            interpreter: Interpreter::new(interpret),
+            path: path.to_path_buf(),
+            failed: false,
+        }
+    }
+}
+
+impl<R: BufRead> Iterator for BlockSummaries<R> {
+    type Item = Result<BlockSummary, GcodeError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        let block = match self.reader.next_block()? {
+            Ok(b) => b,
+            Err(e) => {
+                self.failed = true;
+                return Some(Err(e.with_path(&self.path)));
+            }
+        };
+        match self.interpreter.interpret(block) {
+            Ok(event) => Some(Ok(summarize(block, &event))),
+            Err(e) => {
+                self.failed = true;
+                Some(Err(e.with_path(&self.path)))
+            }
+        }
+    }
+}
+
+/// Turns a fallible stream into a plain one that stops at the first error and
+/// keeps it for later.
+struct StopAtError<I> {
+    inner: I,
+    error: Rc<RefCell<Option<GcodeError>>>,
+}
+
+impl<I: Iterator<Item = Result<BlockSummary, GcodeError>>> Iterator for StopAtError<I> {
+    type Item = BlockSummary;
+
+    fn next(&mut self) -> Option<BlockSummary> {
+        if self.error.borrow().is_some() {
+            return None;
+        }
+        match self.inner.next()? {
+            Ok(s) => Some(s),
+            Err(e) => {
+                *self.error.borrow_mut() = Some(e);
+                None
+            }
+        }
+    }
+}
+
+/// Diff program `a` against `b` (B − A), streaming both.
+pub fn diff_programs(
+    a: impl BufRead,
+    path_a: &Path,
+    b: impl BufRead,
+    path_b: &Path,
+    options: &DiffOptions,
+) -> Result<DiffReport, GcodeError> {
+    let error_a = Rc::new(RefCell::new(None));
+    let error_b = Rc::new(RefCell::new(None));
+    let stream_a = StopAtError {
+        inner: BlockSummaries::new(a, path_a, options.interpret),
+        error: Rc::clone(&error_a),
+    };
+    let stream_b = StopAtError {
+        inner: BlockSummaries::new(b, path_b, options.interpret),
+        error: Rc::clone(&error_b),
+    };
+    let mut acc = DiffAccumulator::new(options.top);
+    for item in Aligner::new(stream_a, stream_b, options.align) {
+        if error_a.borrow().is_some() || error_b.borrow().is_some() {
+            break;
+        }
+        acc.push(&item);
+    }
+    if let Some(e) = error_a.borrow_mut().take() {
+        return Err(e);
+    }
+    if let Some(e) = error_b.borrow_mut().take() {
+        return Err(e);
+    }
+    Ok(acc.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_drops_n_comments_spaces_and_case() {
+        let block = crate::gcode::parse_block("N10 g1 X  16.339 (cut) F 159 ; end").unwrap();
+        assert_eq!(block_key(&block), "G1X16.339F159");
+    }
+
+    #[test]
+    fn a_program_diffed_with_itself_is_identical() {
+        let text = "G21 G90\nN10 G0 X1 Y2 Z3\nG1 X5 F100 (c)\nG2 X7 Y4 I1 J1\nM2\n";
+        let p = Path::new("p.nc");
+        let r = diff_programs(
+            text.as_bytes(),
+            p,
+            text.as_bytes(),
+            p,
+            &DiffOptions::default(),
+        )
+        .unwrap();
+        assert!(r.is_identical());
+        assert_eq!(r.unchanged, 6);
+        assert_eq!(r.max_xyz_change_um, 0.0);
+    }
+
+    #[test]
+    fn a_bad_line_is_located_in_its_file() {
+        let good = "G1 X1 F100\n";
+        let bad = "G1 X1 F100\nG1 X(oops\n";
+        let e = diff_programs(
+            good.as_bytes(),
+            Path::new("a.nc"),
+            bad.as_bytes(),
+            Path::new("b.nc"),
+            &DiffOptions::default(),
+        )
+        .unwrap_err();
+        assert_eq!(e.line, 2);
+        assert_eq!(e.path.as_deref(), Some(Path::new("b.nc")));
+    }
+}

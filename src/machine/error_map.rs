@@ -1,0 +1,330 @@
+//! Volumetric error maps over a plane of the machine's workspace (the seed paper's
+//! Fig. 12): `e` on a regular grid of joint positions with the third linear axis
+//! and A, C fixed, and its drawing as an SVG heat map of |e| with arrows of the
+//! in-plane error.
+//!
+//! Invariants: the grid is `grid × grid` points including the range ends; values
+//! are stored row by row (`v` outer, `u` inner); arrows show `e` turned into the
+//! machine frame (`Rx(a)·Rz(c)·e`, the nominal rotation), so they lie in the plotted
+//! plane whatever A and C are; the report keeps `e` in part coordinates as
+//! everywhere else.
+use super::error_model::{ErrorModel, LookupError};
+use crate::axes::{Axes, Axis};
+use crate::kinematics::VolumetricError;
+use crate::nurbs::{NurbsSurface, SurfaceFitOptions, fit_surface};
+use crate::report::svg::{Chart, ChartSpec, ColourMap};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// The plane of a map: its two in-plane axes and the normal axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Plane {
+    XY,
+    XZ,
+    YZ,
+}
+
+impl Plane {
+    /// `(u, v, normal)`.
+    pub fn axes(self) -> (Axis, Axis, Axis) {
+        match self {
+            Plane::XY => (Axis::X, Axis::Y, Axis::Z),
+            Plane::XZ => (Axis::X, Axis::Z, Axis::Y),
+            Plane::YZ => (Axis::Y, Axis::Z, Axis::X),
+        }
+    }
+
+    fn index(axis: Axis) -> usize {
+        match axis {
+            Axis::X => 0,
+            Axis::Y => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// What to map.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MapSpec {
+    pub plane: Plane,
+    /// Joint position of the normal axis, mm.
+    pub level: f64,
+    /// Rotary axes, degrees.
+    pub a: f64,
+    pub c: f64,
+    /// Ranges of the in-plane axes (joint mm), `min < max`.
+    pub u_range: [f64; 2],
+    pub v_range: [f64; 2],
+    /// Points per side (≥ 2).
+    pub grid: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapError {
+    #[error("the map grid needs at least 2 points per side (got {0})")]
+    Grid(usize),
+    #[error("map range {0:?} must be finite with min < max")]
+    Range([f64; 2]),
+    #[error("map level and angles must be finite")]
+    NotFinite,
+    #[error(transparent)]
+    Lookup(#[from] LookupError),
+    #[error("cannot fit a surface to the map: {0}")]
+    Surface(String),
+}
+
+/// How well a fitted NURBS surface represents the grid values.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SurfaceFit {
+    /// What was fitted: `"|e|"`, `"e_x"`, `"e_y"`, `"e_z"` (µm, part coordinates).
+    pub quantity: String,
+    pub degree: usize,
+    pub control_points: [usize; 2],
+    /// Largest and RMS |surface − value| over the grid points, µm.
+    pub emax_um: f64,
+    pub erms_um: f64,
+}
+
+/// The fitted surfaces of a map: |e| (drawn) and the three components of e.
+#[derive(Clone, Debug)]
+pub struct MapSurfaces {
+    pub magnitude: NurbsSurface,
+    pub components: [NurbsSurface; 3],
+    /// Fit errors, in the order |e|, e_x, e_y, e_z.
+    pub fits: Vec<SurfaceFit>,
+}
+
+/// One grid point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MapPoint {
+    pub joints: Axes,
+    /// e (µm) and tool-axis error (µrad), part coordinates.
+    #[serde(flatten)]
+    pub error: VolumetricError,
+    /// e in the machine frame (µm), what the arrows show.
+    pub e_machine_um: [f64; 3],
+    pub magnitude_um: f64,
+}
+
+/// A computed map.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorMap {
+    pub spec: MapSpec,
+    /// Grid coordinates along u and v (joint mm).
+    pub u: Vec<f64>,
+    pub v: Vec<f64>,
+    /// `points[j * u.len() + i]` at `(u[i], v[j])`.
+    pub points: Vec<MapPoint>,
+}
+
+fn linspace(range: [f64; 2], n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| range[0] + (range[1] - range[0]) * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// `Rx(a)·Rz(c)·v` with the effective (direction-convention) angles of `kin`.
+fn part_to_machine(kin: &crate::kinematics::Kinematics, a: f64, c: f64, v: [f64; 3]) -> [f64; 3] {
+    // The nominal tip map is affine with rotation Rx(a)·Rz(c): read it off the
+    // nominal machine point of two part points (keeps the convention in one place).
+    let o = kin.nominal_machine_point([0.0; 3], a, c);
+    let p = kin.nominal_machine_point(v, a, c);
+    [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
+}
+
+impl ErrorMap {
+    /// Evaluate `model` over the grid of `spec` (in parallel).
+    pub fn compute(model: &ErrorModel, spec: &MapSpec) -> Result<ErrorMap, MapError> {
+        if spec.grid < 2 {
+            return Err(MapError::Grid(spec.grid));
+        }
+        for r in [spec.u_range, spec.v_range] {
+            if !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1]) {
+                return Err(MapError::Range(r));
+            }
+        }
+        if !(spec.level.is_finite() && spec.a.is_finite() && spec.c.is_finite()) {
+            return Err(MapError::NotFinite);
+        }
+        let (ua, va, na) = spec.plane.axes();
+        let u = linspace(spec.u_range, spec.grid);
+        let v = linspace(spec.v_range, spec.grid);
+        let kin = *model.kinematics();
+        let points = (0..spec.grid * spec.grid)
+            .into_par_iter()
+            .map(|k| {
+                let mut joints = Axes::new(0.0, 0.0, 0.0, spec.a, spec.c);
+                joints.set(ua, u[k % spec.grid]);
+                joints.set(va, v[k / spec.grid]);
+                joints.set(na, spec.level);
+                let error = model.volumetric_error(&joints)?;
+                Ok(MapPoint {
+                    joints,
+                    error,
+                    e_machine_um: part_to_machine(&kin, spec.a, spec.c, error.e_um),
+                    magnitude_um: error.magnitude_um(),
+                })
+            })
+            .collect::<Result<Vec<_>, LookupError>>()?;
+        Ok(ErrorMap {
+            spec: *spec,
+            u,
+            v,
+            points,
+        })
+    }
+
+    /// Fit tensor-product NURBS surfaces (cubic, or of degree grid − 1 for coarser
+    /// grids; `crate::nurbs::fit_surface`, least squares) to |e| and to each component
+    /// of e, with `control` control points per direction (`None`: the nurbs default,
+    /// min(grid, 12); `grid` interpolates the grid values).
+    pub fn fit_surfaces(&self, control: Option<usize>) -> Result<MapSurfaces, MapError> {
+        let degree = (self.spec.grid - 1).min(3);
+        let options = SurfaceFitOptions {
+            degree_u: degree,
+            degree_v: degree,
+            control_u: control,
+            control_v: control,
+        };
+        let nu = self.u.len();
+        let grid_of = |f: &dyn Fn(&MapPoint) -> f64| -> Vec<Vec<f64>> {
+            (0..nu)
+                .map(|i| {
+                    (0..self.v.len())
+                        .map(|j| f(&self.points[j * nu + i]))
+                        .collect()
+                })
+                .collect()
+        };
+        let quantities: [(&str, Vec<Vec<f64>>); 4] = [
+            ("|e|", grid_of(&|p| p.magnitude_um)),
+            ("e_x", grid_of(&|p| p.error.e_um[0])),
+            ("e_y", grid_of(&|p| p.error.e_um[1])),
+            ("e_z", grid_of(&|p| p.error.e_um[2])),
+        ];
+        let mut surfaces = Vec::with_capacity(4);
+        let mut fits = Vec::with_capacity(4);
+        for (name, values) in &quantities {
+            let surface = fit_surface(&self.u, &self.v, values, &options)
+                .map_err(|e| MapError::Surface(e.to_string()))?;
+            let (mut emax, mut sum) = (0.0f64, 0.0);
+            for (i, row) in values.iter().enumerate() {
+                for (j, value) in row.iter().enumerate() {
+                    let d = surface.eval(self.u[i], self.v[j]) - value;
+                    emax = emax.max(d.abs());
+                    sum += d * d;
+                }
+            }
+            fits.push(SurfaceFit {
+                quantity: name.to_string(),
+                degree,
+                control_points: [surface.count_u, surface.count_v],
+                emax_um: emax,
+                erms_um: (sum / (nu * self.v.len()) as f64).sqrt(),
+            });
+            surfaces.push(surface);
+        }
+        let mut it = surfaces.into_iter();
+        match (it.next(), it.next(), it.next(), it.next()) {
+            (Some(magnitude), Some(x), Some(y), Some(z)) => Ok(MapSurfaces {
+                magnitude,
+                components: [x, y, z],
+                fits,
+            }),
+            _ => Err(MapError::Surface("internal: four surfaces expected".into())),
+        }
+    }
+
+    /// |e| on the grid, row by row.
+    pub fn magnitudes(&self) -> Vec<f64> {
+        self.points.iter().map(|p| p.magnitude_um).collect()
+    }
+
+    /// Largest |e| over the grid, µm.
+    pub fn max_magnitude(&self) -> f64 {
+        self.points
+            .iter()
+            .map(|p| p.magnitude_um)
+            .fold(0.0, f64::max)
+    }
+
+    /// The SVG heat map: |e| as cells coloured by `heat(u, v)` (the fitted surface,
+    /// or the grid values), arrows of the in-plane error at the grid points.
+    pub fn to_svg(&self, title: &str, heat: &dyn Fn(f64, f64) -> f64) -> String {
+        let (ua, va, _) = self.spec.plane.axes();
+        let x_label = format!("{} (mm)", ua.letter());
+        let y_label = format!("{} (mm)", va.letter());
+        let spec = ChartSpec {
+            width: 760.0,
+            height: 640.0,
+            title,
+            x_label: &x_label,
+            y_label: &y_label,
+            x_range: (self.spec.u_range[0], self.spec.u_range[1]),
+            y_range: (self.spec.v_range[0], self.spec.v_range[1]),
+            equal_aspect: true,
+        };
+        let mut chart = Chart::new(&spec);
+        // Heat map cells on a finer raster than the grid (the surface is smooth).
+        let cells = 60usize;
+        let du = (self.spec.u_range[1] - self.spec.u_range[0]) / cells as f64;
+        let dv = (self.spec.v_range[1] - self.spec.v_range[0]) / cells as f64;
+        let mut values = Vec::with_capacity(cells * cells);
+        for j in 0..cells {
+            for i in 0..cells {
+                let uc = self.spec.u_range[0] + (i as f64 + 0.5) * du;
+                let vc = self.spec.v_range[0] + (j as f64 + 0.5) * dv;
+                values.push((uc, vc, heat(uc, vc)));
+            }
+        }
+        let lo = values
+            .iter()
+            .map(|v| v.2)
+            .chain(self.magnitudes())
+            .fold(f64::INFINITY, f64::min)
+            .max(0.0);
+        let hi = values
+            .iter()
+            .map(|v| v.2)
+            .chain(self.magnitudes())
+            .fold(0.0, f64::max);
+        for (uc, vc, h) in &values {
+            let x0 = chart.x.map(uc - du / 2.0);
+            let x1 = chart.x.map(uc + du / 2.0);
+            let y0 = chart.y.map(vc + dv / 2.0);
+            let y1 = chart.y.map(vc - dv / 2.0);
+            let colour = ColourMap::Sequential.colour(*h, lo, hi);
+            chart
+                .svg
+                .rect(x0, y0, (x1 - x0) + 0.3, (y1 - y0) + 0.3, &colour, None);
+        }
+        // Arrows: longest in-plane error = 0.8 of a grid step.
+        let (iu, iv) = (Plane::index(ua), Plane::index(va));
+        let longest = self
+            .points
+            .iter()
+            .map(|p| p.e_machine_um[iu].hypot(p.e_machine_um[iv]))
+            .fold(0.0, f64::max);
+        let step_px = (chart.x.pixels_per_unit() * (self.u[1] - self.u[0]))
+            .min(chart.y.pixels_per_unit() * (self.v[1] - self.v[0]));
+        if longest > 0.0 {
+            let k = 0.8 * step_px / longest;
+            for p in &self.points {
+                let (pu, pv) = (p.joints.get(ua), p.joints.get(va));
+                let (eu, ev) = (p.e_machine_um[iu], p.e_machine_um[iv]);
+                if eu.hypot(ev) * k >= 1.0 {
+                    chart.arrow_pixels(pu, pv, eu * k, ev * k, "#ffffff");
+                }
+            }
+            let note = format!(
+                "arrows: in-plane error, longest {longest:.2} um = {:.0} px",
+                0.8 * step_px
+            );
+            chart
+                .svg
+                .text(chart.x.p0, spec.height - 26.0, 10.0, "start", &note);
+        }
+        chart.colour_bar(lo, hi, ColourMap::Sequential, "|e| um");
+        chart.finish()
+    }
+}

@@ -1,0 +1,528 @@
+//! Compensation, end to end: snapshots of the saddle, the closed loop (the
+//! compensated program replayed through the same error model lands on the
+//! original nominal path, measured densely along the path), a LinuxCNC-style
+//! program, and the edge cases of the command.
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+use volcomp::compensate::{CompensateOptions, CompensateReport, compensate};
+use volcomp::diff::align::{Aligned, BlockSummary};
+use volcomp::diff::{AlignOptions, Aligner, BlockSummaries};
+use volcomp::gcode::{
+    BlockReader, Feed, Frame, InterpretOptions, Interpreter, ReadOptions, parse_block,
+};
+use volcomp::machine::{ErrorModel, ExtrapolationPolicy, Machine};
+use volcomp::toolpath::{WalkOptions, walk_program};
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// ref-trt and its fitted model, loaded once for the whole test binary.
+pub fn ref_trt() -> &'static (Machine, ErrorModel) {
+    static MODEL: OnceLock<(Machine, ErrorModel)> = OnceLock::new();
+    MODEL.get_or_init(|| {
+        volcomp::cli::common::load_model(
+            &root().join("machines/ref-trt.toml"),
+            ExtrapolationPolicy::Error,
+        )
+        .expect("ref-trt loads")
+    })
+}
+
+pub fn interpret_options(frame: Frame) -> InterpretOptions {
+    InterpretOptions {
+        initial_frame: frame,
+        rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+        ..InterpretOptions::default()
+    }
+}
+
+/// Compensate `text` as the command does (limits checked, default tolerance).
+pub fn compensate_text(text: &str, frame: Frame) -> (String, CompensateReport) {
+    compensate_with_tolerance(text, frame, CompensateOptions::default().tolerance_um)
+}
+
+/// [`compensate_text`] with split tolerance `tolerance_um`.
+pub fn compensate_with_tolerance(
+    text: &str,
+    frame: Frame,
+    tolerance_um: f64,
+) -> (String, CompensateReport) {
+    let (machine, model) = ref_trt();
+    let options = CompensateOptions {
+        tolerance_um,
+        interpret: interpret_options(frame),
+        limits: Some(machine.limits.clone()),
+        ..CompensateOptions::default()
+    };
+    let mut out = Vec::new();
+    let report = compensate(
+        text.as_bytes(),
+        Path::new("program.nc"),
+        &mut out,
+        model,
+        &options,
+        |_| {},
+    )
+    .expect("compensates");
+    (String::from_utf8(out).expect("utf-8"), report)
+}
+
+/// The nominal tool-tip path of a program (part coordinates) as a polyline of
+/// cutting samples, bucketed in a 1 mm grid for nearest-segment queries.
+pub struct NominalPath {
+    points: Vec<[f64; 3]>,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+}
+
+const CELL_MM: f64 = 1.0;
+
+fn cell(p: [f64; 3]) -> [i64; 3] {
+    p.map(|v| (v / CELL_MM).floor() as i64)
+}
+
+fn distance_to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    let t = if len2 > 0.0 {
+        ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d = [ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]];
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+impl NominalPath {
+    /// Walk `text` at `step_mm` and keep the nominal tips of consecutive cutting samples.
+    pub fn of_program(text: &str, frame: Frame, step_mm: f64) -> NominalPath {
+        let (_, model) = ref_trt();
+        let mut points = Vec::new();
+        let mut segments = Vec::new();
+        let mut previous_cutting = false;
+        walk_program(
+            text.as_bytes(),
+            Path::new("original.nc"),
+            model.kinematics(),
+            interpret_options(frame),
+            WalkOptions {
+                step_mm,
+                rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+            },
+            |p| {
+                // A segment joins a cutting sample to the sample before it.
+                if p.cutting && !points.is_empty() {
+                    segments.push(points.len() as u32 - 1);
+                }
+                previous_cutting = p.cutting;
+                points.push(p.tip);
+            },
+        )
+        .expect("walks");
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for &s in &segments {
+            let (a, b) = (points[s as usize], points[s as usize + 1]);
+            let (lo, hi) = (
+                cell([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])]),
+                cell([a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])]),
+            );
+            for i in lo[0]..=hi[0] {
+                for j in lo[1]..=hi[1] {
+                    for k in lo[2]..=hi[2] {
+                        cells.entry([i, j, k]).or_default().push(s);
+                    }
+                }
+            }
+        }
+        let _ = previous_cutting;
+        NominalPath { points, cells }
+    }
+
+    /// Distance (mm) from `p` to the nearest cutting segment within one cell.
+    pub fn distance(&self, p: [f64; 3]) -> f64 {
+        let c = cell(p);
+        let mut best = f64::INFINITY;
+        for i in -1..=1 {
+            for j in -1..=1 {
+                for k in -1..=1 {
+                    if let Some(list) = self.cells.get(&[c[0] + i, c[1] + j, c[2] + k]) {
+                        for &s in list {
+                            let d = distance_to_segment(
+                                p,
+                                self.points[s as usize],
+                                self.points[s as usize + 1],
+                            );
+                            best = best.min(d);
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Max and RMS (µm) of the distance of the ACTUAL tool tip to a nominal path,
+/// over every cutting sample of `text` (walked at `step_mm`).
+#[derive(Clone, Copy, Debug)]
+pub struct PathError {
+    pub max_um: f64,
+    pub rms_um: f64,
+    pub samples: usize,
+    /// Line of the worst sample.
+    pub worst_line: usize,
+}
+
+pub fn actual_path_error(
+    text: &str,
+    frame: Frame,
+    nominal: &NominalPath,
+    step_mm: f64,
+) -> PathError {
+    let (_, model) = ref_trt();
+    let kin = model.kinematics();
+    let (mut max, mut sum_sq, mut n, mut worst_line) = (0.0f64, 0.0, 0usize, 0);
+    walk_program(
+        text.as_bytes(),
+        Path::new("replayed.nc"),
+        kin,
+        interpret_options(frame),
+        WalkOptions {
+            step_mm,
+            rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+        },
+        |p| {
+            if !p.cutting {
+                return;
+            }
+            let errors = model.errors_at(&p.joints).expect("inside the tables");
+            let actual = kin.actual_tip_and_axis(&p.joints, &errors).tip;
+            let d = nominal.distance(actual) * 1e3;
+            if d > max {
+                max = d;
+                worst_line = p.line;
+            }
+            sum_sq += d * d;
+            n += 1;
+        },
+    )
+    .expect("walks");
+    PathError {
+        max_um: max,
+        rms_um: (sum_sq / n.max(1) as f64).sqrt(),
+        samples: n,
+        worst_line,
+    }
+}
+
+/// Replay both programs through the model; returns (uncompensated, compensated).
+pub fn closed_loop(original: &str, compensated: &str, frame: Frame) -> (PathError, PathError) {
+    let nominal = NominalPath::of_program(original, frame, 0.1);
+    let before = actual_path_error(original, frame, &nominal, 0.5);
+    let after = actual_path_error(compensated, frame, &nominal, 0.25);
+    (before, after)
+}
+
+fn assert_closed_loop(name: &str, before: PathError, after: PathError) {
+    eprintln!(
+        "{name}: uncompensated max {:.3} µm (line {}) RMS {:.3} µm ({} samples); compensated max {:.4} µm (line {}) RMS {:.4} µm ({} samples); ratio max {:.3}% RMS {:.3}%",
+        before.max_um,
+        before.worst_line,
+        before.rms_um,
+        before.samples,
+        after.max_um,
+        after.worst_line,
+        after.rms_um,
+        after.samples,
+        100.0 * after.max_um / before.max_um,
+        100.0 * after.rms_um / before.rms_um
+    );
+    assert!(before.max_um > 5.0, "{name}: nothing to compensate?");
+    assert!(
+        after.samples > before.samples,
+        "{name}: replay sampled densely"
+    );
+    assert!(
+        after.max_um < 0.02 * before.max_um,
+        "{name}: compensated max {} µm vs {} µm",
+        after.max_um,
+        before.max_um
+    );
+    assert!(
+        after.rms_um < 0.02 * before.rms_um,
+        "{name}: compensated RMS {} µm vs {} µm",
+        after.rms_um,
+        before.rms_um
+    );
+}
+
+fn read(path: &str) -> String {
+    std::fs::read_to_string(root().join(path)).expect("fixture")
+}
+
+/// The saddle, compensated: the whole program (deterministic), and the summary.
+#[test]
+fn saddle_compensated_program_snapshot() {
+    let (text, report) = compensate_text(&read("samples/saddle.nc"), Frame::Joint);
+    insta::assert_snapshot!("saddle_compensated", text);
+    assert_eq!(report.blocks_read, 3457);
+    assert!(report.max_residual_nm <= 1.0 + 1e-9);
+}
+
+#[test]
+fn saddle_closed_loop_is_within_two_percent() {
+    let original = read("samples/saddle.nc");
+    let (compensated, _) = compensate_text(&original, Frame::Joint);
+    let (before, after) = closed_loop(&original, &compensated, Frame::Joint);
+    assert_closed_loop("saddle.nc", before, after);
+}
+
+/// The tool-tip-control saddle (G43.4 switches to the part frame).
+#[test]
+fn saddle_tcp_closed_loop_is_within_two_percent() {
+    let original = read("samples/saddle-tcp.nc");
+    let (compensated, report) = compensate_text(&original, Frame::Joint);
+    assert!(report.blocks_changed > 3000);
+    let (before, after) = closed_loop(&original, &compensated, Frame::Joint);
+    assert_closed_loop("saddle-tcp.nc", before, after);
+}
+
+/// Word letters of a line, in order.
+fn letters(line: &str) -> Vec<u8> {
+    parse_block(line)
+        .expect("parses")
+        .words
+        .iter()
+        .map(|w| w.letter)
+        .collect()
+}
+
+fn comments(line: &str) -> Vec<String> {
+    let b = parse_block(line).expect("parses");
+    b.comments
+        .iter()
+        .map(|c| line[c.clone()].to_string())
+        .collect()
+}
+
+/// Total G93 time (minutes) of a program: Σ 1/F over inverse-time moves.
+fn inverse_time_minutes(text: &str) -> f64 {
+    let mut reader = BlockReader::new(text.as_bytes(), ReadOptions::default());
+    let mut interpreter = Interpreter::new(interpret_options(Frame::Joint));
+    let mut total = 0.0;
+    while let Some(block) = reader.next_block() {
+        let event = interpreter
+            .interpret(block.expect("reads"))
+            .expect("interprets");
+        if let Some(m) = &event.motion
+            && let Feed::InverseTime(f) = m.feed
+        {
+            total += 1.0 / f;
+        }
+    }
+    total
+}
+
+#[test]
+fn linuxcnc_demo_keeps_lines_words_and_inverse_time() {
+    let original = read("tests/data/compensate/linuxcnc-demo.ngc");
+    // Its error is smaller than the saddle's (max ≈ 20 µm): 2% of it is below the
+    // default 0.5 µm split tolerance, so split at 0.2 µm.
+    let (compensated, report) = compensate_with_tolerance(&original, Frame::Joint, 0.2);
+    assert!(report.blocks_split > 0, "the long moves are split");
+    let lines: Vec<&str> = original.lines().collect();
+    let out: Vec<&str> = compensated.lines().collect();
+    let summaries = |text: &str| -> Vec<BlockSummary> {
+        BlockSummaries::new(
+            text.as_bytes(),
+            Path::new("p.nc"),
+            interpret_options(Frame::Joint),
+        )
+        .map(|s| s.expect("reads"))
+        .collect()
+    };
+    let (mut pairs, mut added) = (0, 0);
+    let aligned = Aligner::new(
+        summaries(&original).into_iter(),
+        summaries(&compensated).into_iter(),
+        AlignOptions::default(),
+    );
+    for item in aligned {
+        match item {
+            Aligned::Pair(a, b) => {
+                pairs += 1;
+                let (line, new) = (lines[a.line - 1], out[b.line - 1]);
+                if a.motion.is_none() {
+                    assert_eq!(new, line, "non-motion line {} byte for byte", a.line);
+                    continue;
+                }
+                assert_eq!(comments(new), comments(line), "line {}", a.line);
+                assert_eq!(a.number, b.number, "line {}", a.line);
+                let got = letters(new);
+                // A split arc becomes straight pieces: its centre words go.
+                let want: Vec<u8> = letters(line)
+                    .into_iter()
+                    .filter(|c| !b"IJKR".contains(c) || got.contains(c))
+                    .collect();
+                // The original words keep their order; words may be added after them.
+                let kept: Vec<u8> = got.iter().copied().filter(|c| want.contains(c)).collect();
+                assert_eq!(kept, want, "line {}: {line:?} -> {new:?}", a.line);
+            }
+            Aligned::Added(b) => {
+                added += 1;
+                let piece = out[b.line - 1];
+                assert!(b.motion.is_some(), "added line {}: {piece}", b.line);
+                assert!(comments(piece).is_empty() && b.number.is_none(), "{piece}");
+                assert!(
+                    letters(piece).iter().all(|c| b"GXYZACF".contains(c)),
+                    "{piece}"
+                );
+            }
+            Aligned::Removed(a) => panic!("line {} removed", a.line),
+        }
+    }
+    assert_eq!(pairs, lines.len());
+    assert_eq!(added, report.blocks_added);
+    let (t0, t1) = (
+        inverse_time_minutes(&original),
+        inverse_time_minutes(&compensated),
+    );
+    assert!(t0 > 0.2);
+    assert!(
+        ((t1 - t0) / t0).abs() < 1e-6,
+        "G93 time {t0} min -> {t1} min"
+    );
+    let (before, after) = closed_loop(&original, &compensated, Frame::Joint);
+    assert_closed_loop("linuxcnc-demo.ngc", before, after);
+}
+
+/// A long move over a region where the error changes is split, and each piece
+/// lands on the nominal path within the tolerance (checked at the piece midpoints
+/// and densely along every piece).
+#[test]
+fn long_move_is_split_and_every_piece_is_within_tolerance() {
+    let original = "G21 G90 G94\nG0 X-180 Y0 Z0 A60 C200\nG1 X180 F1000\nM2\n";
+    let (compensated, report) = compensate_text(original, Frame::Joint);
+    assert_eq!(report.blocks_split, 1, "{compensated}");
+    assert!(report.blocks_added >= 3, "{compensated}");
+    let nominal = NominalPath::of_program(original, Frame::Joint, 0.05);
+    let (_, model) = ref_trt();
+    let kin = model.kinematics();
+    // Piece midpoints, from the emitted joint targets.
+    let mut reader = BlockReader::new(compensated.as_bytes(), ReadOptions::default());
+    let mut interpreter = Interpreter::new(interpret_options(Frame::Joint));
+    let mut pieces = 0;
+    let mut worst = 0.0f64;
+    while let Some(block) = reader.next_block() {
+        let event = interpreter.interpret(block.unwrap()).unwrap();
+        let Some(m) = event.motion else { continue };
+        if !matches!(m.kind, volcomp::gcode::MotionKind::Linear) {
+            continue;
+        }
+        pieces += 1;
+        let mid = m.start.lerp(&m.end, 0.5);
+        let e = model.errors_at(&mid).unwrap();
+        let d = nominal.distance(kin.actual_tip_and_axis(&mid, &e).tip) * 1e3;
+        worst = worst.max(d);
+    }
+    assert_eq!(pieces, report.blocks_added + 1);
+    let tol = CompensateOptions::default().tolerance_um;
+    assert!(worst < tol, "piece midpoint {worst} µm off the path");
+    let along = actual_path_error(&compensated, Frame::Joint, &nominal, 0.1);
+    eprintln!(
+        "split move: {pieces} pieces, midpoints ≤ {worst:.4} µm, along the path max {:.4} µm",
+        along.max_um
+    );
+    assert!(along.max_um < tol);
+}
+
+fn volcomp() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_volcomp"))
+}
+
+#[test]
+fn cli_refuses_a_target_outside_the_travel_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("edge.nc");
+    // X200 is the end of the travel; the compensated target goes beyond it.
+    std::fs::write(
+        &program,
+        "G21 G90\nG1 X199.9999 Y149.9999 Z99.9999 A60 C200 F1000\n",
+    )
+    .unwrap();
+    let out_path = dir.path().join("out.nc");
+    let out = volcomp()
+        // The tables end at the travel limits: hold their end values so that the
+        // travel check, not the table lookup, refuses the block.
+        .args([
+            "compensate",
+            "machines/ref-trt.toml",
+            "--extrapolate",
+            "hold",
+        ])
+        .arg(&program)
+        .arg("-o")
+        .arg(&out_path)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("edge.nc:2"), "{stderr}");
+    assert!(stderr.contains("outside its travel"), "{stderr}");
+    assert!(!out_path.exists());
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "no temp file left"
+    );
+}
+
+#[test]
+fn cli_locates_an_unreadable_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("bad.nc");
+    std::fs::write(&program, "G21 G90\nG1 X10 Y(oops\n").unwrap();
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml"])
+        .arg(&program)
+        .arg("-o")
+        .arg(dir.path().join("out.nc"))
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("bad.nc:2:"), "{stderr}");
+    assert!(!dir.path().join("out.nc").exists());
+}
+
+#[test]
+fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
+    let out = volcomp()
+        .args([
+            "compensate",
+            "machines/ref-trt.toml",
+            "tests/data/compensate/linuxcnc-demo.ngc",
+            "-o",
+            "-",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stdout.starts_with("( xyzac-trt demo"), "{stdout}");
+    assert!(stdout.contains("\nM429\n"));
+    assert!(!stdout.contains("blocks read"));
+    assert!(stderr.contains("blocks read"), "{stderr}");
+    let (library, _) = compensate_text(
+        &read("tests/data/compensate/linuxcnc-demo.ngc"),
+        Frame::Joint,
+    );
+    assert_eq!(stdout, library);
+}

@@ -1,0 +1,116 @@
+//! `diff`: a program against itself, and the saddle against its compensation.
+use crate::compensate::{compensate_text, root};
+use crate::predict::rounded;
+use std::path::Path;
+use std::process::Command;
+use volcomp::diff::{DiffOptions, diff_programs};
+use volcomp::gcode::Frame;
+
+fn read(path: &str) -> String {
+    std::fs::read_to_string(root().join(path)).expect("fixture")
+}
+
+fn diff(a: &str, b: &str) -> volcomp::diff::DiffReport {
+    diff_programs(
+        a.as_bytes(),
+        Path::new("a.nc"),
+        b.as_bytes(),
+        Path::new("b.nc"),
+        &DiffOptions::default(),
+    )
+    .expect("diffs")
+}
+
+#[test]
+fn a_program_against_itself_has_no_change() {
+    for path in [
+        "samples/saddle.nc",
+        "samples/saddle-tcp.nc",
+        "tests/data/compensate/linuxcnc-demo.ngc",
+    ] {
+        let text = read(path);
+        let r = diff(&text, &text);
+        assert!(r.is_identical(), "{path}");
+        assert_eq!(r.unchanged, text.lines().count());
+        assert_eq!(r.max_xyz_change_um, 0.0);
+        assert!(r.largest.is_empty());
+    }
+}
+
+#[test]
+fn saddle_against_its_compensation_snapshot() {
+    let original = read("samples/saddle.nc");
+    let (compensated, report) = compensate_text(&original, Frame::Joint);
+    let r = diff(&original, &compensated);
+    assert_eq!(r.added, report.blocks_added);
+    assert_eq!(r.removed, 0);
+    assert_eq!(r.changed, report.blocks_changed);
+    approx::assert_relative_eq!(
+        r.max_xyz_change_um,
+        report.max_correction_um,
+        max_relative = 1e-2
+    );
+    insta::assert_json_snapshot!("saddle_diff", rounded(serde_json::to_value(&r).unwrap()));
+}
+
+#[test]
+fn split_pieces_are_added_blocks() {
+    let original = read("tests/data/compensate/linuxcnc-demo.ngc");
+    let (compensated, report) = compensate_text(&original, Frame::Joint);
+    let r = diff(&original, &compensated);
+    assert_eq!(r.added, report.blocks_added);
+    assert_eq!(r.removed, 0);
+    assert_eq!(r.paired, original.lines().count());
+}
+
+fn volcomp() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_volcomp"))
+}
+
+#[test]
+fn cli_prints_a_table_and_writes_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = dir.path().join("b.nc");
+    std::fs::write(
+        &b,
+        read("samples/saddle.nc").replacen("X58.0016", "X58.0044", 1),
+    )
+    .unwrap();
+    let json = dir.path().join("d.json");
+    let out = volcomp()
+        .args(["diff", "samples/saddle.nc"])
+        .arg(&b)
+        .arg("--report")
+        .arg(&json)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("1 changed"), "{stdout}");
+    assert!(stdout.contains("axis"), "{stdout}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(report["changed"], 1);
+    assert!((report["max_xyz_change_um"].as_f64().unwrap() - 2.8).abs() < 1e-6);
+}
+
+#[test]
+fn cli_locates_an_unparsable_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = dir.path().join("bad.nc");
+    std::fs::write(&b, "G21\nG1 X1 F100\nG1 X(2\n").unwrap();
+    let out = volcomp()
+        .args(["diff", "samples/saddle.nc"])
+        .arg(&b)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("bad.nc:3:"), "{stderr}");
+}
