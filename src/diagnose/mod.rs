@@ -61,7 +61,8 @@ pub struct DiagnoseOptions {
     /// √(MSE_before − MSE_after), is at least this × the noise floor.
     pub min_explained_ratio: f64,
     /// Cosine above which another effect's span reproduces an effect's
-    /// contribution (an alias).
+    /// contribution (an alias, when the part it misses is also below the
+    /// noise floor, RMS).
     pub alias_cosine: f64,
     /// Number of time folds (region folds are a 3 × 3 grid by x and y terciles).
     pub time_folds: usize,
@@ -323,7 +324,13 @@ pub fn diagnose(
                 spans
                     .iter()
                     .filter(|(k, _)| *k != c.kind)
-                    .filter(|(_, cols)| span_cosine(cols, &c.contribution) >= options.alias_cosine)
+                    .filter(|(_, cols)| {
+                        // B reproduces this contribution (cosine) and what it
+                        // misses is below the noise floor (RMS).
+                        let cos = span_cosine(cols, &c.contribution);
+                        let missed = contribution_rms * (1.0 - cos * cos).max(0.0).sqrt();
+                        cos >= options.alias_cosine && missed < floor
+                    })
                     .map(|(k, _)| k.name().to_string())
                     .collect()
             } else {

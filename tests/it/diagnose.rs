@@ -198,36 +198,14 @@ fn simulate_moves_points_by_truth_effects_and_noise() {
             );
         }
     }
-    let a = simulate(
-        &p.contexts,
-        &p.truth_um,
-        &[],
-        &SimulateOptions {
+    let noisy = |seed| {
+        let options = SimulateOptions {
             noise_um: 0.3,
-            seed: 5,
-        },
-    )
-    .unwrap();
-    let b = simulate(
-        &p.contexts,
-        &p.truth_um,
-        &[],
-        &SimulateOptions {
-            noise_um: 0.3,
-            seed: 5,
-        },
-    )
-    .unwrap();
-    let c = simulate(
-        &p.contexts,
-        &p.truth_um,
-        &[],
-        &SimulateOptions {
-            noise_um: 0.3,
-            seed: 6,
-        },
-    )
-    .unwrap();
+            seed,
+        };
+        simulate(&p.contexts, &p.truth_um, &[], &options).unwrap()
+    };
+    let (a, b, c) = (noisy(5), noisy(5), noisy(6));
     assert_eq!(a, b, "seeded");
     assert_ne!(a, c);
     let noise: Vec<f64> = a
