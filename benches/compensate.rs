@@ -143,6 +143,45 @@ fn bench_predict(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
     group.finish();
 }
 
+/// Where compensation time goes: one error lookup (30 curves) and one solve.
+fn bench_pose(c: &mut Criterion, model: &ErrorModel) {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let poses: Vec<volcomp::axes::Axes> = (0..1000)
+        .map(|_| {
+            volcomp::axes::Axes::new(
+                rng.random_range(-150.0..150.0),
+                rng.random_range(-100.0..100.0),
+                rng.random_range(-150.0..50.0),
+                rng.random_range(-60.0..60.0),
+                rng.random_range(0.0..720.0),
+            )
+        })
+        .collect();
+    let mut group = c.benchmark_group("per_pose_1000");
+    group.throughput(Throughput::Elements(poses.len() as u64));
+    group.bench_function("errors_at", |b| {
+        b.iter(|| {
+            poses
+                .iter()
+                .map(|p| model.errors_at(p).unwrap().component[0][0])
+                .sum::<f64>()
+        })
+    });
+    group.bench_function("solve_joints", |b| {
+        b.iter(|| {
+            poses
+                .iter()
+                .map(|p| {
+                    volcomp::compensate::solve::solve_joints(model, p)
+                        .unwrap()
+                        .residual_mm
+                })
+                .sum::<f64>()
+        })
+    });
+    group.finish();
+}
+
 fn main() {
     if let Ok(path) = std::env::var("VOLCOMP_BENCH_PROGRAM") {
         let blocks = std::env::var("VOLCOMP_BENCH_BLOCKS")
@@ -157,5 +196,6 @@ fn main() {
     let mut c = Criterion::default().configure_from_args();
     bench_compensate(&mut c, &machine, &model);
     bench_predict(&mut c, &machine, &model);
+    bench_pose(&mut c, &model);
     c.final_summary();
 }
