@@ -206,7 +206,7 @@ mod tests {
         )
         .unwrap();
         assert!(r.is_identical());
-        assert_eq!(r.unchanged, 6);
+        assert_eq!(r.unchanged, 5);
         assert_eq!(r.max_xyz_change_um, 0.0);
     }
 
