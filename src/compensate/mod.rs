@@ -399,8 +399,7 @@ pub fn compensate(
                 Some(Err(e)) => return Err(point_error(path, block.line, e)),
             }
         }
-        // 2. Compensated start of every motion: the previous motion's compensated
-        //    end when it was programmed in the same frame.
+        // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
         for ((_, event), end) in chunk.iter().zip(&resolved) {
             match (&event.motion, end) {

@@ -258,7 +258,7 @@ fn assert_closed_loop(name: &str, before: PathError, after: PathError) {
     );
 }
 
-fn read(path: &str) -> String {
+pub fn read(path: &str) -> String {
     std::fs::read_to_string(root().join(path)).expect("fixture")
 }
 
@@ -438,7 +438,7 @@ fn long_move_is_split_and_every_piece_is_within_tolerance() {
     assert!(along.max_um < tol);
 }
 
-fn volcomp() -> Command {
+pub fn volcomp() -> Command {
     Command::new(env!("CARGO_BIN_EXE_volcomp"))
 }
 

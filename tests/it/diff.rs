@@ -1,14 +1,9 @@
 //! `diff`: a program against itself, and the saddle against its compensation.
-use crate::compensate::{compensate_text, root};
+use crate::compensate::{compensate_text, read, root, volcomp};
 use crate::predict::rounded;
 use std::path::Path;
-use std::process::Command;
 use volcomp::diff::{DiffOptions, diff_programs};
 use volcomp::gcode::Frame;
-
-fn read(path: &str) -> String {
-    std::fs::read_to_string(root().join(path)).expect("fixture")
-}
 
 fn diff(a: &str, b: &str) -> volcomp::diff::DiffReport {
     diff_programs(
@@ -61,10 +56,6 @@ fn split_pieces_are_added_blocks() {
     assert_eq!(r.added, report.blocks_added);
     assert_eq!(r.removed, 0);
     assert_eq!(r.paired, original.lines().count());
-}
-
-fn volcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
 }
 
 #[test]

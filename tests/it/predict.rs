@@ -1,6 +1,6 @@
 //! Prediction, end to end: the saddle plan, the compensated saddle, the path
 //! report, and agreement with the blind examples' independent predictions.
-use crate::compensate::{compensate_text, interpret_options, ref_trt, root};
+use crate::compensate::{compensate_text, interpret_options, read, ref_trt, root};
 use std::path::Path;
 use volcomp::gcode::Frame;
 use volcomp::inspection::Plan;
@@ -48,10 +48,6 @@ fn predict_text(text: &str, plan: &Plan) -> PredictReport {
 
 fn saddle_plan() -> Plan {
     Plan::read(&root().join("samples/saddle-plan.csv")).expect("plan")
-}
-
-fn read(path: &str) -> String {
-    std::fs::read_to_string(root().join(path)).expect("fixture")
 }
 
 #[test]
