@@ -97,7 +97,7 @@ pub fn main() -> i32 {
     match run(cli) {
         Ok(()) => 0,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_text(&err));
             if err.downcast_ref::<NotBuilt>().is_some()
                 || err.downcast_ref::<UsageError>().is_some()
             {
@@ -107,6 +107,20 @@ pub fn main() -> i32 {
             }
         }
     }
+}
+
+/// The error and its causes on one line, each cause said once: library errors
+/// often name their cause in their own message already.
+pub fn error_text(err: &anyhow::Error) -> String {
+    let mut text = err.to_string();
+    for cause in err.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

@@ -38,6 +38,10 @@ pub struct FitProblem {
     pub params: Vec<f64>,
     origin: [f64; 2],
     scale: [f64; 2],
+    /// Least advance of consecutive control points (fraction of the uniform
+    /// spacing): 0 for the fixed knot placements, [`MIN_CONTROL_ADVANCE`] for the
+    /// searches ([`FitProblem::regular`]).
+    min_control_advance: f64,
 }
 
 /// A fitted candidate and its errors at the data points (table units).
@@ -99,7 +103,18 @@ impl FitProblem {
             params,
             origin: [x0, ymin],
             scale: [sx, sy],
+            min_control_advance: 0.0,
         }
+    }
+
+    /// The same problem for a search over knots and weights: candidates whose
+    /// control polygon advances by less than [`MIN_CONTROL_ADVANCE`] of the uniform
+    /// spacing are infeasible. A search minimising Emax otherwise finds near-cusps
+    /// that pass the data points and jump between them; a fixed knot placement
+    /// cannot aim for them, so it only needs a polygon that advances at all.
+    pub fn regular(mut self) -> FitProblem {
+        self.min_control_advance = MIN_CONTROL_ADVANCE;
+        self
     }
 
     pub fn samples(&self) -> usize {
@@ -124,11 +139,11 @@ impl FitProblem {
         // folding back, or crawling, around two close knots) that pass the data
         // points while jumping between them.
         let n_ctrl = ctrl.len() / 2;
-        let min_advance = MIN_CONTROL_ADVANCE / (n_ctrl.max(2) - 1) as f64;
+        let min_advance = self.min_control_advance / (n_ctrl.max(2) - 1) as f64;
         if ctrl
             .chunks_exact(2)
             .zip(ctrl.chunks_exact(2).skip(1))
-            .any(|(a, b)| !(b[0] - a[0] >= min_advance))
+            .any(|(a, b)| !(b[0] - a[0] > min_advance))
         {
             return None;
         }

@@ -489,6 +489,10 @@ pub fn fit_parameter(
         }
     };
     let problem = FitProblem::new(positions, values, p, options.parameterization);
+    let problem = match options.method {
+        KnotMethod::Ukm | KnotMethod::Epm | KnotMethod::Lam => problem,
+        KnotMethod::Ga | KnotMethod::Exhaustive | KnotMethod::Best => problem.regular(),
+    };
     let mut evaluations = 0u64;
     let mut best: Option<Placed> = None;
     for count in counts {
