@@ -293,19 +293,23 @@ pub fn generate(
     };
     let raster = raster(options);
     let mut first = true;
+    // The joints `clearance` above a point along the tool axis (machine Z for a
+    // table-tilting machine), and their tool tip in part coordinates.
+    let lifted = |j: &Axes| {
+        let up = Axes {
+            z: j.z + options.clearance,
+            ..*j
+        };
+        (up, kinematics.nominal_tip(&up))
+    };
     let mut last = Axes::default();
     for (i, line) in raster.iter().enumerate() {
         for (k, cl) in line.iter().enumerate() {
             let joints = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
             inverse.previous = joints;
             if first {
-                // Approach: rapid above the first point along the tool axis
-                // (machine Z for a table-tilting machine), then plunge.
-                let above = Axes {
-                    z: joints.z + options.clearance,
-                    ..joints
-                };
-                let above_tip = kinematics.nominal_tip(&above);
+                // Approach: rapid above the first point, then plunge.
+                let (above, above_tip) = lifted(&joints);
                 block(
                     &mut joint,
                     &mut part,
@@ -344,11 +348,7 @@ pub fn generate(
             last = joints;
         }
     }
-    let retract = Axes {
-        z: last.z + options.clearance,
-        ..last
-    };
-    let retract_tip = kinematics.nominal_tip(&retract);
+    let (retract, retract_tip) = lifted(&last);
     block(
         &mut joint,
         &mut part,
