@@ -77,10 +77,4 @@ pub fn estimate_noise_floor(contexts: &[&PointContext], r: &[f64]) -> f64 {
     (mean / CHI2_1_TRIMMED_MEAN).sqrt()
 }
 
-/// Root mean square (0 for an empty slice).
-pub fn rms(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
-}
+pub use crate::inspection::rms;

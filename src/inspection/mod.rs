@@ -103,6 +103,14 @@ pub struct Profile {
     pub range_um: f64,
 }
 
+/// Root mean square (0 for an empty slice).
+pub fn rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
 /// Profile of deviations (0 for an empty set).
 pub fn profile(deviations_um: &[f64]) -> Profile {
     if deviations_um.is_empty() {

@@ -1,7 +1,7 @@
 //! Running a prediction: program + error model (+ plan) → [`PredictReport`].
 use super::{BlockError, PredictReport, PredictedPoint};
 use crate::gcode::{BlockReader, GcodeError, Interpreter, ReadOptions};
-use crate::inspection::{Plan, profile};
+use crate::inspection::{Plan, profile, rms};
 use crate::machine::{ErrorModel, LookupError};
 use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
 use std::io::BufRead;
@@ -149,12 +149,4 @@ pub fn predict_path(
         seconds: started.elapsed().as_secs_f64(),
         ..PredictReport::default()
     })
-}
-
-fn rms(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        0.0
-    } else {
-        (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
-    }
 }
