@@ -133,7 +133,7 @@ impl From<FrameArg> for Frame {
 }
 
 /// Open a program (or `-`, standard input) for buffered reading.
-pub fn open_input(path: &Path) -> anyhow::Result<Box<dyn BufRead>> {
+pub fn open_input(path: &Path) -> anyhow::Result<Box<dyn BufRead + Send>> {
     if crate::io::is_stdio(path) {
         return Ok(Box::new(BufReader::with_capacity(
             1 << 16,

@@ -22,10 +22,13 @@ use crate::gcode::{
 use crate::machine::{ErrorModel, Limits};
 use rayon::prelude::*;
 use serde::Serialize;
-use solve::{SolveError, first_order_joints, solve_joints};
+use solve::{SolveError, first_order_joints, solve_joints_from};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// Consecutive blocks solved in order by one thread (warm-started solves).
+const WARM_START_RUN: usize = 256;
 
 /// Settings of a compensation run.
 #[derive(Clone, Debug)]
@@ -122,19 +125,35 @@ struct Plan {
     residual_mm: f64,
 }
 
-/// The compensated target of `target` (in `frame`), and the solve residual.
+/// A compensated target: in the block's frame, the solve residual (mm) and the
+/// joint correction (X Y Z, mm), which warm-starts the next solve.
+#[derive(Clone, Copy, Debug)]
+struct Compensated {
+    target: Axes,
+    residual_mm: f64,
+    correction: [f64; 3],
+}
+
+/// The compensated target of `target` (in `frame`), the solve starting from the
+/// joint correction `guess`.
 fn compensate_target(
     model: &ErrorModel,
     frame: Frame,
     target: &Axes,
     limits: Option<&Limits>,
-) -> Result<(Axes, f64), PointError> {
+    guess: [f64; 3],
+) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = match frame {
         Frame::Joint => *target,
         Frame::Part => kin.joints_from_part(target),
     };
-    let solved = solve_joints(model, &nominal).map_err(PointError::Solve)?;
+    let solved = solve_joints_from(model, &nominal, guess).map_err(PointError::Solve)?;
+    let correction = [
+        solved.joints.x - nominal.x,
+        solved.joints.y - nominal.y,
+        solved.joints.z - nominal.z,
+    ];
     if let Some(l) = limits
         && let Some((axis, value, range)) = l.violated(&solved.joints)
     {
@@ -150,7 +169,11 @@ fn compensate_target(
             p
         }
     };
-    Ok((out, solved.residual_mm))
+    Ok(Compensated {
+        target: out,
+        residual_mm: solved.residual_mm,
+        correction,
+    })
 }
 
 /// First-order estimate of [`compensate_target`] (one error evaluation, no limits).
@@ -266,7 +289,7 @@ fn plan_motion(
         });
         let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
         if needs_split && depth < options.max_split_depth {
-            let (cm, _) = compensate_target(model, frame, &nominal_mid, limits)?;
+            let cm = compensate_target(model, frame, &nominal_mid, limits, [0.0; 3])?.target;
             // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
             stack.push((t0, tm, c0, cm, depth + 1));
@@ -300,7 +323,7 @@ fn densify_arc(
     let mut via = Vec::with_capacity(n - 1);
     for i in 1..n {
         let p = point_along(motion, Some(arc), i as f64 / n as f64);
-        via.push(compensate_target(model, frame, &p, options.limits.as_ref())?.0);
+        via.push(compensate_target(model, frame, &p, options.limits.as_ref(), [0.0; 3])?.target);
     }
     Ok(via)
 }
@@ -337,7 +360,7 @@ fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// Compensate the program read from `input` (named `path` in messages) into
 /// `output`. `progress` is called after each chunk with the number of blocks done.
 pub fn compensate(
-    input: impl BufRead,
+    input: impl BufRead + Send,
     path: &Path,
     output: &mut dyn Write,
     model: &ErrorModel,
@@ -346,13 +369,78 @@ pub fn compensate(
 ) -> Result<CompensateReport, CompensateError> {
     let started = Instant::now();
     let held_before = model.held_lookups();
+    // Reading and interpreting run on their own thread, a chunk or two ahead of
+    // the solves and the writing (bounded channel: memory stays bounded).
+    let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
+    let interpret = options.interpret;
+    let chunk_blocks = options.chunk_blocks.max(1);
+    std::thread::scope(|scope| {
+        scope.spawn(move || read_chunks(input, path, interpret, chunk_blocks, sender));
+        compensate_chunks(chunks, path, output, model, options, &mut progress)
+    })
+    .map(|mut report| {
+        report.held_lookups = model.held_lookups().saturating_sub(held_before);
+        report.seconds = started.elapsed().as_secs_f64();
+        report
+    })
+}
+
+/// A run of parsed blocks with their interpretation.
+type Chunk = Vec<(Block, BlockEvent)>;
+
+/// The reader thread: parse and interpret `input` into chunks; stop at the end,
+/// at the first error (sent on), or when the receiver has gone.
+fn read_chunks(
+    input: impl BufRead,
+    path: &Path,
+    interpret: InterpretOptions,
+    chunk_blocks: usize,
+    sender: std::sync::mpsc::SyncSender<Result<Chunk, GcodeError>>,
+) {
     let mut reader = BlockReader::new(
         input,
         ReadOptions {
-            lenient: options.interpret.lenient,
+            lenient: interpret.lenient,
         },
     );
-    let mut interpreter = Interpreter::new(options.interpret);
+    let mut interpreter = Interpreter::new(interpret);
+    loop {
+        let mut chunk = Vec::with_capacity(chunk_blocks);
+        let mut done = false;
+        while chunk.len() < chunk_blocks {
+            let Some(block) = reader.next_block() else {
+                done = true;
+                break;
+            };
+            let item = block.map_err(|e| e.with_path(path)).and_then(|block| {
+                interpreter
+                    .interpret(block)
+                    .map(|event| (block.clone(), event))
+                    .map_err(|e| e.with_path(path))
+            });
+            match item {
+                Ok(item) => chunk.push(item),
+                Err(e) => {
+                    let _ = sender.send(Err(e));
+                    return;
+                }
+            }
+        }
+        if (!chunk.is_empty() && sender.send(Ok(chunk)).is_err()) || done {
+            return;
+        }
+    }
+}
+
+/// The solving and writing side: chunks in, compensated program out.
+fn compensate_chunks(
+    chunks: std::sync::mpsc::Receiver<Result<Chunk, GcodeError>>,
+    path: &Path,
+    output: &mut dyn Write,
+    model: &ErrorModel,
+    options: &CompensateOptions,
+    progress: &mut dyn FnMut(usize),
+) -> Result<CompensateReport, CompensateError> {
     let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
     let mut report = CompensateReport {
         tolerance_um: options.tolerance_um,
@@ -361,41 +449,39 @@ pub fn compensate(
     let mut sum_sq = 0.0;
     // Compensated end of the previous motion (the numbers written).
     let mut previous: Option<Axes> = None;
-    let mut chunk: Vec<(Block, BlockEvent)> = Vec::with_capacity(options.chunk_blocks);
     let mut emitted = Vec::with_capacity(256);
-    let mut done = false;
-    while !done {
-        chunk.clear();
-        while chunk.len() < options.chunk_blocks {
-            match reader.next_block() {
-                None => {
-                    done = true;
-                    break;
-                }
-                Some(block) => {
-                    let block = block.map_err(|e| e.with_path(path))?;
-                    let event = interpreter
-                        .interpret(block)
-                        .map_err(|e| e.with_path(path))?;
-                    chunk.push((block.clone(), event));
-                }
-            }
-        }
-        // 1. Compensated end of every motion, in parallel.
-        let ends: Vec<Option<Result<(Axes, f64), PointError>>> =
-            chunk
-                .par_iter()
-                .map(|(_, event)| {
-                    event.motion.as_ref().filter(|_| !event.skipped).map(|m| {
-                        compensate_target(model, frame_of(m), &m.end, options.limits.as_ref())
+    for chunk in chunks {
+        let chunk = chunk?;
+        // 1. Compensated end of every motion, in parallel over pieces of the chunk;
+        //    within a piece each solve starts from the previous correction.
+        let ends: Vec<Option<Result<Compensated, PointError>>> = chunk
+            .par_chunks(WARM_START_RUN)
+            .flat_map_iter(|piece| {
+                let mut guess = [0.0; 3];
+                piece
+                    .iter()
+                    .map(|(_, event)| {
+                        let m = event.motion.as_ref().filter(|_| !event.skipped)?;
+                        let c = compensate_target(
+                            model,
+                            frame_of(m),
+                            &m.end,
+                            options.limits.as_ref(),
+                            guess,
+                        );
+                        if let Ok(c) = &c {
+                            guess = c.correction;
+                        }
+                        Some(c)
                     })
-                })
-                .collect();
+                    .collect::<Vec<_>>()
+            })
+            .collect();
         let mut resolved: Vec<Option<(Axes, f64)>> = Vec::with_capacity(chunk.len());
         for ((block, _), end) in chunk.iter().zip(ends) {
             match end {
                 None => resolved.push(None),
-                Some(Ok(v)) => resolved.push(Some(v)),
+                Some(Ok(c)) => resolved.push(Some((c.target, c.residual_mm))),
                 Some(Err(e)) => return Err(point_error(path, block.line, e)),
             }
         }
@@ -484,8 +570,6 @@ pub fn compensate(
     } else {
         0.0
     };
-    report.held_lookups = model.held_lookups().saturating_sub(held_before);
-    report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
 }
 

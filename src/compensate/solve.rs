@@ -52,6 +52,18 @@ pub struct Solved {
 
 /// Joints `q` with `r_act(q) = nominal_tip(nominal)`, starting from `nominal`.
 pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveError> {
+    solve_joints_from(model, nominal, [0.0; 3])
+}
+
+/// As [`solve_joints`], starting from `nominal + guess` (X Y Z, mm): the previous
+/// target's correction is a good guess, since corrections change slowly along a
+/// path, and saves an iteration. The result does not depend on the guess beyond
+/// the 1 nm residual.
+pub fn solve_joints_from(
+    model: &ErrorModel,
+    nominal: &Axes,
+    guess: [f64; 3],
+) -> Result<Solved, SolveError> {
     let kinematics = model.kinematics();
     if !nominal.is_finite() {
         return Err(SolveError::NotFinite(*nominal));
@@ -59,6 +71,11 @@ pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveE
     let target = kinematics.nominal_tip(nominal);
     let m_target = kinematics.nominal_machine_point(target, nominal.a, nominal.c);
     let mut q = *nominal;
+    if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
+        q.x += guess[0];
+        q.y += guess[1];
+        q.z += guess[2];
+    }
     let mut residual = f64::INFINITY;
     for iteration in 0..=MAX_ITERATIONS {
         let errors = model.errors_at(&q)?;
