@@ -128,8 +128,9 @@ fn vector_map(report: &PredictReport) -> String {
         .fold(0.0f64, f64::max)
         .max(1e-9);
     let mut chart = part_chart(report, "");
-    // The longest arrow is 40 px; say what that means in µm.
-    let px_per_um = 40.0 / max_e;
+    // The longest arrow is 24 px (about two plan-point spacings on a typical part);
+    // the title says what that magnification is.
+    let px_per_um = 24.0 / max_e;
     let magnification = px_per_um / chart.x.pixels_per_unit() * 1000.0;
     let title = format!("Error vectors (XY), magnified ×{magnification:.0}");
     chart
