@@ -48,7 +48,7 @@ impl Svg {
         let stroke = stroke.map_or(String::new(), |s| format!(r#" stroke="{s}""#));
         let _ = writeln!(
             self.body,
-            r#"<rect x="{x:.2}" y="{y:.2}" width="{w:.2}" height="{h:.2}" fill="{fill}"{stroke}/>"#
+            r#"<rect x="{x:.2}" y="{y:.2}" width="{w:.2}" height="{h:.2}" fill="{fill}"{stroke} shape-rendering="crispEdges"/>"#
         );
     }
 
