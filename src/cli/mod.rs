@@ -6,7 +6,7 @@
 //! run, print the summary, write outputs atomically).
 //!
 //! Exit codes (gcode.md): 0 success, 1 bad input, 2 usage error (clap's own
-//! errors, and commands whose engine is not built).
+//! errors and [`UsageError`]).
 use clap::{Parser, Subcommand};
 
 pub mod check;
@@ -69,14 +69,6 @@ pub enum Command {
     Diagnose(diagnose::Args),
     /// Write the bundled sample programs (the saddle).
     Sample(sample::Args),
-}
-
-/// A command whose engine is not built in this version: said plainly, exit 2.
-#[derive(Debug, thiserror::Error)]
-#[error("`volcomp {command}` is not available in this build yet ({what}); no output was written")]
-pub struct NotBuilt {
-    pub command: &'static str,
-    pub what: &'static str,
 }
 
 /// A usage error found after clap (conflicting or missing options): exit 2.
