@@ -90,9 +90,7 @@ pub fn main() -> i32 {
         Ok(()) => 0,
         Err(err) => {
             eprintln!("error: {}", error_text(&err));
-            if err.downcast_ref::<NotBuilt>().is_some()
-                || err.downcast_ref::<UsageError>().is_some()
-            {
+            if err.downcast_ref::<UsageError>().is_some() {
                 2
             } else {
                 1
