@@ -18,3 +18,4 @@ pub mod predict;
 pub mod report;
 pub mod sample;
 pub mod toolpath;
+pub mod vec3;

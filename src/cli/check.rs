@@ -1,5 +1,6 @@
 //! `volcomp check`: read and interpret a whole program (streaming), print what
 //! it holds, exit 1 with a located error on bad input.
+use super::common::ProgramArgs;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -18,28 +19,13 @@ Examples:
   volcomp check legacy.nc --lenient           # pass constructs it cannot understand through
   cat part.nc | volcomp check -";
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum FrameArg {
-    /// X Y Z A C are axis commands.
-    Joint,
-    /// X Y Z are the tool tip in part coordinates (tool-tip control on at start).
-    Part,
-}
-
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// The G-code program (`-` for standard input).
     pub program: PathBuf,
-    /// Frame of the X Y Z words at program start (M428/M429, G43.4/G234/G49 and
-    /// TRAORI/TRAFOOF switch it later).
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: FrameArg,
-    /// Pass constructs that cannot be understood (parameters, subroutines, unknown
-    /// G codes, cutter compensation during moves) through with a warning instead
-    /// of failing.
-    #[arg(long)]
-    pub lenient: bool,
+    #[command(flatten)]
+    pub read: ProgramArgs,
     /// Rapid rate for G0 durations, mm/min.
     #[arg(long, default_value_t = 10_000.0)]
     pub rapid: f64,
@@ -57,14 +43,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .into());
     }
     let options = InterpretOptions {
-        initial_frame: match args.frame {
-            FrameArg::Joint => Frame::Joint,
-            FrameArg::Part => Frame::Part,
-        },
-        rapid_mm_per_min: args.rapid,
-        lenient: args.lenient,
         skip_deleted_blocks: args.skip_deleted,
-        ..InterpretOptions::default()
+        ..args.read.interpret_options(args.rapid)
     };
     let summary = if crate::io::is_stdio(&args.program) {
         let stdin = std::io::stdin();

@@ -132,6 +132,39 @@ impl From<FrameArg> for Frame {
     }
 }
 
+/// How a program is read: its start frame and how strictly.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct ProgramArgs {
+    /// Frame of the X Y Z words at program start (M428/M429, G43.4/G234/G49 and
+    /// TRAORI/TRAFOOF switch it later).
+    #[arg(long, value_enum, default_value = "joint")]
+    pub frame: FrameArg,
+    /// Pass constructs that cannot be understood (parameters, subroutines, unknown
+    /// G codes, cutter compensation during moves) through with a warning instead
+    /// of failing.
+    #[arg(long)]
+    pub lenient: bool,
+}
+
+impl ProgramArgs {
+    /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min`.
+    pub fn interpret_options(&self, rapid_mm_per_min: f64) -> crate::gcode::InterpretOptions {
+        crate::gcode::InterpretOptions {
+            initial_frame: self.frame.into(),
+            rapid_mm_per_min,
+            lenient: self.lenient,
+            ..crate::gcode::InterpretOptions::default()
+        }
+    }
+
+    /// Tool-path settings for `machine` (its rapid rate and ball radius).
+    pub fn cut_options(&self, machine: &Machine) -> crate::toolpath::CutOptions {
+        let mut options = crate::toolpath::CutOptions::for_machine(machine, self.frame.into());
+        options.interpret.lenient = self.lenient;
+        options
+    }
+}
+
 /// Open a program (or `-`, standard input) for buffered reading.
 pub fn open_input(path: &Path) -> anyhow::Result<Box<dyn BufRead + Send>> {
     if crate::io::is_stdio(path) {

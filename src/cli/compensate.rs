@@ -1,7 +1,6 @@
 //! `volcomp compensate`: the compensated program.
-use super::common::{FrameArg, MachineArgs, progress_bar};
+use super::common::{MachineArgs, ProgramArgs, progress_bar};
 use crate::compensate::{CompensateOptions, CompensateReport, compensate};
-use crate::gcode::InterpretOptions;
 use crate::io::{OutputError, write_atomic, write_json_atomic};
 use anyhow::Context;
 use std::path::PathBuf;
@@ -37,12 +36,8 @@ pub struct Args {
     /// Write the summary as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
-    /// Frame of X Y Z at program start (frame words in the program switch it).
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: FrameArg,
-    /// Pass constructs that cannot be understood through with a warning.
-    #[arg(long)]
-    pub lenient: bool,
+    #[command(flatten)]
+    pub read: ProgramArgs,
     /// Do not check the compensated joints against the machine's travel limits.
     #[arg(long)]
     pub no_limits: bool,
@@ -59,12 +54,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (machine, model) = args.machine.load()?;
     let options = CompensateOptions {
         tolerance_um: args.tol,
-        interpret: InterpretOptions {
-            initial_frame: args.frame.into(),
-            rapid_mm_per_min: machine.rapid_mm_per_min,
-            lenient: args.lenient,
-            ..InterpretOptions::default()
-        },
+        interpret: args.read.interpret_options(machine.rapid_mm_per_min),
         limits: (!args.no_limits).then(|| machine.limits.clone()),
         ..CompensateOptions::default()
     };

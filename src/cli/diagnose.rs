@@ -25,9 +25,8 @@ pub struct Args {
     pub machine: super::common::MachineArgs,
     /// Program (G-code) that cut the part.
     pub program: PathBuf,
-    /// Frame of X Y Z at program start.
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: super::common::FrameArg,
+    #[command(flatten)]
+    pub read: super::common::ProgramArgs,
     /// Measurement (CSV: id,x,y,z,i,j,k,mx,my,mz).
     pub measured: PathBuf,
     /// Report file (JSON; `-` for stdout).
@@ -57,12 +56,12 @@ pub(crate) struct PartContexts {
 pub(crate) fn contexts(
     machine: &super::common::MachineArgs,
     program: &Path,
-    frame: super::common::FrameArg,
+    read: super::common::ProgramArgs,
     plan: &Plan,
 ) -> anyhow::Result<PartContexts> {
-    use crate::toolpath::cut::{CutOptions, contexts, match_plan, volumetric_errors};
+    use crate::toolpath::cut::{contexts, match_plan, volumetric_errors};
     let (machine_def, model) = machine.load()?;
-    let options = CutOptions::for_machine(&machine_def, frame.into());
+    let options = read.cut_options(&machine_def);
     let input = super::common::open_input(program)?;
     let (matches, _) = match_plan(input, program, &model, &plan.points, &options)?;
     let built = contexts(&model, &plan.points, &matches)?;
@@ -83,12 +82,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     let measurement = Measurement::read(&args.measured)?;
-    let part = contexts(
-        &args.machine,
-        &args.program,
-        args.frame,
-        &measurement.plan(),
-    )?;
+    let part = contexts(&args.machine, &args.program, args.read, &measurement.plan())?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &part.contexts)?;
     }

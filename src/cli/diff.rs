@@ -1,5 +1,5 @@
 //! `volcomp diff`: what changed between two programs, block by block.
-use super::common::{FrameArg, open_input};
+use super::common::{ProgramArgs, open_input};
 use crate::diff::{AlignOptions, DiffOptions, diff_programs};
 use crate::gcode::InterpretOptions;
 use crate::io::write_json_atomic;
@@ -34,12 +34,9 @@ pub struct Args {
     /// How many of the largest changes to list.
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub top: usize,
-    /// Frame of X Y Z at program start (both programs).
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: FrameArg,
-    /// Pass constructs that cannot be understood through with a warning.
-    #[arg(long)]
-    pub lenient: bool,
+    /// How both programs are read.
+    #[command(flatten)]
+    pub read: ProgramArgs,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -58,11 +55,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             match_tolerance: args.match_tol,
             ..AlignOptions::default()
         },
-        interpret: InterpretOptions {
-            initial_frame: args.frame.into(),
-            lenient: args.lenient,
-            ..InterpretOptions::default()
-        },
+        // Durations do not matter to a diff: the default rapid rate will do.
+        interpret: args
+            .read
+            .interpret_options(InterpretOptions::default().rapid_mm_per_min),
         top: args.top,
     };
     let report = diff_programs(

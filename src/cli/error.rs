@@ -1,9 +1,9 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
-use super::common::{ModelArgs, load_model};
+use super::common::{FrameArg, ModelArgs, load_model};
 use crate::axes::Axes;
 use crate::kinematics::VolumetricError;
+use crate::toolpath::joints_of;
 use anyhow::{Context, anyhow};
-use clap::ValueEnum;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -23,15 +23,6 @@ machine coordinates of the tool tip; with --frame part they are the tool tip in 
 coordinates (converted with the nominal kinematics). e is actual minus nominal tool
 tip in part coordinates (µm); the tool-axis error is in µrad.";
 
-/// Frame of the X Y Z of a pose.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum PoseFrame {
-    /// Machine (joint) coordinates of the tool tip.
-    Joint,
-    /// Tool tip in part coordinates.
-    Part,
-}
-
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 #[command(group = clap::ArgGroup::new("pose_source").required(true).args(["at", "poses"]))]
@@ -46,7 +37,7 @@ pub struct Args {
     pub poses: Option<PathBuf>,
     /// Frame of X Y Z.
     #[arg(long, value_enum, default_value = "joint")]
-    pub frame: PoseFrame,
+    pub frame: FrameArg,
     /// Print JSON (`{"e_um": [..], "axis_urad": [..]}`, a list of them with --poses).
     #[arg(long)]
     pub json: bool,
@@ -169,10 +160,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let many = args.poses.as_deref().map(read_poses).transpose()?;
     let (machine, model) = load_model(&args.machine, &args.model)?;
     let kin = model.kinematics();
-    let to_joints = |pose: &Axes| match args.frame {
-        PoseFrame::Joint => *pose,
-        PoseFrame::Part => kin.joints_from_part(pose),
-    };
+    let frame = args.frame.into();
+    let to_joints = |pose: &Axes| joints_of(kin, frame, pose);
 
     if let Some(pose) = single {
         let joints = to_joints(&pose);

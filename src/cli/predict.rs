@@ -1,9 +1,8 @@
 //! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
-use super::common::{FrameArg, MachineArgs, open_input};
+use super::common::{MachineArgs, ProgramArgs, open_input};
 use crate::inspection::Plan;
 use crate::io::{write_file_atomic, write_json_atomic};
 use crate::predict::{html, predict_path, predict_plan};
-use crate::toolpath::cut::CutOptions;
 use std::path::PathBuf;
 
 const AFTER_HELP: &str = "\
@@ -34,12 +33,8 @@ pub struct Args {
     /// Self-contained HTML report with pictures.
     #[arg(long, value_name = "FILE.html")]
     pub html: Option<PathBuf>,
-    /// Frame of X Y Z at program start.
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: FrameArg,
-    /// Pass constructs that cannot be understood through with a warning.
-    #[arg(long)]
-    pub lenient: bool,
+    #[command(flatten)]
+    pub read: ProgramArgs,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -47,8 +42,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("note: no --report or --html given; printing the summary only");
     }
     let (machine, model) = args.machine.load()?;
-    let mut options = CutOptions::for_machine(&machine, args.frame.into());
-    options.interpret.lenient = args.lenient;
+    let options = args.read.cut_options(&machine);
     let input = open_input(&args.program)?;
     let report = match &args.plan {
         Some(plan_path) => {

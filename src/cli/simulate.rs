@@ -25,9 +25,8 @@ pub struct Args {
     pub machine: super::common::MachineArgs,
     /// Program (G-code) that cuts the part.
     pub program: PathBuf,
-    /// Frame of X Y Z at program start.
-    #[arg(long, value_enum, default_value = "joint")]
-    pub frame: super::common::FrameArg,
+    #[command(flatten)]
+    pub read: super::common::ProgramArgs,
     /// Inspection plan (CSV: id,x,y,z,i,j,k).
     pub plan: PathBuf,
     /// Output measurement (CSV: id,x,y,z,i,j,k,mx,my,mz; `-` for stdout).
@@ -58,7 +57,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     let plan = Plan::read(&args.plan)?;
-    let part = super::diagnose::contexts(&args.machine, &args.program, args.frame, &plan)?;
+    let part = super::diagnose::contexts(&args.machine, &args.program, args.read, &plan)?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &part.contexts)?;
     }

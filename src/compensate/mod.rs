@@ -20,6 +20,8 @@ use crate::gcode::{
     MotionKind, ReadOptions, RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{ErrorModel, Limits};
+use crate::toolpath::{effective_frame, joints_of, target_of};
+use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{SolveError, first_order_joints, solve_joints_from};
@@ -109,11 +111,6 @@ the machine cannot cut this block as compensated (move the part or relax the lim
         line: usize,
         source: RewriteError,
     },
-    #[error("cannot read {path}: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
 }
 
 /// What to do with one motion block, computed in parallel.
@@ -144,10 +141,7 @@ fn compensate_target(
     guess: [f64; 3],
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
-    let nominal = match frame {
-        Frame::Joint => *target,
-        Frame::Part => kin.joints_from_part(target),
-    };
+    let nominal = joints_of(kin, frame, target);
     let solved = solve_joints_from(model, &nominal, guess).map_err(PointError::Solve)?;
     let correction = [
         solved.joints.x - nominal.x,
@@ -159,18 +153,9 @@ fn compensate_target(
     {
         return Err(PointError::Travel { axis, value, range });
     }
-    let out = match frame {
-        Frame::Joint => solved.joints,
-        Frame::Part => {
-            let mut p = kin.part_from_joints(&solved.joints);
-            // A and C stay exactly as programmed.
-            p.a = target.a;
-            p.c = target.c;
-            p
-        }
-    };
+    // The solve keeps A and C exactly as programmed.
     Ok(Compensated {
-        target: out,
+        target: target_of(kin, frame, &solved.joints),
         residual_mm: solved.residual_mm,
         correction,
     })
@@ -179,20 +164,8 @@ fn compensate_target(
 /// First-order estimate of [`compensate_target`] (one error evaluation, no limits).
 fn estimate_target(model: &ErrorModel, frame: Frame, target: &Axes) -> Result<Axes, PointError> {
     let kin = model.kinematics();
-    let nominal = match frame {
-        Frame::Joint => *target,
-        Frame::Part => kin.joints_from_part(target),
-    };
-    let q = first_order_joints(model, &nominal).map_err(PointError::Solve)?;
-    Ok(match frame {
-        Frame::Joint => q,
-        Frame::Part => {
-            let mut p = kin.part_from_joints(&q);
-            p.a = target.a;
-            p.c = target.c;
-            p
-        }
-    })
+    let q = first_order_joints(model, &joints_of(kin, frame, target)).map_err(PointError::Solve)?;
+    Ok(target_of(kin, frame, &q))
 }
 
 #[derive(Debug)]
@@ -203,15 +176,6 @@ enum PointError {
         value: f64,
         range: [f64; 2],
     },
-}
-
-/// The frame in which a motion's targets are compensated (G53 targets are joints).
-fn frame_of(motion: &Motion) -> Frame {
-    if motion.machine_coordinates {
-        Frame::Joint
-    } else {
-        motion.frame
-    }
 }
 
 /// Point at fraction `t` of a motion (block frame).
@@ -242,7 +206,7 @@ fn plan_motion(
     let Some(start_comp) = start_comp.filter(|_| splittable) else {
         return Ok(Vec::new());
     };
-    let frame = frame_of(motion);
+    let frame = effective_frame(motion);
     let arc = match motion.kind {
         MotionKind::Arc {
             clockwise,
@@ -333,9 +297,9 @@ fn arc_radius(motion: &Motion, arc: &ArcGeometry) -> f64 {
     let s = motion.start.xyz();
     let e = motion.end.xyz();
     // Circumradius of start, middle, end.
-    let a = dist3(s, m);
-    let b = dist3(m, e);
-    let c = dist3(s, e);
+    let a = dist(s, m);
+    let b = dist(m, e);
+    let c = dist(s, e);
     let area2 = {
         let u = [m[0] - s[0], m[1] - s[1], m[2] - s[2]];
         let v = [e[0] - s[0], e[1] - s[1], e[2] - s[2]];
@@ -351,10 +315,6 @@ fn arc_radius(motion: &Motion, arc: &ArcGeometry) -> f64 {
     } else {
         a * b * c / (2.0 * area2)
     }
-}
-
-fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 /// Compensate the program read from `input` (named `path` in messages) into
@@ -464,7 +424,7 @@ fn compensate_chunks(
                         let m = event.motion.as_ref().filter(|_| !event.skipped)?;
                         let c = compensate_target(
                             model,
-                            frame_of(m),
+                            effective_frame(m),
                             &m.end,
                             options.limits.as_ref(),
                             guess,

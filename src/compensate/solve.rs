@@ -64,12 +64,7 @@ pub fn solve_joints_from(
     nominal: &Axes,
     guess: [f64; 3],
 ) -> Result<Solved, SolveError> {
-    let kinematics = model.kinematics();
-    if !nominal.is_finite() {
-        return Err(SolveError::NotFinite(*nominal));
-    }
-    let target = kinematics.nominal_tip(nominal);
-    let m_target = kinematics.nominal_machine_point(target, nominal.a, nominal.c);
+    let target = Target::of(model, nominal)?;
     let mut q = *nominal;
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
         q.x += guess[0];
@@ -78,14 +73,8 @@ pub fn solve_joints_from(
     }
     let mut residual = f64::INFINITY;
     for iteration in 0..=MAX_ITERATIONS {
-        let errors = model.errors_at(&q)?;
-        let actual = kinematics.actual_tip_and_axis(&q, &errors).tip;
-        let r = [
-            actual[0] - target[0],
-            actual[1] - target[1],
-            actual[2] - target[2],
-        ];
-        residual = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let (next, r) = target.newton_step(model, &q)?;
+        residual = r;
         if residual < RESIDUAL_MM {
             return Ok(Solved {
                 joints: q,
@@ -96,10 +85,7 @@ pub fn solve_joints_from(
         if !residual.is_finite() {
             break;
         }
-        let m_actual = kinematics.nominal_machine_point(actual, q.a, q.c);
-        q.x += m_target[0] - m_actual[0];
-        q.y += m_target[1] - m_actual[1];
-        q.z += m_target[2] - m_actual[2];
+        q = next;
     }
     Err(SolveError::NoConvergence {
         joints: *nominal,
@@ -109,23 +95,45 @@ pub fn solve_joints_from(
 }
 
 /// First-order compensated joints with one error evaluation: `q − M⁻¹·e(q)`, A and
-/// C as given. Its departure from the exact solve is the error's slope times the
-/// correction (≈ 1e-4 × tens of µm, a few nm), so it serves to decide whether a
-/// move must be split, never as output.
+/// C as given (the first step of [`solve_joints`]). Its departure from the exact
+/// solve is the error's slope times the correction (≈ 1e-4 × tens of µm, a few
+/// nm), so it serves to decide whether a move must be split, never as output.
 pub fn first_order_joints(model: &ErrorModel, nominal: &Axes) -> Result<Axes, SolveError> {
-    if !nominal.is_finite() {
-        return Err(SolveError::NotFinite(*nominal));
+    Ok(Target::of(model, nominal)?.newton_step(model, nominal)?.0)
+}
+
+/// The nominal tool tip to land on, and its machine point at the programmed A, C.
+struct Target {
+    tip: [f64; 3],
+    machine: [f64; 3],
+}
+
+impl Target {
+    fn of(model: &ErrorModel, nominal: &Axes) -> Result<Target, SolveError> {
+        if !nominal.is_finite() {
+            return Err(SolveError::NotFinite(*nominal));
+        }
+        let kinematics = model.kinematics();
+        let tip = kinematics.nominal_tip(nominal);
+        Ok(Target {
+            tip,
+            machine: kinematics.nominal_machine_point(tip, nominal.a, nominal.c),
+        })
     }
-    let kinematics = model.kinematics();
-    let target = kinematics.nominal_tip(nominal);
-    let errors = model.errors_at(nominal)?;
-    let actual = kinematics.actual_tip_and_axis(nominal, &errors).tip;
-    let m_target = kinematics.nominal_machine_point(target, nominal.a, nominal.c);
-    let m_actual = kinematics.nominal_machine_point(actual, nominal.a, nominal.c);
-    Ok(Axes {
-        x: nominal.x + m_target[0] - m_actual[0],
-        y: nominal.y + m_target[1] - m_actual[1],
-        z: nominal.z + m_target[2] - m_actual[2],
-        ..*nominal
-    })
+
+    /// One step from `q`: the next joints and the current residual |r_act(q) − tip| (mm).
+    fn newton_step(&self, model: &ErrorModel, q: &Axes) -> Result<(Axes, f64), SolveError> {
+        let kinematics = model.kinematics();
+        let errors = model.errors_at(q)?;
+        let actual = kinematics.actual_tip_and_axis(q, &errors).tip;
+        let residual = crate::vec3::dist(actual, self.tip);
+        let m_actual = kinematics.nominal_machine_point(actual, q.a, q.c);
+        let next = Axes {
+            x: q.x + self.machine[0] - m_actual[0],
+            y: q.y + self.machine[1] - m_actual[1],
+            z: q.z + self.machine[2] - m_actual[2],
+            ..*q
+        };
+        Ok((next, residual))
+    }
 }

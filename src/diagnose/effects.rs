@@ -8,6 +8,7 @@
 //! [`EffectKind::parameters`].
 use crate::toolpath::PointContext;
 use crate::toolpath::context::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
+use crate::vec3::{dot, scale};
 use serde::{Deserialize, Serialize};
 
 /// The effects of the catalogue.
@@ -286,12 +287,4 @@ impl Effect {
             .collect();
         format!("{}:{}", self.kind.name(), pairs.join(","))
     }
-}
-
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn scale(v: [f64; 3], s: f64) -> [f64; 3] {
-    [v[0] * s, v[1] * s, v[2] * s]
 }

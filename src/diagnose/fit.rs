@@ -46,7 +46,7 @@ impl Signatures {
                 .map(|ctx| {
                     let mut e = [0.0; 3];
                     e[k] = 1.0;
-                    super::effects::dot(ctx.normal, ctx.machine_to_part(e))
+                    crate::vec3::dot(ctx.normal, ctx.machine_to_part(e))
                 })
                 .collect()
         });

@@ -7,10 +7,11 @@
 //! Used by tests, the confusion-matrix example and the bench, so that the
 //! diagnosis can be exercised without the toolpath layer.
 //! Invariant: deterministic for a given [`SyntheticOptions`].
-use super::effects::{Effect, EffectKind, dot};
+use super::effects::{Effect, EffectKind};
 use crate::axes::Axes;
 use crate::toolpath::PointContext;
 use crate::toolpath::context::machine_to_part;
+use crate::vec3::{cross, dot, norm, rot_x as rx, rot_z as rz, sub};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -60,32 +61,6 @@ fn surface(x: f64, y: f64) -> ([f64; 3], [f64; 3]) {
     let (fx, fy) = (0.012 * x, -0.012 * y);
     let len = (fx * fx + fy * fy + 1.0).sqrt();
     ([x, y, z], [-fx / len, -fy / len, 1.0 / len])
-}
-
-fn rx(a: f64, v: [f64; 3]) -> [f64; 3] {
-    let (s, c) = a.sin_cos();
-    [v[0], c * v[1] - s * v[2], s * v[1] + c * v[2]]
-}
-
-fn rz(a: f64, v: [f64; 3]) -> [f64; 3] {
-    let (s, c) = a.sin_cos();
-    [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 struct PathPoint {

@@ -115,30 +115,7 @@ impl Affine {
     }
 }
 
-#[inline]
-pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-#[inline]
-pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-pub fn scale(a: [f64; 3], k: f64) -> [f64; 3] {
-    [a[0] * k, a[1] * k, a[2] * k]
-}
-
-#[inline]
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-pub fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
+pub use crate::vec3::{add, dot, norm, scale, sub};
 
 #[inline]
 pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {

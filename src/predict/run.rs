@@ -4,6 +4,7 @@ use crate::gcode::{BlockReader, GcodeError, Interpreter, ReadOptions};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::{ErrorModel, LookupError};
 use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
+use crate::toolpath::{effective_frame, joints_of};
 use std::io::BufRead;
 use std::path::Path;
 use std::time::Instant;
@@ -122,10 +123,7 @@ pub fn predict_path(
         let Some(m) = event.motion.as_ref().filter(|_| !event.skipped) else {
             continue;
         };
-        let joints = match (m.machine_coordinates, m.frame) {
-            (false, crate::gcode::Frame::Part) => kin.joints_from_part(&m.end),
-            _ => m.end,
-        };
+        let joints = joints_of(kin, effective_frame(m), &m.end);
         let v = model
             .volumetric_error(&joints)
             .map_err(|source| PredictError::Lookup {

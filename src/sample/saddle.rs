@@ -21,6 +21,8 @@
 //! Plan: x = −45 … 45 step 3 (31) × y = −33 … 33 step 6 (12) = 372 points, all
 //! of them path points.
 
+use crate::vec3::normalise;
+
 /// Height of the saddle surface at (x, y), mm.
 pub fn height(x: f64, y: f64) -> f64 {
     28.0 + 0.0036 * x * x - 0.0075 * y * y - 0.00002 * x * x * x
@@ -151,18 +153,10 @@ fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     (0..=n).map(|i| lo + step * i as f64).collect()
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn normalise(v: [f64; 3]) -> [f64; 3] {
-    let n = dot(v, v).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vec3::dot;
 
     #[test]
     fn plan_has_372_points_on_raster_lines() {

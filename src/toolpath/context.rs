@@ -62,10 +62,6 @@ impl PointContext {
 
 /// `Rz(−c)·Rx(−a)·v`, `a` and `c` in degrees.
 pub fn machine_to_part(a_deg: f64, c_deg: f64, v: [f64; 3]) -> [f64; 3] {
-    let (sa, ca) = (-a_deg.to_radians()).sin_cos();
-    let (sc, cc) = (-c_deg.to_radians()).sin_cos();
-    // Rx(−a)
-    let r1 = [v[0], ca * v[1] - sa * v[2], sa * v[1] + ca * v[2]];
-    // Rz(−c)
-    [cc * r1[0] - sc * r1[1], sc * r1[0] + cc * r1[1], r1[2]]
+    use crate::vec3::{rot_x, rot_z};
+    rot_z(-c_deg.to_radians(), rot_x(-a_deg.to_radians(), v))
 }

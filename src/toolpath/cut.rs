@@ -8,6 +8,7 @@ use super::walk::WalkOptions;
 use crate::gcode::{GcodeError, InterpretOptions};
 use crate::inspection::PlanPoint;
 use crate::machine::{ErrorModel, LookupError};
+use crate::vec3::dot;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -29,11 +30,6 @@ pub enum CutError {
     Gcode(#[from] GcodeError),
     #[error("plan point {id}: {source}")]
     Lookup { id: String, source: LookupError },
-    #[error("cannot read {path}: {source}")]
-    Read {
-        path: std::path::PathBuf,
-        source: std::io::Error,
-    },
 }
 
 impl CutOptions {
@@ -57,22 +53,6 @@ impl CutOptions {
             max_distance_mm: 0.5,
         }
     }
-}
-
-/// The context of every plan point (plan order) for the program in file `program`.
-pub fn build_contexts(
-    model: &ErrorModel,
-    program: &Path,
-    plan: &[PlanPoint],
-    options: &CutOptions,
-) -> Result<Vec<PointContext>, CutError> {
-    let file = std::fs::File::open(program).map_err(|source| CutError::Read {
-        path: program.to_path_buf(),
-        source,
-    })?;
-    let input = std::io::BufReader::with_capacity(1 << 16, file);
-    let (matches, _) = match_plan(input, program, model, plan, options)?;
-    contexts(model, plan, &matches)
 }
 
 /// Walk the program and match every plan point to the path point that cut it.
@@ -182,8 +162,4 @@ fn not_cut(p: &PlanPoint) -> PointContext {
         squareness_jacobian: [[0.0; 3]; 3],
         location_jacobian: [[0.0; 3]; 8],
     }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }

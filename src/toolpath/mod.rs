@@ -10,7 +10,7 @@ pub mod program;
 pub mod walk;
 
 pub use context::PointContext;
-pub use cut::{CutError, CutOptions, build_contexts};
+pub use cut::{CutError, CutOptions};
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use program::{WalkSummary, walk_program};
-pub use walk::{PathPoint, PathWalker, WalkOptions};
+pub use walk::{PathPoint, PathWalker, WalkOptions, effective_frame, joints_of, target_of};

@@ -10,6 +10,7 @@
 use crate::axes::Axes;
 use crate::gcode::{Frame, Motion, MotionKind, duration_from_lengths};
 use crate::kinematics::Kinematics;
+use crate::vec3::{cross, dist, dot, norm, scale, sub};
 use std::collections::VecDeque;
 
 /// Settings of the walk.
@@ -59,6 +60,32 @@ pub struct PathPoint {
     pub curvature_per_mm: f64,
     /// Unit principal normal towards the centre of curvature (machine frame), or zero.
     pub principal_normal: [f64; 3],
+}
+
+/// The frame a motion's targets are really in: G53 targets are machine
+/// coordinates (joints) whatever the program's frame.
+pub fn effective_frame(motion: &Motion) -> Frame {
+    if motion.machine_coordinates {
+        Frame::Joint
+    } else {
+        motion.frame
+    }
+}
+
+/// Joints of a target given in `frame` (nominal kinematics, A and C as given).
+pub fn joints_of(kinematics: &Kinematics, frame: Frame, target: &Axes) -> Axes {
+    match frame {
+        Frame::Joint => *target,
+        Frame::Part => kinematics.joints_from_part(target),
+    }
+}
+
+/// The target in `frame` of joint position `joints` (inverse of [`joints_of`]).
+pub fn target_of(kinematics: &Kinematics, frame: Frame, joints: &Axes) -> Axes {
+    match frame {
+        Frame::Joint => *joints,
+        Frame::Part => kinematics.part_from_joints(joints),
+    }
 }
 
 /// A sample waiting for its curvature.
@@ -114,14 +141,6 @@ impl<'k> PathWalker<'k> {
         self.time_min
     }
 
-    /// Joints of a motion target in its frame.
-    pub fn joints_of(&self, target: &Axes, frame: Frame) -> Axes {
-        match frame {
-            Frame::Joint => *target,
-            Frame::Part => self.kinematics.joints_from_part(target),
-        }
-    }
-
     /// Walk one motion block.
     pub fn push(
         &mut self,
@@ -130,8 +149,9 @@ impl<'k> PathWalker<'k> {
         motion: &Motion,
         visit: &mut impl FnMut(&PathPoint),
     ) {
-        let start_joints = self.joints_of(&motion.start, motion.frame);
-        let end_joints = self.joints_of(&motion.end, motion.frame);
+        let frame = effective_frame(motion);
+        let start_joints = joints_of(self.kinematics, frame, &motion.start);
+        let end_joints = joints_of(self.kinematics, frame, &motion.end);
         if !self.started {
             // Time starts at the first block's target: the first motion only positions.
             self.started = true;
@@ -267,7 +287,7 @@ impl<'k> PathWalker<'k> {
     fn sample(&mut self, motion: &Motion, start_joints: &Axes, end_joints: &Axes) {
         self.samples.clear();
         let step = self.options.step_mm;
-        match motion.frame {
+        match effective_frame(motion) {
             Frame::Part => {
                 // A tool-tip control interpolates the tip in part coordinates.
                 let mut part = Vec::new();
@@ -330,29 +350,6 @@ pub fn circle_curvature(a: [f64; 3], p: [f64; 3], b: [f64; 3]) -> (f64, [f64; 3]
         return (0.0, [0.0; 3]);
     }
     (1.0 / r, scale(c, 1.0 / r))
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn scale(a: [f64; 3], k: f64) -> [f64; 3] {
-    [a[0] * k, a[1] * k, a[2] * k]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    norm(sub(a, b))
 }
 
 #[cfg(test)]
