@@ -1,9 +1,6 @@
 //! Command-line behaviour common to every command.
-use std::process::Command;
 
-fn volcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-}
+use crate::support::volcomp;
 
 #[test]
 fn help_lists_commands_and_examples() {

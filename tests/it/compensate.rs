@@ -2,9 +2,9 @@
 //! compensated program replayed through the same error model lands on the
 //! original nominal path, measured densely along the path), a LinuxCNC-style
 //! program, and the edge cases of the command.
+use crate::support::root;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 use std::sync::OnceLock;
 use volcomp::compensate::{CompensateOptions, CompensateReport, compensate};
 use volcomp::diff::align::{Aligned, BlockSummary};
@@ -14,10 +14,6 @@ use volcomp::gcode::{
 };
 use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 use volcomp::toolpath::{WalkOptions, walk_program};
-
-pub fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// ref-trt and its fitted model, loaded once for the whole test binary.
 pub fn ref_trt() -> &'static (Machine, ErrorModel) {
@@ -438,9 +434,7 @@ fn long_move_is_split_and_every_piece_is_within_tolerance() {
     assert!(along.max_um < tol);
 }
 
-pub fn volcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-}
+use crate::support::volcomp;
 
 #[test]
 fn cli_refuses_a_target_outside_the_travel_and_writes_nothing() {

@@ -728,11 +728,8 @@ fn saddle_blind_single_effects_none_and_pairs() {
 
 mod cli {
     use std::path::{Path, PathBuf};
-    use std::process::Command;
 
-    fn volcomp() -> Command {
-        Command::new(env!("CARGO_BIN_EXE_volcomp"))
-    }
+    use crate::support::volcomp;
 
     fn data(p: &str) -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
@@ -764,11 +761,7 @@ mod cli {
     }
 
     fn ok(out: &std::process::Output) -> String {
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        crate::support::assert_success(&out);
         String::from_utf8_lossy(&out.stdout).into_owned()
     }
 

@@ -1,6 +1,7 @@
 //! `diff`: a program against itself, and the saddle against its compensation.
-use crate::compensate::{compensate_text, read, root, volcomp};
+use crate::compensate::{compensate_text, read};
 use crate::predict::rounded;
+use crate::support::{root, volcomp};
 use std::path::Path;
 use volcomp::diff::{DiffOptions, diff_programs};
 use volcomp::gcode::Frame;

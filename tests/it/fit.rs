@@ -1,17 +1,11 @@
 //! `volcomp fit` and the error-table reader.
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use crate::support::root;
+use std::path::Path;
 
 use volcomp::axes::Axis;
 use volcomp::machine::table::ErrorTable;
 
-fn volcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use crate::support::volcomp;
 
 /// Every parameter of the reference machine is fitted within tolerance; the
 /// printed table (timing column removed, errors rounded to 0.01) is stable.
@@ -106,11 +100,7 @@ fn one_table_with_a_method_and_plots() {
         .arg(&plots)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    crate::support::assert_success(&out);
     let svgs = std::fs::read_dir(&plots).unwrap().count();
     assert_eq!(svgs, 6);
     let svg = std::fs::read_to_string(plots.join("EXZ.svg")).unwrap();

@@ -779,21 +779,16 @@ mod robustness {
 }
 
 mod check_command {
-    use std::process::Command;
 
     #[test]
     fn check_summarises_a_program() {
         let path = super::fixture_dir().join("tcp_linuxcnc_demo.nc");
-        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        let out = crate::support::volcomp()
             .arg("check")
             .arg(&path)
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        crate::support::assert_success(&out);
         let text = String::from_utf8(out.stdout).unwrap();
         assert!(text.contains("motion blocks: 6 (G0 2, G1 4"), "{text}");
         assert!(text.contains("2 switches, 4 part-frame"), "{text}");
@@ -805,7 +800,7 @@ mod check_command {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bad.nc");
         std::fs::write(&path, "G0 X0\nG1 X1 Y#2\n").unwrap();
-        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        let out = crate::support::volcomp()
             .arg("check")
             .arg(&path)
             .output()
@@ -816,7 +811,7 @@ mod check_command {
             err.contains("bad.nc:2:8") && err.contains("^") && err.contains("--lenient"),
             "{err}"
         );
-        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        let out = crate::support::volcomp()
             .args(["check", "--lenient"])
             .arg(&path)
             .output()

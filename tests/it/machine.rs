@@ -383,9 +383,7 @@ mod cli {
     use super::{project, ref_model_file};
     use std::process::Command;
 
-    fn volcomp() -> Command {
-        Command::new(env!("CARGO_BIN_EXE_volcomp"))
-    }
+    use crate::support::volcomp;
 
     /// `volcomp COMMAND machines/ref-trt.toml --model <the test model in dir>`.
     fn on_reference(command: &str, dir: &std::path::Path) -> Command {
@@ -400,11 +398,7 @@ mod cli {
     /// Run, insisting on success; the output.
     fn success(cmd: &mut Command) -> std::process::Output {
         let out = cmd.output().expect("runs");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        crate::support::assert_success(&out);
         out
     }
 

@@ -11,4 +11,5 @@ mod machine;
 mod nurbs;
 mod predict;
 mod sample;
+mod support;
 mod toolpath;

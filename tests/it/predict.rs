@@ -1,6 +1,7 @@
 //! Prediction, end to end: the saddle plan, the compensated saddle, the path
 //! report, and agreement with the blind examples' independent predictions.
-use crate::compensate::{compensate_text, interpret_options, read, ref_trt, root};
+use crate::compensate::{compensate_text, interpret_options, read, ref_trt};
+use crate::support::root;
 use std::path::Path;
 use volcomp::gcode::Frame;
 use volcomp::inspection::Plan;

@@ -1,11 +1,10 @@
 //! `volcomp sample saddle` is deterministic: it reproduces the committed samples.
-use crate::compensate::root;
-use std::process::Command;
+use crate::support::root;
 
 #[test]
 fn sample_saddle_reproduces_the_committed_files_byte_for_byte() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+    let out = crate::support::volcomp()
         .args(["sample", "saddle", "--out-dir"])
         .arg(dir.path())
         .current_dir(root())
