@@ -44,35 +44,53 @@ pub struct Args {
     pub dump_contexts: Option<PathBuf>,
 }
 
-/// Contexts of a plan's points and the true volumetric error (µm, part frame)
-/// at each (for `simulate`).
-pub(crate) struct PartContexts {
-    pub contexts: Vec<PointContext>,
-    pub truth_um: Vec<[f64; 3]>,
+/// A plan matched against the program that cut it, on a machine's error model:
+/// what `diagnose` and `simulate` start from.
+pub(crate) struct CutPart {
+    pub model: crate::machine::ErrorModel,
+    pub plan: Plan,
+    pub matches: Vec<Option<crate::toolpath::PlanMatch>>,
 }
 
-/// Build the contexts of `plan` cut by `program` on `machine` (and, for
-/// `simulate`, the volumetric error of the machine's own tables at each: the truth).
-pub(crate) fn contexts(
-    machine: &super::common::MachineArgs,
-    program: &Path,
-    read: super::common::ProgramArgs,
-    plan: &Plan,
-) -> anyhow::Result<PartContexts> {
-    use crate::toolpath::cut::{contexts, match_plan, volumetric_errors};
-    let (machine_def, model) = machine.load()?;
-    let options = read.cut_options(&machine_def);
-    let input = super::common::open_input(program)?;
-    let (matches, _) = match_plan(input, program, &model, &plan.points, &options)?;
-    let built = contexts(&model, &plan.points, &matches)?;
-    let truth_um = volumetric_errors(&model, &plan.points, &matches)?
-        .into_iter()
-        .map(|e| e.unwrap_or([0.0; 3]))
-        .collect();
-    Ok(PartContexts {
-        contexts: built,
-        truth_um,
-    })
+impl CutPart {
+    /// Match `plan` against the path of `program` on `machine`.
+    pub(crate) fn new(
+        machine: &super::common::MachineArgs,
+        program: &Path,
+        read: super::common::ProgramArgs,
+        plan: Plan,
+    ) -> anyhow::Result<CutPart> {
+        let (machine_def, model) = machine.load()?;
+        let options = read.cut_options(&machine_def);
+        let input = super::common::open_input(program)?;
+        let (matches, _) =
+            crate::toolpath::cut::match_plan(input, program, &model, &plan.points, &options)?;
+        Ok(CutPart {
+            model,
+            plan,
+            matches,
+        })
+    }
+
+    /// The context of every plan point.
+    pub(crate) fn contexts(&self) -> anyhow::Result<Vec<PointContext>> {
+        Ok(crate::toolpath::cut::contexts(
+            &self.model,
+            &self.plan.points,
+            &self.matches,
+        )?)
+    }
+
+    /// The volumetric error (µm, part frame) of the machine's own tables at every
+    /// plan point: `simulate`'s truth (zero where not cut).
+    pub(crate) fn truth_um(&self) -> anyhow::Result<Vec<[f64; 3]>> {
+        Ok(
+            crate::toolpath::cut::volumetric_errors(&self.model, &self.plan.points, &self.matches)?
+                .into_iter()
+                .map(|e| e.unwrap_or([0.0; 3]))
+                .collect(),
+        )
+    }
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -82,15 +100,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     let measurement = Measurement::read(&args.measured)?;
-    let part = contexts(&args.machine, &args.program, args.read, &measurement.plan())?;
+    let contexts =
+        CutPart::new(&args.machine, &args.program, args.read, measurement.plan())?.contexts()?;
     if let Some(path) = &args.dump_contexts {
-        crate::io::write_json_atomic(path, &part.contexts)?;
+        crate::io::write_json_atomic(path, &contexts)?;
     }
     let options = DiagnoseOptions {
         noise_um: args.noise_um,
         ..DiagnoseOptions::default()
     };
-    let report = diagnose(&part.contexts, &measurement.deviations_um(), &options)
+    let report = diagnose(&contexts, &measurement.deviations_um(), &options)
         .context("diagnosing the measurement")?;
     crate::io::write_json_atomic(&args.report, &report)?;
     if let Some(path) = &args.html {

@@ -57,18 +57,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     let plan = Plan::read(&args.plan)?;
-    let part = super::diagnose::contexts(&args.machine, &args.program, args.read, &plan)?;
+    let part = super::diagnose::CutPart::new(&args.machine, &args.program, args.read, plan)?;
+    let contexts = part.contexts()?;
     if let Some(path) = &args.dump_contexts {
-        crate::io::write_json_atomic(path, &part.contexts)?;
+        crate::io::write_json_atomic(path, &contexts)?;
     }
     let options = SimulateOptions {
         noise_um: args.noise_um,
         seed: args.seed,
     };
-    let measurement = simulate(&part.contexts, &part.truth_um, &effects, &options)
+    let measurement = simulate(&contexts, &part.truth_um()?, &effects, &options)
         .context("simulating the measurement")?;
     measurement.write(&args.output)?;
-    let cut = part.contexts.iter().filter(|c| c.cut).count();
+    let cut = contexts.iter().filter(|c| c.cut).count();
     let deviations = measurement.deviations_um();
     let p = profile(&deviations);
     if !crate::io::is_stdio(&args.output) {
