@@ -178,18 +178,6 @@ enum PointError {
     },
 }
 
-/// Point at fraction `t` of a motion (block frame).
-fn point_along(motion: &Motion, arc: Option<&ArcGeometry>, t: f64) -> Axes {
-    let mut p = motion.start.lerp(&motion.end, t);
-    if let Some(g) = arc {
-        let xyz = g.point(t);
-        p.x = xyz[0];
-        p.y = xyz[1];
-        p.z = xyz[2];
-    }
-    p
-}
-
 fn xyz_gap(a: &Axes, b: &Axes) -> f64 {
     a.xyz_distance(b)
 }
@@ -207,22 +195,7 @@ fn plan_motion(
         return Ok(Vec::new());
     };
     let frame = effective_frame(motion);
-    let arc = match motion.kind {
-        MotionKind::Arc {
-            clockwise,
-            centre,
-            plane,
-            turns,
-        } => Some(ArcGeometry::new(
-            &motion.start,
-            &motion.end,
-            centre,
-            plane,
-            clockwise,
-            turns,
-        )),
-        _ => None,
-    };
+    let arc = motion.arc_geometry();
     let tol_mm = options.tolerance_um * 1e-3;
     let limits = options.limits.as_ref();
     // Recursive halving on [t0, t1] with compensated ends c0, c1.
@@ -231,11 +204,11 @@ fn plan_motion(
     // Depth-first, left first, so `via` comes out in order.
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
         let tm = 0.5 * (t0 + t1);
-        let nominal_mid = point_along(motion, arc.as_ref(), tm);
+        let nominal_mid = motion.point_at(arc.as_ref(), tm);
         let estimate = estimate_target(model, frame, &nominal_mid)?;
         // What the control would do between the compensated ends.
-        let n0 = point_along(motion, arc.as_ref(), t0);
-        let n1 = point_along(motion, arc.as_ref(), t1);
+        let n0 = motion.point_at(arc.as_ref(), t0);
+        let n1 = motion.point_at(arc.as_ref(), t1);
         let straight = Axes::from_array({
             let (a, b, na, nb, nm) = (
                 c0.to_array(),
@@ -286,7 +259,7 @@ fn densify_arc(
     let n = ((arc.length() / step).ceil() as usize).clamp(2, 100_000);
     let mut via = Vec::with_capacity(n - 1);
     for i in 1..n {
-        let p = point_along(motion, Some(arc), i as f64 / n as f64);
+        let p = motion.point_at(Some(arc), i as f64 / n as f64);
         via.push(compensate_target(model, frame, &p, options.limits.as_ref(), [0.0; 3])?.target);
     }
     Ok(via)

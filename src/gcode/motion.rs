@@ -89,57 +89,56 @@ impl Motion {
         } else {
             0.5
         };
+        let arc = self.arc_geometry();
+        let len = arc.map_or_else(|| self.start.xyz_distance(&self.end), |g| g.length());
+        let rot = (self.end.a - self.start.a)
+            .abs()
+            .max((self.end.c - self.start.c).abs());
+        let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
+        for i in 1..n {
+            out.push(self.point_at(arc.as_ref(), i as f64 / n as f64));
+        }
+        out.push(self.end);
+    }
+
+    /// The circle (helix) of an arc move; `None` for straight moves.
+    pub fn arc_geometry(&self) -> Option<ArcGeometry> {
         match self.kind {
-            MotionKind::Rapid | MotionKind::Linear => {
-                let len = self.start.xyz_distance(&self.end);
-                let rot = (self.end.a - self.start.a)
-                    .abs()
-                    .max((self.end.c - self.start.c).abs());
-                let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
-                for i in 1..=n {
-                    out.push(self.start.lerp(&self.end, i as f64 / n as f64));
-                }
-            }
+            MotionKind::Rapid | MotionKind::Linear => None,
             MotionKind::Arc {
                 clockwise,
                 centre,
                 plane,
                 turns,
-            } => {
-                let geometry =
-                    ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns);
-                let len = geometry.length();
-                let rot = (self.end.a - self.start.a)
-                    .abs()
-                    .max((self.end.c - self.start.c).abs());
-                let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
-                for i in 1..=n {
-                    let t = i as f64 / n as f64;
-                    let mut p = self.start.lerp(&self.end, t);
-                    let xyz = geometry.point(t);
-                    p.x = xyz[0];
-                    p.y = xyz[1];
-                    p.z = xyz[2];
-                    out.push(p);
-                }
-                if let Some(last) = out.last_mut() {
-                    *last = self.end;
-                }
-            }
+            } => Some(ArcGeometry::new(
+                &self.start,
+                &self.end,
+                centre,
+                plane,
+                clockwise,
+                turns,
+            )),
         }
+    }
+
+    /// The point at fraction `t` ∈ [0, 1] of the move: all axes linear in `t`,
+    /// except X Y Z on the circle of an arc (`arc` = [`Motion::arc_geometry`],
+    /// passed in so that callers evaluating many points build it once).
+    pub fn point_at(&self, arc: Option<&ArcGeometry>, t: f64) -> Axes {
+        let mut p = self.start.lerp(&self.end, t);
+        if let Some(g) = arc {
+            let xyz = g.point(t);
+            p.x = xyz[0];
+            p.y = xyz[1];
+            p.z = xyz[2];
+        }
+        p
     }
 
     /// XYZ path length in the move's frame (arc length for arcs), mm.
     pub fn xyz_length(&self) -> f64 {
-        match self.kind {
-            MotionKind::Rapid | MotionKind::Linear => self.start.xyz_distance(&self.end),
-            MotionKind::Arc {
-                clockwise,
-                centre,
-                plane,
-                turns,
-            } => ArcGeometry::new(&self.start, &self.end, centre, plane, clockwise, turns).length(),
-        }
+        self.arc_geometry()
+            .map_or_else(|| self.start.xyz_distance(&self.end), |g| g.length())
     }
 }
 
