@@ -47,6 +47,10 @@ pub struct Word {
     pub decimals: u8,
     /// Whether the number had a decimal point.
     pub point: bool,
+    /// The value is computed (a parameter, an expression or a function): the
+    /// index of its syntax tree in [`Block::exprs`]. `value` is 0 until the
+    /// language layer evaluates it (an executed block has every value set).
+    pub expr: Option<u32>,
 }
 
 impl Word {
@@ -65,6 +69,99 @@ impl Word {
             None
         }
     }
+}
+
+/// A parameter assignment `#1=…`, `#<name>=…` (applied after the whole line
+/// is read, in order: LinuxCNC's parallel setting).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Assignment {
+    pub target: AssignTarget,
+    /// The value: an index into [`Block::exprs`].
+    pub value: u32,
+    /// Byte range of the whole assignment.
+    pub start: usize,
+    pub end: usize,
+}
+
+/// What an assignment sets.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AssignTarget {
+    /// A numbered parameter; its number is an expression (index into [`Block::exprs`]).
+    Numbered(u32),
+    /// A named parameter (lower case, spaces removed).
+    Named(String),
+}
+
+/// The keyword of an O-word line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OKeyword {
+    Sub,
+    EndSub,
+    Call,
+    Do,
+    While,
+    EndWhile,
+    If,
+    ElseIf,
+    Else,
+    EndIf,
+    Repeat,
+    EndRepeat,
+    Return,
+    Break,
+    Continue,
+}
+
+impl OKeyword {
+    /// Every keyword, longest first where one is a prefix of another
+    /// (`endsub` before `end…`, `elseif` before `else`).
+    pub const ALL: [(&'static str, OKeyword); 15] = [
+        ("endsub", OKeyword::EndSub),
+        ("endwhile", OKeyword::EndWhile),
+        ("endif", OKeyword::EndIf),
+        ("endrepeat", OKeyword::EndRepeat),
+        ("elseif", OKeyword::ElseIf),
+        ("else", OKeyword::Else),
+        ("sub", OKeyword::Sub),
+        ("call", OKeyword::Call),
+        ("do", OKeyword::Do),
+        ("while", OKeyword::While),
+        ("if", OKeyword::If),
+        ("repeat", OKeyword::Repeat),
+        ("return", OKeyword::Return),
+        ("break", OKeyword::Break),
+        ("continue", OKeyword::Continue),
+    ];
+
+    pub fn name(self) -> &'static str {
+        OKeyword::ALL
+            .iter()
+            .find(|(_, k)| *k == self)
+            .map(|(n, _)| *n)
+            .unwrap_or("?")
+    }
+}
+
+/// The label of an O-word: `O100` (a number, possibly computed) or `O<name>`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OLabel {
+    /// The number's expression (index into [`Block::exprs`]).
+    Number(u32),
+    /// The name, lower case, spaces removed.
+    Name(String),
+}
+
+/// An O-word control line (`O100 while [#1 LT 10]`, `o<drill> call [1] [2]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OWord {
+    pub label: OLabel,
+    pub keyword: OKeyword,
+    /// Call arguments; the condition of while/if/elseif; the count of repeat;
+    /// the optional value of return/endsub (indices into [`Block::exprs`]).
+    pub args: Vec<u32>,
+    /// Byte range from the `O` to the end of the keyword.
+    pub start: usize,
+    pub end: usize,
 }
 
 /// Bare keywords that switch the frame (Siemens ISO mode).
@@ -103,6 +200,13 @@ pub struct Block {
     pub words: Vec<Word>,
     /// Frame keywords (`TRAORI`, `TRAFOOF`).
     pub keywords: Vec<KeywordWord>,
+    /// Parameter assignments, in the order written.
+    pub assignments: Vec<Assignment>,
+    /// The O-word control of the line, if any (the line then holds nothing else
+    /// but comments).
+    pub o_word: Option<OWord>,
+    /// The syntax trees of computed values (words, assignments, O-word arguments).
+    pub exprs: Vec<crate::gcode::expression::Expr>,
     /// Byte ranges of the comments, `( … )` and `; …`, delimiters included.
     pub comments: Vec<Range<usize>>,
     /// Lenient reading only: the line could not be parsed; it is kept verbatim,
@@ -131,9 +235,19 @@ impl Block {
         self.word(b'N').map(|w| w.value)
     }
 
-    /// Whether the line has neither words nor keywords (blank, comment only, `%`).
+    /// Whether the line has neither words nor keywords, assignments or an
+    /// O-word (blank, comment only, `%`).
     pub fn is_empty(&self) -> bool {
-        self.words.is_empty() && self.keywords.is_empty()
+        self.words.is_empty()
+            && self.keywords.is_empty()
+            && self.assignments.is_empty()
+            && self.o_word.is_none()
+    }
+
+    /// Whether the line uses the RS274NGC language: a computed word, an
+    /// assignment or an O-word (its executed meaning is not its literal text).
+    pub fn uses_language(&self) -> bool {
+        !self.exprs.is_empty() || !self.assignments.is_empty() || self.o_word.is_some()
     }
 
     /// Write the line exactly as read, line ending included.
@@ -151,6 +265,9 @@ impl Block {
         self.deleted = false;
         self.words.clear();
         self.keywords.clear();
+        self.assignments.clear();
+        self.o_word = None;
+        self.exprs.clear();
         self.comments.clear();
         self.unparsed = None;
     }

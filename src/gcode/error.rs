@@ -19,12 +19,22 @@ pub enum ErrorKind {
     MalformedNumber(char),
     #[error("number out of range in word `{0}`")]
     NumberOutOfRange(char),
-    #[error("`#` parameters are not supported")]
-    Parameter,
-    #[error("`[expr]` expressions are not supported")]
-    Expression,
-    #[error("O-word subroutines and control flow are not supported (`{0}`)")]
-    Subroutine(String),
+    #[error("{0}")]
+    Syntax(crate::gcode::expression::SyntaxErrorKind),
+    #[error("{0}")]
+    Eval(crate::gcode::expression::EvalErrorKind),
+    #[error("{0}")]
+    OWord(String),
+    #[error("EOF seeking {0}")]
+    EndOfFileInSubroutine(String),
+    #[error("Equal sign missing in parameter setting")]
+    MissingEquals,
+    #[error("Unexpected character after O-word")]
+    UnexpectedAfterOWord,
+    #[error("Unknown O-word keyword: expected sub, endsub, call, do, while, endwhile, if, elseif, else, endif, repeat, endrepeat, return, break or continue")]
+    UnknownOWordKeyword,
+    #[error("Left bracket missing after '{0}'")]
+    BracketAfterOKeyword(&'static str),
     #[error("unexpected character `{0}`")]
     UnexpectedCharacter(String),
     #[error("subroutine call `{0}` is not supported")]
@@ -58,10 +68,21 @@ impl ErrorKind {
             ErrorKind::MalformedNumber(_) | ErrorKind::NumberOutOfRange(_) => {
                 "write a plain decimal number (e.g. `X-12.5`), or pass --lenient to pass the line through untouched"
             }
-            ErrorKind::Parameter | ErrorKind::Expression => {
-                "post-process the program with numeric values only, or pass --lenient to pass the line through untouched (its geometry is then ignored)"
+            ErrorKind::Syntax(_) | ErrorKind::MissingEquals => {
+                "check the expression (RS274NGC: `[` … `]` with + - * / ** MOD EQ NE GT GE LT LE AND OR XOR, #n or #<name> parameters, functions such as SIN[…])"
             }
-            ErrorKind::Subroutine(_) | ErrorKind::SubroutineCall(_) => {
+            ErrorKind::Eval(_) => {
+                "check the parameters and the expression at the caret (named parameters must be set before they are read)"
+            }
+            ErrorKind::OWord(_) | ErrorKind::EndOfFileInSubroutine(_) => {
+                "check the O-word labels: every sub/while/if/repeat needs its matching end; subroutine files are found on --subroutine-path as NAME.ngc"
+            }
+            ErrorKind::UnexpectedAfterOWord
+            | ErrorKind::UnknownOWordKeyword
+            | ErrorKind::BracketAfterOKeyword(_) => {
+                "an O-word line holds only the O-word, its keyword, its bracketed arguments and comments"
+            }
+            ErrorKind::SubroutineCall(_) => {
                 "expand subroutines in the CAM post-processor, or pass --lenient to pass the line through untouched (its geometry is then ignored)"
             }
             ErrorKind::UnexpectedCharacter(_) => {

@@ -40,9 +40,12 @@
 //! ```
 pub mod block;
 pub mod error;
+pub mod expression;
 pub mod interpret;
+pub mod language;
 pub mod modal;
 pub mod motion;
+pub mod parameters;
 pub mod parser;
 pub mod reader;
 pub mod rewrite;

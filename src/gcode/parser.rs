@@ -14,8 +14,13 @@ use nom::bytes::complete::{tag, tag_no_case, take_till, take_while};
 use nom::combinator::recognize;
 use nom::sequence::tuple;
 
-use super::block::{Block, Keyword, KeywordWord, Word};
+use super::block::{
+    AssignTarget, Assignment, Block, Keyword, KeywordWord, OKeyword, OLabel, OWord, Word,
+};
 use super::error::{ErrorKind, GcodeError};
+use super::expression::{
+    ParamRef, SyntaxError, parse_name, parse_param_ref, parse_value, starts_computed_value,
+};
 
 fn is_space(b: u8) -> bool {
     b == b' ' || b == b'\t' || b == b'\r'
@@ -36,25 +41,6 @@ fn keyword(i: &[u8]) -> IResult<&[u8], Keyword> {
     let (rest, _) = tag_no_case("TRAORI")(i)?;
     Ok((rest, Keyword::TraOri))
 }
-
-/// O-word control keywords of LinuxCNC (`O100 sub`, `o<x> call`, …).
-const O_KEYWORDS: [&str; 15] = [
-    "sub",
-    "endsub",
-    "call",
-    "do",
-    "while",
-    "endwhile",
-    "if",
-    "elseif",
-    "else",
-    "endif",
-    "repeat",
-    "endrepeat",
-    "return",
-    "break",
-    "continue",
-];
 
 const POW10: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
@@ -160,8 +146,9 @@ fn scan_number(line: &[u8], mut p: usize) -> Result<Number, NumberError> {
     })
 }
 
-/// Parse `block.raw` into `block`'s words, keywords and comments (they must be
-/// empty). On error the block is left partly filled; the caller decides.
+/// Parse `block.raw` into `block`'s words, keywords, assignments, O-word and
+/// comments (they must be empty). On error the block is left partly filled;
+/// the caller decides.
 pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     let Block {
         raw,
@@ -172,6 +159,9 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
         comments,
         percent,
         deleted,
+        assignments,
+        o_word,
+        exprs,
         ..
     } = block;
     let line: &[u8] = raw;
@@ -179,6 +169,9 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
     let len = line.len();
     let err = |kind: ErrorKind, start: usize, end: usize| -> GcodeError {
         GcodeError::at(kind, line_no, line, start, end)
+    };
+    let syntax = |e: SyntaxError| -> GcodeError {
+        GcodeError::at(ErrorKind::Syntax(e.kind), line_no, line, e.at, e.at + 1)
     };
     let pos_of = |rest: &[u8]| len - rest.len();
 
@@ -205,6 +198,9 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
             break;
         }
         let c = line[pos];
+        if o_word.is_some() && c != b'(' && c != b';' {
+            return Err(err(ErrorKind::UnexpectedAfterOWord, pos, pos + 1));
+        }
         match c {
             b'(' => match paren_comment(&line[pos..]) {
                 Ok((rest, _)) => {
@@ -218,10 +214,43 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
                 comments.push(pos..len);
                 break;
             }
-            b'#' => return Err(err(ErrorKind::Parameter, pos, pos + 1)),
-            b'[' => return Err(err(ErrorKind::Expression, pos, pos + 1)),
+            b'#' => {
+                // A parameter assignment: #n=value, #<name>=value.
+                let (target, after) = parse_param_ref(line, pos).map_err(syntax)?;
+                let eq = skip_space(line, after);
+                if line.get(eq) != Some(&b'=') {
+                    return Err(err(ErrorKind::MissingEquals, pos, after.max(pos + 1)));
+                }
+                let value = parse_value(line, eq + 1).map_err(syntax)?;
+                let end = value.end;
+                let target = match target {
+                    ParamRef::Named(name) => AssignTarget::Named(name),
+                    ParamRef::Numbered(index) => {
+                        exprs.push(*index);
+                        AssignTarget::Numbered(exprs.len() as u32 - 1)
+                    }
+                };
+                exprs.push(value);
+                assignments.push(Assignment {
+                    target,
+                    value: exprs.len() as u32 - 1,
+                    start: pos,
+                    end,
+                });
+                pos = end;
+            }
             _ if c.is_ascii_alphabetic() => {
                 let letter = c.to_ascii_uppercase();
+                if letter == b'O' && words.is_empty() && assignments.is_empty() {
+                    if let Some(o) = parse_o_word(line, pos, exprs, comments).map_err(|e| match e {
+                        OError::Syntax(e) => syntax(e),
+                        OError::Kind(kind, at) => err(kind, at, at + 1),
+                    })? {
+                        pos = o.end_of_args;
+                        *o_word = Some(o.word);
+                        continue;
+                    }
+                }
                 if pos + 1 < len && line[pos + 1].is_ascii_alphabetic() {
                     if let Ok((rest, kw)) = keyword(&line[pos..]) {
                         let end = pos_of(rest);
@@ -235,28 +264,25 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
                             continue;
                         }
                     }
-                    return Err(err(ErrorKind::MissingNumber(letter as char), pos, pos + 1));
-                }
-                // Special starts of the value.
-                let mut q = pos + 1;
-                while q < len && is_space(line[q]) {
-                    q += 1;
-                }
-                if q < len {
-                    match line[q] {
-                        b'#' => return Err(err(ErrorKind::Parameter, q, q + 1)),
-                        b'[' => return Err(err(ErrorKind::Expression, q, q + 1)),
-                        b'<' if letter == b'O' => {
-                            let end = line[q..]
-                                .iter()
-                                .position(|&b| b == b'>')
-                                .map(|i| q + i + 1)
-                                .unwrap_or(len);
-                            let name = String::from_utf8_lossy(&line[pos..end]).into_owned();
-                            return Err(err(ErrorKind::Subroutine(name), pos, end));
-                        }
-                        _ => {}
+                    if !starts_computed_value(line, pos + 1) {
+                        return Err(err(ErrorKind::MissingNumber(letter as char), pos, pos + 1));
                     }
+                }
+                if starts_computed_value(line, pos + 1) {
+                    let value = parse_value(line, pos + 1).map_err(syntax)?;
+                    let end = value.end;
+                    exprs.push(value);
+                    words.push(Word {
+                        letter,
+                        value: 0.0,
+                        start: pos,
+                        end,
+                        decimals: 0,
+                        point: false,
+                        expr: Some(exprs.len() as u32 - 1),
+                    });
+                    pos = end;
+                    continue;
                 }
                 let number = match scan_number(line, pos + 1) {
                     Ok(n) => n,
@@ -281,31 +307,9 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
                     end: number.end,
                     decimals: number.decimals,
                     point: number.point,
+                    expr: None,
                 });
                 pos = number.end;
-                if letter == b'O' {
-                    let mut q = pos;
-                    while q < len && is_space(line[q]) {
-                        q += 1;
-                    }
-                    let word_end = q + line[q..]
-                        .iter()
-                        .take_while(|b| b.is_ascii_alphabetic())
-                        .count();
-                    if word_end > q + 1 {
-                        let text = &line[q..word_end];
-                        if O_KEYWORDS
-                            .iter()
-                            .any(|k| k.as_bytes().eq_ignore_ascii_case(text))
-                        {
-                            let name = String::from_utf8_lossy(&line[pos..word_end])
-                                .trim()
-                                .to_string();
-                            let start = words.last().map(|w| w.start).unwrap_or(pos);
-                            return Err(err(ErrorKind::Subroutine(name), start, word_end));
-                        }
-                    }
-                }
             }
             _ => {
                 // Show the whole (possibly multi-byte) character.
@@ -319,6 +323,113 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
         }
     }
     Ok(())
+}
+
+fn skip_space(line: &[u8], mut p: usize) -> usize {
+    while p < line.len() && is_space(line[p]) {
+        p += 1;
+    }
+    p
+}
+
+struct ParsedOWord {
+    word: OWord,
+    end_of_args: usize,
+}
+
+enum OError {
+    Syntax(SyntaxError),
+    Kind(ErrorKind, usize),
+}
+
+/// An O-word control line starting at `pos` (which holds `O`): `None` when the
+/// O word is a plain program number (`O1234`, no keyword follows).
+fn parse_o_word(
+    line: &[u8],
+    pos: usize,
+    exprs: &mut Vec<crate::gcode::expression::Expr>,
+    comments: &mut Vec<std::ops::Range<usize>>,
+) -> Result<Option<ParsedOWord>, OError> {
+    let q = skip_space(line, pos + 1);
+    let (label, after_label) = if line.get(q) == Some(&b'<') {
+        let (name, end) = parse_name(line, q).map_err(OError::Syntax)?;
+        (OLabel::Name(name), end)
+    } else {
+        if !starts_computed_value(line, q) && !line.get(q).is_some_and(|c| c.is_ascii_digit()) {
+            return Ok(None);
+        }
+        let value = parse_value(line, q).map_err(OError::Syntax)?;
+        let end = value.end;
+        exprs.push(value);
+        (OLabel::Number(exprs.len() as u32 - 1), end)
+    };
+    let k = skip_space(line, after_label);
+    let word_end = k + line[k..]
+        .iter()
+        .take_while(|b| b.is_ascii_alphabetic())
+        .count();
+    let text = &line[k..word_end];
+    let Some(keyword) = OKeyword::ALL
+        .iter()
+        .find(|(n, _)| n.as_bytes().eq_ignore_ascii_case(text))
+        .map(|(_, k)| *k)
+    else {
+        if matches!(label, OLabel::Name(_)) || word_end > k {
+            // `O<name>` must be followed by a keyword; `O100 foo` is not a word.
+            return Err(OError::Kind(ErrorKind::UnknownOWordKeyword, k));
+        }
+        // A program number such as `O1234` (followed by words or nothing).
+        exprs.pop();
+        return Ok(None);
+    };
+    let mut args = Vec::new();
+    let mut p = word_end;
+    let takes = match keyword {
+        OKeyword::Call => usize::MAX,
+        OKeyword::While | OKeyword::If | OKeyword::ElseIf | OKeyword::Repeat => 1,
+        OKeyword::Return | OKeyword::EndSub => 1,
+        _ => 0,
+    };
+    let required = matches!(
+        keyword,
+        OKeyword::While | OKeyword::If | OKeyword::ElseIf | OKeyword::Repeat
+    );
+    loop {
+        p = skip_space(line, p);
+        match line.get(p) {
+            Some(b'[') if args.len() < takes => {
+                let e = parse_value(line, p).map_err(OError::Syntax)?;
+                p = e.end;
+                exprs.push(e);
+                args.push(exprs.len() as u32 - 1);
+            }
+            // Comments between call arguments.
+            Some(b'(') if keyword == OKeyword::Call => {
+                match line[p..].iter().position(|&b| b == b')') {
+                    Some(i) => {
+                        comments.push(p..p + i + 1);
+                        p += i + 1
+                    }
+                    None => return Err(OError::Kind(ErrorKind::UnclosedComment, p)),
+                }
+            }
+            _ => break,
+        }
+    }
+    if required && args.is_empty() {
+        return Err(OError::Kind(ErrorKind::BracketAfterOKeyword(keyword.name()), p));
+    }
+    let end_of_args = p;
+    Ok(Some(ParsedOWord {
+        word: OWord {
+            label,
+            keyword,
+            args,
+            start: pos,
+            end: word_end,
+        },
+        end_of_args,
+    }))
 }
 
 /// Parse one line of text (no line ending) into a fresh block; line number 1.
@@ -390,13 +501,27 @@ mod tests {
             parse_block("G1 X Y1").unwrap_err().kind,
             ErrorKind::MissingNumber('X')
         ));
+        let b = parse_block("O100 sub").unwrap();
+        assert_eq!(b.o_word.as_ref().unwrap().keyword, OKeyword::Sub);
+        let b = parse_block("o<Drill Hole> call [1] (depth) [#2*2] ; go").unwrap();
+        let o = b.o_word.as_ref().unwrap();
+        assert_eq!(o.label, OLabel::Name("drillhole".into()));
+        assert_eq!((o.keyword, o.args.len(), b.comments.len()), (OKeyword::Call, 2, 2));
         assert!(matches!(
-            parse_block("O100 sub").unwrap_err().kind,
-            ErrorKind::Subroutine(_)
+            parse_block("O100 while").unwrap_err().kind,
+            ErrorKind::BracketAfterOKeyword("while")
         ));
         assert!(matches!(
-            parse_block("G1 X#1").unwrap_err().kind,
-            ErrorKind::Parameter
+            parse_block("O100 endif G1").unwrap_err().kind,
+            ErrorKind::UnexpectedAfterOWord
+        ));
+        let b = parse_block("G1 X#1 Y[#<r> * 2] #3 = sin[30] #<_g>=-#1").unwrap();
+        assert_eq!(b.words[1].expr, Some(0));
+        assert_eq!(b.assignments.len(), 2);
+        assert!(b.uses_language());
+        assert!(matches!(
+            parse_block("#1 5").unwrap_err().kind,
+            ErrorKind::MissingEquals
         ));
     }
 }

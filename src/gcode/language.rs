@@ -1,0 +1,1040 @@
+//! The language layer: runs a program's RS274NGC language — parameters,
+//! expressions, O-word control flow and subroutines — and yields EXECUTED
+//! blocks, every word a number, in execution order.
+//!
+//! It follows LinuxCNC's interpreter (`interp_o_word.cc`) in its model, so that
+//! its edge cases agree:
+//! - O-word labels: `sub`/`endsub`/`call`/`return` labels are global; the others
+//!   are local to the subroutine that holds them.
+//! - Control flow moves by *skipping* forward to the next O-line with a given
+//!   label and by *seeking back* to a recorded O-line (loops, calls to a
+//!   subroutine defined earlier). A call to a subroutine not seen yet opens
+//!   `NAME.ngc` on the subroutine search path, else searches forward in the
+//!   current file.
+//! - Parameter assignments on a line take effect after the whole line is read
+//!   (parallel setting); words use the old values.
+//!
+//! An executed block is the source line itself when the line is plain G-code
+//! read once in sequence from the main file ([`Executed::literal`]). Otherwise
+//! it is the line *flattened*: computed words replaced by their values
+//! (6 decimals, trailing zeros dropped), assignments removed, and a comment
+//! naming the source appended: `(volcomp: line 12)`, `(volcomp: drill.ngc:3)`.
+//! Writers copy executed blocks, so a program with loops comes out flat.
+//!
+//! Streaming: memory is bounded by the call stack, the parameter table, the
+//! O-word table and a cache of parsed lines inside loops and subroutines (at
+//! most [`LINE_CACHE_LIMIT`] lines, then lines are re-read) — never by the
+//! number of executed blocks. Invariant: the language knows no kinematics and
+//! no machine state beyond what the parameter table holds.
+use std::collections::HashMap;
+use std::io::{BufRead, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::block::{AssignTarget, Block, LineEnding, OKeyword, OLabel, OWord};
+use super::error::{ErrorKind, GcodeError};
+use super::expression::{EvalError, EvalErrorKind, Expr, ParamSource, to_integer};
+use super::parameters::Parameters;
+use super::parser::parse_line;
+
+/// Lines of loop and subroutine bodies kept parsed (then re-read from the file).
+pub const LINE_CACHE_LIMIT: usize = 1 << 20;
+
+/// LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`.
+pub const MAX_CALL_DEPTH: usize = 10;
+
+/// LinuxCNC's `INTERP_SUB_PARAMS`: arguments of a call.
+pub const MAX_CALL_ARGUMENTS: usize = 30;
+
+/// A program input: readable line by line and seekable (loops and calls seek).
+pub trait ProgramInput: BufRead + Seek + Send {}
+impl<T: BufRead + Seek + Send> ProgramInput for T {}
+
+/// Settings of the language layer.
+#[derive(Clone, Debug, Default)]
+pub struct LanguageOptions {
+    /// Folders searched, in order, for `NAME.ngc` when `o<NAME> call` names a
+    /// subroutine the program does not define (LinuxCNC's `SUBROUTINE_PATH`).
+    pub subroutine_path: Vec<PathBuf>,
+    /// Lenient reading: a line that cannot be parsed is passed through verbatim.
+    pub lenient: bool,
+    /// Honour block delete (`/`): such lines are not executed.
+    pub skip_deleted_blocks: bool,
+}
+
+/// Where an executed block comes from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Executed {
+    /// Index of the file in [`Executor::file_name`] (0: the main program).
+    pub file: usize,
+    /// 1-based line in that file.
+    pub line: usize,
+    /// The block is the source line as written, executed once in sequence
+    /// from the main program: writers may copy or edit it in place.
+    pub literal: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LabelKind {
+    Sub,
+    Do,
+    While,
+    Repeat,
+    If,
+}
+
+/// A recorded O-line: where it is, what it opened.
+#[derive(Clone, Debug)]
+struct LabelEntry {
+    file: usize,
+    offset: u64,
+    line: usize,
+    kind: LabelKind,
+    repeat_left: Option<i64>,
+}
+
+/// A subroutine call in progress.
+#[derive(Clone, Debug)]
+struct Frame {
+    name: String,
+    return_file: usize,
+    return_offset: u64,
+    return_line: usize,
+    saved: [f64; 30],
+    /// Loops and ifs opened inside this call (for the `literal` rule).
+    loops: usize,
+}
+
+struct SourceFile {
+    name: String,
+    path: Option<PathBuf>,
+    input: Box<dyn ProgramInput>,
+    /// Offset and line of the next line to read.
+    offset: u64,
+    line: usize,
+    /// Whether the input sits at `offset` (false after a seek was requested).
+    positioned: bool,
+}
+
+/// A parsed source line, cached inside loops and subroutines.
+struct CachedLine {
+    block: Arc<Block>,
+    next_offset: u64,
+}
+
+/// The language layer. Call [`Executor::next_block`] until it returns `None`.
+pub struct Executor {
+    options: LanguageOptions,
+    files: Vec<SourceFile>,
+    current: usize,
+    labels: HashMap<String, LabelEntry>,
+    frames: Vec<Frame>,
+    /// Skipping forward to the next O-line with this (resolved) label.
+    skipping: Option<String>,
+    /// Skipping to a subroutine's `sub` line (a forward search for a call).
+    skipping_to_sub: bool,
+    executed_if: bool,
+    doing_break: bool,
+    doing_continue: bool,
+    /// Defining (skipping over) a subroutine in the main program.
+    defining_sub: Option<String>,
+    /// Loops entered in the main program (not inside a call).
+    main_loops: usize,
+    cache: HashMap<(usize, u64), CachedLine>,
+    /// The source line being read (reused), and the executed block handed out.
+    source: Block,
+    out: Block,
+    executed: Executed,
+    percent_seen: bool,
+    finished: bool,
+    ended: bool,
+    text: String,
+}
+
+fn located(kind: ErrorKind, block: &Block, start: usize, end: usize) -> GcodeError {
+    GcodeError::at(kind, block.line, &block.raw, start, end)
+}
+
+fn eval_error(e: EvalError, block: &Block) -> GcodeError {
+    located(ErrorKind::Eval(e.kind), block, e.start, e.end)
+}
+
+impl Executor {
+    /// Run the program read from `input`, named `name` in messages (its path,
+    /// when it is a file, anchors nothing: subroutine files come only from
+    /// [`LanguageOptions::subroutine_path`]).
+    pub fn new(input: Box<dyn ProgramInput>, name: &Path, options: LanguageOptions) -> Self {
+        Executor {
+            options,
+            files: vec![SourceFile {
+                name: name.display().to_string(),
+                path: None,
+                input,
+                offset: 0,
+                line: 0,
+                positioned: true,
+            }],
+            current: 0,
+            labels: HashMap::new(),
+            frames: Vec::new(),
+            skipping: None,
+            skipping_to_sub: false,
+            executed_if: false,
+            doing_break: false,
+            doing_continue: false,
+            defining_sub: None,
+            main_loops: 0,
+            cache: HashMap::new(),
+            source: Block::default(),
+            out: Block::default(),
+            executed: Executed {
+                file: 0,
+                line: 0,
+                literal: true,
+            },
+            percent_seen: false,
+            finished: false,
+            ended: false,
+            text: String::new(),
+        }
+    }
+
+    /// The name of file `index` (0: the main program) as messages show it.
+    pub fn file_name(&self, index: usize) -> &str {
+        self.files.get(index).map_or("?", |f| f.name.as_str())
+    }
+
+    /// Where the last executed block came from.
+    pub fn executed(&self) -> &Executed {
+        &self.executed
+    }
+
+    /// The program has ended (M2/M30 seen by the machine-state layer): lines
+    /// after it are not executed. Call when the block that ended it is done.
+    pub fn end_program(&mut self) {
+        self.ended = true;
+    }
+
+    /// The next executed block, `None` at the end of the program. Errors are
+    /// located in the file that holds the line (the path is set for subroutine
+    /// files; the caller names the main file).
+    pub fn next_block(&mut self, params: &mut Parameters) -> Option<Result<&Block, GcodeError>> {
+        if self.finished || self.ended {
+            return None;
+        }
+        match self.step(params) {
+            Ok(true) => Some(Ok(&self.out)),
+            Ok(false) => {
+                self.finished = true;
+                None
+            }
+            Err(e) => {
+                self.finished = true;
+                let e = if self.current > 0 {
+                    let file = &self.files[self.current];
+                    e.with_path(file.path.clone().unwrap_or_else(|| file.name.clone().into()))
+                } else {
+                    e
+                };
+                Some(Err(e))
+            }
+        }
+    }
+
+    /// Read lines until one executes; `false` at the end of the program.
+    fn step(&mut self, params: &mut Parameters) -> Result<bool, GcodeError> {
+        loop {
+            let Some(block) = self.read_line()? else {
+                return self.end_of_file();
+            };
+            let skipping = self.skipping.is_some() || self.skipping_to_sub;
+            if let Some(err) = &block.unparsed {
+                if skipping {
+                    continue;
+                }
+                if !self.options.lenient {
+                    return Err((**err).clone());
+                }
+                // Lenient: pass the line through verbatim (the machine-state
+                // layer warns about it).
+                self.emit_source(&block);
+                return Ok(true);
+            }
+            if block.percent {
+                if skipping {
+                    continue;
+                }
+                if self.current == 0 {
+                    if self.percent_seen {
+                        // The closing `%` ends the program (LinuxCNC).
+                        self.emit_source(&block);
+                        self.ended = true;
+                        return Ok(true);
+                    }
+                    self.percent_seen = block.line == 1;
+                }
+                self.emit_source(&block);
+                return Ok(true);
+            }
+            if let Some(o) = &block.o_word {
+                self.control(&block, o, params)?;
+                continue;
+            }
+            if skipping || self.defining_sub.is_some() && self.frames.is_empty() {
+                continue;
+            }
+            if block.deleted && self.options.skip_deleted_blocks {
+                continue;
+            }
+            // An ordinary line: evaluate, then assign.
+            let literal = !block.uses_language()
+                && self.current == 0
+                && self.frames.is_empty()
+                && self.main_loops == 0;
+            if literal {
+                self.emit_source(&block);
+            } else {
+                self.flatten(&block, params)?;
+                if self.out.is_empty() && self.out.comments.is_empty() {
+                    // An assignment-only line: nothing to write.
+                    continue;
+                }
+            }
+            return Ok(true);
+        }
+    }
+
+    fn emit_source(&mut self, block: &Block) {
+        self.out.clone_from(block);
+        self.executed = Executed {
+            file: self.current,
+            line: block.line,
+            literal: self.current == 0 && self.frames.is_empty() && self.main_loops == 0,
+        };
+        if !self.executed.literal {
+            self.append_origin_comment();
+        }
+    }
+
+    /// The line with its values substituted, assignments applied.
+    fn flatten(&mut self, block: &Block, params: &mut Parameters) -> Result<(), GcodeError> {
+        // 1. Evaluate everything with the parameters as they were.
+        let mut values: Vec<f64> = Vec::with_capacity(block.words.len());
+        for w in &block.words {
+            values.push(match w.expr {
+                Some(i) => expr(block, i).eval(params).map_err(|e| eval_error(e, block))?,
+                None => w.value,
+            });
+        }
+        let mut numbered: Vec<(i64, f64, usize, usize)> = Vec::new();
+        let mut named: Vec<(String, f64)> = Vec::new();
+        for a in &block.assignments {
+            let v = expr(block, a.value)
+                .eval(params)
+                .map_err(|e| eval_error(e, block))?;
+            match &a.target {
+                AssignTarget::Numbered(i) => {
+                    let index = expr(block, *i);
+                    let n = index.eval(params).map_err(|e| eval_error(e, block))?;
+                    let n = to_integer(n).ok_or_else(|| {
+                        located(
+                            ErrorKind::Eval(EvalErrorKind::NonInteger),
+                            block,
+                            index.start,
+                            index.end,
+                        )
+                    })?;
+                    numbered.push((n, v, a.start, a.end));
+                }
+                AssignTarget::Named(name) => named.push((name.clone(), v)),
+            }
+        }
+        // 2. Assign, in order (the last setting of a parameter wins).
+        for (n, v, start, end) in numbered {
+            params
+                .assign_numbered(n, v)
+                .map_err(|k| located(ErrorKind::Eval(k), block, start, end))?;
+        }
+        for (name, v) in named {
+            params.assign_named(&name, v).map_err(|k| {
+                let a = block.assignments.first();
+                located(
+                    ErrorKind::Eval(k),
+                    block,
+                    a.map_or(0, |a| a.start),
+                    a.map_or(1, |a| a.end),
+                )
+            })?;
+        }
+        // 3. The flat text: words with numbers, no assignments.
+        let mut raw: Vec<u8> = Vec::with_capacity(block.raw.len() + 24);
+        let mut pos = 0;
+        let mut edits: Vec<(usize, usize, Option<usize>)> = Vec::new();
+        for (k, w) in block.words.iter().enumerate() {
+            if w.expr.is_some() {
+                edits.push((w.start, w.end, Some(k)));
+            }
+        }
+        for a in &block.assignments {
+            edits.push((a.start, a.end, None));
+        }
+        edits.sort_by_key(|e| e.0);
+        for (start, end, word) in edits {
+            raw.extend_from_slice(&block.raw[pos..start]);
+            if let Some(k) = word {
+                let letter = block.raw[start];
+                raw.push(letter);
+                self.text.clear();
+                push_value(&mut self.text, values[k]);
+                raw.extend_from_slice(self.text.as_bytes());
+            } else {
+                // Drop the assignment and the space before it.
+                while raw.last().is_some_and(|b| *b == b' ' || *b == b'\t') {
+                    raw.pop();
+                }
+            }
+            pos = end;
+        }
+        raw.extend_from_slice(&block.raw[pos..]);
+        let trimmed_start = raw
+            .iter()
+            .position(|b| !matches!(b, b' ' | b'\t'))
+            .unwrap_or(raw.len());
+        raw.drain(..trimmed_start);
+        self.out.reset(block.line, block.offset);
+        self.out.raw = raw;
+        self.out.ending = match block.ending {
+            LineEnding::None => LineEnding::Lf,
+            e => e,
+        };
+        if let Err(e) = parse_line(&mut self.out) {
+            // Cannot happen for text this function wrote; report it located.
+            return Err(e);
+        }
+        self.executed = Executed {
+            file: self.current,
+            line: block.line,
+            literal: false,
+        };
+        if !self.out.is_empty() || !self.out.comments.is_empty() {
+            self.append_origin_comment();
+        }
+        Ok(())
+    }
+
+    /// Append `(volcomp: line N)` (or `(volcomp: file.ngc:N)` in a subroutine
+    /// file) to `out`.
+    fn append_origin_comment(&mut self) {
+        let origin = if self.current == 0 {
+            format!("line {}", self.executed.line)
+        } else {
+            let f = &self.files[self.current];
+            let name = f
+                .path
+                .as_ref()
+                .and_then(|p| p.file_name())
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| f.name.clone())
+                .replace(['(', ')'], "");
+            format!("{name}:{}", self.executed.line)
+        };
+        let raw = &mut self.out.raw;
+        let start = if raw.is_empty() {
+            0
+        } else {
+            raw.push(b' ');
+            raw.len()
+        };
+        raw.extend_from_slice(format!("(volcomp: {origin})").as_bytes());
+        let end = raw.len();
+        self.out.comments.push(start..end);
+        if self.out.ending == LineEnding::None {
+            self.out.ending = LineEnding::Lf;
+        }
+    }
+
+    /// End of the current file.
+    fn end_of_file(&mut self) -> Result<bool, GcodeError> {
+        if self.current != 0 || !self.frames.is_empty() {
+            let name = self.files[self.current].name.clone();
+            let what = if let Some(label) = &self.skipping {
+                format!("o-word o{label} (searched from a call or a control line)")
+            } else {
+                "the end of the subroutine".to_string()
+            };
+            return Err(GcodeError::at(
+                ErrorKind::EndOfFileInSubroutine(format!("{what} in {name}")),
+                self.files[self.current].line,
+                b"",
+                0,
+                0,
+            ));
+        }
+        if let Some(label) = &self.skipping {
+            return Err(GcodeError::at(
+                ErrorKind::EndOfFileInSubroutine(format!("o-word o{label}")),
+                self.files[0].line,
+                b"",
+                0,
+                0,
+            ));
+        }
+        Ok(false)
+    }
+
+    /// Read the next source line of the current file (from the cache when it
+    /// was parsed before), `None` at its end.
+    fn read_line(&mut self) -> Result<Option<Arc<Block>>, GcodeError> {
+        let file = &mut self.files[self.current];
+        let key = (self.current, file.offset);
+        if let Some(c) = self.cache.get(&key) {
+            let block = c.block.clone();
+            file.offset = c.next_offset;
+            file.line = block.line;
+            file.positioned = false;
+            return Ok(Some(block));
+        }
+        if !file.positioned {
+            file.input
+                .seek(SeekFrom::Start(file.offset))
+                .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
+            file.positioned = true;
+        }
+        file.line += 1;
+        self.source.reset(file.line, file.offset);
+        let n = file
+            .input
+            .read_until(b'\n', &mut self.source.raw)
+            .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
+        if n == 0 {
+            file.line -= 1;
+            return Ok(None);
+        }
+        file.offset += n as u64;
+        let raw = &mut self.source.raw;
+        self.source.ending = if raw.last() == Some(&b'\n') {
+            raw.pop();
+            if raw.last() == Some(&b'\r') {
+                raw.pop();
+                LineEnding::CrLf
+            } else {
+                LineEnding::Lf
+            }
+        } else {
+            LineEnding::None
+        };
+        if let Err(e) = parse_line(&mut self.source) {
+            self.source.words.clear();
+            self.source.keywords.clear();
+            self.source.comments.clear();
+            self.source.assignments.clear();
+            self.source.o_word = None;
+            self.source.exprs.clear();
+            self.source.unparsed = Some(Box::new(e));
+        }
+        let block = Arc::new(self.source.clone());
+        let in_body = !self.frames.is_empty() || self.main_loops > 0 || block.o_word.is_some();
+        if in_body && self.cache.len() < LINE_CACHE_LIMIT {
+            self.cache.insert(
+                key,
+                CachedLine {
+                    block: block.clone(),
+                    next_offset: self.files[self.current].offset,
+                },
+            );
+        }
+        Ok(Some(block))
+    }
+
+    /// The resolved label of an O-line: global for sub/endsub/call/return,
+    /// else local to the subroutine being executed or defined.
+    fn label_of(
+        &self,
+        block: &Block,
+        o: &OWord,
+        params: &Parameters,
+    ) -> Result<String, GcodeError> {
+        let base = match &o.label {
+            OLabel::Name(n) => n.clone(),
+            OLabel::Number(i) => {
+                let e = expr(block, *i);
+                let v = e.eval(params).map_err(|e| eval_error(e, block))?;
+                let n = to_integer(v).ok_or_else(|| {
+                    located(
+                        ErrorKind::Eval(EvalErrorKind::NonInteger),
+                        block,
+                        e.start,
+                        e.end,
+                    )
+                })?;
+                n.to_string()
+            }
+        };
+        Ok(match o.keyword {
+            OKeyword::Sub | OKeyword::EndSub | OKeyword::Call | OKeyword::Return => base,
+            _ => {
+                let scope = self
+                    .frames
+                    .last()
+                    .map(|f| f.name.as_str())
+                    .or(self.defining_sub.as_deref())
+                    .unwrap_or("");
+                format!("{scope}#{base}")
+            }
+        })
+    }
+
+    fn record(&mut self, label: &str, block: &Block, kind: LabelKind) -> Result<(), GcodeError> {
+        if let Some(e) = self.labels.get(label) {
+            if kind == LabelKind::Sub && (e.file != self.current || e.offset != block.offset) {
+                return Err(located(
+                    ErrorKind::OWord(format!(
+                        "redefining sub o{label}: already defined at line {}",
+                        e.line
+                    )),
+                    block,
+                    0,
+                    block.raw.len(),
+                ));
+            }
+            return Ok(());
+        }
+        self.labels.insert(
+            label.to_string(),
+            LabelEntry {
+                file: self.current,
+                offset: block.offset,
+                line: block.line,
+                kind,
+                repeat_left: None,
+            },
+        );
+        Ok(())
+    }
+
+    fn condition(
+        &self,
+        block: &Block,
+        o: &OWord,
+        params: &Parameters,
+    ) -> Result<f64, GcodeError> {
+        match o.args.first() {
+            Some(&i) => expr(block, i)
+                .eval(params)
+                .map_err(|e| eval_error(e, block)),
+            None => Ok(0.0),
+        }
+    }
+
+    /// Jump to a recorded O-line (the line is read again next).
+    fn seek_to(&mut self, entry: &LabelEntry) {
+        self.current = entry.file;
+        let f = &mut self.files[entry.file];
+        f.offset = entry.offset;
+        f.line = entry.line - 1;
+        f.positioned = false;
+    }
+
+    fn control(
+        &mut self,
+        block: &Block,
+        o: &OWord,
+        params: &mut Parameters,
+    ) -> Result<(), GcodeError> {
+        let o_err = |msg: String| located(ErrorKind::OWord(msg), block, o.start, o.end);
+        // While skipping only the awaited label (or a sub line when searching
+        // for a subroutine) is looked at.
+        let label = match self.label_of(block, o, params) {
+            Ok(l) => l,
+            Err(e) => {
+                if self.skipping.is_some() || self.skipping_to_sub {
+                    return Ok(());
+                }
+                return Err(e);
+            }
+        };
+        if let Some(awaited) = &self.skipping
+            && *awaited != label
+        {
+            return Ok(());
+        }
+        if self.skipping_to_sub && o.keyword != OKeyword::Sub {
+            return Ok(());
+        }
+        // Inside a sub definition in the main program, only its end matters.
+        if self.frames.is_empty()
+            && let Some(def) = &self.defining_sub
+            && self.skipping.is_none()
+            && !(matches!(o.keyword, OKeyword::EndSub | OKeyword::Return) && *def == label)
+        {
+            return Ok(());
+        }
+        match o.keyword {
+            OKeyword::Sub => {
+                if self.skipping_to_sub || self.skipping.is_some() {
+                    // Found by a forward search: record it; it is the call's target.
+                    self.record(&label, block, LabelKind::Sub)?;
+                    self.skipping = None;
+                    self.skipping_to_sub = false;
+                    if self.frames.last().is_some_and(|f| f.name == label) {
+                        return Ok(()); // execute the body
+                    }
+                }
+                self.skipping_to_sub = false;
+                if let Some(frame) = self.frames.last() {
+                    if frame.name != label {
+                        return Err(o_err(format!(
+                            "Nested subroutine definition: 'O{label} sub' found inside called subroutine 'O{}'",
+                            frame.name
+                        )));
+                    }
+                    return Ok(()); // arriving at the called sub: execute its body
+                }
+                if self.defining_sub.is_some() {
+                    return Err(o_err("Nested subroutine definition".into()));
+                }
+                // A definition in the main program: record and skip over it.
+                self.record(&label, block, LabelKind::Sub)?;
+                self.defining_sub = Some(label.clone());
+                self.skipping = Some(label);
+            }
+            OKeyword::EndSub | OKeyword::Return => {
+                let value = match o.args.first() {
+                    Some(&i) => Some(
+                        expr(block, i)
+                            .eval(params)
+                            .map_err(|e| eval_error(e, block))?,
+                    ),
+                    None => None,
+                };
+                if self.frames.is_empty() {
+                    if self.defining_sub.is_none() {
+                        return Err(o_err(format!(
+                            "not in a subroutine definition: 'o{label} {}'",
+                            o.keyword.name()
+                        )));
+                    }
+                    if o.keyword == OKeyword::EndSub {
+                        self.defining_sub = None;
+                        self.skipping = None;
+                    }
+                    return Ok(());
+                }
+                // Return from the call.
+                params.returned = value;
+                let frame = self.frames.pop().expect("checked");
+                params.leave(&frame.saved);
+                self.skipping = None;
+                self.current = frame.return_file;
+                let f = &mut self.files[frame.return_file];
+                f.offset = frame.return_offset;
+                f.line = frame.return_line;
+                f.positioned = false;
+            }
+            OKeyword::Call => {
+                if self.skipping.is_some() {
+                    return Ok(());
+                }
+                if self.frames.len() >= MAX_CALL_DEPTH {
+                    return Err(o_err("Too many nested levels of subroutines".into()));
+                }
+                let mut args = Vec::with_capacity(o.args.len());
+                for &i in &o.args {
+                    if args.len() >= MAX_CALL_ARGUMENTS {
+                        return Err(o_err("Too many subroutine parameters".into()));
+                    }
+                    args.push(
+                        expr(block, i)
+                            .eval(params)
+                            .map_err(|e| eval_error(e, block))?,
+                    );
+                }
+                let f = &self.files[self.current];
+                let frame = Frame {
+                    name: label.clone(),
+                    return_file: self.current,
+                    return_offset: f.offset,
+                    return_line: f.line,
+                    saved: params.enter(&args),
+                    loops: 0,
+                };
+                self.frames.push(frame);
+                params.returned = None;
+                if let Some(entry) = self.labels.get(&label).cloned() {
+                    self.seek_to(&entry);
+                } else if let Some(path) = self.find_file(&label) {
+                    let input = std::fs::File::open(&path).map_err(|e| {
+                        o_err(format!("cannot open {}: {e}", path.display()))
+                    })?;
+                    self.files.push(SourceFile {
+                        name: path.display().to_string(),
+                        path: Some(path),
+                        input: Box::new(std::io::BufReader::new(input)),
+                        offset: 0,
+                        line: 0,
+                        positioned: true,
+                    });
+                    self.current = self.files.len() - 1;
+                    self.skipping_to_sub = true;
+                } else {
+                    if self.current != 0 {
+                        return Err(o_err(format!(
+                            "Subroutine 'O{label}' not found -- not in offset table and no file '{label}.ngc' found"
+                        )));
+                    }
+                    // Search forward in the main program.
+                    self.skipping_to_sub = true;
+                    self.skipping = Some(label);
+                }
+            }
+            OKeyword::Do => {
+                self.skipping = None;
+                if !self.labels.contains_key(&label) {
+                    self.record(&label, block, LabelKind::Do)?;
+                    self.enter_loop();
+                }
+            }
+            OKeyword::Repeat => {
+                self.check_duplicate(&label, block, LabelKind::Repeat)?;
+                self.record(&label, block, LabelKind::Repeat)?;
+                self.skipping = None;
+                let count = self.condition(block, o, params)?;
+                let entry = self.labels.get_mut(&label).expect("recorded");
+                if entry.repeat_left.is_none() {
+                    entry.repeat_left = Some(count.round() as i64);
+                    self.enter_loop();
+                }
+                let entry = self.labels.get_mut(&label).expect("recorded");
+                if entry.repeat_left.unwrap_or(0) > 0 {
+                    entry.repeat_left = entry.repeat_left.map(|n| n - 1);
+                } else {
+                    entry.repeat_left = None;
+                    self.skipping = Some(label);
+                }
+            }
+            OKeyword::While => {
+                let existing = self.labels.get(&label).cloned();
+                if let Some(e) = &existing
+                    && e.kind != LabelKind::Do
+                    && (e.file != self.current || e.offset != block.offset)
+                {
+                    return Err(o_err(format!(
+                        "duplicate O-word label: '{label}' - defined in line {}",
+                        e.line
+                    )));
+                }
+                self.skipping = None;
+                let test = self.condition(block, o, params)?;
+                match existing {
+                    Some(e) if e.kind == LabelKind::Do => {
+                        // The end of a do-while loop.
+                        if test != 0.0 && !self.doing_break {
+                            self.seek_to(&e);
+                        } else {
+                            self.doing_break = false;
+                            self.leave_loop(&label);
+                        }
+                    }
+                    _ => {
+                        if existing.is_none() {
+                            self.record(&label, block, LabelKind::While)?;
+                            self.enter_loop();
+                        }
+                        if test == 0.0 {
+                            self.skipping = Some(label);
+                        }
+                    }
+                }
+            }
+            OKeyword::EndWhile | OKeyword::EndRepeat => {
+                let Some(e) = self.labels.get(&label).cloned() else {
+                    return Err(o_err(format!("undefined O-word label: '{label}'")));
+                };
+                let want = if o.keyword == OKeyword::EndWhile {
+                    LabelKind::While
+                } else {
+                    LabelKind::Repeat
+                };
+                if e.kind != want {
+                    return Err(o_err(format!(
+                        "no matching label: '{label}' (found {:?} in line {})",
+                        e.kind, e.line
+                    )));
+                }
+                if self.skipping.as_deref() == Some(label.as_str()) {
+                    self.skipping = None;
+                    if self.doing_continue {
+                        self.doing_continue = false;
+                        self.seek_to(&e);
+                    } else {
+                        // The loop is over (condition false or break).
+                        self.doing_break = false;
+                        if let Some(entry) = self.labels.get_mut(&label) {
+                            entry.repeat_left = None;
+                        }
+                        self.leave_loop(&label);
+                    }
+                } else {
+                    self.seek_to(&e);
+                }
+            }
+            OKeyword::If => {
+                self.check_duplicate(&label, block, LabelKind::If)?;
+                self.record(&label, block, LabelKind::If)?;
+                if self.condition(block, o, params)? != 0.0 {
+                    self.skipping = None;
+                    self.executed_if = true;
+                } else {
+                    self.skipping = Some(label);
+                    self.executed_if = false;
+                }
+            }
+            OKeyword::ElseIf => {
+                self.expect_if(&label, block, o)?;
+                if self.executed_if {
+                    self.skipping = Some(label);
+                    return Ok(());
+                }
+                if self.condition(block, o, params)? != 0.0 {
+                    self.skipping = None;
+                    self.executed_if = true;
+                }
+            }
+            OKeyword::Else => {
+                self.expect_if(&label, block, o)?;
+                if self.executed_if {
+                    self.skipping = Some(label);
+                    return Ok(());
+                }
+                if self.skipping.as_deref() == Some(label.as_str()) {
+                    self.executed_if = true;
+                    self.skipping = None;
+                }
+            }
+            OKeyword::EndIf => {
+                self.expect_if(&label, block, o)?;
+                self.skipping = None;
+                self.executed_if = true;
+            }
+            OKeyword::Break | OKeyword::Continue => {
+                let Some(e) = self.labels.get(&label) else {
+                    return Err(o_err(format!("undefined O-word label: '{label}'")));
+                };
+                if e.kind != LabelKind::While && e.kind != LabelKind::Do {
+                    return Err(o_err(format!(
+                        "no matching while/do label: '{label}' (found {:?} in line {})",
+                        e.kind, e.line
+                    )));
+                }
+                if self.skipping.as_deref() == Some(label.as_str()) {
+                    return Ok(());
+                }
+                self.skipping = Some(label);
+                if o.keyword == OKeyword::Break {
+                    self.doing_break = true;
+                } else {
+                    self.doing_continue = true;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_duplicate(
+        &self,
+        label: &str,
+        block: &Block,
+        kind: LabelKind,
+    ) -> Result<(), GcodeError> {
+        if let Some(e) = self.labels.get(label)
+            && (e.kind != kind || e.file != self.current || e.offset != block.offset)
+        {
+            return Err(located(
+                ErrorKind::OWord(format!(
+                    "duplicate O-word label: '{label}' - defined in line {}",
+                    e.line
+                )),
+                block,
+                0,
+                block.raw.len(),
+            ));
+        }
+        Ok(())
+    }
+
+    fn expect_if(&self, label: &str, block: &Block, o: &OWord) -> Result<(), GcodeError> {
+        match self.labels.get(label) {
+            None => Err(located(
+                ErrorKind::OWord(format!("undefined O-word label: '{label}'")),
+                block,
+                o.start,
+                o.end,
+            )),
+            Some(e) if e.kind != LabelKind::If => Err(located(
+                ErrorKind::OWord(format!(
+                    "no matching 'if' label: '{label}' (found {:?} in line {})",
+                    e.kind, e.line
+                )),
+                block,
+                o.start,
+                o.end,
+            )),
+            Some(_) => Ok(()),
+        }
+    }
+
+    fn enter_loop(&mut self) {
+        match self.frames.last_mut() {
+            Some(f) => f.loops += 1,
+            None => self.main_loops += 1,
+        }
+    }
+
+    fn leave_loop(&mut self, _label: &str) {
+        match self.frames.last_mut() {
+            Some(f) => f.loops = f.loops.saturating_sub(1),
+            None => {
+                // Blocks after the last loop of the main program are literal
+                // again only when no loop is open.
+                self.main_loops = self.main_loops.saturating_sub(1);
+            }
+        }
+    }
+
+    fn find_file(&self, label: &str) -> Option<PathBuf> {
+        let file = format!("{label}.ngc");
+        self.options
+            .subroutine_path
+            .iter()
+            .map(|dir| dir.join(&file))
+            .find(|p| p.is_file())
+    }
+}
+
+fn expr(block: &Block, index: u32) -> &Expr {
+    &block.exprs[index as usize]
+}
+
+/// A computed value as a G-code number: 6 decimals, trailing zeros and a
+/// trailing point dropped, no `-0`.
+pub fn push_value(out: &mut String, v: f64) {
+    use std::fmt::Write;
+    let mut s = format!("{v:.6}");
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    if s == "-0" {
+        s = "0".into();
+    }
+    let _ = write!(out, "{s}");
+}
+
+/// What a parameter reference reads (for callers evaluating words themselves).
+pub fn eval_word(block: &Block, index: u32, params: &dyn ParamSource) -> Result<f64, EvalError> {
+    expr(block, index).eval(params)
+}
