@@ -43,6 +43,40 @@ pub enum ErrorKind {
     CutterCompensation(String),
     #[error("`{0}` changes the geometry and is not understood")]
     UnsupportedGCode(String),
+    #[error("Multiple {0} words on one line")]
+    RepeatedWord(char),
+    #[error("Two {0} codes used from same modal group")]
+    ModalGroupConflict(char),
+    #[error("this machine has no {0} axis (an A/C machine: X Y Z A C)")]
+    NoSuchAxis(char),
+    #[error("Cannot use two G codes that both use axis values")]
+    TwoAxisUsers,
+    #[error("G92 needs at least one axis word")]
+    G92WithoutAxes,
+    #[error("G10 with a missing or invalid P number")]
+    G10Pnumber,
+    #[error("G10 with a missing or unsupported L number (L1, L2, L10, L11, L20)")]
+    G10Lnumber,
+    #[error("Cannot use inverse time feed with canned cycles")]
+    CycleInverseTime,
+    #[error("{0}")]
+    Cycle(String),
+    #[error("Cannot probe in inverse time feed mode")]
+    ProbeInverseTime,
+    #[error("Start point too close to probe point")]
+    ProbeTooClose,
+    #[error("Cannot do {0} with zero feed rate")]
+    ZeroFeed(&'static str),
+    #[error("F word missing with inverse time {0} move")]
+    InverseTimeFeedMissing(&'static str),
+    #[error("Current point same as end point of arc")]
+    ArcSamePoint,
+    #[error("Zero-radius arc")]
+    ArcZeroRadius,
+    #[error("Radius to end of arc differs from radius to start: r1={r1:.4} r2={r2:.4} mm")]
+    ArcRadiusMismatch { r1: f64, r2: f64 },
+    #[error("arcs in the G18/G19 planes under an XY rotation (G10 L2 R) are not supported")]
+    RotatedArcPlane,
     #[error("axis words without a motion mode (G0, G1, G2 or G3)")]
     NoMotionMode,
     #[error("arc without a centre: give I/J/K or R")]
@@ -101,6 +135,22 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::RepeatedWord(_) | ErrorKind::ModalGroupConflict(_) | ErrorKind::TwoAxisUsers => {
+                "LinuxCNC refuses this block; split it into two blocks, or pass --lenient to let the last word win"
+            }
+            ErrorKind::NoSuchAxis(_) => "post-process the program for an A/C machine",
+            ErrorKind::G92WithoutAxes | ErrorKind::G10Pnumber | ErrorKind::G10Lnumber => {
+                "check the G10/G92 words (G10 L2 P1 X… sets the G54 origin)"
+            }
+            ErrorKind::CycleInverseTime | ErrorKind::Cycle(_) => "check the canned cycle's words",
+            ErrorKind::ProbeInverseTime | ErrorKind::ProbeTooClose => "check the probing move",
+            ErrorKind::ZeroFeed(_) | ErrorKind::InverseTimeFeedMissing(_) => {
+                "program an F word before (G94) or on (G93) the feed move"
+            }
+            ErrorKind::ArcSamePoint | ErrorKind::ArcZeroRadius | ErrorKind::ArcRadiusMismatch { .. } => {
+                "check the arc's end point and centre words (LinuxCNC's tolerance: 0.028 mm, or 0.1 % of the radius above 0.028 mm)"
+            }
+            ErrorKind::RotatedArcPlane => "program the arc in G17, or without the rotation",
             ErrorKind::Io(_) => "check that the file exists and is readable",
         }
     }

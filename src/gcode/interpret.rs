@@ -36,8 +36,12 @@ use crate::axes::{Axes, Axis};
 
 use super::block::Block;
 use super::error::{ErrorKind, GcodeError};
+use super::expression::to_integer;
+use super::origin::Origin;
+use super::parameters::{Parameters, numbers};
 use super::modal::{
-    CutterComp, Distance, GCode, MCode, ModalState, MotionMode, classify_g, classify_m, code_text,
+    CutterComp, Distance, GCode, MCode, ModalState, MotionMode, Units, classify_g, classify_m,
+    code_text, g_group, m_group,
     is_known_letter,
 };
 use super::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
@@ -132,11 +136,16 @@ pub struct BlockEvent {
     pub index: usize,
     /// 1-based line.
     pub line: usize,
-    /// The move, if the block moves.
+    /// The move, if the block is one ordinary move (G0–G3, G38).
     pub motion: Option<Motion>,
+    /// The moves of a block that expands into several (G28/G30 through their
+    /// intermediate point, canned cycles), in order; `motion` is then `None`.
+    pub expanded: Vec<Motion>,
+    /// The origin the block's axis words were read in (identity under G53).
+    pub origin: Origin,
     /// Modal state after the block.
     pub modal: ModalState,
-    /// Position before the block (absolute, mm/deg, programmed numbers).
+    /// Position before the block (machine coordinates: origin applied, mm/deg).
     pub start: Axes,
     /// Position after the block.
     pub position: Axes,
@@ -161,6 +170,8 @@ impl Default for BlockEvent {
             index: 0,
             line: 0,
             motion: None,
+            expanded: Vec::new(),
+            origin: Origin::MACHINE,
             modal: ModalState::new(Frame::Joint),
             start: Axes::default(),
             position: Axes::default(),
@@ -179,34 +190,77 @@ impl Default for BlockEvent {
 pub struct Interpreter {
     options: InterpretOptions,
     modal: ModalState,
+    /// Current position, machine coordinates (origin applied), mm/deg.
     position: Axes,
+    /// The active work origin and G92 offset.
+    origin: Origin,
+    params: Parameters,
     time_min: f64,
     moved: bool,
     ended: bool,
     unknown_letters_seen: u32,
 }
 
-/// Per-block word values, fixed size (no allocation).
+/// Per-block word values, fixed size (no allocation). Linear values are mm.
 #[derive(Default)]
 struct Words {
     axes: [Option<(f64, usize)>; 5],
     ijk: [Option<f64>; 3],
     r: Option<f64>,
     p: Option<f64>,
+    q: Option<f64>,
+    l: Option<f64>,
     f: Option<f64>,
+    /// Byte ranges of the F and first axis word (for error carets).
+    f_span: Option<(usize, usize)>,
 }
+
+impl Words {
+    fn has_axes(&self) -> bool {
+        self.axes.iter().any(Option::is_some)
+    }
+
+    fn first_axis(&self) -> usize {
+        self.axes.iter().flatten().map(|a| a.1).min().unwrap_or(0)
+    }
+}
+
+/// The axis index of LinuxCNC's parameter order (X Y Z A B C U V W) of ours.
+const PARAM_AXIS: [usize; 5] = [0, 1, 2, 3, 5];
 
 impl Interpreter {
     pub fn new(options: InterpretOptions) -> Self {
-        Interpreter {
+        Interpreter::with_parameters(options, Parameters::new())
+    }
+
+    /// An interpreter starting from a parameter table (a `.var` file's work
+    /// origins and stored positions, `--offset`), with coordinate system
+    /// `#5220` active, as LinuxCNC starts.
+    pub fn with_parameters(options: InterpretOptions, params: Parameters) -> Self {
+        let mut i = Interpreter {
             options,
             modal: ModalState::new(options.initial_frame),
             position: options.initial_position,
+            origin: Origin::MACHINE,
+            params,
             time_min: 0.0,
             moved: false,
             ended: false,
             unknown_letters_seen: 0,
+        };
+        let system = i.params.get(numbers::COORD_SYSTEM).round();
+        i.modal.coord_system = if (1.0..=9.0).contains(&system) {
+            system as u8
+        } else {
+            1
+        };
+        i.origin.work = i.stored_origin(i.modal.coord_system);
+        i.origin.rotation_deg = i.params.get(numbers::coord(i.modal.coord_system as usize, 9));
+        if i.params.get(numbers::G92_ENABLED) != 0.0 {
+            i.origin.g92 = i.stored_axes(numbers::G92_OFFSET);
         }
+        i.update_parameters();
+        i
     }
 
     pub fn options(&self) -> &InterpretOptions {
@@ -218,9 +272,23 @@ impl Interpreter {
         &self.modal
     }
 
-    /// Position now (after the last block).
+    /// Position now (after the last block), machine coordinates.
     pub fn position(&self) -> Axes {
         self.position
+    }
+
+    /// The active origin (work offset, G92, rotation).
+    pub fn origin(&self) -> Origin {
+        self.origin
+    }
+
+    /// The parameter table (the language layer reads and writes it).
+    pub fn parameters_mut(&mut self) -> &mut Parameters {
+        &mut self.params
+    }
+
+    pub fn parameters(&self) -> &Parameters {
+        &self.params
     }
 
     /// Interpret one block into a new event.
@@ -230,8 +298,8 @@ impl Interpreter {
         Ok(event)
     }
 
-    /// Interpret one block, reusing `event` (its warning vector keeps its
-    /// capacity). On error the interpreter's state is unchanged.
+    /// Interpret one block, reusing `event` (its vectors keep their capacity).
+    /// On error the interpreter's state is unchanged.
     pub fn interpret_into(
         &mut self,
         block: &Block,
@@ -240,7 +308,9 @@ impl Interpreter {
         event.index = block.line.saturating_sub(1);
         event.line = block.line;
         event.motion = None;
+        event.expanded.clear();
         event.start = self.position;
+        event.origin = self.origin;
         event.frame_switch = None;
         event.home = false;
         event.program_end = false;
@@ -278,6 +348,58 @@ impl Interpreter {
         }
     }
 
+    /// Origin of coordinate system `n` (1 … 9) from the parameters, mm/deg.
+    fn stored_origin(&self, n: u8) -> Axes {
+        self.stored_axes(numbers::coord(n as usize, 0))
+    }
+
+    /// Five axes stored at `base` (X) … in LinuxCNC's parameter order.
+    fn stored_axes(&self, base: usize) -> Axes {
+        let mut a = Axes::default();
+        for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+            a.set(axis, self.params.get(base + k));
+        }
+        a
+    }
+
+    /// Write the position, modal state and tool to the parameter table.
+    fn update_parameters(&mut self) {
+        let scale = self.modal.units.scale();
+        let program = self.origin.to_program(&self.position);
+        let unit = |axis: Axis, v: f64| if axis.is_rotary() { v } else { v / scale };
+        let mut pos = [0.0; 9];
+        let mut abs = [0.0; 9];
+        for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+            pos[k] = unit(axis, program.get(axis));
+            abs[k] = unit(axis, self.position.get(axis));
+        }
+        self.params.set_position(pos, abs);
+        let m = &self.modal;
+        let s = &mut self.params.system;
+        s.motion_mode = m.motion.code10();
+        s.plane = match m.plane {
+            Plane::XY => 170.0,
+            Plane::ZX => 180.0,
+            Plane::YZ => 190.0,
+        };
+        s.cutter_comp = match m.cutter_comp {
+            CutterComp::Off => 400.0,
+            CutterComp::Left => 410.0,
+            CutterComp::Right => 420.0,
+        };
+        s.metric = m.units == Units::Mm;
+        s.incremental = m.distance == Distance::Incremental;
+        s.ijk_absolute = m.arc_distance == Distance::Absolute;
+        s.inverse_time = m.inverse_time;
+        s.coord_system = match m.coord_system {
+            n @ 1..=6 => 530.0 + 10.0 * n as f64,
+            n => 584.0 + n as f64,
+        };
+        s.tool_offset = m.tool_length;
+        s.retract_r_plane = m.retract_r_plane;
+        s.feed = if m.inverse_time { m.feed } else { m.feed / scale };
+    }
+
     fn apply(&mut self, block: &Block, event: &mut BlockEvent) -> Result<(), GcodeError> {
         if let Some(err) = &block.unparsed {
             event.skipped = true;
@@ -302,22 +424,85 @@ impl Interpreter {
         if block.is_empty() {
             return Ok(());
         }
-        // Work on a copy of the modal state: nothing changes when the block fails.
+        self.params.system.line = block.line as f64;
+        // Work on copies: nothing changes when the block fails.
         let mut modal = self.modal;
+        let mut origin = self.origin;
         let old_frame = modal.frame;
         let old_inverse = modal.inverse_time;
         let mut words = Words::default();
         let mut machine_coordinates = false;
-        let mut home: Option<(i32, usize, usize)> = None;
         let mut motion_word: Option<(usize, usize)> = None;
         let mut end = false;
         let mut unsupported = false;
+        // Group-0 codes that take the axis words: (code, start, end).
+        let mut axis_user: Option<(GCode, usize, usize)> = None;
+        let mut store_home: Option<u8> = None;
+        let mut axis_offset: Option<u16> = None;
+        let mut coord_select: Option<u8> = None;
+        let mut g_groups = [false; 16];
+        let mut m_groups = [false; 11];
+        let mut m_codes: [Option<i32>; 11] = [None; 11];
+        let mut seen_letters = 0u32;
 
         for kw in &block.keywords {
             modal.frame = match kw.keyword {
                 super::block::Keyword::TraOri => Frame::Part,
                 super::block::Keyword::TraFoof => Frame::Joint,
             };
+        }
+        // Repeated words and modal-group conflicts (LinuxCNC refuses both).
+        for w in &block.words {
+            match w.letter {
+                b'G' => {
+                    if let Some(code) = w.code10()
+                        && let Some(g) = g_group(classify_g(code))
+                    {
+                        if std::mem::replace(&mut g_groups[g as usize], true) {
+                            self.fail(
+                                block,
+                                event,
+                                ErrorKind::ModalGroupConflict('G'),
+                                w.start,
+                                w.end,
+                            )?;
+                        }
+                    }
+                }
+                b'M' => {
+                    if let Some(code) = w.code10()
+                        && let Some(g) = m_group(code)
+                    {
+                        let coolant_pair = g == 8
+                            && matches!((m_codes[8], code), (Some(70), 80) | (Some(80), 70));
+                        if m_groups[g as usize] && !coolant_pair {
+                            self.fail(
+                                block,
+                                event,
+                                ErrorKind::ModalGroupConflict('M'),
+                                w.start,
+                                w.end,
+                            )?;
+                        }
+                        m_groups[g as usize] = true;
+                        m_codes[g as usize] = Some(code);
+                    }
+                }
+                letter if letter.is_ascii_uppercase() => {
+                    let bit = 1u32 << (letter - b'A');
+                    if seen_letters & bit != 0 {
+                        self.fail(
+                            block,
+                            event,
+                            ErrorKind::RepeatedWord(letter as char),
+                            w.start,
+                            w.end,
+                        )?;
+                    }
+                    seen_letters |= bit;
+                }
+                _ => {}
+            }
         }
         // Units first: every number of the block is in the block's units.
         for w in block.words.iter().filter(|w| w.letter == b'G') {
@@ -340,7 +525,8 @@ impl Interpreter {
                         )?;
                         continue;
                     };
-                    match classify_g(code) {
+                    let g = classify_g(code);
+                    match g {
                         GCode::Motion(m) => {
                             modal.motion = m;
                             motion_word = Some((w.start, w.end));
@@ -361,8 +547,20 @@ impl Interpreter {
                             modal.frame = Frame::Joint;
                         }
                         GCode::MachineCoordinates => machine_coordinates = true,
-                        GCode::WorkOffset | GCode::PassThrough => {}
-                        GCode::Home => home = Some((code, w.start, w.end)),
+                        GCode::CoordSystem(n) => coord_select = Some(n),
+                        GCode::RetractMode(r) => modal.retract_r_plane = r,
+                        GCode::Home(_) => axis_user = Some((g, w.start, w.end)),
+                        GCode::StoreHome(n) => store_home = Some(n),
+                        GCode::SetData => {
+                            axis_user = Some((g, w.start, w.end));
+                        }
+                        GCode::AxisOffset(c) => {
+                            axis_offset = Some(c);
+                            if c == 920 {
+                                axis_user = Some((g, w.start, w.end));
+                            }
+                        }
+                        GCode::Dwell | GCode::PassThrough => {}
                         GCode::CancelMotion => modal.motion = MotionMode::None,
                         GCode::Unsupported => {
                             unsupported = true;
@@ -400,12 +598,27 @@ impl Interpreter {
                         words.axes[i] = Some((v, w.start));
                     }
                 }
+                b'B' | b'U' | b'V' | b'W' => {
+                    unsupported = true;
+                    self.fail(
+                        block,
+                        event,
+                        ErrorKind::NoSuchAxis(w.letter as char),
+                        w.start,
+                        w.end,
+                    )?;
+                }
                 b'I' => words.ijk[0] = Some(w.value * scale),
                 b'J' => words.ijk[1] = Some(w.value * scale),
                 b'K' => words.ijk[2] = Some(w.value * scale),
-                b'R' => words.r = Some(w.value * scale),
+                b'R' => words.r = Some(w.value),
                 b'P' => words.p = Some(w.value),
-                b'F' => words.f = Some(w.value),
+                b'Q' => words.q = Some(w.value),
+                b'L' => words.l = Some(w.value),
+                b'F' => {
+                    words.f = Some(w.value);
+                    words.f_span = Some((w.start, w.end));
+                }
                 other => {
                     if !is_known_letter(other) && other.is_ascii_uppercase() {
                         let bit = 1u32 << (other - b'A');
@@ -429,26 +642,140 @@ impl Interpreter {
             modal.feed = if modal.inverse_time { f } else { f * scale };
         }
 
-        let has_axes = words.axes.iter().any(Option::is_some);
+        // Coordinate system selection (before the group-0 codes and the motion).
+        if let Some(n) = coord_select {
+            modal.coord_system = n;
+            origin.work = self.stored_origin(n);
+            origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
+        }
         let mut new_position = self.position;
         let mut motion = None;
-        if let Some((code, start, _)) = home {
-            event.home = true;
-            event.warnings.push(Warning {
-                line: block.line,
-                column: start + 1,
-                kind: WarningKind::Home(code_text('G', code)),
-            });
-        } else if has_axes && !unsupported {
+        let mut store: Vec<(usize, f64)> = Vec::new();
+        let given = |words: &Words| -> [bool; 5] {
+            let mut g = [false; 5];
+            for (i, a) in words.axes.iter().enumerate() {
+                g[i] = a.is_some();
+            }
+            g
+        };
+        if let (Some((GCode::Motion(m), ..)), Some((ms, me))) = (axis_user, motion_word)
+            && m != MotionMode::None
+        {
+            let _ = m;
+            self.fail(block, event, ErrorKind::TwoAxisUsers, ms, me)?;
+        }
+        // Program coordinates of the current position in the block's origin.
+        let program_now = origin.to_program(&self.position);
+        match axis_user {
+            Some((GCode::SetData, s, e)) => {
+                self.set_data(block, event, &words, &modal, &mut origin, &program_now, &mut store, (s, e))?;
+            }
+            Some((GCode::AxisOffset(_), ..)) => {
+                // G92: offsets so that the current position reads as the words.
+                if !words.has_axes() {
+                    self.fail(block, event, ErrorKind::G92WithoutAxes, 0, block.raw.len())?;
+                }
+                let mut q = program_now;
+                q.x += origin.g92.x;
+                q.y += origin.g92.y;
+                q.z += origin.g92.z;
+                q.a += origin.g92.a;
+                q.c += origin.g92.c;
+                for axis in Axis::ALL {
+                    if let Some((v, _)) = words.axes[axis as usize] {
+                        origin.g92.set(axis, q.get(axis) - v);
+                    }
+                }
+                store.push((numbers::G92_ENABLED, 1.0));
+                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                    store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
+                }
+            }
+            Some((GCode::Home(n), s, _)) => {
+                event.home = true;
+                // To the intermediate point (program coordinates), then to the
+                // stored position of the given axes (all when none is given).
+                let mut mid = program_now;
+                let g = given(&words);
+                for axis in Axis::ALL {
+                    if let Some((v, _)) = words.axes[axis as usize] {
+                        let base = if modal.distance == Distance::Incremental {
+                            program_now.get(axis)
+                        } else {
+                            0.0
+                        };
+                        mid.set(axis, base + v);
+                    }
+                }
+                let mid = origin.to_machine(&mid);
+                let base = if n == 28 {
+                    numbers::G28_POSITION
+                } else {
+                    numbers::G30_POSITION
+                };
+                let stored = self.stored_axes(base);
+                let mut home = mid;
+                let all = !g.iter().any(|x| *x);
+                for axis in Axis::ALL {
+                    if all || g[axis as usize] {
+                        home.set(axis, stored.get(axis));
+                    }
+                }
+                let _ = s;
+                for (from, to, g53) in [(self.position, mid, false), (mid, home, true)] {
+                    let mut m = Motion {
+                        kind: MotionKind::Rapid,
+                        frame: Frame::Joint,
+                        machine_coordinates: g53,
+                        start: from,
+                        end: to,
+                        feed: Feed::Rapid,
+                        duration_min: 0.0,
+                    };
+                    m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
+                    event.expanded.push(m);
+                }
+                new_position = home;
+            }
+            _ => {}
+        }
+        if let Some(n) = store_home {
+            let base = if n == 28 {
+                numbers::G28_POSITION
+            } else {
+                numbers::G30_POSITION
+            };
+            for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                store.push((base + k, self.position.get(axis)));
+            }
+        }
+        match axis_offset {
+            Some(921) | Some(922) => {
+                origin.g92 = Axes::default();
+                if axis_offset == Some(921) {
+                    store.push((numbers::G92_ENABLED, 0.0));
+                    for k in 0..9 {
+                        store.push((numbers::G92_OFFSET + k, 0.0));
+                    }
+                } else {
+                    store.push((numbers::G92_ENABLED, 0.0));
+                }
+            }
+            Some(923) => {
+                origin.g92 = self.stored_axes(numbers::G92_OFFSET);
+                store.push((numbers::G92_ENABLED, 1.0));
+            }
+            _ => {}
+        }
+
+        if axis_user.is_none() && words.has_axes() && !unsupported {
             if modal.motion == MotionMode::None {
-                let at = words.axes.iter().flatten().map(|a| a.1).next().unwrap_or(0);
+                let at = words.first_axis();
                 self.fail(block, event, ErrorKind::NoMotionMode, at, at + 1)?;
                 modal.motion = MotionMode::Linear;
             }
             if modal.cutter_comp != CutterComp::Off {
-                let (s, e) = motion_word
-                    .or_else(|| words.axes.iter().flatten().map(|a| (a.1, a.1 + 1)).next())
-                    .unwrap_or((0, 1));
+                let (s, e) = motion_word.unwrap_or((words.first_axis(), words.first_axis() + 1));
                 let name = if modal.cutter_comp == CutterComp::Left {
                     "G41"
                 } else {
@@ -462,32 +789,46 @@ impl Interpreter {
                     e,
                 )?;
             }
-            for axis in Axis::ALL {
-                if let Some((v, _)) = words.axes[axis as usize] {
-                    let incremental =
-                        modal.distance == Distance::Incremental && !machine_coordinates;
-                    let base = if incremental {
-                        self.position.get(axis)
-                    } else {
-                        0.0
-                    };
-                    new_position.set(axis, base + v);
+            if let MotionMode::Cycle(code) = modal.motion {
+                new_position = self.cycle(block, event, &modal, &origin, &words, code)?;
+            } else {
+                let incremental = modal.distance == Distance::Incremental && !machine_coordinates;
+                // The target in the block's coordinates (machine for G53).
+                let mut target = if machine_coordinates {
+                    self.position
+                } else {
+                    program_now
+                };
+                for axis in Axis::ALL {
+                    if let Some((v, _)) = words.axes[axis as usize] {
+                        let base = if incremental { target.get(axis) } else { 0.0 };
+                        target.set(axis, base + v);
+                    }
+                }
+                let block_origin = if machine_coordinates {
+                    Origin::MACHINE
+                } else {
+                    origin
+                };
+                let end_machine = block_origin.to_machine(&target);
+                if end_machine.is_finite() {
+                    let m = self.motion(
+                        block,
+                        event,
+                        &modal,
+                        &words,
+                        &block_origin,
+                        end_machine,
+                        machine_coordinates,
+                    )?;
+                    new_position = m.end;
+                    motion = Some(m);
+                } else {
+                    self.fail(block, event, ErrorKind::NonFinite, 0, block.raw.len())?;
                 }
             }
-            if new_position.is_finite() {
-                let m = self.motion(
-                    block,
-                    event,
-                    &modal,
-                    &words,
-                    new_position,
-                    machine_coordinates,
-                )?;
-                motion = Some(m);
-            } else {
-                self.fail(block, event, ErrorKind::NonFinite, 0, block.raw.len())?;
-                new_position = self.position;
-            }
+        } else if words.has_axes() && axis_user.is_none() && unsupported {
+            // Lenient: the unsupported code's axis words are ignored.
         }
         if end {
             event.program_end = true;
@@ -498,33 +839,141 @@ impl Interpreter {
             event.frame_switch = Some(modal.frame);
         }
         self.modal = modal;
+        self.origin = origin;
+        event.origin = if machine_coordinates {
+            Origin::MACHINE
+        } else {
+            origin
+        };
+        for (n, v) in store {
+            self.params.set(n, v);
+        }
+        self.params.set(numbers::COORD_SYSTEM, modal.coord_system as f64);
         self.position = new_position;
-        if let Some(m) = motion {
+        for m in motion.iter().chain(event.expanded.iter()) {
             if self.moved {
                 self.time_min += m.duration_min;
             }
             self.moved = true;
-            event.motion = Some(m);
         }
+        event.motion = motion;
+        self.update_parameters();
         Ok(())
     }
 
+    /// G10: L2/L20 set a work origin, L1/L10/L11 the tool table (accepted; tool
+    /// offsets are not applied).
+    #[allow(clippy::too_many_arguments)]
+    fn set_data(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        words: &Words,
+        modal: &ModalState,
+        origin: &mut Origin,
+        program_now: &Axes,
+        store: &mut Vec<(usize, f64)>,
+        span: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        let l = words.l.and_then(to_integer);
+        let p = words.p.and_then(to_integer);
+        match l {
+            Some(2) | Some(20) => {
+                let Some(p) = p.filter(|p| (0..=9).contains(p)) else {
+                    return self.fail(block, event, ErrorKind::G10Pnumber, span.0, span.1);
+                };
+                let n = if p == 0 { modal.coord_system } else { p as u8 };
+                let mut o = self.stored_origin(n);
+                for axis in Axis::ALL {
+                    if let Some((v, _)) = words.axes[axis as usize] {
+                        let value = if l == Some(2) {
+                            v
+                        } else {
+                            // L20: the current position reads as `v`.
+                            let mut p = *program_now;
+                            p.set(axis, v);
+                            let q = Origin {
+                                work: Axes::default(),
+                                ..*origin
+                            }
+                            .to_machine(&p);
+                            self.position.get(axis) - q.get(axis)
+                        };
+                        o.set(axis, value);
+                    }
+                }
+                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                    store.push((numbers::coord(n as usize, k), o.get(axis)));
+                }
+                let mut rotation = self.params.get(numbers::coord(n as usize, 9));
+                if let Some(r) = words.r {
+                    rotation = r;
+                    store.push((numbers::coord(n as usize, 9), r));
+                }
+                if n == modal.coord_system {
+                    origin.work = o;
+                    origin.rotation_deg = rotation;
+                }
+                Ok(())
+            }
+            Some(1) | Some(10) | Some(11) => {
+                if p.is_none_or(|p| p < 0) {
+                    return self.fail(block, event, ErrorKind::G10Pnumber, span.0, span.1);
+                }
+                Ok(())
+            }
+            _ => self.fail(block, event, ErrorKind::G10Lnumber, span.0, span.1),
+        }
+    }
+
+    /// A canned-cycle block (being integrated: `cycles` expands it).
+    fn cycle(
+        &mut self,
+        block: &Block,
+        event: &mut BlockEvent,
+        _modal: &ModalState,
+        _origin: &Origin,
+        _words: &Words,
+        code: u16,
+    ) -> Result<Axes, GcodeError> {
+        self.fail(
+            block,
+            event,
+            ErrorKind::UnsupportedGCode(code_text('G', code as i32)),
+            0,
+            block.raw.len(),
+        )?;
+        Ok(self.position)
+    }
+
+    /// A straight move, arc or probing move from the current position to
+    /// `end` (machine coordinates); `origin` is the block's (identity for G53).
+    #[allow(clippy::too_many_arguments)]
     fn motion(
         &self,
         block: &Block,
         event: &mut BlockEvent,
         modal: &ModalState,
         words: &Words,
+        origin: &Origin,
         end: Axes,
         machine_coordinates: bool,
     ) -> Result<Motion, GcodeError> {
         let start = self.position;
+        let feed_span = words.f_span.unwrap_or((0, block.raw.len()));
         let mut kind = match modal.motion {
             MotionMode::Rapid => MotionKind::Rapid,
-            MotionMode::Linear | MotionMode::None => MotionKind::Linear,
+            MotionMode::Linear | MotionMode::None | MotionMode::Probe(_) | MotionMode::Cycle(_) => {
+                MotionKind::Linear
+            }
             MotionMode::ArcCw | MotionMode::ArcCcw => {
                 let clockwise = modal.motion == MotionMode::ArcCw;
-                match self.arc_centre(block, event, modal, words, &start, &end, clockwise)? {
+                if origin.rotation_deg != 0.0 && modal.plane != Plane::XY {
+                    self.fail(block, event, ErrorKind::RotatedArcPlane, 0, block.raw.len())?;
+                }
+                let s = origin.to_program(&start);
+                let e = origin.to_program(&end);
+                match self.arc_centre(block, event, modal, words, &s, &e, clockwise)? {
                     Some(centre) => {
                         let turns = match words.p {
                             Some(p) if (1.0..1e6).contains(&p) => {
@@ -534,7 +983,7 @@ impl Interpreter {
                         };
                         MotionKind::Arc {
                             clockwise,
-                            centre,
+                            centre: origin.xyz_to_machine(centre),
                             plane: modal.plane,
                             turns,
                         }
@@ -543,25 +992,28 @@ impl Interpreter {
                 }
             }
         };
-        if let MotionKind::Arc { centre, plane, .. } = kind {
-            let (s, e, c) = (
-                to_plane(plane, start.xyz()),
-                to_plane(plane, end.xyz()),
-                to_plane(plane, centre),
-            );
-            let rs = (s[0] - c[0]).hypot(s[1] - c[1]);
-            let re = (e[0] - c[0]).hypot(e[1] - c[1]);
-            let d = (rs - re).abs();
-            if d > 0.005 && d > 1e-3 * rs.max(re) {
-                event.warnings.push(Warning {
-                    line: block.line,
-                    column: 1,
-                    kind: WarningKind::ArcRadiusMismatch(d),
-                });
+        if let MotionKind::Arc { centre, .. } = kind
+            && !centre.iter().all(|v| v.is_finite())
+        {
+            kind = MotionKind::Linear;
+        }
+        let feeding = modal.motion != MotionMode::Rapid;
+        let arc = matches!(modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw);
+        if let MotionMode::Probe(_) = modal.motion {
+            if modal.inverse_time {
+                self.fail(block, event, ErrorKind::ProbeInverseTime, feed_span.0, feed_span.1)?;
+            } else if modal.feed <= 0.0 {
+                self.fail(block, event, ErrorKind::ZeroFeed("probe"), 0, block.raw.len())?;
             }
-            if !centre.iter().all(|v| v.is_finite()) {
-                kind = MotionKind::Linear;
+            if start == end {
+                self.fail(block, event, ErrorKind::ProbeTooClose, 0, block.raw.len())?;
             }
+        } else if feeding && modal.inverse_time && words.f.is_none() {
+            let what = if arc { "arc" } else { "G1" };
+            self.fail(block, event, ErrorKind::InverseTimeFeedMissing(what), 0, block.raw.len())?;
+        } else if feeding && !modal.inverse_time && modal.feed <= 0.0 {
+            let what = if arc { "arc" } else { "G1" };
+            self.fail(block, event, ErrorKind::ZeroFeed(what), 0, block.raw.len())?;
         }
         let feed = if modal.motion == MotionMode::Rapid {
             Feed::Rapid
@@ -601,7 +1053,9 @@ impl Interpreter {
         Ok(m)
     }
 
-    /// Absolute centre of an arc, `None` when it falls back to a straight move (lenient).
+    /// Centre of an arc in program coordinates (mm), LinuxCNC's checks and
+    /// tolerances (`arc_data_ijk`, `arc_data_r`); `None` when it falls back to a
+    /// straight move (lenient).
     #[allow(clippy::too_many_arguments)]
     fn arc_centre(
         &self,
@@ -619,18 +1073,34 @@ impl Interpreter {
                 .map(|w| (w.start, w.end))
                 .unwrap_or((0, block.raw.len()))
         };
-        if let Some(r) = words.r {
-            let s = to_plane(modal.plane, start.xyz());
-            let e = to_plane(modal.plane, end.xyz());
+        let scale = modal.units.scale();
+        let inch = modal.units == Units::Inch;
+        // LinuxCNC: RADIUS_TOLERANCE_INCH 0.00005 in; CENTER_ARC_RADIUS_TOLERANCE
+        // 2·0.001·√2 in / 2·0.01·√2 mm; SPIRAL_RELATIVE_TOLERANCE 0.001.
+        let radius_tolerance = 0.00005 * 25.4;
+        let spiral_abs = if inch {
+            2.0 * 0.001 * std::f64::consts::SQRT_2 * 25.4
+        } else {
+            2.0 * 0.01 * std::f64::consts::SQRT_2
+        };
+        let s = to_plane(modal.plane, start.xyz());
+        let e = to_plane(modal.plane, end.xyz());
+        if let Some(r_words) = words.r {
+            let r = r_words * scale;
             let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
             let d = dx.hypot(dy);
-            let radius = r.abs();
-            if d <= 1e-12 || d > 2.0 * radius * (1.0 + 1e-9) + 1e-9 {
-                let (a, b) = word_span(b'R');
-                self.fail(block, event, ErrorKind::ArcUnreachable(r), a, b)?;
+            let (a, b) = word_span(b'R');
+            if d == 0.0 {
+                self.fail(block, event, ErrorKind::ArcSamePoint, a, b)?;
                 return Ok(None);
             }
-            let h = (radius * radius - d * d / 4.0).max(0.0).sqrt();
+            let radius = r.abs();
+            if d / 2.0 - radius > radius_tolerance {
+                self.fail(block, event, ErrorKind::ArcUnreachable(r_words), a, b)?;
+                return Ok(None);
+            }
+            let half = (d / 2.0).min(radius);
+            let h = (radius * radius - half * half).max(0.0).sqrt();
             let (tx, ty) = (dx / d, dy / d);
             let (nx, ny) = (-ty, tx);
             // CCW with a minor arc (R > 0): centre to the left of the chord.
@@ -667,6 +1137,32 @@ impl Interpreter {
             } else {
                 c[n] += offsets[n];
             }
+        }
+        let cp = to_plane(modal.plane, c);
+        let r1 = (s[0] - cp[0]).hypot(s[1] - cp[1]);
+        let r2 = (e[0] - cp[0]).hypot(e[1] - cp[1]);
+        if r1 < radius_tolerance || r2 < radius_tolerance {
+            self.fail(block, event, ErrorKind::ArcZeroRadius, 0, block.raw.len())?;
+            return Ok(None);
+        }
+        let abs_err = (r1 - r2).abs();
+        let rel_err = abs_err / r1.max(r2);
+        if abs_err > spiral_abs * 100.0 || (rel_err > 0.001 && abs_err > spiral_abs) {
+            self.fail(
+                block,
+                event,
+                ErrorKind::ArcRadiusMismatch { r1, r2 },
+                0,
+                block.raw.len(),
+            )?;
+            return Ok(None);
+        }
+        if abs_err > 0.005 && abs_err > 1e-3 * r1.max(r2) {
+            event.warnings.push(Warning {
+                line: block.line,
+                column: 1,
+                kind: WarningKind::ArcRadiusMismatch(abs_err),
+            });
         }
         Ok(Some(c))
     }

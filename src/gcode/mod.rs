@@ -45,6 +45,7 @@ pub mod interpret;
 pub mod language;
 pub mod modal;
 pub mod motion;
+pub mod origin;
 pub mod parameters;
 pub mod parser;
 pub mod reader;

@@ -21,6 +21,10 @@ pub enum MotionMode {
     ArcCw,
     /// G3.
     ArcCcw,
+    /// G38.2–G38.5 (the code × 10: 382 … 385): a straight probing move.
+    Probe(u16),
+    /// A canned cycle, G73 or G81–G89 (the code × 10: 730, 810 … 890).
+    Cycle(u16),
 }
 
 impl MotionMode {
@@ -32,6 +36,32 @@ impl MotionMode {
             MotionMode::Linear => "G1",
             MotionMode::ArcCw => "G2",
             MotionMode::ArcCcw => "G3",
+            MotionMode::Probe(382) => "G38.2",
+            MotionMode::Probe(383) => "G38.3",
+            MotionMode::Probe(384) => "G38.4",
+            MotionMode::Probe(_) => "G38.5",
+            MotionMode::Cycle(730) => "G73",
+            MotionMode::Cycle(810) => "G81",
+            MotionMode::Cycle(820) => "G82",
+            MotionMode::Cycle(830) => "G83",
+            MotionMode::Cycle(840) => "G84",
+            MotionMode::Cycle(850) => "G85",
+            MotionMode::Cycle(860) => "G86",
+            MotionMode::Cycle(870) => "G87",
+            MotionMode::Cycle(880) => "G88",
+            MotionMode::Cycle(_) => "G89",
+        }
+    }
+
+    /// LinuxCNC's `_motion_mode` value (code × 10; 800 when cancelled).
+    pub fn code10(self) -> f64 {
+        match self {
+            MotionMode::None => 800.0,
+            MotionMode::Rapid => 0.0,
+            MotionMode::Linear => 10.0,
+            MotionMode::ArcCw => 20.0,
+            MotionMode::ArcCcw => 30.0,
+            MotionMode::Probe(c) | MotionMode::Cycle(c) => c as f64,
         }
     }
 }
@@ -89,6 +119,10 @@ pub struct ModalState {
     pub frame: Frame,
     /// Last programmed F: mm/min under G94 (converted from in/min), 1/min under G93.
     pub feed: f64,
+    /// Active work coordinate system: 1 (G54) … 9 (G59.3).
+    pub coord_system: u8,
+    /// G99 (canned cycles retract to R) rather than G98 (to the old Z).
+    pub retract_r_plane: bool,
 }
 
 impl ModalState {
@@ -104,6 +138,8 @@ impl ModalState {
             tool_length: false,
             frame,
             feed: 0.0,
+            coord_system: 1,
+            retract_r_plane: false,
         }
     }
 }
@@ -127,19 +163,51 @@ pub enum GCode {
     ToolLengthOff,
     /// G53: machine coordinates for this block.
     MachineCoordinates,
-    /// G54–G59, G59.1–G59.3, G54.1: work offsets, passed through (offsets unknown).
-    WorkOffset,
-    /// G28/G30: return to a reference point (reported, not interpolated).
-    Home,
+    /// G54–G59, G59.1–G59.3: select work coordinate system 1 … 9.
+    CoordSystem(u8),
+    /// G28 / G30: go to a stored position (through the words' intermediate point).
+    Home(u8),
+    /// G28.1 / G30.1: store the current position.
+    StoreHome(u8),
+    /// G10 (L1, L2, L10, L11, L20).
+    SetData,
+    /// G92, G92.1, G92.2, G92.3 (the code × 10).
+    AxisOffset(u16),
+    /// G98 (`false`) / G99 (`true`).
+    RetractMode(bool),
+    /// G4 dwell.
+    Dwell,
     /// G80: cancels the motion mode (canned cycles).
     CancelMotion,
-    /// Harmless codes passed through and counted: G4 dwell, G61/G61.1/G64 path
-    /// control, G98/G99, G15, G50, G50.1, G69, G43.1 (dynamic TLO), G90/G91-like
-    /// cancels.
+    /// Harmless codes passed through and counted: G61/G61.1/G64 path control,
+    /// G43.1 (dynamic TLO), G96/G97, G7/G8, G15, G50, G50.1, G69.
     PassThrough,
-    /// Anything else: assumed to change the geometry (G10, G92, G52, G68, G51,
-    /// canned cycles G81–G89, G33, G38.x, G5.x, G7/G8, G16, ...).
+    /// Anything else, assumed to change the geometry (G33, G76, G5.x, G70–G72,
+    /// G41.1/G42.1, G52, G68, G51, G16, …).
     Unsupported,
+}
+
+/// LinuxCNC's modal group of a G code (group 0 holds the non-modal codes).
+pub fn g_group(code: GCode) -> Option<u8> {
+    Some(match code {
+        GCode::Motion(_) | GCode::CancelMotion => 1,
+        GCode::Plane(_) => 2,
+        GCode::Distance(_) => 3,
+        GCode::ArcDistance(_) => 4,
+        GCode::FeedMode(_) => 5,
+        GCode::Units(_) => 6,
+        GCode::CutterComp(_) => 7,
+        GCode::ToolLength | GCode::ToolTip | GCode::ToolLengthOff => 8,
+        GCode::RetractMode(_) => 10,
+        GCode::CoordSystem(_) => 12,
+        GCode::MachineCoordinates
+        | GCode::Home(_)
+        | GCode::StoreHome(_)
+        | GCode::SetData
+        | GCode::AxisOffset(_)
+        | GCode::Dwell => 0,
+        GCode::PassThrough | GCode::Unsupported => return None,
+    })
 }
 
 /// Classify a G code by its number times ten.
@@ -149,28 +217,48 @@ pub fn classify_g(code10: i32) -> GCode {
         10 => GCode::Motion(MotionMode::Linear),
         20 => GCode::Motion(MotionMode::ArcCw),
         30 => GCode::Motion(MotionMode::ArcCcw),
+        382..=385 => GCode::Motion(MotionMode::Probe(code10 as u16)),
+        730 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
+            GCode::Motion(MotionMode::Cycle(code10 as u16))
+        }
+        40 => GCode::Dwell,
+        100 => GCode::SetData,
         170 => GCode::Plane(Plane::XY),
         180 => GCode::Plane(Plane::ZX),
         190 => GCode::Plane(Plane::YZ),
         200 => GCode::Units(Units::Inch),
         210 => GCode::Units(Units::Mm),
+        280 => GCode::Home(28),
+        281 => GCode::StoreHome(28),
+        300 => GCode::Home(30),
+        301 => GCode::StoreHome(30),
         900 => GCode::Distance(Distance::Absolute),
         910 => GCode::Distance(Distance::Incremental),
         901 => GCode::ArcDistance(Distance::Absolute),
         911 => GCode::ArcDistance(Distance::Incremental),
+        920..=923 => GCode::AxisOffset(code10 as u16),
         930 => GCode::FeedMode(true),
         940 => GCode::FeedMode(false),
         400 => GCode::CutterComp(CutterComp::Off),
-        410 | 411 => GCode::CutterComp(CutterComp::Left),
-        420 | 421 => GCode::CutterComp(CutterComp::Right),
+        410 => GCode::CutterComp(CutterComp::Left),
+        420 => GCode::CutterComp(CutterComp::Right),
         430 => GCode::ToolLength,
         434 | 2340 => GCode::ToolTip,
         490 => GCode::ToolLengthOff,
         530 => GCode::MachineCoordinates,
-        540 | 541 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => GCode::WorkOffset,
-        280 | 300 => GCode::Home,
+        540 => GCode::CoordSystem(1),
+        550 => GCode::CoordSystem(2),
+        560 => GCode::CoordSystem(3),
+        570 => GCode::CoordSystem(4),
+        580 => GCode::CoordSystem(5),
+        590 => GCode::CoordSystem(6),
+        591 => GCode::CoordSystem(7),
+        592 => GCode::CoordSystem(8),
+        593 => GCode::CoordSystem(9),
         800 => GCode::CancelMotion,
-        40 | 431 | 610 | 611 | 640 | 980 | 990 | 150 | 500 | 501 | 690 => GCode::PassThrough,
+        980 => GCode::RetractMode(false),
+        990 => GCode::RetractMode(true),
+        431 | 610 | 611 | 640 | 960 | 970 | 70 | 80 | 150 | 500 | 501 | 690 => GCode::PassThrough,
         _ => GCode::Unsupported,
     }
 }
@@ -188,6 +276,20 @@ pub enum MCode {
     ToolTipOff,
     /// Anything else (spindle, coolant, tool change, stops): passed through.
     PassThrough,
+}
+
+/// LinuxCNC's modal group of an M code (4 stopping, 6 tool change, 7
+/// spindle, 8 coolant, 9 overrides, 10 user).
+pub fn m_group(code10: i32) -> Option<u8> {
+    Some(match code10 {
+        0 | 10 | 20 | 300 | 600 => 4,
+        60 | 610 => 6,
+        30 | 40 | 50 => 7,
+        70 | 80 | 90 => 8,
+        480 | 490 | 500 | 510 | 520 | 530 => 9,
+        1000..=1990 => 10,
+        _ => return None,
+    })
 }
 
 /// Classify an M code by its number times ten.

@@ -820,7 +820,7 @@ fn modal_word_spans(block: &Block) -> Vec<(usize, usize)> {
                     | GCode::Distance(_)
                     | GCode::ArcDistance(_)
                     | GCode::FeedMode(_)
-                    | GCode::WorkOffset
+                    | GCode::CoordSystem(_)
                     | GCode::ToolLengthOff,
                 ) => spans.push((w.start, w.end)),
                 Some(GCode::ToolLength | GCode::ToolTip) => {

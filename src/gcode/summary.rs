@@ -141,7 +141,15 @@ impl ProgramSummary {
         let key = match letter {
             b'G' => match code10.map(classify_g) {
                 Some(
-                    GCode::WorkOffset | GCode::PassThrough | GCode::ToolLength | GCode::Unsupported,
+                    GCode::CoordSystem(_)
+                    | GCode::PassThrough
+                    | GCode::ToolLength
+                    | GCode::Unsupported
+                    | GCode::SetData
+                    | GCode::AxisOffset(_)
+                    | GCode::RetractMode(_)
+                    | GCode::Dwell
+                    | GCode::StoreHome(_),
                 ) => (b'G', code10.unwrap_or(0)),
                 _ => return,
             },
