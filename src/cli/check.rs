@@ -1,20 +1,22 @@
 //! `volcomp check`: read and interpret a whole program (streaming), print what
 //! it holds, exit 1 with a located error on bad input.
 use super::common::ProgramArgs;
-use std::fs::File;
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
 use crate::gcode::{
-    BlockEvent, BlockReader, Frame, InterpretOptions, Interpreter, ProgramSummary, ReadOptions,
-    summary::Range,
+    BlockEvent, Execution, Frame, InterpretOptions, MotionKind, MotionMode, ProgramSetup,
+    ProgramSummary, summary::Range,
 };
+use std::io::Write;
 
 const AFTER_HELP: &str = "\
 Examples:
   volcomp check samples/saddle.nc
+  volcomp check part.ngc --var sim.var --targets targets.csv   # machine positions, G54… from the .var
+  volcomp check part.nc --offset G54=250,120,-310 --targets -  # other controllers' origins
+  volcomp check part.ngc --subroutine-path subs/              # o<name> call finds subs/name.ngc
   volcomp check part.nc --frame part          # program starts with tool-tip control on
   volcomp check legacy.nc --lenient           # pass constructs it cannot understand through
   cat part.nc | volcomp check -";
@@ -32,6 +34,12 @@ pub struct Args {
     /// Honour block delete: skip lines starting with `/`.
     #[arg(long)]
     pub skip_deleted: bool,
+    /// Write every executed motion end point (loops and cycles expanded):
+    /// `line,motion,x,y,z,a,b,c` in machine coordinates, mm and degrees
+    /// (work origin, G92 and units applied; tool length offset not applied;
+    /// `b` empty on an A/C machine). `-` for standard output.
+    #[arg(long, value_name = "FILE.csv")]
+    pub targets: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -46,45 +54,97 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         skip_deleted_blocks: args.skip_deleted,
         ..args.read.interpret_options(args.rapid)
     };
-    let summary = if crate::io::is_stdio(&args.program) {
-        let stdin = std::io::stdin();
-        check_stream(stdin.lock(), Path::new("<stdin>"), options)?
+    let setup = args.read.setup()?;
+    let name = if crate::io::is_stdio(&args.program) {
+        PathBuf::from("<stdin>")
     } else {
-        let file = File::open(&args.program)
-            .with_context(|| format!("cannot read {}", args.program.display()))?;
-        check_stream(
-            BufReader::with_capacity(1 << 16, file),
-            &args.program,
-            options,
-        )?
+        args.program.clone()
     };
+    let input = super::common::open_program(&args.program)?;
+    let to_stdout = super::common::writes_stdout(args.targets.as_ref());
+    let summary = match &args.targets {
+        None => check_stream(input, &name, options, &setup, None)?,
+        Some(path) if to_stdout => {
+            let _ = path;
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            let s = check_stream(input, &name, options, &setup, Some(&mut out))?;
+            out.flush()
+                .context("cannot write the targets to standard output")?;
+            s
+        }
+        Some(path) => {
+            let mut summary = None;
+            crate::io::write_atomic(path, |out| -> anyhow::Result<()> {
+                summary = Some(check_stream(input, &name, options, &setup, Some(out))?);
+                Ok(())
+            })?;
+            summary.expect("written")
+        }
+    };
+    if to_stdout {
+        return Ok(());
+    }
     print_summary(&args.program, &summary, options.initial_frame);
+    if let Some(path) = &args.targets {
+        println!(
+            "  targets: {} rows written to {}",
+            summary.motion.total(),
+            path.display()
+        );
+    }
     Ok(())
 }
 
-/// Read and interpret `input`, counting as it goes.
+/// Run `input` through both layers, counting as it goes, and write every
+/// motion end point to `targets` when given.
 pub fn check_stream(
-    input: impl BufRead,
+    input: Box<dyn crate::gcode::ProgramInput>,
     path: &Path,
     options: InterpretOptions,
+    setup: &ProgramSetup,
+    mut targets: Option<&mut dyn Write>,
 ) -> anyhow::Result<ProgramSummary> {
-    let mut reader = BlockReader::new(
-        input,
-        ReadOptions {
-            lenient: options.lenient,
-        },
-    );
-    let mut interpreter = Interpreter::new(options);
-    let mut event = BlockEvent::default();
+    let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
-    while let Some(block) = reader.next_block() {
-        let block = block.map_err(|e| anyhow::Error::new(e.with_path(path)))?;
-        interpreter
-            .interpret_into(block, &mut event)
-            .map_err(|e| anyhow::Error::new(e.with_path(path)))?;
-        summary.add(block, &event);
+    if let Some(out) = targets.as_mut() {
+        out.write_all(b"line,motion,x,y,z,a,b,c\n")?;
+    }
+    let mut row = String::new();
+    while let Some(step) = run.next() {
+        let (block, event, executed) = step.map_err(anyhow::Error::new)?;
+        summary.add(block, event);
+        if let Some(out) = targets.as_mut() {
+            for m in event.motions() {
+                row.clear();
+                let code = motion_code(m, event);
+                let e = &m.end;
+                use std::fmt::Write as _;
+                let _ = writeln!(
+                    row,
+                    "{},{code},{:.6},{:.6},{:.6},{:.6},,{:.6}",
+                    executed.line, e.x, e.y, e.z, e.a, e.c
+                );
+                out.write_all(row.as_bytes())?;
+            }
+        }
     }
     Ok(summary)
+}
+
+/// The G code of a move as the targets file names it.
+fn motion_code(m: &crate::gcode::Motion, event: &BlockEvent) -> &'static str {
+    match m.kind {
+        MotionKind::Rapid => "G0",
+        MotionKind::Arc {
+            clockwise: true, ..
+        } => "G2",
+        MotionKind::Arc { .. } => "G3",
+        MotionKind::Linear => match (event.motion.is_some(), event.modal.motion) {
+            (true, MotionMode::Probe(_)) => event.modal.motion.word(),
+            _ => "G1",
+        },
+    }
 }
 
 fn range(r: &Option<Range>) -> String {

@@ -132,8 +132,9 @@ impl From<FrameArg> for Frame {
     }
 }
 
-/// How a program is read: its start frame and how strictly.
-#[derive(Debug, Clone, Copy, clap::Args)]
+/// How a program is read: its start frame, how strictly, and the setup it runs
+/// in (work origins, stored positions, subroutine files).
+#[derive(Debug, Clone, clap::Args)]
 pub struct ProgramArgs {
     /// Frame of the X Y Z words at program start (M428/M429, G43.4/G234/G49 and
     /// TRAORI/TRAFOOF switch it later).
@@ -144,9 +145,86 @@ pub struct ProgramArgs {
     /// of failing.
     #[arg(long)]
     pub lenient: bool,
+    /// LinuxCNC parameter file (`.var`) holding the setup's work origins
+    /// (G54–G59.3), G92 offsets and G28/G30 positions, in mm.
+    #[arg(long, value_name = "FILE.var")]
+    pub var: Option<PathBuf>,
+    /// A work origin for other controllers, mm and degrees, e.g.
+    /// `--offset G54=100,50,-200` or `--offset G55=0,0,0,0,90` (X,Y,Z[,A,C]);
+    /// repeatable; overrides `--var` for that system.
+    #[arg(long, value_name = "G54=X,Y,Z[,A,C]")]
+    pub offset: Vec<String>,
+    /// Folder searched for `NAME.ngc` when the program calls `o<NAME>` without
+    /// defining it (LinuxCNC's SUBROUTINE_PATH); repeatable, searched in order.
+    #[arg(long, value_name = "DIR")]
+    pub subroutine_path: Vec<PathBuf>,
+}
+
+/// Parse `G54=X,Y,Z[,A,C]` into (system number 1 … 9, origin).
+pub fn parse_offset(text: &str) -> Result<(usize, crate::axes::Axes), String> {
+    const SYSTEMS: [&str; 9] = [
+        "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+    ];
+    let Some((name, values)) = text.split_once('=') else {
+        return Err(format!(
+            "--offset `{text}`: expected G54=X,Y,Z[,A,C] (e.g. G54=100,50,-200)"
+        ));
+    };
+    let name = name.trim().to_ascii_uppercase();
+    let Some(n) = SYSTEMS.iter().position(|s| *s == name) else {
+        return Err(format!(
+            "--offset `{text}`: `{name}` is not a work coordinate system (G54 … G59, G59.1 … G59.3)"
+        ));
+    };
+    let numbers: Result<Vec<f64>, _> = values.split(',').map(|v| v.trim().parse::<f64>()).collect();
+    let numbers = match numbers {
+        Ok(v) if (v.len() == 3 || v.len() == 5) && v.iter().all(|x| x.is_finite()) => v,
+        _ => {
+            return Err(format!(
+                "--offset `{text}`: give 3 or 5 finite numbers X,Y,Z[,A,C] in mm and degrees"
+            ));
+        }
+    };
+    let get = |i: usize| numbers.get(i).copied().unwrap_or(0.0);
+    Ok((
+        n + 1,
+        crate::axes::Axes::new(get(0), get(1), get(2), get(3), get(4)),
+    ))
 }
 
 impl ProgramArgs {
+    /// The setup the program runs in: `--var`, `--offset`, `--subroutine-path`.
+    /// Programs must end with M2/M30 or `%`, as LinuxCNC requires.
+    pub fn setup(&self) -> anyhow::Result<crate::gcode::ProgramSetup> {
+        let mut setup = crate::gcode::ProgramSetup {
+            require_program_end: true,
+            ..Default::default()
+        };
+        if let Some(path) = &self.var {
+            let text = crate::io::read_to_string(path)?;
+            let pairs = crate::gcode::parameters::parse_var_file(&text)
+                .map_err(|e| anyhow::anyhow!("{}:{}: {e}", path.display(), e.line()))?;
+            for (n, v) in pairs {
+                setup.parameters.set(n, v);
+            }
+        }
+        for text in &self.offset {
+            let (n, origin) = parse_offset(text).map_err(|m| super::UsageError(m))?;
+            setup.set_origin(n, &origin);
+        }
+        for dir in &self.subroutine_path {
+            if !dir.is_dir() {
+                return Err(super::UsageError(format!(
+                    "--subroutine-path {}: not a folder",
+                    dir.display()
+                ))
+                .into());
+            }
+        }
+        setup.language.subroutine_path = self.subroutine_path.clone();
+        Ok(setup)
+    }
+
     /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min`.
     pub fn interpret_options(&self, rapid_mm_per_min: f64) -> crate::gcode::InterpretOptions {
         crate::gcode::InterpretOptions {
@@ -163,6 +241,23 @@ impl ProgramArgs {
         options.interpret.lenient = self.lenient;
         options
     }
+}
+
+/// Open a program (or `-`, standard input) for the language layer, which
+/// seeks (loops, calls): standard input is first copied to a temporary file.
+pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::ProgramInput>> {
+    if crate::io::is_stdio(path) {
+        let mut spool =
+            tempfile::tempfile().context("cannot create a temporary file for standard input")?;
+        std::io::copy(&mut std::io::stdin().lock(), &mut spool)
+            .context("cannot read standard input")?;
+        use std::io::Seek;
+        spool.rewind().context("cannot read standard input back")?;
+        return Ok(Box::new(BufReader::with_capacity(1 << 16, spool)));
+    }
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    Ok(Box::new(BufReader::with_capacity(1 << 16, file)))
 }
 
 /// Open a program (or `-`, standard input) for buffered reading.

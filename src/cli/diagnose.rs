@@ -100,8 +100,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     let measurement = Measurement::read(&args.measured)?;
-    let contexts =
-        CutPart::new(&args.machine, &args.program, args.read, measurement.plan())?.contexts()?;
+    let contexts = CutPart::new(
+        &args.machine,
+        &args.program,
+        args.read.clone(),
+        measurement.plan(),
+    )?
+    .contexts()?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &contexts)?;
     }

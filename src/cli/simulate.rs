@@ -57,7 +57,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     let plan = Plan::read(&args.plan)?;
-    let part = super::diagnose::CutPart::new(&args.machine, &args.program, args.read, plan)?;
+    let part =
+        super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
     let contexts = part.contexts()?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &contexts)?;

@@ -31,7 +31,9 @@ pub enum ErrorKind {
     MissingEquals,
     #[error("Unexpected character after O-word")]
     UnexpectedAfterOWord,
-    #[error("Unknown O-word keyword: expected sub, endsub, call, do, while, endwhile, if, elseif, else, endif, repeat, endrepeat, return, break or continue")]
+    #[error(
+        "Unknown O-word keyword: expected sub, endsub, call, do, while, endwhile, if, elseif, else, endif, repeat, endrepeat, return, break or continue"
+    )]
     UnknownOWordKeyword,
     #[error("Left bracket missing after '{0}'")]
     BracketAfterOKeyword(&'static str),
@@ -43,6 +45,8 @@ pub enum ErrorKind {
     CutterCompensation(String),
     #[error("`{0}` changes the geometry and is not understood")]
     UnsupportedGCode(String),
+    #[error("File ended with no percent sign or program end")]
+    NoProgramEnd,
     #[error("Multiple {0} words on one line")]
     RepeatedWord(char),
     #[error("Two {0} codes used from same modal group")]
@@ -135,9 +139,12 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
-            ErrorKind::RepeatedWord(_) | ErrorKind::ModalGroupConflict(_) | ErrorKind::TwoAxisUsers => {
+            ErrorKind::RepeatedWord(_)
+            | ErrorKind::ModalGroupConflict(_)
+            | ErrorKind::TwoAxisUsers => {
                 "LinuxCNC refuses this block; split it into two blocks, or pass --lenient to let the last word win"
             }
+            ErrorKind::NoProgramEnd => "end the program with M2 or M30 (or enclose it in % lines)",
             ErrorKind::NoSuchAxis(_) => "post-process the program for an A/C machine",
             ErrorKind::G92WithoutAxes | ErrorKind::G10Pnumber | ErrorKind::G10Lnumber => {
                 "check the G10/G92 words (G10 L2 P1 X… sets the G54 origin)"
@@ -147,7 +154,9 @@ impl ErrorKind {
             ErrorKind::ZeroFeed(_) | ErrorKind::InverseTimeFeedMissing(_) => {
                 "program an F word before (G94) or on (G93) the feed move"
             }
-            ErrorKind::ArcSamePoint | ErrorKind::ArcZeroRadius | ErrorKind::ArcRadiusMismatch { .. } => {
+            ErrorKind::ArcSamePoint
+            | ErrorKind::ArcZeroRadius
+            | ErrorKind::ArcRadiusMismatch { .. } => {
                 "check the arc's end point and centre words (LinuxCNC's tolerance: 0.028 mm, or 0.1 % of the radius above 0.028 mm)"
             }
             ErrorKind::RotatedArcPlane => "program the arc in G17, or without the rotation",

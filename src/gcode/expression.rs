@@ -420,7 +420,10 @@ pub fn starts_computed_value(line: &[u8], p: usize) -> bool {
 /// A function name at `p` followed by `[` (after spaces): (function or ATAN/EXISTS, end of name).
 fn function_at(line: &[u8], p: usize) -> Option<(FunctionName, usize)> {
     let followed = |end: usize| matches!(line.get(skip_space(line, end)), Some(b'['));
-    for (name, f) in [("ATAN", FunctionName::Atan), ("EXISTS", FunctionName::Exists)] {
+    for (name, f) in [
+        ("ATAN", FunctionName::Atan),
+        ("EXISTS", FunctionName::Exists),
+    ] {
         if let Some(end) = keyword_at(line, p, name).filter(|&e| followed(e)) {
             return Some((f, end));
         }
@@ -514,10 +517,7 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
                 let inner = parse_value(line, q)?;
                 let end = inner.end;
                 if c == b'+' {
-                    Ok(Expr {
-                        start: p,
-                        ..inner
-                    })
+                    Ok(Expr { start: p, ..inner })
                 } else {
                     Ok(Expr {
                         kind: ExprKind::Negate(Box::new(inner)),

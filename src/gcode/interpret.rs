@@ -37,14 +37,13 @@ use crate::axes::{Axes, Axis};
 use super::block::Block;
 use super::error::{ErrorKind, GcodeError};
 use super::expression::to_integer;
-use super::origin::Origin;
-use super::parameters::{Parameters, numbers};
 use super::modal::{
     CutterComp, Distance, GCode, MCode, ModalState, MotionMode, Units, classify_g, classify_m,
-    code_text, g_group, m_group,
-    is_known_letter,
+    code_text, g_group, is_known_letter, m_group,
 };
 use super::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
+use super::origin::Origin;
+use super::parameters::{Parameters, numbers};
 
 /// Interpreter settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -255,7 +254,9 @@ impl Interpreter {
             1
         };
         i.origin.work = i.stored_origin(i.modal.coord_system);
-        i.origin.rotation_deg = i.params.get(numbers::coord(i.modal.coord_system as usize, 9));
+        i.origin.rotation_deg = i
+            .params
+            .get(numbers::coord(i.modal.coord_system as usize, 9));
         if i.params.get(numbers::G92_ENABLED) != 0.0 {
             i.origin.g92 = i.stored_axes(numbers::G92_OFFSET);
         }
@@ -397,7 +398,11 @@ impl Interpreter {
         };
         s.tool_offset = m.tool_length;
         s.retract_r_plane = m.retract_r_plane;
-        s.feed = if m.inverse_time { m.feed } else { m.feed / scale };
+        s.feed = if m.inverse_time {
+            m.feed
+        } else {
+            m.feed / scale
+        };
     }
 
     fn apply(&mut self, block: &Block, event: &mut BlockEvent) -> Result<(), GcodeError> {
@@ -473,8 +478,8 @@ impl Interpreter {
                     if let Some(code) = w.code10()
                         && let Some(g) = m_group(code)
                     {
-                        let coolant_pair = g == 8
-                            && matches!((m_codes[8], code), (Some(70), 80) | (Some(80), 70));
+                        let coolant_pair =
+                            g == 8 && matches!((m_codes[8], code), (Some(70), 80) | (Some(80), 70));
                         if m_groups[g as usize] && !coolant_pair {
                             self.fail(
                                 block,
@@ -668,7 +673,16 @@ impl Interpreter {
         let program_now = origin.to_program(&self.position);
         match axis_user {
             Some((GCode::SetData, s, e)) => {
-                self.set_data(block, event, &words, &modal, &mut origin, &program_now, &mut store, (s, e))?;
+                self.set_data(
+                    block,
+                    event,
+                    &words,
+                    &modal,
+                    &mut origin,
+                    &program_now,
+                    &mut store,
+                    (s, e),
+                )?;
             }
             Some((GCode::AxisOffset(_), ..)) => {
                 // G92: offsets so that the current position reads as the words.
@@ -848,7 +862,8 @@ impl Interpreter {
         for (n, v) in store {
             self.params.set(n, v);
         }
-        self.params.set(numbers::COORD_SYSTEM, modal.coord_system as f64);
+        self.params
+            .set(numbers::COORD_SYSTEM, modal.coord_system as f64);
         self.position = new_position;
         for m in motion.iter().chain(event.expanded.iter()) {
             if self.moved {
@@ -1001,16 +1016,34 @@ impl Interpreter {
         let arc = matches!(modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw);
         if let MotionMode::Probe(_) = modal.motion {
             if modal.inverse_time {
-                self.fail(block, event, ErrorKind::ProbeInverseTime, feed_span.0, feed_span.1)?;
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::ProbeInverseTime,
+                    feed_span.0,
+                    feed_span.1,
+                )?;
             } else if modal.feed <= 0.0 {
-                self.fail(block, event, ErrorKind::ZeroFeed("probe"), 0, block.raw.len())?;
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::ZeroFeed("probe"),
+                    0,
+                    block.raw.len(),
+                )?;
             }
             if start == end {
                 self.fail(block, event, ErrorKind::ProbeTooClose, 0, block.raw.len())?;
             }
         } else if feeding && modal.inverse_time && words.f.is_none() {
             let what = if arc { "arc" } else { "G1" };
-            self.fail(block, event, ErrorKind::InverseTimeFeedMissing(what), 0, block.raw.len())?;
+            self.fail(
+                block,
+                event,
+                ErrorKind::InverseTimeFeedMissing(what),
+                0,
+                block.raw.len(),
+            )?;
         } else if feeding && !modal.inverse_time && modal.feed <= 0.0 {
             let what = if arc { "arc" } else { "G1" };
             self.fail(block, event, ErrorKind::ZeroFeed(what), 0, block.raw.len())?;

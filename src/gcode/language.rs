@@ -204,6 +204,21 @@ impl Executor {
         self.files.get(index).map_or("?", |f| f.name.as_str())
     }
 
+    /// The program ended at a closing `%`.
+    pub fn percent_ended(&self) -> bool {
+        self.ended && self.percent_seen
+    }
+
+    /// Lines read from the main program so far.
+    pub fn lines_read(&self) -> usize {
+        self.files[0].line
+    }
+
+    /// The last executed block.
+    pub fn block(&self) -> &Block {
+        &self.out
+    }
+
     /// Where the last executed block came from.
     pub fn executed(&self) -> &Executed {
         &self.executed
@@ -218,12 +233,13 @@ impl Executor {
     /// The next executed block, `None` at the end of the program. Errors are
     /// located in the file that holds the line (the path is set for subroutine
     /// files; the caller names the main file).
-    pub fn next_block(&mut self, params: &mut Parameters) -> Option<Result<&Block, GcodeError>> {
+    /// The block is then [`Executor::block`].
+    pub fn next_block(&mut self, params: &mut Parameters) -> Option<Result<(), GcodeError>> {
         if self.finished || self.ended {
             return None;
         }
         match self.step(params) {
-            Ok(true) => Some(Ok(&self.out)),
+            Ok(true) => Some(Ok(())),
             Ok(false) => {
                 self.finished = true;
                 None
@@ -232,7 +248,11 @@ impl Executor {
                 self.finished = true;
                 let e = if self.current > 0 {
                     let file = &self.files[self.current];
-                    e.with_path(file.path.clone().unwrap_or_else(|| file.name.clone().into()))
+                    e.with_path(
+                        file.path
+                            .clone()
+                            .unwrap_or_else(|| file.name.clone().into()),
+                    )
                 } else {
                     e
                 };
@@ -322,7 +342,9 @@ impl Executor {
         let mut values: Vec<f64> = Vec::with_capacity(block.words.len());
         for w in &block.words {
             values.push(match w.expr {
-                Some(i) => expr(block, i).eval(params).map_err(|e| eval_error(e, block))?,
+                Some(i) => expr(block, i)
+                    .eval(params)
+                    .map_err(|e| eval_error(e, block))?,
                 None => w.value,
             });
         }
@@ -612,12 +634,7 @@ impl Executor {
         Ok(())
     }
 
-    fn condition(
-        &self,
-        block: &Block,
-        o: &OWord,
-        params: &Parameters,
-    ) -> Result<f64, GcodeError> {
+    fn condition(&self, block: &Block, o: &OWord, params: &Parameters) -> Result<f64, GcodeError> {
         match o.args.first() {
             Some(&i) => expr(block, i)
                 .eval(params)
@@ -763,9 +780,8 @@ impl Executor {
                 if let Some(entry) = self.labels.get(&label).cloned() {
                     self.seek_to(&entry);
                 } else if let Some(path) = self.find_file(&label) {
-                    let input = std::fs::File::open(&path).map_err(|e| {
-                        o_err(format!("cannot open {}: {e}", path.display()))
-                    })?;
+                    let input = std::fs::File::open(&path)
+                        .map_err(|e| o_err(format!("cannot open {}: {e}", path.display())))?;
                     self.files.push(SourceFile {
                         name: path.display().to_string(),
                         path: Some(path),

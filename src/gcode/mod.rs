@@ -40,6 +40,7 @@
 //! ```
 pub mod block;
 pub mod error;
+pub mod execution;
 pub mod expression;
 pub mod interpret;
 pub mod language;
@@ -54,12 +55,16 @@ pub mod summary;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
+pub use execution::{Execution, ProgramSetup};
 pub use interpret::{
     BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_from_lengths,
     duration_min, interpret_program,
 };
+pub use language::{Executed, LanguageOptions, ProgramInput};
 pub use modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
+pub use origin::Origin;
+pub use parameters::Parameters;
 pub use parser::{parse_block, parse_line};
 pub use reader::{BlockReader, ReadOptions, parse_program, parse_program_bytes, print_program};
 pub use rewrite::{

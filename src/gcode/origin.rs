@@ -56,7 +56,8 @@ impl Origin {
 
     /// A point given by its X Y Z only (an arc centre) → machine XYZ.
     pub fn xyz_to_machine(&self, p: [f64; 3]) -> [f64; 3] {
-        self.to_machine(&Axes::new(p[0], p[1], p[2], 0.0, 0.0)).xyz()
+        self.to_machine(&Axes::new(p[0], p[1], p[2], 0.0, 0.0))
+            .xyz()
     }
 
     /// Machine XYZ → program XYZ.

@@ -378,7 +378,10 @@ mod tests {
         p.leave(&saved);
         assert_eq!(p.numbered(1), Ok(5.0));
         assert_eq!(p.named("depth"), Some(2.0));
-        assert_eq!(p.assign_numbered(5420, 1.0), Err(EvalErrorKind::ReadOnly(5420)));
+        assert_eq!(
+            p.assign_numbered(5420, 1.0),
+            Err(EvalErrorKind::ReadOnly(5420))
+        );
         assert!(p.assign_named("_x", 1.0).is_err());
         assert_eq!(p.numbered(5602), Err(EvalErrorKind::ParameterOutOfRange));
     }

@@ -242,10 +242,12 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
             _ if c.is_ascii_alphabetic() => {
                 let letter = c.to_ascii_uppercase();
                 if letter == b'O' && words.is_empty() && assignments.is_empty() {
-                    if let Some(o) = parse_o_word(line, pos, exprs, comments).map_err(|e| match e {
-                        OError::Syntax(e) => syntax(e),
-                        OError::Kind(kind, at) => err(kind, at, at + 1),
-                    })? {
+                    if let Some(o) =
+                        parse_o_word(line, pos, exprs, comments).map_err(|e| match e {
+                            OError::Syntax(e) => syntax(e),
+                            OError::Kind(kind, at) => err(kind, at, at + 1),
+                        })?
+                    {
                         pos = o.end_of_args;
                         *o_word = Some(o.word);
                         continue;
@@ -417,7 +419,10 @@ fn parse_o_word(
         }
     }
     if required && args.is_empty() {
-        return Err(OError::Kind(ErrorKind::BracketAfterOKeyword(keyword.name()), p));
+        return Err(OError::Kind(
+            ErrorKind::BracketAfterOKeyword(keyword.name()),
+            p,
+        ));
     }
     let end_of_args = p;
     Ok(Some(ParsedOWord {
@@ -506,7 +511,10 @@ mod tests {
         let b = parse_block("o<Drill Hole> call [1] (depth) [#2*2] ; go").unwrap();
         let o = b.o_word.as_ref().unwrap();
         assert_eq!(o.label, OLabel::Name("drillhole".into()));
-        assert_eq!((o.keyword, o.args.len(), b.comments.len()), (OKeyword::Call, 2, 2));
+        assert_eq!(
+            (o.keyword, o.args.len(), b.comments.len()),
+            (OKeyword::Call, 2, 2)
+        );
         assert!(matches!(
             parse_block("O100 while").unwrap_err().kind,
             ErrorKind::BracketAfterOKeyword("while")

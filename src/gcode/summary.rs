@@ -110,7 +110,7 @@ impl ProgramSummary {
                 self.count_word(w.letter, w.code10());
             }
         }
-        if let Some(m) = &event.motion {
+        for m in event.motions() {
             match m.kind {
                 MotionKind::Rapid => self.motion.rapid += 1,
                 MotionKind::Linear => self.motion.linear += 1,

@@ -1,0 +1,175 @@
+//! A program run through both layers: the language layer ([`Executor`]) yields
+//! executed blocks, the machine-state layer ([`Interpreter`]) gives each its
+//! meaning. This is the one seam every consumer reads programs through.
+//!
+//! ```
+//! use volcomp::gcode::{Execution, InterpretOptions, ProgramSetup};
+//! let program = "#1 = 2\nO1 repeat [#1]\n  G91 G1 X1 F100\nO1 endrepeat\nM2\n";
+//! let mut run = Execution::new(
+//!     Box::new(std::io::Cursor::new(program.as_bytes().to_vec())),
+//!     std::path::Path::new("p.ngc"),
+//!     InterpretOptions::default(),
+//!     &ProgramSetup::default(),
+//! );
+//! let mut ends = Vec::new();
+//! while let Some(step) = run.next() {
+//!     let (_, event, _) = step.unwrap();
+//!     ends.extend(event.motions().map(|m| m.end.x));
+//! }
+//! assert_eq!(ends, vec![1.0, 2.0]);
+//! ```
+use std::path::{Path, PathBuf};
+
+use super::block::Block;
+use super::error::{ErrorKind, GcodeError};
+use super::interpret::{BlockEvent, InterpretOptions, Interpreter};
+use super::language::{Executed, Executor, LanguageOptions, ProgramInput};
+use super::motion::Motion;
+use super::parameters::{Parameters, numbers};
+use crate::axes::Axes;
+
+/// What a real setup holds before the program starts: parameters (work
+/// origins, stored positions: a LinuxCNC `.var` file, `--offset`) and where
+/// subroutine files are.
+#[derive(Clone, Debug, Default)]
+pub struct ProgramSetup {
+    pub parameters: Parameters,
+    pub language: LanguageOptions,
+    /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
+    /// ended with no percent sign or program end"); off for fragments.
+    pub require_program_end: bool,
+}
+
+impl ProgramSetup {
+    /// Set the origin of work coordinate system `n` (1 = G54 … 9 = G59.3),
+    /// mm and degrees.
+    pub fn set_origin(&mut self, n: usize, origin: &Axes) {
+        for (k, v) in [origin.x, origin.y, origin.z, origin.a, 0.0, origin.c]
+            .into_iter()
+            .enumerate()
+        {
+            self.parameters.set(numbers::coord(n, k), v);
+        }
+    }
+}
+
+impl BlockEvent {
+    /// Every move of the block, in order (the ordinary move, or the expanded ones).
+    pub fn motions(&self) -> impl Iterator<Item = &Motion> {
+        self.motion.iter().chain(self.expanded.iter())
+    }
+}
+
+/// A program being run. Call [`Execution::next`] until it returns `None`.
+pub struct Execution {
+    executor: Executor,
+    interpreter: Interpreter,
+    event: BlockEvent,
+    path: PathBuf,
+    blocks: usize,
+    ended: bool,
+    require_end: bool,
+    lenient: bool,
+    done: bool,
+}
+
+impl Execution {
+    /// Run the program read from `input`, named `path` in messages.
+    pub fn new(
+        input: Box<dyn ProgramInput>,
+        path: &Path,
+        options: InterpretOptions,
+        setup: &ProgramSetup,
+    ) -> Self {
+        let language = LanguageOptions {
+            lenient: options.lenient,
+            skip_deleted_blocks: options.skip_deleted_blocks,
+            ..setup.language.clone()
+        };
+        Execution {
+            executor: Executor::new(input, path, language),
+            interpreter: Interpreter::with_parameters(options, setup.parameters.clone()),
+            event: BlockEvent::default(),
+            path: path.to_path_buf(),
+            blocks: 0,
+            ended: false,
+            require_end: setup.require_program_end,
+            lenient: options.lenient,
+            done: false,
+        }
+    }
+
+    /// The interpreter (its position, origin, parameters).
+    pub fn interpreter(&self) -> &Interpreter {
+        &self.interpreter
+    }
+
+    /// Name of file `index` of [`Executed::file`].
+    pub fn file_name(&self, index: usize) -> &str {
+        self.executor.file_name(index)
+    }
+
+    /// The next executed block with its meaning and its origin in the source.
+    #[allow(clippy::should_implement_trait)]
+    pub fn next(&mut self) -> Option<Result<(&Block, &BlockEvent, &Executed), GcodeError>> {
+        if self.done {
+            return None;
+        }
+        if self.event.program_end {
+            self.ended = true;
+            self.executor.end_program();
+        }
+        let params = self.interpreter.parameters_mut();
+        match self.executor.next_block(params) {
+            None => {
+                self.done = true;
+                if self.require_end
+                    && !self.ended
+                    && !self.lenient
+                    && !self.executor.percent_ended()
+                {
+                    let line = self.executor.lines_read();
+                    return Some(Err(GcodeError::at(
+                        ErrorKind::NoProgramEnd,
+                        line.max(1),
+                        b"",
+                        0,
+                        0,
+                    )
+                    .with_path(&self.path)));
+                }
+                None
+            }
+            Some(Err(e)) => {
+                self.done = true;
+                Some(Err(if e.path.is_none() {
+                    e.with_path(&self.path)
+                } else {
+                    e
+                }))
+            }
+            Some(Ok(())) => {
+                let block = self.executor.block();
+                let result = self.interpreter.interpret_into(block, &mut self.event);
+                if let Err(e) = result {
+                    self.done = true;
+                    let executed = self.executor.executed();
+                    let e = if executed.file == 0 {
+                        e.with_path(&self.path)
+                    } else {
+                        e.with_path(self.executor.file_name(executed.file))
+                    };
+                    // A flattened block's error is about its source line.
+                    let e = GcodeError {
+                        line: executed.line,
+                        ..e
+                    };
+                    return Some(Err(e));
+                }
+                self.event.index = self.blocks;
+                self.blocks += 1;
+                Some(Ok((block, &self.event, self.executor.executed())))
+            }
+        }
+    }
+}
