@@ -45,6 +45,10 @@ pub enum ErrorKind {
     CutterCompensation(String),
     #[error("`{0}` changes the geometry and is not understood")]
     UnsupportedGCode(String),
+    #[error(
+        "parameters, expressions and O-words are not run by this command yet (`volcomp check` runs them)"
+    )]
+    NeedsLanguage,
     #[error("File ended with no percent sign or program end")]
     NoProgramEnd,
     #[error("Multiple {0} words on one line")]
@@ -110,7 +114,7 @@ impl ErrorKind {
                 "check the expression (RS274NGC: `[` … `]` with + - * / ** MOD EQ NE GT GE LT LE AND OR XOR, #n or #<name> parameters, functions such as SIN[…])"
             }
             ErrorKind::Eval(_) => {
-                "check the parameters and the expression at the caret (named parameters must be set before they are read)"
+                "check the parameters and the expression at the caret (named parameters must be set before they are read), or pass --lenient to pass the line through untouched"
             }
             ErrorKind::OWord(_) | ErrorKind::EndOfFileInSubroutine(_) => {
                 "check the O-word labels: every sub/while/if/repeat needs its matching end; subroutine files are found on --subroutine-path as NAME.ngc"
@@ -143,6 +147,9 @@ impl ErrorKind {
             | ErrorKind::ModalGroupConflict(_)
             | ErrorKind::TwoAxisUsers => {
                 "LinuxCNC refuses this block; split it into two blocks, or pass --lenient to let the last word win"
+            }
+            ErrorKind::NeedsLanguage => {
+                "flatten the program first (`volcomp check --targets` shows its executed moves), or pass --lenient to pass the line through untouched"
             }
             ErrorKind::NoProgramEnd => "end the program with M2 or M30 (or enclose it in % lines)",
             ErrorKind::NoSuchAxis(_) => "post-process the program for an A/C machine",

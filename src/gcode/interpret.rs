@@ -429,6 +429,17 @@ impl Interpreter {
         if block.is_empty() {
             return Ok(());
         }
+        if block.uses_language() {
+            // Parameters, expressions and O-words are run by the language
+            // layer (`Execution`); a block read by the bare reader still holds them.
+            let at = block
+                .exprs
+                .first()
+                .map(|e| (e.start, e.end))
+                .or_else(|| block.o_word.as_ref().map(|o| (o.start, o.end)))
+                .unwrap_or((0, block.raw.len()));
+            return self.fail(block, event, ErrorKind::NeedsLanguage, at.0, at.1);
+        }
         self.params.system.line = block.line as f64;
         // Work on copies: nothing changes when the block fails.
         let mut modal = self.modal;
@@ -602,16 +613,6 @@ impl Interpreter {
                         };
                         words.axes[i] = Some((v, w.start));
                     }
-                }
-                b'B' | b'U' | b'V' | b'W' => {
-                    unsupported = true;
-                    self.fail(
-                        block,
-                        event,
-                        ErrorKind::NoSuchAxis(w.letter as char),
-                        w.start,
-                        w.end,
-                    )?;
                 }
                 b'I' => words.ijk[0] = Some(w.value * scale),
                 b'J' => words.ijk[1] = Some(w.value * scale),

@@ -314,7 +314,19 @@ impl Executor {
             if literal {
                 self.emit_source(&block);
             } else {
-                self.flatten(&block, params)?;
+                if let Err(e) = self.flatten(&block, params) {
+                    if !self.options.lenient {
+                        return Err(e);
+                    }
+                    // Lenient: the line is passed through verbatim, with a warning.
+                    let mut verbatim = (*block).clone();
+                    verbatim.words.clear();
+                    verbatim.assignments.clear();
+                    verbatim.exprs.clear();
+                    verbatim.unparsed = Some(Box::new(e));
+                    self.emit_source(&verbatim);
+                    return Ok(true);
+                }
                 if self.out.is_empty() && self.out.comments.is_empty() {
                     // An assignment-only line: nothing to write.
                     continue;

@@ -263,6 +263,19 @@ impl Rewriter {
             if has_motion_word(block) {
                 self.emitted_motion = event.modal.motion;
             }
+            // G28/G30 (written unchanged) end at stored positions: the axes
+            // they moved stand where the original program's stand.
+            if !event.expanded.is_empty() {
+                let named: Vec<Axis> = Axis::ALL
+                    .into_iter()
+                    .filter(|a| block.word(a.letter() as u8).is_some())
+                    .collect();
+                for axis in Axis::ALL {
+                    if named.is_empty() || named.contains(&axis) {
+                        self.emitted.set(axis, event.position.get(axis));
+                    }
+                }
+            }
             self.original_motion = event.modal.motion;
             block.write_raw(out)?;
             return Ok(Emitted::default());

@@ -650,7 +650,7 @@ mod errors {
             "cutter compensation during a move",
             "G0 X0 Y0\nG41 D1 G1 X10 Y0 F300\n",
         ),
-        ("unknown geometric G code", "G0 X0\nG92 X10 Y10\n"),
+        ("unknown geometric G code", "G0 X0\nG33 X10 K1\n"),
         ("unexpected character", "G0 X0\nG1 X1 = 5\n"),
         ("axis words without motion mode", "G21 G90\nX10 Y10\n"),
         ("arc R too small", "G0 X0 Y0\nG2 X10 Y0 R2 F100\n"),
@@ -799,7 +799,7 @@ mod check_command {
     fn check_fails_with_a_located_error() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bad.nc");
-        std::fs::write(&path, "G0 X0\nG1 X1 Y#2\n").unwrap();
+        std::fs::write(&path, "G0 X0\nG1 X1 Y#<nope> F100\nM2\n").unwrap();
         let out = crate::support::volcomp()
             .arg("check")
             .arg(&path)
