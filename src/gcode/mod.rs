@@ -39,6 +39,7 @@
 //!            "G21 G90 G93\nG1 X5.0000 F4.000000\nN10 G1 X10 Y0 Z0 A0 C0 F4.000000\n");
 //! ```
 pub mod block;
+pub mod cycles;
 pub mod error;
 pub mod execution;
 pub mod expression;
