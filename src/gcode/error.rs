@@ -65,6 +65,8 @@ pub enum ErrorKind {
     G10Pnumber,
     #[error("G10 with a missing or unsupported L number (L1, L2, L10, L11, L20)")]
     G10Lnumber,
+    #[error("Dwell time P word missing with G4")]
+    DwellWithoutP,
     #[error("Cannot use inverse time feed with canned cycles")]
     CycleInverseTime,
     #[error("{0}")]
@@ -143,6 +145,7 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::DwellWithoutP => "give the dwell time in seconds: `G4 P0.5`",
             ErrorKind::RepeatedWord(_)
             | ErrorKind::ModalGroupConflict(_)
             | ErrorKind::TwoAxisUsers => {

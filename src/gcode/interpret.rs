@@ -35,6 +35,9 @@ use std::fmt;
 use crate::axes::{Axes, Axis};
 
 use super::block::Block;
+use super::cycles::{
+    CycleBlock, CycleCode, CycleMemory, CycleStep, RetractMode, SpindleDirection, expand,
+};
 use super::error::{ErrorKind, GcodeError};
 use super::expression::to_integer;
 use super::modal::{
@@ -198,6 +201,14 @@ pub struct Interpreter {
     moved: bool,
     ended: bool,
     unknown_letters_seen: u32,
+    /// The spindle's direction (M3/M4/M5; canned cycles check it).
+    spindle: SpindleDirection,
+    /// What LinuxCNC remembers between canned-cycle blocks.
+    cycle_memory: CycleMemory,
+    /// Scratch for a cycle's steps (kept to reuse its capacity).
+    cycle_steps: Vec<CycleStep>,
+    /// Dwell time of the block being interpreted (G4, cycles), min.
+    pending_dwell_min: f64,
 }
 
 /// Per-block word values, fixed size (no allocation). Linear values are mm.
@@ -246,6 +257,10 @@ impl Interpreter {
             moved: false,
             ended: false,
             unknown_letters_seen: 0,
+            spindle: SpindleDirection::Stopped,
+            cycle_memory: CycleMemory::default(),
+            cycle_steps: Vec::new(),
+            pending_dwell_min: 0.0,
         };
         let system = i.params.get(numbers::COORD_SYSTEM).round();
         i.modal.coord_system = if (1.0..=9.0).contains(&system) {
@@ -317,7 +332,13 @@ impl Interpreter {
         event.program_end = false;
         event.skipped = false;
         event.warnings.clear();
+        self.pending_dwell_min = 0.0;
+        let (spindle, cycle_memory) = (self.spindle, self.cycle_memory);
         let result = self.apply(block, event);
+        if result.is_err() {
+            self.spindle = spindle;
+            self.cycle_memory = cycle_memory;
+        }
         event.modal = self.modal;
         event.position = self.position;
         event.time_min = self.time_min;
@@ -446,6 +467,10 @@ impl Interpreter {
         let mut origin = self.origin;
         let old_frame = modal.frame;
         let old_inverse = modal.inverse_time;
+        let mut feed_reset = false;
+        let mut dwell = false;
+        let mut cancel_motion = false;
+        let mut spindle = self.spindle;
         let mut words = Words::default();
         let mut machine_coordinates = false;
         let mut motion_word: Option<(usize, usize)> = None;
@@ -551,7 +576,13 @@ impl Interpreter {
                         GCode::Units(_) => {}
                         GCode::Distance(d) => modal.distance = d,
                         GCode::ArcDistance(d) => modal.arc_distance = d,
-                        GCode::FeedMode(inv) => modal.inverse_time = inv,
+                        GCode::FeedMode(inv) => {
+                            modal.inverse_time = inv;
+                            // LinuxCNC: G94 and G95 set the feed rate to 0.
+                            if !inv {
+                                feed_reset = true;
+                            }
+                        }
                         GCode::CutterComp(c) => modal.cutter_comp = c,
                         GCode::ToolLength => modal.tool_length = true,
                         GCode::ToolTip => {
@@ -576,8 +607,12 @@ impl Interpreter {
                                 axis_user = Some((g, w.start, w.end));
                             }
                         }
-                        GCode::Dwell | GCode::PassThrough => {}
-                        GCode::CancelMotion => modal.motion = MotionMode::None,
+                        GCode::Dwell => dwell = true,
+                        GCode::PassThrough => {}
+                        GCode::CancelMotion => {
+                            modal.motion = MotionMode::None;
+                            cancel_motion = true;
+                        }
                         GCode::Unsupported => {
                             unsupported = true;
                             self.fail(
@@ -601,7 +636,12 @@ impl Interpreter {
                     )?,
                     Some(MCode::ToolTipOn) => modal.frame = Frame::Part,
                     Some(MCode::ToolTipOff) => modal.frame = Frame::Joint,
-                    Some(MCode::PassThrough) | None => {}
+                    Some(MCode::PassThrough) | None => match w.code10() {
+                        Some(30) => spindle = SpindleDirection::Clockwise,
+                        Some(40) => spindle = SpindleDirection::CounterClockwise,
+                        Some(50) => spindle = SpindleDirection::Stopped,
+                        _ => {}
+                    },
                 },
                 b'X' | b'Y' | b'Z' | b'A' | b'C' => {
                     if let Some(axis) = Axis::from_letter(w.letter as char) {
@@ -641,11 +681,20 @@ impl Interpreter {
             }
         }
         // Feed: a change of feed mode forgets the old F.
-        if modal.inverse_time != old_inverse {
+        if modal.inverse_time != old_inverse || feed_reset {
             modal.feed = 0.0;
         }
         if let Some(f) = words.f {
             modal.feed = if modal.inverse_time { f } else { f * scale };
+        }
+        // Spindle before motion (LinuxCNC's order of execution); a failing
+        // block restores it (`interpret_into`).
+        self.spindle = spindle;
+        if dwell {
+            match words.p {
+                Some(p) if p.is_finite() => self.pending_dwell_min += p.max(0.0) / 60.0,
+                _ => self.fail(block, event, ErrorKind::DwellWithoutP, 0, block.raw.len())?,
+            }
         }
 
         // Coordinate system selection (before the group-0 codes and the motion).
@@ -849,6 +898,13 @@ impl Interpreter {
             event.program_end = true;
             self.ended = true;
         }
+        // A motion other than a canned cycle ends the series of cycle blocks
+        // (LinuxCNC's `convert_motion`).
+        let runs_motion =
+            cancel_motion || motion_word.is_some() || (words.has_axes() && axis_user.is_none());
+        if runs_motion && !matches!(modal.motion, MotionMode::Cycle(_)) {
+            self.cycle_memory.leave_cycle();
+        }
         // Commit.
         if modal.frame != old_frame {
             event.frame_switch = Some(modal.frame);
@@ -871,6 +927,9 @@ impl Interpreter {
                 self.time_min += m.duration_min;
             }
             self.moved = true;
+        }
+        if self.moved {
+            self.time_min += self.pending_dwell_min;
         }
         event.motion = motion;
         self.update_parameters();
@@ -942,24 +1001,124 @@ impl Interpreter {
         }
     }
 
-    /// A canned-cycle block (being integrated: `cycles` expands it).
+    /// A canned-cycle block: its moves, expanded by [`super::cycles`], in
+    /// machine coordinates. Returns the position after the block.
     fn cycle(
         &mut self,
         block: &Block,
         event: &mut BlockEvent,
-        _modal: &ModalState,
-        _origin: &Origin,
-        _words: &Words,
+        modal: &ModalState,
+        origin: &Origin,
+        words: &Words,
         code: u16,
     ) -> Result<Axes, GcodeError> {
-        self.fail(
-            block,
-            event,
-            ErrorKind::UnsupportedGCode(code_text('G', code as i32)),
-            0,
-            block.raw.len(),
-        )?;
-        Ok(self.position)
+        let Some(cycle) = CycleCode::from_code10(code as i32) else {
+            self.fail(
+                block,
+                event,
+                ErrorKind::UnsupportedGCode(code_text('G', code as i32)),
+                0,
+                block.raw.len(),
+            )?;
+            return Ok(self.position);
+        };
+        let scale = modal.units.scale();
+        let program_now = origin.to_program(&self.position);
+        let input = CycleBlock {
+            code: cycle,
+            plane: modal.plane,
+            retract: if modal.retract_r_plane {
+                RetractMode::RPlane
+            } else {
+                RetractMode::OldZ
+            },
+            incremental: modal.distance == Distance::Incremental,
+            position: [program_now.x, program_now.y, program_now.z],
+            xyz: [
+                words.axes[0].map(|a| a.0),
+                words.axes[1].map(|a| a.0),
+                words.axes[2].map(|a| a.0),
+            ],
+            r: words.r.map(|r| r * scale),
+            q: words.q.map(|q| q * scale),
+            p: words.p,
+            l: words.l,
+            ijk: words.ijk,
+            rotary_words: [words.axes[3].is_some(), false, words.axes[4].is_some()],
+            uvw_words: [false; 3],
+            feed_rate: if modal.inverse_time { 0.0 } else { modal.feed },
+            inverse_time: modal.inverse_time,
+            cutter_comp: modal.cutter_comp != CutterComp::Off,
+            spindle: self.spindle,
+            inch: modal.units == Units::Inch,
+        };
+        let mut steps = std::mem::take(&mut self.cycle_steps);
+        steps.clear();
+        let result = expand(&input, &mut self.cycle_memory, &mut steps);
+        if let Err(e) = result {
+            self.cycle_steps = steps;
+            let at = e
+                .word()
+                .and_then(|c| block.words.iter().find(|w| w.letter == c as u8))
+                .map(|w| (w.start, w.end))
+                .unwrap_or((0, block.raw.len()));
+            self.fail(block, event, ErrorKind::Cycle(e.to_string()), at.0, at.1)?;
+            return Ok(self.position);
+        }
+        let mut at = self.position;
+        for step in &steps {
+            let (xyz, kind) = match *step {
+                CycleStep::Rapid(p) => (p, Some(MotionKind::Rapid)),
+                CycleStep::Feed(p) => (p, Some(MotionKind::Linear)),
+                CycleStep::AssumePosition(p) => (p, None),
+                CycleStep::Dwell { seconds } => {
+                    self.pending_dwell_min += seconds.max(0.0) / 60.0;
+                    continue;
+                }
+                CycleStep::SpindleStop => {
+                    self.spindle = SpindleDirection::Stopped;
+                    continue;
+                }
+                CycleStep::SpindleStart { clockwise } => {
+                    self.spindle = if clockwise {
+                        SpindleDirection::Clockwise
+                    } else {
+                        SpindleDirection::CounterClockwise
+                    };
+                    continue;
+                }
+                CycleStep::SpindleOrient { .. }
+                | CycleStep::ProgramStop
+                | CycleStep::OverridesDisabled
+                | CycleStep::OverridesRestored => continue,
+            };
+            let mut program = origin.to_program(&at);
+            program.x = xyz[0];
+            program.y = xyz[1];
+            program.z = xyz[2];
+            let end = origin.to_machine(&program);
+            if let Some(kind) = kind {
+                let rapid = kind == MotionKind::Rapid;
+                let mut m = Motion {
+                    kind,
+                    frame: modal.frame,
+                    machine_coordinates: false,
+                    start: at,
+                    end,
+                    feed: if rapid {
+                        Feed::Rapid
+                    } else {
+                        Feed::PerMinute(modal.feed)
+                    },
+                    duration_min: 0.0,
+                };
+                m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
+                event.expanded.push(m);
+            }
+            at = end;
+        }
+        self.cycle_steps = steps;
+        Ok(at)
     }
 
     /// A straight move, arc or probing move from the current position to
