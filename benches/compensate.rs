@@ -15,12 +15,12 @@ use criterion::{Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use volcomp::compensate::{CompensateOptions, compensate};
-use volcomp::gcode::{InterpretOptions, RewriteOptions, rewrite_stream};
+use volcomp::gcode::{InterpretOptions, Program, ProgramSetup, RewriteOptions, rewrite_stream};
 use volcomp::inspection::Plan;
-use volcomp::machine::{ErrorModel, ExtrapolationPolicy, Machine};
+use volcomp::machine::{ErrorModel, Machine};
 use volcomp::predict::predict_plan;
 use volcomp::toolpath::cut::CutOptions;
 
@@ -64,7 +64,12 @@ fn write_program(path: &Path, blocks: usize) -> std::io::Result<()> {
 fn load() -> (Machine, ErrorModel) {
     volcomp::cli::common::load_model(
         &root().join("machines/ref-trt.toml"),
-        ExtrapolationPolicy::Error,
+        &volcomp::cli::common::ModelArgs {
+            extrapolate: volcomp::cli::common::Extrapolate::Error,
+            fit_method: volcomp::nurbs::KnotMethod::Best,
+            model: None,
+            exact_lookups: false,
+        },
     )
     .expect("ref-trt loads")
 }
@@ -89,12 +94,11 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
     group.throughput(Throughput::Elements(blocks));
     group.bench_function("passthrough_rewrite_stream", |b| {
         b.iter(|| {
-            let input = BufReader::with_capacity(1 << 16, File::open(&program).unwrap());
+            let input = Program::open(&program, ProgramSetup::default()).unwrap();
             let mut out = BufWriter::with_capacity(1 << 16, File::create(&output).unwrap());
             let stats = rewrite_stream(
-                input,
+                input.run(interpret),
                 &mut out,
-                interpret,
                 RewriteOptions::default(),
                 |_, event, _| event.motion.as_ref().map(|m| m.end),
             )
@@ -105,9 +109,9 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
     });
     group.bench_function("compensate", |b| {
         b.iter(|| {
-            let input = BufReader::with_capacity(1 << 16, File::open(&program).unwrap());
+            let input = Program::open(&program, ProgramSetup::default()).unwrap();
             let mut out = BufWriter::with_capacity(1 << 16, File::create(&output).unwrap());
-            let report = compensate(input, &program, &mut out, model, &options, |_| {}).unwrap();
+            let report = compensate(input, &mut out, model, &options, |_| {}).unwrap();
             out.flush().unwrap();
             report.blocks_read
         })
@@ -124,8 +128,8 @@ fn bench_predict(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
     group.throughput(Throughput::Elements(plan.points.len() as u64));
     group.bench_function("model_loaded", |b| {
         b.iter(|| {
-            let input = BufReader::new(File::open(&program).unwrap());
-            predict_plan(input, &program, model, &plan, &options)
+            let input = Program::open(&program, ProgramSetup::default()).unwrap();
+            predict_plan(input, model, &plan, &options)
                 .unwrap()
                 .profile_um
         })
@@ -134,8 +138,8 @@ fn bench_predict(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
         b.iter(|| {
             let (machine, model) = load();
             let options = CutOptions::for_machine(&machine, volcomp::gcode::Frame::Joint);
-            let input = BufReader::new(File::open(&program).unwrap());
-            predict_plan(input, &program, &model, &plan, &options)
+            let input = Program::open(&program, ProgramSetup::default()).unwrap();
+            predict_plan(input, &model, &plan, &options)
                 .unwrap()
                 .profile_um
         })

@@ -6,7 +6,7 @@ use crate::nurbs::KnotMethod;
 use anyhow::Context;
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::io::{BufRead, BufReader, IsTerminal};
+use std::io::{BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
 
 /// Out-of-table lookups.
@@ -225,6 +225,15 @@ impl ProgramArgs {
         Ok(setup)
     }
 
+    /// The program at `path` (`-`: standard input) in the setup of [`Self::setup`].
+    pub fn program(&self, path: &Path) -> anyhow::Result<crate::gcode::Program> {
+        Ok(crate::gcode::Program::new(
+            open_program(path)?,
+            path,
+            self.setup()?,
+        ))
+    }
+
     /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min`.
     pub fn interpret_options(&self, rapid_mm_per_min: f64) -> crate::gcode::InterpretOptions {
         crate::gcode::InterpretOptions {
@@ -254,19 +263,6 @@ pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::Program
         use std::io::Seek;
         spool.rewind().context("cannot read standard input back")?;
         return Ok(Box::new(BufReader::with_capacity(1 << 16, spool)));
-    }
-    let file =
-        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    Ok(Box::new(BufReader::with_capacity(1 << 16, file)))
-}
-
-/// Open a program (or `-`, standard input) for buffered reading.
-pub fn open_input(path: &Path) -> anyhow::Result<Box<dyn BufRead + Send>> {
-    if crate::io::is_stdio(path) {
-        return Ok(Box::new(BufReader::with_capacity(
-            1 << 16,
-            std::io::stdin(),
-        )));
     }
     let file =
         std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;

@@ -58,11 +58,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         limits: (!args.no_limits).then(|| machine.limits.clone()),
         ..CompensateOptions::default()
     };
-    let input = super::common::open_input(&args.program)?;
+    let program = args.read.program(&args.program)?;
     let bar = progress_bar(&args.program, "compensating");
     let mut report: Option<CompensateReport> = None;
     write_atomic(&args.output, |out| -> anyhow::Result<()> {
-        let r = compensate(input, &args.program, out, &model, &options, |n| {
+        let r = compensate(program, out, &model, &options, |n| {
             if let Some(b) = &bar {
                 b.set_position(n as u64);
             }

@@ -62,9 +62,9 @@ impl CutPart {
     ) -> anyhow::Result<CutPart> {
         let (machine_def, model) = machine.load()?;
         let options = read.cut_options(&machine_def);
-        let input = super::common::open_input(program)?;
+        let program = read.program(program)?;
         let (matches, _) =
-            crate::toolpath::cut::match_plan(input, program, &model, &plan.points, &options)?;
+            crate::toolpath::cut::match_plan(program, &model, &plan.points, &options)?;
         Ok(CutPart {
             model,
             plan,

@@ -1,5 +1,5 @@
 //! `volcomp diff`: what changed between two programs, block by block.
-use super::common::{ProgramArgs, open_input};
+use super::common::ProgramArgs;
 use crate::diff::{AlignOptions, DiffOptions, diff_programs};
 use crate::gcode::InterpretOptions;
 use crate::io::write_json_atomic;
@@ -62,10 +62,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         top: args.top,
     };
     let report = diff_programs(
-        open_input(&args.a)?,
-        &args.a,
-        open_input(&args.b)?,
-        &args.b,
+        args.read.program(&args.a)?,
+        args.read.program(&args.b)?,
         &options,
     )?;
     if let Some(path) = &args.report {

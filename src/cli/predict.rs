@@ -1,5 +1,5 @@
 //! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
-use super::common::{MachineArgs, ProgramArgs, open_input};
+use super::common::{MachineArgs, ProgramArgs};
 use crate::inspection::Plan;
 use crate::io::{write_file_atomic, write_json_atomic};
 use crate::predict::{html, predict_path, predict_plan};
@@ -43,13 +43,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let (machine, model) = args.machine.load()?;
     let options = args.read.cut_options(&machine);
-    let input = open_input(&args.program)?;
+    let program = args.read.program(&args.program)?;
     let report = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;
-            predict_plan(input, &args.program, &model, &plan, &options)?
+            predict_plan(program, &model, &plan, &options)?
         }
-        None => predict_path(input, &args.program, &model, &options)?,
+        None => predict_path(program, &model, &options)?,
     };
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;

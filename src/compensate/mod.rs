@@ -16,8 +16,8 @@ pub mod solve;
 
 use crate::axes::Axes;
 use crate::gcode::{
-    Block, BlockEvent, BlockReader, Frame, GcodeError, InterpretOptions, Interpreter, Motion,
-    MotionKind, ReadOptions, RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
+    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
+    RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{ErrorModel, Limits};
 use crate::toolpath::{effective_frame, joints_of, target_of};
@@ -25,7 +25,7 @@ use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{SolveError, first_order_joints, solve_joints_from};
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -119,7 +119,6 @@ struct Plan {
     end: Option<Axes>,
     via: Vec<Axes>,
     correction_um: f64,
-    residual_mm: f64,
 }
 
 /// A compensated target: in the block's frame, the solve residual (mm) and the
@@ -290,17 +289,19 @@ fn arc_radius(motion: &Motion, arc: &ArcGeometry) -> f64 {
     }
 }
 
-/// Compensate the program read from `input` (named `path` in messages) into
-/// `output`. `progress` is called after each chunk with the number of blocks done.
+/// Compensate `program` into `output`. `progress` is called after each chunk
+/// with the number of blocks done. Blocks flattened by the language layer and
+/// canned cycles are written flat (each executed move explicit, compensated).
 pub fn compensate(
-    input: impl BufRead + Send,
-    path: &Path,
+    program: Program,
     output: &mut dyn Write,
     model: &ErrorModel,
     options: &CompensateOptions,
     mut progress: impl FnMut(usize),
 ) -> Result<CompensateReport, CompensateError> {
     let started = Instant::now();
+    let path = program.path().to_path_buf();
+    let path = path.as_path();
     let held_before = model.held_lookups();
     // Reading and interpreting run on their own thread, a chunk or two ahead of
     // the solves and the writing (bounded channel: memory stays bounded).
@@ -308,7 +309,7 @@ pub fn compensate(
     let interpret = options.interpret;
     let chunk_blocks = options.chunk_blocks.max(1);
     std::thread::scope(|scope| {
-        scope.spawn(move || read_chunks(input, path, interpret, chunk_blocks, sender));
+        scope.spawn(move || read_chunks(program, interpret, chunk_blocks, sender));
         compensate_chunks(chunks, path, output, model, options, &mut progress)
     })
     .map(|mut report| {
@@ -321,39 +322,26 @@ pub fn compensate(
 /// A run of parsed blocks with their interpretation.
 type Chunk = Vec<(Block, BlockEvent)>;
 
-/// The reader thread: parse and interpret `input` into chunks; stop at the end,
-/// at the first error (sent on), or when the receiver has gone.
+/// The reader thread: run the program into chunks; stop at the end, at the
+/// first error (sent on), or when the receiver has gone.
 fn read_chunks(
-    input: impl BufRead,
-    path: &Path,
+    program: Program,
     interpret: InterpretOptions,
     chunk_blocks: usize,
     sender: std::sync::mpsc::SyncSender<Result<Chunk, GcodeError>>,
 ) {
-    let mut reader = BlockReader::new(
-        input,
-        ReadOptions {
-            lenient: interpret.lenient,
-        },
-    );
-    let mut interpreter = Interpreter::new(interpret);
+    let mut run = program.run(interpret);
     loop {
         let mut chunk = Vec::with_capacity(chunk_blocks);
         let mut done = false;
         while chunk.len() < chunk_blocks {
-            let Some(block) = reader.next_block() else {
-                done = true;
-                break;
-            };
-            let item = block.map_err(|e| e.with_path(path)).and_then(|block| {
-                interpreter
-                    .interpret(block)
-                    .map(|event| (block.clone(), event))
-                    .map_err(|e| e.with_path(path))
-            });
-            match item {
-                Ok(item) => chunk.push(item),
-                Err(e) => {
+            match run.next() {
+                None => {
+                    done = true;
+                    break;
+                }
+                Some(Ok((block, event, _))) => chunk.push((block.clone(), event.clone())),
+                Some(Err(e)) => {
                     let _ = sender.send(Err(e));
                     return;
                 }
@@ -362,6 +350,20 @@ fn read_chunks(
         if (!chunk.is_empty() && sender.send(Ok(chunk)).is_err()) || done {
             return;
         }
+    }
+}
+
+/// The moves of a block that are compensated: its one move, or the moves of a
+/// canned cycle (written flat). G28/G30 legs go to stored positions and are
+/// not compensated.
+fn compensated_moves(event: &BlockEvent) -> &[Motion] {
+    if event.skipped {
+        return &[];
+    }
+    match &event.motion {
+        Some(m) => std::slice::from_ref(m),
+        None if !event.cycle_steps.is_empty() => &event.expanded,
+        None => &[],
     }
 }
 
@@ -387,14 +389,15 @@ fn compensate_chunks(
         let chunk = chunk?;
         // 1. Compensated end of every motion, in parallel over pieces of the chunk;
         //    within a piece each solve starts from the previous correction.
-        let ends: Vec<Option<Result<Compensated, PointError>>> = chunk
+        //    Flat over the chunk's moves, in order.
+        let ends: Vec<Result<Compensated, PointError>> = chunk
             .par_chunks(WARM_START_RUN)
             .flat_map_iter(|piece| {
                 let mut guess = [0.0; 3];
                 piece
                     .iter()
-                    .map(|(_, event)| {
-                        let m = event.motion.as_ref().filter(|_| !event.skipped)?;
+                    .flat_map(|(_, event)| compensated_moves(event))
+                    .map(|m| {
                         let c = compensate_target(
                             model,
                             effective_frame(m),
@@ -405,31 +408,69 @@ fn compensate_chunks(
                         if let Ok(c) = &c {
                             guess = c.correction;
                         }
-                        Some(c)
+                        c
                     })
                     .collect::<Vec<_>>()
             })
             .collect();
+        // Per block: its single move's end, or its cycle's ends (`cycle_ends`).
         let mut resolved: Vec<Option<(Axes, f64)>> = Vec::with_capacity(chunk.len());
-        for ((block, _), end) in chunk.iter().zip(ends) {
-            match end {
-                None => resolved.push(None),
-                Some(Ok(c)) => resolved.push(Some((c.target, c.residual_mm))),
-                Some(Err(e)) => return Err(point_error(path, block.line, e)),
+        let mut cycle_ends: Vec<Vec<Axes>> = Vec::new();
+        let mut cycle_of: Vec<Option<usize>> = Vec::with_capacity(chunk.len());
+        let mut ends = ends.into_iter();
+        for (block, event) in chunk.iter() {
+            let moves = compensated_moves(event);
+            let mut mine = Vec::with_capacity(moves.len());
+            for _ in moves {
+                match ends.next() {
+                    Some(Ok(c)) => {
+                        report.max_residual_nm = report.max_residual_nm.max(c.residual_mm * 1e6);
+                        mine.push((c.target, c.residual_mm));
+                    }
+                    Some(Err(e)) => return Err(point_error(path, block.line, e)),
+                    None => unreachable!("one end per move"),
+                }
+            }
+            if event.motion.is_some() {
+                resolved.push(mine.first().copied());
+                cycle_of.push(None);
+            } else {
+                resolved.push(None);
+                if moves.is_empty() {
+                    cycle_of.push(None);
+                } else {
+                    for ((end, _), m) in mine.iter().zip(moves) {
+                        let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
+                        let um = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3;
+                        report.motion_blocks += 1;
+                        sum_sq += um * um;
+                        if um > report.max_correction_um {
+                            report.max_correction_um = um;
+                            report.max_correction_line = block.line;
+                        }
+                    }
+                    cycle_of.push(Some(cycle_ends.len()));
+                    cycle_ends.push(mine.iter().map(|e| e.0).collect());
+                }
             }
         }
         // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
-        for ((_, event), end) in chunk.iter().zip(&resolved) {
+        for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycle_of) {
             match (&event.motion, end) {
-                (Some(m), Some((e, _))) if !event.skipped => {
+                (Some(_), Some((e, _))) if !event.skipped => {
                     // Across a frame switch too: the interpreter (and so the
                     // control model of `toolpath`) starts the move from the last
                     // written numbers, which are the compensated ones.
                     starts.push(previous);
                     previous = Some(*e);
                 }
-                _ => starts.push(None),
+                _ => {
+                    starts.push(None);
+                    if let Some(k) = cycle {
+                        previous = cycle_ends[*k].last().copied().or(previous);
+                    }
+                }
             }
         }
         // 3. Split points, in parallel.
@@ -438,7 +479,7 @@ fn compensate_chunks(
             .zip(resolved.par_iter())
             .zip(starts.par_iter())
             .map(|(((_, event), end), start)| {
-                let (Some(m), Some((end, residual))) = (&event.motion, end) else {
+                let (Some(m), Some((end, _))) = (&event.motion, end) else {
                     return Ok(Plan::default());
                 };
                 let via = plan_motion(model, m, *start, *end, options)?;
@@ -447,14 +488,33 @@ fn compensate_chunks(
                     end: Some(*end),
                     via,
                     correction_um: (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3,
-                    residual_mm: *residual,
                 })
             })
             .collect();
         // 4. Emit in order.
-        for ((block, event), plan) in chunk.iter().zip(plans) {
+        for (((block, event), plan), cycle) in chunk.iter().zip(plans).zip(&cycle_of) {
             let plan = plan.map_err(|e| point_error(path, block.line, e))?;
             report.blocks_read += 1;
+            if let Some(k) = cycle {
+                emitted.clear();
+                let e = rewriter
+                    .emit_cycle(block, event, &cycle_ends[*k], &mut emitted)
+                    .map_err(|source| CompensateError::Rewrite {
+                        path: path.to_path_buf(),
+                        line: block.line,
+                        source,
+                    })?;
+                report.blocks_changed += 1;
+                report.blocks_added += e.pieces;
+                output
+                    .write_all(&emitted)
+                    .map_err(|source| CompensateError::Rewrite {
+                        path: path.to_path_buf(),
+                        line: block.line,
+                        source: RewriteError::Io(source),
+                    })?;
+                continue;
+            }
             let target = match plan.end {
                 None => Target::Same,
                 Some(end) => {
@@ -464,7 +524,6 @@ fn compensate_chunks(
                         report.max_correction_um = plan.correction_um;
                         report.max_correction_line = block.line;
                     }
-                    report.max_residual_nm = report.max_residual_nm.max(plan.residual_mm * 1e6);
                     if plan.via.is_empty() {
                         Target::Move(end)
                     } else {

@@ -1,14 +1,11 @@
-//! Reading a program as a stream of [`BlockSummary`] (reader + interpreter), and
+//! Reading a program as a stream of [`BlockSummary`] (a [`Program`] run), and
 //! diffing two programs end to end.
 use super::align::{AlignOptions, Aligner, BlockSummary};
 use super::{DiffAccumulator, DiffReport};
 use crate::gcode::{
-    Block, BlockEvent, BlockReader, GcodeError, InterpretOptions, Interpreter, MotionKind,
-    ReadOptions,
+    Block, BlockEvent, Execution, GcodeError, InterpretOptions, MotionKind, Program,
 };
 use std::cell::RefCell;
-use std::io::BufRead;
-use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// Settings of a diff.
@@ -67,9 +64,11 @@ pub fn summarize(block: &Block, event: &BlockEvent) -> BlockSummary {
             .block_number()
             .filter(|n| *n >= 0.0 && n.fract() == 0.0 && *n < u64::MAX as f64)
             .map(|n| n as u64),
+        // The block's last move: where it leaves the tool (a canned cycle's
+        // or a G28's too).
         motion: event
-            .motion
-            .as_ref()
+            .motions()
+            .last()
             .filter(|_| !event.skipped)
             .map(|m| (motion_code(&m.kind), m.end)),
         key: block_key(block),
@@ -78,48 +77,32 @@ pub fn summarize(block: &Block, event: &BlockEvent) -> BlockSummary {
 
 /// Streaming block summaries of a program. Yields `Err` once for the first bad
 /// block (located, with the file name) and then ends.
-pub struct BlockSummaries<R> {
-    reader: BlockReader<R>,
-    interpreter: Interpreter,
-    path: PathBuf,
+pub struct BlockSummaries {
+    run: Execution,
     failed: bool,
 }
 
-impl<R: BufRead> BlockSummaries<R> {
-    pub fn new(input: R, path: &Path, interpret: InterpretOptions) -> Self {
+impl BlockSummaries {
+    pub fn new(program: Program, interpret: InterpretOptions) -> Self {
         BlockSummaries {
-            reader: BlockReader::new(
-                input,
-                ReadOptions {
-                    lenient: interpret.lenient,
-                },
-            ),
-            interpreter: Interpreter::new(interpret),
-            path: path.to_path_buf(),
+            run: program.run(interpret),
             failed: false,
         }
     }
 }
 
-impl<R: BufRead> Iterator for BlockSummaries<R> {
+impl Iterator for BlockSummaries {
     type Item = Result<BlockSummary, GcodeError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if self.failed {
             return None;
         }
-        let block = match self.reader.next_block()? {
-            Ok(b) => b,
+        match self.run.next()? {
+            Ok((block, event, _)) => Some(Ok(summarize(block, event))),
             Err(e) => {
                 self.failed = true;
-                return Some(Err(e.with_path(&self.path)));
-            }
-        };
-        match self.interpreter.interpret(block) {
-            Ok(event) => Some(Ok(summarize(block, &event))),
-            Err(e) => {
-                self.failed = true;
-                Some(Err(e.with_path(&self.path)))
+                Some(Err(e))
             }
         }
     }
@@ -151,20 +134,18 @@ impl<I: Iterator<Item = Result<BlockSummary, GcodeError>>> Iterator for StopAtEr
 
 /// Diff program `a` against `b` (B − A), streaming both.
 pub fn diff_programs(
-    a: impl BufRead,
-    path_a: &Path,
-    b: impl BufRead,
-    path_b: &Path,
+    a: Program,
+    b: Program,
     options: &DiffOptions,
 ) -> Result<DiffReport, GcodeError> {
     let error_a = Rc::new(RefCell::new(None));
     let error_b = Rc::new(RefCell::new(None));
     let stream_a = StopAtError {
-        inner: BlockSummaries::new(a, path_a, options.interpret),
+        inner: BlockSummaries::new(a, options.interpret),
         error: Rc::clone(&error_a),
     };
     let stream_b = StopAtError {
-        inner: BlockSummaries::new(b, path_b, options.interpret),
+        inner: BlockSummaries::new(b, options.interpret),
         error: Rc::clone(&error_b),
     };
     let mut acc = DiffAccumulator::new(options.top);
@@ -196,12 +177,9 @@ mod tests {
     #[test]
     fn a_program_diffed_with_itself_is_identical() {
         let text = "G21 G90\nN10 G0 X1 Y2 Z3\nG1 X5 F100 (c)\nG2 X7 Y4 I1 J1\nM2\n";
-        let p = Path::new("p.nc");
         let r = diff_programs(
-            text.as_bytes(),
-            p,
-            text.as_bytes(),
-            p,
+            Program::from_text(text, "p.nc"),
+            Program::from_text(text, "p.nc"),
             &DiffOptions::default(),
         )
         .unwrap();
@@ -215,14 +193,12 @@ mod tests {
         let good = "G1 X1 F100\n";
         let bad = "G1 X1 F100\nG1 X(oops\n";
         let e = diff_programs(
-            good.as_bytes(),
-            Path::new("a.nc"),
-            bad.as_bytes(),
-            Path::new("b.nc"),
+            Program::from_text(good, "a.nc"),
+            Program::from_text(bad, "b.nc"),
             &DiffOptions::default(),
         )
         .unwrap_err();
         assert_eq!(e.line, 2);
-        assert_eq!(e.path.as_deref(), Some(Path::new("b.nc")));
+        assert_eq!(e.path.as_deref(), Some(std::path::Path::new("b.nc")));
     }
 }

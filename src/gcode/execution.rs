@@ -53,6 +53,58 @@ impl ProgramSetup {
     }
 }
 
+/// A program to run: where its text comes from, its name in messages, and
+/// the setup it runs in. Every command reads programs through this.
+pub struct Program {
+    input: Box<dyn ProgramInput>,
+    path: PathBuf,
+    setup: ProgramSetup,
+}
+
+impl Program {
+    pub fn new(input: Box<dyn ProgramInput>, path: &Path, setup: ProgramSetup) -> Self {
+        Program {
+            input,
+            path: path.to_path_buf(),
+            setup,
+        }
+    }
+
+    /// A program held in memory (tests, examples), with the default setup
+    /// (no offsets, no subroutine path, program end not required).
+    pub fn from_text(text: &str, name: &str) -> Self {
+        Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new(name),
+            ProgramSetup::default(),
+        )
+    }
+
+    /// A program file, buffered.
+    pub fn open(path: &Path, setup: ProgramSetup) -> std::io::Result<Self> {
+        let file = std::fs::File::open(path)?;
+        Ok(Program::new(
+            Box::new(std::io::BufReader::with_capacity(1 << 16, file)),
+            path,
+            setup,
+        ))
+    }
+
+    /// Its name in messages.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn setup(&self) -> &ProgramSetup {
+        &self.setup
+    }
+
+    /// Start running it.
+    pub fn run(self, options: InterpretOptions) -> Execution {
+        Execution::new(self.input, &self.path, options, &self.setup)
+    }
+}
+
 impl BlockEvent {
     /// Every move of the block, in order (the ordinary move, or the expanded ones).
     pub fn motions(&self) -> impl Iterator<Item = &Motion> {
@@ -71,6 +123,8 @@ pub struct Execution {
     require_end: bool,
     lenient: bool,
     done: bool,
+    /// The program has ended; the rest of the main file is passed over.
+    tail: bool,
 }
 
 impl Execution {
@@ -96,7 +150,13 @@ impl Execution {
             require_end: setup.require_program_end,
             lenient: options.lenient,
             done: false,
+            tail: false,
         }
+    }
+
+    /// The program's name in messages.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 
     /// The interpreter (its position, origin, parameters).
@@ -110,10 +170,32 @@ impl Execution {
     }
 
     /// The next executed block with its meaning and its origin in the source.
+    /// After the program's end (M2, M30, closing `%`) the rest of the main
+    /// file follows as written, not executed (`skipped` events), so writers
+    /// lose no byte.
     #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> Option<Result<(&Block, &BlockEvent, &Executed), GcodeError>> {
         if self.done {
             return None;
+        }
+        if self.tail {
+            return match self.executor.next_tail_line() {
+                None => {
+                    self.done = true;
+                    None
+                }
+                Some(Err(e)) => {
+                    self.done = true;
+                    Some(Err(e.with_path(&self.path)))
+                }
+                Some(Ok(())) => {
+                    let block = self.executor.block();
+                    self.interpreter.pass_over(block, &mut self.event);
+                    self.event.index = self.blocks;
+                    self.blocks += 1;
+                    Some(Ok((block, &self.event, self.executor.executed())))
+                }
+            };
         }
         if self.event.program_end {
             self.ended = true;
@@ -121,6 +203,10 @@ impl Execution {
         }
         let params = self.interpreter.parameters_mut();
         match self.executor.next_block(params) {
+            None if self.ended || self.executor.percent_ended() => {
+                self.tail = true;
+                self.next()
+            }
             None => {
                 self.done = true;
                 if self.require_end

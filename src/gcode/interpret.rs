@@ -143,6 +143,10 @@ pub struct BlockEvent {
     /// The moves of a block that expands into several (G28/G30 through their
     /// intermediate point, canned cycles), in order; `motion` is then `None`.
     pub expanded: Vec<Motion>,
+    /// The steps of a canned-cycle block (program coordinates, mm), in
+    /// order: each `Rapid`/`Feed` is the next motion of `expanded`; empty for
+    /// other blocks. Flat writers emit the dwells and spindle steps too.
+    pub cycle_steps: Vec<CycleStep>,
     /// The origin the block's axis words were read in (identity under G53).
     pub origin: Origin,
     /// Modal state after the block.
@@ -173,6 +177,7 @@ impl Default for BlockEvent {
             line: 0,
             motion: None,
             expanded: Vec::new(),
+            cycle_steps: Vec::new(),
             origin: Origin::MACHINE,
             modal: ModalState::new(Frame::Joint),
             start: Axes::default(),
@@ -205,8 +210,6 @@ pub struct Interpreter {
     spindle: SpindleDirection,
     /// What LinuxCNC remembers between canned-cycle blocks.
     cycle_memory: CycleMemory,
-    /// Scratch for a cycle's steps (kept to reuse its capacity).
-    cycle_steps: Vec<CycleStep>,
     /// Dwell time of the block being interpreted (G4, cycles), min.
     pending_dwell_min: f64,
 }
@@ -259,7 +262,6 @@ impl Interpreter {
             unknown_letters_seen: 0,
             spindle: SpindleDirection::Stopped,
             cycle_memory: CycleMemory::default(),
-            cycle_steps: Vec::new(),
             pending_dwell_min: 0.0,
         };
         let system = i.params.get(numbers::COORD_SYSTEM).round();
@@ -325,6 +327,7 @@ impl Interpreter {
         event.line = block.line;
         event.motion = None;
         event.expanded.clear();
+        event.cycle_steps.clear();
         event.start = self.position;
         event.origin = self.origin;
         event.frame_switch = None;
@@ -343,6 +346,26 @@ impl Interpreter {
         event.position = self.position;
         event.time_min = self.time_min;
         result
+    }
+
+    /// Fill `event` for a line that is not executed (after the program end):
+    /// no motion, state unchanged, `skipped` set.
+    pub fn pass_over(&self, block: &Block, event: &mut BlockEvent) {
+        event.index = block.line.saturating_sub(1);
+        event.line = block.line;
+        event.motion = None;
+        event.expanded.clear();
+        event.cycle_steps.clear();
+        event.start = self.position;
+        event.position = self.position;
+        event.origin = self.origin;
+        event.modal = self.modal;
+        event.time_min = self.time_min;
+        event.frame_switch = None;
+        event.home = false;
+        event.program_end = false;
+        event.skipped = true;
+        event.warnings.clear();
     }
 
     fn error(&self, block: &Block, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
@@ -1052,11 +1075,8 @@ impl Interpreter {
             spindle: self.spindle,
             inch: modal.units == Units::Inch,
         };
-        let mut steps = std::mem::take(&mut self.cycle_steps);
-        steps.clear();
-        let result = expand(&input, &mut self.cycle_memory, &mut steps);
-        if let Err(e) = result {
-            self.cycle_steps = steps;
+        event.cycle_steps.clear();
+        if let Err(e) = expand(&input, &mut self.cycle_memory, &mut event.cycle_steps) {
             let at = e
                 .word()
                 .and_then(|c| block.words.iter().find(|w| w.letter == c as u8))
@@ -1066,7 +1086,7 @@ impl Interpreter {
             return Ok(self.position);
         }
         let mut at = self.position;
-        for step in &steps {
+        for step in &event.cycle_steps {
             let (xyz, kind) = match *step {
                 CycleStep::Rapid(p) => (p, Some(MotionKind::Rapid)),
                 CycleStep::Feed(p) => (p, Some(MotionKind::Linear)),
@@ -1117,7 +1137,6 @@ impl Interpreter {
             }
             at = end;
         }
-        self.cycle_steps = steps;
         Ok(at)
     }
 

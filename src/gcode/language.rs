@@ -230,6 +230,30 @@ impl Executor {
         self.ended = true;
     }
 
+    /// After the end of the program: the next line of the main file after the
+    /// block that ended it, as written (not executed; `None` at the end of the
+    /// file). Writers copy these lines so that no byte of the file is lost.
+    /// Only when the program ended in the main file outside loops and calls
+    /// (after an end inside them the output is flat and the rest is dropped).
+    pub fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
+        if !self.ended
+            || self.current != 0
+            || !self.frames.is_empty()
+            || self.main_loops != 0
+            || self.skipping.is_some()
+        {
+            return None;
+        }
+        match self.read_line() {
+            Ok(Some(block)) => {
+                self.emit_source(&block);
+                Some(Ok(()))
+            }
+            Ok(None) => None,
+            Err(e) => Some(Err(e)),
+        }
+    }
+
     /// The next executed block, `None` at the end of the program. Errors are
     /// located in the file that holds the line (the path is set for subroutine
     /// files; the caller names the main file).

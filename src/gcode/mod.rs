@@ -25,11 +25,11 @@
 //! Typical use (a compensator):
 //!
 //! ```
-//! use volcomp::gcode::{InterpretOptions, RewriteOptions, rewrite_stream};
-//! let program = "G21 G90 G93\nN10 G1 X10 Y0 Z0 A0 C0 F2.\n";
+//! use volcomp::gcode::{InterpretOptions, Program, RewriteOptions, rewrite_stream};
+//! let program = Program::from_text("G21 G90 G93\nN10 G1 X10 Y0 Z0 A0 C0 F2.\n", "p.nc");
 //! let mut out = Vec::new();
-//! let stats = rewrite_stream(program.as_bytes(), &mut out, InterpretOptions::default(),
-//!     RewriteOptions::default(), |_block, event, via| {
+//! let run = program.run(InterpretOptions::default());
+//! let stats = rewrite_stream(run, &mut out, RewriteOptions::default(), |_block, event, via| {
 //!         let m = event.motion.as_ref()?;
 //!         via.push(m.start.lerp(&m.end, 0.5)); // split in two
 //!         Some(m.end)                           // keep the end
@@ -56,7 +56,7 @@ pub mod summary;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
-pub use execution::{Execution, ProgramSetup};
+pub use execution::{Execution, Program, ProgramSetup};
 pub use interpret::{
     BlockEvent, InterpretOptions, Interpreter, Warning, WarningKind, duration_from_lengths,
     duration_min, interpret_program,

@@ -80,7 +80,7 @@ use crate::axes::{Axes, Axis};
 use super::block::{Block, Word};
 use super::interpret::BlockEvent;
 use super::modal::{Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m};
-use super::motion::{Feed, MotionKind};
+use super::motion::{Feed, Motion, MotionKind};
 use super::motion::{from_plane, to_plane};
 
 /// Rewriter settings.
@@ -134,6 +134,8 @@ pub enum RewriteError {
     NotAMotion { line: usize },
     #[error("line {line}: the new target is not finite")]
     NonFinite { line: usize },
+    #[error("line {line}: a flat program cannot say {what}; expand this canned cycle by hand")]
+    CannotFlatten { line: usize, what: &'static str },
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
     #[error(transparent)]
@@ -153,38 +155,31 @@ pub struct RewriteStats {
     pub pieces: usize,
 }
 
-/// Read, interpret and rewrite a whole program, streaming. For every motion
-/// block `plan` gets the block, its event and an empty via buffer; it returns
-/// the new absolute end (`None`: keep the programmed target) and may push
-/// intermediate targets into the buffer (a split). Input errors carry the line
-/// and column (add the file with [`GcodeError::with_path`](super::error::GcodeError::with_path)).
+/// Run and rewrite a whole program, streaming. For every motion block `plan`
+/// gets the block, its event and an empty via buffer; it returns the new
+/// absolute end (machine coordinates; `None`: keep the programmed target) and
+/// may push intermediate targets into the buffer (a split). Blocks that the
+/// language layer flattened are written flat (their values substituted), canned
+/// cycles as their moves ([`Rewriter::emit_cycle`], at their programmed
+/// targets). Input errors are located (file, line, column).
 pub fn rewrite_stream(
-    input: impl std::io::BufRead,
+    run: super::execution::Execution,
     out: &mut dyn Write,
-    interpret: super::interpret::InterpretOptions,
     options: RewriteOptions,
     mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
 ) -> Result<RewriteStats, RewriteError> {
-    let mut reader = super::reader::BlockReader::new(
-        input,
-        super::reader::ReadOptions {
-            lenient: interpret.lenient,
-        },
-    );
-    let mut interpreter = super::interpret::Interpreter::new(interpret);
-    let mut rewriter = Rewriter::new(options, interpret.initial_position);
-    let mut event = BlockEvent::default();
+    let mut run = run;
+    let mut rewriter = Rewriter::new(options, run.interpreter().options().initial_position);
     let mut via = Vec::new();
     let mut stats = RewriteStats::default();
-    while let Some(block) = reader.next_block() {
-        let block = block?;
-        interpreter.interpret_into(block, &mut event)?;
+    while let Some(step) = run.next() {
+        let (block, event, _) = step?;
         stats.blocks += 1;
         via.clear();
         let target = match event.motion.as_ref().filter(|_| !event.skipped) {
             Some(_) => {
                 stats.motions += 1;
-                match plan(block, &event, &mut via) {
+                match plan(block, event, &mut via) {
                     None => Target::Same,
                     Some(end) if via.is_empty() => Target::Move(end),
                     Some(end) => Target::Split { via: &via, end },
@@ -192,7 +187,7 @@ pub fn rewrite_stream(
             }
             None => Target::Same,
         };
-        let emitted = rewriter.emit(block, &event, target, out)?;
+        let emitted = rewriter.emit(block, event, target, out)?;
         stats.rewritten += emitted.rewritten as usize;
         stats.pieces += emitted.pieces;
     }
@@ -220,6 +215,8 @@ pub struct Rewriter {
     edits: Vec<Edit>,
     text: String,
     line: Vec<u8>,
+    /// Scratch: split targets in program coordinates.
+    via_program: Vec<Axes>,
 }
 
 impl Rewriter {
@@ -234,6 +231,7 @@ impl Rewriter {
             edits: Vec::new(),
             text: String::new(),
             line: Vec::new(),
+            via_program: Vec::new(),
         }
     }
 
@@ -256,6 +254,11 @@ impl Rewriter {
                 self.decimals[i] = self.decimals[i].max(w.decimals);
             }
         }
+        if !event.cycle_steps.is_empty() && !event.skipped && target == Target::Same {
+            // A canned cycle is always written flat (see `emit_cycle`).
+            let ends: Vec<Axes> = event.expanded.iter().map(|m| m.end).collect();
+            return self.emit_cycle(block, event, &ends, out);
+        }
         let Some(motion) = event.motion.as_ref().filter(|_| !event.skipped) else {
             if target != Target::Same {
                 return Err(RewriteError::NotAMotion { line: block.line });
@@ -277,6 +280,38 @@ impl Rewriter {
                 }
             }
             self.original_motion = event.modal.motion;
+            if offset_setting(block) {
+                // G92 / G10 L20 make the current position read as the words:
+                // where the emitted program stands elsewhere than the
+                // original, shift the words by that drift so that the offset
+                // set is the original's (else every later move would carry
+                // this block's correction on top of its own).
+                self.edits.clear();
+                self.text.clear();
+                let o = event.origin;
+                let (emitted, nominal) = (o.to_program(&self.emitted), o.to_program(&event.start));
+                let ctx = Context::new(block, event);
+                for axis in Axis::ALL {
+                    let Some(w) = block
+                        .words
+                        .iter()
+                        .rev()
+                        .find(|w| w.letter == axis.letter() as u8)
+                    else {
+                        continue;
+                    };
+                    let drift = (emitted.get(axis) - nominal.get(axis)) / ctx.unit(axis);
+                    let dec = ctx.decimals(axis, w.decimals, &self.options);
+                    if drift.abs() > half_ulp(dec) {
+                        self.replace_number(block, w, w.value + drift, dec);
+                    }
+                }
+                let rewritten = self.write_edited(block, out)?;
+                return Ok(Emitted {
+                    rewritten,
+                    pieces: 0,
+                });
+            }
             block.write_raw(out)?;
             return Ok(Emitted::default());
         };
@@ -288,6 +323,56 @@ impl Rewriter {
         if !end.is_finite() || !via.iter().all(Axes::is_finite) {
             return Err(RewriteError::NonFinite { line: block.line });
         }
+        // Everything below works in the block's program coordinates (its
+        // words' coordinates): targets and positions come in machine
+        // coordinates and go back at the end.
+        let origin = event.origin;
+        let mut via_program = std::mem::take(&mut self.via_program);
+        via_program.clear();
+        via_program.extend(via.iter().map(|v| origin.to_program(v)));
+        let result = self.emit_motion(
+            block,
+            event,
+            motion,
+            &via_program,
+            origin.to_program(&end),
+            out,
+        );
+        self.via_program = via_program;
+        result
+    }
+
+    /// [`Rewriter::emit`] of a motion block, in the block's program coordinates.
+    fn emit_motion(
+        &mut self,
+        block: &Block,
+        event: &BlockEvent,
+        motion: &Motion,
+        via: &[Axes],
+        end: Axes,
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        let origin = event.origin;
+        let motion = &Motion {
+            start: origin.to_program(&motion.start),
+            end: origin.to_program(&motion.end),
+            kind: match motion.kind {
+                MotionKind::Arc {
+                    clockwise,
+                    centre,
+                    plane,
+                    turns,
+                } => MotionKind::Arc {
+                    clockwise,
+                    centre: origin.xyz_to_program(centre),
+                    plane,
+                    turns,
+                },
+                k => k,
+            },
+            ..*motion
+        };
+        self.emitted = origin.to_program(&self.emitted);
         let ctx = Context::new(block, event);
         self.edits.clear();
         self.text.clear();
@@ -434,9 +519,150 @@ impl Rewriter {
         }
         self.emitted_motion = mode;
         self.original_motion = event.modal.motion;
-        self.emitted = new_emitted;
+        self.emitted = origin.to_machine(&new_emitted);
         let rewritten = self.write_edited(block, out)?;
         Ok(Emitted { rewritten, pieces })
+    }
+
+    /// Emit a canned-cycle block flat: the block without its cycle words (its
+    /// other words and comments keep their effect), then every step as an
+    /// explicit line: each move (`ends[k]` is the absolute target of
+    /// `event.expanded[k]`, machine coordinates, as for [`Rewriter::emit`])
+    /// as `G0`/`G1 X… Y… Z…` in absolute coordinates, dwells as `G4 P…`,
+    /// spindle stops and starts as `M5`/`M3`/`M4`, override switches as
+    /// `M49`/`M48`. Steps LinuxCNC runs that a flat program cannot say (the
+    /// spindle orientation of G87, the assumed position after G88's stop and
+    /// after G74/G84 in G18/G19) are refused ([`RewriteError::CannotFlatten`]).
+    pub fn emit_cycle(
+        &mut self,
+        block: &Block,
+        event: &BlockEvent,
+        ends: &[Axes],
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        use super::cycles::CycleStep;
+        if ends.len() != event.expanded.len() {
+            return Err(RewriteError::NotAMotion { line: block.line });
+        }
+        if !ends.iter().all(Axes::is_finite) {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        for step in &event.cycle_steps {
+            let what = match step {
+                CycleStep::SpindleOrient { .. } => "the spindle orientation of G87",
+                CycleStep::AssumePosition(_) => {
+                    "a position LinuxCNC assumes without moving there (G88's hand retract, G74/G84 outside G17)"
+                }
+                _ => continue,
+            };
+            return Err(RewriteError::CannotFlatten {
+                line: block.line,
+                what,
+            });
+        }
+        for w in &block.words {
+            if let Some(axis) = Axis::from_letter(w.letter as char) {
+                let i = axis as usize;
+                self.decimals[i] = self.decimals[i].max(w.decimals);
+            }
+        }
+        let ctx = Context::new(block, event);
+        let ending: &[u8] = match block.ending {
+            super::block::LineEnding::CrLf => b"\r\n",
+            _ => b"\n",
+        };
+        // 1. The block without the cycle's words.
+        self.edits.clear();
+        self.text.clear();
+        for w in &block.words {
+            let cycle_word = match w.letter {
+                b'G' => matches!(
+                    w.code10().map(classify_g),
+                    Some(GCode::Motion(MotionMode::Cycle(_)))
+                ),
+                b'X' | b'Y' | b'Z' | b'A' | b'C' | b'R' | b'Q' | b'P' | b'L' | b'I' | b'J'
+                | b'K' => true,
+                _ => false,
+            };
+            if cycle_word {
+                self.remove_word(block, w);
+            }
+        }
+        let from = self.text.len();
+        self.text
+            .push_str(" (volcomp: canned cycle expanded below)");
+        self.record(from, block.raw.len(), block.raw.len());
+        self.write_edited(block, out)?;
+        // 2. The steps.
+        let mut line = String::new();
+        let mut written = Vec::new();
+        let mut moves = ends.iter().zip(&event.expanded);
+        if ctx.incremental {
+            line.push_str("G90");
+            written.push(std::mem::take(&mut line));
+        }
+        for step in &event.cycle_steps {
+            match *step {
+                CycleStep::Rapid(_) | CycleStep::Feed(_) => {
+                    let Some((end, motion)) = moves.next() else {
+                        return Err(RewriteError::NotAMotion { line: block.line });
+                    };
+                    let program = event.origin.to_program(end);
+                    line.push_str(if motion.kind == MotionKind::Rapid {
+                        "G0"
+                    } else {
+                        "G1"
+                    });
+                    for axis in Axis::ALL {
+                        let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
+                        if axis.is_rotary() && !moved {
+                            continue;
+                        }
+                        let unit = ctx.unit(axis);
+                        let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
+                        line.push(' ');
+                        line.push(axis.letter());
+                        push_number(&mut line, program.get(axis) / unit, dec);
+                    }
+                    self.emitted = *end;
+                }
+                CycleStep::Dwell { seconds } => {
+                    line.push_str("G4 P");
+                    push_number(&mut line, seconds, 4);
+                }
+                CycleStep::SpindleStop => line.push_str("M5"),
+                CycleStep::SpindleStart { clockwise } => {
+                    line.push_str(if clockwise { "M3" } else { "M4" })
+                }
+                CycleStep::OverridesDisabled => line.push_str("M49"),
+                CycleStep::OverridesRestored => line.push_str("M48"),
+                CycleStep::ProgramStop => line.push_str("M0"),
+                CycleStep::SpindleOrient { .. } | CycleStep::AssumePosition(_) => continue,
+            }
+            written.push(std::mem::take(&mut line));
+        }
+        if ctx.incremental {
+            written.push("G91".to_string());
+        }
+        for l in &written {
+            let l = if ctx.lowercase {
+                l.to_ascii_lowercase()
+            } else {
+                l.clone()
+            };
+            out.write_all(l.as_bytes())?;
+            out.write_all(ending)?;
+        }
+        self.emitted_motion = match event.expanded.last().map(|m| m.kind) {
+            Some(MotionKind::Rapid) => MotionMode::Rapid,
+            Some(_) => MotionMode::Linear,
+            None => self.emitted_motion,
+        };
+        self.original_motion = event.modal.motion;
+        Ok(Emitted {
+            rewritten: true,
+            pieces: written.len(),
+        })
     }
 
     /// Record that `raw[start..end]` becomes the text written since `from`.
@@ -808,6 +1034,22 @@ fn fractions(start: Axes, via: &[Axes], end: Axes) -> Vec<f64> {
     } else {
         vec![1.0 / n; xyz.len()]
     }
+}
+
+/// G92 or G10 L20: a block that sets an offset from the current position.
+fn offset_setting(block: &Block) -> bool {
+    let mut g92 = false;
+    let mut g10 = false;
+    let mut l20 = false;
+    for w in &block.words {
+        match (w.letter, w.code10()) {
+            (b'G', Some(920)) => g92 = true,
+            (b'G', Some(100)) => g10 = true,
+            (b'L', Some(200)) => l20 = true,
+            _ => {}
+        }
+    }
+    g92 || (g10 && l20)
 }
 
 fn has_motion_word(block: &Block) -> bool {

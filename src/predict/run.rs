@@ -1,12 +1,10 @@
 //! Running a prediction: program + error model (+ plan) → [`PredictReport`].
 use super::{BlockError, PredictReport, PredictedPoint};
-use crate::gcode::{BlockReader, GcodeError, Interpreter, ReadOptions};
+use crate::gcode::{GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::{ErrorModel, LookupError};
 use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
 use crate::toolpath::{effective_frame, joints_of};
-use std::io::BufRead;
-use std::path::Path;
 use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
@@ -25,14 +23,13 @@ pub enum PredictError {
 
 /// Predicted deviation of every plan point and the profile error of the part.
 pub fn predict_plan(
-    input: impl BufRead,
-    path: &Path,
+    program: Program,
     model: &ErrorModel,
     plan: &Plan,
     options: &CutOptions,
 ) -> Result<PredictReport, PredictError> {
     let started = Instant::now();
-    let (matches, _) = match_plan(input, path, model, &plan.points, options)?;
+    let (matches, _) = match_plan(program, model, &plan.points, options)?;
     let errors = volumetric_errors(model, &plan.points, &matches)?;
     let mut points = Vec::with_capacity(plan.points.len());
     let mut deviations = Vec::new();
@@ -98,45 +95,40 @@ pub fn predict_plan(
     })
 }
 
-/// Without a plan: the volumetric error at the end of every motion block.
+/// Without a plan: the volumetric error at the end of every move (one row per
+/// move; a canned cycle's block gives several rows with its line).
 pub fn predict_path(
-    input: impl BufRead,
-    path: &Path,
+    program: Program,
     model: &ErrorModel,
     options: &CutOptions,
 ) -> Result<PredictReport, PredictError> {
     let started = Instant::now();
-    let mut reader = BlockReader::new(
-        input,
-        ReadOptions {
-            lenient: options.interpret.lenient,
-        },
-    );
-    let mut interpreter = Interpreter::new(options.interpret);
+    let path = program.path().display().to_string();
+    let mut run = program.run(options.interpret);
     let kin = model.kinematics();
     let mut blocks = Vec::new();
-    while let Some(block) = reader.next_block() {
-        let block = block.map_err(|e| e.with_path(path))?;
-        let event = interpreter
-            .interpret(block)
-            .map_err(|e| e.with_path(path))?;
-        let Some(m) = event.motion.as_ref().filter(|_| !event.skipped) else {
+    while let Some(step) = run.next() {
+        let (_, event, _) = step?;
+        if event.skipped {
             continue;
-        };
-        let joints = joints_of(kin, effective_frame(m), &m.end);
-        let v = model
-            .volumetric_error(&joints)
-            .map_err(|source| PredictError::Lookup {
-                path: path.display().to_string(),
+        }
+        // Every move's end (a canned cycle's or a loop's moves each).
+        for m in event.motions() {
+            let joints = joints_of(kin, effective_frame(m), &m.end);
+            let v = model
+                .volumetric_error(&joints)
+                .map_err(|source| PredictError::Lookup {
+                    path: path.clone(),
+                    line: event.line,
+                    source,
+                })?;
+            blocks.push(BlockError {
                 line: event.line,
-                source,
-            })?;
-        blocks.push(BlockError {
-            line: event.line,
-            e_um: v.e_um,
-            norm_um: v.magnitude_um(),
-            axis_urad: v.axis_urad,
-        });
+                e_um: v.e_um,
+                norm_um: v.magnitude_um(),
+                axis_urad: v.axis_urad,
+            });
+        }
     }
     let norms: Vec<f64> = blocks.iter().map(|b| b.norm_um).collect();
     Ok(PredictReport {

@@ -5,12 +5,10 @@ use super::context::PointContext;
 use super::plan_match::{PlanMatch, PlanMatcher};
 use super::program::{WalkSummary, walk_program};
 use super::walk::WalkOptions;
-use crate::gcode::{GcodeError, InterpretOptions};
+use crate::gcode::{GcodeError, InterpretOptions, Program};
 use crate::inspection::PlanPoint;
 use crate::machine::{ErrorModel, LookupError};
 use crate::vec3::dot;
-use std::io::BufRead;
-use std::path::Path;
 
 /// Settings of the cut analysis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,8 +55,7 @@ impl CutOptions {
 
 /// Walk the program and match every plan point to the path point that cut it.
 pub fn match_plan(
-    input: impl BufRead,
-    path: &Path,
+    program: Program,
     model: &ErrorModel,
     plan: &[PlanPoint],
     options: &CutOptions,
@@ -66,8 +63,7 @@ pub fn match_plan(
     let points: Vec<([f64; 3], [f64; 3])> = plan.iter().map(|p| (p.point, p.normal)).collect();
     let mut matcher = PlanMatcher::new(&points, options.tool_radius, options.max_distance_mm);
     let summary = walk_program(
-        input,
-        path,
+        program,
         model.kinematics(),
         options.interpret,
         options.walk,

@@ -1,9 +1,7 @@
-//! Walking a whole program: reader → interpreter → [`PathWalker`], streaming.
+//! Walking a whole program: [`Program`] run → [`PathWalker`], streaming.
 use super::walk::{PathPoint, PathWalker, WalkOptions};
-use crate::gcode::{BlockReader, GcodeError, InterpretOptions, Interpreter, ReadOptions};
+use crate::gcode::{GcodeError, InterpretOptions, Program};
 use crate::kinematics::Kinematics;
-use std::io::BufRead;
-use std::path::Path;
 
 /// What a walk saw.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -15,39 +13,34 @@ pub struct WalkSummary {
     pub time_min: f64,
 }
 
-/// Walk every motion of the program read from `input` (named `path` in errors),
+/// Walk every motion of `program` (canned cycles and loops expanded),
 /// calling `visit` for every path point in order.
 pub fn walk_program(
-    input: impl BufRead,
-    path: &Path,
+    program: Program,
     kinematics: &Kinematics,
     interpret: InterpretOptions,
     walk: WalkOptions,
     mut visit: impl FnMut(&PathPoint),
 ) -> Result<WalkSummary, GcodeError> {
-    let mut reader = BlockReader::new(
-        input,
-        ReadOptions {
-            lenient: interpret.lenient,
-        },
-    );
-    let mut interpreter = Interpreter::new(interpret);
+    let mut run = program.run(interpret);
     let mut walker = PathWalker::new(kinematics, walk);
     let mut summary = WalkSummary::default();
     let mut count = |p: &PathPoint| {
         summary.path_points += 1;
         visit(p);
     };
-    while let Some(block) = reader.next_block() {
-        let block = block.map_err(|e| e.with_path(path))?;
-        let event = interpreter
-            .interpret(block)
-            .map_err(|e| e.with_path(path))?;
+    while let Some(step) = run.next() {
+        let (_, event, _) = step?;
         summary.blocks += 1;
-        if let Some(motion) = &event.motion {
-            summary.motion_blocks += 1;
+        if event.skipped {
+            continue;
+        }
+        let mut moved = false;
+        for motion in event.motions() {
+            moved = true;
             walker.push(event.index, event.line, motion, &mut count);
         }
+        summary.motion_blocks += moved as usize;
     }
     walker.finish(&mut count);
     summary.time_min = walker.time_min();

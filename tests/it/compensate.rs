@@ -4,7 +4,6 @@
 //! program, and the edge cases of the command.
 use crate::support::root;
 use std::collections::HashMap;
-use std::path::Path;
 use std::sync::OnceLock;
 use volcomp::compensate::{CompensateOptions, CompensateReport, compensate};
 use volcomp::diff::align::{Aligned, BlockSummary};
@@ -54,8 +53,7 @@ pub fn compensate_with_tolerance(
     };
     let mut out = Vec::new();
     let report = compensate(
-        text.as_bytes(),
-        Path::new("program.nc"),
+        volcomp::gcode::Program::from_text(&text, "program.nc"),
         &mut out,
         model,
         &options,
@@ -99,8 +97,7 @@ impl NominalPath {
         let mut segments = Vec::new();
         let mut previous_cutting = false;
         walk_program(
-            text.as_bytes(),
-            Path::new("original.nc"),
+            volcomp::gcode::Program::from_text(&text, "original.nc"),
             model.kinematics(),
             interpret_options(frame),
             WalkOptions {
@@ -181,8 +178,7 @@ pub fn actual_path_error(
     let kin = model.kinematics();
     let (mut max, mut sum_sq, mut n, mut worst_line) = (0.0f64, 0.0, 0usize, 0);
     walk_program(
-        text.as_bytes(),
-        Path::new("replayed.nc"),
+        volcomp::gcode::Program::from_text(&text, "replayed.nc"),
         kin,
         interpret_options(frame),
         WalkOptions {
@@ -332,8 +328,7 @@ fn linuxcnc_demo_keeps_lines_words_and_inverse_time() {
     let out: Vec<&str> = compensated.lines().collect();
     let summaries = |text: &str| -> Vec<BlockSummary> {
         BlockSummaries::new(
-            text.as_bytes(),
-            Path::new("p.nc"),
+            volcomp::gcode::Program::from_text(&text, "p.nc"),
             interpret_options(Frame::Joint),
         )
         .map(|s| s.expect("reads"))
@@ -443,7 +438,7 @@ fn cli_refuses_a_target_outside_the_travel_and_writes_nothing() {
     // X200 is the end of the travel; the compensated target goes beyond it.
     std::fs::write(
         &program,
-        "G21 G90\nG1 X199.9999 Y149.9999 Z99.9999 A60 C200 F1000\n",
+        "G21 G90\nG1 X199.9999 Y149.9999 Z99.9999 A60 C200 F1000\nM2\n",
     )
     .unwrap();
     let out_path = dir.path().join("out.nc");

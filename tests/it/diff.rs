@@ -2,16 +2,13 @@
 use crate::compensate::{compensate_text, read};
 use crate::predict::rounded;
 use crate::support::{root, volcomp};
-use std::path::Path;
 use volcomp::diff::{DiffOptions, diff_programs};
 use volcomp::gcode::Frame;
 
 fn diff(a: &str, b: &str) -> volcomp::diff::DiffReport {
     diff_programs(
-        a.as_bytes(),
-        Path::new("a.nc"),
-        b.as_bytes(),
-        Path::new("b.nc"),
+        volcomp::gcode::Program::from_text(&a, "a.nc"),
+        volcomp::gcode::Program::from_text(&b, "b.nc"),
         &DiffOptions::default(),
     )
     .expect("diffs")

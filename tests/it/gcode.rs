@@ -385,10 +385,11 @@ mod rewriting {
         ) -> Option<Axes>,
     ) -> (Vec<u8>, volcomp::gcode::RewriteStats) {
         let mut out = Vec::new();
+        let program =
+            volcomp::gcode::Program::from_text(std::str::from_utf8(bytes).expect("utf-8"), "p.nc");
         let stats = volcomp::gcode::rewrite_stream(
-            bytes,
+            program.run(InterpretOptions::default()),
             &mut out,
-            InterpretOptions::default(),
             RewriteOptions::default(),
             plan,
         )

@@ -2,7 +2,6 @@
 //! report, and agreement with the blind examples' independent predictions.
 use crate::compensate::{compensate_text, interpret_options, read, ref_trt};
 use crate::support::root;
-use std::path::Path;
 use volcomp::gcode::Frame;
 use volcomp::inspection::Plan;
 use volcomp::predict::{PredictReport, predict_path, predict_plan};
@@ -38,8 +37,7 @@ fn options() -> CutOptions {
 
 fn predict_text(text: &str, plan: &Plan) -> PredictReport {
     predict_plan(
-        text.as_bytes(),
-        Path::new("program.nc"),
+        volcomp::gcode::Program::from_text(&text, "program.nc"),
         &ref_trt().1,
         plan,
         &options(),
@@ -93,8 +91,7 @@ fn compensated_saddle_profile_with_path_is_under_five_percent() {
 fn prediction_without_plan_lists_every_motion_block() {
     let text = read("tests/data/compensate/linuxcnc-demo.ngc");
     let report = predict_path(
-        text.as_bytes(),
-        Path::new("demo.ngc"),
+        volcomp::gcode::Program::from_text(&text, "demo.ngc"),
         &ref_trt().1,
         &options(),
     )

@@ -25,10 +25,13 @@ fn blind_example_plan_points_are_contact_points_of_our_path() {
     let pts: Vec<([f64; 3], [f64; 3])> = plan.iter().map(|(_, p, n)| (*p, *n)).collect();
     let kin = Kinematics::new(Geometry::default(), 100.0);
     let mut matcher = PlanMatcher::new(&pts, 3.0, 0.5);
-    let file = std::fs::File::open(dir.join("program.nc")).unwrap();
-    let summary = walk_program(
-        std::io::BufReader::new(file),
+    let program = volcomp::gcode::Program::open(
         &dir.join("program.nc"),
+        volcomp::gcode::ProgramSetup::default(),
+    )
+    .unwrap();
+    let summary = walk_program(
+        program,
         &kin,
         InterpretOptions::default(),
         WalkOptions {
