@@ -17,6 +17,7 @@ Examples:
   volcomp check part.ngc --var sim.var --targets targets.csv   # machine positions, G54… from the .var
   volcomp check part.nc --offset G54=250,120,-310 --targets -  # other controllers' origins
   volcomp check part.ngc --subroutine-path subs/              # o<name> call finds subs/name.ngc
+  volcomp check part.ngc --flatten -o flat.ngc                # loops, subroutines and cycles written out
   volcomp check part.nc --frame part          # program starts with tool-tip control on
   volcomp check legacy.nc --lenient           # pass constructs it cannot understand through
   cat part.nc | volcomp check -";
@@ -38,8 +39,17 @@ pub struct Args {
     /// `line,motion,x,y,z,a,b,c` in machine coordinates, mm and degrees
     /// (work origin, G92 and units applied; tool length offset not applied;
     /// `b` empty on an A/C machine). `-` for standard output.
-    #[arg(long, value_name = "FILE.csv")]
+    #[arg(long, value_name = "FILE.csv", conflicts_with = "flatten")]
     pub targets: Option<PathBuf>,
+    /// Write the program flat to `-o`, without compensating: every block that
+    /// parameters, loops, subroutines or a canned cycle produced becomes
+    /// explicit blocks with a `(volcomp: line N)` comment; other lines are
+    /// copied byte for byte.
+    #[arg(long, requires = "output")]
+    pub flatten: bool,
+    /// Output of `--flatten` (`-` for standard output).
+    #[arg(short, long, value_name = "OUT", requires = "flatten")]
+    pub output: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -61,6 +71,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.program.clone()
     };
     let input = super::common::open_program(&args.program)?;
+    if let (true, Some(output)) = (args.flatten, &args.output) {
+        let program = crate::gcode::Program::new(input, &name, setup);
+        let mut stats = None;
+        crate::io::write_atomic(output, |out| -> anyhow::Result<()> {
+            stats = Some(crate::gcode::rewrite_stream(
+                program.run(options),
+                out,
+                crate::gcode::RewriteOptions::default(),
+                |_, _, _| None,
+            )?);
+            Ok(())
+        })
+        .with_context(|| format!("no output was written to {}", output.display()))?;
+        let stats = stats.expect("written");
+        if !crate::io::is_stdio(output) {
+            println!(
+                "{}: {} blocks executed ({} single moves), {} written flat (+{} lines for canned cycles), flat program written to {}",
+                args.program.display(),
+                stats.blocks,
+                stats.motions,
+                stats.flat,
+                stats.pieces,
+                output.display()
+            );
+        }
+        return Ok(());
+    }
     let to_stdout = super::common::writes_stdout(args.targets.as_ref());
     let summary = match &args.targets {
         None => check_stream(input, &name, options, &setup, None)?,

@@ -121,7 +121,7 @@ pub struct ModalState {
     pub feed: f64,
     /// Active work coordinate system: 1 (G54) … 9 (G59.3).
     pub coord_system: u8,
-    /// G99 (canned cycles retract to R) rather than G98 (to the old Z).
+    /// G99 (canned cycles retract to R, LinuxCNC's initial mode) rather than G98 (to the old Z).
     pub retract_r_plane: bool,
 }
 
@@ -139,7 +139,7 @@ impl ModalState {
             frame,
             feed: 0.0,
             coord_system: 1,
-            retract_r_plane: false,
+            retract_r_plane: true,
         }
     }
 }

@@ -151,8 +151,11 @@ pub struct RewriteStats {
     pub motions: usize,
     /// Blocks whose line changed.
     pub rewritten: usize,
-    /// New lines added by splits.
+    /// New lines added by splits (and the moves of canned cycles).
     pub pieces: usize,
+    /// Blocks written flat: produced by parameters, loops or subroutines
+    /// (values substituted) or canned cycles (expanded).
+    pub flat: usize,
 }
 
 /// Run and rewrite a whole program, streaming. For every motion block `plan`
@@ -173,8 +176,11 @@ pub fn rewrite_stream(
     let mut via = Vec::new();
     let mut stats = RewriteStats::default();
     while let Some(step) = run.next() {
-        let (block, event, _) = step?;
+        let (block, event, executed) = step?;
         stats.blocks += 1;
+        if !executed.literal || (!event.cycle_steps.is_empty() && !event.skipped) {
+            stats.flat += 1;
+        }
         via.clear();
         let target = match event.motion.as_ref().filter(|_| !event.skipped) {
             Some(_) => {
@@ -588,11 +594,26 @@ impl Rewriter {
                 self.remove_word(block, w);
             }
         }
+        let name = match event.modal.motion {
+            MotionMode::Cycle(c) => {
+                super::cycles::CycleCode::from_code10(c as i32).map_or("canned cycle", |c| c.name())
+            }
+            _ => "canned cycle",
+        };
         let from = self.text.len();
-        self.text
-            .push_str(" (volcomp: canned cycle expanded below)");
+        {
+            use std::fmt::Write as _;
+            let _ = write!(
+                self.text,
+                " (volcomp: {name} of line {} expanded below)",
+                block.line
+            );
+        }
         self.record(from, block.raw.len(), block.raw.len());
-        self.write_edited(block, out)?;
+        let mut header = Vec::with_capacity(block.raw.len() + 48);
+        self.write_edited(block, &mut header)?;
+        // Without its cycle words the line may start with white space.
+        out.write_all(header.trim_ascii_start())?;
         // 2. The steps.
         let mut line = String::new();
         let mut written = Vec::new();

@@ -436,7 +436,8 @@ mod rewriting {
                 blocks: 3318,
                 motions: 3313,
                 rewritten: 2,
-                pieces: 1
+                pieces: 1,
+                flat: 0
             }
         );
     }

@@ -10,6 +10,7 @@ mod kinematics;
 mod machine;
 mod nurbs;
 mod predict;
+mod programs;
 mod sample;
 mod support;
 mod toolpath;
