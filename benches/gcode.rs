@@ -1,7 +1,14 @@
-//! G-code front end throughput: parse + interpret + emit unchanged, streaming,
-//! over a seeded program of 1,000,000 five-axis blocks written to a file
-//! (`target/gcode-bench-1M.nc`, reused when present). Baseline in the same run:
-//! `wc -l` on the same file, and a plain in-process line count.
+//! G-code front end throughput, through the path every command takes
+//! (`Program` → `Execution` → `rewrite_stream`):
+//!
+//! - `gcode_1M_blocks`: parse + interpret + emit unchanged, streaming, over a
+//!   seeded flat program of 1,000,000 five-axis blocks written to a file
+//!   (`target/gcode-bench-1M.nc`, reused when present). Baselines in the same
+//!   run: `wc -l` on the same file, and a plain in-process line count.
+//! - `loop_1M_iterations`: a parametric program whose `repeat` loop runs a
+//!   move with computed words and an assignment 1,000,000 times, written flat
+//!   by volcomp, against LinuxCNC's own interpreter `rs274 -g` on the same
+//!   file (when `rs274` is installed; the ratio of the two times is the figure).
 //!
 //! Run: `cargo bench --bench gcode -- --warm-up-time 1 --measurement-time 3`
 use std::fs::File;
@@ -12,10 +19,7 @@ use std::process::Command;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use volcomp::gcode::{
-    BlockEvent, BlockReader, InterpretOptions, Interpreter, ReadOptions, RewriteOptions, Rewriter,
-    Target,
-};
+use volcomp::gcode::{InterpretOptions, Program, ProgramSetup, RewriteOptions, rewrite_stream};
 
 const BLOCKS: usize = 1_000_000;
 
@@ -64,23 +68,44 @@ fn program_path() -> PathBuf {
 
 /// Parse + interpret + emit unchanged, streaming; returns (blocks, bytes out).
 fn pipeline(path: &Path) -> (usize, u64) {
-    let file = BufReader::with_capacity(1 << 16, File::open(path).unwrap());
-    let options = InterpretOptions::default();
-    let mut reader = BlockReader::new(file, ReadOptions::default());
-    let mut interpreter = Interpreter::new(options);
-    let mut rewriter = Rewriter::new(RewriteOptions::default(), options.initial_position);
-    let mut event = BlockEvent::default();
+    let program = Program::open(path, ProgramSetup::default()).unwrap();
     let mut out = CountingSink(0);
-    let mut blocks = 0;
-    while let Some(block) = reader.next_block() {
-        let block = block.unwrap();
-        interpreter.interpret_into(block, &mut event).unwrap();
-        rewriter
-            .emit(block, &event, Target::Same, &mut out)
-            .unwrap();
-        blocks += 1;
-    }
-    (blocks, out.0)
+    let stats = rewrite_stream(
+        program.run(InterpretOptions::default()),
+        &mut out,
+        RewriteOptions::default(),
+        |_, _, _| None,
+    )
+    .unwrap();
+    (stats.blocks, out.0)
+}
+
+const ITERATIONS: usize = 1_000_000;
+
+/// The parametric program: one move with computed words and one assignment
+/// per iteration.
+fn loop_program_path() -> PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/gcode-bench-loop.ngc");
+    std::fs::write(
+        &path,
+        format!(
+            "G21 G90 G94 F800\n#1 = 0\no1 repeat [{ITERATIONS}]\n  G1 X[#1 MOD 100] Y[#1 * 0.0001] Z0\n  #1 = [#1 + 1]\no1 endrepeat\nM2\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn rs274(path: &Path) -> bool {
+    Command::new("rs274")
+        .arg("-g")
+        .arg(path)
+        .arg("/dev/null")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
 }
 
 struct CountingSink(u64);
@@ -141,6 +166,20 @@ fn bench(c: &mut Criterion) {
     });
     group.bench_function("baseline_wc_l", |b| b.iter(|| wc_l(&path)));
     group.bench_function("baseline_count_newlines", |b| b.iter(|| count_lines(&path)));
+    group.finish();
+
+    let loop_path = loop_program_path();
+    let (executed, _) = pipeline(&loop_path);
+    assert_eq!(executed, ITERATIONS + 2, "every iteration's move is written");
+    let mut group = c.benchmark_group("loop_1M_iterations");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(ITERATIONS as u64));
+    group.bench_function("volcomp_flatten", |b| b.iter(|| pipeline(&loop_path)));
+    if rs274(&loop_path) {
+        group.bench_function("rs274_g", |b| b.iter(|| rs274(&loop_path)));
+    } else {
+        eprintln!("rs274 not found (Debian package linuxcnc-uspace): no reference time");
+    }
     group.finish();
 }
 
