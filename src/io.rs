@@ -22,8 +22,77 @@ pub fn is_stdio(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
+/// Temporary files being written: removed by [`install_signal_cleanup`]'s
+/// handler before the process exits on SIGINT/SIGTERM.
+static LIVE_TEMPS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn live_temps() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    LIVE_TEMPS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A temporary file, registered for removal on a signal while it lives.
+/// Fields drop in order: the file is removed, then unregistered.
+struct LiveTemp {
+    path: tempfile::TempPath,
+    _registration: Registration,
+}
+
+struct Registration(PathBuf);
+
+impl Drop for Registration {
+    fn drop(&mut self) {
+        live_temps().retain(|p| p != &self.0);
+    }
+}
+
+/// On SIGINT, SIGTERM or SIGHUP: remove every temporary output file being
+/// written, then exit with 128 + the signal number (130, 143, 129). Call once,
+/// early in `main`.
+#[cfg(unix)]
+pub fn install_signal_cleanup() -> io::Result<()> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])?;
+    std::thread::Builder::new()
+        .name("volcomp-signals".into())
+        .spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                // Held until exit: no output is renamed into place meanwhile.
+                let live = live_temps();
+                for path in live.iter() {
+                    let _ = std::fs::remove_file(path);
+                }
+                std::process::exit(128 + signal);
+            }
+        })?;
+    Ok(())
+}
+
+#[cfg(not(unix))]
+pub fn install_signal_cleanup() -> io::Result<()> {
+    Ok(())
+}
+
+/// The temporary output files alive now (for tests of the signal cleanup).
+pub fn live_temp_files() -> Vec<PathBuf> {
+    live_temps().clone()
+}
+
+/// How an output is named in messages: `standard output` for `-`.
+pub fn display_name(path: &Path) -> String {
+    if is_stdio(path) {
+        "standard output".to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
 /// Write `path` atomically with `fill`. When `fill` fails, the destination is not
 /// touched and the temporary file is removed; its error is returned as is.
+///
+/// `-` is standard output. A destination that exists and is not a regular file
+/// (a device such as `/dev/null` or `/dev/full`, a named pipe) is written
+/// directly: it cannot be replaced by a rename. Every write, the flush and the
+/// close are checked.
 pub fn write_atomic<E>(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> Result<(), E>,
@@ -31,14 +100,29 @@ pub fn write_atomic<E>(
 where
     E: From<OutputError>,
 {
+    let write_error = |source| OutputError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
     if is_stdio(path) {
         let stdout = io::stdout();
-        let mut lock = BufWriter::new(stdout.lock());
+        let mut lock = BufWriter::with_capacity(1 << 16, stdout.lock());
         fill(&mut lock)?;
         lock.flush().map_err(|source| OutputError::Write {
-            path: path.to_path_buf(),
+            path: PathBuf::from("standard output"),
             source,
         })?;
+        return Ok(());
+    }
+    let special = std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir());
+    if special {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(write_error)?;
+        let mut writer = BufWriter::with_capacity(1 << 16, file);
+        fill(&mut writer)?;
+        writer.flush().map_err(write_error)?;
         return Ok(());
     }
     let dir = match path.parent() {
@@ -54,12 +138,16 @@ where
             source,
         })?;
     let (file, tmp_path) = tmp.into_parts();
+    live_temps().push(tmp_path.to_path_buf());
+    let temp = LiveTemp {
+        _registration: Registration(tmp_path.to_path_buf()),
+        path: tmp_path,
+    };
     let mut writer = BufWriter::with_capacity(1 << 16, file);
     fill(&mut writer)?;
-    let file: File = writer.into_inner().map_err(|e| OutputError::Write {
-        path: path.to_path_buf(),
-        source: e.into_error(),
-    })?;
+    let file: File = writer
+        .into_inner()
+        .map_err(|e| write_error(e.into_error()))?;
     // A temporary file is private (0600); the output gets the destination's
     // permissions when it exists, else the usual 0644.
     #[cfg(unix)]
@@ -69,19 +157,26 @@ where
             .map(|m| m.permissions().mode() & 0o7777)
             .unwrap_or(0o644);
         file.set_permissions(std::fs::Permissions::from_mode(mode))
-            .map_err(|source| OutputError::Write {
-                path: path.to_path_buf(),
-                source,
-            })?;
+            .map_err(write_error)?;
     }
-    file.sync_all().map_err(|source| OutputError::Write {
+    file.sync_all().map_err(write_error)?;
+    drop(file);
+    // The rename and the unregistration happen under the registry's lock, so a
+    // signal handler either removes the temporary file or finds it renamed.
+    let LiveTemp {
+        path: tmp_path,
+        _registration: registration,
+    } = temp;
+    let persisted = {
+        let mut live = live_temps();
+        let r = tmp_path.persist(path).map_err(|e| e.error);
+        live.retain(|p| p != &registration.0);
+        r
+    };
+    drop(registration);
+    persisted.map_err(|source| OutputError::Persist {
         path: path.to_path_buf(),
         source,
-    })?;
-    drop(file);
-    tmp_path.persist(path).map_err(|e| OutputError::Persist {
-        path: path.to_path_buf(),
-        source: e.error,
     })?;
     Ok(())
 }

@@ -70,7 +70,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     } else {
         args.program.clone()
     };
-    let input = super::common::open_program(&args.program)?;
+    let (input, stamp) = super::common::open_program_with_stamp(&args.program)?;
     if let (true, Some(output)) = (args.flatten, &args.output) {
         let program = crate::gcode::Program::new(input, &name, setup);
         let mut stats = None;
@@ -83,10 +83,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )?);
             Ok(())
         })
-        .with_context(|| format!("no output was written to {}", output.display()))?;
+        .with_context(|| {
+            format!(
+                "the flat program was not written (whole) to {}",
+                crate::io::display_name(output)
+            )
+        })?;
         let stats = stats.expect("written");
+        if let Some(stamp) = &stamp {
+            eprintln!("note: {}: {}", args.program.display(), stamp.summary());
+        }
         if !crate::io::is_stdio(output) {
-            println!(
+            crate::outln!(
                 "{}: {} blocks executed ({} single moves), {} written flat (+{} lines for canned cycles), flat program written to {}",
                 args.program.display(),
                 stats.blocks,
@@ -105,7 +113,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let _ = path;
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());
-            let s = check_stream(input, &name, options, &setup, Some(&mut out))?;
+            let s = check_stream(input, &name, options, &setup, Some(&mut out))
+                .context("cannot write the targets to standard output")?;
             out.flush()
                 .context("cannot write the targets to standard output")?;
             s
@@ -115,16 +124,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::io::write_atomic(path, |out| -> anyhow::Result<()> {
                 summary = Some(check_stream(input, &name, options, &setup, Some(out))?);
                 Ok(())
-            })?;
+            })
+            .with_context(|| format!("no targets were written to {}", path.display()))?;
             summary.expect("written")
         }
     };
     if to_stdout {
         return Ok(());
     }
-    print_summary(&args.program, &summary, options.initial_frame);
+    print_summary(&args.program, &summary, options.initial_frame)?;
+    if let Some(stamp) = &stamp {
+        crate::outln!("  stamp: {}", stamp.summary());
+    }
     if let Some(path) = &args.targets {
-        println!(
+        crate::outln!(
             "  targets: {} rows written to {}",
             summary.motion.total(),
             path.display()
@@ -191,9 +204,9 @@ fn range(r: &Option<Range>) -> String {
     }
 }
 
-fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) {
+fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Result<()> {
     let m = &s.motion;
-    println!(
+    crate::outln!(
         "{}: {} lines, {} blocks, {} comments, {} with block delete",
         path.display(),
         s.lines,
@@ -201,7 +214,7 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) {
         s.comments,
         s.deleted_blocks
     );
-    println!(
+    crate::outln!(
         "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
         m.total(),
         m.rapid,
@@ -211,7 +224,7 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) {
         s.machine_coordinate_motions,
         s.home_blocks
     );
-    println!(
+    crate::outln!(
         "  frame: {} at start, {} switches, {} part-frame (tool-tip) moves",
         match frame {
             Frame::Joint => "joint",
@@ -220,15 +233,15 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) {
         s.frame_switches,
         s.part_frame_motions
     );
-    println!("  G93 inverse-time moves: {}", s.inverse_time_motions);
-    println!("  machining time: {:.3} min", s.time_min);
-    println!(
+    crate::outln!("  G93 inverse-time moves: {}", s.inverse_time_motions);
+    crate::outln!("  machining time: {:.3} min", s.time_min);
+    crate::outln!(
         "  X {}  Y {}  Z {} mm",
         range(&s.x),
         range(&s.y),
         range(&s.z)
     );
-    println!("  A {}  C {} deg", range(&s.a), range(&s.c));
+    crate::outln!("  A {}  C {} deg", range(&s.a), range(&s.c));
     let list = |map: &mut dyn Iterator<Item = (String, usize)>| {
         let v: Vec<String> = map.map(|(k, n)| format!("{k}×{n}")).collect();
         if v.is_empty() {
@@ -237,19 +250,20 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) {
             v.join(" ")
         }
     };
-    println!(
+    crate::outln!(
         "  unknown words: {}",
         list(&mut s.unknown_words.iter().map(|(k, n)| (k.to_string(), *n)))
     );
-    println!(
+    crate::outln!(
         "  passed through: {}",
         list(&mut s.passed_through().into_iter())
     );
-    println!("  warnings: {}", s.warnings);
+    crate::outln!("  warnings: {}", s.warnings);
     for w in &s.first_warnings {
-        println!("    {w}");
+        crate::outln!("    {w}");
     }
     if s.warnings > s.first_warnings.len() {
-        println!("    … {} more", s.warnings - s.first_warnings.len());
+        crate::outln!("    … {} more", s.warnings - s.first_warnings.len());
     }
+    Ok(())
 }

@@ -225,6 +225,21 @@ impl ProgramArgs {
         Ok(setup)
     }
 
+    /// [`Self::program`] and the program's provenance stamp, if it carries one.
+    pub fn program_and_stamp(
+        &self,
+        path: &Path,
+    ) -> anyhow::Result<(
+        crate::gcode::Program,
+        Option<crate::compensate::stamp::Stamp>,
+    )> {
+        let (input, stamp) = open_program_with_stamp(path)?;
+        Ok((
+            crate::gcode::Program::new(input, path, self.setup()?),
+            stamp,
+        ))
+    }
+
     /// The program at `path` (`-`: standard input) in the setup of [`Self::setup`].
     pub fn program(&self, path: &Path) -> anyhow::Result<crate::gcode::Program> {
         Ok(crate::gcode::Program::new(
@@ -269,6 +284,51 @@ pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::Program
     Ok(Box::new(BufReader::with_capacity(1 << 16, file)))
 }
 
+/// The first bytes of a program (what [`crate::compensate::stamp::Stamp::find`]
+/// reads); the input is rewound.
+pub fn program_head(input: &mut dyn crate::gcode::ProgramInput) -> anyhow::Result<String> {
+    use std::io::Read;
+    let mut head = Vec::new();
+    input
+        .take(16 * 1024)
+        .read_to_end(&mut head)
+        .context("cannot read the program")?;
+    input.rewind().context("cannot read the program")?;
+    Ok(String::from_utf8_lossy(&head).into_owned())
+}
+
+/// FNV-1a 64 of a program's bytes; the input is rewound.
+pub fn program_hash(
+    input: &mut dyn crate::gcode::ProgramInput,
+) -> anyhow::Result<crate::compensate::stamp::Fnv1a64> {
+    let mut hash = crate::compensate::stamp::Fnv1a64::default();
+    loop {
+        let buf = input.fill_buf().context("cannot read the program")?;
+        if buf.is_empty() {
+            break;
+        }
+        hash.update(buf);
+        let n = buf.len();
+        input.consume(n);
+    }
+    input.rewind().context("cannot read the program")?;
+    Ok(hash)
+}
+
+/// The stamp of an already compensated program (`-`: standard input), with the
+/// program opened.
+pub fn open_program_with_stamp(
+    path: &Path,
+) -> anyhow::Result<(
+    Box<dyn crate::gcode::ProgramInput>,
+    Option<crate::compensate::stamp::Stamp>,
+)> {
+    let mut input = open_program(path)?;
+    let head = program_head(input.as_mut())
+        .with_context(|| format!("reading {}", crate::io::display_name(path)))?;
+    Ok((input, crate::compensate::stamp::Stamp::find(&head)))
+}
+
 /// A block counter on stderr for long runs (none when stderr is not a terminal).
 pub fn progress_bar(path: &Path, what: &str) -> Option<ProgressBar> {
     if !std::io::stderr().is_terminal() {
@@ -284,12 +344,13 @@ pub fn progress_bar(path: &Path, what: &str) -> Option<ProgressBar> {
 }
 
 /// Print to stdout, or to stderr when stdout carries the command's output.
-pub fn say(stdout_is_output: bool, text: &str) {
+pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
     if stdout_is_output {
         eprintln!("{text}");
     } else {
-        println!("{text}");
+        crate::outln!("{text}");
     }
+    Ok(())
 }
 
 /// Output path given as an `Option`: helper to check `-` collisions.

@@ -1,5 +1,6 @@
 //! `volcomp compensate`: the compensated program.
 use super::common::{MachineArgs, ProgramArgs, progress_bar};
+use crate::compensate::stamp::{Fnv1a64, Stamp, StampWriter};
 use crate::compensate::{CompensateOptions, CompensateReport, compensate};
 use crate::io::{OutputError, write_atomic, write_json_atomic};
 use anyhow::Context;
@@ -11,14 +12,22 @@ Examples:
   volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc --tol 0.2 --report comp.json
   volcomp compensate machines/ref-trt.toml samples/saddle-tcp.nc -o - --frame joint > out.nc
   cat big.nc | volcomp compensate machines/ref-trt.toml - -o big-comp.nc
+  volcomp compensate machines/ref-trt.toml part.nc --in-place          # replace part.nc
+  volcomp compensate machines/ref-trt.toml part-comp.nc -o again.nc --force   # compensate twice, knowingly
 
 Every motion target is moved so that the modelled actual tool tip (the machine's
 measured errors, fitted as SMEM curves) lands on the programmed one, solved to
 1 nm; A and C stay as programmed. A cutting move is split where the correction
 along it departs from the straight move between its corrected ends by more than
 --tol. Blocks that do not move, and every non-motion line, come out byte for
-byte. The output is written to a temporary file and renamed: a failed run leaves
-no partial program.";
+byte. The output is written to a temporary file and renamed: a failed or
+interrupted run (SIGINT, SIGTERM) leaves no partial program.
+
+The output starts with a provenance stamp, comment lines after the `%` and `O`
+lines (volcomp version, machine, model hash, tool length, tolerance, input
+hash). A program that carries one is refused (compensating twice doubles the
+corrections) unless --force. -o naming the input itself (also through a link)
+is refused unless --in-place.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -27,9 +36,18 @@ pub struct Args {
     pub machine: MachineArgs,
     /// Program to compensate (`-` for standard input).
     pub program: PathBuf,
-    /// Compensated program (`-` for standard output).
-    #[arg(short, long, value_name = "OUT")]
-    pub output: PathBuf,
+    /// Compensated program (`-` for standard output); not the input itself
+    /// unless --in-place.
+    #[arg(short, long, value_name = "OUT", required_unless_present = "in_place")]
+    pub output: Option<PathBuf>,
+    /// Replace the input program with the compensated one (through a temporary
+    /// file renamed over it); -o may then be left out or name the input.
+    #[arg(long)]
+    pub in_place: bool,
+    /// Compensate a program that carries volcomp's stamp (already compensated):
+    /// its corrections are added again.
+    #[arg(long)]
+    pub force: bool,
     /// Split tolerance, µm: largest departure of a move from the compensated path.
     #[arg(long, value_name = "UM", default_value_t = 0.5)]
     pub tol: f64,
@@ -51,6 +69,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))
         .into());
     }
+    let output = output_path(args)?;
+    let output = output.as_path();
     let (machine, model) = args.machine.load()?;
     let options = CompensateOptions {
         tolerance_um: args.tol,
@@ -58,15 +78,48 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         limits: (!args.no_limits).then(|| machine.limits.clone()),
         ..CompensateOptions::default()
     };
-    let program = args.read.program(&args.program)?;
+    let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
+    if let (Some(old), false) = (&old_stamp, args.force) {
+        anyhow::bail!(
+            "{} is already compensated ({}); compensating it again would add the corrections twice. \
+Give the original program, or --force to compensate it anyway",
+            crate::io::display_name(&args.program).replace("standard output", "standard input"),
+            old.summary()
+        );
+    }
+    let input_hash = super::common::program_hash(input.as_mut())?;
+    let stamp = Stamp {
+        compensated_by: format!("volcomp {}", env!("CARGO_PKG_VERSION")),
+        machine: machine.name.clone(),
+        model_fnv1a64: model_hash(&machine)?.hex(),
+        model_source: match &args.machine.model.model {
+            Some(file) => format!("model {}", file.display()),
+            None => format!("fit {}", args.machine.model.fit_method),
+        },
+        tool_length_mm: machine.tool.length,
+        tolerance_um: args.tol,
+        input: if crate::io::is_stdio(&args.program) {
+            "<stdin>".to_string()
+        } else {
+            args.program.display().to_string()
+        },
+        input_fnv1a64: input_hash.hex(),
+    };
+    let program = crate::gcode::Program::new(input, &args.program, args.read.setup()?);
     let bar = progress_bar(&args.program, "compensating");
     let mut report: Option<CompensateReport> = None;
-    write_atomic(&args.output, |out| -> anyhow::Result<()> {
-        let r = compensate(program, out, &model, &options, |n| {
+    write_atomic(output, |out| -> anyhow::Result<()> {
+        let mut out = StampWriter::new(out, stamp);
+        let r = compensate(program, &mut out, &model, &options, |n| {
             if let Some(b) = &bar {
                 b.set_position(n as u64);
             }
         })?;
+        out.finish()
+            .map_err(|source| crate::io::OutputError::Write {
+                path: output.to_path_buf(),
+                source,
+            })?;
         report = Some(r);
         Ok(())
     })
@@ -76,7 +129,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         e
     })
-    .with_context(|| format!("no output was written to {}", args.output.display()))?;
+    .with_context(|| {
+        format!(
+            "the compensated program was not written (whole) to {}",
+            crate::io::display_name(output)
+        )
+    })?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -110,6 +168,80 @@ max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm,
         }
     );
     // The summary goes to stderr when the program itself goes to stdout.
-    super::common::say(crate::io::is_stdio(&args.output), &msg);
+    super::common::say(crate::io::is_stdio(output), &msg)?;
     Ok(())
+}
+
+/// Where the compensated program goes: `-o`, refused when it is the input
+/// itself (same device and inode, so also through a symlink or a hard link)
+/// unless `--in-place`; with `--in-place`, the input's real path.
+fn output_path(args: &Args) -> anyhow::Result<PathBuf> {
+    let usage = |m: String| -> anyhow::Error { super::UsageError(m).into() };
+    let input_is_stdin = crate::io::is_stdio(&args.program);
+    if args.in_place {
+        if input_is_stdin {
+            return Err(usage(
+                "--in-place needs a program file, not standard input".into(),
+            ));
+        }
+        if let Some(out) = args
+            .output
+            .as_ref()
+            .filter(|o| !same_file(&args.program, o))
+        {
+            return Err(usage(format!(
+                "--in-place replaces the input {}; -o {} is another file (leave -o out, or drop --in-place)",
+                args.program.display(),
+                crate::io::display_name(out)
+            )));
+        }
+        // A symlink's target is replaced, not the link.
+        return std::fs::canonicalize(&args.program)
+            .with_context(|| format!("cannot open {}", args.program.display()));
+    }
+    let out = args
+        .output
+        .clone()
+        .expect("clap requires -o without --in-place");
+    if !input_is_stdin && same_file(&args.program, &out) {
+        return Err(usage(format!(
+            "-o {} is the input program {} (the same file); writing over it loses the original. \
+Name another output, or pass --in-place to replace the program",
+            out.display(),
+            args.program.display()
+        )));
+    }
+    Ok(out)
+}
+
+/// Are `a` and `b` the same file (links followed)?
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    if crate::io::is_stdio(a) || crate::io::is_stdio(b) {
+        return false;
+    }
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        #[cfg(unix)]
+        (Ok(ma), Ok(mb)) => {
+            use std::os::unix::fs::MetadataExt;
+            ma.dev() == mb.dev() && ma.ino() == mb.ino()
+        }
+        #[cfg(not(unix))]
+        (Ok(_), Ok(_)) => match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+            (Ok(x), Ok(y)) => x == y,
+            _ => false,
+        },
+        _ => false,
+    }
+}
+
+/// FNV-1a 64 over the error-table files' bytes, in axis order: the data the
+/// model was fitted to (a `--model` file is checked against the same tables).
+fn model_hash(machine: &crate::machine::Machine) -> anyhow::Result<Fnv1a64> {
+    let mut hash = Fnv1a64::default();
+    for table in machine.tables.iter().flatten() {
+        let bytes = std::fs::read(&table.path)
+            .with_context(|| format!("cannot read {}", table.path.display()))?;
+        hash.update(&bytes);
+    }
+    Ok(hash)
 }

@@ -121,7 +121,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
     }
     if !crate::io::is_stdio(&args.report) {
-        print!("{}", summary_text(&report));
+        super::stdout_text(&summary_text(&report))?;
     }
     Ok(())
 }

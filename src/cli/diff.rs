@@ -61,16 +61,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .interpret_options(InterpretOptions::default().rapid_mm_per_min),
         top: args.top,
     };
-    let report = diff_programs(
-        args.read.program(&args.a)?,
-        args.read.program(&args.b)?,
-        &options,
-    )?;
+    let (a, stamp_a) = args.read.program_and_stamp(&args.a)?;
+    let (b, stamp_b) = args.read.program_and_stamp(&args.b)?;
+    let report = diff_programs(a, b, &options)?;
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;
     }
-    let text = summary_text(&report);
-    super::common::say(super::common::writes_stdout(args.report.as_ref()), &text);
+    let mut text = String::new();
+    for (name, path, stamp) in [("A", &args.a, &stamp_a), ("B", &args.b, &stamp_b)] {
+        if let Some(stamp) = stamp {
+            let _ = writeln!(text, "{name} ({}): {}", path.display(), stamp.summary());
+        }
+    }
+    text.push_str(&summary_text(&report));
+    super::common::say(super::common::writes_stdout(args.report.as_ref()), &text)?;
     Ok(())
 }
 

@@ -177,31 +177,38 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 axis_urad: v.axis_urad,
                 contributions: contributions.as_deref(),
             };
-            println!("{}", serde_json::to_string_pretty(&obj)?);
+            crate::outln!("{}", serde_json::to_string_pretty(&obj)?);
         } else {
-            println!("machine {} ({})", machine.name, machine.source.display());
+            crate::outln!("machine {} ({})", machine.name, machine.source.display());
             let j = joints;
-            println!(
+            crate::outln!(
                 "joints  X {:.4} Y {:.4} Z {:.4} mm  A {:.4} C {:.4} deg",
-                j.x, j.y, j.z, j.a, j.c
+                j.x,
+                j.y,
+                j.z,
+                j.a,
+                j.c
             );
             let tip = kin.nominal_tip(&joints);
-            println!("tip (part) {} mm", fmt3(tip, 4));
-            println!(
+            crate::outln!("tip (part) {} mm", fmt3(tip, 4));
+            crate::outln!(
                 "e         {} um   |e| = {:.4} um",
                 fmt3(v.e_um, 4),
                 v.magnitude_um()
             );
-            println!("tool axis {} urad", fmt3(v.axis_urad, 4));
+            crate::outln!("tool axis {} urad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {
-                println!("contributions (each parameter alone, largest |e| first):");
-                println!(
+                crate::outln!("contributions (each parameter alone, largest |e| first):");
+                crate::outln!(
                     "  {:<6} {:>12}  {:>34}  {:>9}",
-                    "param", "value", "e (um)", "|e| um"
+                    "param",
+                    "value",
+                    "e (um)",
+                    "|e| um"
                 );
                 for c in list {
                     let unit = if is_length(c.parameter) { "um" } else { "urad" };
-                    println!(
+                    crate::outln!(
                         "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
                         c.parameter,
                         c.value,
@@ -230,18 +237,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     contributions: None,
                 })
                 .collect();
-            println!("{}", serde_json::to_string(&list)?);
+            crate::outln!("{}", serde_json::to_string(&list)?);
         } else {
-            println!(
+            crate::outln!(
                 "machine {} ({}), {} poses from {}",
                 machine.name,
                 machine.source.display(),
                 results.len(),
                 path.display()
             );
-            println!("{:>6}  {:>34}  {:>9}", "line", "e (um)", "|e| um");
+            crate::outln!("{:>6}  {:>34}  {:>9}", "line", "e (um)", "|e| um");
             for ((line, _), v) in poses.iter().zip(&results) {
-                println!("{line:>6}  {}  {:>9.4}", fmt3(v.e_um, 4), v.magnitude_um());
+                crate::outln!("{line:>6}  {}  {:>9.4}", fmt3(v.e_um, 4), v.magnitude_um());
             }
             let mags: Vec<f64> = results.iter().map(|v| v.magnitude_um()).collect();
             let max = mags.iter().copied().fold(0.0, f64::max);
@@ -250,7 +257,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             } else {
                 (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
             };
-            println!("max |e| = {max:.4} um, rms |e| = {rms:.4} um");
+            crate::outln!("max |e| = {max:.4} um, rms |e| = {rms:.4} um");
         }
     }
     let held = model.held_lookups();

@@ -161,7 +161,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         parameters: Vec::new(),
         not_measured: Vec::new(),
     };
-    println!("axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds");
+    crate::outln!(
+        "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
+    );
     for (job, curve) in jobs.iter().zip(&fits) {
         let column = &job.table.columns[job.column];
         let table_index = tables
@@ -176,7 +178,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             &job.table.path.display().to_string(),
             hashes[table_index],
         );
-        println!(
+        crate::outln!(
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
             entry.parameter,
@@ -193,7 +195,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     for t in &tables {
         for m in &t.missing {
-            println!(
+            crate::outln!(
                 "{:<4}  {:<9}  not measured (taken as zero)",
                 t.axis.letter(),
                 m
@@ -207,7 +209,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .filter(|p| !p.stats.met)
         .map(|p| p.parameter.as_str())
         .collect();
-    println!(
+    crate::outln!(
         "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
         report.parameters.len(),
         args.method,
@@ -216,11 +218,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     if let Some(path) = &args.report {
         crate::io::write_json_atomic(path, &report)?;
-        println!("report: {}", path.display());
+        crate::outln!("report: {}", path.display());
     }
     if let Some(dir) = &args.plot {
         write_plots(dir, &jobs, &fits)?;
-        println!("plots: {}", dir.display());
+        crate::outln!("plots: {}", dir.display());
     }
     if !missed.is_empty() {
         anyhow::bail!(

@@ -200,7 +200,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         crate::io::write_json_atomic(path, &report)?;
     }
-    println!(
+    crate::outln!(
         "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, A={} C={}",
         machine.name,
         args.grid,
@@ -213,9 +213,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.a,
         args.c
     );
-    println!("|e|: max {:.3} um, rms {rms:.3} um", map.max_magnitude());
+    crate::outln!("|e|: max {:.3} um, rms {rms:.3} um", map.max_magnitude());
     for fit in &surfaces.fits {
-        println!(
+        crate::outln!(
             "NURBS surface of {:<3} (degree {}, {}x{} control points): fit error max {:.2e} um, rms {:.2e} um",
             fit.quantity,
             fit.degree,
@@ -225,9 +225,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             fit.erms_um
         );
     }
-    println!("wrote {}", args.out.display());
+    crate::outln!("wrote {}", args.out.display());
     if let Some(path) = &args.report {
-        println!("wrote {}", path.display());
+        crate::outln!("wrote {}", path.display());
     }
     let held = model.held_lookups();
     if held > 0 {

@@ -6,7 +6,12 @@
 //! run, print the summary, write outputs atomically).
 //!
 //! Exit codes (gcode.md): 0 success, 1 bad input, 2 usage error (clap's own
-//! errors and [`UsageError`]).
+//! errors and [`UsageError`]). Beyond the contract: 141 when standard output is
+//! a pipe closed early (EPIPE: a quiet stop, no message, as a process killed by
+//! SIGPIPE), 130/143/129 on SIGINT/SIGTERM/SIGHUP (temporary files removed).
+//!
+//! Standard output is written through [`outln!`] / [`stdout_line`], never
+//! `println!` (which panics on a closed pipe): a failed write is an error.
 use clap::{Parser, Subcommand};
 
 pub mod check;
@@ -76,6 +81,50 @@ pub enum Command {
 #[error("{0}")]
 pub struct UsageError(pub String);
 
+/// Exit code when standard output was closed early (128 + SIGPIPE).
+pub const EXIT_BROKEN_PIPE: i32 = 141;
+
+/// Write one line to standard output; a failed write is an error naming it.
+pub fn stdout_line(args: std::fmt::Arguments) -> Result<(), crate::io::OutputError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .map_err(|source| crate::io::OutputError::Write {
+            path: "standard output".into(),
+            source,
+        })
+}
+
+/// Write text as is to standard output; a failed write is an error naming it.
+pub fn stdout_text(text: &str) -> Result<(), crate::io::OutputError> {
+    use std::io::Write;
+    std::io::stdout()
+        .lock()
+        .write_all(text.as_bytes())
+        .map_err(|source| crate::io::OutputError::Write {
+            path: "standard output".into(),
+            source,
+        })
+}
+
+/// `println!` that returns the failure (`?` in the caller) instead of panicking.
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::stdout_line(format_args!($($arg)*))?
+    };
+}
+
+/// Is `err` (or a cause) a write into a closed pipe?
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
 /// Parse the process arguments, run, print errors; returns the exit code.
 pub fn main() -> i32 {
     let cli = match Cli::try_parse() {
@@ -86,8 +135,24 @@ pub fn main() -> i32 {
             return code;
         }
     };
-    match run(cli) {
+    if let Err(e) = crate::io::install_signal_cleanup() {
+        eprintln!(
+            "warning: cannot watch for interrupts ({e}); an interrupted run may leave a .volcomp-*.tmp file"
+        );
+    }
+    let result = run(cli).and_then(|()| {
+        use std::io::Write;
+        std::io::stdout()
+            .flush()
+            .map_err(|source| crate::io::OutputError::Write {
+                path: "standard output".into(),
+                source,
+            })
+            .map_err(anyhow::Error::from)
+    });
+    match result {
         Ok(()) => 0,
+        Err(err) if is_broken_pipe(&err) => EXIT_BROKEN_PIPE,
         Err(err) => {
             eprintln!("error: {}", error_text(&err));
             if err.downcast_ref::<UsageError>().is_some() {

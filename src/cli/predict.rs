@@ -43,14 +43,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let (machine, model) = args.machine.load()?;
     let options = args.read.cut_options(&machine);
-    let program = args.read.program(&args.program)?;
-    let report = match &args.plan {
+    let (program, stamp) = args.read.program_and_stamp(&args.program)?;
+    let mut report = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;
             predict_plan(program, &model, &plan, &options)?
         }
         None => predict_path(program, &model, &options)?,
     };
+    report.compensated = stamp.is_some();
+    report.stamp = stamp;
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;
     }
@@ -114,6 +116,14 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}\n{:.3} s"
             report.seconds
         )
     };
-    super::common::say(to_stdout, &text);
+    let text = match &report.stamp {
+        Some(stamp) => format!(
+            "note: {} is already compensated: {}\n{text}",
+            args.program.display(),
+            stamp.summary()
+        ),
+        None => text,
+    };
+    super::common::say(to_stdout, &text)?;
     Ok(())
 }

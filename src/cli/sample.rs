@@ -60,7 +60,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     ] {
         let path = args.out_dir.join(name);
         write_file_atomic(&path, text.as_bytes())?;
-        println!("wrote {} ({} lines)", path.display(), text.lines().count());
+        crate::outln!("wrote {} ({} lines)", path.display(), text.lines().count());
     }
     Ok(())
 }

@@ -74,7 +74,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let deviations = measurement.deviations_um();
     let p = profile(&deviations);
     if !crate::io::is_stdio(&args.output) {
-        println!(
+        crate::outln!(
             "simulated {} points ({cut} cut by the program) with {}; noise {} µm, seed {}",
             deviations.len(),
             if effects.is_empty() {
@@ -89,7 +89,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.noise_um,
             args.seed
         );
-        println!(
+        crate::outln!(
             "measured profile {:.2} µm (range {:.2} µm) -> {}",
             p.profile_um,
             p.range_um,

@@ -13,6 +13,7 @@
 //! (rayon) and the output is written in order through `gcode::rewrite`, so memory
 //! does not grow with the program. Nothing is printed here.
 pub mod solve;
+pub mod stamp;
 
 use crate::axes::Axes;
 use crate::gcode::{

@@ -60,4 +60,10 @@ pub struct PredictReport {
     pub max_error_um: f64,
     pub rms_error_um: f64,
     pub seconds: f64,
+    /// The program carries volcomp's provenance stamp: it is already
+    /// compensated (extension: docs/extensions.md). Set by the command line.
+    pub compensated: bool,
+    /// That stamp, when there is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stamp: Option<crate::compensate::stamp::Stamp>,
 }

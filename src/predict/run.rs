@@ -92,6 +92,8 @@ pub fn predict_plan(
         max_error_um: magnitudes.iter().copied().fold(0.0, f64::max),
         rms_error_um: rms(&magnitudes),
         seconds: started.elapsed().as_secs_f64(),
+        compensated: false,
+        stamp: None,
     })
 }
 

@@ -504,6 +504,18 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
+    // The provenance stamp comes first (no `%` or `O` line here), then the
+    // program as the library writes it.
+    assert!(
+        stdout.starts_with("(volcomp-stamp compensated-by: volcomp "),
+        "{stdout}"
+    );
+    let stamp = volcomp::compensate::stamp::Stamp::find(&stdout).expect("stamped");
+    assert_eq!(stamp.machine, "ref-trt");
+    let stdout: String = stdout
+        .split_inclusive('\n')
+        .skip_while(|l| l.starts_with(volcomp::compensate::stamp::PREFIX))
+        .collect();
     assert!(stdout.starts_with("( xyzac-trt demo"), "{stdout}");
     assert!(stdout.contains("\nM429\n"));
     assert!(!stdout.contains("blocks read"));
