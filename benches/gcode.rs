@@ -170,7 +170,11 @@ fn bench(c: &mut Criterion) {
 
     let loop_path = loop_program_path();
     let (executed, _) = pipeline(&loop_path);
-    assert_eq!(executed, ITERATIONS + 2, "every iteration's move is written");
+    assert_eq!(
+        executed,
+        ITERATIONS + 2,
+        "every iteration's move is written"
+    );
     let mut group = c.benchmark_group("loop_1M_iterations");
     group.sample_size(10);
     group.throughput(Throughput::Elements(ITERATIONS as u64));
