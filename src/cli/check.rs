@@ -207,7 +207,7 @@ fn range(r: &Option<Range>) -> String {
 fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Result<()> {
     let m = &s.motion;
     crate::outln!(
-        "{}: {} lines, {} blocks, {} comments, {} with block delete",
+        "{}: {} lines executed, {} blocks, {} comments, {} with block delete",
         path.display(),
         s.lines,
         s.blocks,

@@ -46,7 +46,8 @@ fn widen(r: &mut Option<Range>, v: f64) {
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct ProgramSummary {
-    /// Lines read (every line is a block).
+    /// Lines executed (every line is a block; a line in a loop or a
+    /// subroutine counts each time it runs).
     pub lines: usize,
     /// Lines with words or keywords.
     pub blocks: usize,
