@@ -10,7 +10,15 @@ use super::error_values::{ErrorValues, SQUARENESS_NAMES};
 use super::transform::{mat_vec, scale, sub};
 use super::{Kinematics, linear_index};
 use crate::axes::{Axes, Axis};
-use crate::toolpath::context::LOCATION_PARAMETERS;
+
+/// Names of the squareness parameters, in the order of
+/// [`Kinematics::squareness_jacobian`](super::Kinematics::squareness_jacobian)'s rows.
+pub const SQUARENESS_PARAMETERS: [&str; 3] = SQUARENESS_NAMES;
+/// Names of the rotary location parameters (the `rotary_location` effect), in
+/// the order of the location Jacobian's rows.
+pub const LOCATION_PARAMETERS: [&str; 8] = [
+    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
+];
 
 /// Step of the central differences over squareness and location parameters: 1 µrad
 /// (or 1 µm).
@@ -101,7 +109,7 @@ impl Kinematics {
     }
 
     /// `∂(actual tip, part, µm)/∂(location parameter, µm or µrad)` at `joints` around
-    /// `errors`, rows in the order of `toolpath::context::LOCATION_PARAMETERS`.
+    /// `errors`, rows in the order of [`LOCATION_PARAMETERS`].
     pub fn location_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 3]; 8] {
         let mut out = [[0.0; 3]; 8];
         for (row, name) in out.iter_mut().zip(LOCATION_PARAMETERS) {

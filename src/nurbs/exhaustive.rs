@@ -7,10 +7,10 @@
 //! the lexicographically smallest index set, whatever the thread schedule.
 use rayon::prelude::*;
 
+use super::fit_error::FitError;
 use super::knot_placement::grid_knots;
 use super::optimise::GridResult;
 use super::problem::FitProblem;
-use super::smem::FitError;
 
 /// `C(n, k)`, saturating at `u64::MAX`.
 pub fn combinations(n: usize, k: usize) -> u64 {

@@ -10,6 +10,7 @@
 pub mod basis;
 pub mod curve;
 pub mod exhaustive;
+pub mod fit_error;
 pub mod genetic;
 pub mod knot_placement;
 pub mod knot_vector;

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::curve::NurbsCurve;
 use super::exhaustive;
+pub use super::fit_error::FitError;
 use super::genetic::{self, GaSettings};
 use super::knot_placement;
 use super::lookup::CurveLookup;
@@ -175,37 +176,6 @@ pub struct FitStats {
     /// Least-squares fits evaluated.
     pub evaluations: u64,
     pub seconds: f64,
-}
-
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FitError {
-    #[error("{positions} positions but {values} values")]
-    LengthMismatch { positions: usize, values: usize },
-    #[error("{samples} samples cannot be fitted with degree {degree} (at least {need} needed)")]
-    TooFewSamples {
-        samples: usize,
-        degree: usize,
-        need: usize,
-    },
-    #[error("sample {index}: {what} is not a finite number")]
-    NotFinite { index: usize, what: &'static str },
-    #[error("sample {index}: position {position} does not increase")]
-    NotIncreasing { index: usize, position: f64 },
-    #[error("invalid fit options: {0}")]
-    Options(String),
-    #[error(
-        "the exhaustive search over C({candidates}, {choose}) = {count} knot sets exceeds the limit {limit}"
-    )]
-    TooManyCombinations {
-        candidates: usize,
-        choose: usize,
-        count: u64,
-        limit: u64,
-    },
-    #[error(
-        "no feasible fit: every candidate knot vector left spans without data or made x(u) fold back"
-    )]
-    NoFeasibleFit,
 }
 
 /// A fitted SMEM curve: the NURBS `(x(u), y(u))` in table units, its lookup table

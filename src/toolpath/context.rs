@@ -5,13 +5,9 @@
 use crate::axes::Axes;
 use serde::{Deserialize, Serialize};
 
-/// Names of the squareness parameters, in the order of [`PointContext::squareness_jacobian`].
-pub const SQUARENESS_PARAMETERS: [&str; 3] = ["s_xy", "s_xz", "s_yz"];
-/// Names of the rotary location parameters of the `rotary_location` effect, in the
-/// order of [`PointContext::location_jacobian`].
-pub const LOCATION_PARAMETERS: [&str; 8] = [
-    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
-];
+/// The parameter names of the Jacobians a context carries (defined by
+/// `kinematics`, which computes them).
+pub use crate::kinematics::jacobian::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PointContext {
