@@ -146,6 +146,8 @@ pub struct Executor {
     out: Block,
     executed: Executed,
     percent_seen: bool,
+    /// A line of the main file that is not blank was read.
+    content_seen: bool,
     finished: bool,
     ended: bool,
     text: String,
@@ -193,6 +195,7 @@ impl Executor {
                 literal: true,
             },
             percent_seen: false,
+            content_seen: false,
             finished: false,
             ended: false,
             text: String::new(),
@@ -304,18 +307,40 @@ impl Executor {
                 self.emit_source(&block);
                 return Ok(true);
             }
+            // LinuxCNC: the first line that is not blank may be a lone `%`
+            // (the program then ends at the next lone `%`).
+            let opening = self.current == 0 && !self.content_seen;
+            let text = block
+                .raw
+                .strip_prefix(b"\xEF\xBB\xBF")
+                .unwrap_or(&block.raw);
+            if opening && !text.iter().all(|b| b.is_ascii_whitespace()) {
+                self.content_seen = true;
+            }
             if block.percent {
                 if skipping {
                     continue;
                 }
                 if self.current == 0 {
-                    if self.percent_seen {
+                    // Spaces aside, the line is `%` (a comment makes it an error).
+                    let lone = text.iter().filter(|b| !b.is_ascii_whitespace()).eq(b"%");
+                    if self.percent_seen && lone {
                         // The closing `%` ends the program (LinuxCNC).
                         self.emit_source(&block);
                         self.ended = true;
                         return Ok(true);
                     }
-                    self.percent_seen = block.line == 1;
+                    if opening && lone {
+                        self.percent_seen = true;
+                    } else if !self.options.lenient {
+                        let at = block.raw.iter().position(|b| *b == b'%').unwrap_or(0);
+                        return Err(located(
+                            ErrorKind::UnexpectedCharacter("%".into()),
+                            &block,
+                            at,
+                            at + 1,
+                        ));
+                    }
                 }
                 self.emit_source(&block);
                 return Ok(true);
@@ -374,6 +399,8 @@ impl Executor {
 
     /// The line with its values substituted, assignments applied.
     fn flatten(&mut self, block: &Block, params: &mut Parameters) -> Result<(), GcodeError> {
+        // `#<_line>` reads the line being executed (LinuxCNC's sequence number).
+        params.system.line = block.line as f64;
         // 1. Evaluate everything with the parameters as they were.
         let mut values: Vec<f64> = Vec::with_capacity(block.words.len());
         for w in &block.words {
@@ -695,6 +722,9 @@ impl Executor {
         params: &mut Parameters,
     ) -> Result<(), GcodeError> {
         let o_err = |msg: String| located(ErrorKind::OWord(msg), block, o.start, o.end);
+        if self.skipping.is_none() && !self.skipping_to_sub {
+            params.system.line = block.line as f64;
+        }
         // While skipping only the awaited label (or a sub line when searching
         // for a subroutine) is looked at.
         let label = match self.label_of(block, o, params) {
@@ -752,14 +782,6 @@ impl Executor {
                 self.skipping = Some(label);
             }
             OKeyword::EndSub | OKeyword::Return => {
-                let value = match o.args.first() {
-                    Some(&i) => Some(
-                        expr(block, i)
-                            .eval(params)
-                            .map_err(|e| eval_error(e, block))?,
-                    ),
-                    None => None,
-                };
                 if self.frames.is_empty() {
                     if self.defining_sub.is_none() {
                         return Err(o_err(format!(
@@ -773,7 +795,16 @@ impl Executor {
                     }
                     return Ok(());
                 }
-                // Return from the call.
+                // Return from the call. The value is evaluated only now: a
+                // definition passed over evaluates nothing (LinuxCNC).
+                let value = match o.args.first() {
+                    Some(&i) => Some(
+                        expr(block, i)
+                            .eval(params)
+                            .map_err(|e| eval_error(e, block))?,
+                    ),
+                    None => None,
+                };
                 params.returned = value;
                 let frame = self.frames.pop().expect("checked");
                 params.leave(&frame.saved);
@@ -853,7 +884,8 @@ impl Executor {
                 let count = self.condition(block, o, params)?;
                 let entry = self.labels.get_mut(&label).expect("recorded");
                 if entry.repeat_left.is_none() {
-                    entry.repeat_left = Some(count.round() as i64);
+                    // LinuxCNC's `round_to_int`: to the nearest, ties to even.
+                    entry.repeat_left = Some(count.round_ties_even() as i64);
                     self.enter_loop();
                 }
                 let entry = self.labels.get_mut(&label).expect("recorded");
@@ -919,8 +951,10 @@ impl Executor {
                         self.doing_continue = false;
                         self.seek_to(&e);
                     } else {
-                        // The loop is over (condition false or break).
-                        self.doing_break = false;
+                        // The loop is over (condition false or break). A
+                        // break's flag stays set, as in LinuxCNC 2.9 (only the
+                        // end of a do-while clears it): the next do-while
+                        // then runs its body once.
                         if let Some(entry) = self.labels.get_mut(&label) {
                             entry.repeat_left = None;
                         }

@@ -366,17 +366,22 @@ fn parse_o_word(
         (OLabel::Number(exprs.len() as u32 - 1), end)
     };
     let k = skip_space(line, after_label);
-    let word_end = k + line[k..]
-        .iter()
-        .take_while(|b| b.is_ascii_alphabetic())
-        .count();
-    let text = &line[k..word_end];
-    let Some(keyword) = OKeyword::ALL
-        .iter()
-        .find(|(n, _)| n.as_bytes().eq_ignore_ascii_case(text))
-        .map(|(_, k)| *k)
-    else {
-        if matches!(label, OLabel::Name(_)) || word_end > k {
+    // LinuxCNC reads a line with its spaces removed and takes the first
+    // keyword the text starts with (`o1 end if` is `o1 endif`).
+    let matched = OKeyword::ALL.iter().find_map(|(name, keyword)| {
+        let mut p = k;
+        for c in name.bytes() {
+            p = skip_space(line, p);
+            if !line.get(p).is_some_and(|b| b.eq_ignore_ascii_case(&c)) {
+                return None;
+            }
+            p += 1;
+        }
+        Some((*keyword, p))
+    });
+    let Some((keyword, word_end)) = matched else {
+        let alphabetic = line.get(k).is_some_and(|b| b.is_ascii_alphabetic());
+        if matches!(label, OLabel::Name(_)) || alphabetic {
             // `O<name>` must be followed by a keyword; `O100 foo` is not a word.
             return Err(OError::Kind(ErrorKind::UnknownOWordKeyword, k));
         }
@@ -523,6 +528,11 @@ mod tests {
             parse_block("O100 endif G1").unwrap_err().kind,
             ErrorKind::UnexpectedAfterOWord
         ));
+        // LinuxCNC reads the line without its spaces.
+        let b = parse_block("o1 end if").unwrap();
+        assert_eq!(b.o_word.as_ref().unwrap().keyword, OKeyword::EndIf);
+        let b = parse_block("O2 E L S E I F [1]").unwrap();
+        assert_eq!(b.o_word.as_ref().unwrap().keyword, OKeyword::ElseIf);
         let b = parse_block("G1 X#1 Y[#<r> * 2] #3 = sin[30] #<_g>=-#1").unwrap();
         assert_eq!(b.words[1].expr, Some(0));
         assert_eq!(b.assignments.len(), 2);
