@@ -61,10 +61,18 @@ pub enum ErrorKind {
     TwoAxisUsers,
     #[error("G92 needs at least one axis word")]
     G92WithoutAxes,
+    #[error("G52 needs at least one axis word")]
+    G52WithoutAxes,
     #[error("G10 with a missing or invalid P number")]
     G10Pnumber,
     #[error("G10 with a missing or unsupported L number (L1, L2, L10, L11, L20)")]
     G10Lnumber,
+    #[error("Must use G0 or G1 with G53")]
+    G53Motion,
+    #[error("Cannot use G53 incremental")]
+    G53Incremental,
+    #[error("R not allowed in G10 L20")]
+    G10L20Rotation,
     #[error("Dwell time P word missing with G4")]
     DwellWithoutP,
     #[error("Cannot use inverse time feed with canned cycles")]
@@ -156,7 +164,11 @@ impl ErrorKind {
             }
             ErrorKind::NoProgramEnd => "end the program with M2 or M30 (or enclose it in % lines)",
             ErrorKind::NoSuchAxis(_) => "post-process the program for an A/C machine",
-            ErrorKind::G92WithoutAxes | ErrorKind::G10Pnumber | ErrorKind::G10Lnumber => {
+            ErrorKind::G92WithoutAxes
+            | ErrorKind::G52WithoutAxes
+            | ErrorKind::G10Pnumber
+            | ErrorKind::G10Lnumber
+            | ErrorKind::G10L20Rotation => {
                 "check the G10/G92 words (G10 L2 P1 X… sets the G54 origin)"
             }
             ErrorKind::CycleInverseTime | ErrorKind::Cycle(_) => "check the canned cycle's words",
@@ -170,6 +182,9 @@ impl ErrorKind {
                 "check the arc's end point and centre words (LinuxCNC's tolerance: 0.028 mm, or 0.1 % of the radius above 0.028 mm)"
             }
             ErrorKind::RotatedArcPlane => "program the arc in G17, or without the rotation",
+            ErrorKind::G53Motion | ErrorKind::G53Incremental => {
+                "G53 moves with G0 or G1 to absolute machine coordinates (G90)"
+            }
             ErrorKind::Io(_) => "check that the file exists and is readable",
         }
     }

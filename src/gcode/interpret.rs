@@ -208,6 +208,14 @@ pub struct Interpreter {
     unknown_letters_seen: u32,
     /// The spindle's direction (M3/M4/M5; canned cycles check it).
     spindle: SpindleDirection,
+    /// Spindle speed (S), mist (M7) and flood (M8) coolant, the selected
+    /// (T) and the loaded (M6) tool: what `#<_rpm>`, `#<_mist>`, `#<_flood>`,
+    /// `#<_selected_tool>`, `#<_current_tool>` and #5400 report.
+    rpm: f64,
+    mist: bool,
+    flood: bool,
+    selected_tool: f64,
+    current_tool: f64,
     /// What LinuxCNC remembers between canned-cycle blocks.
     cycle_memory: CycleMemory,
     /// Dwell time of the block being interpreted (G4, cycles), min.
@@ -223,6 +231,8 @@ struct Words {
     p: Option<f64>,
     q: Option<f64>,
     l: Option<f64>,
+    s: Option<f64>,
+    t: Option<f64>,
     f: Option<f64>,
     /// Byte ranges of the F and first axis word (for error carets).
     f_span: Option<(usize, usize)>,
@@ -261,6 +271,11 @@ impl Interpreter {
             ended: false,
             unknown_letters_seen: 0,
             spindle: SpindleDirection::Stopped,
+            rpm: 0.0,
+            mist: false,
+            flood: false,
+            selected_tool: 0.0,
+            current_tool: 0.0,
             cycle_memory: CycleMemory::default(),
             pending_dwell_min: 0.0,
         };
@@ -277,6 +292,7 @@ impl Interpreter {
         if i.params.get(numbers::G92_ENABLED) != 0.0 {
             i.origin.g92 = i.stored_axes(numbers::G92_OFFSET);
         }
+        i.current_tool = i.params.get(numbers::TOOL);
         i.update_parameters();
         i
     }
@@ -442,11 +458,19 @@ impl Interpreter {
         };
         s.tool_offset = m.tool_length;
         s.retract_r_plane = m.retract_r_plane;
+        s.rpm = self.rpm;
+        s.spindle_on = self.spindle != SpindleDirection::Stopped;
+        s.spindle_cw = self.spindle == SpindleDirection::Clockwise;
+        s.mist = self.mist;
+        s.flood = self.flood;
+        s.selected_tool = self.selected_tool;
+        s.current_tool = self.current_tool;
         s.feed = if m.inverse_time {
             m.feed
         } else {
             m.feed / scale
         };
+        self.params.set(numbers::TOOL, self.current_tool);
     }
 
     fn apply(&mut self, block: &Block, event: &mut BlockEvent) -> Result<(), GcodeError> {
@@ -494,8 +518,10 @@ impl Interpreter {
         let mut dwell = false;
         let mut cancel_motion = false;
         let mut spindle = self.spindle;
+        let (mut mist, mut flood, mut tool_change) = (self.mist, self.flood, false);
         let mut words = Words::default();
         let mut machine_coordinates = false;
+        let mut g53_span = (0, 0);
         let mut motion_word: Option<(usize, usize)> = None;
         let mut end = false;
         let mut unsupported = false;
@@ -506,7 +532,6 @@ impl Interpreter {
         let mut coord_select: Option<u8> = None;
         let mut g_groups = [false; 16];
         let mut m_groups = [false; 11];
-        let mut m_codes: [Option<i32>; 11] = [None; 11];
         let mut seen_letters = 0u32;
 
         for kw in &block.keywords {
@@ -522,6 +547,11 @@ impl Interpreter {
                     if let Some(code) = w.code10()
                         && let Some(g) = g_group(classify_g(code))
                     {
+                        // G80 with another motion code is no conflict: the
+                        // other code wins (LinuxCNC's `read_g`).
+                        if code == 800 {
+                            continue;
+                        }
                         if std::mem::replace(&mut g_groups[g as usize], true) {
                             self.fail(
                                 block,
@@ -537,9 +567,9 @@ impl Interpreter {
                     if let Some(code) = w.code10()
                         && let Some(g) = m_group(code)
                     {
-                        let coolant_pair =
-                            g == 8 && matches!((m_codes[8], code), (Some(70), 80) | (Some(80), 70));
-                        if m_groups[g as usize] && !coolant_pair {
+                        // LinuxCNC 2.9 allows no two codes of a group, M7 and
+                        // M8 included (`read_m`).
+                        if m_groups[g as usize] {
                             self.fail(
                                 block,
                                 event,
@@ -549,7 +579,6 @@ impl Interpreter {
                             )?;
                         }
                         m_groups[g as usize] = true;
-                        m_codes[g as usize] = Some(code);
                     }
                 }
                 letter if letter.is_ascii_uppercase() => {
@@ -616,7 +645,10 @@ impl Interpreter {
                             modal.tool_length = false;
                             modal.frame = Frame::Joint;
                         }
-                        GCode::MachineCoordinates => machine_coordinates = true,
+                        GCode::MachineCoordinates => {
+                            machine_coordinates = true;
+                            g53_span = (w.start, w.end);
+                        }
                         GCode::CoordSystem(n) => coord_select = Some(n),
                         GCode::RetractMode(r) => modal.retract_r_plane = r,
                         GCode::Home(_) => axis_user = Some((g, w.start, w.end)),
@@ -626,15 +658,18 @@ impl Interpreter {
                         }
                         GCode::AxisOffset(c) => {
                             axis_offset = Some(c);
-                            if c == 920 {
+                            if c == 920 || c == 520 {
                                 axis_user = Some((g, w.start, w.end));
                             }
                         }
                         GCode::Dwell => dwell = true,
                         GCode::PassThrough => {}
                         GCode::CancelMotion => {
-                            modal.motion = MotionMode::None;
-                            cancel_motion = true;
+                            // Ignored when the block holds another motion code.
+                            if !g_groups[1] {
+                                modal.motion = MotionMode::None;
+                                cancel_motion = true;
+                            }
                         }
                         GCode::Unsupported => {
                             unsupported = true;
@@ -663,6 +698,10 @@ impl Interpreter {
                         Some(30) => spindle = SpindleDirection::Clockwise,
                         Some(40) => spindle = SpindleDirection::CounterClockwise,
                         Some(50) => spindle = SpindleDirection::Stopped,
+                        Some(60) => tool_change = true,
+                        Some(70) => mist = true,
+                        Some(80) => flood = true,
+                        Some(90) => (mist, flood) = (false, false),
                         _ => {}
                     },
                 },
@@ -684,6 +723,8 @@ impl Interpreter {
                 b'P' => words.p = Some(w.value),
                 b'Q' => words.q = Some(w.value),
                 b'L' => words.l = Some(w.value),
+                b'S' => words.s = Some(w.value),
+                b'T' => words.t = Some(w.value),
                 b'F' => {
                     words.f = Some(w.value);
                     words.f_span = Some((w.start, w.end));
@@ -720,6 +761,21 @@ impl Interpreter {
             }
         }
 
+        // G53 moves straight, in absolute coordinates (LinuxCNC's
+        // `check_g_codes`; the block's own G90/G91 counts).
+        if machine_coordinates {
+            if !matches!(modal.motion, MotionMode::Rapid | MotionMode::Linear) {
+                self.fail(block, event, ErrorKind::G53Motion, g53_span.0, g53_span.1)?;
+            } else if modal.distance == Distance::Incremental {
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::G53Incremental,
+                    g53_span.0,
+                    g53_span.1,
+                )?;
+            }
+        }
         // Coordinate system selection (before the group-0 codes and the motion).
         if let Some(n) = coord_select {
             modal.coord_system = n;
@@ -752,10 +808,25 @@ impl Interpreter {
                     &words,
                     &modal,
                     &mut origin,
-                    &program_now,
                     &mut store,
                     (s, e),
                 )?;
+            }
+            Some((GCode::AxisOffset(520), ..)) => {
+                // G52: the words are the offsets (LinuxCNC keeps them where
+                // G92 keeps its own).
+                if !words.has_axes() {
+                    self.fail(block, event, ErrorKind::G52WithoutAxes, 0, block.raw.len())?;
+                }
+                for axis in Axis::ALL {
+                    if let Some((v, _)) = words.axes[axis as usize] {
+                        origin.g92.set(axis, v);
+                    }
+                }
+                store.push((numbers::G92_ENABLED, 1.0));
+                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                    store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
+                }
             }
             Some((GCode::AxisOffset(_), ..)) => {
                 // G92: offsets so that the current position reads as the words.
@@ -794,20 +865,30 @@ impl Interpreter {
                         mid.set(axis, base + v);
                     }
                 }
-                let mid = origin.to_machine(&mid);
+                let mid_program = mid;
+                let mid = origin.to_machine(&mid_program);
                 let base = if n == 28 {
                     numbers::G28_POSITION
                 } else {
                     numbers::G30_POSITION
                 };
-                let stored = self.stored_axes(base);
-                let mut home = mid;
+                // LinuxCNC's `convert_home` mixes in program coordinates:
+                // the stored position of the given axes, the intermediate
+                // point's others (under an XY rotation one axis word moves
+                // both X and Y).
+                let stored = origin.to_program(&self.stored_axes(base));
+                let mut home = mid_program;
                 let all = !g.iter().any(|x| *x);
                 for axis in Axis::ALL {
                     if all || g[axis as usize] {
                         home.set(axis, stored.get(axis));
                     }
                 }
+                let home = if all {
+                    self.stored_axes(base)
+                } else {
+                    origin.to_machine(&home)
+                };
                 let _ = s;
                 for (from, to, g53) in [(self.position, mid, false), (mid, home, true)] {
                     let mut m = Motion {
@@ -945,6 +1026,22 @@ impl Interpreter {
         self.params
             .set(numbers::COORD_SYSTEM, modal.coord_system as f64);
         self.position = new_position;
+        if let (Some(m), MotionMode::Probe(_)) = (&motion, modal.motion) {
+            // LinuxCNC's `set_probe_data`. The probe is taken to run to its
+            // end point without tripping (what rs274's simulation reports):
+            // #5061–#5069 hold the end point in program coordinates and
+            // units, #5070 is 0.
+            let p = origin.to_program(&m.end);
+            let mut values = [0.0; 9];
+            for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                let v = p.get(axis);
+                values[k] = if axis.is_rotary() { v } else { v / scale };
+            }
+            for (k, v) in values.into_iter().enumerate() {
+                self.params.set(numbers::PROBE_POSITION + k, v);
+            }
+            self.params.set(numbers::PROBE_TRIPPED, 0.0);
+        }
         for m in motion.iter().chain(event.expanded.iter()) {
             if self.moved {
                 self.time_min += m.duration_min;
@@ -955,6 +1052,17 @@ impl Interpreter {
             self.time_min += self.pending_dwell_min;
         }
         event.motion = motion;
+        self.mist = mist;
+        self.flood = flood;
+        if let Some(s) = words.s {
+            self.rpm = s.abs();
+        }
+        if let Some(t) = words.t {
+            self.selected_tool = t;
+        }
+        if tool_change {
+            self.current_tool = self.selected_tool;
+        }
         self.update_parameters();
         Ok(())
     }
@@ -969,7 +1077,6 @@ impl Interpreter {
         words: &Words,
         modal: &ModalState,
         origin: &mut Origin,
-        program_now: &Axes,
         store: &mut Vec<(usize, f64)>,
         span: (usize, usize),
     ) -> Result<(), GcodeError> {
@@ -981,23 +1088,50 @@ impl Interpreter {
                     return self.fail(block, event, ErrorKind::G10Pnumber, span.0, span.1);
                 };
                 let n = if p == 0 { modal.coord_system } else { p as u8 };
+                if l == Some(20) && words.r.is_some() {
+                    let at = block.word(b'R').map(|w| (w.start, w.end)).unwrap_or(span);
+                    return self.fail(block, event, ErrorKind::G10L20Rotation, at.0, at.1);
+                }
                 let mut o = self.stored_origin(n);
-                for axis in Axis::ALL {
-                    if let Some((v, _)) = words.axes[axis as usize] {
-                        let value = if l == Some(2) {
-                            v
-                        } else {
-                            // L20: the current position reads as `v`.
-                            let mut p = *program_now;
-                            p.set(axis, v);
-                            let q = Origin {
-                                work: Axes::default(),
-                                ..*origin
-                            }
-                            .to_machine(&p);
-                            self.position.get(axis) - q.get(axis)
-                        };
-                        o.set(axis, value);
+                if l == Some(2) {
+                    for axis in Axis::ALL {
+                        if let Some((v, _)) = words.axes[axis as usize] {
+                            o.set(axis, v);
+                        }
+                    }
+                } else {
+                    // L20 (LinuxCNC's `convert_setup`): the current point,
+                    // read in system `n` (its origin, its XY rotation and the
+                    // G92 offset when applied), reads as the words. X and Y
+                    // are rotated together: one of them changes both.
+                    let g92 = if self.params.get(numbers::G92_ENABLED) != 0.0 {
+                        self.stored_axes(numbers::G92_OFFSET)
+                    } else {
+                        Axes::default()
+                    };
+                    let system = Origin {
+                        work: o,
+                        g92,
+                        rotation_deg: self.params.get(numbers::coord(n as usize, 9)),
+                    };
+                    let mut wanted = system.to_program(&self.position);
+                    for axis in Axis::ALL {
+                        if let Some((v, _)) = words.axes[axis as usize] {
+                            wanted.set(axis, v);
+                        }
+                    }
+                    let unshifted = Origin {
+                        work: Axes::default(),
+                        ..system
+                    }
+                    .to_machine(&wanted);
+                    let xy = words.axes[0].is_some() || words.axes[1].is_some();
+                    for axis in Axis::ALL {
+                        let given = words.axes[axis as usize].is_some()
+                            || (xy && matches!(axis, Axis::X | Axis::Y));
+                        if given {
+                            o.set(axis, self.position.get(axis) - unshifted.get(axis));
+                        }
                     }
                 }
                 for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
@@ -1015,7 +1149,7 @@ impl Interpreter {
                 Ok(())
             }
             Some(1) | Some(10) | Some(11) => {
-                if p.is_none_or(|p| p < 0) {
+                if p.is_none_or(|p| p < 1) {
                     return self.fail(block, event, ErrorKind::G10Pnumber, span.0, span.1);
                 }
                 Ok(())
@@ -1171,7 +1305,7 @@ impl Interpreter {
                     Some(centre) => {
                         let turns = match words.p {
                             Some(p) if (1.0..1e6).contains(&p) => {
-                                (p.round() as u32).saturating_sub(1)
+                                (p.round_ties_even() as u32).saturating_sub(1)
                             }
                             _ => 0,
                         };
@@ -1211,7 +1345,9 @@ impl Interpreter {
                     block.raw.len(),
                 )?;
             }
-            if start == end {
+            // G38.3 and G38.5 (no error when the probe does not trip) may
+            // start at their end point (LinuxCNC's `convert_probe`).
+            if start == end && matches!(modal.motion, MotionMode::Probe(382 | 384)) {
                 self.fail(block, event, ErrorKind::ProbeTooClose, 0, block.raw.len())?;
             }
         } else if feeding && modal.inverse_time && words.f.is_none() {

@@ -41,6 +41,7 @@ impl MotionMode {
             MotionMode::Probe(384) => "G38.4",
             MotionMode::Probe(_) => "G38.5",
             MotionMode::Cycle(730) => "G73",
+            MotionMode::Cycle(740) => "G74",
             MotionMode::Cycle(810) => "G81",
             MotionMode::Cycle(820) => "G82",
             MotionMode::Cycle(830) => "G83",
@@ -218,7 +219,7 @@ pub fn classify_g(code10: i32) -> GCode {
         20 => GCode::Motion(MotionMode::ArcCw),
         30 => GCode::Motion(MotionMode::ArcCcw),
         382..=385 => GCode::Motion(MotionMode::Probe(code10 as u16)),
-        730 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
+        730 | 740 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
             GCode::Motion(MotionMode::Cycle(code10 as u16))
         }
         40 => GCode::Dwell,
@@ -236,7 +237,7 @@ pub fn classify_g(code10: i32) -> GCode {
         910 => GCode::Distance(Distance::Incremental),
         901 => GCode::ArcDistance(Distance::Absolute),
         911 => GCode::ArcDistance(Distance::Incremental),
-        920..=923 => GCode::AxisOffset(code10 as u16),
+        520 | 920..=923 => GCode::AxisOffset(code10 as u16),
         930 => GCode::FeedMode(true),
         940 => GCode::FeedMode(false),
         400 => GCode::CutterComp(CutterComp::Off),
@@ -258,7 +259,8 @@ pub fn classify_g(code10: i32) -> GCode {
         800 => GCode::CancelMotion,
         980 => GCode::RetractMode(false),
         990 => GCode::RetractMode(true),
-        431 | 610 | 611 | 640 | 960 | 970 | 70 | 80 | 150 | 500 | 501 | 690 => GCode::PassThrough,
+        // Not G7 (lathe diameter mode: X words would be diameters).
+        431 | 610 | 611 | 640 | 960 | 970 | 80 | 150 | 500 | 501 | 690 => GCode::PassThrough,
         _ => GCode::Unsupported,
     }
 }

@@ -22,6 +22,11 @@ pub const MAX_PARAMETERS: usize = 5602;
 
 /// The numbers of LinuxCNC's system parameters (axis order X Y Z A B C U V W).
 pub mod numbers {
+    /// Where the last probing move (G38.x) stopped, X at 5061 … W at 5069
+    /// (program coordinates and units).
+    pub const PROBE_POSITION: usize = 5061;
+    /// 1 when the last probing move tripped the probe.
+    pub const PROBE_TRIPPED: usize = 5070;
     /// G28 stored position, X at 5161 … W at 5169.
     pub const G28_POSITION: usize = 5161;
     /// G30 stored position, 5181 … 5189.
@@ -119,7 +124,7 @@ impl Parameters {
         p.system.plane = 170.0;
         p.system.cutter_comp = 400.0;
         p.system.coord_system = 540.0;
-        p.system.selected_tool = -1.0;
+        p.system.selected_tool = 0.0;
         p
     }
 

@@ -986,17 +986,25 @@ mod interpreting {
             rapid_mm_per_min: 5000.0,
             ..Default::default()
         };
-        let ev = motions("G0 X10\nG91 G53 G0 Z-100\nG0 Z100\n", options);
+        let ev = motions("G0 X10\nG53 G0 Z-100\nG91 G0 Z100\n", options);
         let m0 = ev[0].motion.unwrap();
         assert_eq!(m0.frame, Frame::Part);
         let m1 = ev[1].motion.unwrap();
         assert!(m1.machine_coordinates);
-        assert_eq!(m1.end.z, -100.0, "G53 is absolute even under G91");
+        assert_eq!(m1.end.z, -100.0);
         approx::assert_relative_eq!(m1.duration_min, (100.0f64.powi(2) * 1.0).sqrt() / 5000.0);
         let m2 = ev[2].motion.unwrap();
         assert!(!m2.machine_coordinates);
-        assert_eq!(m2.end.z, 0.0, "G91 again for the next block");
+        assert_eq!(m2.end.z, 0.0);
         assert_eq!(m2.feed, Feed::Rapid);
+        // LinuxCNC refuses G53 under G91, and with other motions than G0/G1.
+        for bad in [
+            "G91 G53 G0 Z-100\n",
+            "G91\nG53 G1 Z1 F100\n",
+            "G53 G2 X1 R1 F100\n",
+        ] {
+            assert!(interpret_program(bad.as_bytes(), options).is_err(), "{bad}");
+        }
     }
 
     #[test]
