@@ -11,6 +11,7 @@ mod machine;
 mod nurbs;
 mod predict;
 mod programs;
+mod rs274;
 mod safety;
 mod sample;
 mod support;
