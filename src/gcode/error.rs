@@ -97,6 +97,20 @@ pub enum ErrorKind {
     RotatedArcPlane,
     #[error("axis words without a motion mode (G0, G1, G2 or G3)")]
     NoMotionMode,
+    #[error("{0} word with no G or M code that uses it")]
+    UnusedWord(char),
+    #[error("All axes missing with motion code")]
+    MotionWithoutAxes,
+    #[error("P value not an integer with G2 or G3")]
+    ArcTurnsNotInteger,
+    #[error("P value should be 1 or greater with G2 or G3")]
+    ArcTurnsBelowOne,
+    #[error("Mixed radius ijk format for arc")]
+    ArcMixedFormat,
+    #[error("{0} word given for arc in {1} plane")]
+    ArcCentreWordOffPlane(char, &'static str),
+    #[error("{0} word missing in absolute center arc")]
+    ArcAbsoluteCentreMissing(char),
     #[error("arc without a centre: give I/J/K or R")]
     ArcWithoutCentre,
     #[error("arc radius R{0} cannot reach the end point")]
@@ -149,10 +163,20 @@ impl ErrorKind {
             ErrorKind::NoMotionMode => {
                 "program G0 or G1 before the first move, or pass --lenient to treat the move as G1"
             }
-            ErrorKind::ArcWithoutCentre | ErrorKind::ArcUnreachable(_) => {
+            ErrorKind::ArcWithoutCentre
+            | ErrorKind::ArcUnreachable(_)
+            | ErrorKind::ArcMixedFormat
+            | ErrorKind::ArcCentreWordOffPlane(..)
+            | ErrorKind::ArcAbsoluteCentreMissing(_)
+            | ErrorKind::ArcTurnsNotInteger
+            | ErrorKind::ArcTurnsBelowOne => {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::UnusedWord(_) => {
+                "remove the word, or give the code that uses it (LinuxCNC refuses words no code of the block uses)"
+            }
+            ErrorKind::MotionWithoutAxes => "give the move's axis words",
             ErrorKind::DwellWithoutP => "give the dwell time in seconds: `G4 P0.5`",
             ErrorKind::RepeatedWord(_)
             | ErrorKind::ModalGroupConflict(_)

@@ -761,6 +761,10 @@ impl Interpreter {
             }
         }
 
+        // A code volcomp does not know may use any word.
+        if !unsupported {
+            self.check_words(block, event, &words, axis_user.is_some())?;
+        }
         // G53 moves straight, in absolute coordinates (LinuxCNC's
         // `check_g_codes`; the block's own G90/G91 counts).
         if machine_coordinates {
@@ -1064,6 +1068,119 @@ impl Interpreter {
             self.current_tool = self.selected_tool;
         }
         self.update_parameters();
+        Ok(())
+    }
+
+    /// LinuxCNC's `check_other_codes` (and the motion checks of
+    /// `enhance_block`): a D, H, I, J, K, L, P, Q or R word that no code of the
+    /// block uses is an error, and so is a motion code other than G0–G3
+    /// without axis words.
+    fn check_words(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        words: &Words,
+        axis_user: bool,
+    ) -> Result<(), GcodeError> {
+        let codes = |letter: u8| {
+            block
+                .words
+                .iter()
+                .filter(move |w| w.letter == letter)
+                .filter_map(|w| w.code10())
+        };
+        // User M codes (M100–M199) take any word; M98/M99 (refused on
+        // their own) their P and L.
+        if codes(b'M').any(|m| (1000..=1990).contains(&m) || m == 980 || m == 990) {
+            return Ok(());
+        }
+        let g = |list: &[i32]| codes(b'G').any(|c| list.contains(&c));
+        let m = |list: &[i32]| codes(b'M').any(|c| list.contains(&c));
+        // The motion the block runs (`motion_to_be`), as code × 10.
+        let block_motion = codes(b'G')
+            .filter(|c| matches!(classify_g(*c), GCode::Motion(_)))
+            .last()
+            .or_else(|| g(&[800]).then_some(800));
+        let ijk = words.ijk.iter().any(Option::is_some);
+        let modal = self.modal.motion.code10() as i32;
+        let motion = match block_motion {
+            Some(c) => Some(c),
+            None if axis_user => None,
+            None if words.has_axes() => Some(modal),
+            None if ijk && matches!(self.modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw) => {
+                Some(modal)
+            }
+            None => None,
+        };
+        if let Some(c) = block_motion
+            && !matches!(c, 0 | 10 | 20 | 30 | 800)
+            && !words.has_axes()
+            && !axis_user
+        {
+            let at = block
+                .words
+                .iter()
+                .find(|w| w.letter == b'G' && w.code10() == Some(c))
+                .map_or((0, block.raw.len()), |w| (w.start, w.end));
+            self.fail(block, event, ErrorKind::MotionWithoutAxes, at.0, at.1)?;
+        }
+        let is = |list: &[i32]| motion.is_some_and(|c| list.contains(&c));
+        let cycle = |c: i32| (810..=890).contains(&c) || c == 730;
+        let arc = is(&[20, 30]);
+        let g10 = g(&[100]);
+        let comp = g(&[410, 411, 420, 421]);
+        let unused = [
+            (b'D', !(comp || g(&[960]))),
+            // G43.4 and G234: tool-tip control of other controllers (Fanuc).
+            (b'H', !g(&[430, 432, 434, 2340])),
+            (b'I', !(arc || is(&[870]) || g10)),
+            (b'J', !(arc || is(&[870]) || g10)),
+            (b'K', !(arc || is(&[870]))),
+            (
+                b'L',
+                !(motion.is_some_and(cycle) || g10 || comp || m(&[660])),
+            ),
+            (
+                b'P',
+                !(g(&[100, 40, 640])
+                    || is(&[820, 860, 880, 890, 20, 30, 740, 840])
+                    || m(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190])),
+            ),
+            (
+                b'Q',
+                !(is(&[830, 730]) || m(&[660, 670, 680, 610, 190]) || g10 || g(&[640])),
+            ),
+            (
+                b'R',
+                !(arc
+                    || motion.is_some_and(cycle)
+                    || is(&[740])
+                    || g(&[411, 421])
+                    || g10
+                    || m(&[190])),
+            ),
+        ];
+        for (letter, refused) in unused {
+            if let Some(w) = block.word(letter)
+                && refused
+            {
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::UnusedWord(letter as char),
+                    w.start,
+                    w.end,
+                )?;
+            }
+        }
+        if arc && let Some(p) = words.p {
+            let at = block.word(b'P').map_or((0, 0), |w| (w.start, w.end));
+            if (p.round_ties_even() - p).abs() > 0.001 {
+                self.fail(block, event, ErrorKind::ArcTurnsNotInteger, at.0, at.1)?;
+            } else if p.round_ties_even() < 1.0 {
+                self.fail(block, event, ErrorKind::ArcTurnsBelowOne, at.0, at.1)?;
+            }
+        }
         Ok(())
     }
 
@@ -1433,6 +1550,33 @@ impl Interpreter {
         };
         let s = to_plane(modal.plane, start.xyz());
         let e = to_plane(modal.plane, end.xyz());
+        // LinuxCNC's `convert_arc`: R or centre words, not both; no centre
+        // word along the plane's normal; both centre words under G90.1.
+        if words.r.is_some() && words.ijk.iter().any(Option::is_some) {
+            let (a, b) = word_span(b'R');
+            self.fail(block, event, ErrorKind::ArcMixedFormat, a, b)?;
+            return Ok(None);
+        }
+        let (normal, plane_name, in_plane) = match modal.plane {
+            Plane::XY => (2, "XY", [0, 1]),
+            Plane::ZX => (1, "XZ", [2, 0]),
+            Plane::YZ => (0, "YZ", [1, 2]),
+        };
+        const IJK: [u8; 3] = [b'I', b'J', b'K'];
+        if words.ijk[normal].is_some() {
+            let (a, b) = word_span(IJK[normal]);
+            let kind = ErrorKind::ArcCentreWordOffPlane(IJK[normal] as char, plane_name);
+            self.fail(block, event, kind, a, b)?;
+            return Ok(None);
+        }
+        if modal.arc_distance == Distance::Absolute
+            && words.ijk[in_plane[0]].is_some() != words.ijk[in_plane[1]].is_some()
+        {
+            let missing = in_plane[usize::from(words.ijk[in_plane[0]].is_some())];
+            let kind = ErrorKind::ArcAbsoluteCentreMissing(IJK[missing] as char);
+            self.fail(block, event, kind, 0, block.raw.len())?;
+            return Ok(None);
+        }
         if let Some(r_words) = words.r {
             let r = r_words * scale;
             let (dx, dy) = (e[0] - s[0], e[1] - s[1]);

@@ -40,7 +40,8 @@ use super::parser::parse_line;
 /// Lines of loop and subroutine bodies kept parsed (then re-read from the file).
 pub const LINE_CACHE_LIMIT: usize = 1 << 20;
 
-/// LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`.
+/// LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`: call levels, the main program's
+/// included (so at most 9 calls are nested).
 pub const MAX_CALL_DEPTH: usize = 10;
 
 /// LinuxCNC's `INTERP_SUB_PARAMS`: arguments of a call.
@@ -819,8 +820,10 @@ impl Executor {
                 if self.skipping.is_some() {
                     return Ok(());
                 }
-                if self.frames.len() >= MAX_CALL_DEPTH {
-                    return Err(o_err("Too many nested levels of subroutines".into()));
+                // LinuxCNC counts the main program as level 0 and refuses
+                // level INTERP_SUB_ROUTINE_LEVELS: at most 9 nested calls.
+                if self.frames.len() + 1 >= MAX_CALL_DEPTH {
+                    return Err(o_err("Too many subroutine levels".into()));
                 }
                 let mut args = Vec::with_capacity(o.args.len());
                 for &i in &o.args {
