@@ -1098,8 +1098,7 @@ impl Interpreter {
         let m = |list: &[i32]| codes(b'M').any(|c| list.contains(&c));
         // The motion the block runs (`motion_to_be`), as code × 10.
         let block_motion = codes(b'G')
-            .filter(|c| matches!(classify_g(*c), GCode::Motion(_)))
-            .last()
+            .rfind(|c| matches!(classify_g(*c), GCode::Motion(_)))
             .or_else(|| g(&[800]).then_some(800));
         let ijk = words.ijk.iter().any(Option::is_some);
         let modal = self.modal.motion.code10() as i32;

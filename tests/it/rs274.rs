@@ -273,26 +273,19 @@ struct Offset {
 
 impl Offset {
     fn update(&mut self, printed: &[f64], inch: bool) {
-        let mut same = true;
-        for k in 0..6 {
-            let known = if k < 3 && inch {
-                self.value[k] / 25.4
-            } else {
-                self.value[k]
-            };
-            if (known - printed[k]).abs() > 0.5e-4 + 1e-9 {
-                same = false;
-            }
-        }
+        // Linear axes (the first three) in the current units, rotary in degrees.
+        let unit = |k: usize| if k < 3 && inch { 25.4 } else { 1.0 };
+        let same = self
+            .value
+            .iter()
+            .zip(printed)
+            .enumerate()
+            .all(|(k, (known, p))| (known / unit(k) - p).abs() <= 0.5e-4 + 1e-9);
         if same {
             return;
         }
-        for k in 0..6 {
-            self.value[k] = if k < 3 && inch {
-                printed[k] * 25.4
-            } else {
-                printed[k]
-            };
+        for (k, (v, p)) in self.value.iter_mut().zip(printed).enumerate() {
+            *v = p * unit(k);
         }
         self.rounding = print_rounding(inch);
     }
@@ -322,15 +315,15 @@ fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>), String> {
                 *v *= 25.4;
             }
         }
-        for k in 0..6 {
-            m[k] += g92.value[k];
+        for (v, o) in m.iter_mut().zip(&g92.value) {
+            *v += o;
         }
         let (s, c) = rot.to_radians().sin_cos();
         let (x, y) = (m[0], m[1]);
         m[0] = c * x - s * y;
         m[1] = s * x + c * y;
-        for k in 0..6 {
-            m[k] += g5x.value[k];
+        for (v, o) in m.iter_mut().zip(&g5x.value) {
+            *v += o;
         }
         let mix = if rot == 0.0 { 1.0 } else { s.abs() + c.abs() };
         points.push(m);
