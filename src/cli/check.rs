@@ -16,6 +16,7 @@ Examples:
   volcomp check samples/saddle.nc
   volcomp check part.ngc --var sim.var --targets targets.csv   # machine positions, G54… from the .var
   volcomp check part.nc --offset G54=250,120,-310 --targets -  # other controllers' origins
+  volcomp check part.ngc --tools tool.tbl     # T words checked against LinuxCNC's tool table
   volcomp check part.ngc --subroutine-path subs/              # o<name> call finds subs/name.ngc
   volcomp check part.ngc --flatten -o flat.ngc                # loops, subroutines and cycles written out
   volcomp check part.nc --frame part          # program starts with tool-tip control on
@@ -36,9 +37,10 @@ pub struct Args {
     #[arg(long)]
     pub skip_deleted: bool,
     /// Write every executed motion end point (loops and cycles expanded):
-    /// `line,motion,x,y,z,a,b,c` in machine coordinates, mm and degrees
+    /// `line,motion,x,y,z,a,b,c,tool` in machine coordinates, mm and degrees
     /// (work origin, G92 and units applied; tool length offset not applied;
-    /// `b` empty on an A/C machine). `-` for standard output.
+    /// `b` empty on an A/C machine; `tool`: the tool in the spindle, 0 before
+    /// the first tool change). `-` for standard output.
     #[arg(long, value_name = "FILE.csv", conflicts_with = "flatten")]
     pub targets: Option<PathBuf>,
     /// Write the program flat to `-o`, without compensating: every block that
@@ -64,7 +66,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         skip_deleted_blocks: args.skip_deleted,
         ..args.read.interpret_options(args.rapid)
     };
-    let setup = args.read.setup()?;
+    let setup = args.read.setup(None)?;
     let name = if crate::io::is_stdio(&args.program) {
         PathBuf::from("<stdin>")
     } else {
@@ -113,8 +115,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let _ = path;
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());
-            let s = check_stream(input, &name, options, &setup, Some(&mut out))
-                .context("cannot write the targets to standard output")?;
+            let s = check_stream(
+                input,
+                &name,
+                options,
+                &setup,
+                Some((&mut out, "standard output")),
+            )?;
             out.flush()
                 .context("cannot write the targets to standard output")?;
             s
@@ -122,7 +129,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(path) => {
             let mut summary = None;
             crate::io::write_atomic(path, |out| -> anyhow::Result<()> {
-                summary = Some(check_stream(input, &name, options, &setup, Some(out))?);
+                summary = Some(check_stream(
+                    input,
+                    &name,
+                    options,
+                    &setup,
+                    Some((out, "the file")),
+                )?);
                 Ok(())
             })
             .with_context(|| format!("no targets were written to {}", path.display()))?;
@@ -153,18 +166,19 @@ pub fn check_stream(
     path: &Path,
     options: InterpretOptions,
     setup: &ProgramSetup,
-    mut targets: Option<&mut dyn Write>,
+    mut targets: Option<(&mut dyn Write, &str)>,
 ) -> anyhow::Result<ProgramSummary> {
     let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
-    if let Some(out) = targets.as_mut() {
-        out.write_all(b"line,motion,x,y,z,a,b,c\n")?;
+    if let Some((out, to)) = targets.as_mut() {
+        out.write_all(b"line,motion,x,y,z,a,b,c,tool\n")
+            .with_context(|| format!("cannot write the targets to {to}"))?;
     }
     let mut row = String::new();
     while let Some(step) = run.next() {
         let (block, event, executed) = step.map_err(anyhow::Error::new)?;
         summary.add(block, event);
-        if let Some(out) = targets.as_mut() {
+        if let Some((out, to)) = targets.as_mut() {
             for m in event.motions() {
                 row.clear();
                 let code = motion_code(m, event);
@@ -172,10 +186,11 @@ pub fn check_stream(
                 use std::fmt::Write as _;
                 let _ = writeln!(
                     row,
-                    "{},{code},{:.6},{:.6},{:.6},{:.6},,{:.6}",
-                    executed.line, e.x, e.y, e.z, e.a, e.c
+                    "{},{code},{:.6},{:.6},{:.6},{:.6},,{:.6},{}",
+                    executed.line, e.x, e.y, e.z, e.a, e.c, event.tool.number
                 );
-                out.write_all(row.as_bytes())?;
+                out.write_all(row.as_bytes())
+                    .with_context(|| format!("cannot write the targets to {to}"))?;
             }
         }
     }
@@ -202,6 +217,29 @@ fn range(r: &Option<Range>) -> String {
         Some(r) => format!("[{:.4}, {:.4}]", r.min, r.max),
         None => "-".into(),
     }
+}
+
+/// `T1 (L 40 mm, R 5 mm) lines 3–40 (12 moves); …`.
+pub(crate) fn tool_runs(s: &ProgramSummary) -> String {
+    if s.tools.is_empty() {
+        return "no moves".into();
+    }
+    let mut parts: Vec<String> = s
+        .tools
+        .iter()
+        .map(|r| {
+            let tool = r.tool;
+            let moves = if r.moves == 1 { "move" } else { "moves" };
+            format!(
+                "{tool} lines {}–{} ({} {moves})",
+                r.first_line, r.last_line, r.moves
+            )
+        })
+        .collect();
+    if s.tool_runs > s.tools.len() {
+        parts.push(format!("… {} more runs", s.tool_runs - s.tools.len()));
+    }
+    parts.join("; ")
 }
 
 fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Result<()> {
@@ -242,6 +280,7 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Resul
         range(&s.z)
     );
     crate::outln!("  A {}  C {} deg", range(&s.a), range(&s.c));
+    crate::outln!("  tools: {}", tool_runs(s));
     let list = |map: &mut dyn Iterator<Item = (String, usize)>| {
         let v: Vec<String> = map.map(|(k, n)| format!("{k}×{n}")).collect();
         if v.is_empty() {

@@ -158,6 +158,45 @@ pub struct ProgramArgs {
     /// defining it (LinuxCNC's SUBROUTINE_PATH); repeatable, searched in order.
     #[arg(long, value_name = "DIR")]
     pub subroutine_path: Vec<PathBuf>,
+    /// LinuxCNC tool table (`T1 P1 Z120.0 D6.0 ;comment`, lengths in mm from
+    /// the gauge point to the tip); replaces the machine file's [[tools]]. The
+    /// program's T/M6/M61 choose the tool of each block; blocks before the
+    /// first tool change use the machine file's [tool].
+    #[arg(long, value_name = "FILE.tbl")]
+    pub tools: Option<PathBuf>,
+}
+
+/// A LinuxCNC tool table file.
+pub fn read_tool_table(path: &Path) -> anyhow::Result<crate::gcode::ToolTable> {
+    let text = crate::io::read_to_string(path)?;
+    Ok(crate::gcode::ToolTable::parse(
+        &text,
+        &path.display().to_string(),
+    )?)
+}
+
+/// The tool `number` of `--tools` (or of `machine`'s `[[tools]]`); the
+/// machine's default tool when no number is given.
+pub fn select_tool(
+    machine: &crate::machine::Machine,
+    number: Option<u32>,
+    tools: Option<&Path>,
+) -> anyhow::Result<crate::gcode::ToolInUse> {
+    let table = match tools {
+        Some(path) => read_tool_table(path)?,
+        None => machine.tools.clone(),
+    };
+    match number {
+        None | Some(0) => Ok(machine.default_tool()),
+        Some(n) => match table.get(n) {
+            Some(_) => Ok(table.in_use(n, machine.default_tool())),
+            None => Err(super::UsageError(format!(
+                "--tool {n}: not in the tool table ({}); give --tools FILE.tbl or add [[tools]] to the machine file",
+                table.source().unwrap_or("none given")
+            ))
+            .into()),
+        },
+    }
 }
 
 /// Parse `G54=X,Y,Z[,A,C]` into (system number 1 … 9, origin).
@@ -193,13 +232,24 @@ pub fn parse_offset(text: &str) -> Result<(usize, crate::axes::Axes), String> {
 }
 
 impl ProgramArgs {
-    /// The setup the program runs in: `--var`, `--offset`, `--subroutine-path`.
-    /// Programs must end with M2/M30 or `%`, as LinuxCNC requires.
-    pub fn setup(&self) -> anyhow::Result<crate::gcode::ProgramSetup> {
+    /// The setup the program runs in: `--var`, `--offset`, `--subroutine-path`,
+    /// and the tools: `--tools` or `machine`'s `[[tools]]`, `machine`'s `[tool]`
+    /// as the default tool. Programs must end with M2/M30 or `%`, as LinuxCNC
+    /// requires.
+    pub fn setup(
+        &self,
+        machine: Option<&crate::machine::Machine>,
+    ) -> anyhow::Result<crate::gcode::ProgramSetup> {
         let mut setup = crate::gcode::ProgramSetup {
             require_program_end: true,
             ..Default::default()
         };
+        if let Some(m) = machine {
+            setup.tools = m.tools.clone();
+        }
+        if let Some(path) = &self.tools {
+            setup.tools = read_tool_table(path)?;
+        }
         if let Some(path) = &self.var {
             let text = crate::io::read_to_string(path)?;
             let pairs = crate::gcode::parameters::parse_var_file(&text)
@@ -229,23 +279,28 @@ impl ProgramArgs {
     pub fn program_and_stamp(
         &self,
         path: &Path,
+        machine: Option<&crate::machine::Machine>,
     ) -> anyhow::Result<(
         crate::gcode::Program,
         Option<crate::compensate::stamp::Stamp>,
     )> {
         let (input, stamp) = open_program_with_stamp(path)?;
         Ok((
-            crate::gcode::Program::new(input, path, self.setup()?),
+            crate::gcode::Program::new(input, path, self.setup(machine)?),
             stamp,
         ))
     }
 
     /// The program at `path` (`-`: standard input) in the setup of [`Self::setup`].
-    pub fn program(&self, path: &Path) -> anyhow::Result<crate::gcode::Program> {
+    pub fn program(
+        &self,
+        path: &Path,
+        machine: Option<&crate::machine::Machine>,
+    ) -> anyhow::Result<crate::gcode::Program> {
         Ok(crate::gcode::Program::new(
             open_program(path)?,
             path,
-            self.setup()?,
+            self.setup(machine)?,
         ))
     }
 

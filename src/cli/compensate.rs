@@ -105,7 +105,8 @@ Give the original program, or --force to compensate it anyway",
         },
         input_fnv1a64: input_hash.hex(),
     };
-    let program = crate::gcode::Program::new(input, &args.program, args.read.setup()?);
+    let program =
+        crate::gcode::Program::new(input, &args.program, args.read.setup(Some(&machine))?);
     let bar = progress_bar(&args.program, "compensating");
     let mut report: Option<CompensateReport> = None;
     write_atomic(output, |out| -> anyhow::Result<()> {

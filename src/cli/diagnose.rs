@@ -62,7 +62,7 @@ impl CutPart {
     ) -> anyhow::Result<CutPart> {
         let (machine_def, model) = machine.load()?;
         let options = read.cut_options(&machine_def);
-        let program = read.program(program)?;
+        let program = read.program(program, Some(&machine_def))?;
         let (matches, _) =
             crate::toolpath::cut::match_plan(program, &model, &plan.points, &options)?;
         Ok(CutPart {

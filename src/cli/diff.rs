@@ -61,8 +61,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .interpret_options(InterpretOptions::default().rapid_mm_per_min),
         top: args.top,
     };
-    let (a, stamp_a) = args.read.program_and_stamp(&args.a)?;
-    let (b, stamp_b) = args.read.program_and_stamp(&args.b)?;
+    let (a, stamp_a) = args.read.program_and_stamp(&args.a, None)?;
+    let (b, stamp_b) = args.read.program_and_stamp(&args.b, None)?;
     let report = diff_programs(a, b, &options)?;
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;

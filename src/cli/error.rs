@@ -14,6 +14,7 @@ Examples:
   volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --json
   volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
   volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
+  volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --tools tool.tbl --tool 2
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
@@ -44,6 +45,14 @@ pub struct Args {
     /// Also print each parameter's contribution to e, largest first (single pose).
     #[arg(long, short)]
     pub verbose: bool,
+    /// The tool in the spindle: its length (gauge point to tip) is the lever
+    /// of every angular error. From `--tools` or the machine file's [[tools]];
+    /// default: the machine file's [tool].
+    #[arg(long, value_name = "N")]
+    pub tool: Option<u32>,
+    /// LinuxCNC tool table for `--tool` (replaces the machine file's [[tools]]).
+    #[arg(long, value_name = "FILE.tbl", requires = "tool")]
+    pub tools: Option<PathBuf>,
     #[command(flatten)]
     pub model: ModelArgs,
 }
@@ -159,6 +168,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let single = args.at.as_deref().map(parse_pose).transpose()?;
     let many = args.poses.as_deref().map(read_poses).transpose()?;
     let (machine, model) = load_model(&args.machine, &args.model)?;
+    let tool = super::common::select_tool(&machine, args.tool, args.tools.as_deref())?;
+    let model = model.with_tool_length(tool.length_mm);
     let kin = model.kinematics();
     let frame = args.frame.into();
     let to_joints = |pose: &Axes| joints_of(kin, frame, pose);
@@ -180,6 +191,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::outln!("{}", serde_json::to_string_pretty(&obj)?);
         } else {
             crate::outln!("machine {} ({})", machine.name, machine.source.display());
+            crate::outln!("tool    {tool}");
             let j = joints;
             crate::outln!(
                 "joints  X {:.4} Y {:.4} Z {:.4} mm  A {:.4} C {:.4} deg",

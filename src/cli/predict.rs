@@ -43,7 +43,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let (machine, model) = args.machine.load()?;
     let options = args.read.cut_options(&machine);
-    let (program, stamp) = args.read.program_and_stamp(&args.program)?;
+    let (program, stamp) = args.read.program_and_stamp(&args.program, Some(&machine))?;
     let mut report = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;

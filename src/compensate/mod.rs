@@ -16,11 +16,12 @@ pub mod solve;
 pub mod stamp;
 
 use crate::axes::Axes;
+use crate::gcode::ToolInUse;
 use crate::gcode::{
     Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
-use crate::machine::{ErrorModel, Limits};
+use crate::machine::{ErrorModel, Limits, ToolModels};
 use crate::toolpath::{effective_frame, joints_of, target_of};
 use crate::vec3::dist;
 use rayon::prelude::*;
@@ -82,6 +83,73 @@ pub struct CompensateReport {
     /// Lookups that held a table's end value (`--extrapolate hold`).
     pub held_lookups: u64,
     pub tolerance_um: f64,
+    /// The corrections per run of blocks cut with one tool, in program order.
+    pub tools: Vec<ToolCorrections>,
+}
+
+/// Correction statistics of a run of blocks cut with one tool.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ToolCorrections {
+    /// Tool number (0: the default tool, the machine file's `[tool]`).
+    pub tool: u32,
+    /// Its length (gauge point to tip), the lever of the angular errors, mm.
+    pub length_mm: f64,
+    /// Lines of the run's first and last compensated move.
+    pub first_line: usize,
+    pub last_line: usize,
+    pub moves: usize,
+    pub max_correction_um: f64,
+    pub rms_correction_um: f64,
+    #[serde(skip)]
+    sum_sq: f64,
+}
+
+impl CompensateReport {
+    /// Count one compensated move of `um` at `line`, cut with `tool`.
+    fn record(&mut self, line: usize, tool: &ToolInUse, length_mm: f64, um: f64) {
+        self.motion_blocks += 1;
+        if um > self.max_correction_um {
+            self.max_correction_um = um;
+            self.max_correction_line = line;
+        }
+        let same = self
+            .tools
+            .last()
+            .is_some_and(|t| t.tool == tool.number && t.length_mm == length_mm);
+        if !same {
+            self.tools.push(ToolCorrections {
+                tool: tool.number,
+                length_mm,
+                first_line: line,
+                ..ToolCorrections::default()
+            });
+        }
+        if let Some(t) = self.tools.last_mut() {
+            t.last_line = line;
+            t.moves += 1;
+            t.max_correction_um = t.max_correction_um.max(um);
+            t.sum_sq += um * um;
+        }
+    }
+
+    /// The RMS values, once every move is recorded.
+    fn finish(&mut self) {
+        let rms = |sum_sq: f64, n: usize| {
+            if n > 0 {
+                (sum_sq / n as f64).sqrt()
+            } else {
+                0.0
+            }
+        };
+        for t in &mut self.tools {
+            t.rms_correction_um = rms(t.sum_sq, t.moves);
+        }
+        let (sum_sq, n) = self
+            .tools
+            .iter()
+            .fold((0.0, 0), |(s, n), t| (s + t.sum_sq, n + t.moves));
+        self.rms_correction_um = rms(sum_sq, n);
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -304,6 +372,7 @@ pub fn compensate(
     let path = program.path().to_path_buf();
     let path = path.as_path();
     let held_before = model.held_lookups();
+    let mut models = ToolModels::new(model);
     // Reading and interpreting run on their own thread, a chunk or two ahead of
     // the solves and the writing (bounded channel: memory stays bounded).
     let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
@@ -311,10 +380,10 @@ pub fn compensate(
     let chunk_blocks = options.chunk_blocks.max(1);
     std::thread::scope(|scope| {
         scope.spawn(move || read_chunks(program, interpret, chunk_blocks, sender));
-        compensate_chunks(chunks, path, output, model, options, &mut progress)
+        compensate_chunks(chunks, path, output, &mut models, options, &mut progress)
     })
     .map(|mut report| {
-        report.held_lookups = model.held_lookups().saturating_sub(held_before);
+        report.held_lookups = models.held_lookups().saturating_sub(held_before);
         report.seconds = started.elapsed().as_secs_f64();
         report
     })
@@ -373,7 +442,7 @@ fn compensate_chunks(
     chunks: std::sync::mpsc::Receiver<Result<Chunk, GcodeError>>,
     path: &Path,
     output: &mut dyn Write,
-    model: &ErrorModel,
+    models: &mut ToolModels,
     options: &CompensateOptions,
     progress: &mut dyn FnMut(usize),
 ) -> Result<CompensateReport, CompensateError> {
@@ -382,12 +451,13 @@ fn compensate_chunks(
         tolerance_um: options.tolerance_um,
         ..CompensateReport::default()
     };
-    let mut sum_sq = 0.0;
     // Compensated end of the previous motion (the numbers written).
     let mut previous: Option<Axes> = None;
     let mut emitted = Vec::with_capacity(256);
     for chunk in chunks {
         let chunk = chunk?;
+        models.prepare(chunk.iter().map(|(_, event)| &event.tool));
+        let models = &*models;
         // 1. Compensated end of every motion, in parallel over pieces of the chunk;
         //    within a piece each solve starts from the previous correction.
         //    Flat over the chunk's moves, in order.
@@ -397,8 +467,11 @@ fn compensate_chunks(
                 let mut guess = [0.0; 3];
                 piece
                     .iter()
-                    .flat_map(|(_, event)| compensated_moves(event))
-                    .map(|m| {
+                    .flat_map(|(_, event)| {
+                        let model = models.get(&event.tool);
+                        compensated_moves(event).iter().map(move |m| (model, m))
+                    })
+                    .map(|(model, m)| {
                         let c = compensate_target(
                             model,
                             effective_frame(m),
@@ -443,12 +516,7 @@ fn compensate_chunks(
                     for ((end, _), m) in mine.iter().zip(moves) {
                         let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
                         let um = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3;
-                        report.motion_blocks += 1;
-                        sum_sq += um * um;
-                        if um > report.max_correction_um {
-                            report.max_correction_um = um;
-                            report.max_correction_line = block.line;
-                        }
+                        report.record(block.line, &event.tool, models.length_mm(&event.tool), um);
                     }
                     cycle_of.push(Some(cycle_ends.len()));
                     cycle_ends.push(mine.iter().map(|e| e.0).collect());
@@ -483,7 +551,7 @@ fn compensate_chunks(
                 let (Some(m), Some((end, _))) = (&event.motion, end) else {
                     return Ok(Plan::default());
                 };
-                let via = plan_motion(model, m, *start, *end, options)?;
+                let via = plan_motion(models.get(&event.tool), m, *start, *end, options)?;
                 let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
                 Ok(Plan {
                     end: Some(*end),
@@ -519,12 +587,12 @@ fn compensate_chunks(
             let target = match plan.end {
                 None => Target::Same,
                 Some(end) => {
-                    report.motion_blocks += 1;
-                    sum_sq += plan.correction_um * plan.correction_um;
-                    if plan.correction_um > report.max_correction_um {
-                        report.max_correction_um = plan.correction_um;
-                        report.max_correction_line = block.line;
-                    }
+                    report.record(
+                        block.line,
+                        &event.tool,
+                        models.length_mm(&event.tool),
+                        plan.correction_um,
+                    );
                     if plan.via.is_empty() {
                         Target::Move(end)
                     } else {
@@ -558,11 +626,7 @@ fn compensate_chunks(
         }
         progress(report.blocks_read);
     }
-    report.rms_correction_um = if report.motion_blocks > 0 {
-        (sum_sq / report.motion_blocks as f64).sqrt()
-    } else {
-        0.0
-    };
+    report.finish();
     Ok(report)
 }
 

@@ -117,6 +117,12 @@ pub enum ErrorKind {
     ArcUnreachable(f64),
     #[error("the target is not finite")]
     NonFinite,
+    #[error("Requested tool {0} not found in the tool table")]
+    ToolNotInTable(u32),
+    #[error("{0} word: a tool number must be a whole number ≥ 0")]
+    ToolNumber(char),
+    #[error("G43.2: {0}")]
+    ToolOffsetAdd(&'static str),
     #[error("cannot read the input: {0}")]
     Io(String),
 }
@@ -173,6 +179,15 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::ToolNotInTable(_) => {
+                "add the tool to the tool table (--tools FILE, LinuxCNC's `T2 P2 Z120.0 D6.0`, or [[tools]] in the machine file), or correct the tool number"
+            }
+            ErrorKind::ToolNumber(_) => {
+                "write the tool number as a whole number: `T2 M6`, `M61 Q2`, `G43 H2`"
+            }
+            ErrorKind::ToolOffsetAdd(_) => {
+                "G43.2 adds one tool's offset (`G43.2 H3`) or the axis words (`G43.2 Z0.5`)"
+            }
             ErrorKind::UnusedWord(_) => {
                 "remove the word, or give the code that uses it (LinuxCNC refuses words no code of the block uses)"
             }

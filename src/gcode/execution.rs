@@ -34,6 +34,9 @@ use crate::axes::Axes;
 #[derive(Clone, Debug, Default)]
 pub struct ProgramSetup {
     pub parameters: Parameters,
+    /// The tool table (`--tools`, the machine file's `[[tools]]`; empty: any
+    /// tool may be selected and the default tool is used throughout).
+    pub tools: super::tools::ToolTable,
     pub language: LanguageOptions,
     /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
     /// ended with no percent sign or program end"); off for fragments.
@@ -142,7 +145,11 @@ impl Execution {
         };
         Execution {
             executor: Executor::new(input, path, language),
-            interpreter: Interpreter::with_parameters(options, setup.parameters.clone()),
+            interpreter: {
+                let mut i = Interpreter::with_parameters(options, setup.parameters.clone());
+                i.set_tools(setup.tools.clone());
+                i
+            },
             event: BlockEvent::default(),
             path: path.to_path_buf(),
             blocks: 0,

@@ -47,6 +47,7 @@ use super::modal::{
 use super::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
 use super::origin::Origin;
 use super::parameters::{Parameters, numbers};
+use super::tools::{ToolInUse, ToolTable};
 
 /// Interpreter settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,6 +101,16 @@ pub enum WarningKind {
     AfterProgramEnd,
     /// An error passed through because of `lenient`.
     Lenient(ErrorKind),
+    /// A tool change with no tool table: the default tool is used.
+    NoToolTable(u32),
+    /// A cutting move whose tool length offset (G43 H, G43.1, G43.2, G49)
+    /// differs from the loaded tool's length, mm (reported once per tool
+    /// and offset).
+    ToolLengthOffsetMismatch {
+        tool: u32,
+        length_mm: f64,
+        offset_mm: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -127,6 +138,24 @@ impl fmt::Display for Warning {
                 )
             }
             WarningKind::Lenient(kind) => write!(f, "passed through (--lenient): {kind}"),
+            WarningKind::NoToolTable(t) => write!(
+                f,
+                "T{t} is loaded but there is no tool table (--tools FILE, or [[tools]] in the machine file): every block uses the default tool"
+            ),
+            WarningKind::ToolLengthOffsetMismatch {
+                tool,
+                length_mm,
+                offset_mm,
+            } => write!(
+                f,
+                "cutting with T{tool} (length {length_mm} mm) under a tool length offset of {offset_mm} mm (G43 H…/G43.1/G43.2/G49): volcomp takes X Y Z as T{tool}'s tip, but the controller puts that tip {:.4} mm {} the programmed point along the tool axis",
+                (offset_mm - length_mm).abs(),
+                if offset_mm < length_mm {
+                    "below"
+                } else {
+                    "above"
+                }
+            ),
         }
     }
 }
@@ -151,6 +180,8 @@ pub struct BlockEvent {
     pub origin: Origin,
     /// Modal state after the block.
     pub modal: ModalState,
+    /// The tool in the spindle for the block's moves (after its M6/M61).
+    pub tool: ToolInUse,
     /// Position before the block (machine coordinates: origin applied, mm/deg).
     pub start: Axes,
     /// Position after the block.
@@ -180,6 +211,7 @@ impl Default for BlockEvent {
             cycle_steps: Vec::new(),
             origin: Origin::MACHINE,
             modal: ModalState::new(Frame::Joint),
+            tool: ToolInUse::default(),
             start: Axes::default(),
             position: Axes::default(),
             time_min: 0.0,
@@ -216,10 +248,38 @@ pub struct Interpreter {
     flood: bool,
     selected_tool: f64,
     current_tool: f64,
+    /// The tool table (G10 L1/L10/L11 change this copy).
+    tools: ToolTable,
+    /// The controller's tool length offset along Z, mm (`None`: not known,
+    /// a G43 of a tool that an empty table does not list).
+    tool_length_offset: Option<f64>,
+    /// The offset mismatch was reported for the present tool and offset.
+    offset_warned: bool,
+    no_table_warned: bool,
     /// What LinuxCNC remembers between canned-cycle blocks.
     cycle_memory: CycleMemory,
     /// Dwell time of the block being interpreted (G4, cycles), min.
     pending_dwell_min: f64,
+}
+
+/// The tool state a block leaves (see [`Interpreter::tool_words`]).
+#[derive(Clone, Copy, Debug)]
+struct ToolStep {
+    selected: f64,
+    current: f64,
+    offset: Option<f64>,
+    /// G10 L1/L10/L11: tool, new length, new radius (mm).
+    update: Option<(u32, Option<f64>, Option<f64>)>,
+}
+
+impl ToolStep {
+    fn current_number(&self) -> u32 {
+        if self.current.is_finite() && self.current >= 0.0 {
+            self.current.round().min(u32::MAX as f64) as u32
+        } else {
+            0
+        }
+    }
 }
 
 /// Per-block word values, fixed size (no allocation). Linear values are mm.
@@ -276,6 +336,10 @@ impl Interpreter {
             flood: false,
             selected_tool: 0.0,
             current_tool: 0.0,
+            tools: ToolTable::new(),
+            tool_length_offset: Some(0.0),
+            offset_warned: false,
+            no_table_warned: false,
             cycle_memory: CycleMemory::default(),
             pending_dwell_min: 0.0,
         };
@@ -295,6 +359,27 @@ impl Interpreter {
         i.current_tool = i.params.get(numbers::TOOL);
         i.update_parameters();
         i
+    }
+
+    /// The tool table the program runs with.
+    pub fn set_tools(&mut self, tools: ToolTable) {
+        self.tools = tools;
+        self.update_parameters();
+    }
+
+    /// The tool in the spindle.
+    pub fn tool_in_use(&self) -> ToolInUse {
+        let number = if self.current_tool.is_finite() && self.current_tool >= 0.0 {
+            self.current_tool.round().min(u32::MAX as f64) as u32
+        } else {
+            0
+        };
+        self.tools.in_use(number, ToolInUse::DEFAULT)
+    }
+
+    /// The tool table as the program has left it (G10 L1/L10/L11).
+    pub fn tools(&self) -> &ToolTable {
+        &self.tools
     }
 
     pub fn options(&self) -> &InterpretOptions {
@@ -359,6 +444,7 @@ impl Interpreter {
             self.cycle_memory = cycle_memory;
         }
         event.modal = self.modal;
+        event.tool = self.tool_in_use();
         event.position = self.position;
         event.time_min = self.time_min;
         result
@@ -376,6 +462,7 @@ impl Interpreter {
         event.position = self.position;
         event.origin = self.origin;
         event.modal = self.modal;
+        event.tool = self.tool_in_use();
         event.time_min = self.time_min;
         event.frame_switch = None;
         event.home = false;
@@ -530,6 +617,9 @@ impl Interpreter {
         let mut store_home: Option<u8> = None;
         let mut axis_offset: Option<u16> = None;
         let mut coord_select: Option<u8> = None;
+        // G43/G43.1/G43.2/G49 (code × 10, span) and M61's span.
+        let mut offset_code: Option<(i32, usize, usize)> = None;
+        let mut m61: Option<(usize, usize)> = None;
         let mut g_groups = [false; 16];
         let mut m_groups = [false; 11];
         let mut seen_letters = 0u32;
@@ -636,14 +726,19 @@ impl Interpreter {
                             }
                         }
                         GCode::CutterComp(c) => modal.cutter_comp = c,
-                        GCode::ToolLength => modal.tool_length = true,
+                        GCode::ToolLength | GCode::ToolLengthDynamic | GCode::ToolLengthAdd => {
+                            modal.tool_length = true;
+                            offset_code = Some((code, w.start, w.end));
+                        }
                         GCode::ToolTip => {
                             modal.tool_length = true;
                             modal.frame = Frame::Part;
+                            offset_code = Some((430, w.start, w.end));
                         }
                         GCode::ToolLengthOff => {
                             modal.tool_length = false;
                             modal.frame = Frame::Joint;
+                            offset_code = Some((490, w.start, w.end));
                         }
                         GCode::MachineCoordinates => {
                             machine_coordinates = true;
@@ -699,6 +794,7 @@ impl Interpreter {
                         Some(40) => spindle = SpindleDirection::CounterClockwise,
                         Some(50) => spindle = SpindleDirection::Stopped,
                         Some(60) => tool_change = true,
+                        Some(610) => m61 = Some((w.start, w.end)),
                         Some(70) => mist = true,
                         Some(80) => flood = true,
                         Some(90) => (mist, flood) = (false, false),
@@ -744,6 +840,14 @@ impl Interpreter {
                 }
             }
         }
+        // G43.1's axis words set the offset and do not move (LinuxCNC's
+        // `enhance_block`), unless the block has its own motion code.
+        if let Some((431, s, e)) = offset_code
+            && motion_word.is_none()
+            && axis_user.is_none()
+        {
+            axis_user = Some((GCode::ToolLengthDynamic, s, e));
+        }
         // Feed: a change of feed mode forgets the old F.
         if modal.inverse_time != old_inverse || feed_reset {
             modal.feed = 0.0;
@@ -786,6 +890,8 @@ impl Interpreter {
             origin.work = self.stored_origin(n);
             origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
         }
+        // Tools, in LinuxCNC's order: T, M6/M61, then G43/G43.1/G43.2/G49.
+        let mut tool = self.tool_words(block, event, &words, tool_change, m61, offset_code)?;
         let mut new_position = self.position;
         let mut motion = None;
         let mut store: Vec<(usize, f64)> = Vec::new();
@@ -813,6 +919,7 @@ impl Interpreter {
                     &modal,
                     &mut origin,
                     &mut store,
+                    &mut tool,
                     (s, e),
                 )?;
             }
@@ -1061,14 +1168,183 @@ impl Interpreter {
         if let Some(s) = words.s {
             self.rpm = s.abs();
         }
-        if let Some(t) = words.t {
-            self.selected_tool = t;
-        }
-        if tool_change {
-            self.current_tool = self.selected_tool;
-        }
+        self.commit_tools(block, event, tool);
         self.update_parameters();
         Ok(())
+    }
+
+    /// The block's T, M6, M61 and tool length offset words: the tool state
+    /// after them (committed by [`Self::commit_tools`] when the block succeeds).
+    #[allow(clippy::too_many_arguments)]
+    fn tool_words(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        words: &Words,
+        tool_change: bool,
+        m61: Option<(usize, usize)>,
+        offset_code: Option<(i32, usize, usize)>,
+    ) -> Result<ToolStep, GcodeError> {
+        let mut step = ToolStep {
+            selected: self.selected_tool,
+            current: self.current_tool,
+            offset: self.tool_length_offset,
+            update: None,
+        };
+        let span_of = |letter: u8| {
+            block
+                .word(letter)
+                .map_or((0, block.raw.len()), |w| (w.start, w.end))
+        };
+        // A tool number word: a whole number ≥ 0 that the table knows.
+        let tool_number = |this: &Self, event: &mut BlockEvent, value: f64, letter: u8| {
+            let at = span_of(letter);
+            match to_integer(value).filter(|n| (0..=u32::MAX as i64).contains(n)) {
+                None => this
+                    .fail(
+                        block,
+                        event,
+                        ErrorKind::ToolNumber(letter as char),
+                        at.0,
+                        at.1,
+                    )
+                    .map(|_| None),
+                Some(n) if !this.tools.knows(n as u32) => this
+                    .fail(
+                        block,
+                        event,
+                        ErrorKind::ToolNotInTable(n as u32),
+                        at.0,
+                        at.1,
+                    )
+                    .map(|_| None),
+                Some(n) => Ok(Some(n as u32)),
+            }
+        };
+        if let Some(t) = words.t
+            && let Some(n) = tool_number(self, event, t, b'T')?
+        {
+            step.selected = n as f64;
+        }
+        if tool_change {
+            step.current = step.selected;
+        }
+        if let Some((s, e)) = m61 {
+            match words.q {
+                Some(q) => {
+                    if let Some(n) = tool_number(self, event, q, b'Q')? {
+                        step.current = n as f64;
+                    }
+                }
+                None => self.fail(block, event, ErrorKind::ToolNumber('Q'), s, e)?,
+            }
+        }
+        let length_of = |n: u32| -> Option<f64> {
+            match n {
+                0 => None,
+                n => self.tools.get(n).map(|t| t.length_mm),
+            }
+        };
+        let h = match block.word(b'H') {
+            Some(w) => tool_number(self, event, w.value, b'H')?,
+            None => None,
+        };
+        let z_word = words.axes[Axis::Z as usize].map(|(v, _)| v);
+        match offset_code {
+            Some((430, ..)) => {
+                // H0 and no H: the loaded tool (LinuxCNC's index 0).
+                let n = h.filter(|n| *n != 0).unwrap_or(step.current_number());
+                step.offset = length_of(n);
+            }
+            Some((431, ..)) => {
+                if let Some(z) = z_word {
+                    step.offset = Some(z);
+                }
+            }
+            Some((432, s, e)) => {
+                let given_axes = words.has_axes();
+                match (block.word(b'H').is_some(), given_axes) {
+                    (true, true) => self.fail(
+                        block,
+                        event,
+                        ErrorKind::ToolOffsetAdd("Can not have both H and axis words"),
+                        s,
+                        e,
+                    )?,
+                    (false, false) => self.fail(
+                        block,
+                        event,
+                        ErrorKind::ToolOffsetAdd("No axes specified and H word missing"),
+                        s,
+                        e,
+                    )?,
+                    (true, false) => {
+                        let n = h.unwrap_or(0);
+                        let n = if n == 0 { step.current_number() } else { n };
+                        step.offset = step.offset.zip(length_of(n)).map(|(a, b)| a + b);
+                    }
+                    (false, true) => {
+                        step.offset = step.offset.map(|a| a + z_word.unwrap_or(0.0));
+                    }
+                }
+            }
+            Some((490, ..)) => step.offset = Some(0.0),
+            _ => {}
+        }
+        Ok(step)
+    }
+
+    /// Make the block's tool state current; warn about a tool change with no
+    /// table and about cutting moves whose offset is not the tool's length.
+    fn commit_tools(&mut self, block: &Block, event: &mut BlockEvent, step: ToolStep) {
+        if let Some((n, length, radius)) = step.update {
+            self.tools
+                .update(n, length, radius, format!("G10 on line {}", block.line));
+            self.offset_warned = false;
+        }
+        if step.current != self.current_tool || step.offset != self.tool_length_offset {
+            self.offset_warned = false;
+        }
+        let loaded = step.current != self.current_tool;
+        self.selected_tool = step.selected;
+        self.current_tool = step.current;
+        self.tool_length_offset = step.offset;
+        let tool = self.tool_in_use();
+        if loaded
+            && !self.tools.is_given()
+            && tool.number == 0
+            && step.current_number() != 0
+            && !self.no_table_warned
+        {
+            self.no_table_warned = true;
+            event.warnings.push(Warning {
+                line: block.line,
+                column: 1,
+                kind: WarningKind::NoToolTable(step.current_number()),
+            });
+        }
+        let cuts = event
+            .motion
+            .iter()
+            .chain(event.expanded.iter())
+            .any(|m| m.kind != MotionKind::Rapid && !m.machine_coordinates);
+        if cuts
+            && tool.number != 0
+            && !self.offset_warned
+            && let Some(offset) = self.tool_length_offset
+            && (offset - tool.length_mm).abs() > 1e-4
+        {
+            self.offset_warned = true;
+            event.warnings.push(Warning {
+                line: block.line,
+                column: 1,
+                kind: WarningKind::ToolLengthOffsetMismatch {
+                    tool: tool.number,
+                    length_mm: tool.length_mm,
+                    offset_mm: offset,
+                },
+            });
+        }
     }
 
     /// LinuxCNC's `check_other_codes` (and the motion checks of
@@ -1194,6 +1470,7 @@ impl Interpreter {
         modal: &ModalState,
         origin: &mut Origin,
         store: &mut Vec<(usize, f64)>,
+        tool: &mut ToolStep,
         span: (usize, usize),
     ) -> Result<(), GcodeError> {
         let l = words.l.and_then(to_integer);
@@ -1264,10 +1541,37 @@ impl Interpreter {
                 }
                 Ok(())
             }
-            Some(1) | Some(10) | Some(11) => {
-                if p.is_none_or(|p| p < 1) {
+            Some(l @ (1 | 10 | 11)) => {
+                let Some(n) = p.filter(|p| (1..=u32::MAX as i64).contains(p)) else {
                     return self.fail(block, event, ErrorKind::G10Pnumber, span.0, span.1);
+                };
+                let n = n as u32;
+                if !self.tools.knows(n) {
+                    let at = block.word(b'P').map_or(span, |w| (w.start, w.end));
+                    return self.fail(block, event, ErrorKind::ToolNotInTable(n), at.0, at.1);
                 }
+                // LinuxCNC's `convert_setup_tool`: L1 sets the offset, L10
+                // and L11 so that the current point (in the current system,
+                // or G59.3 without G92) reads as the words with it applied.
+                let z = words.axes[Axis::Z as usize].map(|(v, _)| v);
+                let length = match l {
+                    1 => z,
+                    _ => z.map(|z| {
+                        let system = if l == 10 {
+                            origin.to_program(&self.position)
+                        } else {
+                            Origin {
+                                work: self.stored_origin(9),
+                                g92: Axes::default(),
+                                rotation_deg: self.params.get(numbers::coord(9, 9)),
+                            }
+                            .to_program(&self.position)
+                        };
+                        system.z + tool.offset.unwrap_or(0.0) - z
+                    }),
+                };
+                let radius = words.r.map(|r| r * modal.units.scale());
+                tool.update = Some((n, length, radius));
                 Ok(())
             }
             _ => self.fail(block, event, ErrorKind::G10Lnumber, span.0, span.1),

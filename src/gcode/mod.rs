@@ -20,6 +20,8 @@
 //! - [`rewrite`]: [`Rewriter`] / [`rewrite_stream`] → program text, unchanged
 //!   blocks byte for byte, changed blocks word by word, splits;
 //! - [`summary`]: what `volcomp check` reports ([`ProgramSummary`]);
+//! - [`tools`]: LinuxCNC's tool table and the tool in the spindle
+//!   ([`ToolTable`], [`ToolInUse`], carried by every [`BlockEvent`]);
 //! - [`error`]: located errors rendered like rustc ([`GcodeError`]).
 //!
 //! Typical use (a compensator):
@@ -53,6 +55,7 @@ pub mod parser;
 pub mod reader;
 pub mod rewrite;
 pub mod summary;
+pub mod tools;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};
@@ -72,3 +75,4 @@ pub use rewrite::{
     Emitted, RewriteError, RewriteOptions, RewriteStats, Rewriter, Target, rewrite_stream,
 };
 pub use summary::ProgramSummary;
+pub use tools::{ToolEntry, ToolInUse, ToolTable, ToolTableError};

@@ -158,6 +158,10 @@ pub enum GCode {
     CutterComp(CutterComp),
     /// G43 (tool length on, frame unchanged).
     ToolLength,
+    /// G43.1: tool length offset from the block's axis words (which do not move).
+    ToolLengthDynamic,
+    /// G43.2: add a tool's offset (H) or the axis words to the current one.
+    ToolLengthAdd,
     /// G43.4 / G234: tool length on and tool-tip (part-frame) programming.
     ToolTip,
     /// G49: tool length off, tool-tip programming off.
@@ -181,7 +185,7 @@ pub enum GCode {
     /// G80: cancels the motion mode (canned cycles).
     CancelMotion,
     /// Harmless codes passed through and counted: G61/G61.1/G64 path control,
-    /// G43.1 (dynamic TLO), G96/G97, G7/G8, G15, G50, G50.1, G69.
+    /// G96/G97, G7/G8, G15, G50, G50.1, G69.
     PassThrough,
     /// Anything else, assumed to change the geometry (G33, G76, G5.x, G70–G72,
     /// G41.1/G42.1, G52, G68, G51, G16, …).
@@ -198,7 +202,11 @@ pub fn g_group(code: GCode) -> Option<u8> {
         GCode::FeedMode(_) => 5,
         GCode::Units(_) => 6,
         GCode::CutterComp(_) => 7,
-        GCode::ToolLength | GCode::ToolTip | GCode::ToolLengthOff => 8,
+        GCode::ToolLength
+        | GCode::ToolLengthDynamic
+        | GCode::ToolLengthAdd
+        | GCode::ToolTip
+        | GCode::ToolLengthOff => 8,
         GCode::RetractMode(_) => 10,
         GCode::CoordSystem(_) => 12,
         GCode::MachineCoordinates
@@ -244,6 +252,8 @@ pub fn classify_g(code10: i32) -> GCode {
         410 => GCode::CutterComp(CutterComp::Left),
         420 => GCode::CutterComp(CutterComp::Right),
         430 => GCode::ToolLength,
+        431 => GCode::ToolLengthDynamic,
+        432 => GCode::ToolLengthAdd,
         434 | 2340 => GCode::ToolTip,
         490 => GCode::ToolLengthOff,
         530 => GCode::MachineCoordinates,
@@ -260,7 +270,7 @@ pub fn classify_g(code10: i32) -> GCode {
         980 => GCode::RetractMode(false),
         990 => GCode::RetractMode(true),
         // Not G7 (lathe diameter mode: X words would be diameters).
-        431 | 610 | 611 | 640 | 960 | 970 | 80 | 150 | 500 | 501 | 690 => GCode::PassThrough,
+        610 | 611 | 640 | 960 | 970 | 80 | 150 | 500 | 501 | 690 => GCode::PassThrough,
         _ => GCode::Unsupported,
     }
 }

@@ -12,6 +12,18 @@ use super::motion::{Feed, Frame, MotionKind};
 /// How many warning messages a summary keeps (all are counted).
 pub const KEPT_WARNINGS: usize = 20;
 
+/// How many tool runs a summary keeps (all are counted).
+pub const KEPT_TOOL_RUNS: usize = 256;
+
+/// A run of moves cut with one tool.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ToolRun {
+    pub tool: super::tools::ToolInUse,
+    pub first_line: usize,
+    pub last_line: usize,
+    pub moves: usize,
+}
+
 /// Motion blocks by kind.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct MotionCounts {
@@ -77,6 +89,10 @@ pub struct ProgramSummary {
     pub warnings: usize,
     /// The first [`KEPT_WARNINGS`] warnings, rendered.
     pub first_warnings: Vec<String>,
+    /// The moves per tool, run by run in program order (the first
+    /// [`KEPT_TOOL_RUNS`]; `tool_runs` counts them all).
+    pub tools: Vec<ToolRun>,
+    pub tool_runs: usize,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
     passed: BTreeMap<(u8, i32), usize>,
@@ -112,6 +128,7 @@ impl ProgramSummary {
             }
         }
         for m in event.motions() {
+            self.add_tool_move(event);
             match m.kind {
                 MotionKind::Rapid => self.motion.rapid += 1,
                 MotionKind::Linear => self.motion.linear += 1,
@@ -138,6 +155,28 @@ impl ProgramSummary {
         }
     }
 
+    fn add_tool_move(&mut self, event: &BlockEvent) {
+        // The last kept run is the current one while every run is kept.
+        let current = self.tool_runs == self.tools.len();
+        match self.tools.last_mut().filter(|_| current) {
+            Some(r) if r.tool == event.tool => {
+                r.last_line = event.line;
+                r.moves += 1;
+            }
+            _ => {
+                self.tool_runs += 1;
+                if self.tools.len() < KEPT_TOOL_RUNS {
+                    self.tools.push(ToolRun {
+                        tool: event.tool,
+                        first_line: event.line,
+                        last_line: event.line,
+                        moves: 1,
+                    });
+                }
+            }
+        }
+    }
+
     fn count_word(&mut self, letter: u8, code10: Option<i32>) {
         let key = match letter {
             b'G' => match code10.map(classify_g) {
@@ -145,6 +184,8 @@ impl ProgramSummary {
                     GCode::CoordSystem(_)
                     | GCode::PassThrough
                     | GCode::ToolLength
+                    | GCode::ToolLengthDynamic
+                    | GCode::ToolLengthAdd
                     | GCode::Unsupported
                     | GCode::SetData
                     | GCode::AxisOffset(_)

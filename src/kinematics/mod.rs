@@ -218,6 +218,14 @@ fn component(errors: &ErrorValues, axis: usize) -> Affine {
 
 impl Kinematics {
     /// Nominal kinematics with the default tool chain and directions.
+    /// The same machine with a tool of `tool_length` mm (gauge point to tip).
+    pub fn with_tool_length(&self, tool_length: f64) -> Kinematics {
+        Kinematics {
+            tool_length,
+            ..*self
+        }
+    }
+
     pub fn new(geometry: Geometry, tool_length: f64) -> Kinematics {
         Kinematics {
             geometry,

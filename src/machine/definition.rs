@@ -97,6 +97,8 @@ pub struct Machine {
     pub tool_chain: ToolChain,
     pub geometry: Geometry,
     pub tool: Tool,
+    /// `[[tools]]`: the machine's tool table (empty when the file has none).
+    pub tools: crate::gcode::ToolTable,
     pub limits: Limits,
     /// G0 rate, mm/min ([`DEFAULT_RAPID_MM_PER_MIN`] when the file has none).
     pub rapid_mm_per_min: f64,
@@ -156,6 +158,8 @@ struct RawMachine {
     conventional_directions: bool,
     geometry: Spanned<Geometry>,
     tool: RawTool,
+    #[serde(default)]
+    tools: Vec<Spanned<RawToolEntry>>,
     limits: Spanned<RawLimits>,
     rates: Option<RawRates>,
     errors: Option<RawErrors>,
@@ -168,6 +172,19 @@ struct RawMachine {
 struct RawTool {
     length: Spanned<f64>,
     radius: Spanned<f64>,
+}
+
+/// A `[[tools]]` entry (extensions.md): a tool table for controllers other
+/// than LinuxCNC.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawToolEntry {
+    number: u32,
+    length: f64,
+    radius: f64,
+    pocket: Option<u32>,
+    #[serde(default)]
+    comment: String,
 }
 
 #[derive(Deserialize)]
@@ -338,6 +355,45 @@ impl Machine {
         if tool.radius < 0.0 {
             return Err(src.invalid(raw.tool.radius.span(), "tool.radius", "must be ≥ 0 mm"));
         }
+        let mut tools = crate::gcode::ToolTable::new();
+        tools.set_source(format!("{} [[tools]]", path.display()));
+        for entry in &raw.tools {
+            let span = entry.span();
+            let e = entry.get_ref();
+            let key = format!("tools (T{})", e.number);
+            src.finite(span.clone(), &key, &[e.length, e.radius])?;
+            if e.number == 0 {
+                return Err(src.invalid(
+                    span,
+                    &key,
+                    "tool 0 is the empty spindle ([tool] is the default tool): number tools from 1",
+                ));
+            }
+            if e.length < 0.0 || e.radius < 0.0 {
+                return Err(src.invalid(
+                    span,
+                    &key,
+                    "length (gauge point to tip) and radius must be ≥ 0 mm",
+                ));
+            }
+            let (line, _) = line_column(text, span.start);
+            tools
+                .insert(crate::gcode::ToolEntry {
+                    number: e.number,
+                    pocket: e.pocket,
+                    length_mm: e.length,
+                    diameter_mm: 2.0 * e.radius,
+                    comment: e.comment.clone(),
+                    origin: format!("{}:{line}", path.display()),
+                })
+                .map_err(|first| {
+                    src.invalid(
+                        span,
+                        &key,
+                        format!("tool {} is listed twice (first at {first})", e.number),
+                    )
+                })?;
+        }
         let limits_span = raw.limits.span();
         let raw_limits = raw.limits.get_ref();
         let limits = Limits {
@@ -423,6 +479,7 @@ impl Machine {
             tool_chain,
             geometry,
             tool,
+            tools,
             limits,
             rapid_mm_per_min,
             rapid_is_default,
@@ -442,6 +499,16 @@ impl Machine {
             tool_chain: self.tool_chain,
             conventional_directions: self.conventional_directions,
         }
+    }
+
+    /// The default tool (tool 0): `[tool]`.
+    pub fn default_tool(&self) -> crate::gcode::ToolInUse {
+        crate::gcode::ToolInUse::default_tool(self.tool.length, self.tool.radius)
+    }
+
+    /// The kinematic model of this machine with `tool` in the spindle.
+    pub fn kinematics_for(&self, tool: &crate::gcode::ToolInUse) -> Kinematics {
+        self.kinematics_model().with_tool_length(tool.length_mm)
     }
 
     /// The table of `axis`, if measured.

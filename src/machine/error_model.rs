@@ -366,6 +366,15 @@ impl ErrorModel {
         &self.kinematics
     }
 
+    /// The same model with a tool of `length_mm` in the spindle (its held
+    /// lookups counted from zero). See [`super::ToolModels`].
+    pub fn with_tool_length(&self, length_mm: f64) -> ErrorModel {
+        let mut model = self.clone();
+        model.kinematics = model.kinematics.with_tool_length(length_mm);
+        model.reset_held_lookups();
+        model
+    }
+
     pub fn policy(&self) -> ExtrapolationPolicy {
         self.policy
     }

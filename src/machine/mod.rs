@@ -8,9 +8,11 @@ pub mod error_map;
 pub mod error_model;
 pub mod resampled;
 pub mod table;
+pub mod tool_models;
 
 pub use definition::{
     DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,
     MachineError, Tool,
 };
 pub use error_model::{Contribution, ErrorModel, LookupError, ModelError, ModelOptions};
+pub use tool_models::ToolModels;

@@ -17,6 +17,8 @@ pub struct PredictedPoint {
     pub cut: bool,
     /// Program line of the block that cut the point.
     pub line: Option<usize>,
+    /// The tool that cut it (0: the default tool, the machine file's `[tool]`).
+    pub tool: Option<u32>,
     /// Plan point and normal (part coordinates).
     pub point: [f64; 3],
     pub normal: [f64; 3],
@@ -35,6 +37,8 @@ pub struct PredictedPoint {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BlockError {
     pub line: usize,
+    /// The tool in the spindle (0: the default tool).
+    pub tool: u32,
     pub e_um: [f64; 3],
     pub norm_um: f64,
     pub axis_urad: [f64; 3],

@@ -35,7 +35,6 @@ pub fn predict_plan(
     let mut deviations = Vec::new();
     let mut with_path = Vec::new();
     let mut max_offset = 0.0f64;
-    let radius = options.tool_radius;
     for ((p, m), e) in plan.points.iter().zip(&matches).zip(&errors) {
         let n = p.normal;
         let deviation = e.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
@@ -43,6 +42,11 @@ pub fn predict_plan(
         let offset = m.map(|m| {
             let t = m.point.tip;
             let u = m.point.axis;
+            let radius = if m.point.tool.number == 0 {
+                options.tool_radius
+            } else {
+                m.point.tool.radius_mm
+            };
             (0..3)
                 .map(|k| (t[k] + radius * u[k] - radius * n[k] - p.point[k]) * n[k])
                 .sum::<f64>()
@@ -64,6 +68,7 @@ pub fn predict_plan(
             deviation_um: deviation,
             cut: m.is_some(),
             line: m.map(|m| m.point.line),
+            tool: m.map(|m| m.point.tool.number),
             point: p.point,
             normal: p.normal,
             e_um: *e,
@@ -107,7 +112,7 @@ pub fn predict_path(
     let started = Instant::now();
     let path = program.path().display().to_string();
     let mut run = program.run(options.interpret);
-    let kin = model.kinematics();
+    let mut models = crate::machine::ToolModels::new(model);
     let mut blocks = Vec::new();
     while let Some(step) = run.next() {
         let (_, event, _) = step?;
@@ -115,8 +120,9 @@ pub fn predict_path(
             continue;
         }
         // Every move's end (a canned cycle's or a loop's moves each).
+        let model = models.get_or_make(&event.tool);
         for m in event.motions() {
-            let joints = joints_of(kin, effective_frame(m), &m.end);
+            let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
             let v = model
                 .volumetric_error(&joints)
                 .map_err(|source| PredictError::Lookup {
@@ -126,6 +132,7 @@ pub fn predict_path(
                 })?;
             blocks.push(BlockError {
                 line: event.line,
+                tool: event.tool.number,
                 e_um: v.e_um,
                 norm_um: v.magnitude_um(),
                 axis_urad: v.axis_urad,

@@ -7,6 +7,7 @@ use super::program::{WalkSummary, walk_program};
 use super::walk::WalkOptions;
 use crate::gcode::{GcodeError, InterpretOptions, Program};
 use crate::inspection::PlanPoint;
+use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError};
 use crate::vec3::dot;
 
@@ -15,7 +16,8 @@ use crate::vec3::dot;
 pub struct CutOptions {
     pub interpret: InterpretOptions,
     pub walk: WalkOptions,
-    /// Ball-end radius, mm.
+    /// Ball-end radius of the default tool (tool 0: the machine file's
+    /// `[tool]`), mm; other tools bring their own.
     pub tool_radius: f64,
     /// A plan point whose contact point is farther than this from every path
     /// point is not cut (formats.md: 0.5 mm).
@@ -79,7 +81,6 @@ pub fn contexts(
     plan: &[PlanPoint],
     matches: &[Option<PlanMatch>],
 ) -> Result<Vec<PointContext>, CutError> {
-    let kin = model.kinematics();
     plan.iter()
         .zip(matches)
         .map(|(p, m)| {
@@ -87,6 +88,8 @@ pub fn contexts(
                 return Ok(not_cut(p));
             };
             let pp = &m.point;
+            // The chain with the tool that cut the point.
+            let kin = kinematics_with(model, &pp.tool);
             let errors = model
                 .errors_at(&pp.joints)
                 .map_err(|source| CutError::Lookup {
@@ -128,8 +131,11 @@ pub fn volumetric_errors(
         .map(|(p, m)| match m {
             None => Ok(None),
             Some(m) => model
-                .volumetric_error(&m.point.joints)
-                .map(|v| Some(v.e_um))
+                .errors_at(&m.point.joints)
+                .map(|errors| {
+                    let kin = kinematics_with(model, &m.point.tool);
+                    Some(kin.volumetric_error(&m.point.joints, &errors).e_um)
+                })
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,

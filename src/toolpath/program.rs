@@ -38,7 +38,7 @@ pub fn walk_program(
         let mut moved = false;
         for motion in event.motions() {
             moved = true;
-            walker.push(event.index, event.line, motion, &mut count);
+            walker.push(event.index, event.line, event.tool, motion, &mut count);
         }
         summary.motion_blocks += moved as usize;
     }

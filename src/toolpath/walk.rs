@@ -8,7 +8,7 @@
 //! end point); rotary-only blocks in a row are the only thing that lengthens the
 //! window.
 use crate::axes::Axes;
-use crate::gcode::{Frame, Motion, MotionKind, duration_from_lengths};
+use crate::gcode::{Frame, Motion, MotionKind, ToolInUse, duration_from_lengths};
 use crate::kinematics::Kinematics;
 use crate::vec3::{cross, dist, dot, norm, scale, sub};
 use std::collections::VecDeque;
@@ -44,6 +44,8 @@ pub struct PathPoint {
     pub block: usize,
     /// Program line (1-based) of the block.
     pub line: usize,
+    /// The tool in the spindle.
+    pub tool: ToolInUse,
     /// Whether this is the block's end point.
     pub block_end: bool,
     /// G1/G2/G3 (false for G0).
@@ -146,6 +148,7 @@ impl<'k> PathWalker<'k> {
         &mut self,
         block: usize,
         line: usize,
+        tool: ToolInUse,
         motion: &Motion,
         visit: &mut impl FnMut(&PathPoint),
     ) {
@@ -217,6 +220,7 @@ impl<'k> PathWalker<'k> {
                 axis: self.kinematics.nominal_tool_axis(&joints),
                 block,
                 line,
+                tool,
                 block_end,
                 cutting,
                 time_min: self.time_min,

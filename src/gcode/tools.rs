@@ -1,0 +1,359 @@
+//! Tools: LinuxCNC's tool table and the tool in the spindle.
+//!
+//! A tool table line is LinuxCNC's (`tooldata_read_entry`): words separated by
+//! spaces, `;` starts the comment, `T` is the tool number, `P` the pocket,
+//! `Z` the length offset, `D` the diameter; `X Y A B C U V W I J Q` are read
+//! and not used (lathe offsets, angles, orientation). volcomp reads the values
+//! in mm (as `.var` files), and takes `Z` as the tool's length from the gauge
+//! point to the tip, the `L` of kinematics.md that each angular error acts on:
+//! a negative `Z` (a table measured against a master tool) is refused.
+//!
+//! The tool in use follows the program as LinuxCNC runs it: `T` selects
+//! (a tool the table lacks is an error, as in LinuxCNC), `M6` loads the
+//! selected tool, `M61 Q` sets the loaded tool, G10 L1/L10/L11 change table
+//! entries. Tool 0 (an empty spindle, and every block before the first tool
+//! change) is the default tool: the machine file's `[tool]`. The controller's
+//! tool length offset (`G43 H`, `G43.1`, `G43.2`, `G49`) is tracked to warn when
+//! it differs from the loaded tool's length: X Y Z are then not that tool's tip.
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// One tool of the table, mm.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ToolEntry {
+    pub number: u32,
+    pub pocket: Option<u32>,
+    /// Gauge point to tip (the table's `Z`), mm.
+    pub length_mm: f64,
+    /// Cutter diameter (`D`; 0 when the table has none), mm.
+    pub diameter_mm: f64,
+    pub comment: String,
+    /// Where the entry comes from (`file:line`), for messages.
+    #[serde(skip)]
+    pub origin: String,
+}
+
+/// The tool a block cuts with: its number, length (gauge point to tip) and
+/// radius, mm. Tool 0 is the default tool, whose length and radius the
+/// consumer knows (the machine file's `[tool]`, the error model's length):
+/// resolve it with [`ToolInUse::or`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ToolInUse {
+    pub number: u32,
+    pub length_mm: f64,
+    pub radius_mm: f64,
+}
+
+impl ToolInUse {
+    /// The default tool (number 0), its length and radius not known here.
+    pub const DEFAULT: ToolInUse = ToolInUse {
+        number: 0,
+        length_mm: 0.0,
+        radius_mm: 0.0,
+    };
+
+    /// The default tool (number 0) of `length_mm` and `radius_mm`.
+    pub fn default_tool(length_mm: f64, radius_mm: f64) -> Self {
+        ToolInUse {
+            number: 0,
+            length_mm,
+            radius_mm,
+        }
+    }
+
+    /// This tool, or `default` when this is tool 0.
+    pub fn or(self, default: ToolInUse) -> ToolInUse {
+        if self.number == 0 { default } else { self }
+    }
+}
+
+impl Default for ToolInUse {
+    fn default() -> Self {
+        ToolInUse::DEFAULT
+    }
+}
+
+impl fmt::Display for ToolInUse {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.number == 0 && self.length_mm == 0.0 && self.radius_mm == 0.0 {
+            return write!(f, "default tool ([tool] of the machine file)");
+        }
+        if self.number == 0 {
+            write!(f, "default tool")?;
+        } else {
+            write!(f, "T{}", self.number)?;
+        }
+        write!(f, " (L {} mm, R {} mm)", self.length_mm, self.radius_mm)
+    }
+}
+
+/// A bad tool table line (or `[[tools]]` entry).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{source_name}:{line}:{column}: {message}")]
+pub struct ToolTableError {
+    pub source_name: String,
+    pub line: usize,
+    pub column: usize,
+    pub message: String,
+}
+
+/// A tool table: tools by number.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ToolTable {
+    entries: BTreeMap<u32, ToolEntry>,
+    /// The file (or machine file) it was read from.
+    source: Option<String>,
+    /// A table was given (`parse`, `insert`): programs may select only its
+    /// tools. Without one any tool may be selected (the default tool is used).
+    given: bool,
+}
+
+impl ToolTable {
+    /// An empty table: programs select tools freely and every block uses the
+    /// default tool (`check` warns at the first tool change).
+    pub fn new() -> Self {
+        ToolTable::default()
+    }
+
+    /// Read a LinuxCNC tool table; `name` names it in messages.
+    pub fn parse(text: &str, name: &str) -> Result<ToolTable, ToolTableError> {
+        let mut table = ToolTable {
+            entries: BTreeMap::new(),
+            source: Some(name.to_string()),
+            given: true,
+        };
+        for (index, raw) in text.lines().enumerate() {
+            let line = index + 1;
+            let fail = |column: usize, message: String| ToolTableError {
+                source_name: name.to_string(),
+                line,
+                column,
+                message,
+            };
+            let (body, comment) = match raw.find(';') {
+                Some(k) => (&raw[..k], raw[k + 1..].trim()),
+                None => (raw, ""),
+            };
+            if body.trim().is_empty() {
+                continue;
+            }
+            let mut number = None;
+            let mut pocket = None;
+            let mut length = 0.0;
+            let mut diameter = 0.0;
+            let mut column = 1;
+            for token in body.split([' ', '\t']) {
+                let here = column;
+                column += token.len() + 1;
+                if token.is_empty() {
+                    continue;
+                }
+                let letter = token.as_bytes()[0].to_ascii_uppercase();
+                let value = &token[1..];
+                let number_of = |what: &str| -> Result<f64, ToolTableError> {
+                    match value.parse::<f64>() {
+                        Ok(v) if v.is_finite() && v.abs() < 1e9 => Ok(v),
+                        _ => Err(fail(
+                            here,
+                            format!(
+                                "`{token}`: {what} must be a finite number (e.g. {}12.5)",
+                                letter as char
+                            ),
+                        )),
+                    }
+                };
+                let integer_of = |what: &str| -> Result<u32, ToolTableError> {
+                    value.parse::<u32>().map_err(|_| {
+                        fail(
+                            here,
+                            format!("`{token}`: {what} must be a whole number ≥ 0"),
+                        )
+                    })
+                };
+                match letter {
+                    b'T' => number = Some((integer_of("the tool number")?, here)),
+                    b'P' => pocket = Some(integer_of("the pocket")?),
+                    b'Z' => {
+                        length = number_of("the tool length Z")?;
+                        if length < 0.0 {
+                            return Err(fail(
+                                here,
+                                format!(
+                                    "`{token}`: a tool length must be ≥ 0 mm; volcomp reads Z as the tool's length from the gauge point (spindle nose) to the tip, as the machine file's [tool] length: add the master tool's length to a table measured against a master tool"
+                                ),
+                            ));
+                        }
+                    }
+                    b'D' => {
+                        diameter = number_of("the diameter D")?;
+                        if diameter < 0.0 {
+                            return Err(fail(
+                                here,
+                                format!("`{token}`: a diameter must be ≥ 0 mm"),
+                            ));
+                        }
+                    }
+                    b'X' | b'Y' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'I' | b'J' => {
+                        number_of("the value")?;
+                    }
+                    b'Q' => {
+                        integer_of("the orientation Q")?;
+                    }
+                    _ => {
+                        return Err(fail(
+                            here,
+                            format!(
+                                "`{token}`: not a tool table word (LinuxCNC's format: `T1 P1 Z50.0 D6.0 ;comment`)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            let Some((number, at)) = number else {
+                return Err(fail(
+                    1,
+                    "a tool table line needs its tool number `T…` (LinuxCNC's format: `T1 P1 Z50.0 D6.0 ;comment`)".into(),
+                ));
+            };
+            let entry = ToolEntry {
+                number,
+                pocket,
+                length_mm: length,
+                diameter_mm: diameter,
+                comment: comment.to_string(),
+                origin: format!("{name}:{line}"),
+            };
+            table.insert(entry).map_err(|first| {
+                fail(
+                    at,
+                    format!("tool T{number} is listed twice (first at {first})"),
+                )
+            })?;
+        }
+        Ok(table)
+    }
+
+    /// Add an entry; `Err(origin of the first)` when the number is taken.
+    pub fn insert(&mut self, entry: ToolEntry) -> Result<(), String> {
+        if let Some(first) = self.entries.get(&entry.number) {
+            return Err(first.origin.clone());
+        }
+        self.given = true;
+        self.entries.insert(entry.number, entry);
+        Ok(())
+    }
+
+    /// Name the table's source in messages.
+    pub fn set_source(&mut self, source: impl Into<String>) {
+        self.source = Some(source.into());
+    }
+
+    pub fn source(&self) -> Option<&str> {
+        self.source.as_deref()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Whether a table was given (an empty file is a table with no tools).
+    pub fn is_given(&self) -> bool {
+        self.given
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn get(&self, number: u32) -> Option<&ToolEntry> {
+        self.entries.get(&number)
+    }
+
+    pub fn entries(&self) -> impl Iterator<Item = &ToolEntry> {
+        self.entries.values()
+    }
+
+    /// Whether a program may select `number`: tool 0 always, others when the
+    /// table lists them (any tool when no table was given).
+    pub fn knows(&self, number: u32) -> bool {
+        number == 0 || !self.given || self.entries.contains_key(&number)
+    }
+
+    /// G10 L1/L10/L11: set the length and/or radius of a tool (added when
+    /// no table was given, so the program can use it).
+    pub fn update(
+        &mut self,
+        number: u32,
+        length_mm: Option<f64>,
+        radius_mm: Option<f64>,
+        origin: String,
+    ) {
+        let entry = self.entries.entry(number).or_insert_with(|| ToolEntry {
+            number,
+            pocket: None,
+            length_mm: 0.0,
+            diameter_mm: 0.0,
+            comment: String::new(),
+            origin,
+        });
+        if let Some(l) = length_mm {
+            entry.length_mm = l;
+        }
+        if let Some(r) = radius_mm {
+            entry.diameter_mm = 2.0 * r;
+        }
+    }
+
+    /// The tool in use when `number` is loaded: its entry, or `default` for
+    /// tool 0 and for tools the table does not list.
+    pub fn in_use(&self, number: u32, default: ToolInUse) -> ToolInUse {
+        match self.entries.get(&number) {
+            Some(e) if number != 0 => ToolInUse {
+                number,
+                length_mm: e.length_mm,
+                radius_mm: 0.5 * e.diameter_mm,
+            },
+            _ => default,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_linuxcnc_tool_tables() {
+        let t = ToolTable::parse(
+            "T1 P1 Z0.511 D0.125 ;1/8 end mill \n\n;comment line\nt2 p2 z40 d6 x0 q3\n",
+            "sim.tbl",
+        )
+        .unwrap();
+        assert_eq!(t.len(), 2);
+        let e = t.get(1).unwrap();
+        assert_eq!((e.length_mm, e.diameter_mm), (0.511, 0.125));
+        assert_eq!(e.comment, "1/8 end mill");
+        assert_eq!(t.get(2).unwrap().length_mm, 40.0);
+        let d = ToolInUse::default_tool(100.0, 3.0);
+        assert_eq!(t.in_use(2, d).radius_mm, 3.0);
+        assert_eq!(t.in_use(0, d), d);
+    }
+
+    #[test]
+    fn refuses_bad_lines_with_their_place() {
+        let e = ToolTable::parse("T1 Z10\nT2 Z-5 D6\n", "t.tbl").unwrap_err();
+        assert_eq!((e.line, e.column), (2, 4));
+        assert!(e.message.contains("≥ 0"), "{e}");
+        let e = ToolTable::parse("T1 Z10\nT1 Z12\n", "t.tbl").unwrap_err();
+        assert!(
+            e.to_string().contains("listed twice (first at t.tbl:1)"),
+            "{e}"
+        );
+        let e = ToolTable::parse("T1 Znan\n", "t.tbl").unwrap_err();
+        assert_eq!(e.column, 4);
+        let e = ToolTable::parse("P1 Z10\n", "t.tbl").unwrap_err();
+        assert!(e.message.contains("tool number"));
+        let e = ToolTable::parse("T1 K3\n", "t.tbl").unwrap_err();
+        assert!(e.message.contains("not a tool table word"));
+    }
+}
