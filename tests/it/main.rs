@@ -16,3 +16,4 @@ mod safety;
 mod sample;
 mod support;
 mod toolpath;
+mod tools;
