@@ -168,6 +168,30 @@ max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm,
             String::new()
         }
     );
+    // Per tool, when the program changes tools.
+    let msg = if report.tools.iter().any(|t| t.tool != 0) {
+        let mut msg = msg;
+        for t in &report.tools {
+            let name = if t.tool == 0 {
+                "default tool".to_string()
+            } else {
+                format!("T{}", t.tool)
+            };
+            msg.push_str(&format!(
+                "
+  {name} (L {} mm) lines {}–{}: {} moves, max correction {:.3} µm, RMS {:.3} µm",
+                t.length_mm,
+                t.first_line,
+                t.last_line,
+                t.moves,
+                t.max_correction_um,
+                t.rms_correction_um
+            ));
+        }
+        msg
+    } else {
+        msg
+    };
     // The summary goes to stderr when the program itself goes to stdout.
     super::common::say(crate::io::is_stdio(output), &msg)?;
     Ok(())

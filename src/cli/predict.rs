@@ -116,6 +116,29 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}\n{:.3} s"
             report.seconds
         )
     };
+    // Which tool cut the plan points, when the program changes tools.
+    let mut by_tool: std::collections::BTreeMap<u32, usize> = Default::default();
+    for p in &report.points {
+        if let Some(t) = p.tool {
+            *by_tool.entry(t).or_default() += 1;
+        }
+    }
+    let text = if by_tool.keys().any(|t| *t != 0) {
+        let list: Vec<String> = by_tool
+            .iter()
+            .map(|(t, n)| match t {
+                0 => format!("default tool {n}"),
+                t => format!("T{t} {n}"),
+            })
+            .collect();
+        format!(
+            "{text}
+plan points cut per tool: {}",
+            list.join(", ")
+        )
+    } else {
+        text
+    };
     let text = match &report.stamp {
         Some(stamp) => format!(
             "note: {} is already compensated: {}\n{text}",

@@ -10,9 +10,11 @@ Examples:
   volcomp sample saddle
   volcomp sample saddle --machine machines/ref-trt.toml --out-dir samples
 
-Writes saddle.nc (joint frame), saddle-tcp.nc (the same path with tool-tip
-control, G43.4 ... G49) and saddle-plan.csv (372 inspection points with normals)
-into --out-dir. The output is deterministic: the same machine gives the same bytes.";
+Writes saddle.nc (joint frame: a roughing pass with T2, a ball-end R5 leaving
+1 mm, then the finishing pass with T1, the machine's [tool]), saddle-tcp.nc (the
+same path with tool-tip control, G43.4 ... G49), saddle-plan.csv (372 inspection
+points with normals) and saddle.tbl (the LinuxCNC tool table of T1 and T2) into
+--out-dir. The output is deterministic: the same machine gives the same bytes.";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SampleName {
@@ -57,6 +59,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ("saddle.nc", &files.joint_program),
         ("saddle-tcp.nc", &files.part_program),
         ("saddle-plan.csv", &files.plan_csv),
+        ("saddle.tbl", &files.tool_table),
     ] {
         let path = args.out_dir.join(name);
         write_file_atomic(&path, text.as_bytes())?;

@@ -73,6 +73,35 @@ pub struct SaddleOptions {
     pub feed: f64,
     /// Safe height above the part for rapids (part z, mm).
     pub clearance: f64,
+    /// A roughing pass with a second tool before the finishing pass.
+    pub roughing: Option<RoughingOptions>,
+}
+
+/// The roughing pass: a larger ball-end tool (T2) on a coarser raster,
+/// leaving `stock` mm on the surface (so its contact points are never
+/// matched to plan points, 0.5 mm at most).
+#[derive(Clone, Copy, Debug)]
+pub struct RoughingOptions {
+    /// Gauge point to tip, mm (for the tool table).
+    pub tool_length: f64,
+    pub tool_radius: f64,
+    pub stock: f64,
+    pub stepover: f64,
+    pub point_spacing: f64,
+    pub feed: f64,
+}
+
+impl Default for RoughingOptions {
+    fn default() -> Self {
+        RoughingOptions {
+            tool_length: 60.0,
+            tool_radius: 5.0,
+            stock: 1.0,
+            stepover: 6.0,
+            point_spacing: 3.0,
+            feed: 2000.0,
+        }
+    }
 }
 
 impl Default for SaddleOptions {
@@ -85,6 +114,7 @@ impl Default for SaddleOptions {
             y_extent: 39.0,
             feed: 1200.0,
             clearance: 30.0,
+            roughing: Some(RoughingOptions::default()),
         }
     }
 }
@@ -100,8 +130,17 @@ pub struct CutterLocation {
 }
 
 pub fn cutter_location(x: f64, y: f64, radius: f64) -> CutterLocation {
-    let p = [x, y, height(x, y)];
+    cutter_location_with_stock(x, y, radius, 0.0)
+}
+
+/// [`cutter_location`] on the surface offset by `stock` mm along its normal.
+pub fn cutter_location_with_stock(x: f64, y: f64, radius: f64, stock: f64) -> CutterLocation {
     let n = normal(x, y);
+    let p = [
+        x + stock * n[0],
+        y + stock * n[1],
+        height(x, y) + stock * n[2],
+    ];
     let u = tool_axis(x, y);
     let tip = [
         p[0] + radius * (n[0] - u[0]),
@@ -116,17 +155,34 @@ pub fn cutter_location(x: f64, y: f64, radius: f64) -> CutterLocation {
     }
 }
 
-/// The raster, line by line (zig-zag: odd lines run in −x).
+/// The finishing raster, line by line (zig-zag: odd lines run in −x).
 pub fn raster(options: &SaddleOptions) -> Vec<Vec<CutterLocation>> {
-    let lines = grid(-options.y_extent, options.y_extent, options.stepover);
-    let xs = grid(-options.x_extent, options.x_extent, options.point_spacing);
+    raster_of(
+        options,
+        options.stepover,
+        options.point_spacing,
+        options.tool_radius,
+        0.0,
+    )
+}
+
+/// A zig-zag raster over the blank with `radius` leaving `stock`.
+fn raster_of(
+    options: &SaddleOptions,
+    stepover: f64,
+    spacing: f64,
+    radius: f64,
+    stock: f64,
+) -> Vec<Vec<CutterLocation>> {
+    let lines = grid(-options.y_extent, options.y_extent, stepover);
+    let xs = grid(-options.x_extent, options.x_extent, spacing);
     lines
         .iter()
         .enumerate()
         .map(|(i, &y)| {
             let mut row: Vec<CutterLocation> = xs
                 .iter()
-                .map(|&x| cutter_location(x, y, options.tool_radius))
+                .map(|&x| cutter_location_with_stock(x, y, radius, stock))
                 .collect();
             if i % 2 == 1 {
                 row.reverse();
@@ -217,6 +273,9 @@ pub struct SaddleFiles {
     pub part_program: String,
     /// Inspection plan CSV (`id,x,y,z,i,j,k`).
     pub plan_csv: String,
+    /// LinuxCNC tool table of the program's tools (T1 the finishing tool of
+    /// `finishing_length`, T2 the roughing tool).
+    pub tool_table: String,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -241,11 +300,18 @@ pub fn generate(
         let _ = writeln!(out, "%");
         let _ = writeln!(
             out,
-            "O2016 (SADDLE SEAT - FIVE-AXIS BALL-END FINISHING - {frame})"
+            "O2016 (SADDLE SEAT - FIVE-AXIS BALL-END ROUGHING AND FINISHING - {frame})"
         );
+        if let Some(r) = &options.roughing {
+            let _ = writeln!(
+                out,
+                "(T2 BALL END R{} ROUGHING - STEPOVER {} MM - {} MM STOCK; TOOL TABLE SADDLE.TBL)",
+                r.tool_radius, r.stepover, r.stock
+            );
+        }
         let _ = writeln!(
             out,
-            "(BLANK 100 X 80 X 40 MM - BALL END R{} - ZIG-ZAG RASTER ALONG X - STEPOVER {} MM)",
+            "(BLANK 100 X 80 X 40 MM - T1 BALL END R{} FINISHING - ZIG-ZAG RASTER ALONG X - STEPOVER {} MM)",
             options.tool_radius, options.stepover
         );
         let _ = writeln!(
@@ -255,105 +321,57 @@ pub fn generate(
     };
     header(&mut joint, "JOINT FRAME");
     header(&mut part, "TOOL-TIP CONTROL G43.4");
-    let mut n = 10;
-    let mut block = |out_j: &mut String, out_p: &mut String, j: &str, p: &str| {
-        let _ = writeln!(out_j, "N{n} {j}");
-        let _ = writeln!(out_p, "N{n} {p}");
-        n += 10;
+    let mut w = Writer { joint, part, n: 10 };
+    w.block("G21 G90 G94 G17", "G21 G90 G94 G17");
+    let start = Axes::new(0.0, 0.0, 0.0, 20.0, 180.0);
+    let finishing = Pass {
+        tool: 1,
+        label: format!("BALL END R{}", options.tool_radius),
+        spindle: "S12000 M3",
+        feed: options.feed,
+        raster: raster(options),
     };
-    block(&mut joint, &mut part, "G21 G90 G94 G17", "G21 G90 G94 G17");
-    block(
-        &mut joint,
-        &mut part,
-        "T1 M6 (BALL END R3)",
-        "T1 M6 (BALL END R3)",
-    );
-    block(&mut joint, &mut part, "S12000 M3", "S12000 M3");
-    let mut inverse = InverseOptions {
-        previous: Axes::new(0.0, 0.0, 0.0, 20.0, 180.0),
-        a_limits,
-    };
-    let fmt_axes = |a: &Axes| {
-        format!(
-            "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
-            a.x, a.y, a.z, a.a, a.c
-        )
-    };
-    let fmt_part = |t: [f64; 3], a: &Axes| {
-        format!(
-            "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
-            t[0], t[1], t[2], a.a, a.c
-        )
-    };
-    let raster = raster(options);
-    let mut first = true;
-    // The joints `clearance` above a point along the tool axis (machine Z for a
-    // table-tilting machine), and their tool tip in part coordinates.
-    let lifted = |j: &Axes| {
-        let up = Axes {
-            z: j.z + options.clearance,
-            ..*j
-        };
-        (up, kinematics.nominal_tip(&up))
-    };
-    let mut last = Axes::default();
-    for (i, line) in raster.iter().enumerate() {
-        for (k, cl) in line.iter().enumerate() {
-            let joints = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
-            inverse.previous = joints;
-            if first {
-                // Approach: rapid above the first point, then plunge.
-                let (above, above_tip) = lifted(&joints);
-                block(
-                    &mut joint,
-                    &mut part,
-                    &format!("G0 {}", fmt_axes(&above)),
-                    &format!("G43.4 H1 G0 {}", fmt_part(above_tip, &above)),
-                );
-                block(
-                    &mut joint,
-                    &mut part,
-                    &format!("G1 Z{:.4} F400. (PLUNGE)", joints.z),
-                    &format!(
-                        "G1 X{:.4} Y{:.4} Z{:.4} F400. (PLUNGE)",
-                        cl.tip[0], cl.tip[1], cl.tip[2]
-                    ),
-                );
-                first = false;
-            } else {
-                let comment = if k == 0 {
-                    format!(" (LINE {} Y{:.1})", i + 1, cl.surface[1])
-                } else {
-                    String::new()
-                };
-                // The first move after the plunge sets the finishing feed.
-                let feed = if i == 0 && k == 1 {
-                    format!(" F{:.0}.", options.feed)
-                } else {
-                    String::new()
-                };
-                block(
-                    &mut joint,
-                    &mut part,
-                    &format!("{}{feed}{comment}", fmt_axes(&joints)),
-                    &format!("{}{feed}{comment}", fmt_part(cl.tip, &joints)),
-                );
-            }
-            last = joints;
+    let passes = options
+        .roughing
+        .map(|r| Pass {
+            tool: 2,
+            label: format!("BALL END R{} ROUGHING, {} MM STOCK", r.tool_radius, r.stock),
+            spindle: "S9000 M3",
+            feed: r.feed,
+            raster: raster_of(options, r.stepover, r.point_spacing, r.tool_radius, r.stock),
+        })
+        .into_iter()
+        .chain([finishing]);
+    for (k, pass) in passes.enumerate() {
+        if k > 0 {
+            // Tool-tip control off for the tool change.
+            w.block("M5", "G49 M5");
         }
+        w.block(
+            &format!("T{t} M6 ({})", pass.label, t = pass.tool),
+            &format!("T{t} M6 ({})", pass.label, t = pass.tool),
+        );
+        // Joint programs apply the tool's length offset; part programs with G43.4.
+        w.block(
+            &format!("G43 H{}", pass.tool),
+            &format!("(TOOL T{})", pass.tool),
+        );
+        w.block(pass.spindle, pass.spindle);
+        // Every pass starts its orientations from the same joints, so the
+        // finishing pass is the same with or without roughing.
+        let inverse = InverseOptions {
+            previous: start,
+            a_limits,
+        };
+        w.pass(kinematics, &pass, inverse, options.clearance)?;
     }
-    let (retract, retract_tip) = lifted(&last);
-    block(
-        &mut joint,
-        &mut part,
-        &format!("G0 Z{:.4}", retract.z),
-        &format!(
-            "G0 X{:.4} Y{:.4} Z{:.4}",
-            retract_tip[0], retract_tip[1], retract_tip[2]
-        ),
-    );
-    block(&mut joint, &mut part, "M5", "G49 M5");
-    block(&mut joint, &mut part, "M30", "M30");
+    w.block("M5", "G49 M5");
+    w.block("M30", "M30");
+    let Writer {
+        mut joint,
+        mut part,
+        ..
+    } = w;
     joint.push_str("%\n");
     part.push_str("%\n");
 
@@ -371,9 +389,132 @@ pub fn generate(
             nrm[2]
         );
     }
+    let mut tool_table = format!(
+        "T1 P1 Z{:.3} D{:.3} ;ball end R{} finishing\n",
+        kinematics.tool_length,
+        2.0 * options.tool_radius,
+        options.tool_radius
+    );
+    if let Some(r) = &options.roughing {
+        let _ = writeln!(
+            tool_table,
+            "T2 P2 Z{:.3} D{:.3} ;ball end R{} roughing",
+            r.tool_length,
+            2.0 * r.tool_radius,
+            r.tool_radius
+        );
+    }
     Ok(SaddleFiles {
         joint_program: joint,
         part_program: part,
         plan_csv: plan,
+        tool_table,
     })
+}
+
+/// One pass of the sample: its tool, spindle, feed and raster.
+struct Pass {
+    tool: u32,
+    label: String,
+    spindle: &'static str,
+    feed: f64,
+    raster: Vec<Vec<CutterLocation>>,
+}
+
+/// The joint and part programs written side by side, with their N numbers.
+struct Writer {
+    joint: String,
+    part: String,
+    n: u32,
+}
+
+impl Writer {
+    fn block(&mut self, j: &str, p: &str) {
+        use std::fmt::Write as _;
+        let _ = writeln!(self.joint, "N{} {j}", self.n);
+        let _ = writeln!(self.part, "N{} {p}", self.n);
+        self.n += 10;
+    }
+
+    /// Approach, plunge, the raster, and the retract of one pass.
+    fn pass(
+        &mut self,
+        kinematics: &crate::kinematics::Kinematics,
+        pass: &Pass,
+        mut inverse: crate::kinematics::InverseOptions,
+        clearance: f64,
+    ) -> Result<(), SampleError> {
+        use crate::axes::Axes;
+        let fmt_axes = |a: &Axes| {
+            format!(
+                "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
+                a.x, a.y, a.z, a.a, a.c
+            )
+        };
+        let fmt_part = |t: [f64; 3], a: &Axes| {
+            format!(
+                "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
+                t[0], t[1], t[2], a.a, a.c
+            )
+        };
+        // The joints `clearance` above a point along the tool axis (machine Z
+        // for a table-tilting machine), and their tool tip in part coordinates.
+        let lifted = |j: &Axes| {
+            let up = Axes {
+                z: j.z + clearance,
+                ..*j
+            };
+            (up, kinematics.nominal_tip(&up))
+        };
+        let mut first = true;
+        let mut last = Axes::default();
+        for (i, line) in pass.raster.iter().enumerate() {
+            for (k, cl) in line.iter().enumerate() {
+                let joints = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
+                inverse.previous = joints;
+                if first {
+                    // Approach: rapid above the first point, then plunge.
+                    let (above, above_tip) = lifted(&joints);
+                    self.block(
+                        &format!("G0 {}", fmt_axes(&above)),
+                        &format!("G43.4 H{} G0 {}", pass.tool, fmt_part(above_tip, &above)),
+                    );
+                    self.block(
+                        &format!("G1 Z{:.4} F400. (PLUNGE)", joints.z),
+                        &format!(
+                            "G1 X{:.4} Y{:.4} Z{:.4} F400. (PLUNGE)",
+                            cl.tip[0], cl.tip[1], cl.tip[2]
+                        ),
+                    );
+                    first = false;
+                } else {
+                    let comment = if k == 0 {
+                        format!(" (LINE {} Y{:.1})", i + 1, cl.surface[1])
+                    } else {
+                        String::new()
+                    };
+                    // The first move after the plunge sets the pass's feed.
+                    let feed = if i == 0 && k == 1 {
+                        format!(" F{:.0}.", pass.feed)
+                    } else {
+                        String::new()
+                    };
+                    self.block(
+                        &format!("{}{feed}{comment}", fmt_axes(&joints)),
+                        &format!("{}{feed}{comment}", fmt_part(cl.tip, &joints)),
+                    );
+                }
+                last = joints;
+            }
+        }
+        let (retract, retract_tip) = lifted(&last);
+        self.block(
+            &format!("G0 Z{:.4}", retract.z),
+            &format!(
+                "G0 X{:.4} Y{:.4} Z{:.4}",
+                retract_tip[0], retract_tip[1], retract_tip[2]
+            ),
+        );
+        Ok(())
+    }
 }

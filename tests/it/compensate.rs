@@ -38,6 +38,18 @@ pub fn compensate_text(text: &str, frame: Frame) -> (String, CompensateReport) {
     compensate_with_tolerance(text, frame, CompensateOptions::default().tolerance_um)
 }
 
+/// `text` run on ref-trt: its tool table (`[[tools]]`) selects each block's tool.
+pub fn ref_program(text: &str, name: &str) -> volcomp::gcode::Program {
+    volcomp::gcode::Program::new(
+        Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+        std::path::Path::new(name),
+        volcomp::gcode::ProgramSetup {
+            tools: ref_trt().0.tools.clone(),
+            ..Default::default()
+        },
+    )
+}
+
 /// [`compensate_text`] with split tolerance `tolerance_um`.
 pub fn compensate_with_tolerance(
     text: &str,
@@ -53,7 +65,7 @@ pub fn compensate_with_tolerance(
     };
     let mut out = Vec::new();
     let report = compensate(
-        volcomp::gcode::Program::from_text(&text, "program.nc"),
+        ref_program(text, "program.nc"),
         &mut out,
         model,
         &options,
@@ -97,7 +109,7 @@ impl NominalPath {
         let mut segments = Vec::new();
         let mut previous_cutting = false;
         walk_program(
-            volcomp::gcode::Program::from_text(&text, "original.nc"),
+            ref_program(text, "original.nc"),
             model.kinematics(),
             interpret_options(frame),
             WalkOptions {
@@ -178,7 +190,7 @@ pub fn actual_path_error(
     let kin = model.kinematics();
     let (mut max, mut sum_sq, mut n, mut worst_line) = (0.0f64, 0.0, 0usize, 0);
     walk_program(
-        volcomp::gcode::Program::from_text(&text, "replayed.nc"),
+        ref_program(text, "replayed.nc"),
         kin,
         interpret_options(frame),
         WalkOptions {
@@ -190,6 +202,8 @@ pub fn actual_path_error(
                 return;
             }
             let errors = model.errors_at(&p.joints).expect("inside the tables");
+            // The tool that cuts: its length is the lever of the angular errors.
+            let kin = volcomp::machine::tool_models::kinematics_with(model, &p.tool);
             let actual = kin.actual_tip_and_axis(&p.joints, &errors).tip;
             let d = nominal.distance(actual) * 1e3;
             if d > max {
@@ -259,7 +273,10 @@ pub fn read(path: &str) -> String {
 fn saddle_compensated_program_snapshot() {
     let (text, report) = compensate_text(&read("samples/saddle.nc"), Frame::Joint);
     insta::assert_snapshot!("saddle_compensated", text);
-    assert_eq!(report.blocks_read, 3457);
+    assert_eq!(report.blocks_read, 3927);
+    // Roughing with T2 (60 mm), finishing with T1 (100 mm).
+    let tools: Vec<(u32, f64)> = report.tools.iter().map(|t| (t.tool, t.length_mm)).collect();
+    assert_eq!(tools, vec![(2, 60.0), (1, 100.0)]);
     assert!(report.max_residual_nm <= 1.0 + 1e-9);
 }
 
@@ -327,12 +344,9 @@ fn linuxcnc_demo_keeps_lines_words_and_inverse_time() {
     let lines: Vec<&str> = original.lines().collect();
     let out: Vec<&str> = compensated.lines().collect();
     let summaries = |text: &str| -> Vec<BlockSummary> {
-        BlockSummaries::new(
-            volcomp::gcode::Program::from_text(&text, "p.nc"),
-            interpret_options(Frame::Joint),
-        )
-        .map(|s| s.expect("reads"))
-        .collect()
+        BlockSummaries::new(ref_program(text, "p.nc"), interpret_options(Frame::Joint))
+            .map(|s| s.expect("reads"))
+            .collect()
     };
     let (mut pairs, mut added) = (0, 0);
     let aligned = Aligner::new(

@@ -60,9 +60,9 @@ fn split_pieces_are_added_blocks() {
 fn cli_prints_a_table_and_writes_the_report() {
     let dir = tempfile::tempdir().unwrap();
     let b = dir.path().join("b.nc");
-    // Move the X word of the first cutting block (N60) by 2.8 µm.
+    // Move the X word of the first cutting block (N70, roughing) by 2.8 µm.
     let original = read("samples/saddle.nc");
-    let line = original.lines().find(|l| l.starts_with("N60 X")).unwrap();
+    let line = original.lines().find(|l| l.starts_with("N70 X")).unwrap();
     let x_word = line.split_whitespace().nth(1).unwrap();
     let x: f64 = x_word[1..].parse().unwrap();
     let moved = line.replacen(x_word, &format!("X{:.4}", x + 0.0028), 1);

@@ -44,6 +44,9 @@ fn setup(dir: &Path) -> (PathBuf, [PathBuf; 3]) {
     }
     let text = std::fs::read_to_string(root().join("machines/ref-trt.toml")).unwrap();
     assert!(text.contains("length = 100.0"));
+    // Without its [[tools]]: the tools come from --tools or not at all.
+    let text = text.split("\n# The tool table").next().unwrap().to_string();
+    assert!(!text.contains("[[tools]]"));
     let machines = ["100.0", "40.0", "120.0"].map(|length| {
         let path = dir.join(format!("machine-{length}.toml"));
         std::fs::write(
@@ -263,13 +266,9 @@ fn cutting_under_an_offset_other_than_the_tools_length_is_warned_once() {
 #[test]
 fn the_machine_file_tools_and_the_error_command_use_them() {
     let dir = tempfile::tempdir().unwrap();
-    let (fit, [m100, ..]) = setup(dir.path());
-    let text = std::fs::read_to_string(&m100).unwrap().replace(
-        "[limits]",
-        "[[tools]]\nnumber = 2\nlength = 120.0\nradius = 3.0\ncomment = \"finisher\"\n\n[limits]",
-    );
-    let machine = dir.path().join("with-tools.toml");
-    std::fs::write(&machine, text).unwrap();
+    let (fit, _) = setup(dir.path());
+    // ref-trt's [[tools]]: T2 is 60 mm long, [tool] 100 mm.
+    let machine = root().join("machines/ref-trt.toml");
     let error_at = |tool: &[&str]| {
         let out = volcomp()
             .arg("error")
