@@ -199,10 +199,29 @@ pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<
 }
 
 /// Read a whole file, naming it in the error.
+/// A text file. Bytes that are not UTF-8 are an error naming the line and
+/// column of the first one.
 pub fn read_to_string(path: &Path) -> Result<String, InputError> {
-    std::fs::read_to_string(path).map_err(|source| InputError {
+    let bytes = std::fs::read(path).map_err(|source| InputError {
         path: path.to_path_buf(),
         source,
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let before = &bytes[..at];
+        let line = before.iter().filter(|b| **b == b'\n').count() + 1;
+        let column = at - before.iter().rposition(|b| *b == b'\n').map_or(0, |k| k + 1) + 1;
+        InputError {
+            path: path.to_path_buf(),
+            source: io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "line {line}, column {column}: byte 0x{:02x} is not UTF-8 text (save the file as UTF-8 or ASCII)",
+                    bytes[at]
+                ),
+            ),
+        }
     })
 }
 

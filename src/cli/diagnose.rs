@@ -93,6 +93,9 @@ impl CutPart {
     }
 }
 
+/// Fewest cut points `diagnose` works on.
+const MIN_DIAGNOSED_POINTS: usize = 20;
+
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(s) = args.noise_um {
         if !(s.is_finite() && s > 0.0) {
@@ -107,6 +110,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         measurement.plan(),
     )?
     .contexts()?;
+    // Held-out judging (a 3 × 3 grid of regions and time bands) needs points
+    // in every fold and more points than the largest effect has parameters.
+    let cut = contexts.iter().filter(|c| c.cut).count();
+    if cut < MIN_DIAGNOSED_POINTS {
+        anyhow::bail!(
+            "{}: {cut} measured points were cut by the program; a diagnosis needs at least {MIN_DIAGNOSED_POINTS} (points are held out by region and by time to judge each effect)",
+            args.measured.display()
+        );
+    }
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &contexts)?;
     }

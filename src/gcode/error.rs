@@ -117,6 +117,8 @@ pub enum ErrorKind {
     ArcUnreachable(f64),
     #[error("the target is not finite")]
     NonFinite,
+    #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
+    BareCarriageReturn,
     #[error("Requested tool {0} not found in the tool table")]
     ToolNotInTable(u32),
     #[error("{0} word: a tool number must be a whole number ≥ 0")]
@@ -179,6 +181,9 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::BareCarriageReturn => {
+                "convert the line ends to LF or CR LF (e.g. `tr '\\r' '\\n'`); LinuxCNC would read the whole file as one block"
+            }
             ErrorKind::ToolNotInTable(_) => {
                 "add the tool to the tool table (--tools FILE, LinuxCNC's `T2 P2 Z120.0 D6.0`, or [[tools]] in the machine file), or correct the tool number"
             }

@@ -1406,6 +1406,9 @@ impl Interpreter {
         let comp = g(&[410, 411, 420, 421]);
         let unused = [
             (b'D', !(comp || g(&[960]))),
+            // LinuxCNC: "E word with no G70, G76, M66, M67 or M68 to use it"
+            // (X1e400 is X1 and E400).
+            (b'E', !m(&[660, 670, 680])),
             // G43.4 and G234: tool-tip control of other controllers (Fanuc).
             (b'H', !g(&[430, 432, 434, 2340])),
             (b'I', !(arc || is(&[870]) || g10)),

@@ -174,6 +174,15 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
         GcodeError::at(ErrorKind::Syntax(e.kind), line_no, line, e.at, e.at + 1)
     };
     let pos_of = |rest: &[u8]| len - rest.len();
+    // A carriage return with more of the line after it: classic Mac (CR-only)
+    // line ends, which LinuxCNC would read as one long block. Refused rather
+    // than run the whole program as one line.
+    if let Some(k) = line
+        .windows(2)
+        .position(|w| w[0] == b'\r' && !matches!(w[1], b'\r' | b' ' | b'\t'))
+    {
+        return Err(err(ErrorKind::BareCarriageReturn, k, k + 1));
+    }
 
     // A UTF-8 byte order mark at the start of the file is kept but not read.
     let bom = if *offset == 0 && line.starts_with(b"\xEF\xBB\xBF") {
@@ -319,7 +328,12 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
                     .find(|&e| std::str::from_utf8(&line[pos..e]).is_ok())
                     .filter(|&e| e - pos <= 4)
                     .unwrap_or(pos + 1);
-                let shown = String::from_utf8_lossy(&line[pos..end]).into_owned();
+                // Control characters and bytes that are not UTF-8 by value.
+                let shown = match std::str::from_utf8(&line[pos..end]) {
+                    Ok(s) if !s.chars().any(char::is_control) => s.to_string(),
+                    Ok(s) => s.chars().map(|c| format!("U+{:04X}", c as u32)).collect(),
+                    Err(_) => format!("byte 0x{:02x}", line[pos]),
+                };
                 return Err(err(ErrorKind::UnexpectedCharacter(shown), pos, end));
             }
         }

@@ -71,9 +71,9 @@ pub fn parameter_name(direction: char, axis: Axis) -> String {
 impl ErrorTable {
     /// Read and validate a table; `axis` None = infer it from the column names.
     pub fn read(path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TableError::Read {
+        let text = crate::io::read_to_string(path).map_err(|e| TableError::Read {
             path: path.to_path_buf(),
-            source,
+            source: e.source,
         })?;
         ErrorTable::parse(&text, path, axis)
     }

@@ -1,4 +1,5 @@
 //! The one integration-test binary: a module per area.
+mod bad_inputs;
 mod cli;
 mod compensate;
 mod diagnose;

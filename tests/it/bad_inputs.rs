@@ -1,0 +1,601 @@
+//! The bad-input matrix: every kind of file a user hands over, malformed in
+//! the ways files are, through the command that reads it. Each case states
+//! the exit code, what the message must say (file, line, column where they
+//! apply) and that no output file is left. `docs/bad-inputs.md` is this table;
+//! the test fails when the two differ (`VOLCOMP_WRITE_BAD_INPUTS=1` rewrites it).
+use crate::compensate::ref_trt;
+use crate::support::{root, volcomp};
+use std::path::Path;
+
+/// A good five-axis program, small.
+const PROGRAM: &str =
+    "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 Y5 Z2 A12 C30 F500\nG1 X10 Y2 Z1 A15 C60\nM30\n%\n";
+
+struct Case {
+    /// What the user hands over.
+    input: &'static str,
+    /// How it is malformed.
+    what: &'static str,
+    /// Files written into the scratch folder (name, bytes).
+    files: Vec<(&'static str, Vec<u8>)>,
+    /// Command line; `{d}` is the scratch folder.
+    args: &'static str,
+    code: i32,
+    /// What stderr (or, for accepted inputs, stdout) must contain; `{d}` as above.
+    expect: Vec<&'static str>,
+}
+
+fn case(
+    input: &'static str,
+    what: &'static str,
+    files: Vec<(&'static str, Vec<u8>)>,
+    args: &'static str,
+    code: i32,
+    expect: &[&'static str],
+) -> Case {
+    Case {
+        input,
+        what,
+        files,
+        args,
+        code,
+        expect: expect.to_vec(),
+    }
+}
+
+const COMPENSATE: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json";
+const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
+const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
+const PLAN: &str =
+    "predict {d}/ok.toml {d}/ok.nc --plan {d}/bad.csv --report {d}/out.json --model {d}/fit.json";
+const MEASURED: &str =
+    "diagnose {d}/ok.toml {d}/ok.nc {d}/bad.csv --report {d}/out.json --model {d}/fit.json";
+const MODEL: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/bad.json";
+const TOOLS: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --tools {d}/bad.tbl";
+const VAR: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --var {d}/bad.var";
+
+fn text(s: &str) -> Vec<u8> {
+    s.as_bytes().to_vec()
+}
+
+fn binary() -> Vec<u8> {
+    // Deterministic noise with NUL and high bytes.
+    (0u32..3000)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect()
+}
+
+/// The reference machine text with `from` replaced by `to`.
+fn machine(from: &str, to: &str) -> Vec<u8> {
+    let text = std::fs::read_to_string(root().join("machines/ref-trt.toml")).unwrap();
+    assert!(text.contains(from), "{from}");
+    text.replacen(from, to, 1).into_bytes()
+}
+
+/// The X table with line `line` (1-based) replaced (`None`: removed from
+/// there on), and a machine file `table.toml` reading it.
+fn table(edit: impl Fn(&mut Vec<String>)) -> Vec<(&'static str, Vec<u8>)> {
+    let text = std::fs::read_to_string(root().join("machines/ref-trt/x.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    edit(&mut lines);
+    vec![
+        ("table.toml", machine("\"ref-trt/x.csv\"", "\"bad-x.csv\"")),
+        ("bad-x.csv", (lines.join("\n") + "\n").into_bytes()),
+    ]
+}
+
+/// `row` with its field `k` replaced by `nan`.
+fn nan_at(row: &str, k: usize) -> String {
+    let mut f: Vec<&str> = row.split(',').collect();
+    f[k] = "nan";
+    f.join(",")
+}
+
+fn plan_rows(rows: &[&str]) -> Vec<u8> {
+    let mut s = String::from("id,x,y,z,i,j,k\n");
+    for r in rows {
+        s.push_str(r);
+        s.push('\n');
+    }
+    s.into_bytes()
+}
+
+/// A measurement: rows `id,x,y,z,i,j,k,mx,my,mz` on a 6 × 5 grid near the
+/// program's path, with `extra` appended.
+fn measured(extra: &[&str], rows: usize) -> Vec<u8> {
+    let mut s = String::from("id,x,y,z,i,j,k,mx,my,mz\n");
+    for n in 0..rows {
+        let (x, y) = ((n % 6) as f64, (n / 6) as f64);
+        s.push_str(&format!("{},{x},{y},1,0,0,1,{x},{y},1.001\n", n + 1));
+    }
+    for r in extra {
+        s.push_str(r);
+        s.push('\n');
+    }
+    s.into_bytes()
+}
+
+fn cases() -> Vec<Case> {
+    let p = |s: &str| vec![("bad.nc", text(s))];
+    let mut long_comment = b"%\nG21 G90\n(".to_vec();
+    long_comment.extend(std::iter::repeat_n(b'x', 50 << 20));
+    long_comment.extend(b")\nG1 X1 Y1 Z1 A10 C0 F100\nM30\n%\n");
+    let mut long_number = b"%\nG21 G90\nG1 X".to_vec();
+    long_number.extend(std::iter::repeat_n(b'1', 50 << 20));
+    long_number.extend(b" F100\nM30\n%\n");
+    vec![
+        // Programs.
+        case(
+            "program",
+            "empty file",
+            p(""),
+            COMPENSATE,
+            1,
+            &[
+                "File ended with no percent sign or program end",
+                "{d}/bad.nc:1:1",
+            ],
+        ),
+        case(
+            "program",
+            "binary file",
+            vec![("bad.nc", binary())],
+            COMPENSATE,
+            1,
+            &["{d}/bad.nc:1:"],
+        ),
+        case(
+            "program",
+            "non-UTF-8 byte in a word",
+            vec![("bad.nc", b"%\nG21\nG1 X1\xff Y0 F100\nM30\n%\n".to_vec())],
+            COMPENSATE,
+            1,
+            &["unexpected character", "{d}/bad.nc:3:6"],
+        ),
+        case(
+            "program",
+            "non-UTF-8 byte in a comment (accepted, kept byte for byte)",
+            vec![(
+                "bad.nc",
+                b"%\nG21 G90\n(caf\xe9)\nG1 X1 Y1 Z1 A10 C0 F100\nM30\n%\n".to_vec(),
+            )],
+            COMPENSATE,
+            0,
+            &["blocks read"],
+        ),
+        case(
+            "program",
+            "CR-only (classic Mac) line ends",
+            p("%\rG21 G90\rG1 X1 Y1 Z1 A10 C0 F100\rM30\r%\r"),
+            COMPENSATE,
+            1,
+            &["carriage return inside the line", "{d}/bad.nc:1:2"],
+        ),
+        case(
+            "program",
+            "a 50 MB comment line (accepted)",
+            vec![("bad.nc", long_comment)],
+            COMPENSATE,
+            0,
+            &["blocks read"],
+        ),
+        case(
+            "program",
+            "a 50 MB number",
+            vec![("bad.nc", long_number)],
+            COMPENSATE,
+            1,
+            &["number out of range in word `X`", "{d}/bad.nc:3:4"],
+        ),
+        case(
+            "program",
+            "`X1e400` (X1 and an E word)",
+            p("%\nG21\nG1 X1e400 F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["E word with no G or M code that uses it", "{d}/bad.nc:3:6"],
+        ),
+        case(
+            "program",
+            "`Xnan`",
+            p("%\nG21\nG1 Xnan F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["word `X` has no number", "{d}/bad.nc:3:4"],
+        ),
+        case(
+            "program",
+            "an expression overflowing to infinity",
+            p("%\nG21\nG1 X[10**400] F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["Calculation resulted in 'infinity'", "{d}/bad.nc:3:5"],
+        ),
+        case(
+            "program",
+            "division by zero",
+            p("%\nG21\nG1 X[1/0] F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["Attempt to divide by zero", "{d}/bad.nc:3:5"],
+        ),
+        case(
+            "program",
+            "a target outside the machine's travel",
+            p("%\nG21\nG1 X900 Y0 Z0 A0 C0 F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["{d}/bad.nc:3: X = 900 is outside the X error table"],
+        ),
+        // Machine files.
+        case(
+            "machine file",
+            "empty file",
+            vec![("bad.toml", text(""))],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:1:1: missing field `name`"],
+        ),
+        case(
+            "machine file",
+            "binary file",
+            vec![("bad.toml", binary())],
+            MACHINE,
+            1,
+            &["{d}/bad.toml", "line 1, column", "not UTF-8 text"],
+        ),
+        case(
+            "machine file",
+            "NaN geometry",
+            vec![(
+                "bad.toml",
+                machine("x_rot_point = 0.0", "x_rot_point = nan"),
+            )],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:5:1: `geometry`: every value must be a finite number"],
+        ),
+        case(
+            "machine file",
+            "1e400",
+            vec![("bad.toml", machine("length = 100.0", "length = 1e400"))],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:13:10", "overflowed"],
+        ),
+        case(
+            "machine file",
+            "duplicate key",
+            vec![(
+                "bad.toml",
+                machine("z_offset = 0.0", "z_offset = 0.0\nz_offset = 1.0"),
+            )],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:11:1: duplicate key"],
+        ),
+        case(
+            "machine file",
+            "a tool listed twice in [[tools]]",
+            vec![("bad.toml", machine("number = 2", "number = 1"))],
+            MACHINE,
+            1,
+            &[
+                "{d}/bad.toml:",
+                "tool 1 is listed twice (first at {d}/bad.toml:",
+            ],
+        ),
+        // Error tables.
+        case(
+            "error table (CSV)",
+            "one row",
+            table(|l| l.truncate(2)),
+            TABLE,
+            1,
+            &[
+                "{d}/table.toml:26:5: `errors.x`",
+                "{d}/bad-x.csv: line 2: 1 rows, but at least 8 are needed",
+            ],
+        ),
+        case(
+            "error table (CSV)",
+            "NaN",
+            table(|l| l[3] = nan_at(&l[3], 1)),
+            TABLE,
+            1,
+            &["{d}/bad-x.csv: line 4, column 2 (EXX): `nan` is not a finite number"],
+        ),
+        case(
+            "error table (CSV)",
+            "a repeated position",
+            table(|l| l[4] = l[3].clone()),
+            TABLE,
+            1,
+            &[
+                "{d}/bad-x.csv: line 5, column 1 (position)",
+                "strictly increasing",
+            ],
+        ),
+        case(
+            "error table (CSV)",
+            "non-UTF-8 byte",
+            table(|l| l[3].push('\u{0}'))
+                .into_iter()
+                .map(|(n, b)| {
+                    (
+                        n,
+                        if n == "bad-x.csv" {
+                            [b.as_slice(), b"\xff"].concat()
+                        } else {
+                            b
+                        },
+                    )
+                })
+                .collect(),
+            TABLE,
+            1,
+            &["{d}/bad-x.csv", "not UTF-8 text"],
+        ),
+        case(
+            "error table (CSV)",
+            "empty file",
+            vec![
+                ("table.toml", machine("\"ref-trt/x.csv\"", "\"bad-x.csv\"")),
+                ("bad-x.csv", vec![]),
+            ],
+            TABLE,
+            1,
+            &["{d}/bad-x.csv: line 1: empty table"],
+        ),
+        // Plans.
+        case(
+            "plan (CSV)",
+            "duplicate ids",
+            vec![("bad.csv", plan_rows(&["1,0,0,1,0,0,1", "1,1,0,1,0,0,1"]))],
+            PLAN,
+            1,
+            &["{d}/bad.csv:3: column `id`: expected unique ids"],
+        ),
+        case(
+            "plan (CSV)",
+            "zero normal",
+            vec![("bad.csv", plan_rows(&["1,0,0,1,0,0,0"]))],
+            PLAN,
+            1,
+            &["{d}/bad.csv:2: column `i,j,k`: expected a non-zero surface normal"],
+        ),
+        case(
+            "plan (CSV)",
+            "NaN",
+            vec![("bad.csv", plan_rows(&["1,nan,0,1,0,0,1"]))],
+            PLAN,
+            1,
+            &["{d}/bad.csv:2: column `x`: expected a finite number, found `nan`"],
+        ),
+        case(
+            "plan (CSV)",
+            "empty file",
+            vec![("bad.csv", vec![])],
+            PLAN,
+            1,
+            &["{d}/bad.csv:1: header lacks column `id`"],
+        ),
+        // Measurements.
+        case(
+            "measurement (CSV)",
+            "duplicate ids",
+            vec![("bad.csv", measured(&["3,0,0,1,0,0,1,0,0,1"], 30))],
+            MEASURED,
+            1,
+            &["{d}/bad.csv:32: column `id`: expected unique ids"],
+        ),
+        case(
+            "measurement (CSV)",
+            "NaN",
+            vec![("bad.csv", measured(&["99,0,0,1,0,0,1,nan,0,1"], 30))],
+            MEASURED,
+            1,
+            &["{d}/bad.csv:32: column `mx`: expected a finite number"],
+        ),
+        case(
+            "measurement (CSV)",
+            "one row",
+            vec![("bad.csv", measured(&[], 1))],
+            MEASURED,
+            1,
+            &["{d}/bad.csv: 1 measured points were cut", "at least 20"],
+        ),
+        // Fitted-model files.
+        case(
+            "model file (JSON)",
+            "not a model file",
+            vec![("bad.json", text("{\"garbage\": 1}"))],
+            MODEL,
+            1,
+            &["{d}/bad.json:1:14: not a fitted-model file"],
+        ),
+        case(
+            "model file (JSON)",
+            "empty file",
+            vec![("bad.json", vec![])],
+            MODEL,
+            1,
+            &["{d}/bad.json:1:0: not a fitted-model file"],
+        ),
+        case(
+            "model file (JSON)",
+            "stale (a table changed since the fit)",
+            vec![("bad.json", b"STALE".to_vec())],
+            MODEL,
+            1,
+            &[
+                "{d}/bad.json: EXX: was fitted to different data",
+                "refit with volcomp fit",
+            ],
+        ),
+        // Tool tables.
+        case(
+            "tool table",
+            "negative length",
+            vec![("bad.tbl", text("T1 P1 Z-5 D6\n"))],
+            TOOLS,
+            1,
+            &["{d}/bad.tbl:1:7: `Z-5`: a tool length must be ≥ 0 mm"],
+        ),
+        case(
+            "tool table",
+            "a tool listed twice",
+            vec![("bad.tbl", text("T1 Z5\nT1 Z6\n"))],
+            TOOLS,
+            1,
+            &["{d}/bad.tbl:2:1: tool T1 is listed twice (first at {d}/bad.tbl:1)"],
+        ),
+        case(
+            "tool table",
+            "not a tool table",
+            vec![("bad.tbl", text("garbage here\n"))],
+            TOOLS,
+            1,
+            &["{d}/bad.tbl:1:1: `garbage`: not a tool table word"],
+        ),
+        // Parameter files.
+        case(
+            "parameter file (.var)",
+            "not a .var line",
+            vec![("bad.var", text("#5221 = abc\n"))],
+            VAR,
+            1,
+            &["{d}/bad.var:1:", "expected `NUMBER VALUE`"],
+        ),
+    ]
+}
+
+/// The scratch folder every case runs in: the reference machine, its tables,
+/// its fitted model and a good program.
+fn scratch() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let (machine, model) = ref_trt();
+    let fit = serde_json::to_string(&model.to_model_file(machine).unwrap()).unwrap();
+    std::fs::write(dir.path().join("fit.json"), &fit).unwrap();
+    std::fs::create_dir(dir.path().join("ref-trt")).unwrap();
+    for axis in ["x", "y", "z", "a", "c"] {
+        std::fs::copy(
+            root().join(format!("machines/ref-trt/{axis}.csv")),
+            dir.path().join(format!("ref-trt/{axis}.csv")),
+        )
+        .unwrap();
+    }
+    std::fs::copy(
+        root().join("machines/ref-trt.toml"),
+        dir.path().join("ok.toml"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("ok.nc"), PROGRAM).unwrap();
+    dir
+}
+
+/// A model file fitted to other tables than the machine's (one X value changed).
+fn stale_model(dir: &Path) -> Vec<u8> {
+    let fit = std::fs::read_to_string(dir.join("fit.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&fit).unwrap();
+    let text = serde_json::to_string(&v).unwrap();
+    // Each curve records the hash of the table it was fitted to.
+    let hash = text
+        .split("\"table_hash\":\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .expect("model files hash their tables")
+        .to_string();
+    let stale = text.replace(&hash, "0123456789abcdef");
+    v = serde_json::from_str(&stale).unwrap();
+    serde_json::to_vec(&v).unwrap()
+}
+
+#[test]
+fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
+    let dir = scratch();
+    let d = dir.path().display().to_string();
+    let mut rows = Vec::new();
+    for c in cases() {
+        for (name, bytes) in &c.files {
+            let bytes = if bytes == b"STALE" {
+                stale_model(dir.path())
+            } else {
+                bytes.clone()
+            };
+            std::fs::write(dir.path().join(name), bytes).unwrap();
+        }
+        let args: Vec<String> = c.args.split(' ').map(|a| a.replace("{d}", &d)).collect();
+        let out = volcomp().args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        let shown = if c.code == 0 {
+            String::from_utf8_lossy(&out.stdout).into_owned()
+        } else {
+            stderr.clone()
+        };
+        let label = format!("{} / {}", c.input, c.what);
+        assert_eq!(out.status.code(), Some(c.code), "{label}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{label}: {stderr}");
+        for e in &c.expect {
+            let e = e.replace("{d}", &d);
+            assert!(shown.contains(&e), "{label}: expected `{e}` in:\n{shown}");
+        }
+        let outputs: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("out.") || n.contains(".tmp"))
+            .collect();
+        if c.code == 0 {
+            assert_eq!(outputs, vec!["out.nc".to_string()], "{label}");
+        } else {
+            assert!(outputs.is_empty(), "{label}: left {outputs:?}");
+        }
+        for f in outputs {
+            std::fs::remove_file(dir.path().join(f)).unwrap();
+        }
+        for (name, _) in &c.files {
+            std::fs::remove_file(dir.path().join(name)).unwrap();
+        }
+        // The message, and where it points for program errors (` --> file:line:col`).
+        let mut lines = shown.lines();
+        let mut first = lines.next().unwrap_or("").to_string();
+        if let Some(at) = lines.next().and_then(|l| l.trim().strip_prefix("--> ")) {
+            first.push_str(&format!(" (at {at})"));
+        }
+        let first = first
+            .replace(&d, "…")
+            .replace(&root().display().to_string(), "<project>")
+            .replace('|', "\\|");
+        let first: String = first.chars().take(260).collect();
+        rows.push(format!(
+            "| {} | {} | `volcomp {}` | {} | {} |",
+            c.input,
+            c.what,
+            c.args.split(' ').next().unwrap_or(""),
+            c.code,
+            first
+        ));
+    }
+    let doc = format!(
+        "# Bad inputs: what the user gets\n\n\
+Generated by `tests/it/bad_inputs.rs` (`VOLCOMP_WRITE_BAD_INPUTS=1 cargo test --release --locked bad_inputs` \
+rewrites it; the test fails when it is stale). Every case runs the command that reads the input, in a \
+scratch folder (shown as `…`), and checks the exit code, the located message, and that no output file \
+(nor a temporary one) is left. Exit 1 is bad input, 2 a usage error; accepted inputs (exit 0) show the \
+first line of the summary.\n\n\
+| input | case | command | exit | first line of the message |\n|---|---|---|---|---|\n{}\n",
+        rows.join("\n")
+    );
+    let path = root().join("docs/bad-inputs.md");
+    if std::env::var_os("VOLCOMP_WRITE_BAD_INPUTS").is_some() {
+        std::fs::write(&path, &doc).unwrap();
+    } else {
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            committed == doc,
+            "docs/bad-inputs.md is stale: run VOLCOMP_WRITE_BAD_INPUTS=1 cargo test --release --locked bad_inputs"
+        );
+    }
+}
