@@ -1,5 +1,6 @@
 //! Reading a program as a stream of [`BlockSummary`] (a [`Program`] run), and
 //! diffing two programs end to end.
+use crate::compensate::stamp::PREFIX as STAMP_PREFIX;
 use super::align::{AlignOptions, Aligner, BlockSummary};
 use super::{DiffAccumulator, DiffReport};
 use crate::gcode::{
@@ -98,11 +99,16 @@ impl Iterator for BlockSummaries {
         if self.failed {
             return None;
         }
-        match self.run.next()? {
-            Ok((block, event, _)) => Some(Ok(summarize(block, event))),
-            Err(e) => {
-                self.failed = true;
-                Some(Err(e))
+        loop {
+            match self.run.next()? {
+                // The provenance stamp is shown apart (`diff` prints it), not
+                // compared as added blocks.
+                Ok((block, _, _)) if block.raw.starts_with(STAMP_PREFIX.as_bytes()) => continue,
+                Ok((block, event, _)) => return Some(Ok(summarize(block, event))),
+                Err(e) => {
+                    self.failed = true;
+                    return Some(Err(e));
+                }
             }
         }
     }

@@ -1,7 +1,7 @@
 //! `diff`: a program against itself, and the saddle against its compensation.
 use crate::compensate::{compensate_text, read};
 use crate::predict::rounded;
-use crate::support::{root, volcomp};
+use crate::support::{assert_success, root, volcomp};
 use volcomp::diff::{DiffOptions, diff_programs};
 use volcomp::gcode::Frame;
 
@@ -104,4 +104,30 @@ fn cli_locates_an_unparsable_program() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("bad.nc:3:"), "{stderr}");
+}
+
+/// The provenance stamp of a compensated program is shown, not counted as
+/// added blocks.
+#[test]
+fn the_stamp_of_a_compensated_program_is_not_an_added_block() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.nc");
+    let run = volcomp()
+        .args(["compensate", "machines/ref-trt.toml", "samples/saddle.nc", "-o"])
+        .arg(&out)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&run);
+    assert!(std::fs::read_to_string(&out).unwrap().contains("(volcomp-stamp "));
+    let diff = volcomp()
+        .args(["diff", "samples/saddle.nc"])
+        .arg(&out)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&diff);
+    let stdout = String::from_utf8_lossy(&diff.stdout);
+    assert!(stdout.contains("compensated by volcomp"), "{stdout}");
+    assert!(stdout.contains(", 0 added, 0 removed"), "{stdout}");
 }
