@@ -1,8 +1,8 @@
 //! Reading a program as a stream of [`BlockSummary`] (a [`Program`] run), and
 //! diffing two programs end to end.
-use crate::compensate::stamp::PREFIX as STAMP_PREFIX;
 use super::align::{AlignOptions, Aligner, BlockSummary};
 use super::{DiffAccumulator, DiffReport};
+use crate::compensate::stamp::PREFIX as STAMP_PREFIX;
 use crate::gcode::{
     Block, BlockEvent, Execution, GcodeError, InterpretOptions, MotionKind, Program,
 };

@@ -771,13 +771,21 @@ impl Rewriter {
         let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
         let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
         let d = dx.hypot(dy);
-        let new_c = if d > 1e-12 {
+        let projected = if d > 1e-12 {
             let (nx, ny) = (-dy / d, dx / d);
             let t = (c[0] - mx) * nx + (c[1] - my) * ny;
             [mx + t * nx, my + t * ny, c[2]]
         } else {
             c
         };
+        // A (nearly) full circle: start and end are the same point up to the
+        // corrections, the chord's direction is noise and the projection could
+        // move the centre by up to the radius (found by fuzzing: `G3 X10 Y0 Z-5
+        // I-5 J0 P2` came out with its centre 3.5 mm away). Keep the centre:
+        // the radii then differ by at most the chord, µm, far inside LinuxCNC's
+        // arc tolerance.
+        let shift = (projected[0] - c[0]).hypot(projected[1] - c[1]);
+        let new_c = if shift > d.max(1e-3) { c } else { projected };
         let unit = ctx.scale;
         if let Some(w) = block.words.iter().rev().find(|w| w.letter == b'R') {
             let r = (s[0] - new_c[0]).hypot(s[1] - new_c[1]) * w.value.signum() / unit;

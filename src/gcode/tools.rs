@@ -122,6 +122,8 @@ impl ToolTable {
             source: Some(name.to_string()),
             given: true,
         };
+        // A UTF-8 byte order mark is not part of the first line.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (index, raw) in text.lines().enumerate() {
             let line = index + 1;
             let fail = |column: usize, message: String| ToolTableError {
@@ -148,8 +150,14 @@ impl ToolTable {
                 if token.is_empty() {
                     continue;
                 }
-                let letter = token.as_bytes()[0].to_ascii_uppercase();
-                let value = &token[1..];
+                // The first character may be any (a byte order mark, a typo).
+                let first = token.chars().next().unwrap_or(' ');
+                let letter = if first.is_ascii() {
+                    (first as u8).to_ascii_uppercase()
+                } else {
+                    0
+                };
+                let value = &token[first.len_utf8()..];
                 let number_of = |what: &str| -> Result<f64, ToolTableError> {
                     match value.parse::<f64>() {
                         Ok(v) if v.is_finite() && v.abs() < 1e9 => Ok(v),
@@ -355,5 +363,12 @@ mod tests {
         assert!(e.message.contains("tool number"));
         let e = ToolTable::parse("T1 K3\n", "t.tbl").unwrap_err();
         assert!(e.message.contains("not a tool table word"));
+        // Found by fuzzing: a multi-byte first character.
+        let e = ToolTable::parse("T1 Z1\n\u{feff}T1\n", "t.tbl").unwrap_err();
+        assert!(e.message.contains("not a tool table word"), "{e}");
+        assert_eq!(
+            ToolTable::parse("\u{feff}T1 Z1\n", "t.tbl").unwrap().len(),
+            1
+        );
     }
 }

@@ -540,3 +540,32 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
     );
     assert_eq!(stdout, library);
 }
+
+/// Found by fuzzing: a full-circle helix (start = end, `P2`) kept its centre
+/// only up to the radius (the projection of the centre on the bisector of a
+/// µm chord is noise). Its centre now moves by µm, and the program reads back.
+#[test]
+fn a_full_circle_helix_keeps_its_centre() {
+    let text = "%\nG21 G90 G94 G17 F400\nG0 X0 Y0 Z0 A10 C0\nG1 X10\n\
+                G3 X10 Y0 Z-5 I-5 J0 P2\nG2 X0 Y0 R5\nM30\n%\n";
+    let (compensated, _) = compensate_text(text, Frame::Joint);
+    let helix = compensated
+        .lines()
+        .find(|l| l.starts_with("G3") && l.contains("P2"))
+        .expect("the helix stays one block");
+    let word = |letter: char| -> f64 {
+        helix
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(letter))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert!((word('I') + 5.0).abs() < 0.01, "{helix}");
+    assert!(word('J').abs() < 0.01, "{helix}");
+    let program = volcomp::gcode::Program::from_text(&compensated, "c.nc");
+    let mut run = program.run(interpret_options(Frame::Joint));
+    while let Some(step) = run.next() {
+        step.expect("the compensated program reads back");
+    }
+}

@@ -113,13 +113,22 @@ fn the_stamp_of_a_compensated_program_is_not_an_added_block() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("c.nc");
     let run = volcomp()
-        .args(["compensate", "machines/ref-trt.toml", "samples/saddle.nc", "-o"])
+        .args([
+            "compensate",
+            "machines/ref-trt.toml",
+            "samples/saddle.nc",
+            "-o",
+        ])
         .arg(&out)
         .current_dir(root())
         .output()
         .unwrap();
     assert_success(&run);
-    assert!(std::fs::read_to_string(&out).unwrap().contains("(volcomp-stamp "));
+    assert!(
+        std::fs::read_to_string(&out)
+            .unwrap()
+            .contains("(volcomp-stamp ")
+    );
     let diff = volcomp()
         .args(["diff", "samples/saddle.nc"])
         .arg(&out)
