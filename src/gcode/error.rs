@@ -117,6 +117,8 @@ pub enum ErrorKind {
     ArcUnreachable(f64),
     #[error("the target is not finite")]
     NonFinite,
+    #[error("the program executed {0} lines without ending: an endless loop?")]
+    EndlessProgram(u64),
     #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
     BareCarriageReturn,
     #[error("Requested tool {0} not found in the tool table")]
@@ -181,6 +183,9 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::EndlessProgram(_) => {
+                "check the loop's condition (the line shown is where it stopped): volcomp stops a program after a billion executed lines"
+            }
             ErrorKind::BareCarriageReturn => {
                 "convert the line ends to LF or CR LF (e.g. `tr '\\r' '\\n'`); LinuxCNC would read the whole file as one block"
             }

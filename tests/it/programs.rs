@@ -260,3 +260,33 @@ fn a_cycle_a_flat_program_cannot_say_is_refused_with_its_line() {
         "{message}"
     );
 }
+
+/// Found by fuzzing: an endless `do … while` ran for ever (and a writer would
+/// fill the disk). A run stops with a located error after its line budget.
+#[test]
+fn an_endless_loop_is_an_error_not_a_hang() {
+    let text = "G21 G90 F250\n#1 = 3\no1 do\n  G1 X#1\n  #1 = [#1 - 0]\no1 while [#1 GT 0]\nM2\n";
+    let program = Program::new(
+        Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+        std::path::Path::new("loop.ngc"),
+        ProgramSetup {
+            max_executed_lines: Some(10_000),
+            ..ProgramSetup::default()
+        },
+    );
+    let mut run = program.run(interpret_options(Frame::Joint));
+    let mut steps = 0;
+    let err = loop {
+        match run.next() {
+            Some(Ok(_)) => steps += 1,
+            Some(Err(e)) => break e,
+            None => panic!("the endless loop ended"),
+        }
+    };
+    assert_eq!(steps, 10_000);
+    assert!(
+        matches!(err.kind, volcomp::gcode::ErrorKind::EndlessProgram(10_000)),
+        "{err}"
+    );
+    assert!(err.to_string().contains("loop.ngc:"), "{err}");
+}
