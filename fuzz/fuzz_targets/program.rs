@@ -14,7 +14,10 @@ fn setup() -> ProgramSetup {
     ProgramSetup {
         tools: ToolTable::parse("T1 P1 Z40 D10\nT2 P2 Z120 D6\n", "fuzz.tbl").unwrap(),
         // Endless loops end as an error, quickly.
-        max_executed_lines: Some(100_000),
+        language: volcomp::gcode::LanguageOptions {
+            max_executed_lines: Some(100_000),
+            ..Default::default()
+        },
         ..ProgramSetup::default()
     }
 }

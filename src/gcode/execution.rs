@@ -28,10 +28,6 @@ use super::motion::Motion;
 use super::parameters::{Parameters, numbers};
 use crate::axes::Axes;
 
-/// Lines a run may execute (loops counted each time): a billion, a thousand
-/// times the largest real programs, about 25 GB written flat.
-pub const DEFAULT_MAX_EXECUTED_LINES: u64 = 1_000_000_000;
-
 /// What a real setup holds before the program starts: parameters (work
 /// origins, stored positions: a LinuxCNC `.var` file, `--offset`) and where
 /// subroutine files are.
@@ -42,9 +38,6 @@ pub struct ProgramSetup {
     /// tool may be selected and the default tool is used throughout).
     pub tools: super::tools::ToolTable,
     pub language: LanguageOptions,
-    /// Most lines a run executes before it is refused as an endless loop
-    /// (`None`: [`DEFAULT_MAX_EXECUTED_LINES`]).
-    pub max_executed_lines: Option<u64>,
     /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
     /// ended with no percent sign or program end"); off for fragments.
     pub require_program_end: bool,
@@ -131,7 +124,6 @@ pub struct Execution {
     blocks: usize,
     ended: bool,
     require_end: bool,
-    max_lines: u64,
     lenient: bool,
     done: bool,
     /// The program has ended; the rest of the main file is passed over.
@@ -163,9 +155,6 @@ impl Execution {
             blocks: 0,
             ended: false,
             require_end: setup.require_program_end,
-            max_lines: setup
-                .max_executed_lines
-                .unwrap_or(DEFAULT_MAX_EXECUTED_LINES),
             lenient: options.lenient,
             done: false,
             tail: false,
@@ -254,23 +243,6 @@ impl Execution {
             }
             Some(Ok(())) => {
                 let block = self.executor.block();
-                if self.blocks as u64 >= self.max_lines {
-                    // LinuxCNC would run on for ever; a writer would fill the disk.
-                    self.done = true;
-                    let executed = self.executor.executed();
-                    let e = GcodeError::at(
-                        ErrorKind::EndlessProgram(self.max_lines),
-                        executed.line,
-                        &block.raw,
-                        0,
-                        block.raw.len(),
-                    );
-                    return Some(Err(if executed.file == 0 {
-                        e.with_path(&self.path)
-                    } else {
-                        e.with_path(self.executor.file_name(executed.file))
-                    }));
-                }
                 let result = self.interpreter.interpret_into(block, &mut self.event);
                 if let Err(e) = result {
                     self.done = true;

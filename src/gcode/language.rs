@@ -61,7 +61,16 @@ pub struct LanguageOptions {
     pub lenient: bool,
     /// Honour block delete (`/`): such lines are not executed.
     pub skip_deleted_blocks: bool,
+    /// Most lines a run reads (loops and calls counted each time, O-word lines
+    /// included) before it is refused as an endless loop (`None`:
+    /// [`DEFAULT_MAX_EXECUTED_LINES`]).
+    pub max_executed_lines: Option<u64>,
 }
+
+/// Lines a run may read: a billion, a thousand times the largest real
+/// programs (about 25 GB written flat). LinuxCNC would run an endless loop
+/// for ever, and a writer would fill the disk.
+pub const DEFAULT_MAX_EXECUTED_LINES: u64 = 1_000_000_000;
 
 /// Where an executed block comes from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -126,6 +135,8 @@ struct CachedLine {
 /// The language layer. Call [`Executor::next_block`] until it returns `None`.
 pub struct Executor {
     options: LanguageOptions,
+    /// Lines read so far (the budget of `options.max_executed_lines`).
+    lines_stepped: u64,
     files: Vec<SourceFile>,
     current: usize,
     labels: HashMap<String, LabelEntry>,
@@ -169,6 +180,7 @@ impl Executor {
     pub fn new(input: Box<dyn ProgramInput>, name: &Path, options: LanguageOptions) -> Self {
         Executor {
             options,
+            lines_stepped: 0,
             files: vec![SourceFile {
                 name: name.display().to_string(),
                 path: None,
@@ -291,10 +303,24 @@ impl Executor {
 
     /// Read lines until one executes; `false` at the end of the program.
     fn step(&mut self, params: &mut Parameters) -> Result<bool, GcodeError> {
+        let budget = self
+            .options
+            .max_executed_lines
+            .unwrap_or(DEFAULT_MAX_EXECUTED_LINES);
         loop {
             let Some(block) = self.read_line()? else {
                 return self.end_of_file();
             };
+            self.lines_stepped += 1;
+            if self.lines_stepped > budget {
+                return Err(GcodeError::at(
+                    ErrorKind::EndlessProgram(budget),
+                    block.line,
+                    &block.raw,
+                    0,
+                    block.raw.len(),
+                ));
+            }
             let skipping = self.skipping.is_some() || self.skipping_to_sub;
             if let Some(err) = &block.unparsed {
                 if skipping {

@@ -270,7 +270,10 @@ fn an_endless_loop_is_an_error_not_a_hang() {
         Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
         std::path::Path::new("loop.ngc"),
         ProgramSetup {
-            max_executed_lines: Some(10_000),
+            language: volcomp::gcode::LanguageOptions {
+                max_executed_lines: Some(10_000),
+                ..Default::default()
+            },
             ..ProgramSetup::default()
         },
     );
@@ -283,10 +286,41 @@ fn an_endless_loop_is_an_error_not_a_hang() {
             None => panic!("the endless loop ended"),
         }
     };
-    assert_eq!(steps, 10_000);
+    // The loop's lines, O-word lines included, count.
+    assert!(steps > 1000, "{steps}");
     assert!(
         matches!(err.kind, volcomp::gcode::ErrorKind::EndlessProgram(10_000)),
         "{err}"
     );
     assert!(err.to_string().contains("loop.ngc:"), "{err}");
+}
+
+/// Found by fuzzing: an endless loop with an empty body executes no block,
+/// only O-word lines; they count too.
+#[test]
+fn an_endless_empty_loop_is_an_error_not_a_hang() {
+    let text = "#1 = 0\no1 while [#1 LT 1]\no1 endwhile\nM2\n";
+    let program = Program::new(
+        Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+        std::path::Path::new("loop.ngc"),
+        ProgramSetup {
+            language: volcomp::gcode::LanguageOptions {
+                max_executed_lines: Some(10_000),
+                ..Default::default()
+            },
+            ..ProgramSetup::default()
+        },
+    );
+    let mut run = program.run(interpret_options(Frame::Joint));
+    let err = loop {
+        match run.next() {
+            Some(Ok(_)) => {}
+            Some(Err(e)) => break e,
+            None => panic!("the endless loop ended"),
+        }
+    };
+    assert!(
+        matches!(err.kind, volcomp::gcode::ErrorKind::EndlessProgram(10_000)),
+        "{err}"
+    );
 }
