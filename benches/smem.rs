@@ -11,7 +11,7 @@ use std::time::Instant;
 use criterion::{Criterion, Throughput};
 use volcomp::nurbs::exhaustive::combinations;
 use volcomp::nurbs::synthetic::paper_like_curve;
-use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, SmemCurve, fit_parameter};
+use volcomp::nurbs::{FitOptions, KnotMethod, Selection, ParameterKind, SmemCurve, fit_parameter};
 
 const SEED: u64 = 3;
 const CONTROL_POINTS: usize = 10;
@@ -25,6 +25,7 @@ fn fit(method: KnotMethod, grid: Option<usize>, weights: bool) -> (SmemCurve, f6
         optimise_weights: weights,
         tolerance: Some(0.0),
         exhaustive_limit: u64::MAX,
+        select: Selection::Emax,
         ..FitOptions::default()
     };
     let t = Instant::now();

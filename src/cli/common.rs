@@ -50,15 +50,19 @@ pub struct ModelArgs {
     /// What a lookup outside an error table does.
     #[arg(long, value_enum, default_value = "error")]
     pub extrapolate: Extrapolate,
-    /// Knot placement of the SMEM fit of the tables: ukm, epm, lam, ga, exhaustive
-    /// or best (the default; see `volcomp fit`).
+    /// How the SMEM fit of the tables chooses each curve: cv (cross-validation,
+    /// the default) or emax (the paper's tolerance; see `volcomp fit`).
     #[arg(
         long,
-        default_value = "best",
-        value_name = "METHOD",
+        default_value = "cv",
+        value_name = "cv|emax",
         conflicts_with = "model"
     )]
-    pub fit_method: KnotMethod,
+    pub fit_select: crate::nurbs::Selection,
+    /// Knot placement of the --fit-select emax fit: ukm, epm, lam, ga, exhaustive
+    /// or best (the default).
+    #[arg(long, value_name = "METHOD", conflicts_with = "model")]
+    pub fit_method: Option<KnotMethod>,
     /// Use the curves of a fitted-model file (`volcomp fit MACHINE --report FILE`)
     /// instead of fitting the tables again (faster; checked against the tables).
     #[arg(long, value_name = "FILE.json")]
@@ -69,8 +73,26 @@ pub struct ModelArgs {
     pub exact_lookups: bool,
 }
 
+impl ModelArgs {
+    /// How the model is fitted, for stamps and reports: `cv`, or `emax METHOD`.
+    pub fn fit_description(&self) -> String {
+        match self.fit_select {
+            crate::nurbs::Selection::Cv => "cv".to_string(),
+            crate::nurbs::Selection::Emax => {
+                format!("emax {}", self.fit_method.unwrap_or_default())
+            }
+        }
+    }
+}
+
 /// Load a machine and fit its error model, printing what was not measured to stderr.
 pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
+    if args.fit_select == crate::nurbs::Selection::Cv && args.fit_method.is_some() {
+        return Err(super::UsageError(
+            "--fit-method belongs to the paper's selection: add --fit-select emax".into(),
+        )
+        .into());
+    }
     let policy: ExtrapolationPolicy = args.extrapolate.into();
     let options = crate::machine::LoadOptions {
         extrapolation: policy,
@@ -79,7 +101,8 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
     let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
         fit: crate::nurbs::FitOptions {
-            method: args.fit_method,
+            select: args.fit_select,
+            method: args.fit_method.unwrap_or_default(),
             ..Default::default()
         },
         exact_lookups: args.exact_lookups,

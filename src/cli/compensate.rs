@@ -94,7 +94,7 @@ Give the original program, or --force to compensate it anyway",
         model_fnv1a64: model_hash(&machine)?.hex(),
         model_source: match &args.machine.model.model {
             Some(file) => format!("model {}", file.display()),
-            None => format!("fit {}", args.machine.model.fit_method),
+            None => format!("fit {}", args.machine.model.fit_description()),
         },
         tool_length_mm: machine.tool.length,
         tolerance_um: args.tol,

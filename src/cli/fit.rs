@@ -9,49 +9,64 @@ use crate::axes::Axis;
 use crate::machine::table::ErrorTable;
 use crate::nurbs::plot::{PlotLabels, plot_fit};
 use crate::nurbs::{
-    FitOptions, KnotMethod, ParameterFit, ParameterKind, SmemModelFile, fit_parameter, fnv1a64,
+    FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fit_parameter,
+    fnv1a64,
 };
 
 const AFTER_HELP: &str = "\
 Examples:
   volcomp fit machines/ref-trt.toml
   volcomp fit machines/ref-trt.toml --report fit.json --plot fit-plots
-  volcomp fit machines/ref-trt/x.csv --method ga --seed 7
-  volcomp fit machines/ref-trt/a.csv --tol 0.3 --tol-angle 0.8 --method exhaustive --control-points 8
+  volcomp fit machines/ref-trt/x.csv --select emax --method ga --seed 7
+  volcomp fit machines/ref-trt/a.csv --select emax --tol 0.3 --tol-angle 0.8 --method exhaustive --control-points 8
 
-Each measured column is fitted with a cubic NURBS (He et al. 2016): knots by the chosen
-method, weights optimised, control points added until the largest error at the measured
-points is within tolerance (default 0.5 um for lengths, 1.0 urad for angles). A parameter
-that misses its tolerance is reported and makes the command fail (exit 1) after the
-report is written.";
+Each measured column is fitted with a cubic NURBS. By default (--select cv) the curve
+follows the machine, not the measurement noise: a penalised cubic B-spline whose number
+of control points and smoothness minimise generalised cross-validation, periodic over a
+full C turn. The table shows each parameter's estimated noise (from the data alone), the
+effective number of parameters (dof) and the cross-validated error (cv: the expected RMS
+error at a new measurement of that table).
+
+--select emax is the paper's (He et al. 2016): knots by --method, weights optimised,
+control points added until the largest error at the measured points is within tolerance
+(default 0.5 um for lengths, 1.0 urad for angles). A parameter that misses its tolerance
+is reported and makes the command fail (exit 1) after the report is written.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// A machine file (TOML, its [errors] tables are fitted) or one error table (CSV).
     pub input: PathBuf,
+    /// How each curve's complexity is chosen: cv (cross-validation, noise-aware)
+    /// or emax (the paper's tolerance on the largest error).
+    #[arg(long, default_value = "cv", value_name = "cv|emax")]
+    pub select: Selection,
     /// Tolerance on the largest error at the measured points, in table units
     /// (um for lengths; also urad for angles unless --tol-angle is given).
+    /// With --select emax.
     #[arg(long, value_name = "UM")]
     pub tol: Option<f64>,
-    /// Tolerance for angular parameters, urad.
+    /// Tolerance for angular parameters, urad. With --select emax.
     #[arg(long, value_name = "URAD")]
     pub tol_angle: Option<f64>,
-    /// Knot placement: ukm, epm, lam, ga, exhaustive or best.
-    #[arg(long, default_value = "best")]
-    pub method: KnotMethod,
+    /// Knot placement: ukm, epm, lam, ga, exhaustive or best (the default).
+    /// With --select emax.
+    #[arg(long)]
+    pub method: Option<KnotMethod>,
     /// Fixed number of control points (no adaptive growth).
     #[arg(long, value_name = "N")]
     pub control_points: Option<usize>,
     /// Segments M of the candidate-knot grid (ga, exhaustive, best).
+    /// With --select emax.
     #[arg(long, value_name = "M")]
     pub grid: Option<usize>,
-    /// Keep all weights at 1 (plain B-spline fits).
+    /// Keep all weights at 1 (plain B-spline fits). With --select emax.
     #[arg(long)]
     pub no_weights: bool,
-    /// Seed of the genetic algorithm and the optimiser's random restarts.
-    #[arg(long, default_value_t = 2016)]
-    pub seed: u64,
+    /// Seed of the genetic algorithm and the optimiser's random restarts
+    /// (default 2016). With --select emax.
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Axis of a CSV table (default: inferred from the column names).
     #[arg(long, value_name = "AXIS", value_parser = parse_axis)]
     pub axis: Option<Axis>,
@@ -109,14 +124,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
     }
+    if args.select == Selection::Cv {
+        let emax_only = [
+            ("--tol", args.tol.is_some()),
+            ("--tol-angle", args.tol_angle.is_some()),
+            ("--method", args.method.is_some()),
+            ("--grid", args.grid.is_some()),
+            ("--no-weights", args.no_weights),
+            ("--seed", args.seed.is_some()),
+        ];
+        let given: Vec<&str> = emax_only.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect();
+        if !given.is_empty() {
+            return Err(super::UsageError(format!(
+                "{} belong(s) to the paper's selection: add --select emax (the default, \
+--select cv, chooses each curve by cross-validation and has no tolerance, knot method or seed)",
+                given.join(", ")
+            ))
+            .into());
+        }
+    }
     let tables = load_tables(args)?;
+    let defaults = FitOptions::default();
     let base = FitOptions {
-        method: args.method,
+        select: args.select,
+        method: args.method.unwrap_or(defaults.method),
         control_points: args.control_points,
         grid_segments: args.grid,
         optimise_weights: !args.no_weights,
-        seed: args.seed,
-        ..FitOptions::default()
+        seed: args.seed.unwrap_or(defaults.seed),
+        ..defaults
     };
     let jobs: Vec<Job<'_>> = tables
         .iter()
@@ -150,6 +186,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             };
             let options = FitOptions {
                 tolerance,
+                periodic: job.table.one_revolution,
                 ..base.clone()
             };
             fit_parameter(&job.table.positions, &column.values, job.kind, &options).with_context(
@@ -161,9 +198,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         parameters: Vec::new(),
         not_measured: Vec::new(),
     };
-    crate::outln!(
-        "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
-    );
+    let cv = args.select == Selection::Cv;
+    if cv {
+        crate::outln!(
+            "axis  parameter  samples  ctrl  dof    noise     cv        emax      unit  periodic  seconds"
+        );
+    } else {
+        crate::outln!(
+            "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
+        );
+    }
     for (job, curve) in jobs.iter().zip(&fits) {
         let column = &job.table.columns[job.column];
         let table_index = tables
@@ -178,6 +222,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             &job.table.path.display().to_string(),
             hashes[table_index],
         );
+        if cv {
+            let s = &entry.stats;
+            crate::outln!(
+                "{:<4}  {:<9}  {:>7}  {:>4}  {:>5.1}  {:>8.4}  {:>8.4}  {:>8.4}  {:<4}  {:<8}  {:>7.3}",
+                entry.axis,
+                entry.parameter,
+                s.samples,
+                s.control_points,
+                s.dof,
+                s.noise,
+                s.cv_error,
+                s.emax,
+                entry.unit,
+                if s.periodic { "yes" } else { "no" },
+                s.seconds
+            );
+            report.parameters.push(entry);
+            continue;
+        }
         crate::outln!(
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
@@ -206,16 +269,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let missed: Vec<&str> = report
         .parameters
         .iter()
-        .filter(|p| !p.stats.met)
+        .filter(|p| !cv && !p.stats.met)
         .map(|p| p.parameter.as_str())
         .collect();
-    crate::outln!(
-        "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
-        report.parameters.len(),
-        args.method,
-        started.elapsed().as_secs_f64(),
-        report.parameters.len() - missed.len()
-    );
+    if cv {
+        crate::outln!(
+            "{} parameters fitted by cross-validation in {:.2} s",
+            report.parameters.len(),
+            started.elapsed().as_secs_f64(),
+        );
+    } else {
+        crate::outln!(
+            "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
+            report.parameters.len(),
+            base.method,
+            started.elapsed().as_secs_f64(),
+            report.parameters.len() - missed.len()
+        );
+    }
     if let Some(path) = &args.report {
         crate::io::write_json_atomic(path, &report)?;
         crate::outln!("report: {}", path.display());
@@ -243,14 +314,24 @@ fn write_plots(
     for (job, curve) in jobs.iter().zip(fits) {
         let column = &job.table.columns[job.column];
         let s = curve.stats();
-        let title = format!(
-            "{}: {} control points, {} knots, Emax {:.3} {}",
-            column.name,
-            s.control_points,
-            s.method,
-            s.emax,
-            job.kind.unit()
-        );
+        let title = match s.select {
+            Selection::Cv => format!(
+                "{}: {} control points, cross-validated (dof {:.1}, noise {:.3} {})",
+                column.name,
+                s.control_points,
+                s.dof,
+                s.noise,
+                job.kind.unit()
+            ),
+            Selection::Emax => format!(
+                "{}: {} control points, {} knots, Emax {:.3} {}",
+                column.name,
+                s.control_points,
+                s.method,
+                s.emax,
+                job.kind.unit()
+            ),
+        };
         let x_label = if job.table.axis.is_rotary() {
             "Axis position (deg)"
         } else {

@@ -168,7 +168,11 @@ impl ErrorModel {
                 } else {
                     ParameterKind::Angle
                 };
-                fit_parameter(&table.positions, &column.values, kind, &options.fit)
+                let fit = crate::nurbs::FitOptions {
+                    periodic: table.one_revolution,
+                    ..options.fit.clone()
+                };
+                fit_parameter(&table.positions, &column.values, kind, &fit)
                     .map(|curve| (*slot, *k, curve))
                     .map_err(|source| ModelError::Fit {
                         table: table.path.clone(),

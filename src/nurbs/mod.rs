@@ -22,6 +22,7 @@ pub mod parameterization;
 pub mod plot;
 pub mod problem;
 pub mod smem;
+pub mod smoothing;
 pub mod surface;
 pub mod synthetic;
 
@@ -30,7 +31,7 @@ pub use genetic::GaSettings;
 pub use model_file::{ParameterFit, SmemModelFile, fnv1a64};
 pub use parameterization::Parameterization;
 pub use smem::{
-    FitError, FitOptions, FitStats, KnotMethod, ParameterKind, SmemCurve, SmemCurveData,
+    FitError, FitOptions, FitStats, KnotMethod, ParameterKind, Selection, SmemCurve, SmemCurveData,
     fit_parameter,
 };
 pub use surface::{NurbsSurface, SurfaceError, SurfaceFitOptions, fit_surface};

@@ -37,6 +37,10 @@ pub struct ParameterFit {
     /// The table file and the FNV-1a 64 hash of its bytes (16 hex digits).
     pub table: String,
     pub table_hash: String,
+    /// `(position, standard uncertainty)` of the curve at the table's positions
+    /// (extension; absent in files written before it).
+    #[serde(default)]
+    pub uncertainty: Vec<[f64; 2]>,
 }
 
 impl ParameterFit {
@@ -59,6 +63,7 @@ impl ParameterFit {
             points: curve.control_points().to_vec(),
             table: table.to_string(),
             table_hash: format!("{table_hash:016x}"),
+            uncertainty: curve.uncertainty().to_vec(),
         }
     }
 
@@ -71,7 +76,10 @@ impl ParameterFit {
             self.points.clone(),
         )
         .map_err(|e| e.to_string())?;
-        SmemCurve::from_curve(curve, self.stats.clone()).map_err(|e| e.to_string())
+        let mut curve =
+            SmemCurve::from_curve(curve, self.stats.clone()).map_err(|e| e.to_string())?;
+        curve.set_uncertainty(self.uncertainty.clone())?;
+        Ok(curve)
     }
 }
 

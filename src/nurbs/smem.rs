@@ -27,6 +27,7 @@ use super::lookup::CurveLookup;
 use super::optimise;
 use super::parameterization::Parameterization;
 use super::problem::{Candidate, FitProblem};
+use super::smoothing;
 
 /// How the interior knots are chosen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -116,6 +117,46 @@ impl ParameterKind {
     }
 }
 
+/// How the complexity of a curve is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Selection {
+    /// Noise-aware (the default): a penalised cubic B-spline whose control
+    /// points and smoothness minimise generalised cross-validation
+    /// ([`super::smoothing`]); periodic over a full C turn.
+    #[default]
+    Cv,
+    /// The paper's: the fewest control points whose largest error at the data
+    /// points is within the tolerance (knots by [`KnotMethod`], weights optimised).
+    Emax,
+}
+
+impl Selection {
+    pub fn name(self) -> &'static str {
+        match self {
+            Selection::Cv => "cv",
+            Selection::Emax => "emax",
+        }
+    }
+}
+
+impl std::fmt::Display for Selection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Selection {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "cv" => Ok(Selection::Cv),
+            "emax" => Ok(Selection::Emax),
+            _ => Err(format!("unknown selection `{s}` (expected cv or emax)")),
+        }
+    }
+}
+
 /// Settings of a fit. `Default` is the SMEM as used by `volcomp fit`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FitOptions {
@@ -140,6 +181,14 @@ pub struct FitOptions {
     /// Seed of every random choice (GA, local-search restarts): fits are reproducible.
     pub seed: u64,
     pub ga: GaSettings,
+    /// How the complexity is chosen (cross-validation, or the paper's Emax).
+    #[serde(default)]
+    pub select: Selection,
+    /// The table is one revolution of a rotary axis (0…360°): the curve's value
+    /// and first two derivatives agree at both ends (`Selection::Cv` only; the
+    /// paper's fits are not periodic).
+    #[serde(default)]
+    pub periodic: bool,
 }
 
 impl Default for FitOptions {
@@ -156,6 +205,8 @@ impl Default for FitOptions {
             exhaustive_limit: 5_000_000,
             seed: 2016,
             ga: GaSettings::default(),
+            select: Selection::Cv,
+            periodic: false,
         }
     }
 }
@@ -176,6 +227,28 @@ pub struct FitStats {
     /// Least-squares fits evaluated.
     pub evaluations: u64,
     pub seconds: f64,
+    /// How the complexity was chosen.
+    #[serde(default = "emax_selection")]
+    pub select: Selection,
+    /// Noise of the table estimated from the data alone (difference-based),
+    /// table units.
+    #[serde(default)]
+    pub noise: f64,
+    /// Effective number of parameters of the curve (trace of the smoother;
+    /// control points + free interior knots for the paper's fits).
+    #[serde(default)]
+    pub dof: f64,
+    /// Cross-validated error `√GCV`: the expected RMS error at a new
+    /// measurement of the table, table units.
+    #[serde(default)]
+    pub cv_error: f64,
+    /// Periodic over one revolution.
+    #[serde(default)]
+    pub periodic: bool,
+}
+
+fn emax_selection() -> Selection {
+    Selection::Emax
 }
 
 /// A fitted SMEM curve: the NURBS `(x(u), y(u))` in table units, its lookup table
@@ -186,6 +259,8 @@ pub struct SmemCurve {
     curve: NurbsCurve,
     lookup: CurveLookup,
     stats: FitStats,
+    /// `(position, standard uncertainty)` at the fitted samples, increasing.
+    uncertainty: Vec<[f64; 2]>,
 }
 
 /// The serialised form of [`SmemCurve`]; the lookup is rebuilt (and the curve
@@ -197,6 +272,10 @@ pub struct SmemCurveData {
     pub weights: Vec<f64>,
     pub control_points: Vec<[f64; 2]>,
     pub stats: FitStats,
+    /// `(position, standard uncertainty)` of the curve at the fitted samples
+    /// (empty in files written before uncertainties were reported).
+    #[serde(default)]
+    pub uncertainty: Vec<[f64; 2]>,
 }
 
 impl From<SmemCurve> for SmemCurveData {
@@ -207,6 +286,7 @@ impl From<SmemCurve> for SmemCurveData {
             weights: c.curve.weights,
             control_points: c.curve.points,
             stats: c.stats,
+            uncertainty: c.uncertainty,
         }
     }
 }
@@ -216,7 +296,9 @@ impl TryFrom<SmemCurveData> for SmemCurve {
     fn try_from(d: SmemCurveData) -> Result<Self, String> {
         let curve = NurbsCurve::new(d.degree, d.knots, d.weights, d.control_points)
             .map_err(|e| e.to_string())?;
-        SmemCurve::from_curve(curve, d.stats).map_err(|e| e.to_string())
+        let mut c = SmemCurve::from_curve(curve, d.stats).map_err(|e| e.to_string())?;
+        c.set_uncertainty(d.uncertainty)?;
+        Ok(c)
     }
 }
 
@@ -231,7 +313,45 @@ impl SmemCurve {
             curve,
             lookup,
             stats,
+            uncertainty: Vec::new(),
         })
+    }
+
+    /// Attach the standard uncertainty of the curve at increasing positions
+    /// (finite, ≥ 0).
+    pub fn set_uncertainty(&mut self, pairs: Vec<[f64; 2]>) -> Result<(), String> {
+        if pairs
+            .iter()
+            .any(|[x, u]| !x.is_finite() || !u.is_finite() || *u < 0.0)
+            || pairs.windows(2).any(|w| w[1][0] <= w[0][0])
+        {
+            return Err("uncertainties must be finite, >= 0, at increasing positions".into());
+        }
+        self.uncertainty = pairs;
+        Ok(())
+    }
+
+    /// Standard uncertainty of the fitted error at `position` (table units),
+    /// interpolated linearly between the fitted samples and held beyond them;
+    /// `None` when the curve carries none (older model files).
+    pub fn uncertainty_at(&self, position: f64) -> Option<f64> {
+        let u = &self.uncertainty;
+        let first = u.first()?;
+        let last = u[u.len() - 1];
+        if !(position > first[0]) {
+            return Some(first[1]);
+        }
+        if position >= last[0] {
+            return Some(last[1]);
+        }
+        let k = u.partition_point(|p| p[0] <= position);
+        let ([x0, u0], [x1, u1]) = (u[k - 1], u[k]);
+        Some(u0 + (u1 - u0) * (position - x0) / (x1 - x0))
+    }
+
+    /// The `(position, uncertainty)` pairs the curve carries.
+    pub fn uncertainty(&self) -> &[[f64; 2]] {
+        &self.uncertainty
     }
 
     /// The fitted error at `position` (table units): `y(u)` with `x(u) = position`,
@@ -458,6 +578,9 @@ pub fn fit_parameter(
             (p + 1..=cap).collect()
         }
     };
+    if options.select == Selection::Cv {
+        return fit_cross_validated(positions, values, tolerance, options, started);
+    }
     let problem = FitProblem::new(positions, values, p, options.parameterization);
     let problem = match options.method {
         KnotMethod::Ukm | KnotMethod::Epm | KnotMethod::Lam => problem,
@@ -483,9 +606,19 @@ pub fn fit_parameter(
     }
     let placed = best.ok_or(FitError::NoFeasibleFit)?;
     let c = placed.candidate;
+    let count = c.curve.points.len();
+    let free_knots = matches!(
+        options.method,
+        KnotMethod::Ga | KnotMethod::Exhaustive | KnotMethod::Best
+    );
+    let dof = (count + if free_knots { count - p - 1 } else { 0 }) as f64;
+    let rss: f64 = c.residuals.iter().map(|r| r * r).sum();
+    let n = samples as f64;
+    let residual_sigma = (rss / (n - dof).max(1.0)).sqrt();
+    let uncertainty = leverage_uncertainty(&problem, &c.curve, residual_sigma);
     let stats = FitStats {
         samples,
-        control_points: c.curve.points.len(),
+        control_points: count,
         method: options.method,
         emax: c.emax,
         erms: c.erms,
@@ -494,10 +627,106 @@ pub fn fit_parameter(
         grid_segments: placed.grid,
         evaluations,
         seconds: started.elapsed().as_secs_f64(),
+        select: Selection::Emax,
+        noise: smoothing::estimate_noise(positions, values),
+        dof,
+        cv_error: if n - dof >= 1.0 {
+            (n * rss / (n - dof).powi(2)).sqrt()
+        } else {
+            f64::INFINITY
+        },
+        periodic: false,
     };
-    Ok(SmemCurve {
+    let mut curve = SmemCurve {
         curve: c.curve,
         lookup: c.lookup,
         stats,
-    })
+        uncertainty: Vec::new(),
+    };
+    curve
+        .set_uncertainty(positions.iter().copied().zip(uncertainty).map(|(x, u)| [x, u]).collect())
+        .map_err(FitError::Options)?;
+    Ok(curve)
+}
+
+/// Standard uncertainty of a least-squares curve at its samples:
+/// `σ̂ √h_kk`, `h` the hat matrix of the fit with its final knots and weights
+/// (the knot search and the pinned end points are not counted).
+fn leverage_uncertainty(problem: &FitProblem, curve: &NurbsCurve, sigma: f64) -> Vec<f64> {
+    use nalgebra::DMatrix;
+    let count = curve.points.len();
+    let rows = problem.params.len();
+    let mut a = DMatrix::<f64>::zeros(rows, count);
+    let mut row = vec![0.0; count];
+    for (k, &u) in problem.params.iter().enumerate() {
+        super::least_squares::rational_row(u, curve.degree, &curve.knots, &curve.weights, &mut row);
+        for (j, v) in row.iter().enumerate() {
+            a[(k, j)] = *v;
+        }
+    }
+    let gram = a.transpose() * &a;
+    match gram.try_inverse() {
+        Some(inv) => (0..rows)
+            .map(|k| {
+                let r = a.row(k);
+                let h = (r * &inv * r.transpose())[(0, 0)].clamp(0.0, 1.0);
+                sigma * h.sqrt()
+            })
+            .collect(),
+        // A rank-deficient basis at the samples: every sample carries its noise.
+        None => vec![sigma; rows],
+    }
+}
+
+/// The noise-aware fit ([`Selection::Cv`]).
+fn fit_cross_validated(
+    positions: &[f64],
+    values: &[f64],
+    tolerance: f64,
+    options: &FitOptions,
+    started: Instant,
+) -> Result<SmemCurve, FitError> {
+    let fit = smoothing::fit_smoothing(
+        positions,
+        values,
+        &smoothing::SmoothingOptions {
+            degree: options.degree,
+            periodic: options.periodic,
+            max_control_points: options.max_control_points,
+            control_points: options.control_points,
+            ..smoothing::SmoothingOptions::default()
+        },
+    )?;
+    let emax = fit.residuals.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    let erms = (fit.residuals.iter().map(|e| e * e).sum::<f64>() / fit.residuals.len() as f64)
+        .sqrt();
+    let stats = FitStats {
+        samples: positions.len(),
+        control_points: fit.curve.points.len(),
+        method: options.method,
+        emax,
+        erms,
+        tolerance,
+        met: emax <= tolerance,
+        grid_segments: None,
+        evaluations: fit.evaluations,
+        seconds: started.elapsed().as_secs_f64(),
+        select: Selection::Cv,
+        noise: fit.noise,
+        dof: fit.dof,
+        cv_error: fit.cv_error,
+        periodic: options.periodic,
+    };
+    let mut curve = SmemCurve::from_curve(fit.curve, stats).map_err(|_| FitError::NoFeasibleFit)?;
+    curve
+        .set_uncertainty(
+            positions
+                .iter()
+                .copied()
+                .zip(fit.uncertainty)
+                .map(|(x, u)| [x, u])
+                .collect(),
+        )
+        .map_err(FitError::Options)?;
+    Ok(curve)
 }

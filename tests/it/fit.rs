@@ -7,8 +7,70 @@ use volcomp::machine::table::ErrorTable;
 
 use crate::support::volcomp;
 
-/// Every parameter of the reference machine is fitted within tolerance; the
-/// printed table (timing column removed, errors rounded to 0.01) is stable.
+/// The default fit (`--select cv`) of the reference machine: the printed table
+/// (timing removed, rounded) is stable, C curves are periodic, and the report
+/// carries each parameter's noise, dof, cross-validated error and uncertainty.
+#[test]
+fn reference_machine_fits_by_cross_validation() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("fit.json");
+    let out = volcomp()
+        .arg("fit")
+        .arg(root().join("machines/ref-trt.toml"))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(out.status.success(), "{stdout}");
+    let rows: Vec<String> = stdout
+        .lines()
+        .filter(|l| l.split_whitespace().count() == 11 && !l.starts_with("axis"))
+        .map(|line| {
+            let f: Vec<&str> = line.split_whitespace().collect();
+            let round = |s: &str, d: usize| format!("{:.*}", d, s.parse::<f64>().unwrap());
+            format!(
+                "{} {} samples={} ctrl={} dof={} noise={} cv={} emax={} {} periodic={}",
+                f[0],
+                f[1],
+                f[2],
+                f[3],
+                round(f[4], 1),
+                round(f[5], 2),
+                round(f[6], 2),
+                round(f[7], 2),
+                f[8],
+                f[9]
+            )
+        })
+        .collect();
+    assert_eq!(rows.len(), 30, "{stdout}");
+    for r in &rows {
+        assert_eq!(r.starts_with("C "), r.ends_with("periodic=yes"), "{r}");
+    }
+    insta::assert_snapshot!(rows.join("\n"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    for p in json["parameters"].as_array().unwrap() {
+        let stats = |k: &str| p[k].as_f64().unwrap_or_else(|| panic!("report lacks {k}"));
+        assert_eq!(p["select"], "cv");
+        let (noise, dof, cv) = (stats("noise"), stats("dof"), stats("cv_error"));
+        assert!(noise > 0.0 && cv > 0.0 && dof >= 3.0, "{p}");
+        let u = p["uncertainty"].as_array().unwrap();
+        assert_eq!(u.len() as f64, stats("samples"));
+        // A smoother averages: the curve is surer than one measurement.
+        for pair in u {
+            let v = pair[1].as_f64().unwrap();
+            assert!(v > 0.0 && v < cv, "{} uncertainty {v} vs cv {cv}", p["parameter"]);
+        }
+        let fit: volcomp::nurbs::ParameterFit = serde_json::from_value(p.clone()).unwrap();
+        fit.to_curve().unwrap();
+    }
+}
+
+/// The paper's selection (`--select emax`): every parameter of the reference
+/// machine is fitted within tolerance; the printed table (timing column removed,
+/// errors rounded to 0.01) is stable.
 #[test]
 fn reference_machine_fits_within_tolerance() {
     let dir = tempfile::tempdir().unwrap();
@@ -16,6 +78,7 @@ fn reference_machine_fits_within_tolerance() {
     let out = volcomp()
         .arg("fit")
         .arg(root().join("machines/ref-trt.toml"))
+        .args(["--select", "emax"])
         .arg("--report")
         .arg(&report)
         .output()
@@ -87,6 +150,8 @@ fn one_table_with_a_method_and_plots() {
         .arg("fit")
         .arg(root().join("machines/ref-trt/z.csv"))
         .args([
+            "--select",
+            "emax",
             "--method",
             "ga",
             "--seed",
@@ -112,7 +177,7 @@ fn missed_tolerance_fails_clearly() {
     let out = volcomp()
         .arg("fit")
         .arg(root().join("machines/ref-trt/y.csv"))
-        .args(["--tol", "0.001", "--control-points", "5", "--method", "lam"])
+        .args(["--select", "emax", "--tol", "0.001", "--control-points", "5", "--method", "lam"])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
@@ -206,4 +271,21 @@ fn bad_tables_name_file_line_and_column() {
     let out = volcomp().arg("fit").arg(&bad).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("line 11, column 2 (EXX)"));
+}
+
+/// The paper's settings without `--select emax` are refused, not ignored.
+#[test]
+fn tolerance_without_emax_selection_is_a_usage_error() {
+    let out = volcomp()
+        .arg("fit")
+        .arg(root().join("machines/ref-trt.toml"))
+        .args(["--tol", "0.3", "--method", "ga"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--tol, --method belong(s) to the paper's selection: add --select emax"),
+        "{stderr}"
+    );
 }

@@ -6,7 +6,7 @@ use volcomp::nurbs::knot_vector::{clamped, greville};
 use volcomp::nurbs::least_squares::fit_control_points;
 use volcomp::nurbs::synthetic::paper_like_curve;
 use volcomp::nurbs::{
-    FitOptions, KnotMethod, NurbsCurve, ParameterKind, SmemCurve, SurfaceFitOptions, fit_parameter,
+    FitOptions, KnotMethod, Selection, NurbsCurve, ParameterKind, SmemCurve, SurfaceFitOptions, fit_parameter,
     fit_surface,
 };
 
@@ -69,6 +69,7 @@ fn paper_fit() -> &'static SmemCurve {
             ParameterKind::Length,
             &FitOptions {
                 control_points: Some(10),
+                select: Selection::Emax,
                 ..FitOptions::default()
             },
         )
@@ -84,6 +85,7 @@ fn fixed(method: KnotMethod, grid: Option<usize>, seed: u64) -> SmemCurve {
         grid_segments: grid,
         optimise_weights: false,
         seed,
+        select: Selection::Emax,
         ..FitOptions::default()
     };
     fit_parameter(&x, &y, ParameterKind::Length, &options).unwrap()
@@ -102,6 +104,7 @@ fn ga_is_reproducible_with_a_seed() {
         control_points: Some(8),
         tolerance: Some(0.0),
         seed: 5,
+        select: Selection::Emax,
         ..FitOptions::default()
     };
     let w1 = fit_parameter(&x, &y, ParameterKind::Length, &o).unwrap();
@@ -144,6 +147,7 @@ fn weights_never_make_the_fit_worse() {
             method,
             control_points: Some(9),
             tolerance: Some(0.0),
+            select: Selection::Emax,
             ..FitOptions::default()
         };
         let unit = fit_parameter(
@@ -170,6 +174,7 @@ fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
         ParameterKind::Length,
         &FitOptions {
             tolerance: Some(1.2),
+            select: Selection::Emax,
             ..FitOptions::default()
         },
     )
@@ -183,6 +188,7 @@ fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
         &FitOptions {
             control_points: Some(met.stats().control_points - 1),
             tolerance: Some(1.2),
+            select: Selection::Emax,
             ..FitOptions::default()
         },
     )
@@ -195,6 +201,7 @@ fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
         &FitOptions {
             tolerance: Some(0.01),
             max_control_points: Some(6),
+            select: Selection::Emax,
             ..FitOptions::default()
         },
     )
