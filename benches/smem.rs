@@ -128,6 +128,18 @@ fn criterion_benches(c: &mut Criterion) {
             s
         })
     });
+    // The default fit (--select cv): a penalised B-spline, x(u) linear.
+    let (cx, cy) = paper_like_curve(SEED);
+    let cv = fit_parameter(&cx, &cy, ParameterKind::Length, &FitOptions::default()).expect("fit");
+    group.bench_function("value_at x1024, default cv fit", |b| {
+        b.iter(|| {
+            let mut s = 0.0;
+            for &q in &queries {
+                s += cv.value_at(black_box(q));
+            }
+            s
+        })
+    });
     // Baseline in the same run: the paper's binary search on u (bisection to 1e-12).
     let nurbs = curve.curve().clone();
     group.bench_function("bisection x1024 (baseline)", |b| {
@@ -165,6 +177,9 @@ fn criterion_benches(c: &mut Criterion) {
     for method in [KnotMethod::Ukm, KnotMethod::Ga, KnotMethod::Best] {
         group.bench_function(method.name(), |b| b.iter(|| fit(method, Some(13), false)));
     }
+    group.bench_function("cv (default, count and smoothness chosen)", |b| {
+        b.iter(|| fit_parameter(&cx, &cy, ParameterKind::Length, &FitOptions::default()))
+    });
     group.finish();
 }
 

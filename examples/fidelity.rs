@@ -28,6 +28,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use std::f64::consts::PI;
+use volcomp::axes::Axes;
+use volcomp::kinematics::{ErrorValues, Kinematics};
+use volcomp::machine::Machine;
 use volcomp::nurbs::smem::{FitOptions, KnotMethod, ParameterKind, Selection, fit_parameter};
 
 /// One tabulated parameter with its truth.
@@ -215,6 +218,68 @@ fn models(p: &Parameter) -> Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>> {
     ]
 }
 
+/// The 30 errors of one machine at `joints` from per-parameter functions in
+/// [`machine`]'s order (X, Y, Z, A, C × δx δy δz εx εy εz); C wraps.
+fn errors_at(f: &[&(dyn Fn(f64) -> f64 + Send + Sync)], joints: &Axes) -> ErrorValues {
+    let mut v = ErrorValues::ZERO;
+    let positions = [joints.x, joints.y, joints.z, joints.a, joints.c.rem_euclid(360.0)];
+    for slot in 0..5 {
+        for k in 0..6 {
+            v.component[slot][k] = f[slot * 6 + k](positions[slot]);
+        }
+    }
+    v
+}
+
+/// Joints whose tip lands on the nominal tip of `nominal` according to the
+/// errors `model` (A, C as programmed): Newton on X Y Z.
+fn compensate(kin: &Kinematics, model: &[&(dyn Fn(f64) -> f64 + Send + Sync)], nominal: &Axes) -> Axes {
+    let target = kin.nominal_tip(nominal);
+    let mut q = *nominal;
+    for _ in 0..6 {
+        let errors = errors_at(model, &q);
+        let e = kin.volumetric_error(&q, &errors).e_um;
+        let tip = kin.nominal_tip(&q);
+        let r: Vec<f64> = (0..3).map(|i| tip[i] + 1e-3 * e[i] - target[i]).collect();
+        let j = kin.tip_jacobian(&q, &errors);
+        let m = nalgebra::Matrix3::from_fn(|row, col| j[row][col]);
+        let d = m.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2])).expect("regular");
+        q.x -= d[0];
+        q.y -= d[1];
+        q.z -= d[2];
+    }
+    q
+}
+
+/// Per model: RMS |e_model − e_true| over `poses`, and the closed loop: RMS
+/// distance of the TRUE tip from the target after compensating with the model.
+fn volumetric(
+    kin: &Kinematics,
+    models: &[Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>>],
+    truths: &[&(dyn Fn(f64) -> f64 + Send + Sync)],
+    poses: &[Axes],
+) -> ([f64; M], [f64; M], f64) {
+    let mut e_rms = [0.0; M];
+    let mut loop_rms = [0.0; M];
+    let mut before = 0.0;
+    for q in poses {
+        let truth = kin.volumetric_error(q, &errors_at(truths, q)).e_um;
+        before += truth.iter().map(|v| v * v).sum::<f64>();
+        for k in 0..M {
+            let f: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> = models.iter().map(|m| m[k].as_ref()).collect();
+            let e = kin.volumetric_error(q, &errors_at(&f, q)).e_um;
+            e_rms[k] += (0..3).map(|i| (e[i] - truth[i]).powi(2)).sum::<f64>();
+            let c = compensate(kin, &f, q);
+            let tip = kin.nominal_tip(&c);
+            let real = kin.volumetric_error(&c, &errors_at(truths, &c)).e_um;
+            let target = kin.nominal_tip(q);
+            loop_rms[k] += (0..3).map(|i| (1e3 * (tip[i] - target[i]) + real[i]).powi(2)).sum::<f64>();
+        }
+    }
+    let n = poses.len() as f64;
+    (e_rms.map(|v| (v / n).sqrt()), loop_rms.map(|v| (v / n).sqrt()), (before / n).sqrt())
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let machines: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(20);
@@ -228,14 +293,20 @@ fn main() {
     let mut parameters = 0usize;
     // How often the last model (the candidate) beats each other one.
     let mut beats = [0usize; M];
+    let kin = Machine::load(std::path::Path::new("machines/ref-trt.toml"))
+        .expect("run from the project root: machines/ref-trt.toml")
+        .kinematics_model();
+    let (mut e_sum, mut loop_sum, mut before_sum) = ([0.0f64; M], [0.0f64; M], 0.0);
     for m in 0..machines {
         let table = machine(seed + m);
-        // One row per parameter, in parallel over parameters.
         use rayon::prelude::*;
+        let built: Vec<Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>>> =
+            table.par_iter().map(models).collect();
+        // One row per parameter: RMS vs truth, densely between the table points.
         let rms: Vec<(usize, [f64; M])> = table
             .par_iter()
-            .map(|p| {
-                let models = models(p);
+            .zip(built.par_iter())
+            .map(|(p, models)| {
                 let (lo, hi) = (p.positions[0], *p.positions.last().unwrap());
                 let dense: Vec<f64> = (0..=2000).map(|i| lo + (hi - lo) * i as f64 / 2000.0).collect();
                 let mut out = [0.0; M];
@@ -253,8 +324,6 @@ fn main() {
             for k in 0..M {
                 sum[k] += r[k];
                 by_kind[kind][k] += r[k];
-            }
-            for k in 0..M {
                 if r[M - 1] < r[k] {
                     beats[k] += 1;
                 }
@@ -262,6 +331,24 @@ fn main() {
             let best = (0..M).min_by(|a, b| r[*a].total_cmp(&r[*b])).unwrap();
             wins[best] += 1;
         }
+        // The volumetric error and the closed loop at 40 poses in the travel.
+        let mut rng = ChaCha8Rng::seed_from_u64(seed + m + 1000);
+        let poses: Vec<Axes> = (0..40)
+            .map(|_| Axes {
+                x: rng.random_range(-190.0..190.0),
+                y: rng.random_range(-190.0..190.0),
+                z: rng.random_range(-190.0..190.0),
+                a: rng.random_range(-105.0..105.0),
+                c: rng.random_range(0.0..360.0),
+            })
+            .collect();
+        let truths: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> = table.iter().map(|p| p.truth.as_ref()).collect();
+        let (e, l, b) = volumetric(&kin, &built, &truths, &poses);
+        for k in 0..M {
+            e_sum[k] += e[k];
+            loop_sum[k] += l[k];
+        }
+        before_sum += b;
     }
     println!(
         "{machines} synthetic machines × 30 parameters = {parameters} tables (seed {seed}), {:.1} s",
@@ -282,5 +369,15 @@ fn main() {
             by_kind[2][k] / count_kind[2].max(1) as f64,
         );
     }
+    let n = machines as f64;
+    println!();
+    println!(
+        "Volumetric error (40 poses per machine, ref-trt geometry): uncompensated |e| RMS {:.3} µm",
+        before_sum / n
+    );
+    println!("| model | e vs true e, RMS µm | residual after compensating with it, RMS µm |");
+    println!("|---|---|---|");
+    for k in 0..M {
+        println!("| {} | {:.3} | {:.3} |", MODELS[k], e_sum[k] / n, loop_sum[k] / n);
+    }
 }
-

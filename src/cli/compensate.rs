@@ -27,7 +27,12 @@ The output starts with a provenance stamp, comment lines after the `%` and `O`
 lines (volcomp version, machine, model hash, tool length, tolerance, input
 hash). A program that carries one is refused (compensating twice doubles the
 corrections) unless --force. -o naming the input itself (also through a link)
-is refused unless --in-place.";
+is refused unless --in-place.
+
+With --report, the summary also gives the expected residual from the model's own
+noise: the standard uncertainty of the modelled error (table noise and fit,
+propagated) at every move end, RMS and largest. That much remains after
+compensation even if the model has every effect right.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -51,7 +56,8 @@ pub struct Args {
     /// Split tolerance, µm: largest departure of a move from the compensated path.
     #[arg(long, value_name = "UM", default_value_t = 0.5)]
     pub tol: f64,
-    /// Write the summary as JSON.
+    /// Write the summary as JSON, with the expected residual from the model's
+    /// own noise.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
     #[command(flatten)]
@@ -76,6 +82,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tolerance_um: args.tol,
         interpret: args.read.interpret_options(machine.rapid_mm_per_min),
         limits: (!args.no_limits).then(|| machine.limits.clone()),
+        // The model's own noise at every move end: with --report only (it
+        // doubles the run time).
+        expected_residual: args.report.is_some(),
         ..CompensateOptions::default()
     };
     let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
@@ -167,7 +176,13 @@ max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm,
         } else {
             String::new()
         }
-    );
+    ) + &match (report.expected_residual_rms_um, report.expected_residual_max_um) {
+        (Some(rms), Some(max)) => format!(
+            "\nexpected residual from the model's own noise (1 sigma; table noise and fit, \
+unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
+        ),
+        _ => String::new(),
+    };
     // Per tool, when the program changes tools.
     let msg = if report.tools.iter().any(|t| t.tool != 0) {
         let mut msg = msg;

@@ -147,6 +147,9 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
 struct PoseJson<'a> {
     e_um: [f64; 3],
     axis_urad: [f64; 3],
+    /// Standard uncertainty of e per axis from the model's own noise (extension).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    u_um: Option<[f64; 3]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     contributions: Option<&'a [crate::machine::Contribution]>,
 }
@@ -173,10 +176,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let kin = model.kinematics();
     let frame = args.frame.into();
     let to_joints = |pose: &Axes| joints_of(kin, frame, pose);
+    let uncertain = model.has_uncertainty();
+    let uncertainty = |joints: &Axes| -> anyhow::Result<Option<[f64; 3]>> {
+        Ok(if uncertain {
+            Some(model.uncertainty_at(joints)?.per_axis_um())
+        } else {
+            None
+        })
+    };
 
     if let Some(pose) = single {
         let joints = to_joints(&pose);
         let v = model.volumetric_error(&joints)?;
+        let u = uncertainty(&joints)?;
         let contributions = if args.verbose {
             Some(model.contributions(&joints)?)
         } else {
@@ -186,6 +198,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let obj = PoseJson {
                 e_um: v.e_um,
                 axis_urad: v.axis_urad,
+                u_um: u,
                 contributions: contributions.as_deref(),
             };
             crate::outln!("{}", serde_json::to_string_pretty(&obj)?);
@@ -208,6 +221,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 fmt3(v.e_um, 4),
                 v.magnitude_um()
             );
+            match u {
+                Some(u) => crate::outln!(
+                    "u(e)      {} um   (1 sigma: table noise and fit; unmodelled effects not included)",
+                    fmt3(u, 4)
+                ),
+                None => crate::outln!("u(e)      unknown (the model file carries no uncertainties; refit)"),
+            }
             crate::outln!("tool axis {} urad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {
                 crate::outln!("contributions (each parameter alone, largest |e| first):");
@@ -232,20 +252,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
     } else if let (Some(path), Some(poses)) = (&args.poses, many) {
-        let results: Vec<VolumetricError> = poses
+        let results: Vec<(VolumetricError, Option<[f64; 3]>)> = poses
             .par_iter()
             .map(|(line, pose)| {
-                model
-                    .volumetric_error(&to_joints(pose))
-                    .with_context(|| format!("{}:{line}", path.display()))
+                let joints = to_joints(pose);
+                let at = || format!("{}:{line}", path.display());
+                let v = model.volumetric_error(&joints).with_context(at)?;
+                Ok((v, uncertainty(&joints).with_context(at)?))
             })
             .collect::<anyhow::Result<_>>()?;
         if args.json {
             let list: Vec<PoseJson> = results
                 .iter()
-                .map(|v| PoseJson {
+                .map(|(v, u)| PoseJson {
                     e_um: v.e_um,
                     axis_urad: v.axis_urad,
+                    u_um: *u,
                     contributions: None,
                 })
                 .collect();
@@ -258,11 +280,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 results.len(),
                 path.display()
             );
-            crate::outln!("{:>6}  {:>34}  {:>9}", "line", "e (um)", "|e| um");
-            for ((line, _), v) in poses.iter().zip(&results) {
-                crate::outln!("{line:>6}  {}  {:>9.4}", fmt3(v.e_um, 4), v.magnitude_um());
+            crate::outln!(
+                "{:>6}  {:>34}  {:>9}  {:>9}",
+                "line",
+                "e (um)",
+                "|e| um",
+                "u(e) um"
+            );
+            for ((line, _), (v, u)) in poses.iter().zip(&results) {
+                let u = u.map_or("unknown".to_string(), |u| {
+                    format!("{:.4}", (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+                });
+                crate::outln!(
+                    "{line:>6}  {}  {:>9.4}  {u:>9}",
+                    fmt3(v.e_um, 4),
+                    v.magnitude_um()
+                );
             }
-            let mags: Vec<f64> = results.iter().map(|v| v.magnitude_um()).collect();
+            let mags: Vec<f64> = results.iter().map(|(v, _)| v.magnitude_um()).collect();
             let max = mags.iter().copied().fold(0.0, f64::max);
             let rms = if mags.is_empty() {
                 0.0

@@ -74,9 +74,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .filter_map(|p| p.deviation_um.map(|d| (p, d)))
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
         format!(
-            "predicted profile error {:.2} µm (range {:.2} µm) over {} of {} plan points{}\n\
-volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}\n{:.3} s",
+            "predicted profile error {:.2}{} µm (range {:.2} µm) over {} of {} plan points{}\n\
+volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} s",
             report.profile_um,
+            report
+                .profile_u_um
+                .map_or(String::new(), |u| format!(" ± {u:.2}")),
             report.range_um,
             report.points_cut,
             report.points_total,
@@ -92,6 +95,13 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}\n{:.3} s"
                 p.id,
                 p.line.unwrap_or(0)
             )),
+            match report.rms_deviation_u_um {
+                Some(u) => format!(
+                    "\nmodel noise (1 sigma, from the table noise and the fit; unmodelled effects not included): \
+{u:.3} µm RMS over the points, ± is one standard uncertainty"
+                ),
+                None => "\nmodel noise unknown (the model file carries no uncertainties; refit)".to_string(),
+            },
             report.seconds
         ) + &if report.max_path_offset_um > 0.5 {
             format!(

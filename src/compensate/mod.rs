@@ -48,6 +48,10 @@ pub struct CompensateOptions {
     pub chunk_blocks: usize,
     /// Travel limits the compensated joints must respect (`None`: unchecked).
     pub limits: Option<Limits>,
+    /// Compute [`CompensateReport::expected_residual_rms_um`] (the model's
+    /// standard uncertainty at every move end: about as long as the
+    /// compensation itself again).
+    pub expected_residual: bool,
 }
 
 impl Default for CompensateOptions {
@@ -59,6 +63,7 @@ impl Default for CompensateOptions {
             rewrite: RewriteOptions::default(),
             chunk_blocks: 4096,
             limits: None,
+            expected_residual: false,
         }
     }
 }
@@ -85,6 +90,19 @@ pub struct CompensateReport {
     pub tolerance_um: f64,
     /// The corrections per run of blocks cut with one tool, in program order.
     pub tools: Vec<ToolCorrections>,
+    /// The expected residual after compensation from the model's own noise:
+    /// the standard uncertainty of e (table noise and fit, propagated; RMS
+    /// length) at each compensated move end, RMS and largest over the moves,
+    /// µm. Unmodelled effects are not in it. Absent when the model carries no
+    /// uncertainties (extension: docs/extensions.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub expected_residual_rms_um: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub expected_residual_max_um: Option<f64>,
+    #[serde(skip)]
+    residual_sum_sq: f64,
+    #[serde(skip)]
+    residual_moves: usize,
 }
 
 /// Correction statistics of a run of blocks cut with one tool.
@@ -132,8 +150,19 @@ impl CompensateReport {
         }
     }
 
+    /// Count the model's standard uncertainty `um` at one compensated move end.
+    fn record_uncertainty(&mut self, um: f64) {
+        self.residual_sum_sq += um * um;
+        self.residual_moves += 1;
+        self.expected_residual_max_um = Some(self.expected_residual_max_um.unwrap_or(0.0).max(um));
+    }
+
     /// The RMS values, once every move is recorded.
     fn finish(&mut self) {
+        if self.residual_moves > 0 {
+            self.expected_residual_rms_um =
+                Some((self.residual_sum_sq / self.residual_moves as f64).sqrt());
+        }
         let rms = |sum_sq: f64, n: usize| {
             if n > 0 {
                 (sum_sq / n as f64).sqrt()
@@ -188,6 +217,8 @@ struct Plan {
     end: Option<Axes>,
     via: Vec<Axes>,
     correction_um: f64,
+    /// The model's standard uncertainty of e at the nominal end, µm.
+    uncertainty_um: Option<f64>,
 }
 
 /// A compensated target: in the block's frame, the solve residual (mm) and the
@@ -458,6 +489,8 @@ fn compensate_chunks(
         let chunk = chunk?;
         models.prepare(chunk.iter().map(|(_, event)| &event.tool));
         let models = &*models;
+        let uncertain =
+            options.expected_residual && models.get(&ToolInUse::DEFAULT).has_uncertainty();
         // 1. Compensated end of every motion, in parallel over pieces of the chunk;
         //    within a piece each solve starts from the previous correction.
         //    Flat over the chunk's moves, in order.
@@ -551,12 +584,25 @@ fn compensate_chunks(
                 let (Some(m), Some((end, _))) = (&event.motion, end) else {
                     return Ok(Plan::default());
                 };
-                let via = plan_motion(models.get(&event.tool), m, *start, *end, options)?;
+                let model = models.get(&event.tool);
+                let via = plan_motion(model, m, *start, *end, options)?;
                 let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
+                let uncertainty_um = if uncertain {
+                    let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
+                    Some(
+                        model
+                            .uncertainty_at(&joints)
+                            .map_err(|e| PointError::Solve(SolveError::Lookup(e)))?
+                            .magnitude_um(),
+                    )
+                } else {
+                    None
+                };
                 Ok(Plan {
                     end: Some(*end),
                     via,
                     correction_um: (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3,
+                    uncertainty_um,
                 })
             })
             .collect();
@@ -593,6 +639,9 @@ fn compensate_chunks(
                         models.length_mm(&event.tool),
                         plan.correction_um,
                     );
+                    if let Some(u) = plan.uncertainty_um {
+                        report.record_uncertainty(u);
+                    }
                     if plan.via.is_empty() {
                         Target::Move(end)
                     } else {

@@ -120,6 +120,45 @@ impl Contribution {
     }
 }
 
+/// How sure the fitted model is of its own e at a pose: each measured
+/// parameter's standard uncertainty (its curve's, from the table noise and the
+/// fit) propagated to first order, parameters independent. Unmodelled effects
+/// are not in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelUncertainty {
+    /// e of each of the 30 component parameters at one standard uncertainty
+    /// (zero where unmeasured or carrying no uncertainty), µm.
+    pub by_parameter: [[f64; 3]; 30],
+}
+
+impl ModelUncertainty {
+    /// Standard uncertainty of e along X, Y and Z, µm.
+    pub fn per_axis_um(&self) -> [f64; 3] {
+        let mut s = [0.0; 3];
+        for v in &self.by_parameter {
+            for k in 0..3 {
+                s[k] += v[k] * v[k];
+            }
+        }
+        s.map(f64::sqrt)
+    }
+
+    /// `√(u_x² + u_y² + u_z²)`: the RMS length of e's error, µm.
+    pub fn magnitude_um(&self) -> f64 {
+        let [x, y, z] = self.per_axis_um();
+        (x * x + y * y + z * z).sqrt()
+    }
+
+    /// Standard uncertainty of e's component along the unit vector `n`, µm.
+    pub fn along_um(&self, n: [f64; 3]) -> f64 {
+        self.by_parameter
+            .iter()
+            .map(|v| (v[0] * n[0] + v[1] * n[1] + v[2] * n[2]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
 /// See the module documentation.
 #[derive(Debug)]
 pub struct ErrorModel {
@@ -429,6 +468,17 @@ impl ErrorModel {
     /// The position at which `ac` is looked up for joint value `joint`.
     #[inline]
     fn table_position(&self, ac: &AxisCurves, joint: f64) -> Result<f64, LookupError> {
+        self.table_position_counted(ac, joint, true)
+    }
+
+    /// [`Self::table_position`], counting a held end value only if `count`.
+    #[inline]
+    fn table_position_counted(
+        &self,
+        ac: &AxisCurves,
+        joint: f64,
+        count: bool,
+    ) -> Result<f64, LookupError> {
         let [lo, hi] = ac.range;
         let p = if ac.wrap {
             lo + (joint - lo).rem_euclid(360.0)
@@ -446,7 +496,9 @@ impl ErrorModel {
                     });
                 }
                 ExtrapolationPolicy::Hold => {
-                    self.held.fetch_add(1, Ordering::Relaxed);
+                    if count {
+                        self.held.fetch_add(1, Ordering::Relaxed);
+                    }
                 }
             }
         }
@@ -481,6 +533,53 @@ impl ErrorModel {
     pub fn volumetric_error(&self, joints: &Axes) -> Result<VolumetricError, LookupError> {
         let errors = self.errors_at(joints)?;
         Ok(self.kinematics.volumetric_error(joints, &errors))
+    }
+
+    /// Whether any fitted curve carries an uncertainty (model files written
+    /// before uncertainties were reported carry none).
+    pub fn has_uncertainty(&self) -> bool {
+        self.axes
+            .iter()
+            .flatten()
+            .flat_map(|ac| ac.curves.iter().flatten())
+            .any(|c| !c.uncertainty().is_empty())
+    }
+
+    /// The standard uncertainty of the model's e at `joints` (see
+    /// [`ModelUncertainty`]); the same lookup policy as [`Self::errors_at`].
+    pub fn uncertainty_at(&self, joints: &Axes) -> Result<ModelUncertainty, LookupError> {
+        self.uncertainty_with(&self.kinematics, joints)
+    }
+
+    /// [`Self::uncertainty_at`] through the chain `kinematics` (another tool).
+    pub fn uncertainty_with(
+        &self,
+        kinematics: &Kinematics,
+        joints: &Axes,
+    ) -> Result<ModelUncertainty, LookupError> {
+        if !joints.is_finite() {
+            return Err(LookupError::NotFinite(*joints));
+        }
+        let mut out = ModelUncertainty {
+            by_parameter: [[0.0; 3]; 30],
+        };
+        for (slot, ac) in self.axes.iter().enumerate() {
+            let Some(ac) = ac else { continue };
+            // Not counted: the same pose's value lookup counts it.
+            let p = self.table_position_counted(ac, joints.get(ac.axis), false)?;
+            for (k, curve) in ac.curves.iter().enumerate() {
+                let Some(u) = curve.as_ref().and_then(|c| c.uncertainty_at(p)) else {
+                    continue;
+                };
+                if u == 0.0 {
+                    continue;
+                }
+                let mut one = ErrorValues::ZERO;
+                one.component[slot][k] = u;
+                out.by_parameter[slot * 6 + k] = kinematics.volumetric_error(joints, &one).e_um;
+            }
+        }
+        Ok(out)
     }
 
     /// The e of each parameter alone at `joints` (first order: every other parameter

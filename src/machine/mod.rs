@@ -14,5 +14,7 @@ pub use definition::{
     DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,
     MachineError, Tool,
 };
-pub use error_model::{Contribution, ErrorModel, LookupError, ModelError, ModelOptions};
+pub use error_model::{
+    Contribution, ErrorModel, LookupError, ModelError, ModelOptions, ModelUncertainty,
+};
 pub use tool_models::ToolModels;

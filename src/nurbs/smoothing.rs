@@ -23,8 +23,11 @@
 //! the fit's own residual level `√(RSS / (N − tr H))` is reported beside it.
 //!
 //! Uncertainty: the standard uncertainty of the curve at `x` is Wahba's Bayesian
-//! band `σ̂ √(b(x)ᵀ (BᵀB + λP)⁻¹ b(x))` with `σ̂` the residual level, which covers
-//! the smoothing bias as well as the noise (Nychka 1988).
+//! band `σ̂ √(b(x)ᵀ (BᵀB + λP)⁻¹ b(x))`, which covers the smoothing bias as well
+//! as the noise (Nychka 1988), with `σ̂` the larger of the residual level and the
+//! difference-based noise. With the residual level alone, the blind examples'
+//! true deviations fell within 2σ at 80–84 % of the points instead of 95 %; with
+//! the larger of the two, at 88–93 % (and within 1σ at 64–68 %).
 //!
 //! Invariants: inputs validated by the caller (`smem::fit_parameter`); every
 //! returned number finite; the curve's `x(u)` is linear in `u` (control points at
@@ -52,6 +55,9 @@ pub struct SmoothingOptions {
     /// best score (0: the best; default [`COMPACT`]).
     pub compact: f64,
     pub criterion: Criterion,
+    /// Largest effective number of parameters, as a fraction of the samples
+    /// (default [`MAX_DOF_FRACTION`]).
+    pub max_dof_fraction: f64,
     /// A fixed smoothing weight `λ·max(eigen)` (log10) instead of the criterion's (for studies).
     pub fixed_log_lambda: Option<f64>,
 }
@@ -78,6 +84,7 @@ impl Default for SmoothingOptions {
             compact: COMPACT,
             criterion: Criterion::Gcv { gamma: 1.0 },
             fixed_log_lambda: None,
+            max_dof_fraction: MAX_DOF_FRACTION,
         }
     }
 }
@@ -345,6 +352,7 @@ pub const MAX_DOF_FRACTION: f64 = 0.5;
 #[derive(Clone, Copy)]
 struct Score {
     criterion: Criterion,
+    max_dof: f64,
     n: f64,
     noise: f64,
 }
@@ -357,7 +365,7 @@ impl Score {
         let (rss, dof) = s.rss_dof(lambda);
         // More effective parameters than half the samples fits the noise:
         // GCV's known failure at small N (near-interpolation scores well).
-        if dof > MAX_DOF_FRACTION * self.n {
+        if dof > self.max_dof * self.n {
             return f64::INFINITY;
         }
         match self.criterion {
@@ -464,6 +472,7 @@ pub fn fit_smoothing(
     let noise = estimate_noise(positions, values);
     let sc = Score {
         criterion: options.criterion,
+        max_dof: options.max_dof_fraction,
         n: n as f64,
         noise,
     };
@@ -511,7 +520,7 @@ pub fn fit_smoothing(
         let row = DVector::from_vec(basis_row(uk, p, &s.knots, count));
         residuals.push(row.dot(&coefficients) - values[k]);
         let v = (row.transpose() * &covariance * &row)[(0, 0)].max(0.0);
-        uncertainty.push(residual_sigma * v.sqrt());
+        uncertainty.push(residual_sigma.max(noise) * v.sqrt());
     }
     let greville = knot_vector::greville(&s.knots, p);
     let points: Vec<[f64; 2]> = greville

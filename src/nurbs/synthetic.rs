@@ -13,13 +13,16 @@ pub fn paper_like_curve(seed: u64) -> (Vec<f64>, Vec<f64>) {
     let positions: Vec<f64> = (0..40).map(|i| 200.0 * i as f64 / 39.0).collect();
     let values = positions
         .iter()
-        .map(|&x| {
-            let t = x / 200.0;
-            4.0 + 12.0 * (2.0 * std::f64::consts::PI * (1.3 * t + 0.1)).sin() * (1.0 - 0.4 * t)
-                + 6.0 * (-((t - 0.62) / 0.05).powi(2)).exp()
-                + 5.0 * t * t
-                + noise.sample(&mut rng)
-        })
+        .map(|&x| paper_like_truth(x) + noise.sample(&mut rng))
         .collect();
     (positions, values)
+}
+
+/// The noise-free curve behind [`paper_like_curve`] (µm at `x` mm): the truth
+/// a fit is judged against.
+pub fn paper_like_truth(x: f64) -> f64 {
+    let t = x / 200.0;
+    4.0 + 12.0 * (2.0 * std::f64::consts::PI * (1.3 * t + 0.1)).sin() * (1.0 - 0.4 * t)
+        + 6.0 * (-((t - 0.62) / 0.05).powi(2)).exp()
+        + 5.0 * t * t
 }

@@ -31,6 +31,11 @@ pub struct PredictedPoint {
     /// to `deviation_um` (up to the program's rounding) when the path passes through
     /// the plan points; for a compensated program it is what the part would measure.
     pub deviation_with_path_um: Option<f64>,
+    /// Standard uncertainty of `deviation_um` from the model's own noise (table
+    /// noise and fit; extension: docs/extensions.md). Absent when not cut or
+    /// the model carries no uncertainties.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deviation_u_um: Option<f64>,
 }
 
 /// Error along the path at the end of one block (no plan).
@@ -49,6 +54,14 @@ pub struct BlockError {
 pub struct PredictReport {
     pub profile_um: f64,
     pub range_um: f64,
+    /// Standard uncertainty of `profile_um` (twice that of the deviation that
+    /// sets it; extension), absent when the model carries no uncertainties.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub profile_u_um: Option<f64>,
+    /// RMS of the points' `deviation_u_um`: how much of the prediction is
+    /// model noise, on average (extension).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_deviation_u_um: Option<f64>,
     pub points: Vec<PredictedPoint>,
     pub points_total: usize,
     pub points_cut: usize,

@@ -4,6 +4,7 @@ use crate::gcode::{GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::{ErrorModel, LookupError};
 use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
+use crate::machine::tool_models::kinematics_with;
 use crate::toolpath::{effective_frame, joints_of};
 use std::time::Instant;
 
@@ -31,6 +32,7 @@ pub fn predict_plan(
     let started = Instant::now();
     let (matches, _) = match_plan(program, model, &plan.points, options)?;
     let errors = volumetric_errors(model, &plan.points, &matches)?;
+    let uncertain = model.has_uncertainty();
     let mut points = Vec::with_capacity(plan.points.len());
     let mut deviations = Vec::new();
     let mut with_path = Vec::new();
@@ -63,6 +65,18 @@ pub fn predict_plan(
         if let Some(d) = deviation {
             deviations.push(d);
         }
+        let deviation_u = match m {
+            Some(m) if uncertain => Some(
+                model
+                    .uncertainty_with(&kinematics_with(model, &m.point.tool), &m.point.joints)
+                    .map_err(|source| CutError::Lookup {
+                        id: p.id.clone(),
+                        source,
+                    })?
+                    .along_um(n),
+            ),
+            _ => None,
+        };
         points.push(PredictedPoint {
             id: p.id.clone(),
             deviation_um: deviation,
@@ -74,9 +88,18 @@ pub fn predict_plan(
             e_um: *e,
             distance_mm: m.map(|m| m.distance_mm),
             deviation_with_path_um: deviation_with_path,
+            deviation_u_um: deviation_u,
         });
     }
     let prof = profile(&deviations);
+    // The profile is set by the largest |deviation|: its uncertainty, doubled.
+    let profile_u = points
+        .iter()
+        .filter_map(|p| Some((p.deviation_um?.abs(), p.deviation_u_um?)))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, u)| 2.0 * u);
+    let us: Vec<f64> = points.iter().filter_map(|p| p.deviation_u_um).collect();
+    let rms_u = (!us.is_empty()).then(|| rms(&us));
     let prof_path = profile(&with_path);
     let magnitudes: Vec<f64> = errors
         .iter()
@@ -86,6 +109,8 @@ pub fn predict_plan(
     Ok(PredictReport {
         profile_um: prof.profile_um,
         range_um: prof.range_um,
+        profile_u_um: profile_u,
+        rms_deviation_u_um: rms_u,
         points_total: points.len(),
         points_cut: deviations.len(),
         profile_with_path_um: prof_path.profile_um,
