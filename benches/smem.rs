@@ -11,7 +11,7 @@ use std::time::Instant;
 use criterion::{Criterion, Throughput};
 use volcomp::nurbs::exhaustive::combinations;
 use volcomp::nurbs::synthetic::paper_like_curve;
-use volcomp::nurbs::{FitOptions, KnotMethod, Selection, ParameterKind, SmemCurve, fit_parameter};
+use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, Selection, SmemCurve, fit_parameter};
 
 const SEED: u64 = 3;
 const CONTROL_POINTS: usize = 10;

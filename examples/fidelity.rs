@@ -58,15 +58,31 @@ fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
 }
 
 /// A smooth truth like a real error parameter on `[lo, hi]`, amplitude `amp`.
-fn truth(rng: &mut ChaCha8Rng, lo: f64, hi: f64, step: f64, amp: f64, periodic: bool) -> Box<dyn Fn(f64) -> f64 + Send + Sync> {
+fn truth(
+    rng: &mut ChaCha8Rng,
+    lo: f64,
+    hi: f64,
+    step: f64,
+    amp: f64,
+    periodic: bool,
+) -> Box<dyn Fn(f64) -> f64 + Send + Sync> {
     if periodic {
         let h: Vec<(f64, f64)> = (1..=3)
-            .map(|k| (amp * rng.random_range(-1.0..1.0) / k as f64, rng.random_range(0.0..2.0 * PI)))
+            .map(|k| {
+                (
+                    amp * rng.random_range(-1.0..1.0) / k as f64,
+                    rng.random_range(0.0..2.0 * PI),
+                )
+            })
             .collect();
         let offset = amp * rng.random_range(-0.5..0.5);
         return Box::new(move |c: f64| {
             let t = c.to_radians();
-            offset + h.iter().enumerate().map(|(k, (a, ph))| a * ((k + 1) as f64 * t + ph).sin()).sum::<f64>()
+            offset
+                + h.iter()
+                    .enumerate()
+                    .map(|(k, (a, ph))| a * ((k + 1) as f64 * t + ph).sin())
+                    .sum::<f64>()
         });
     }
     let (c1, c2, c3) = (
@@ -82,7 +98,9 @@ fn truth(rng: &mut ChaCha8Rng, lo: f64, hi: f64, step: f64, amp: f64, periodic: 
     let bump_w = step * rng.random_range(1.0..2.5);
     Box::new(move |x: f64| {
         let t = 2.0 * (x - lo) / (hi - lo) - 1.0;
-        c1 * t + c2 * t * t + c3 * t * t * t
+        c1 * t
+            + c2 * t * t
+            + c3 * t * t * t
             + ripple_a * (ripple_w * x + ripple_ph).sin()
             + bump_a * (-((x - bump_c) / bump_w).powi(2)).exp()
     })
@@ -102,19 +120,36 @@ fn machine(seed: u64) -> Vec<Parameter> {
     ];
     for (lo, hi, step, periodic) in axes {
         for k in 0..6 {
-            let kind = if k < 3 { ParameterKind::Length } else { ParameterKind::Angle };
-            let amp = if k < 3 { rng.random_range(2.0..15.0) } else { rng.random_range(5.0..30.0) };
+            let kind = if k < 3 {
+                ParameterKind::Length
+            } else {
+                ParameterKind::Angle
+            };
+            let amp = if k < 3 {
+                rng.random_range(2.0..15.0)
+            } else {
+                rng.random_range(5.0..30.0)
+            };
             let truth = truth(&mut rng, lo, hi, step, amp, periodic);
             let sigma = rng.random_range(0.1..0.5);
             let noise = Normal::new(0.0, sigma).expect("sigma > 0");
             let positions = grid(lo, hi, step);
-            let mut noisy: Vec<f64> = positions.iter().map(|&x| truth(x) + noise.sample(&mut rng)).collect();
+            let mut noisy: Vec<f64> = positions
+                .iter()
+                .map(|&x| truth(x) + noise.sample(&mut rng))
+                .collect();
             if periodic {
                 // 0° and 360° are one point: measured once.
                 let last = noisy.len() - 1;
                 noisy[last] = noisy[0];
             }
-            out.push(Parameter { kind, periodic, positions, noisy, truth });
+            out.push(Parameter {
+                kind,
+                periodic,
+                positions,
+                noisy,
+                truth,
+            });
         }
     }
     out
@@ -141,7 +176,12 @@ fn natural_second_derivatives(xs: &[f64], ys: &[f64]) -> Vec<f64> {
         a[(i, i + 1)] = h1 / 6.0;
         b[i] = (ys[i + 1] - ys[i]) / h1 - (ys[i] - ys[i - 1]) / h0;
     }
-    a.lu().solve(&b).expect("tridiagonal system").iter().copied().collect()
+    a.lu()
+        .solve(&b)
+        .expect("tridiagonal system")
+        .iter()
+        .copied()
+        .collect()
 }
 
 fn spline_eval(xs: &[f64], ys: &[f64], m: &[f64], x: f64) -> f64 {
@@ -176,7 +216,9 @@ fn smoothing(xs: &[f64], ys: &[f64]) -> Vec<f64> {
     let scale = h.iter().sum::<f64>() / h.len() as f64;
     for e in 0..=80 {
         let lambda = scale.powi(3) * 10f64.powf(-3.0 + 0.1 * e as f64);
-        let Some(hat) = (&identity + &k * lambda).try_inverse() else { continue };
+        let Some(hat) = (&identity + &k * lambda).try_inverse() else {
+            continue;
+        };
         let f = &hat * &y;
         let rss = (&y - &f).norm_squared();
         let dof = hat.trace();
@@ -222,7 +264,13 @@ fn models(p: &Parameter) -> Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>> {
 /// [`machine`]'s order (X, Y, Z, A, C × δx δy δz εx εy εz); C wraps.
 fn errors_at(f: &[&(dyn Fn(f64) -> f64 + Send + Sync)], joints: &Axes) -> ErrorValues {
     let mut v = ErrorValues::ZERO;
-    let positions = [joints.x, joints.y, joints.z, joints.a, joints.c.rem_euclid(360.0)];
+    let positions = [
+        joints.x,
+        joints.y,
+        joints.z,
+        joints.a,
+        joints.c.rem_euclid(360.0),
+    ];
     for slot in 0..5 {
         for k in 0..6 {
             v.component[slot][k] = f[slot * 6 + k](positions[slot]);
@@ -233,7 +281,11 @@ fn errors_at(f: &[&(dyn Fn(f64) -> f64 + Send + Sync)], joints: &Axes) -> ErrorV
 
 /// Joints whose tip lands on the nominal tip of `nominal` according to the
 /// errors `model` (A, C as programmed): Newton on X Y Z.
-fn compensate(kin: &Kinematics, model: &[&(dyn Fn(f64) -> f64 + Send + Sync)], nominal: &Axes) -> Axes {
+fn compensate(
+    kin: &Kinematics,
+    model: &[&(dyn Fn(f64) -> f64 + Send + Sync)],
+    nominal: &Axes,
+) -> Axes {
     let target = kin.nominal_tip(nominal);
     let mut q = *nominal;
     for _ in 0..6 {
@@ -243,7 +295,10 @@ fn compensate(kin: &Kinematics, model: &[&(dyn Fn(f64) -> f64 + Send + Sync)], n
         let r: Vec<f64> = (0..3).map(|i| tip[i] + 1e-3 * e[i] - target[i]).collect();
         let j = kin.tip_jacobian(&q, &errors);
         let m = nalgebra::Matrix3::from_fn(|row, col| j[row][col]);
-        let d = m.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2])).expect("regular");
+        let d = m
+            .lu()
+            .solve(&nalgebra::Vector3::new(r[0], r[1], r[2]))
+            .expect("regular");
         q.x -= d[0];
         q.y -= d[1];
         q.z -= d[2];
@@ -266,18 +321,25 @@ fn volumetric(
         let truth = kin.volumetric_error(q, &errors_at(truths, q)).e_um;
         before += truth.iter().map(|v| v * v).sum::<f64>();
         for k in 0..M {
-            let f: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> = models.iter().map(|m| m[k].as_ref()).collect();
+            let f: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> =
+                models.iter().map(|m| m[k].as_ref()).collect();
             let e = kin.volumetric_error(q, &errors_at(&f, q)).e_um;
             e_rms[k] += (0..3).map(|i| (e[i] - truth[i]).powi(2)).sum::<f64>();
             let c = compensate(kin, &f, q);
             let tip = kin.nominal_tip(&c);
             let real = kin.volumetric_error(&c, &errors_at(truths, &c)).e_um;
             let target = kin.nominal_tip(q);
-            loop_rms[k] += (0..3).map(|i| (1e3 * (tip[i] - target[i]) + real[i]).powi(2)).sum::<f64>();
+            loop_rms[k] += (0..3)
+                .map(|i| (1e3 * (tip[i] - target[i]) + real[i]).powi(2))
+                .sum::<f64>();
         }
     }
     let n = poses.len() as f64;
-    (e_rms.map(|v| (v / n).sqrt()), loop_rms.map(|v| (v / n).sqrt()), (before / n).sqrt())
+    (
+        e_rms.map(|v| (v / n).sqrt()),
+        loop_rms.map(|v| (v / n).sqrt()),
+        (before / n).sqrt(),
+    )
 }
 
 fn main() {
@@ -308,13 +370,24 @@ fn main() {
             .zip(built.par_iter())
             .map(|(p, models)| {
                 let (lo, hi) = (p.positions[0], *p.positions.last().unwrap());
-                let dense: Vec<f64> = (0..=2000).map(|i| lo + (hi - lo) * i as f64 / 2000.0).collect();
+                let dense: Vec<f64> = (0..=2000)
+                    .map(|i| lo + (hi - lo) * i as f64 / 2000.0)
+                    .collect();
                 let mut out = [0.0; M];
                 for (k, model) in models.iter().enumerate() {
-                    let se: f64 = dense.iter().map(|&x| (model(x) - (p.truth)(x)).powi(2)).sum();
+                    let se: f64 = dense
+                        .iter()
+                        .map(|&x| (model(x) - (p.truth)(x)).powi(2))
+                        .sum();
                     out[k] = (se / dense.len() as f64).sqrt();
                 }
-                let kind = if p.periodic { 2 } else if p.kind == ParameterKind::Length { 0 } else { 1 };
+                let kind = if p.periodic {
+                    2
+                } else if p.kind == ParameterKind::Length {
+                    0
+                } else {
+                    1
+                };
                 (kind, out)
             })
             .collect();
@@ -342,7 +415,8 @@ fn main() {
                 c: rng.random_range(0.0..360.0),
             })
             .collect();
-        let truths: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> = table.iter().map(|p| p.truth.as_ref()).collect();
+        let truths: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> =
+            table.iter().map(|p| p.truth.as_ref()).collect();
         let (e, l, b) = volumetric(&kin, &built, &truths, &poses);
         for k in 0..M {
             e_sum[k] += e[k];
@@ -355,7 +429,9 @@ fn main() {
         started.elapsed().as_secs_f64()
     );
     let candidate = MODELS[M - 1];
-    println!("| model | mean RMS vs truth | best on | {candidate} better on | linear axes, µm | angular, µrad | C (periodic) |");
+    println!(
+        "| model | mean RMS vs truth | best on | {candidate} better on | linear axes, µm | angular, µrad | C (periodic) |"
+    );
     println!("|---|---|---|---|---|---|---|");
     for k in 0..M {
         println!(
@@ -378,6 +454,11 @@ fn main() {
     println!("| model | e vs true e, RMS µm | residual after compensating with it, RMS µm |");
     println!("|---|---|---|");
     for k in 0..M {
-        println!("| {} | {:.3} | {:.3} |", MODELS[k], e_sum[k] / n, loop_sum[k] / n);
+        println!(
+            "| {} | {:.3} | {:.3} |",
+            MODELS[k],
+            e_sum[k] / n,
+            loop_sum[k] / n
+        );
     }
 }

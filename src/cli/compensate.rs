@@ -81,7 +81,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = CompensateOptions {
         tolerance_um: args.tol,
         interpret: args.read.interpret_options(machine.rapid_mm_per_min),
-        limits: (!args.no_limits).then(|| machine.limits.clone()),
+        limits: (!args.no_limits).then_some(machine.limits),
         // The model's own noise at every move end: with --report only (it
         // doubles the run time).
         expected_residual: args.report.is_some(),
@@ -176,7 +176,10 @@ max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm,
         } else {
             String::new()
         }
-    ) + &match (report.expected_residual_rms_um, report.expected_residual_max_um) {
+    ) + &match (
+        report.expected_residual_rms_um,
+        report.expected_residual_max_um,
+    ) {
         (Some(rms), Some(max)) => format!(
             "\nexpected residual from the model's own noise (1 sigma; table noise and fit, \
 unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"

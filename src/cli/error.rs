@@ -226,7 +226,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     "u(e)      {} um   (1 sigma: table noise and fit; unmodelled effects not included)",
                     fmt3(u, 4)
                 ),
-                None => crate::outln!("u(e)      unknown (the model file carries no uncertainties; refit)"),
+                None => crate::outln!(
+                    "u(e)      unknown (the model file carries no uncertainties; refit)"
+                ),
             }
             crate::outln!("tool axis {} urad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {

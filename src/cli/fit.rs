@@ -133,7 +133,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ("--no-weights", args.no_weights),
             ("--seed", args.seed.is_some()),
         ];
-        let given: Vec<&str> = emax_only.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect();
+        let given: Vec<&str> = emax_only
+            .iter()
+            .filter(|(_, g)| *g)
+            .map(|(n, _)| *n)
+            .collect();
         if !given.is_empty() {
             return Err(super::UsageError(format!(
                 "{} belong(s) to the paper's selection: add --select emax (the default, \

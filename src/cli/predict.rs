@@ -100,7 +100,8 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} 
                     "\nmodel noise (1 sigma, from the table noise and the fit; unmodelled effects not included): \
 {u:.3} µm RMS over the points, ± is one standard uncertainty"
                 ),
-                None => "\nmodel noise unknown (the model file carries no uncertainties; refit)".to_string(),
+                None => "\nmodel noise unknown (the model file carries no uncertainties; refit)"
+                    .to_string(),
             },
             report.seconds
         ) + &if report.max_path_offset_um > 0.5 {

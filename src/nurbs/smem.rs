@@ -644,7 +644,14 @@ pub fn fit_parameter(
         uncertainty: Vec::new(),
     };
     curve
-        .set_uncertainty(positions.iter().copied().zip(uncertainty).map(|(x, u)| [x, u]).collect())
+        .set_uncertainty(
+            positions
+                .iter()
+                .copied()
+                .zip(uncertainty)
+                .map(|(x, u)| [x, u])
+                .collect(),
+        )
         .map_err(FitError::Options)?;
     Ok(curve)
 }
@@ -698,8 +705,8 @@ fn fit_cross_validated(
         },
     )?;
     let emax = fit.residuals.iter().fold(0.0f64, |m, e| m.max(e.abs()));
-    let erms = (fit.residuals.iter().map(|e| e * e).sum::<f64>() / fit.residuals.len() as f64)
-        .sqrt();
+    let erms =
+        (fit.residuals.iter().map(|e| e * e).sum::<f64>() / fit.residuals.len() as f64).sqrt();
     let stats = FitStats {
         samples: positions.len(),
         control_points: fit.curve.points.len(),

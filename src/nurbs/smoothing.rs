@@ -54,23 +54,9 @@ pub struct SmoothingOptions {
     /// The fewest control points whose score is within this fraction of the
     /// best score (0: the best; default [`COMPACT`]).
     pub compact: f64,
-    pub criterion: Criterion,
     /// Largest effective number of parameters, as a fraction of the samples
     /// (default [`MAX_DOF_FRACTION`]).
     pub max_dof_fraction: f64,
-    /// A fixed smoothing weight `λ·max(eigen)` (log10) instead of the criterion's (for studies).
-    pub fixed_log_lambda: Option<f64>,
-}
-
-/// What the count and smoothness minimise.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Criterion {
-    /// `N · RSS / (N − γ tr H)²`; γ > 1 guards against GCV's undersmoothing.
-    Gcv { gamma: f64 },
-    /// Mallows' `C_p` with the difference-based noise: `RSS/N + 2σ̂² tr H / N`.
-    Ubre,
-    /// Restricted maximum likelihood of the spline as a mixed model.
-    Reml,
 }
 
 impl Default for SmoothingOptions {
@@ -82,8 +68,6 @@ impl Default for SmoothingOptions {
             max_control_points: None,
             control_points: None,
             compact: COMPACT,
-            criterion: Criterion::Gcv { gamma: 1.0 },
-            fixed_log_lambda: None,
             max_dof_fraction: MAX_DOF_FRACTION,
         }
     }
@@ -150,28 +134,6 @@ struct Spectral {
 }
 
 impl Spectral {
-    /// `−2 log L_R` with the noise profiled out (Wood 2011 in spectral form).
-    fn reml(&self, lambda: f64, n: f64) -> f64 {
-        let top = self.eigen.iter().fold(0.0f64, |m, v| m.max(*v));
-        let mut pearson = self.outside;
-        let mut log_det = 0.0;
-        let mut null = 0.0;
-        for (z, e) in self.z.iter().zip(self.eigen.iter()) {
-            if *e <= 1e-9 * top {
-                null += 1.0;
-                continue;
-            }
-            let shrink = lambda * e / (1.0 + lambda * e);
-            pearson += z * z * shrink;
-            log_det -= shrink.ln();
-        }
-        let m = n - null;
-        if m < 1.0 || pearson <= 0.0 {
-            return f64::INFINITY;
-        }
-        m * (pearson / m).ln() + log_det
-    }
-
     fn rss_dof(&self, lambda: f64) -> (f64, f64) {
         let mut rss = self.outside;
         let mut dof = 0.0;
@@ -348,31 +310,22 @@ pub const COMPACT: f64 = 0.03;
 /// Largest effective number of parameters, as a fraction of the samples.
 pub const MAX_DOF_FRACTION: f64 = 0.5;
 
-/// The score a fit minimises.
+/// The score a fit minimises: GCV, `+∞` beyond the dof limit.
 #[derive(Clone, Copy)]
 struct Score {
-    criterion: Criterion,
     max_dof: f64,
     n: f64,
-    noise: f64,
 }
 
 impl Score {
     fn at(&self, s: &Spectral, lambda: f64) -> f64 {
-        if self.criterion == Criterion::Reml {
-            return s.reml(lambda, self.n);
-        }
         let (rss, dof) = s.rss_dof(lambda);
-        // More effective parameters than half the samples fits the noise:
-        // GCV's known failure at small N (near-interpolation scores well).
+        // More effective parameters than the limit fits the noise: GCV's
+        // known failure at small N (near-interpolation scores well).
         if dof > self.max_dof * self.n {
             return f64::INFINITY;
         }
-        match self.criterion {
-            Criterion::Gcv { gamma } => gcv(self.n, rss, gamma * dof),
-            Criterion::Ubre => rss / self.n + 2.0 * self.noise.powi(2) * dof / self.n,
-            Criterion::Reml => unreachable!(),
-        }
+        gcv(self.n, rss, dof)
     }
 }
 
@@ -385,9 +338,7 @@ fn best_lambda(s: &Spectral, sc: Score) -> (f64, f64, u64) {
         return (sc.at(s, 0.0), 0.0, 1);
     }
     // λ·top spans 1e-4 … 1e12: from no smoothing to the penalty's null space.
-    let score = |log_l: f64| {
-        sc.at(s, 10f64.powf(log_l) / top)
-    };
+    let score = |log_l: f64| sc.at(s, 10f64.powf(log_l) / top);
     let mut best = (sc.at(s, 0.0), f64::NEG_INFINITY);
     let mut evaluations = 1;
     let (lo, hi, steps) = (-4.0, 12.0, 64);
@@ -464,17 +415,23 @@ pub fn fit_smoothing(
         }
         None => (2..=p.min(3)).collect(),
     };
-    let cap = options
-        .max_control_points
-        .unwrap_or(n)
-        .min(n)
-        .max(p + 1);
+    let cap = options.max_control_points.unwrap_or(n).min(n).max(p + 1);
+    if !(options.compact.is_finite() && options.compact >= 0.0) {
+        return Err(FitError::Options(format!(
+            "compact {} must be a finite number >= 0",
+            options.compact
+        )));
+    }
+    if !(options.max_dof_fraction > 0.0 && options.max_dof_fraction <= 1.0) {
+        return Err(FitError::Options(format!(
+            "the dof limit {} must lie in (0, 1]",
+            options.max_dof_fraction
+        )));
+    }
     let noise = estimate_noise(positions, values);
     let sc = Score {
-        criterion: options.criterion,
         max_dof: options.max_dof_fraction,
         n: n as f64,
-        noise,
     };
     let mut all: Vec<(f64, f64, usize, Spectral)> = Vec::new();
     let mut evaluations = 0u64;
@@ -487,14 +444,7 @@ pub fn fit_smoothing(
             let Some(s) = spectral(&u, &y, p, q, count, options.periodic) else {
                 continue;
             };
-            let (score, lambda, e) = match options.fixed_log_lambda {
-                Some(l) => {
-                    let top = s.eigen.iter().fold(0.0f64, |m, v| m.max(*v));
-                    let lambda = if top > 0.0 { 10f64.powf(l) / top } else { 0.0 };
-                    (sc.at(&s, lambda), lambda, 1)
-                }
-                None => best_lambda(&s, sc),
-            };
+            let (score, lambda, e) = best_lambda(&s, sc);
             evaluations += e;
             // Prefer fewer control points on (near) ties: same curve, less to store.
             if score.is_finite() {
@@ -580,7 +530,11 @@ mod tests {
         let f = |v: f64| 2.0 + 0.01 * v - 3e-4 * v * v + 2e-6 * v * v * v;
         let y: Vec<f64> = x.iter().map(|&v| f(v)).collect();
         let fit = fit_smoothing(&x, &y, &SmoothingOptions::default()).unwrap();
-        assert!(fit.residuals.iter().all(|r| r.abs() < 1e-9), "{:?}", fit.residuals);
+        assert!(
+            fit.residuals.iter().all(|r| r.abs() < 1e-9),
+            "{:?}",
+            fit.residuals
+        );
     }
 
     #[test]
@@ -600,7 +554,10 @@ mod tests {
         let (a, b) = (c.derivatives(0.0, 2), c.derivatives(1.0, 2));
         // Value, and slope/curvature in x (x(u) is linear, so in u as well).
         for d in 0..=2 {
-            assert!((a[d][1] - b[d][1]).abs() < 1e-9 * (1.0 + a[d][1].abs()), "order {d}");
+            assert!(
+                (a[d][1] - b[d][1]).abs() < 1e-9 * (1.0 + a[d][1].abs()),
+                "order {d}"
+            );
         }
     }
 }

@@ -2,9 +2,9 @@
 use super::{BlockError, PredictReport, PredictedPoint};
 use crate::gcode::{GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
+use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError};
 use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
-use crate::machine::tool_models::kinematics_with;
 use crate::toolpath::{effective_frame, joints_of};
 use std::time::Instant;
 

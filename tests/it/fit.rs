@@ -62,7 +62,11 @@ fn reference_machine_fits_by_cross_validation() {
         let one = cv.max(noise);
         for pair in u {
             let v = pair[1].as_f64().unwrap();
-            assert!(v > 0.0 && v < one, "{} uncertainty {v} vs {one}", p["parameter"]);
+            assert!(
+                v > 0.0 && v < one,
+                "{} uncertainty {v} vs {one}",
+                p["parameter"]
+            );
         }
         let fit: volcomp::nurbs::ParameterFit = serde_json::from_value(p.clone()).unwrap();
         fit.to_curve().unwrap();
@@ -178,7 +182,16 @@ fn missed_tolerance_fails_clearly() {
     let out = volcomp()
         .arg("fit")
         .arg(root().join("machines/ref-trt/y.csv"))
-        .args(["--select", "emax", "--tol", "0.001", "--control-points", "5", "--method", "lam"])
+        .args([
+            "--select",
+            "emax",
+            "--tol",
+            "0.001",
+            "--control-points",
+            "5",
+            "--method",
+            "lam",
+        ])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1));

@@ -5,22 +5,18 @@ use volcomp::axes::{Axes, Axis};
 use volcomp::machine::{
     ErrorModel, ExtrapolationPolicy, LoadOptions, LookupError, Machine, ModelOptions,
 };
-use volcomp::nurbs::{FitOptions, KnotMethod};
+use volcomp::nurbs::FitOptions;
 
 fn project(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
-/// Fast fit settings for tests (fixed control points, no search): the lookup and the
+/// Fit settings for tests (the default, milliseconds per table): the lookup and the
 /// chain are under test here, not the SMEM fit (tested in the nurbs module).
 fn fast_fit() -> ModelOptions {
     ModelOptions {
-        fit: FitOptions {
-            method: KnotMethod::Epm,
-            control_points: Some(12),
-            optimise_weights: false,
-            ..Default::default()
-        },
+        // The default fit (cross-validated) takes milliseconds per table.
+        fit: FitOptions::default(),
         ..Default::default()
     }
 }
@@ -424,6 +420,17 @@ mod cli {
             );
             let got = v["axis_urad"][i].as_f64().expect("number");
             assert!((got - want.axis_urad[i]).abs() < 1e-9);
+        }
+        // The standard uncertainty per axis, as the library propagates it.
+        let u = model
+            .uncertainty_at(&volcomp::axes::Axes::new(-10.0, 20.0, -30.0, 15.0, 405.0))
+            .expect("inside")
+            .per_axis_um();
+        for i in 0..3 {
+            let got = v["u_um"][i].as_f64().expect("u_um");
+            assert!((got - u[i]).abs() < 1e-9, "{got} vs {}", u[i]);
+            // Table noise of ~0.2 µm / 0.5 µrad, averaged by the fit: tenths of a µm.
+            assert!(got > 0.02 && got < 1.0, "u {got}");
         }
     }
 

@@ -6,8 +6,8 @@ use volcomp::nurbs::knot_vector::{clamped, greville};
 use volcomp::nurbs::least_squares::fit_control_points;
 use volcomp::nurbs::synthetic::{paper_like_curve, paper_like_truth};
 use volcomp::nurbs::{
-    FitOptions, KnotMethod, Selection, NurbsCurve, ParameterKind, SmemCurve, SurfaceFitOptions, fit_parameter,
-    fit_surface,
+    FitOptions, KnotMethod, NurbsCurve, ParameterKind, Selection, SmemCurve, SurfaceFitOptions,
+    fit_parameter, fit_surface,
 };
 
 fn sorted_interior(raw: Vec<f64>) -> Vec<f64> {
@@ -293,7 +293,10 @@ fn against_truth(curve: &SmemCurve) -> (f64, f64) {
             covered += 1;
         }
     }
-    ((se / (n + 1) as f64).sqrt(), covered as f64 / (n + 1) as f64)
+    (
+        (se / (n + 1) as f64).sqrt(),
+        covered as f64 / (n + 1) as f64,
+    )
 }
 
 /// The default (cross-validated) fit is closer to the TRUE curve than the
@@ -331,10 +334,16 @@ fn cross_validated_fit_follows_the_truth_not_the_noise() {
         coverage_sum += coverage;
     }
     let (cv_mean, emax_mean) = (cv_sum / count, emax_sum / count);
-    assert!(cv_mean < 0.9 * emax_mean, "cv {cv_mean} vs emax {emax_mean}");
+    assert!(
+        cv_mean < 0.9 * emax_mean,
+        "cv {cv_mean} vs emax {emax_mean}"
+    );
     assert!(cv_wins >= 7, "cv better on {cv_wins} of 12");
     let noise = noise_sum / count;
     assert!((noise - 0.5).abs() < 0.1, "noise estimate {noise} for 0.5");
     let coverage = coverage_sum / count;
-    assert!(coverage > 0.85, "2-sigma band covers {coverage} of the truth");
+    assert!(
+        coverage > 0.85,
+        "2-sigma band covers {coverage} of the truth"
+    );
 }

@@ -135,7 +135,9 @@ fn blind_examples_agree_with_the_independent_prediction() {
             let want: f64 = value.parse().unwrap();
             let got = point.deviation_um.expect("cut");
             diffs.push(got - want);
-            let u = point.deviation_u_um.expect("the fitted model carries uncertainties");
+            let u = point
+                .deviation_u_um
+                .expect("the fitted model carries uncertainties");
             within_one_u += usize::from((got - want).abs() <= u);
         }
         // The reported uncertainty is calibrated: about 68 % of the true
