@@ -307,15 +307,15 @@ impl Folds {
     }
 }
 
-/// Held-out mean squared error of a set of effects over all schemes (each point
-/// is predicted once per scheme by a fit that did not see it).
-pub(crate) fn cross_validate(
-    sig: &Signatures,
+/// Held-out mean squared error over all schemes: each point is predicted once
+/// per scheme by `predict(train)`, a predictor fitted without it. A fold whose
+/// complement is empty is predicted as zero.
+fn heldout_mse<P: Fn(usize) -> f64>(
     folds: &Folds,
-    kinds: &[EffectKind],
+    n: usize,
     y: &[f64],
+    fit: impl Fn(&[usize]) -> P,
 ) -> f64 {
-    let n = sig.len();
     let mut sse = 0.0;
     let mut count = 0usize;
     for (_, scheme) in &folds.schemes {
@@ -329,26 +329,46 @@ pub(crate) fn cross_validate(
                 held[i] = false;
             }
             if train.is_empty() {
-                for &i in fold {
-                    sse += y[i] * y[i];
-                    count += 1;
-                }
+                sse += fold.iter().map(|&i| y[i] * y[i]).sum::<f64>();
+                count += fold.len();
                 continue;
             }
-            let fit = fit_set(sig, kinds, &train, y);
-            let cols = sig.design(kinds, fit.tau.unwrap_or(1.0));
+            let predict = fit(&train);
             for &i in fold {
-                let f: f64 = cols
-                    .iter()
-                    .zip(&fit.linear.coefs)
-                    .map(|(c, b)| c[i] * b)
-                    .sum();
-                sse += (y[i] - f).powi(2);
+                sse += (y[i] - predict(i)).powi(2);
                 count += 1;
             }
         }
     }
     sse / count.max(1) as f64
+}
+
+/// Held-out mean squared error of a set of effects over all schemes (each point
+/// is predicted once per scheme by a fit that did not see it).
+pub(crate) fn cross_validate(
+    sig: &Signatures,
+    folds: &Folds,
+    kinds: &[EffectKind],
+    y: &[f64],
+) -> f64 {
+    heldout_mse(folds, sig.len(), y, |train| {
+        let fit = fit_set(sig, kinds, train, y);
+        let cols = sig.design(kinds, fit.tau.unwrap_or(1.0));
+        move |i| {
+            cols.iter()
+                .zip(&fit.linear.coefs)
+                .map(|(c, b)| c[i] * b)
+                .sum()
+        }
+    })
+}
+
+/// Held-out mean squared error of a linear fit on arbitrary `cols`.
+pub(crate) fn cross_validate_columns(cols: &[Vec<f64>], folds: &Folds, y: &[f64]) -> f64 {
+    heldout_mse(folds, y.len(), y, |train| {
+        let fit = least_squares(cols, train, y);
+        move |i| cols.iter().zip(&fit.coefs).map(|(c, b)| c[i] * b).sum()
+    })
 }
 
 /// Cosine between `v` and its projection on the span of `cols` (1 when `v` lies in it).

@@ -27,10 +27,13 @@ pub mod synthetic;
 use crate::inspection::profile;
 use crate::toolpath::PointContext;
 pub use effects::{Effect, EffectError, EffectKind};
-use fit::{Folds, SetFit, Signatures, cross_validate, fit_set, span_cosine};
+use fit::{
+    Folds, SetFit, Signatures, cross_validate, cross_validate_columns, fit_set, least_squares,
+    span_cosine,
+};
 use noise::rms;
 pub use report::DiagnoseReport;
-use report::{After, EffectFit, Gap, PointResidual};
+use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
 pub use simulate::{SimulateOptions, simulate};
 use std::collections::BTreeMap;
 
@@ -295,6 +298,7 @@ pub fn diagnose(
                 kinds.sort_by_key(|k| rank(*k));
                 selected = kinds;
                 selected_mse = mse;
+                selected_bic = score;
             }
             Some((kinds, mse, score, _)) => notes.push(format!(
                 "best pair {} + {} (BIC {:.1} vs {:.1}, held-out RMS {:.3} vs {:.3} µm) does not improve significantly on the single effect: one effect kept",
@@ -305,6 +309,79 @@ pub fn diagnose(
                 options.min_explained_ratio
             )),
         }
+    }
+
+    // Does the gap follow the error model itself?
+    let model_check = {
+        // One column per measured axis (what the model attributes to its
+        // tables), and one for the rest of the prediction: the machine file's
+        // position-independent errors (squareness, rotary location).
+        let mut named_cols: Vec<(String, Vec<f64>)> = (0..5)
+            .map(|k| {
+                (
+                    crate::axes::Axis::ALL[k].letter().to_string(),
+                    used.iter()
+                        .map(|c| c.axis_deviation_um[k])
+                        .collect::<Vec<f64>>(),
+                )
+            })
+            .filter(|(_, c)| c.iter().any(|v| *v != 0.0))
+            .collect();
+        if !named_cols.is_empty() {
+            let rest: Vec<f64> = used
+                .iter()
+                .map(|c| c.predicted_um - c.axis_deviation_um.iter().sum::<f64>())
+                .collect();
+            if rms(&rest) > 1e-3 {
+                named_cols.push((POSITION_INDEPENDENT.to_string(), rest));
+            }
+        }
+        let cols: Vec<Vec<f64>> = named_cols.iter().map(|(_, c)| c.clone()).collect();
+        let (mse, factors) = if cols.is_empty() {
+            (mse_before, BTreeMap::new())
+        } else {
+            let fit = least_squares(&cols, &all_rows, &r);
+            let factors = named_cols
+                .iter()
+                .zip(&fit.coefs)
+                .map(|((name, _), b)| (name.clone(), *b))
+                .collect();
+            (cross_validate_columns(&cols, &folds, &r), factors)
+        };
+        let model_bic = bic(mse, cols.len());
+        let explained = (mse_before - mse).max(0.0).sqrt();
+        let largest = factors
+            .values()
+            .fold(0.0f64, |m: f64, b: &f64| m.max(b.abs()));
+        let follows_model = explained >= options.min_explained_ratio * floor
+            && largest >= MODEL_FACTOR_MIN
+            && model_bic < bic_before;
+        let unexplained = selected_mse.sqrt() >= UNEXPLAINED_RATIO * floor;
+        // The model is blamed only when it explains the gap better than the
+        // selection and than every single catalogue effect: small effects
+        // that no one selects are not a model error.
+        let best_catalogue = candidates[0].bic.min(selected_bic);
+        let mismatch = (follows_model && model_bic < best_catalogue) || unexplained;
+        ModelCheck {
+            heldout_rms_before_um: mse_before.sqrt(),
+            heldout_rms_after_um: mse.sqrt(),
+            explained_um: explained,
+            factors,
+            bic: model_bic,
+            follows_model,
+            unexplained,
+            mismatch,
+        }
+    };
+    if model_check.mismatch && model_check.follows_model && !selected.is_empty() {
+        notes.push(format!(
+            "the error model's own axis factors explain the gap better (BIC {:.1} < {:.1}): {} not selected",
+            model_check.bic,
+            selected_bic,
+            selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
+        ));
+        selected.clear();
+        selected_mse = mse_before;
     }
 
     // Aliases: another effect whose span reproduces this effect's contribution.
@@ -380,12 +457,20 @@ pub fn diagnose(
         .collect();
     let max_cut = used.iter().map(|c| c.cut_length_m).fold(0.0f64, f64::max);
     let mut summary = Vec::new();
-    if selected.is_empty() {
+    if model_check.mismatch {
+        summary.push(model_sentence(
+            &model_check,
+            rms(&r),
+            selected_mse.sqrt(),
+            noise_floor,
+        ));
+    } else if selected.is_empty() {
         summary.push(format!(
             "The gap between measured and predicted deviations (residual RMS {:.2} µm) is within what the noise floor ({:.2} µm) and the model explain: no unmodelled effect is supported by the data.",
             rms(&r), noise_floor
         ));
-    } else {
+    }
+    if !selected.is_empty() {
         for kind in &selected {
             let params = after_params.get(kind.name()).cloned().unwrap_or_default();
             summary.push(report::machinist_sentence(*kind, &params, max_cut));
@@ -448,5 +533,51 @@ pub fn diagnose(
         summary,
         selection_notes: notes,
         residuals,
+        model_check,
     })
+}
+
+/// The model-check factor of the machine file's position-independent errors.
+pub const POSITION_INDEPENDENT: &str = "squareness and location";
+
+/// A table is named as off when its factor is at least this (10 %).
+pub const MODEL_FACTOR_MIN: f64 = 0.1;
+/// The gap is unexplained when the held-out RMS after the selection is at
+/// least this × the noise floor.
+pub const UNEXPLAINED_RATIO: f64 = 3.0;
+
+/// The sentence for a model that does not match the machine.
+fn model_sentence(
+    check: &ModelCheck,
+    residual_rms: f64,
+    remaining: f64,
+    noise_floor: f64,
+) -> String {
+    let mut named: Vec<(&String, &f64)> = check
+        .factors
+        .iter()
+        .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
+        .collect();
+    named.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let axes = named
+        .iter()
+        .map(|(axis, b)| format!("{axis} ×{:.2}", 1.0 + **b))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let plausible = named.iter().all(|(_, b)| (0.0..3.0).contains(&(1.0 + **b)));
+    if check.follows_model && !axes.is_empty() && !plausible {
+        format!(
+            "The error model does not match this machine: the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, but as no plausible scale of any axis ({axes}): the tables do not describe this machine (another machine's, or stale). Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model."
+        )
+    } else if check.follows_model && !axes.is_empty() {
+        format!(
+            "The error model does not match this machine: the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, as if the machine's were {axes} the modelled ones (explains {:.2} µm RMS on held-out points). Re-measure those axes' error tables (or check that the machine file is this machine's) before compensating with this model.",
+            check.explained_um
+        )
+    } else {
+        format!(
+            "The error model does not match this machine: of the gap (residual RMS {residual_rms:.2} µm), {remaining:.2} µm RMS stays unexplained on held-out points by the catalogue effects ({:.1} × the noise floor of {noise_floor:.2} µm). Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model.",
+            remaining / noise_floor.max(1e-6)
+        )
+    }
 }

@@ -25,6 +25,39 @@ pub struct DiagnoseReport {
     pub selection_notes: Vec<String>,
     /// Per used point: measured, predicted, residual before and after.
     pub residuals: Vec<PointResidual>,
+    /// Whether the gap follows the error model itself (extension; absent in
+    /// reports written before it).
+    #[serde(default)]
+    pub model_check: ModelCheck,
+}
+
+/// Is the machine's error model itself off? The residual is fitted as factors
+/// of what the model attributes to each measured axis and to the machine
+/// file's position-independent errors, `r ≈ Σ β_k · n·e_k` (a table k that is
+/// β_k off in scale, or stale, or of another machine), and cross-validated like
+/// the effects.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelCheck {
+    /// Held-out RMS of the residual before and after the axis factors, µm.
+    pub heldout_rms_before_um: f64,
+    pub heldout_rms_after_um: f64,
+    /// RMS the factors explain on held-out points, √(MSE_before − MSE_after).
+    pub explained_um: f64,
+    /// `β` per measured axis (and for the machine file's squareness and
+    /// location, `"squareness and location"`): the machine's errors look like
+    /// `(1 + β)` × the modelled ones.
+    pub factors: BTreeMap<String, f64>,
+    pub bic: f64,
+    /// The gap follows the model's own errors (explains ≥ the selection ratio ×
+    /// the noise floor, some |β| ≥ 0.1, and a lower BIC than no effect).
+    pub follows_model: bool,
+    /// What remains unexplained after the selected effects, on held-out points,
+    /// is at least three times the noise floor.
+    pub unexplained: bool,
+    /// The verdict: the error model does not match this machine (the model
+    /// explains the gap at least as well as the catalogue, or the gap stays
+    /// unexplained).
+    pub mismatch: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -228,6 +228,15 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
             -1.0 + 0.02 * y + 0.0005 * x * y,
             3.0 - 0.01 * x + 0.02 * y,
         ];
+        // What each "table" contributes (they sum to e): X varies with x, Y
+        // with y, the constant part is put on Z.
+        let axis_deviation_um = [
+            dot(p.normal, [0.03 * x, 0.0, -0.01 * x]),
+            dot(p.normal, [-0.01 * y, 0.02 * y + 0.0005 * x * y, 0.02 * y]),
+            dot(p.normal, [2.0, -1.0, 3.0]),
+            0.0,
+            0.0,
+        ];
         let model_error = options.model_error_um * (x / 15.0).sin() * (y / 12.0).cos();
         let (sa, ca) = a.sin_cos();
         let tool_axis = [sa * c.sin(), sa * c.cos(), ca];
@@ -249,6 +258,7 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
             predicted_um: dot(p.normal, e) + model_error,
             squareness_jacobian,
             location_jacobian,
+            axis_deviation_um,
         });
         truth.push(e);
     }

@@ -46,6 +46,11 @@ pub struct PointContext {
     /// ∂(tool tip, part coordinates, µm)/∂(location parameter, µm or µrad), rows in
     /// the order of [`LOCATION_PARAMETERS`].
     pub location_jacobian: [[f64; 3]; 8],
+    /// `n·e` of each axis's measured errors alone (X Y Z A C tables, first
+    /// order), µm: what the model attributes to each table at this point. Zero
+    /// in contexts written before this field.
+    #[serde(default)]
+    pub axis_deviation_um: [f64; 5],
 }
 
 impl PointContext {

@@ -97,6 +97,11 @@ pub fn contexts(
                     source,
                 })?;
             let e = kin.volumetric_error(&pp.joints, &errors).e_um;
+            let axis_deviation_um = std::array::from_fn(|slot| {
+                let mut only = crate::kinematics::ErrorValues::ZERO;
+                only.component[slot] = errors.component[slot];
+                dot(p.normal, kin.volumetric_error(&pp.joints, &only).e_um)
+            });
             Ok(PointContext {
                 id: p.id.clone(),
                 point: p.point,
@@ -115,6 +120,7 @@ pub fn contexts(
                 predicted_um: dot(p.normal, e),
                 squareness_jacobian: kin.squareness_jacobian(&pp.joints, &errors),
                 location_jacobian: kin.location_jacobian(&pp.joints, &errors),
+                axis_deviation_um,
             })
         })
         .collect()
@@ -163,5 +169,6 @@ fn not_cut(p: &PlanPoint) -> PointContext {
         predicted_um: 0.0,
         squareness_jacobian: [[0.0; 3]; 3],
         location_jacobian: [[0.0; 3]; 8],
+        axis_deviation_um: [0.0; 5],
     }
 }
