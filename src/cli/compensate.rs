@@ -56,6 +56,12 @@ pub struct Args {
     /// Split tolerance, µm: largest departure of a move from the compensated path.
     #[arg(long, value_name = "UM", default_value_t = 0.5)]
     pub tol: f64,
+    /// Correct the tool axis too: solve X Y Z A C so that the modelled actual
+    /// tip AND tool axis are the programmed ones (A and C words change where
+    /// the correction shows at the program's decimals). Near the A = 0 pole,
+    /// where C cannot steer the axis, moves stay position-only (counted).
+    #[arg(long)]
+    pub orientation: bool,
     /// Write the summary as JSON, with the expected residual from the model's
     /// own noise.
     #[arg(long, value_name = "FILE.json")]
@@ -85,6 +91,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         // The model's own noise at every move end: with --report only (it
         // doubles the run time).
         expected_residual: args.report.is_some(),
+        orientation: args.orientation,
         ..CompensateOptions::default()
     };
     let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
@@ -185,6 +192,31 @@ max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm,
 unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
         ),
         _ => String::new(),
+    };
+    let msg = match &report.orientation {
+        Some(o) => format!(
+            "{msg}\ntool axis (modelled, {} move ends): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
+            o.moves,
+            o.axis_error_before_max_urad,
+            o.axis_error_before_rms_urad,
+            o.axis_error_after_max_urad,
+            o.axis_error_after_rms_urad,
+            o.position_only_moves,
+            if o.position_only_lines.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (lines {})",
+                    o.position_only_lines
+                        .iter()
+                        .take(10)
+                        .map(|l| l.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        ),
+        None => msg,
     };
     // Per tool, when the program changes tools.
     let msg = if report.tools.iter().any(|t| t.tool != 0) {

@@ -26,7 +26,7 @@ use crate::toolpath::{effective_frame, joints_of, target_of};
 use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
-use solve::{SolveError, first_order_joints, solve_joints_from};
+use solve::{SolveError, first_order_joints, first_order_pose, solve_joints_from, solve_pose_from};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -52,6 +52,9 @@ pub struct CompensateOptions {
     /// standard uncertainty at every move end: about as long as the
     /// compensation itself again).
     pub expected_residual: bool,
+    /// Correct the tool axis too: solve X Y Z A C so that the modelled actual
+    /// tip and tool axis are the programmed ones (`compensate --orientation`).
+    pub orientation: bool,
 }
 
 impl Default for CompensateOptions {
@@ -64,6 +67,7 @@ impl Default for CompensateOptions {
             chunk_blocks: 4096,
             limits: None,
             expected_residual: false,
+            orientation: false,
         }
     }
 }
@@ -99,10 +103,33 @@ pub struct CompensateReport {
     pub expected_residual_rms_um: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub expected_residual_max_um: Option<f64>,
+    /// With `--orientation`: the modelled tool-axis error at the move ends
+    /// before and after compensation (max and RMS, µrad), and the moves left to
+    /// the position-only solve near the A = 0 pole, with their first lines.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationReport>,
     #[serde(skip)]
     residual_sum_sq: f64,
     #[serde(skip)]
     residual_moves: usize,
+}
+
+/// The tool-axis side of `compensate --orientation`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct OrientationReport {
+    pub moves: usize,
+    pub axis_error_before_max_urad: f64,
+    pub axis_error_before_rms_urad: f64,
+    pub axis_error_after_max_urad: f64,
+    pub axis_error_after_rms_urad: f64,
+    /// Moves too close to the A = 0 pole for C to steer the axis: position only.
+    pub position_only_moves: usize,
+    /// Their lines (the first 50).
+    pub position_only_lines: Vec<usize>,
+    #[serde(skip)]
+    before_sum_sq: f64,
+    #[serde(skip)]
+    after_sum_sq: f64,
 }
 
 /// Correction statistics of a run of blocks cut with one tool.
@@ -150,6 +177,24 @@ impl CompensateReport {
         }
     }
 
+    /// Count the tool axis of one compensated move end (`--orientation`).
+    fn record_axis(&mut self, line: usize, a: AxisCorrection) {
+        let o = self
+            .orientation
+            .get_or_insert_with(OrientationReport::default);
+        o.moves += 1;
+        o.axis_error_before_max_urad = o.axis_error_before_max_urad.max(a.before_urad);
+        o.axis_error_after_max_urad = o.axis_error_after_max_urad.max(a.after_urad);
+        o.before_sum_sq += a.before_urad * a.before_urad;
+        o.after_sum_sq += a.after_urad * a.after_urad;
+        if a.position_only {
+            o.position_only_moves += 1;
+            if o.position_only_lines.len() < 50 && o.position_only_lines.last() != Some(&line) {
+                o.position_only_lines.push(line);
+            }
+        }
+    }
+
     /// Count the model's standard uncertainty `um` at one compensated move end.
     fn record_uncertainty(&mut self, um: f64) {
         self.residual_sum_sq += um * um;
@@ -159,6 +204,12 @@ impl CompensateReport {
 
     /// The RMS values, once every move is recorded.
     fn finish(&mut self) {
+        if let Some(o) = self.orientation.as_mut()
+            && o.moves > 0
+        {
+            o.axis_error_before_rms_urad = (o.before_sum_sq / o.moves as f64).sqrt();
+            o.axis_error_after_rms_urad = (o.after_sum_sq / o.moves as f64).sqrt();
+        }
         if self.residual_moves > 0 {
             self.expected_residual_rms_um =
                 Some((self.residual_sum_sq / self.residual_moves as f64).sqrt());
@@ -222,48 +273,114 @@ struct Plan {
 }
 
 /// A compensated target: in the block's frame, the solve residual (mm) and the
-/// joint correction (X Y Z, mm), which warm-starts the next solve.
+/// joint correction (X Y Z mm, A C degrees), which warm-starts the next solve.
 #[derive(Clone, Copy, Debug)]
 struct Compensated {
     target: Axes,
     residual_mm: f64,
-    correction: [f64; 3],
+    correction: [f64; 5],
+    /// With `--orientation`: the tool-axis error before and after (µrad), and
+    /// whether the pose was left to the position-only solve (A = 0 pole).
+    orientation: Option<AxisCorrection>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct AxisCorrection {
+    before_urad: f64,
+    after_urad: f64,
+    position_only: bool,
+}
+
+/// Angle between the modelled actual tool axis at `joints` and the nominal one
+/// at `nominal`, µrad.
+fn axis_error_urad(model: &ErrorModel, joints: &Axes, nominal: &Axes) -> Result<f64, PointError> {
+    let kin = model.kinematics();
+    let errors = model
+        .errors_at(joints)
+        .map_err(|e| PointError::Solve(SolveError::Lookup(e)))?;
+    let actual = crate::vec3::normalise(kin.actual_tip_and_axis(joints, &errors).axis);
+    let programmed = kin.nominal_tool_axis(nominal);
+    Ok(1e6 * crate::vec3::norm(crate::vec3::cross(actual, programmed)))
 }
 
 /// The compensated target of `target` (in `frame`), the solve starting from the
-/// joint correction `guess`.
+/// joint correction `guess`; A and C corrected too when `orientation`.
 fn compensate_target(
     model: &ErrorModel,
     frame: Frame,
     target: &Axes,
     limits: Option<&Limits>,
-    guess: [f64; 3],
+    guess: [f64; 5],
+    orientation: bool,
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
-    let solved = solve_joints_from(model, &nominal, guess).map_err(PointError::Solve)?;
-    let correction = [
-        solved.joints.x - nominal.x,
-        solved.joints.y - nominal.y,
-        solved.joints.z - nominal.z,
-    ];
+    let (joints, residual_mm, axis) = if orientation {
+        let before = axis_error_urad(model, &nominal, &nominal)?;
+        match solve_pose_from(model, &nominal, guess).map_err(PointError::Solve)? {
+            Some(pose) => (
+                pose.joints,
+                pose.residual_mm,
+                Some(AxisCorrection {
+                    before_urad: before,
+                    after_urad: pose.residual_urad,
+                    position_only: false,
+                }),
+            ),
+            None => {
+                let xyz = [guess[0], guess[1], guess[2]];
+                let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
+                let after = axis_error_urad(model, &solved.joints, &nominal)?;
+                (
+                    solved.joints,
+                    solved.residual_mm,
+                    Some(AxisCorrection {
+                        before_urad: before,
+                        after_urad: after,
+                        position_only: true,
+                    }),
+                )
+            }
+        }
+    } else {
+        let xyz = [guess[0], guess[1], guess[2]];
+        let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
+        (solved.joints, solved.residual_mm, None)
+    };
+    let correction = std::array::from_fn(|i| joints.to_array()[i] - nominal.to_array()[i]);
     if let Some(l) = limits
-        && let Some((axis, value, range)) = l.violated(&solved.joints)
+        && let Some((axis, value, range)) = l.violated(&joints)
     {
         return Err(PointError::Travel { axis, value, range });
     }
-    // The solve keeps A and C exactly as programmed.
     Ok(Compensated {
-        target: target_of(kin, frame, &solved.joints),
-        residual_mm: solved.residual_mm,
+        target: target_of(kin, frame, &joints),
+        residual_mm,
         correction,
+        orientation: axis,
     })
 }
 
-/// First-order estimate of [`compensate_target`] (one error evaluation, no limits).
-fn estimate_target(model: &ErrorModel, frame: Frame, target: &Axes) -> Result<Axes, PointError> {
+/// First-order estimate of [`compensate_target`] for the split decision (one
+/// error evaluation, no limits); with `orientation` the pose's first Newton step
+/// (A and C corrected too), position only where that solve gives up (pole).
+fn estimate_target(
+    model: &ErrorModel,
+    frame: Frame,
+    target: &Axes,
+    orientation: bool,
+) -> Result<Axes, PointError> {
     let kin = model.kinematics();
-    let q = first_order_joints(model, &joints_of(kin, frame, target)).map_err(PointError::Solve)?;
+    let nominal = joints_of(kin, frame, target);
+    let pose = if orientation {
+        first_order_pose(model, &nominal).map_err(PointError::Solve)?
+    } else {
+        None
+    };
+    let q = match pose {
+        Some(q) => q,
+        None => first_order_joints(model, &nominal).map_err(PointError::Solve)?,
+    };
     Ok(target_of(kin, frame, &q))
 }
 
@@ -304,7 +421,7 @@ fn plan_motion(
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
         let tm = 0.5 * (t0 + t1);
         let nominal_mid = motion.point_at(arc.as_ref(), tm);
-        let estimate = estimate_target(model, frame, &nominal_mid)?;
+        let estimate = estimate_target(model, frame, &nominal_mid, options.orientation)?;
         // What the control would do between the compensated ends.
         let n0 = motion.point_at(arc.as_ref(), t0);
         let n1 = motion.point_at(arc.as_ref(), t1);
@@ -325,7 +442,15 @@ fn plan_motion(
         });
         let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
         if needs_split && depth < options.max_split_depth {
-            let cm = compensate_target(model, frame, &nominal_mid, limits, [0.0; 3])?.target;
+            let cm = compensate_target(
+                model,
+                frame,
+                &nominal_mid,
+                limits,
+                [0.0; 5],
+                options.orientation,
+            )?
+            .target;
             // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
             stack.push((t0, tm, c0, cm, depth + 1));
@@ -359,7 +484,17 @@ fn densify_arc(
     let mut via = Vec::with_capacity(n - 1);
     for i in 1..n {
         let p = motion.point_at(Some(arc), i as f64 / n as f64);
-        via.push(compensate_target(model, frame, &p, options.limits.as_ref(), [0.0; 3])?.target);
+        via.push(
+            compensate_target(
+                model,
+                frame,
+                &p,
+                options.limits.as_ref(),
+                [0.0; 5],
+                options.orientation,
+            )?
+            .target,
+        );
     }
     Ok(via)
 }
@@ -497,7 +632,7 @@ fn compensate_chunks(
         let ends: Vec<Result<Compensated, PointError>> = chunk
             .par_chunks(WARM_START_RUN)
             .flat_map_iter(|piece| {
-                let mut guess = [0.0; 3];
+                let mut guess = [0.0; 5];
                 piece
                     .iter()
                     .flat_map(|(_, event)| {
@@ -511,6 +646,7 @@ fn compensate_chunks(
                             &m.end,
                             options.limits.as_ref(),
                             guess,
+                            options.orientation,
                         );
                         if let Ok(c) = &c {
                             guess = c.correction;
@@ -532,6 +668,9 @@ fn compensate_chunks(
                 match ends.next() {
                     Some(Ok(c)) => {
                         report.max_residual_nm = report.max_residual_nm.max(c.residual_mm * 1e6);
+                        if let Some(a) = c.orientation {
+                            report.record_axis(block.line, a);
+                        }
                         mine.push((c.target, c.residual_mm));
                     }
                     Some(Err(e)) => return Err(point_error(path, block.line, e)),

@@ -13,8 +13,18 @@
 //! error functions (a few µm per 100 mm, so ~1e-4 per step) and reaches the 1 nm
 //! residual in two or three steps. It stops with a typed error when it does not.
 //!
-//! Rotary errors are not corrected through A and C: the tool-axis error (µrad)
-//! remains, as in the seed paper, which moves only X, Y, Z.
+//! By default rotary errors are not corrected through A and C: the tool-axis
+//! error (µrad) remains, as in the seed paper, which moves only X, Y, Z.
+//!
+//! [`solve_pose_from`] (`compensate --orientation`) solves X Y Z A C together so
+//! that the actual tip AND the actual tool axis equal the programmed ones: five
+//! equations (the tip, and the axis's two components normal to the programmed
+//! axis; a rotation about the axis does not matter). Newton with the analytic
+//! tip Jacobian and the nominal axis derivatives (the errors' own dependence
+//! on the joints is ~1e-5 of them), to 1 nm and 0.01 µrad. Near the A = 0 pole
+//! C cannot steer the axis: when a step would turn C by more than
+//! [`MAX_C_CORRECTION_DEG`] (or the iteration stalls there), the block is left
+//! to the position-only solve, and counted.
 use crate::axes::Axes;
 use crate::machine::{ErrorModel, LookupError};
 
@@ -38,6 +48,180 @@ pub enum SolveError {
     },
     #[error("the target is not finite: {0:?}")]
     NotFinite(Axes),
+}
+
+/// Tool-axis residual at which the orientation solve stops, µrad.
+pub const RESIDUAL_URAD: f64 = 0.01;
+/// Largest C correction of the orientation solve, degrees: beyond it the pose
+/// is too close to the A = 0 pole for C to steer the axis (a 50 µrad tilt needs
+/// 0.05° of C at sin a ≈ 0.06, a = 3.3°).
+pub const MAX_C_CORRECTION_DEG: f64 = 0.05;
+
+/// A solved pose of the orientation solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolvedPose {
+    /// Compensated joints, A and C included.
+    pub joints: Axes,
+    /// Final |r_act − r_target|, mm.
+    pub residual_mm: f64,
+    /// Final angle between the actual and the programmed tool axis, µrad.
+    pub residual_urad: f64,
+    pub iterations: usize,
+}
+
+/// Joints whose actual tip and tool axis are the programmed ones, starting from
+/// `nominal + guess` (X Y Z mm, A C degrees). `Ok(None)`: the pose is too close
+/// to the A = 0 pole for C to steer the axis (a step would turn C by more than
+/// [`MAX_C_CORRECTION_DEG`], the system is singular, or Newton does not reach
+/// the residuals in [`MAX_ITERATIONS`] steps); the caller solves position only.
+pub fn solve_pose_from(
+    model: &ErrorModel,
+    nominal: &Axes,
+    guess: [f64; 5],
+) -> Result<Option<SolvedPose>, SolveError> {
+    let target = PoseTarget::of(model, nominal)?;
+    let mut q = *nominal;
+    if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
+        q = Axes::from_array(std::array::from_fn(|i| q.to_array()[i] + guess[i]));
+    }
+    for iteration in 0..=MAX_ITERATIONS {
+        let step = target.newton_step(model, &q)?;
+        if step.residual_mm < RESIDUAL_MM && step.residual_urad < RESIDUAL_URAD {
+            return Ok(Some(SolvedPose {
+                joints: q,
+                residual_mm: step.residual_mm,
+                residual_urad: step.residual_urad,
+                iterations: iteration,
+            }));
+        }
+        match step.next {
+            Some(next) => q = next,
+            None => return Ok(None),
+        }
+    }
+    // Not converged: ill-conditioned (close to the pole); the caller falls back
+    // to the position-only solve and counts the move.
+    Ok(None)
+}
+
+/// First-order pose of [`solve_pose_from`]: one Newton step from `nominal` (for
+/// the split decision). `Ok(None)` as there.
+pub fn first_order_pose(model: &ErrorModel, nominal: &Axes) -> Result<Option<Axes>, SolveError> {
+    Ok(PoseTarget::of(model, nominal)?
+        .newton_step(model, nominal)?
+        .next)
+}
+
+/// The programmed tip and tool axis, and two unit vectors normal to the axis.
+struct PoseTarget {
+    nominal: Axes,
+    tip: [f64; 3],
+    axis: [f64; 3],
+    normals: [[f64; 3]; 2],
+}
+
+/// One Newton step of the pose solve: the residuals at `q`, and the next joints
+/// (`None`: singular, or a C turn beyond [`MAX_C_CORRECTION_DEG`]).
+struct PoseStep {
+    residual_mm: f64,
+    residual_urad: f64,
+    next: Option<Axes>,
+}
+
+impl PoseTarget {
+    fn of(model: &ErrorModel, nominal: &Axes) -> Result<PoseTarget, SolveError> {
+        if !nominal.is_finite() {
+            return Err(SolveError::NotFinite(*nominal));
+        }
+        let kin = model.kinematics();
+        let axis = kin.nominal_tool_axis(nominal);
+        let (e1, e2) = normal_basis(axis);
+        Ok(PoseTarget {
+            nominal: *nominal,
+            tip: kin.nominal_tip(nominal),
+            axis,
+            normals: [e1, e2],
+        })
+    }
+
+    fn newton_step(&self, model: &ErrorModel, q: &Axes) -> Result<PoseStep, SolveError> {
+        let kin = model.kinematics();
+        let errors = model.errors_at(q)?;
+        let actual = kin.actual_tip_and_axis(q, &errors);
+        let du = crate::vec3::sub(crate::vec3::normalise(actual.axis), self.axis);
+        let [e1, e2] = self.normals;
+        let r = [
+            actual.tip[0] - self.tip[0],
+            actual.tip[1] - self.tip[1],
+            actual.tip[2] - self.tip[2],
+            crate::vec3::dot(du, e1),
+            crate::vec3::dot(du, e2),
+        ];
+        let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
+        let mut out = PoseStep {
+            residual_mm,
+            residual_urad,
+            next: None,
+        };
+        if !(residual_mm.is_finite() && residual_urad.is_finite()) {
+            return Ok(out);
+        }
+        let jt = kin.tip_jacobian(q, &errors);
+        // ∂u/∂a, ∂u/∂c per degree, nominal (central differences of the exact
+        // nominal axis; the errors' share is ~1e-5 of it).
+        const H: f64 = 1e-3;
+        let du_d = |da: f64, dc: f64| {
+            let plus = kin.nominal_tool_axis(&Axes {
+                a: q.a + da,
+                c: q.c + dc,
+                ..*q
+            });
+            let minus = kin.nominal_tool_axis(&Axes {
+                a: q.a - da,
+                c: q.c - dc,
+                ..*q
+            });
+            crate::vec3::scale(crate::vec3::sub(plus, minus), 0.5 / H)
+        };
+        let (ua, uc) = (du_d(H, 0.0), du_d(0.0, H));
+        let mut j = nalgebra::Matrix5::<f64>::zeros();
+        for row in 0..3 {
+            for col in 0..5 {
+                j[(row, col)] = jt[row][col];
+            }
+        }
+        for (row, e) in [(3, e1), (4, e2)] {
+            j[(row, 3)] = crate::vec3::dot(ua, e);
+            j[(row, 4)] = crate::vec3::dot(uc, e);
+        }
+        let Some(step) = j.lu().solve(&nalgebra::Vector5::from_column_slice(&r)) else {
+            return Ok(out);
+        };
+        let next = Axes {
+            x: q.x - step[0],
+            y: q.y - step[1],
+            z: q.z - step[2],
+            a: q.a - step[3],
+            c: q.c - step[4],
+        };
+        if next.is_finite() && (next.c - self.nominal.c).abs() <= MAX_C_CORRECTION_DEG {
+            out.next = Some(next);
+        }
+        Ok(out)
+    }
+}
+
+/// Two unit vectors normal to the unit vector `u` and to each other.
+fn normal_basis(u: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let helper = if u[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let e1 = crate::vec3::normalise(crate::vec3::cross(u, helper));
+    let e2 = crate::vec3::cross(u, e1);
+    (e1, e2)
 }
 
 /// A solved target.
