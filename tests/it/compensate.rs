@@ -586,41 +586,33 @@ fn a_full_circle_helix_keeps_its_centre() {
 #[test]
 fn the_report_gives_the_expected_residual_from_the_model_noise() {
     let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&std::path::Path]| {
+        let mut cmd = crate::support::volcomp();
+        cmd.current_dir(root())
+            .args([
+                "compensate",
+                "machines/ref-trt.toml",
+                "samples/saddle.nc",
+                "-o",
+            ])
+            .arg(dir.path().join(name));
+        if let Some(report) = extra.first() {
+            cmd.arg("--report").arg(report);
+        }
+        let out = cmd.output().unwrap();
+        crate::support::assert_success(&out);
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
     let report = dir.path().join("comp.json");
-    let out = crate::support::volcomp()
-        .current_dir(root())
-        .args([
-            "compensate",
-            "machines/ref-trt.toml",
-            "samples/saddle.nc",
-            "-o",
-        ])
-        .arg(dir.path().join("out.nc"))
-        .arg("--report")
-        .arg(&report)
-        .output()
-        .unwrap();
-    crate::support::assert_success(&out);
+    let stdout = run("out.nc", &[&report]);
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let rms = v["expected_residual_rms_um"].as_f64().unwrap();
     let max = v["expected_residual_max_um"].as_f64().unwrap();
     // Measured: 0.451 / 0.462 µm (tables with ~0.2 µm and ~0.5 µrad of noise).
     assert!(rms > 0.1 && rms < 1.0 && max >= rms, "{rms} {max}");
-    assert!(String::from_utf8_lossy(&out.stdout).contains("expected residual"));
-    let quiet = crate::support::volcomp()
-        .current_dir(root())
-        .args([
-            "compensate",
-            "machines/ref-trt.toml",
-            "samples/saddle.nc",
-            "-o",
-        ])
-        .arg(dir.path().join("out2.nc"))
-        .output()
-        .unwrap();
-    crate::support::assert_success(&quiet);
-    assert!(!String::from_utf8_lossy(&quiet.stdout).contains("expected residual"));
+    assert!(stdout.contains("expected residual"));
+    assert!(!run("out2.nc", &[]).contains("expected residual"));
 }
 
 /// The modelled actual tool axis at every cutting block end of `text`, against
