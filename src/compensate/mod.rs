@@ -316,18 +316,18 @@ fn compensate_target(
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
     let (joints, residual_mm, axis) = if orientation {
-        let before = axis_error_urad(model, &nominal, &nominal)?;
         match solve_pose_from(model, &nominal, guess).map_err(PointError::Solve)? {
             Some(pose) => (
                 pose.joints,
                 pose.residual_mm,
                 Some(AxisCorrection {
-                    before_urad: before,
+                    before_urad: pose.before_urad,
                     after_urad: pose.residual_urad,
                     position_only: false,
                 }),
             ),
             None => {
+                let before = axis_error_urad(model, &nominal, &nominal)?;
                 let xyz = [guess[0], guess[1], guess[2]];
                 let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
                 let after = axis_error_urad(model, &solved.joints, &nominal)?;

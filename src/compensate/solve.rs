@@ -66,14 +66,19 @@ pub struct SolvedPose {
     pub residual_mm: f64,
     /// Final angle between the actual and the programmed tool axis, µrad.
     pub residual_urad: f64,
+    /// The same angle at the programmed joints (before compensation), µrad,
+    /// from the first iterate to first order.
+    pub before_urad: f64,
     pub iterations: usize,
 }
 
 /// Joints whose actual tip and tool axis are the programmed ones, starting from
 /// `nominal + guess` (X Y Z mm, A C degrees). `Ok(None)`: the pose is too close
 /// to the A = 0 pole for C to steer the axis (a step would turn C by more than
-/// [`MAX_C_CORRECTION_DEG`], the system is singular, or Newton does not reach
-/// the residuals in [`MAX_ITERATIONS`] steps); the caller solves position only.
+/// [`MAX_C_CORRECTION_DEG`], the system is singular, or the iteration does not
+/// reach the residuals in [`MAX_ITERATIONS`] steps); the caller solves position
+/// only. The Jacobian of the first iterate serves every step (the errors' slope
+/// makes the next ones differ by ~1e-5).
 pub fn solve_pose_from(
     model: &ErrorModel,
     nominal: &Axes,
@@ -84,20 +89,35 @@ pub fn solve_pose_from(
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
         q = Axes::from_array(std::array::from_fn(|i| q.to_array()[i] + guess[i]));
     }
+    let mut lu: Option<nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>> = None;
+    let mut before_urad = f64::NAN;
     for iteration in 0..=MAX_ITERATIONS {
-        let step = target.newton_step(model, &q)?;
-        if step.residual_mm < RESIDUAL_MM && step.residual_urad < RESIDUAL_URAD {
+        let (r, errors) = target.residual(model, &q)?;
+        let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
+        if lu.is_none() {
+            let j = target.jacobian(model, &q, &errors);
+            // The axis residual at the programmed joints, to first order.
+            let d: Vec<f64> = (0..5)
+                .map(|i| q.to_array()[i] - nominal.to_array()[i])
+                .collect();
+            let at_nominal = |row: usize| r[row] - (0..5).map(|k| j[(row, k)] * d[k]).sum::<f64>();
+            before_urad = 1e6 * at_nominal(3).hypot(at_nominal(4));
+            lu = Some(j.lu());
+        }
+        if residual_mm < RESIDUAL_MM && residual_urad < RESIDUAL_URAD {
             return Ok(Some(SolvedPose {
                 joints: q,
-                residual_mm: step.residual_mm,
-                residual_urad: step.residual_urad,
+                residual_mm,
+                residual_urad,
+                before_urad,
                 iterations: iteration,
             }));
         }
-        match step.next {
-            Some(next) => q = next,
-            None => return Ok(None),
-        }
+        let Some(next) = lu.as_ref().and_then(|lu| target.next(lu, &q, &r)) else {
+            return Ok(None);
+        };
+        q = next;
     }
     // Not converged: ill-conditioned (close to the pole); the caller falls back
     // to the position-only solve and counts the move.
@@ -107,9 +127,10 @@ pub fn solve_pose_from(
 /// First-order pose of [`solve_pose_from`]: one Newton step from `nominal` (for
 /// the split decision). `Ok(None)` as there.
 pub fn first_order_pose(model: &ErrorModel, nominal: &Axes) -> Result<Option<Axes>, SolveError> {
-    Ok(PoseTarget::of(model, nominal)?
-        .newton_step(model, nominal)?
-        .next)
+    let target = PoseTarget::of(model, nominal)?;
+    let (r, errors) = target.residual(model, nominal)?;
+    let lu = target.jacobian(model, nominal, &errors).lu();
+    Ok(target.next(&lu, nominal, &r))
 }
 
 /// The programmed tip and tool axis, and two unit vectors normal to the axis.
@@ -118,14 +139,6 @@ struct PoseTarget {
     tip: [f64; 3],
     axis: [f64; 3],
     normals: [[f64; 3]; 2],
-}
-
-/// One Newton step of the pose solve: the residuals at `q`, and the next joints
-/// (`None`: singular, or a C turn beyond [`MAX_C_CORRECTION_DEG`]).
-struct PoseStep {
-    residual_mm: f64,
-    residual_urad: f64,
-    next: Option<Axes>,
 }
 
 impl PoseTarget {
@@ -144,32 +157,40 @@ impl PoseTarget {
         })
     }
 
-    fn newton_step(&self, model: &ErrorModel, q: &Axes) -> Result<PoseStep, SolveError> {
-        let kin = model.kinematics();
+    /// Tip residual (mm) and axis residual along the two normals (rad) at `q`,
+    /// and the error values there.
+    fn residual(
+        &self,
+        model: &ErrorModel,
+        q: &Axes,
+    ) -> Result<([f64; 5], crate::kinematics::ErrorValues), SolveError> {
         let errors = model.errors_at(q)?;
-        let actual = kin.actual_tip_and_axis(q, &errors);
+        let actual = model.kinematics().actual_tip_and_axis(q, &errors);
         let du = crate::vec3::sub(crate::vec3::normalise(actual.axis), self.axis);
         let [e1, e2] = self.normals;
-        let r = [
-            actual.tip[0] - self.tip[0],
-            actual.tip[1] - self.tip[1],
-            actual.tip[2] - self.tip[2],
-            crate::vec3::dot(du, e1),
-            crate::vec3::dot(du, e2),
-        ];
-        let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
-        let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
-        let mut out = PoseStep {
-            residual_mm,
-            residual_urad,
-            next: None,
-        };
-        if !(residual_mm.is_finite() && residual_urad.is_finite()) {
-            return Ok(out);
-        }
-        let jt = kin.tip_jacobian(q, &errors);
-        // ∂u/∂a, ∂u/∂c per degree, nominal (central differences of the exact
-        // nominal axis; the errors' share is ~1e-5 of it).
+        Ok((
+            [
+                actual.tip[0] - self.tip[0],
+                actual.tip[1] - self.tip[1],
+                actual.tip[2] - self.tip[2],
+                crate::vec3::dot(du, e1),
+                crate::vec3::dot(du, e2),
+            ],
+            errors,
+        ))
+    }
+
+    /// ∂(residual)/∂(x, y, z mm; a, c degrees): the analytic tip Jacobian and
+    /// the nominal axis derivatives (central differences of the exact nominal
+    /// axis; the errors' share is ~1e-5 of it).
+    fn jacobian(
+        &self,
+        model: &ErrorModel,
+        q: &Axes,
+        errors: &crate::kinematics::ErrorValues,
+    ) -> nalgebra::Matrix5<f64> {
+        let kin = model.kinematics();
+        let jt = kin.tip_jacobian(q, errors);
         const H: f64 = 1e-3;
         let du_d = |da: f64, dc: f64| {
             let plus = kin.nominal_tool_axis(&Axes {
@@ -191,13 +212,22 @@ impl PoseTarget {
                 j[(row, col)] = jt[row][col];
             }
         }
-        for (row, e) in [(3, e1), (4, e2)] {
+        for (row, e) in [(3, self.normals[0]), (4, self.normals[1])] {
             j[(row, 3)] = crate::vec3::dot(ua, e);
             j[(row, 4)] = crate::vec3::dot(uc, e);
         }
-        let Some(step) = j.lu().solve(&nalgebra::Vector5::from_column_slice(&r)) else {
-            return Ok(out);
-        };
+        j
+    }
+
+    /// The next iterate, `None` when the system is singular or C would turn by
+    /// more than [`MAX_C_CORRECTION_DEG`] (the pole).
+    fn next(
+        &self,
+        lu: &nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>,
+        q: &Axes,
+        r: &[f64; 5],
+    ) -> Option<Axes> {
+        let step = lu.solve(&nalgebra::Vector5::from_column_slice(r))?;
         let next = Axes {
             x: q.x - step[0],
             y: q.y - step[1],
@@ -205,10 +235,8 @@ impl PoseTarget {
             a: q.a - step[3],
             c: q.c - step[4],
         };
-        if next.is_finite() && (next.c - self.nominal.c).abs() <= MAX_C_CORRECTION_DEG {
-            out.next = Some(next);
-        }
-        Ok(out)
+        (next.is_finite() && (next.c - self.nominal.c).abs() <= MAX_C_CORRECTION_DEG)
+            .then_some(next)
     }
 }
 
