@@ -26,7 +26,9 @@ use crate::toolpath::{effective_frame, joints_of, target_of};
 use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
-use solve::{SolveError, first_order_joints, first_order_pose, solve_joints_from, solve_pose_from};
+use solve::{
+    SolveError, first_order_joints, first_order_joints_at, solve_joints_from, solve_pose_from,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -362,25 +364,21 @@ fn compensate_target(
 }
 
 /// First-order estimate of [`compensate_target`] for the split decision (one
-/// error evaluation, no limits); with `orientation` the pose's first Newton step
-/// (A and C corrected too), position only where that solve gives up (pole).
+/// error evaluation, no limits): X Y Z such that the actual tip lands on the
+/// programmed one, at the programmed A and C or at `rotary` (degrees).
 fn estimate_target(
     model: &ErrorModel,
     frame: Frame,
     target: &Axes,
-    orientation: bool,
+    rotary: Option<(f64, f64)>,
 ) -> Result<Axes, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
-    let pose = if orientation {
-        first_order_pose(model, &nominal).map_err(PointError::Solve)?
-    } else {
-        None
-    };
-    let q = match pose {
-        Some(q) => q,
-        None => first_order_joints(model, &nominal).map_err(PointError::Solve)?,
-    };
+    let q = match rotary {
+        Some((a, c)) => first_order_joints_at(model, &nominal, a, c),
+        None => first_order_joints(model, &nominal),
+    }
+    .map_err(PointError::Solve)?;
     Ok(target_of(kin, frame, &q))
 }
 
@@ -421,7 +419,6 @@ fn plan_motion(
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
         let tm = 0.5 * (t0 + t1);
         let nominal_mid = motion.point_at(arc.as_ref(), tm);
-        let estimate = estimate_target(model, frame, &nominal_mid, options.orientation)?;
         // What the control would do between the compensated ends.
         let n0 = motion.point_at(arc.as_ref(), t0);
         let n1 = motion.point_at(arc.as_ref(), t1);
@@ -440,6 +437,10 @@ fn plan_motion(
             }
             v
         });
+        // With `--orientation` the control turns A and C to the interpolated
+        // corrected angles: the X Y Z the tip needs there, to first order.
+        let rotary = options.orientation.then_some((straight.a, straight.c));
+        let estimate = estimate_target(model, frame, &nominal_mid, rotary)?;
         let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
         if needs_split && depth < options.max_split_depth {
             let cm = compensate_target(

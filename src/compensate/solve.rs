@@ -124,15 +124,6 @@ pub fn solve_pose_from(
     Ok(None)
 }
 
-/// First-order pose of [`solve_pose_from`]: one Newton step from `nominal` (for
-/// the split decision). `Ok(None)` as there.
-pub fn first_order_pose(model: &ErrorModel, nominal: &Axes) -> Result<Option<Axes>, SolveError> {
-    let target = PoseTarget::of(model, nominal)?;
-    let (r, errors) = target.residual(model, nominal)?;
-    let lu = target.jacobian(model, nominal, &errors).lu();
-    Ok(target.next(&lu, nominal, &r))
-}
-
 /// The programmed tip and tool axis, and two unit vectors normal to the axis.
 struct PoseTarget {
     nominal: Axes,
@@ -312,6 +303,28 @@ pub fn solve_joints_from(
 /// nm), so it serves to decide whether a move must be split, never as output.
 pub fn first_order_joints(model: &ErrorModel, nominal: &Axes) -> Result<Axes, SolveError> {
     Ok(Target::of(model, nominal)?.newton_step(model, nominal)?.0)
+}
+
+/// First-order X Y Z at rotary angles `a`, `c` (degrees) such that the actual tip
+/// lands on the nominal tip of `nominal`: one error evaluation (the split
+/// decision of `--orientation`, where the control turns A and C to the
+/// interpolated corrected angles between two compensated ends).
+pub fn first_order_joints_at(
+    model: &ErrorModel,
+    nominal: &Axes,
+    a: f64,
+    c: f64,
+) -> Result<Axes, SolveError> {
+    let mut target = Target::of(model, nominal)?;
+    target.machine = model.kinematics().nominal_machine_point(target.tip, a, c);
+    let start = Axes {
+        x: target.machine[0],
+        y: target.machine[1],
+        z: target.machine[2],
+        a,
+        c,
+    };
+    Ok(target.newton_step(model, &start)?.0)
 }
 
 /// The nominal tool tip to land on, and its machine point at the programmed A, C.
