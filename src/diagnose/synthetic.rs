@@ -30,6 +30,12 @@ pub struct SyntheticOptions {
     /// truth (table noise and fit error), µm.
     pub model_error_um: f64,
     pub seed: u64,
+    /// The surface: a saddle `z = 0.006 (x² − y²)` or a dome `z = −0.006 (x² + y²)`.
+    pub dome: bool,
+    /// A runs over `a_mid_deg ± a_span_deg` with x, C over `10 ± c_span_deg` with y.
+    pub a_mid_deg: f64,
+    pub a_span_deg: f64,
+    pub c_span_deg: f64,
 }
 
 impl Default for SyntheticOptions {
@@ -42,6 +48,10 @@ impl Default for SyntheticOptions {
             plan_spacing_mm: 3.5,
             model_error_um: 0.15,
             seed: 7,
+            dome: false,
+            a_mid_deg: 35.0,
+            a_span_deg: 12.0,
+            c_span_deg: 25.0,
         }
     }
 }
@@ -56,9 +66,14 @@ pub struct SyntheticPart {
 const TOOL_RADIUS: f64 = 3.0;
 const TOOL_LENGTH: f64 = 100.0;
 
-fn surface(x: f64, y: f64) -> ([f64; 3], [f64; 3]) {
-    let z = 0.006 * (x * x - y * y) - 5.0;
-    let (fx, fy) = (0.012 * x, -0.012 * y);
+fn surface(x: f64, y: f64, dome: bool) -> ([f64; 3], [f64; 3]) {
+    let s = if dome { -1.0 } else { 1.0 };
+    let z = if dome {
+        -0.006 * (x * x + y * y) - 5.0
+    } else {
+        0.006 * (x * x - y * y) - 5.0
+    };
+    let (fx, fy) = (s * 0.012 * x, -0.012 * y);
     let len = (fx * fx + fy * fy + 1.0).sqrt();
     ([x, y, z], [-fx / len, -fy / len, 1.0 / len])
 }
@@ -106,9 +121,9 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
     let nx = (2.0 * hx / step).round().max(2.0) as usize;
     let mut path: Vec<PathPoint> = Vec::new();
     let make = |x: f64, y: f64, on_row: bool| {
-        let (contact, normal) = surface(x, y);
-        let a_deg = 35.0 + 12.0 * x / hx + 4.0 * (y / hy).powi(2);
-        let c_deg = 10.0 + 25.0 * y / hy - 8.0 * x / hx;
+        let (contact, normal) = surface(x, y, options.dome);
+        let a_deg = options.a_mid_deg + options.a_span_deg * x / hx + 4.0 * (y / hy).powi(2);
+        let c_deg = 10.0 + options.c_span_deg * y / hy - 8.0 * x / hx;
         let (a, c) = (a_deg.to_radians(), c_deg.to_radians());
         let u = [a.sin() * c.sin(), a.sin() * c.cos(), a.cos()];
         let tip = [0, 1, 2].map(|k| contact[k] - TOOL_RADIUS * u[k] + TOOL_RADIUS * normal[k]);
