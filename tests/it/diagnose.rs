@@ -951,3 +951,56 @@ fn an_unexplained_gap_is_said_to_be_unexplained() {
         r.summary
     );
 }
+
+/// A part tilted over a wide A range (the synthetic dome, A 15–85°) tells
+/// rotary_location from setup_error, which alias on the saddle: each is
+/// selected when injected, and setup_error no longer reproduces a
+/// rotary_location (the 8 location parameters still span a setup error).
+#[test]
+fn a_wide_a_range_separates_rotary_location_from_setup_error() {
+    let part = saddle_raster(&SyntheticOptions {
+        dome: true,
+        a_mid_deg: 50.0,
+        a_span_deg: 35.0,
+        c_span_deg: 60.0,
+        ..SyntheticOptions::default()
+    });
+    for (kind, seed) in [
+        (EffectKind::RotaryLocation, 1u64),
+        (EffectKind::RotaryLocation, 2),
+        (EffectKind::SetupError, 3),
+    ] {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let effect = random_effect(kind, &part.contexts, (2.0, 6.0), &mut rng);
+        let m = simulate(
+            &part.contexts,
+            &part.truth_um,
+            &[effect],
+            &SimulateOptions {
+                noise_um: 0.3,
+                seed,
+            },
+        )
+        .unwrap();
+        let r = diagnose(
+            &part.contexts,
+            &m.deviations_um(),
+            &DiagnoseOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            r.selected.first().map(String::as_str),
+            Some(kind.name()),
+            "{:?}",
+            r.selection_notes
+        );
+        let fit = r.effects.iter().find(|e| e.name == kind.name()).unwrap();
+        if kind == EffectKind::RotaryLocation {
+            assert!(
+                !fit.aliases.iter().any(|a| a == "setup_error"),
+                "{:?}",
+                fit.aliases
+            );
+        }
+    }
+}
