@@ -120,6 +120,7 @@ Give the original program, or --force to compensate it anyway",
             args.program.display().to_string()
         },
         input_fnv1a64: input_hash.hex(),
+        orientation: args.orientation,
     };
     let program =
         crate::gcode::Program::new(input, &args.program, args.read.setup(Some(&machine))?);

@@ -43,6 +43,9 @@ pub struct Stamp {
     pub input: String,
     /// FNV-1a 64 of the input program's bytes (16 hex digits).
     pub input_fnv1a64: String,
+    /// The tool axis was corrected too (`--orientation`): a ninth line
+    /// `corrected: tip and tool axis`, written only then.
+    pub orientation: bool,
 }
 
 /// Text fit for a comment: no parentheses, printable ASCII only.
@@ -71,7 +74,10 @@ impl Stamp {
             ("input-fnv1a64", clean(&self.input_fnv1a64)),
         ];
         let mut s = String::new();
-        for (key, value) in fields {
+        let corrected = self
+            .orientation
+            .then(|| ("corrected", "tip and tool axis".to_string()));
+        for (key, value) in fields.into_iter().chain(corrected) {
             s.push_str(PREFIX);
             s.push_str(key);
             s.push_str(": ");
@@ -116,6 +122,7 @@ impl Stamp {
                 tolerance_um: f64::NAN,
                 input: String::new(),
                 input_fnv1a64: String::new(),
+                orientation: false,
             });
             let value = value.trim().to_string();
             match key.trim() {
@@ -127,6 +134,7 @@ impl Stamp {
                 "tolerance-um" => s.tolerance_um = value.parse().unwrap_or(f64::NAN),
                 "input" => s.input = value,
                 "input-fnv1a64" => s.input_fnv1a64 = value,
+                "corrected" => s.orientation = value.contains("axis"),
                 _ => {}
             }
         }
@@ -136,13 +144,18 @@ impl Stamp {
     /// One line for people: who, for which machine, from which input.
     pub fn summary(&self) -> String {
         format!(
-            "compensated by {} for machine {} (model {}, {}; tool length {} mm, tolerance {} µm) from {} (fnv1a64 {})",
+            "compensated by {} for machine {} (model {}, {}; tool length {} mm, tolerance {} µm{}) from {} (fnv1a64 {})",
             self.compensated_by,
             self.machine,
             self.model_fnv1a64,
             self.model_source,
             self.tool_length_mm,
             self.tolerance_um,
+            if self.orientation {
+                "; tool axis corrected too"
+            } else {
+                ""
+            },
             self.input,
             self.input_fnv1a64
         )
@@ -308,6 +321,7 @@ mod tests {
             tolerance_um: 0.5,
             input: "part.nc".into(),
             input_fnv1a64: "fedcba9876543210".into(),
+            orientation: false,
         }
     }
 
@@ -336,6 +350,20 @@ mod tests {
         assert_eq!(back.tool_length_mm, 150.25);
         assert_eq!(back.tolerance_um, 0.5);
         assert_eq!(back.input_fnv1a64, "fedcba9876543210");
+        assert!(!back.orientation);
+    }
+
+    #[test]
+    fn an_orientation_run_says_so_and_reads_back() {
+        let s = Stamp {
+            orientation: true,
+            ..stamp()
+        };
+        let text = s.render("\n");
+        assert!(text.ends_with("(volcomp-stamp corrected: tip and tool axis)\n"));
+        let back = Stamp::find(&text).unwrap();
+        assert!(back.orientation);
+        assert!(back.summary().contains("tool axis corrected too"));
     }
 
     #[test]
