@@ -118,6 +118,23 @@ impl EffectKind {
         self == EffectKind::ThermalDrift
     }
 
+    /// Does the effect displace a probe on the machine as it displaced the tool?
+    /// Thermal drift, backlash and the machine's geometry do (at the probe's
+    /// time, approach and pose), and a set-up error moves the part for both;
+    /// servo lag (no curvature at probing speed), tool deflection (no cutting
+    /// force), wear and radius offset (a calibrated stylus) do not: they stay
+    /// in the cut surface (docs/diagnose.md "Follow-up").
+    pub fn acts_on_probe(self) -> bool {
+        matches!(
+            self,
+            EffectKind::ThermalDrift
+                | EffectKind::Backlash
+                | EffectKind::SetupError
+                | EffectKind::Squareness
+                | EffectKind::RotaryLocation
+        )
+    }
+
     /// Displacement (µm, part coordinates) per unit of each linear parameter at
     /// `ctx`; `tau` (min) is used by `thermal_drift` only. Appends
     /// [`EffectKind::linear_count`] vectors to `out`.

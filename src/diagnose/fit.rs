@@ -10,53 +10,103 @@ use super::effects::EffectKind;
 use crate::toolpath::PointContext;
 use nalgebra::{DMatrix, DVector};
 
-/// Signature columns of every effect over the used points.
+/// One observation: a cut point measured after the part left the machine (a
+/// CMM reading, `probe: None`), or a cut point probed again on the machine
+/// (a follow-up reading, `n·(Δ_cut − Δ_probe)`; see [`super::followup`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Row<'a> {
+    pub cut: &'a PointContext,
+    pub probe: Option<&'a PointContext>,
+}
+
+impl Row<'_> {
+    /// Signature of `kind` at `tau` (appended to `out`): the cut's, less the
+    /// probe's for effects that move the probe too.
+    pub fn signature(&self, kind: EffectKind, tau: f64, out: &mut Vec<f64>) {
+        let start = out.len();
+        kind.signature(self.cut, tau, out);
+        if let Some(probe) = self.probe.filter(|_| kind.acts_on_probe()) {
+            let mut p = Vec::with_capacity(8);
+            kind.signature(probe, tau, &mut p);
+            for (o, v) in out[start..].iter_mut().zip(p) {
+                *o -= v;
+            }
+        }
+    }
+
+    /// The geometric model's prediction of the reading, µm.
+    pub fn predicted_um(&self) -> f64 {
+        self.cut.predicted_um - self.probe.map_or(0.0, |p| p.predicted_um)
+    }
+
+    /// What the model attributes to axis `k`'s tables in the reading, µm.
+    pub fn axis_deviation_um(&self, k: usize) -> f64 {
+        self.cut.axis_deviation_um[k] - self.probe.map_or(0.0, |p| p.axis_deviation_um[k])
+    }
+}
+
+/// Signature columns of every effect over the used rows.
 pub(crate) struct Signatures {
     n: usize,
     linear: Vec<(EffectKind, Vec<Vec<f64>>)>,
-    /// `n·(machine → part of e_k)` for thermal drift, k = x, y, z.
+    /// `n·(machine → part of e_k)` for thermal drift, k = x, y, z, at the cut.
     thermal_direction: [Vec<f64>; 3],
     time: Vec<f64>,
+    /// The same at the probe of a follow-up row (zero and unused otherwise).
+    probe_direction: [Vec<f64>; 3],
+    probe_time: Vec<Option<f64>>,
     /// Range searched for `tau`, minutes.
     pub tau_range: (f64, f64),
 }
 
 impl Signatures {
-    pub fn new(contexts: &[&PointContext]) -> Signatures {
-        let n = contexts.len();
+    pub fn new(rows: &[Row]) -> Signatures {
+        let n = rows.len();
         let mut linear = Vec::new();
         for kind in EffectKind::ALL {
             if kind.is_nonlinear() {
                 continue;
             }
             let mut cols = vec![Vec::with_capacity(n); kind.linear_count()];
-            let mut row = Vec::with_capacity(8);
-            for ctx in contexts {
-                row.clear();
-                kind.signature(ctx, 1.0, &mut row);
-                for (c, v) in cols.iter_mut().zip(&row) {
+            let mut values = Vec::with_capacity(8);
+            for row in rows {
+                values.clear();
+                row.signature(kind, 1.0, &mut values);
+                for (c, v) in cols.iter_mut().zip(&values) {
                     c.push(*v);
                 }
             }
             linear.push((kind, cols));
         }
-        let thermal_direction = [0, 1, 2].map(|k| {
-            contexts
-                .iter()
-                .map(|ctx| {
-                    let mut e = [0.0; 3];
-                    e[k] = 1.0;
-                    crate::vec3::dot(ctx.normal, ctx.machine_to_part(e))
-                })
+        let direction = |ctx: &PointContext, k: usize| {
+            let mut e = [0.0; 3];
+            e[k] = 1.0;
+            crate::vec3::dot(ctx.normal, ctx.machine_to_part(e))
+        };
+        let thermal_direction =
+            [0, 1, 2].map(|k| rows.iter().map(|r| direction(r.cut, k)).collect());
+        let probe_direction = [0, 1, 2].map(|k| {
+            rows.iter()
+                .map(|r| r.probe.map_or(0.0, |p| direction(p, k)))
                 .collect()
         });
-        let time: Vec<f64> = contexts.iter().map(|c| c.time_min).collect();
-        let t_max = time.iter().copied().fold(0.0f64, f64::max).max(1e-3);
+        let time: Vec<f64> = rows.iter().map(|r| r.cut.time_min).collect();
+        let probe_time: Vec<Option<f64>> =
+            rows.iter().map(|r| r.probe.map(|p| p.time_min)).collect();
+        // τ is searched from the cutting times (a follow-up does not widen it).
+        let t_max = rows
+            .iter()
+            .filter(|r| r.probe.is_none())
+            .map(|r| r.cut.time_min)
+            .fold(0.0f64, f64::max)
+            .max(1e-3);
         Signatures {
             n,
             linear,
             thermal_direction,
             time,
+            probe_direction,
+            probe_time,
             tau_range: ((t_max / 200.0).max(1e-3), 20.0 * t_max),
         }
     }
@@ -68,10 +118,21 @@ impl Signatures {
     /// Columns of `kind` (for `thermal_drift` at `tau`).
     pub fn columns(&self, kind: EffectKind, tau: f64) -> Vec<Vec<f64>> {
         if kind.is_nonlinear() {
-            let f: Vec<f64> = self.time.iter().map(|t| 1.0 - (-t / tau).exp()).collect();
-            self.thermal_direction
+            let growth = |t: f64| 1.0 - (-t / tau).exp();
+            let f: Vec<f64> = self.time.iter().map(|t| growth(*t)).collect();
+            let fp: Vec<f64> = self
+                .probe_time
                 .iter()
-                .map(|g| g.iter().zip(&f).map(|(a, b)| a * b).collect())
+                .map(|t| t.map_or(0.0, growth))
+                .collect();
+            (0..3)
+                .map(|k| {
+                    (0..self.n)
+                        .map(|i| {
+                            self.thermal_direction[k][i] * f[i] - self.probe_direction[k][i] * fp[i]
+                        })
+                        .collect()
+                })
                 .collect()
         } else {
             self.linear
@@ -270,6 +331,8 @@ impl Folds {
     /// Region folds (a 3 × 3 grid of the plan by x and y terciles) and time
     /// folds (`k` contiguous bands of equal point count, in cutting order).
     pub fn new(contexts: &[&PointContext], k: usize) -> Folds {
+        // (A follow-up row is passed as its cut point: it falls in that
+        // point's folds, so a point and its re-probe are held out together.)
         let n = contexts.len();
         let terciles = |axis: usize| {
             let mut v: Vec<f64> = contexts.iter().map(|c| c.point[axis]).collect();

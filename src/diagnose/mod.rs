@@ -17,6 +17,7 @@
 //! arithmetic; the result is deterministic; no I/O.
 pub mod effects;
 mod fit;
+pub mod followup;
 pub mod html;
 pub mod localization;
 pub mod noise;
@@ -34,7 +35,7 @@ use fit::{
 use noise::rms;
 pub use report::DiagnoseReport;
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
-pub use simulate::{SimulateOptions, simulate};
+pub use simulate::{SimulateOptions, simulate, simulate_followup};
 use std::collections::BTreeMap;
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -136,6 +137,19 @@ pub fn diagnose(
     measured_um: &[f64],
     options: &DiagnoseOptions,
 ) -> Result<DiagnoseReport, DiagnoseError> {
+    diagnose_with_followup(contexts, measured_um, &[], options)
+}
+
+/// [`diagnose`] with follow-up readings taken on the machine after the cut
+/// (`followup::ProbeReading`): they are fitted together with the measurement,
+/// as rows `n·(Δ_cut − Δ_probe)` (docs/diagnose.md "Follow-up"). The gap, the
+/// noise floor, the localisation and the residuals are the measurement's.
+pub fn diagnose_with_followup(
+    contexts: &[PointContext],
+    measured_um: &[f64],
+    followup: &[followup::ProbeReading],
+    options: &DiagnoseOptions,
+) -> Result<DiagnoseReport, DiagnoseError> {
     if contexts.len() != measured_um.len() {
         return Err(DiagnoseError::LengthMismatch {
             what: "measured deviations",
@@ -172,21 +186,38 @@ pub fn diagnose(
     let used: Vec<&PointContext> = used_idx.iter().map(|&i| &contexts[i]).collect();
     let measured: Vec<f64> = used_idx.iter().map(|&i| measured_um[i]).collect();
     let predicted: Vec<f64> = used.iter().map(|c| c.predicted_um).collect();
-    let r: Vec<f64> = measured
+    let r0: Vec<f64> = measured
         .iter()
         .zip(&predicted)
         .map(|(m, p)| m - p)
         .collect();
-    let n = r.len();
+    // The measurement's points.
+    let n0 = r0.len();
     let (noise_floor, noise_source) = match options.noise_um {
         Some(s) => (s, "given"),
-        None => (noise::estimate_noise_floor(&used, &r), "estimated"),
+        None => (noise::estimate_noise_floor(&used, &r0), "estimated"),
     };
     // Guard the thresholds against a zero floor (noise-free synthetic data).
     let floor = noise_floor.max(1e-6);
 
-    let sig = Signatures::new(&used);
-    let folds = Folds::new(&used, options.time_folds);
+    // Every row fitted: the measurement's, then the follow-up's.
+    let mut rows: Vec<fit::Row> = used
+        .iter()
+        .map(|c| fit::Row {
+            cut: c,
+            probe: None,
+        })
+        .collect();
+    let mut r = r0.clone();
+    for reading in followup {
+        let row = followup::check_reading(contexts, reading)?;
+        r.push(reading.reading_um - row.predicted_um());
+        rows.push(row);
+    }
+    let n = r.len();
+    let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
+    let sig = Signatures::new(&rows);
+    let folds = Folds::new(&row_points, options.time_folds);
     let all_rows: Vec<usize> = (0..n).collect();
     let mse_before = r.iter().map(|v| v * v).sum::<f64>() / n as f64;
     let ln_n = (n as f64).ln();
@@ -320,17 +351,19 @@ pub fn diagnose(
             .map(|k| {
                 (
                     crate::axes::Axis::ALL[k].letter().to_string(),
-                    used.iter()
-                        .map(|c| c.axis_deviation_um[k])
+                    rows.iter()
+                        .map(|row| row.axis_deviation_um(k))
                         .collect::<Vec<f64>>(),
                 )
             })
             .filter(|(_, c)| c.iter().any(|v| *v != 0.0))
             .collect();
         if !named_cols.is_empty() {
-            let rest: Vec<f64> = used
+            let rest: Vec<f64> = rows
                 .iter()
-                .map(|c| c.predicted_um - c.axis_deviation_um.iter().sum::<f64>())
+                .map(|row| {
+                    row.predicted_um() - (0..5).map(|k| row.axis_deviation_um(k)).sum::<f64>()
+                })
                 .collect();
             if rms(&rest) > 1e-3 {
                 named_cols.push((POSITION_INDEPENDENT.to_string(), rest));
@@ -450,7 +483,8 @@ pub fn diagnose(
         .zip(&after_contribution)
         .map(|(p, c)| p + c)
         .collect();
-    let r_after: Vec<f64> = r
+    // The measurement's residuals after (the follow-up's are in `followup`).
+    let r_after: Vec<f64> = r0
         .iter()
         .zip(&after_contribution)
         .map(|(a, c)| a - c)
@@ -460,14 +494,14 @@ pub fn diagnose(
     if model_check.mismatch {
         summary.push(model_sentence(
             &model_check,
-            rms(&r),
+            rms(&r0),
             selected_mse.sqrt(),
             noise_floor,
         ));
     } else if selected.is_empty() {
         summary.push(format!(
             "The gap between measured and predicted deviations (residual RMS {:.2} µm) is within what the noise floor ({:.2} µm) and the model explain: no unmodelled effect is supported by the data.",
-            rms(&r), noise_floor
+            rms(&r0), noise_floor
         ));
     }
     if !selected.is_empty() {
@@ -478,7 +512,7 @@ pub fn diagnose(
         summary.push(format!(
             "With {} added, the residual RMS falls from {:.2} to {:.2} µm (held-out {:.2} µm; noise floor {:.2} µm).",
             selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" and "),
-            rms(&r), rms(&r_after), selected_mse.sqrt(), noise_floor
+            rms(&r0), rms(&r_after), selected_mse.sqrt(), noise_floor
         ));
     }
     for e in effects
@@ -495,7 +529,7 @@ pub fn diagnose(
     }
     let measured_profile = profile(&measured);
     let predicted_profile = profile(&predicted);
-    let residuals = (0..n)
+    let residuals = (0..n0)
         .map(|i| PointResidual {
             id: used[i].id.clone(),
             point: used[i].point,
@@ -504,24 +538,24 @@ pub fn diagnose(
             c_deg: used[i].joints.c,
             measured_um: measured[i],
             predicted_um: predicted[i],
-            residual_um: r[i],
+            residual_um: r0[i],
             residual_after_um: r_after[i],
         })
         .collect();
     Ok(DiagnoseReport {
         points: contexts.len(),
-        points_used: n,
+        points_used: n0,
         gap: Gap {
             measured_profile_um: measured_profile.profile_um,
             predicted_profile_um: predicted_profile.profile_um,
             measured_range_um: measured_profile.range_um,
             predicted_range_um: predicted_profile.range_um,
-            residual_rms_um: rms(&r),
-            residual_mean_um: r.iter().sum::<f64>() / n as f64,
+            residual_rms_um: rms(&r0),
+            residual_mean_um: r0.iter().sum::<f64>() / n0 as f64,
             noise_floor_um: noise_floor,
             noise_floor_source: noise_source.to_string(),
         },
-        localization: localization::localize(&used, &r),
+        localization: localization::localize(&used, &r0),
         effects,
         selected: selected.iter().map(|k| k.name().to_string()).collect(),
         after: After {
@@ -534,6 +568,8 @@ pub fn diagnose(
         selection_notes: notes,
         residuals,
         model_check,
+        followup_design: None,
+        followup: None,
     })
 }
 

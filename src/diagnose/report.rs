@@ -29,6 +29,13 @@ pub struct DiagnoseReport {
     /// reports written before it).
     #[serde(default)]
     pub model_check: ModelCheck,
+    /// The follow-up measurement designed to separate the selection from its
+    /// aliases (`--followup-program`; extension, not read back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub followup_design: Option<super::followup::FollowupDesign>,
+    /// What a measured follow-up showed (`--followup`; extension, not read back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub followup: Option<super::followup::FollowupOutcome>,
 }
 
 /// Is the machine's error model itself off? The residual is fitted as factors

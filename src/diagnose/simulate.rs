@@ -89,3 +89,56 @@ pub fn simulate(
     }
     Ok(Measurement { points })
 }
+
+/// Readings of follow-up probes on the machine (docs/diagnose.md "Follow-up"),
+/// µm: `truth_reading_um[i]` (the true machine's `n·(e_cut − e_probe)`), plus
+/// `n·(Δ_cut − Δ_probe)` of every effect (the probe moved only by the effects
+/// that act on it), plus Gaussian probing noise.
+pub fn simulate_followup(
+    contexts: &[PointContext],
+    probes: &[super::followup::Probe],
+    truth_reading_um: &[f64],
+    effects: &[Effect],
+    options: &SimulateOptions,
+) -> Result<Vec<f64>, DiagnoseError> {
+    if probes.len() != truth_reading_um.len() {
+        return Err(DiagnoseError::LengthMismatch {
+            what: "true follow-up readings",
+            expected: probes.len(),
+            found: truth_reading_um.len(),
+        });
+    }
+    if !(options.noise_um.is_finite() && options.noise_um >= 0.0) {
+        return Err(DiagnoseError::BadOption(format!(
+            "noise must be a finite number ≥ 0 µm, found {}",
+            options.noise_um
+        )));
+    }
+    let normal = Normal::new(0.0, options.noise_um.max(0.0))
+        .map_err(|e| DiagnoseError::BadOption(format!("noise: {e}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    probes
+        .iter()
+        .zip(truth_reading_um)
+        .map(|(probe, truth)| {
+            let reading = super::followup::ProbeReading {
+                probe: probe.clone(),
+                reading_um: *truth,
+            };
+            let row = super::followup::check_reading(contexts, &reading)?;
+            let mut value = *truth;
+            for effect in effects {
+                value += effect.deviation_um(row.cut);
+                if let Some(p) = row.probe.filter(|_| effect.kind.acts_on_probe()) {
+                    value -= effect.deviation_um(p);
+                }
+            }
+            let noise = if options.noise_um > 0.0 {
+                normal.sample(&mut rng)
+            } else {
+                0.0
+            };
+            Ok(value + noise)
+        })
+        .collect()
+}

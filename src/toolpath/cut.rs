@@ -172,3 +172,81 @@ fn not_cut(p: &PlanPoint) -> PointContext {
         axis_deviation_um: [0.0; 5],
     }
 }
+
+/// Stylus and timing of a follow-up probe on the machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeTool {
+    /// Gauge line to the stylus tip, mm.
+    pub length_mm: f64,
+    /// Stylus ball radius, mm.
+    pub radius_mm: f64,
+}
+
+/// The context of probing the cut point `cut` again on the machine (a
+/// follow-up probe, docs/diagnose.md "Follow-up"): the stylus ball touches the
+/// plan point at rotary angles `a_deg`, `c_deg`, approaching along −n, at
+/// `time_min`. Its joints put the stylus tip at `p + R·(n − u)` (the ball's
+/// centre at `p + R·n`); `sigma` is the sign of each linear axis's approach
+/// (0 for an axis that does not move in it); speed, curvature and cut length
+/// are 0; `predicted_um`, the Jacobians and `axis_deviation_um` are the
+/// model's at the probe pose. `None` when the pose is outside `limits`.
+pub fn probe_context(
+    model: &ErrorModel,
+    probe: &ProbeTool,
+    limits: Option<&crate::machine::Limits>,
+    cut: &PointContext,
+    a_deg: f64,
+    c_deg: f64,
+    time_min: f64,
+) -> Result<Option<PointContext>, CutError> {
+    use crate::axes::Axes;
+    let kin = model.kinematics().with_tool_length(probe.length_mm);
+    let (n, p) = (cut.normal, cut.point);
+    let u = kin.nominal_tool_axis(&Axes::new(0.0, 0.0, 0.0, a_deg, c_deg));
+    let tip = [0, 1, 2].map(|k| p[k] + probe.radius_mm * (n[k] - u[k]));
+    let joints = kin.joints_from_part(&Axes::new(tip[0], tip[1], tip[2], a_deg, c_deg));
+    if limits.is_some_and(|l| l.violated(&joints).is_some()) {
+        return Ok(None);
+    }
+    let errors = model
+        .errors_at(&joints)
+        .map_err(|source| CutError::Lookup {
+            id: cut.id.clone(),
+            source,
+        })?;
+    let e = kin.volumetric_error(&joints, &errors).e_um;
+    let axis_deviation_um = std::array::from_fn(|slot| {
+        let mut only = crate::kinematics::ErrorValues::ZERO;
+        only.component[slot] = errors.component[slot];
+        dot(n, kin.volumetric_error(&joints, &only).e_um)
+    });
+    // Approach along −n, turned into the machine frame: Rx(a)·Rz(c)·(−n).
+    let approach = {
+        use crate::vec3::{rot_x, rot_z};
+        rot_x(
+            a_deg.to_radians(),
+            rot_z(c_deg.to_radians(), [-n[0], -n[1], -n[2]]),
+        )
+    };
+    let sigma = approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() });
+    Ok(Some(PointContext {
+        id: cut.id.clone(),
+        point: p,
+        normal: n,
+        cut: true,
+        line: 0,
+        block: 0,
+        time_min,
+        joints,
+        sigma,
+        speed_mm_s: 0.0,
+        curvature_per_mm: 0.0,
+        principal_normal: [0.0; 3],
+        tool_axis: u,
+        cut_length_m: 0.0,
+        predicted_um: dot(n, e),
+        squareness_jacobian: kin.squareness_jacobian(&joints, &errors),
+        location_jacobian: kin.location_jacobian(&joints, &errors),
+        axis_deviation_um,
+    }))
+}

@@ -1,0 +1,668 @@
+//! Follow-up measurements that tell aliases apart (docs/diagnose.md
+//! "Follow-up"). When the effect `diagnose` selects has rivals that explain the
+//! measurement about as well (its aliases on this part), the cheapest
+//! measurement that separates them is designed here: plan points probed again
+//! on the machine, right after the program, in the cutting pose or at other
+//! A/C angles.
+//!
+//! A probe reading on the machine is `n·(Δ_cut − Δ_probe)`: the cut surface
+//! carries every effect as it was when the point was cut; the probe is moved by
+//! the effects that act on it ([`EffectKind::acts_on_probe`]) at its own time,
+//! approach and pose. So a set-up error cancels (the part is where it was cut),
+//! a thermal drift shows its change since the cut, and a rotary location error
+//! its change between two poses.
+//!
+//! The design is T-optimal for model discrimination (Atkinson and Fedorov,
+//! 1975), maximin over the rivals: each hypothesis is fitted to the
+//! measurement; for each ordered pair (truth H, rival G) the lack of fit of G
+//! refitted to H's noise-free values on the measurement and the chosen probes
+//! is the expected separation (squared, over σ²); probes are added greedily to
+//! maximise the smallest of these over the pairs.
+//!
+//! Invariant: no I/O and no kinematics: candidate probes come with their
+//! contexts (built by `toolpath::cut::probe_context`).
+use super::effects::EffectKind;
+use super::fit::{Row, Signatures, fit_set};
+use super::{DiagnoseError, DiagnoseReport};
+use crate::toolpath::PointContext;
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Plan point `of` (index among the contexts) probed again on the machine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Probe {
+    /// Probe id (`F01`, …).
+    pub id: String,
+    /// Index of the probed plan point among the contexts (a cut point).
+    pub of: usize,
+    /// The probe's context: the plan point and its normal, the probe's pose,
+    /// time and approach (`toolpath::cut::probe_context`).
+    pub context: PointContext,
+}
+
+/// A probe and what it read: `n·(m − p)`, µm.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeReading {
+    pub probe: Probe,
+    pub reading_um: f64,
+}
+
+/// The fitted row of a reading, checked.
+pub(crate) fn check_reading<'a>(
+    contexts: &'a [PointContext],
+    reading: &'a ProbeReading,
+) -> Result<Row<'a>, DiagnoseError> {
+    let probe = &reading.probe;
+    let cut = contexts.get(probe.of).filter(|c| c.cut).ok_or_else(|| {
+        DiagnoseError::BadOption(format!(
+            "follow-up probe {}: plan point {} was not cut by the program",
+            probe.id, probe.context.id
+        ))
+    })?;
+    super::check_context(&probe.context)?;
+    if !reading.reading_um.is_finite() {
+        return Err(DiagnoseError::NonFinite {
+            what: "its follow-up reading",
+            id: probe.id.clone(),
+        });
+    }
+    Ok(Row {
+        cut,
+        probe: Some(&probe.context),
+    })
+}
+
+/// A changes (degrees) of the candidate poses, relative to the cut.
+pub const CANDIDATE_A_OFFSETS_DEG: [f64; 3] = [0.0, -15.0, 15.0];
+/// C changes (degrees) of the candidate poses, relative to the cut.
+pub const CANDIDATE_C_OFFSETS_DEG: [f64; 4] = [0.0, 90.0, 180.0, 270.0];
+/// A pose is a candidate only when the stylus axis lies within 60° of the
+/// surface normal (`n·u ≥ 0.5`), so the shank clears the surface.
+pub const MIN_CONTACT_COS: f64 = 0.5;
+
+/// Candidate probes: every cut point in every pose of
+/// [`CANDIDATE_A_OFFSETS_DEG`] × [`CANDIDATE_C_OFFSETS_DEG`] that `probe_at`
+/// (the caller's kinematics: `toolpath::cut::probe_context`) accepts and whose
+/// stylus meets the surface within 60° of its normal. `probe_at(cut, a, c)`
+/// gives the probe's context at the end time, or `None` outside the travel.
+pub fn candidates<E>(
+    contexts: &[PointContext],
+    mut probe_at: impl FnMut(&PointContext, f64, f64) -> Result<Option<PointContext>, E>,
+) -> Result<Vec<Probe>, E> {
+    let mut out = Vec::new();
+    for (of, cut) in contexts.iter().enumerate().filter(|(_, c)| c.cut) {
+        for da in CANDIDATE_A_OFFSETS_DEG {
+            for dc in CANDIDATE_C_OFFSETS_DEG {
+                let Some(context) = probe_at(cut, cut.joints.a + da, cut.joints.c + dc)? else {
+                    continue;
+                };
+                if crate::vec3::dot(context.normal, context.tool_axis) < MIN_CONTACT_COS {
+                    continue;
+                }
+                out.push(Probe {
+                    id: format!("candidate-{}", out.len() + 1),
+                    of,
+                    context,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Settings of [`design`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FollowupOptions {
+    /// Probes in the follow-up.
+    pub probes: usize,
+    /// Minutes per probe (rotate, position, touch, retract): the i-th probe
+    /// (from 1) is taken at the program's end + i × this.
+    pub probe_minutes: f64,
+}
+
+impl Default for FollowupOptions {
+    fn default() -> Self {
+        FollowupOptions {
+            probes: 12,
+            probe_minutes: 0.25,
+        }
+    }
+}
+
+/// One hypothesis: a set of effects with its parameters fitted to the measurement.
+#[derive(Clone, Debug)]
+struct Hypothesis {
+    kinds: Vec<EffectKind>,
+    tau: f64,
+    coefs: Vec<f64>,
+}
+
+impl Hypothesis {
+    fn label(&self) -> String {
+        label(&self.kinds)
+    }
+
+    /// Design row (∂reading/∂θ) at `row`.
+    fn design_row(&self, row: &Row) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.coefs.len());
+        for k in &self.kinds {
+            row.signature(*k, self.tau, &mut out);
+        }
+        out
+    }
+
+    fn value(&self, row: &Row) -> f64 {
+        self.design_row(row)
+            .iter()
+            .zip(&self.coefs)
+            .map(|(g, b)| g * b)
+            .sum()
+    }
+}
+
+fn label(kinds: &[EffectKind]) -> String {
+    kinds
+        .iter()
+        .map(|k| k.name())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// The hypotheses a follow-up must separate: the selection first, then each
+/// selection with one member replaced by one of its aliases. Empty when
+/// nothing is selected or the selection has no alias.
+pub fn hypotheses(report: &DiagnoseReport) -> Vec<Vec<EffectKind>> {
+    let selected: Vec<EffectKind> = report
+        .selected
+        .iter()
+        .filter_map(|s| EffectKind::from_name(s))
+        .collect();
+    if selected.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![selected.clone()];
+    for (m, kind) in selected.iter().enumerate() {
+        let Some(fit) = report.effects.iter().find(|e| e.name == kind.name()) else {
+            continue;
+        };
+        for alias in fit.aliases.iter().filter_map(|a| EffectKind::from_name(a)) {
+            if selected.contains(&alias) {
+                continue;
+            }
+            let mut h = selected.clone();
+            h[m] = alias;
+            if !out.contains(&h) {
+                out.push(h);
+            }
+        }
+    }
+    if out.len() == 1 { Vec::new() } else { out }
+}
+
+/// Normal equations of one ordered pair: the rival `G` refitted to the values
+/// of the truth `H`: `M = Σ g gᵀ`, `b = Σ g y`, `c = Σ y²`.
+#[derive(Clone, Debug)]
+struct PairSums {
+    truth: usize,
+    rival: usize,
+    m: DMatrix<f64>,
+    b: DVector<f64>,
+    c: f64,
+}
+
+impl PairSums {
+    fn new(truth: usize, rival: usize, p: usize) -> PairSums {
+        PairSums {
+            truth,
+            rival,
+            m: DMatrix::zeros(p, p),
+            b: DVector::zeros(p),
+            c: 0.0,
+        }
+    }
+
+    fn add(&mut self, g: &[f64], y: f64) {
+        for a in 0..g.len() {
+            self.b[a] += g[a] * y;
+            for b in 0..g.len() {
+                self.m[(a, b)] += g[a] * g[b];
+            }
+        }
+        self.c += y * y;
+    }
+
+    /// `c − bᵀM⁺b` with `g`, `y` added (not stored): the rival's lack of fit.
+    fn lack_of_fit_with(&self, extra: Option<(&[f64], f64)>) -> f64 {
+        let (mut m, mut b, mut c) = (self.m.clone(), self.b.clone(), self.c);
+        if let Some((g, y)) = extra {
+            for a in 0..g.len() {
+                b[a] += g[a] * y;
+                for k in 0..g.len() {
+                    m[(a, k)] += g[a] * g[k];
+                }
+            }
+            c += y * y;
+        }
+        lack_of_fit(m, b, c)
+    }
+}
+
+/// `c − bᵀM⁺b` (≥ 0), through the eigendecomposition of the Jacobi-scaled `M`
+/// with eigenvalues below 1e-10 × the largest dropped (the rival's
+/// unidentifiable combinations fit nothing).
+fn lack_of_fit(m: DMatrix<f64>, b: DVector<f64>, c: f64) -> f64 {
+    let p = m.nrows();
+    let scale: Vec<f64> = (0..p)
+        .map(|a| {
+            let d = m[(a, a)];
+            if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+        })
+        .collect();
+    let ms = DMatrix::from_fn(p, p, |a, k| m[(a, k)] * scale[a] * scale[k]);
+    let bs = DVector::from_fn(p, |a, _| b[a] * scale[a]);
+    let eig = ms.symmetric_eigen();
+    let l_max = eig.eigenvalues.max().max(0.0);
+    let vtb = eig.eigenvectors.transpose() * &bs;
+    let explained: f64 = eig
+        .eigenvalues
+        .iter()
+        .zip(vtb.iter())
+        .filter(|(l, _)| **l > l_max * 1e-10 && **l > 0.0)
+        .map(|(l, v)| v * v / l)
+        .sum();
+    (c - explained).max(0.0)
+}
+
+/// The separation of the selection from one rival, in noise units (σ).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Separation {
+    /// The selected effects (`a + b` for a pair).
+    pub selected: String,
+    /// The rival hypothesis.
+    pub rival: String,
+    /// On the measurement alone: √(lack of fit)/σ, the smaller of the two directions.
+    pub before_sigma: f64,
+    /// With the follow-up, if the selection is the truth: the rival's lack of fit.
+    pub if_selected_sigma: f64,
+    /// With the follow-up, if the rival is the truth: the selection's lack of fit.
+    pub if_rival_sigma: f64,
+    /// The smaller of the two: what the follow-up guarantees.
+    pub expected_sigma: f64,
+    /// After the follow-up was measured: √|SSE(rival) − SSE(selection)|/σ,
+    /// positive when the selection fits better (only in an outcome).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub achieved_sigma: Option<f64>,
+}
+
+/// A probe of the design with the reading each hypothesis expects.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DesignedProbe {
+    pub id: String,
+    /// The plan point probed.
+    pub point_id: String,
+    pub a_deg: f64,
+    pub c_deg: f64,
+    pub time_min: f64,
+    /// How this pose differs from the cut: `cutting pose`, or the A/C change.
+    pub pose: String,
+    /// Expected reading beyond the model's (µm) under each hypothesis.
+    pub expected_um: BTreeMap<String, f64>,
+    #[serde(skip)]
+    pub probe: Probe,
+}
+
+/// A follow-up measurement designed to separate the selection from its rivals.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FollowupDesign {
+    pub selected: String,
+    pub rivals: Vec<String>,
+    pub noise_um: f64,
+    pub probes: Vec<DesignedProbe>,
+    pub separations: Vec<Separation>,
+    /// The smallest expected separation over the rivals, σ.
+    pub expected_separation_sigma: f64,
+    /// Sentences for the summary.
+    pub explanation: Vec<String>,
+}
+
+/// The measurement's rows and residuals, and the hypotheses fitted to them.
+struct Fitted<'a> {
+    rows: Vec<Row<'a>>,
+    /// The measurement's residuals (measured − predicted) on `rows`.
+    r: Vec<f64>,
+    hypotheses: Vec<Hypothesis>,
+    noise: f64,
+}
+
+fn fit_hypotheses<'a>(
+    contexts: &'a [PointContext],
+    measured_um: &[f64],
+    report: &DiagnoseReport,
+    sets: &[Vec<EffectKind>],
+) -> Result<Fitted<'a>, DiagnoseError> {
+    if contexts.len() != measured_um.len() {
+        return Err(DiagnoseError::LengthMismatch {
+            what: "measured deviations",
+            expected: contexts.len(),
+            found: measured_um.len(),
+        });
+    }
+    let used: Vec<usize> = (0..contexts.len()).filter(|&i| contexts[i].cut).collect();
+    let rows: Vec<Row> = used
+        .iter()
+        .map(|&i| Row {
+            cut: &contexts[i],
+            probe: None,
+        })
+        .collect();
+    let r: Vec<f64> = used
+        .iter()
+        .map(|&i| measured_um[i] - contexts[i].predicted_um)
+        .collect();
+    let sig = Signatures::new(&rows);
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let hypotheses = sets
+        .iter()
+        .map(|kinds| {
+            let fit = fit_set(&sig, kinds, &all, &r);
+            Hypothesis {
+                kinds: kinds.clone(),
+                tau: fit.tau.unwrap_or(1.0),
+                coefs: fit.linear.coefs,
+            }
+        })
+        .collect();
+    Ok(Fitted {
+        rows,
+        r,
+        hypotheses,
+        noise: report.gap.noise_floor_um.max(1e-6),
+    })
+}
+
+/// The ordered pairs (selection, rival) and (rival, selection), with the
+/// measurement's rows summed in.
+fn pair_sums(fitted: &Fitted) -> Vec<PairSums> {
+    let h = &fitted.hypotheses;
+    let mut pairs = Vec::new();
+    for j in 1..h.len() {
+        for (truth, rival) in [(0, j), (j, 0)] {
+            let mut s = PairSums::new(truth, rival, h[rival].coefs.len());
+            for row in &fitted.rows {
+                s.add(&h[rival].design_row(row), h[truth].value(row));
+            }
+            pairs.push(s);
+        }
+    }
+    pairs
+}
+
+/// The separations of the selection from each rival with the probes `extra`
+/// added to the measurement's rows: each rival refitted (τ profiled, as the
+/// diagnosis does) to the other hypothesis's noise-free values.
+fn separations(fitted: &Fitted, extra: &[Row]) -> Vec<Separation> {
+    let h = &fitted.hypotheses;
+    let lack = |rows: &[Row], truth: &Hypothesis, rival: &Hypothesis| {
+        let sig = Signatures::new(rows);
+        let y: Vec<f64> = rows.iter().map(|r| truth.value(r)).collect();
+        let all: Vec<usize> = (0..rows.len()).collect();
+        fit_set(&sig, &rival.kinds, &all, &y).linear.sse.sqrt() / fitted.noise
+    };
+    let mut rows = fitted.rows.clone();
+    rows.extend_from_slice(extra);
+    (1..h.len())
+        .map(|j| {
+            let (if_selected, if_rival) = (lack(&rows, &h[0], &h[j]), lack(&rows, &h[j], &h[0]));
+            Separation {
+                selected: h[0].label(),
+                rival: h[j].label(),
+                before_sigma: lack(&fitted.rows, &h[0], &h[j]).min(lack(
+                    &fitted.rows,
+                    &h[j],
+                    &h[0],
+                )),
+                if_selected_sigma: if_selected,
+                if_rival_sigma: if_rival,
+                expected_sigma: if_selected.min(if_rival),
+                achieved_sigma: None,
+            }
+        })
+        .collect()
+}
+
+/// The pose of a probe relative to the cut, in words.
+fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
+    let da = probe.joints.a - cut.joints.a;
+    let dc = probe.joints.c - cut.joints.c;
+    let mut parts = Vec::new();
+    if da.abs() > 1e-6 {
+        parts.push(format!("A {da:+.0}°"));
+    }
+    if dc.abs() > 1e-6 {
+        parts.push(format!("C {dc:+.0}°"));
+    }
+    if parts.is_empty() {
+        "cutting pose".into()
+    } else {
+        parts.join(", ")
+    }
+}
+
+/// Design the follow-up: choose `options.probes` of the `candidates` (each at
+/// the end time the caller gave; the i-th chosen is re-timed to
+/// `end + i × probe_minutes`). `Ok(None)` when there is nothing to separate
+/// (no selection, or no alias).
+pub fn design(
+    contexts: &[PointContext],
+    measured_um: &[f64],
+    report: &DiagnoseReport,
+    candidates: &[Probe],
+    end_min: f64,
+    options: &FollowupOptions,
+) -> Result<Option<FollowupDesign>, DiagnoseError> {
+    let sets = hypotheses(report);
+    if sets.is_empty() {
+        return Ok(None);
+    }
+    if options.probes == 0 || !(options.probe_minutes.is_finite() && options.probe_minutes >= 0.0) {
+        return Err(DiagnoseError::BadOption(format!(
+            "a follow-up needs ≥ 1 probe and ≥ 0 minutes per probe, asked for {} probes of {} min",
+            options.probes, options.probe_minutes
+        )));
+    }
+    for c in candidates {
+        super::check_context(&c.context)?;
+        if !contexts.get(c.of).is_some_and(|ctx| ctx.cut) {
+            return Err(DiagnoseError::BadOption(format!(
+                "candidate probe {}: plan point {} was not cut",
+                c.id, c.context.id
+            )));
+        }
+    }
+    let fitted = fit_hypotheses(contexts, measured_um, report, &sets)?;
+    let h = &fitted.hypotheses;
+    let mut sums = pair_sums(&fitted);
+    let mut chosen: Vec<Probe> = Vec::new();
+    let mut used = vec![false; candidates.len()];
+    use rayon::prelude::*;
+    for step in 0..options.probes.min(candidates.len()) {
+        let time = end_min + (step + 1) as f64 * options.probe_minutes;
+        let timed: Vec<PointContext> = candidates
+            .iter()
+            .map(|c| PointContext {
+                time_min: time,
+                ..c.context.clone()
+            })
+            .collect();
+        let score = |i: usize| -> f64 {
+            let row = Row {
+                cut: &contexts[candidates[i].of],
+                probe: Some(&timed[i]),
+            };
+            sums.iter()
+                .map(|s| {
+                    let g = h[s.rival].design_row(&row);
+                    s.lack_of_fit_with(Some((&g, h[s.truth].value(&row))))
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let best = (0..candidates.len())
+            .into_par_iter()
+            .filter(|&i| !used[i])
+            .map(|i| (i, score(i)))
+            .reduce_with(|a, b| {
+                if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) {
+                    b
+                } else {
+                    a
+                }
+            });
+        let Some((i, _)) = best else { break };
+        used[i] = true;
+        let probe = Probe {
+            id: format!("F{:02}", step + 1),
+            of: candidates[i].of,
+            context: timed[i].clone(),
+        };
+        let row = Row {
+            cut: &contexts[probe.of],
+            probe: Some(&probe.context),
+        };
+        for s in &mut sums {
+            let g = h[s.rival].design_row(&row);
+            s.add(&g, h[s.truth].value(&row));
+        }
+        chosen.push(probe);
+    }
+    let chosen_rows: Vec<Row> = chosen
+        .iter()
+        .map(|p| Row {
+            cut: &contexts[p.of],
+            probe: Some(&p.context),
+        })
+        .collect();
+    let separations = separations(&fitted, &chosen_rows);
+    let expected = separations
+        .iter()
+        .map(|s| s.expected_sigma)
+        .fold(f64::INFINITY, f64::min);
+    let probes: Vec<DesignedProbe> = chosen
+        .iter()
+        .map(|p| {
+            let cut = &contexts[p.of];
+            let row = Row {
+                cut,
+                probe: Some(&p.context),
+            };
+            DesignedProbe {
+                id: p.id.clone(),
+                point_id: cut.id.clone(),
+                a_deg: p.context.joints.a,
+                c_deg: p.context.joints.c,
+                time_min: p.context.time_min,
+                pose: pose_words(cut, &p.context),
+                expected_um: h.iter().map(|x| (x.label(), x.value(&row))).collect(),
+                probe: p.clone(),
+            }
+        })
+        .collect();
+    let same_pose = probes.iter().filter(|p| p.pose == "cutting pose").count();
+    let mut explanation = vec![format!(
+        "To tell {} from {}: probe {} plan points again on the machine right after the program ({} in the cutting pose, {} at other A/C angles); expected separation {:.1} σ (now {:.1} σ).",
+        h[0].label(),
+        h[1..]
+            .iter()
+            .map(Hypothesis::label)
+            .collect::<Vec<_>>()
+            .join(", "),
+        probes.len(),
+        same_pose,
+        probes.len() - same_pose,
+        expected,
+        separations
+            .iter()
+            .map(|s| s.before_sigma)
+            .fold(f64::INFINITY, f64::min),
+    )];
+    if expected < 3.0 {
+        explanation.push(format!(
+            "With {} probes the separation stays below 3 σ: probe more points (--followup-probes) or repeat the measurement.",
+            probes.len()
+        ));
+    }
+    Ok(Some(FollowupDesign {
+        selected: h[0].label(),
+        rivals: h[1..].iter().map(Hypothesis::label).collect(),
+        noise_um: fitted.noise,
+        probes,
+        separations,
+        expected_separation_sigma: expected,
+        explanation,
+    }))
+}
+
+/// What a measured follow-up showed (report field `followup`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FollowupOutcome {
+    pub probes: usize,
+    /// The selection on the measurement alone.
+    pub selected_before: Vec<String>,
+    /// Per rival: expected (for the probes taken) and achieved separation.
+    pub separations: Vec<Separation>,
+    /// RMS of the follow-up readings beyond the model, µm.
+    pub reading_rms_um: f64,
+}
+
+/// Judge a measured follow-up: the hypotheses of the measurement alone
+/// (`before`), fitted on the measurement, give the expected separation for
+/// the probes actually taken; refitted on everything, the achieved one.
+pub fn outcome(
+    contexts: &[PointContext],
+    measured_um: &[f64],
+    before: &DiagnoseReport,
+    readings: &[ProbeReading],
+) -> Result<FollowupOutcome, DiagnoseError> {
+    let sets = hypotheses(before);
+    let probe_rows: Vec<Row> = readings
+        .iter()
+        .map(|r| check_reading(contexts, r))
+        .collect::<Result<_, _>>()?;
+    let probe_r: Vec<f64> = readings
+        .iter()
+        .zip(&probe_rows)
+        .map(|(r, row)| r.reading_um - row.predicted_um())
+        .collect();
+    let reading_rms_um = super::noise::rms(&probe_r);
+    if sets.is_empty() {
+        return Ok(FollowupOutcome {
+            probes: readings.len(),
+            selected_before: before.selected.clone(),
+            separations: Vec::new(),
+            reading_rms_um,
+        });
+    }
+    let fitted = fit_hypotheses(contexts, measured_um, before, &sets)?;
+    let mut separations = separations(&fitted, &probe_rows);
+    // Achieved: each hypothesis refitted on the measurement and the readings.
+    let mut rows = fitted.rows.clone();
+    rows.extend(probe_rows.iter().copied());
+    let mut r = fitted.r.clone();
+    r.extend(&probe_r);
+    let sig = Signatures::new(&rows);
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let sse: Vec<f64> = sets
+        .iter()
+        .map(|kinds| fit_set(&sig, kinds, &all, &r).linear.sse)
+        .collect();
+    for (j, s) in separations.iter_mut().enumerate() {
+        let d = sse[j + 1] - sse[0];
+        s.achieved_sigma = Some(d.signum() * d.abs().sqrt() / fitted.noise);
+    }
+    Ok(FollowupOutcome {
+        probes: readings.len(),
+        selected_before: before.selected.clone(),
+        separations,
+        reading_rms_um,
+    })
+}
