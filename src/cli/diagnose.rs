@@ -2,8 +2,10 @@
 //! model's prediction (effects.md): where it lies, which unmodelled effect causes
 //! it, and how far it shrinks once that effect is added.
 use super::UsageError;
-use crate::diagnose::{DiagnoseOptions, DiagnoseReport, diagnose, html};
-use crate::inspection::{Measurement, Plan};
+use crate::diagnose::followup::{self, FollowupOptions, Probe, ProbeReading};
+use crate::diagnose::probing_program::{ProbingOptions, probing_program};
+use crate::diagnose::{DiagnoseOptions, DiagnoseReport, diagnose, diagnose_with_followup, html};
+use crate::inspection::{Followup, FollowupPoint, Measurement, Plan};
 use crate::toolpath::PointContext;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -42,14 +44,62 @@ pub struct Args {
     /// and test fixtures.
     #[arg(long, value_name = "FILE")]
     pub dump_contexts: Option<PathBuf>,
+    /// When the selected effect has aliases, write the probing program that
+    /// separates them (G38.2, this machine's joints) to OUT.nc and its plan to
+    /// OUT.csv (same name, .csv).
+    #[arg(long, value_name = "OUT.nc", conflicts_with = "followup")]
+    pub followup_program: Option<PathBuf>,
+    /// Probes in the designed follow-up.
+    #[arg(long, default_value_t = 12, value_name = "N")]
+    pub followup_probes: usize,
+    /// A follow-up measurement (CSV: id,x,y,z,i,j,k,a,c,t_min,mx,my,mz): fitted
+    /// together with MEASURED, re-ranking the effects.
+    #[arg(long, value_name = "MEASURED2.csv")]
+    pub followup: Option<PathBuf>,
+    #[command(flatten)]
+    pub probe: ProbeArgs,
+}
+
+/// The probe of a follow-up (give the same values to design it, to simulate
+/// it and to read it back).
+#[derive(Debug, Clone, clap::Args)]
+pub struct ProbeArgs {
+    /// Probe length, gauge line to the stylus tip, mm [default: the machine file's tool length].
+    #[arg(long, value_name = "MM")]
+    pub probe_length: Option<f64>,
+    /// Stylus ball radius, mm.
+    #[arg(long, default_value_t = 1.0, value_name = "MM")]
+    pub probe_radius: f64,
+}
+
+impl ProbeArgs {
+    pub(crate) fn check(&self) -> Result<(), UsageError> {
+        if let Some(l) = self.probe_length {
+            if !(l.is_finite() && l > 0.0) {
+                return Err(UsageError(format!(
+                    "--probe-length must be > 0 mm, got {l}"
+                )));
+            }
+        }
+        if !(self.probe_radius.is_finite() && self.probe_radius >= 0.0) {
+            return Err(UsageError(format!(
+                "--probe-radius must be ≥ 0 mm, got {}",
+                self.probe_radius
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// A plan matched against the program that cut it, on a machine's error model:
 /// what `diagnose` and `simulate` start from.
 pub(crate) struct CutPart {
+    pub machine: crate::machine::Machine,
     pub model: crate::machine::ErrorModel,
     pub plan: Plan,
     pub matches: Vec<Option<crate::toolpath::PlanMatch>>,
+    /// The program's machining time, minutes (its end).
+    pub end_min: f64,
 }
 
 impl CutPart {
@@ -63,12 +113,14 @@ impl CutPart {
         let (machine_def, model) = machine.load()?;
         let options = read.cut_options(&machine_def);
         let program = read.program(program, Some(&machine_def))?;
-        let (matches, _) =
+        let (matches, summary) =
             crate::toolpath::cut::match_plan(program, &model, &plan.points, &options)?;
         Ok(CutPart {
+            machine: machine_def,
             model,
             plan,
             matches,
+            end_min: summary.time_min,
         })
     }
 
@@ -79,6 +131,56 @@ impl CutPart {
             &self.plan.points,
             &self.matches,
         )?)
+    }
+
+    /// The probe of the follow-up options (its length defaults to the machine
+    /// file's tool).
+    pub(crate) fn probe_tool(&self, probe: &ProbeArgs) -> crate::toolpath::cut::ProbeTool {
+        crate::toolpath::cut::ProbeTool {
+            length_mm: probe.probe_length.unwrap_or(self.machine.tool.length),
+            radius_mm: probe.probe_radius,
+        }
+    }
+
+    /// The probes of a follow-up plan or measurement: each row's plan point
+    /// (found by position and normal among the cut points), its pose and time.
+    pub(crate) fn followup_probes(
+        &self,
+        contexts: &[PointContext],
+        followup: &Followup,
+        probe: &ProbeArgs,
+        path: &Path,
+    ) -> anyhow::Result<Vec<Probe>> {
+        let tool = self.probe_tool(probe);
+        followup
+            .points
+            .iter()
+            .map(|f| {
+                let p = &f.plan;
+                let of = contexts
+                    .iter()
+                    .position(|c| {
+                        c.cut
+                            && crate::vec3::dist(c.point, p.point) < 1e-3
+                            && crate::vec3::dot(c.normal, p.normal) > 0.9999
+                    })
+                    .with_context(|| {
+                        format!(
+                            "{}: probe {}: no cut point of the measurement at ({:.4}, {:.4}, {:.4}) with that normal (a follow-up probes the measurement's points again)",
+                            path.display(), p.id, p.point[0], p.point[1], p.point[2]
+                        )
+                    })?;
+                let context = crate::toolpath::cut::probe_context(
+                    &self.model, &tool, None, &contexts[of], f.a_deg, f.c_deg, f.time_min,
+                )?
+                .context("a probe without travel limits is always placed")?;
+                Ok(Probe {
+                    id: p.id.clone(),
+                    of,
+                    context,
+                })
+            })
+            .collect()
     }
 
     /// The volumetric error (µm, part frame) of the machine's own tables at every
@@ -102,14 +204,36 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             return Err(UsageError(format!("--noise-um must be > 0, got {s}")).into());
         }
     }
+    args.probe.check()?;
+    if args.followup_probes == 0 {
+        return Err(UsageError("--followup-probes must be ≥ 1".into()).into());
+    }
+    if let Some(out) = &args.followup_program {
+        if out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+            || crate::io::is_stdio(out)
+        {
+            return Err(UsageError(format!(
+                "--followup-program {}: give the program's file name (e.g. followup.nc); its plan is written next to it as .csv",
+                out.display()
+            ))
+            .into());
+        }
+    }
     let measurement = Measurement::read(&args.measured)?;
-    let contexts = CutPart::new(
+    let followup_measured = args
+        .followup
+        .as_ref()
+        .map(|p| Followup::read_measurement(p))
+        .transpose()?;
+    let part = CutPart::new(
         &args.machine,
         &args.program,
         args.read.clone(),
         measurement.plan(),
-    )?
-    .contexts()?;
+    )?;
+    let contexts = part.contexts()?;
     // Held-out judging (a 3 × 3 grid of regions and time bands) needs points
     // in every fold and more points than the largest effect has parameters.
     let cut = contexts.iter().filter(|c| c.cut).count();
@@ -126,16 +250,166 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         noise_um: args.noise_um,
         ..DiagnoseOptions::default()
     };
-    let report = diagnose(&contexts, &measurement.deviations_um(), &options)
-        .context("diagnosing the measurement")?;
+    let measured = measurement.deviations_um();
+    let mut report =
+        diagnose(&contexts, &measured, &options).context("diagnosing the measurement")?;
+    let mut program_written = None;
+    if let (Some(followup), Some(path)) = (&followup_measured, &args.followup) {
+        let probes = part.followup_probes(&contexts, followup, &args.probe, path)?;
+        let readings: Vec<ProbeReading> = probes
+            .into_iter()
+            .zip(&followup.points)
+            .map(|(probe, f)| ProbeReading {
+                probe,
+                reading_um: f.reading_um(),
+            })
+            .collect();
+        let outcome = followup::outcome(&contexts, &measured, &report, &readings)
+            .context("judging the follow-up")?;
+        let before = report.selected.clone();
+        report = diagnose_with_followup(&contexts, &measured, &readings, &options)
+            .context("diagnosing the measurement with its follow-up")?;
+        report
+            .summary
+            .push(followup_sentence(&before, &report.selected, &outcome));
+        report.followup = Some(outcome);
+    } else if let Some(out) = &args.followup_program {
+        let tool = part.probe_tool(&args.probe);
+        let candidates = followup::candidates(&contexts, |cut, a, c| {
+            crate::toolpath::cut::probe_context(
+                &part.model,
+                &tool,
+                Some(&part.machine.limits),
+                cut,
+                a,
+                c,
+                part.end_min,
+            )
+        })?;
+        let design = followup::design(
+            &contexts,
+            &measured,
+            &report,
+            &candidates,
+            part.end_min,
+            &FollowupOptions {
+                probes: args.followup_probes,
+                ..FollowupOptions::default()
+            },
+        )
+        .context("designing the follow-up")?;
+        match design {
+            None => report.summary.push(format!(
+                "No follow-up is needed: {} (no alias on this part); {} not written.",
+                if report.selected.is_empty() {
+                    "no effect is selected".to_string()
+                } else {
+                    format!(
+                        "{} is told apart from every other effect",
+                        report.selected.join(" + ")
+                    )
+                },
+                out.display()
+            )),
+            Some(design) => {
+                let plan_path = out.with_extension("csv");
+                let text = probing_program(
+                    &design,
+                    &ProbingOptions {
+                        safe_z_mm: part.machine.limits.z[1],
+                        feed_mm_min: 100.0,
+                        clearance_mm: 2.0,
+                        overtravel_mm: 1.0,
+                        stylus_radius_mm: tool.radius_mm,
+                        probe_length_mm: tool.length_mm,
+                        provenance: vec![
+                            format!("part program: {}", args.program.display()),
+                            format!("measurement: {}", args.measured.display()),
+                            format!("plan of the probes: {}", plan_path.display()),
+                        ],
+                    },
+                );
+                let plan = Followup {
+                    points: design
+                        .probes
+                        .iter()
+                        .map(|p| FollowupPoint {
+                            plan: crate::inspection::PlanPoint {
+                                id: p.id.clone(),
+                                point: p.probe.context.point,
+                                normal: p.probe.context.normal,
+                            },
+                            a_deg: p.a_deg,
+                            c_deg: p.c_deg,
+                            time_min: p.time_min,
+                            measured: None,
+                        })
+                        .collect(),
+                };
+                plan.write(&plan_path)?;
+                crate::io::write_file_atomic(out, text.as_bytes())?;
+                report.summary.extend(design.explanation.iter().cloned());
+                program_written = Some((out.clone(), plan_path));
+                report.followup_design = Some(design);
+            }
+        }
+    }
     crate::io::write_json_atomic(&args.report, &report)?;
     if let Some(path) = &args.html {
         crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
     }
     if !crate::io::is_stdio(&args.report) {
         super::stdout_text(&summary_text(&report))?;
+        if let Some((program, plan)) = program_written {
+            crate::outln!(
+                "follow-up: probing program {} and its plan {}",
+                program.display(),
+                plan.display()
+            );
+        }
     }
     Ok(())
+}
+
+/// The summary sentence of a measured follow-up.
+fn followup_sentence(
+    before: &[String],
+    after: &[String],
+    outcome: &followup::FollowupOutcome,
+) -> String {
+    let name = |v: &[String]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.join(" + ")
+        }
+    };
+    let pairs = outcome
+        .separations
+        .iter()
+        .map(|s| {
+            format!(
+                "{} vs {}: {:+.1} σ achieved (expected {:.1} σ if {}, {:.1} σ if {})",
+                s.selected,
+                s.rival,
+                s.achieved_sigma.unwrap_or(0.0),
+                s.if_selected_sigma,
+                s.selected,
+                s.if_rival_sigma,
+                s.rival
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    format!(
+        "Follow-up ({} probes, readings {:.2} µm RMS beyond the model): selected {} before it, {} with it{}{}.",
+        outcome.probes,
+        outcome.reading_rms_um,
+        name(before),
+        name(after),
+        if pairs.is_empty() { "" } else { "; " },
+        pairs
+    )
 }
 
 /// The human summary printed by the command.

@@ -2,8 +2,8 @@
 //! machine (effects.md): the machine's geometric volumetric error (its tables as
 //! the truth), plus the given unmodelled effects, plus Gaussian probing noise.
 use super::UsageError;
-use crate::diagnose::{Effect, SimulateOptions, simulate};
-use crate::inspection::{Plan, profile};
+use crate::diagnose::{Effect, SimulateOptions, simulate, simulate_followup};
+use crate::inspection::{Followup, Plan, profile};
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -45,6 +45,13 @@ pub struct Args {
     /// and test fixtures.
     #[arg(long, value_name = "FILE")]
     pub dump_contexts: Option<PathBuf>,
+    /// Simulate the follow-up probing of this plan (from `diagnose
+    /// --followup-program`; CSV id,x,y,z,i,j,k,a,c,t_min) instead: OUTPUT
+    /// receives its readings (id,…,t_min,mx,my,mz), with the same effects.
+    #[arg(long, value_name = "FOLLOWUP.csv")]
+    pub followup: Option<PathBuf>,
+    #[command(flatten)]
+    pub probe: super::diagnose::ProbeArgs,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -56,7 +63,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
+    args.probe.check()?;
     let plan = Plan::read(&args.plan)?;
+    let followup_plan = args
+        .followup
+        .as_ref()
+        .map(|p| Followup::read_plan(p))
+        .transpose()?;
     let part =
         super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
     let contexts = part.contexts()?;
@@ -67,6 +80,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         noise_um: args.noise_um,
         seed: args.seed,
     };
+    if let (Some(mut followup), Some(path)) = (followup_plan, &args.followup) {
+        let probes = part.followup_probes(&contexts, &followup, &args.probe, path)?;
+        // The machine's own tables are the truth, as for the measurement.
+        let truth: Vec<f64> = probes
+            .iter()
+            .map(|p| contexts[p.of].predicted_um - p.context.predicted_um)
+            .collect();
+        let readings = simulate_followup(&contexts, &probes, &truth, &effects, &options)
+            .context("simulating the follow-up")?;
+        for (f, r) in followup.points.iter_mut().zip(&readings) {
+            let (p, n) = (f.plan.point, f.plan.normal);
+            f.measured = Some([0, 1, 2].map(|k| p[k] + r * n[k] / 1000.0));
+        }
+        followup.write(&args.output)?;
+        if !crate::io::is_stdio(&args.output) {
+            crate::outln!(
+                "simulated {} follow-up probes with {}; noise {} µm, seed {}; readings {:.2} µm RMS -> {}",
+                readings.len(),
+                effects_text(&effects),
+                args.noise_um,
+                args.seed,
+                crate::inspection::rms(&readings),
+                args.output.display()
+            );
+        }
+        return Ok(());
+    }
     let measurement = simulate(&contexts, &part.truth_um()?, &effects, &options)
         .context("simulating the measurement")?;
     measurement.write(&args.output)?;
@@ -77,15 +117,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::outln!(
             "simulated {} points ({cut} cut by the program) with {}; noise {} µm, seed {}",
             deviations.len(),
-            if effects.is_empty() {
-                "no unmodelled effect".to_string()
-            } else {
-                effects
-                    .iter()
-                    .map(Effect::to_spec)
-                    .collect::<Vec<_>>()
-                    .join(" + ")
-            },
+            effects_text(&effects),
             args.noise_um,
             args.seed
         );
@@ -97,4 +129,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+fn effects_text(effects: &[Effect]) -> String {
+    if effects.is_empty() {
+        "no unmodelled effect".to_string()
+    } else {
+        effects
+            .iter()
+            .map(Effect::to_spec)
+            .collect::<Vec<_>>()
+            .join(" + ")
+    }
 }

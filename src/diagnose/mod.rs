@@ -21,6 +21,7 @@ pub mod followup;
 pub mod html;
 pub mod localization;
 pub mod noise;
+pub mod probing_program;
 pub mod report;
 pub mod simulate;
 pub mod synthetic;

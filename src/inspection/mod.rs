@@ -248,6 +248,102 @@ impl Measurement {
     }
 }
 
+/// A plan point probed again on the machine (a follow-up probe,
+/// docs/diagnose.md "Follow-up"): at rotary angles `a`, `c` (degrees), at
+/// `t_min` (minutes since the program's start); `id` is the probe's, the
+/// point and normal are the plan point's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FollowupPoint {
+    pub plan: PlanPoint,
+    pub a_deg: f64,
+    pub c_deg: f64,
+    pub time_min: f64,
+    /// The probed point (part coordinates, mm), in a follow-up measurement.
+    pub measured: Option<[f64; 3]>,
+}
+
+impl FollowupPoint {
+    /// The reading `(m − p)·n` in µm (0 without a measured point).
+    pub fn reading_um(&self) -> f64 {
+        self.measured.map_or(0.0, |m| {
+            let p = &self.plan;
+            (0..3)
+                .map(|k| (m[k] - p.point[k]) * p.normal[k])
+                .sum::<f64>()
+                * 1000.0
+        })
+    }
+}
+
+/// A follow-up plan (`id,x,y,z,i,j,k,a,c,t_min`) or measurement (with
+/// `mx,my,mz`): an extension of formats.md (docs/extensions.md).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Followup {
+    pub points: Vec<FollowupPoint>,
+}
+
+const FOLLOWUP_PLAN_COLUMNS: [&str; 9] = ["x", "y", "z", "i", "j", "k", "a", "c", "t_min"];
+const FOLLOWUP_MEASUREMENT_COLUMNS: [&str; 12] = [
+    "x", "y", "z", "i", "j", "k", "a", "c", "t_min", "mx", "my", "mz",
+];
+
+impl Followup {
+    fn parse_with(path: &Path, text: &str, measured: bool) -> Result<Followup, InspectionError> {
+        let columns: &[&str] = if measured {
+            &FOLLOWUP_MEASUREMENT_COLUMNS
+        } else {
+            &FOLLOWUP_PLAN_COLUMNS
+        };
+        let points = parse_points(path, text, columns, |r, plan| FollowupPoint {
+            plan,
+            a_deg: r.values[6],
+            c_deg: r.values[7],
+            time_min: r.values[8],
+            measured: measured.then(|| [r.values[9], r.values[10], r.values[11]]),
+        })?;
+        Ok(Followup { points })
+    }
+
+    /// Parse a follow-up plan CSV (`id,x,y,z,i,j,k,a,c,t_min`).
+    pub fn parse_plan(path: &Path, text: &str) -> Result<Followup, InspectionError> {
+        Followup::parse_with(path, text, false)
+    }
+
+    /// Parse a follow-up measurement CSV (the plan's columns and `mx,my,mz`).
+    pub fn parse_measurement(path: &Path, text: &str) -> Result<Followup, InspectionError> {
+        Followup::parse_with(path, text, true)
+    }
+
+    pub fn read_plan(path: &Path) -> Result<Followup, InspectionError> {
+        Followup::parse_plan(path, &read_to_string(path)?)
+    }
+
+    pub fn read_measurement(path: &Path) -> Result<Followup, InspectionError> {
+        Followup::parse_measurement(path, &read_to_string(path)?)
+    }
+
+    /// Write the plan, or the measurement when every point has its measured
+    /// point, atomically (6 decimals).
+    pub fn write(&self, path: &Path) -> Result<(), InspectionError> {
+        let measured = !self.points.is_empty() && self.points.iter().all(|p| p.measured.is_some());
+        let rows = self.points.iter().map(|f| {
+            let p = &f.plan;
+            let mut v = [p.point, p.normal].concat();
+            v.extend([f.a_deg, f.c_deg, f.time_min]);
+            if let (true, Some(m)) = (measured, f.measured) {
+                v.extend(m);
+            }
+            (p.id.as_str(), v)
+        });
+        let header = if measured {
+            "id,x,y,z,i,j,k,a,c,t_min,mx,my,mz"
+        } else {
+            "id,x,y,z,i,j,k,a,c,t_min"
+        };
+        write_rows(path, header, rows)
+    }
+}
+
 /// Comma-separated values with 6 decimals (never `-0.000000`).
 fn fmt6(values: &[f64]) -> String {
     values

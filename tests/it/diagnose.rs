@@ -867,6 +867,135 @@ mod cli {
         assert!(page.contains("<svg") && page.contains("Residual"));
     }
 
+    /// The follow-up loop through the command line: the design writes a
+    /// probing program our reader accepts and its plan; the simulated
+    /// follow-up, fitted with the measurement, keeps the right effect and
+    /// reports the separation achieved.
+    #[test]
+    fn a_followup_is_designed_simulated_and_combined() {
+        let dir = tempfile::tempdir().unwrap();
+        let machine = nominal_machine(dir.path());
+        let program = data("samples/saddle.nc");
+        let plan = data("samples/saddle-plan.csv");
+        let measured = dir.path().join("meas.csv");
+        let followup = dir.path().join("followup.nc");
+        let followup_plan = dir.path().join("followup.csv");
+        let effect = "thermal_drift:dx=3,dy=-4,dz=5,tau=20";
+        let sim = |plan: &Path, out: &Path, extra: &[&str]| {
+            let mut args = vec![
+                "--effect",
+                effect,
+                "--seed",
+                "3",
+                "-o",
+                out.to_str().unwrap(),
+            ];
+            args.extend_from_slice(extra);
+            ok(&command("simulate", &[&machine, &program, plan], &args))
+        };
+        sim(&plan, &measured, &[]);
+        let report = dir.path().join("diag.json");
+        let stdout = ok(&command(
+            "diagnose",
+            &[&machine, &program, &measured],
+            &[
+                "--report",
+                report.to_str().unwrap(),
+                "--followup-program",
+                followup.to_str().unwrap(),
+            ],
+        ));
+        assert!(stdout.contains("selected: thermal_drift"), "{stdout}");
+        assert!(stdout.contains("To tell thermal_drift from"), "{stdout}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let design = &json["followup_design"];
+        assert_eq!(design["probes"].as_array().unwrap().len(), 12);
+        assert!(
+            design["expected_separation_sigma"].as_f64().unwrap() > 3.0,
+            "{design}"
+        );
+        let rows = std::fs::read_to_string(&followup_plan).unwrap();
+        assert!(rows.starts_with("id,x,y,z,i,j,k,a,c,t_min\n"), "{rows}");
+        assert_eq!(rows.lines().count(), 13);
+        let text = std::fs::read_to_string(&followup).unwrap();
+        assert_eq!(text.matches("G38.2 ").count(), 12, "{text}");
+        ok(&command("check", &[&followup], &[]));
+
+        let measured2 = dir.path().join("meas2.csv");
+        let stdout = sim(
+            &plan,
+            &measured2,
+            &["--followup", followup_plan.to_str().unwrap()],
+        );
+        assert!(stdout.contains("simulated 12 follow-up probes"), "{stdout}");
+        let report2 = dir.path().join("diag2.json");
+        let stdout = ok(&command(
+            "diagnose",
+            &[&machine, &program, &measured],
+            &[
+                "--report",
+                report2.to_str().unwrap(),
+                "--followup",
+                measured2.to_str().unwrap(),
+            ],
+        ));
+        assert!(stdout.contains("selected: thermal_drift"), "{stdout}");
+        assert!(stdout.contains("Follow-up (12 probes"), "{stdout}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report2).unwrap()).unwrap();
+        for s in json["followup"]["separations"].as_array().unwrap() {
+            let (achieved, expected) = (
+                s["achieved_sigma"].as_f64().unwrap(),
+                s["if_selected_sigma"].as_f64().unwrap(),
+            );
+            assert!(achieved > 3.0, "{s}");
+            assert!((achieved - expected).abs() < 1.5 + 0.2 * expected, "{s}");
+        }
+
+        // A plan file as the program name, and a probe of a point the
+        // measurement does not have, are refused; nothing is written.
+        let out = command(
+            "diagnose",
+            &[&machine, &program, &measured],
+            &[
+                "--report",
+                report.to_str().unwrap(),
+                "--followup-program",
+                followup_plan.to_str().unwrap(),
+            ],
+        );
+        assert_eq!(out.status.code(), Some(2));
+        let stranger = dir.path().join("stranger.csv");
+        let mut lines: Vec<String> = std::fs::read_to_string(&measured2)
+            .unwrap()
+            .lines()
+            .map(String::from)
+            .collect();
+        let mut fields: Vec<String> = lines[1].split(',').map(String::from).collect();
+        fields[1] = format!("{}", fields[1].parse::<f64>().unwrap() + 7.0);
+        lines[1] = fields.join(",");
+        std::fs::write(&stranger, lines.join("\n") + "\n").unwrap();
+        let report3 = dir.path().join("diag3.json");
+        let out = command(
+            "diagnose",
+            &[&machine, &program, &measured],
+            &[
+                "--report",
+                report3.to_str().unwrap(),
+                "--followup",
+                stranger.to_str().unwrap(),
+            ],
+        );
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("stranger.csv") && err.contains("probe F01"),
+            "{err}"
+        );
+        assert!(!report3.exists());
+    }
+
     #[test]
     fn bad_effects_are_usage_errors_and_bad_files_input_errors() {
         let dir = tempfile::tempdir().unwrap();
@@ -1002,5 +1131,123 @@ fn a_wide_a_range_separates_rotary_location_from_setup_error() {
                 fit.aliases
             );
         }
+    }
+}
+
+/// The follow-up on the saddle (contexts of the fixture, probes placed by the
+/// toolpath layer on ref-trt): a rotary location error that the measurement
+/// alone selects as its alias, a set-up error, is named right once the
+/// designed probes are fitted with it; the achieved separation is the
+/// expected one.
+#[test]
+fn a_followup_tells_rotary_location_from_setup_error() {
+    use volcomp::diagnose::followup::{self, FollowupOptions, ProbeReading};
+    use volcomp::diagnose::{diagnose_with_followup, simulate_followup};
+    use volcomp::machine::{ErrorModel, Machine, ModelOptions};
+    use volcomp::toolpath::cut::{ProbeTool, probe_context};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let machine = Machine::load(&root.join("machines/ref-trt.toml")).unwrap();
+    let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).unwrap();
+    let part = saddle();
+    let contexts = &part.contexts;
+    let end = contexts.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let tool = ProbeTool {
+        length_mm: machine.tool.length,
+        radius_mm: 1.0,
+    };
+    let candidates = followup::candidates(contexts, |cut, a, c| {
+        probe_context(&model, &tool, Some(&machine.limits), cut, a, c, end)
+    })
+    .unwrap();
+    // The case of `cargo run --example followup` (rotary_location, seed 1).
+    let mut rng = ChaCha8Rng::seed_from_u64(8001);
+    let effect = random_effect(EffectKind::RotaryLocation, contexts, (2.0, 6.0), &mut rng);
+    let noise = SimulateOptions {
+        noise_um: 0.3,
+        seed: 78,
+    };
+    let measured = simulate(contexts, &part.truth_um, &[effect.clone()], &noise)
+        .unwrap()
+        .deviations_um();
+    let before = diagnose(contexts, &measured, &DiagnoseOptions::default()).unwrap();
+    assert_eq!(
+        before.selected,
+        ["setup_error"],
+        "{:?}",
+        before.selection_notes
+    );
+    let design = followup::design(
+        contexts,
+        &measured,
+        &before,
+        &candidates,
+        end,
+        &FollowupOptions::default(),
+    )
+    .unwrap()
+    .expect("an alias to separate");
+    assert_eq!(design.rivals, ["rotary_location"]);
+    assert_eq!(design.probes.len(), 12);
+    let separation = &design.separations[0];
+    // The measurement alone barely tells them apart (BIC chose the alias).
+    assert!(separation.before_sigma < 5.0, "{separation:?}");
+    assert!(separation.expected_sigma > 10.0, "{separation:?}");
+    // Probed at other poses: the set-up error cancels there, the location
+    // error does not.
+    assert!(design.probes.iter().any(|p| p.pose != "cutting pose"));
+    let probes: Vec<_> = design.probes.iter().map(|p| p.probe.clone()).collect();
+    let truth: Vec<f64> = probes
+        .iter()
+        .map(|p| contexts[p.of].predicted_um - p.context.predicted_um)
+        .collect();
+    let values = simulate_followup(
+        contexts,
+        &probes,
+        &truth,
+        &[effect],
+        &SimulateOptions {
+            seed: 5001,
+            ..noise
+        },
+    )
+    .unwrap();
+    let readings: Vec<ProbeReading> = probes
+        .into_iter()
+        .zip(values)
+        .map(|(probe, reading_um)| ProbeReading { probe, reading_um })
+        .collect();
+    let after = diagnose_with_followup(contexts, &measured, &readings, &DiagnoseOptions::default())
+        .unwrap();
+    assert_eq!(
+        after.selected,
+        ["rotary_location"],
+        "{:?}",
+        after.selection_notes
+    );
+    let outcome = followup::outcome(contexts, &measured, &before, &readings).unwrap();
+    let s = &outcome.separations[0];
+    // The rival (rotary_location) is the truth: the selection fits worse.
+    let achieved = -s.achieved_sigma.unwrap();
+    assert!(
+        (achieved - s.if_rival_sigma).abs() < 1.5 + 0.2 * s.if_rival_sigma,
+        "{s:?}"
+    );
+    // Without noise, a set-up error reads nothing on the machine, and a
+    // thermal drift reads its change since the cut.
+    let zero = SimulateOptions {
+        noise_um: 0.0,
+        seed: 1,
+    };
+    let probes: Vec<_> = readings.iter().map(|r| r.probe.clone()).collect();
+    let none = vec![0.0; probes.len()];
+    let setup = Effect::parse("setup_error:tx=5,ty=-3,tz=2,rx=40,ry=-30,rz=20").unwrap();
+    for v in simulate_followup(contexts, &probes, &none, &[setup], &zero).unwrap() {
+        assert!(v.abs() < 1e-9, "{v}");
+    }
+    let drift = Effect::parse("thermal_drift:dz=5,tau=3").unwrap();
+    let values = simulate_followup(contexts, &probes, &none, &[drift.clone()], &zero).unwrap();
+    for (p, v) in probes.iter().zip(values) {
+        let expected = drift.deviation_um(&contexts[p.of]) - drift.deviation_um(&p.context);
+        assert!((v - expected).abs() < 1e-12);
     }
 }
