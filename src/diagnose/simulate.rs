@@ -30,6 +30,38 @@ impl Default for SimulateOptions {
     }
 }
 
+/// Gaussian probing noise along the normal (µm), seeded.
+struct ProbingNoise {
+    normal: Normal<f64>,
+    rng: ChaCha8Rng,
+    on: bool,
+}
+
+impl ProbingNoise {
+    fn new(options: &SimulateOptions) -> Result<ProbingNoise, DiagnoseError> {
+        if !(options.noise_um.is_finite() && options.noise_um >= 0.0) {
+            return Err(DiagnoseError::BadOption(format!(
+                "noise must be a finite number ≥ 0 µm, found {}",
+                options.noise_um
+            )));
+        }
+        Ok(ProbingNoise {
+            normal: Normal::new(0.0, options.noise_um)
+                .map_err(|e| DiagnoseError::BadOption(format!("noise: {e}")))?,
+            rng: ChaCha8Rng::seed_from_u64(options.seed),
+            on: options.noise_um > 0.0,
+        })
+    }
+
+    fn draw(&mut self) -> f64 {
+        if self.on {
+            self.normal.sample(&mut self.rng)
+        } else {
+            0.0
+        }
+    }
+}
+
 /// `m = p + (e_true + ΣΔ)/1000 + noise·n/1000` (mm) for every context, where
 /// `truth_um[i]` is the true volumetric error `e` (µm, part coordinates) of
 /// context `i`.
@@ -46,15 +78,7 @@ pub fn simulate(
             found: truth_um.len(),
         });
     }
-    if !(options.noise_um.is_finite() && options.noise_um >= 0.0) {
-        return Err(DiagnoseError::BadOption(format!(
-            "noise must be a finite number ≥ 0 µm, found {}",
-            options.noise_um
-        )));
-    }
-    let normal = Normal::new(0.0, options.noise_um.max(0.0))
-        .map_err(|e| DiagnoseError::BadOption(format!("noise: {e}")))?;
-    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut noise = ProbingNoise::new(options)?;
     let mut points = Vec::with_capacity(contexts.len());
     for (ctx, e) in contexts.iter().zip(truth_um) {
         super::check_context(ctx)?;
@@ -71,11 +95,7 @@ pub fn simulate(
                 total[k] += d[k];
             }
         }
-        let noise = if options.noise_um > 0.0 {
-            normal.sample(&mut rng)
-        } else {
-            0.0
-        };
+        let noise = noise.draw();
         let measured =
             [0, 1, 2].map(|k| ctx.point[k] + total[k] / 1000.0 + noise * ctx.normal[k] / 1000.0);
         points.push(MeasuredPoint {
@@ -108,15 +128,7 @@ pub fn simulate_followup(
             found: truth_reading_um.len(),
         });
     }
-    if !(options.noise_um.is_finite() && options.noise_um >= 0.0) {
-        return Err(DiagnoseError::BadOption(format!(
-            "noise must be a finite number ≥ 0 µm, found {}",
-            options.noise_um
-        )));
-    }
-    let normal = Normal::new(0.0, options.noise_um.max(0.0))
-        .map_err(|e| DiagnoseError::BadOption(format!("noise: {e}")))?;
-    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut noise = ProbingNoise::new(options)?;
     probes
         .iter()
         .zip(truth_reading_um)
@@ -133,12 +145,7 @@ pub fn simulate_followup(
                     value -= effect.deviation_um(p);
                 }
             }
-            let noise = if options.noise_um > 0.0 {
-                normal.sample(&mut rng)
-            } else {
-                0.0
-            };
-            Ok(value + noise)
+            Ok(value + noise.draw())
         })
         .collect()
 }
