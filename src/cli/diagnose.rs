@@ -16,9 +16,15 @@ its localisation (worst points and blocks, by time, region, A/C and direction of
 every catalogue effect fitted and cross-validated (folds by region and by time), the
 selected effects (none, one or two) and the model after adding them. See docs/diagnose.md.
 
+When the selected effect has aliases on the part, --followup-program writes a probing
+program (G38.2) that separates them and its plan (.csv); measure it (or simulate it)
+and give the result with --followup to re-rank the effects on both measurements.
+
 Examples:
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3";
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]

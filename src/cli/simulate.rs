@@ -16,7 +16,8 @@ Effects (parameters default to 0; thermal_drift needs tau):
 
 Examples:
   volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect backlash:bx=6,by=0,bz=3
-  volcomp simulate machines/ref-trt.toml part.nc plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5 --effect tool_wear:w=4 --noise-um 0.5 --seed 7";
+  volcomp simulate machines/ref-trt.toml part.nc plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5 --effect tool_wear:w=4 --noise-um 0.5 --seed 7
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect thermal_drift:dz=-6,tau=5";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
