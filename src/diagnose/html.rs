@@ -230,6 +230,66 @@ pub fn render(report: &DiagnoseReport) -> String {
             })
             .collect::<Vec<_>>(),
     );
+    let separations = |list: &[super::followup::Separation]| -> Vec<Vec<String>> {
+        list.iter()
+            .map(|s| {
+                vec![
+                    s.selected.clone(),
+                    s.rival.clone(),
+                    format!("{:.1}", s.before_sigma),
+                    format!("{:.1}", s.if_selected_sigma),
+                    format!("{:.1}", s.if_rival_sigma),
+                    s.achieved_sigma.map_or("—".into(), |a| format!("{a:+.1}")),
+                ]
+            })
+            .collect()
+    };
+    let header = [
+        "selected",
+        "rival",
+        "before σ",
+        "expected σ if selected",
+        "expected σ if rival",
+        "achieved σ",
+    ];
+    if let Some(design) = &report.followup_design {
+        page.heading("Follow-up design");
+        for line in &design.explanation {
+            page.paragraph(line);
+        }
+        page.table(&header, &separations(&design.separations));
+        page.table(
+            &["probe", "plan point", "pose", "A °", "C °", "t min"],
+            &design
+                .probes
+                .iter()
+                .map(|p| {
+                    vec![
+                        p.id.clone(),
+                        p.point_id.clone(),
+                        p.pose.clone(),
+                        format!("{:.4}", p.a_deg),
+                        format!("{:.4}", p.c_deg),
+                        format!("{:.2}", p.time_min),
+                    ]
+                })
+                .collect::<Vec<_>>(),
+        );
+    }
+    if let Some(outcome) = &report.followup {
+        page.heading("Follow-up");
+        page.paragraph(&format!(
+            "{} probes, readings {:.2} µm RMS beyond the model; selected before: {}.",
+            outcome.probes,
+            outcome.reading_rms_um,
+            if outcome.selected_before.is_empty() {
+                "none".to_string()
+            } else {
+                outcome.selected_before.join(" + ")
+            }
+        ));
+        page.table(&header, &separations(&outcome.separations));
+    }
     page.heading("Selection");
     page.preformatted(&report.selection_notes.join("\n"));
     page.finish()

@@ -895,6 +895,7 @@ mod cli {
         };
         sim(&plan, &measured, &[]);
         let report = dir.path().join("diag.json");
+        let html = dir.path().join("diag.html");
         let stdout = ok(&command(
             "diagnose",
             &[&machine, &program, &measured],
@@ -903,8 +904,12 @@ mod cli {
                 report.to_str().unwrap(),
                 "--followup-program",
                 followup.to_str().unwrap(),
+                "--html",
+                html.to_str().unwrap(),
             ],
         ));
+        let page = std::fs::read_to_string(&html).unwrap();
+        assert!(page.contains("Follow-up design") && page.contains("F12"));
         assert!(stdout.contains("selected: thermal_drift"), "{stdout}");
         assert!(stdout.contains("To tell thermal_drift from"), "{stdout}");
         let json: serde_json::Value =
