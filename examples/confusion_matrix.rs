@@ -88,13 +88,7 @@ fn main() {
         );
         part
     } else if args.iter().any(|a| a == "dome") {
-        let part = saddle_raster(&SyntheticOptions {
-            dome: true,
-            a_mid_deg: 50.0,
-            a_span_deg: 35.0,
-            c_span_deg: 60.0,
-            ..SyntheticOptions::default()
-        });
+        let part = saddle_raster(&SyntheticOptions::dome());
         println!(
             "synthetic dome, A 15–85°, C −50…70°: {} points",
             part.contexts.len()

@@ -48,12 +48,12 @@ pub struct ProbeReading {
     pub reading_um: f64,
 }
 
-/// The fitted row of a reading, checked.
-pub(crate) fn check_reading<'a>(
+/// The fitted row of a probe, checked: its plan point was cut and its
+/// context is finite.
+pub(crate) fn probe_row<'a>(
     contexts: &'a [PointContext],
-    reading: &'a ProbeReading,
+    probe: &'a Probe,
 ) -> Result<Row<'a>, DiagnoseError> {
-    let probe = &reading.probe;
     let cut = contexts.get(probe.of).filter(|c| c.cut).ok_or_else(|| {
         DiagnoseError::BadOption(format!(
             "follow-up probe {}: plan point {} was not cut by the program",
@@ -61,16 +61,24 @@ pub(crate) fn check_reading<'a>(
         ))
     })?;
     super::check_context(&probe.context)?;
-    if !reading.reading_um.is_finite() {
-        return Err(DiagnoseError::NonFinite {
-            what: "its follow-up reading",
-            id: probe.id.clone(),
-        });
-    }
     Ok(Row {
         cut,
         probe: Some(&probe.context),
     })
+}
+
+/// The fitted row of a reading, checked.
+pub(crate) fn check_reading<'a>(
+    contexts: &'a [PointContext],
+    reading: &'a ProbeReading,
+) -> Result<Row<'a>, DiagnoseError> {
+    if !reading.reading_um.is_finite() {
+        return Err(DiagnoseError::NonFinite {
+            what: "its follow-up reading",
+            id: reading.probe.id.clone(),
+        });
+    }
+    probe_row(contexts, &reading.probe)
 }
 
 /// A changes (degrees) of the candidate poses, relative to the cut.
@@ -431,6 +439,9 @@ fn separations(fitted: &Fitted, extra: &[Row]) -> Vec<Separation> {
         .collect()
 }
 
+/// The words of a probe in the cutting pose.
+const CUTTING_POSE: &str = "cutting pose";
+
 /// The pose of a probe relative to the cut, in words.
 fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
     let da = probe.joints.a - cut.joints.a;
@@ -443,7 +454,7 @@ fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
         parts.push(format!("C {dc:+.0}°"));
     }
     if parts.is_empty() {
-        "cutting pose".into()
+        CUTTING_POSE.into()
     } else {
         parts.join(", ")
     }
@@ -472,13 +483,7 @@ pub fn design(
         )));
     }
     for c in candidates {
-        super::check_context(&c.context)?;
-        if !contexts.get(c.of).is_some_and(|ctx| ctx.cut) {
-            return Err(DiagnoseError::BadOption(format!(
-                "candidate probe {}: plan point {} was not cut",
-                c.id, c.context.id
-            )));
-        }
+        probe_row(contexts, c)?;
     }
     let fitted = fit_hypotheses(contexts, measured_um, report, &sets)?;
     let h = &fitted.hypotheses;
@@ -567,7 +572,7 @@ pub fn design(
             }
         })
         .collect();
-    let same_pose = probes.iter().filter(|p| p.pose == "cutting pose").count();
+    let same_pose = probes.iter().filter(|p| p.pose == CUTTING_POSE).count();
     let mut explanation = vec![format!(
         "To tell {} from {}: probe {} plan points again on the machine right after the program ({} in the cutting pose, {} at other A/C angles); expected separation {:.1} σ (now {:.1} σ).",
         h[0].label(),

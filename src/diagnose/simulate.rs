@@ -133,11 +133,13 @@ pub fn simulate_followup(
         .iter()
         .zip(truth_reading_um)
         .map(|(probe, truth)| {
-            let reading = super::followup::ProbeReading {
-                probe: probe.clone(),
-                reading_um: *truth,
-            };
-            let row = super::followup::check_reading(contexts, &reading)?;
+            if !truth.is_finite() {
+                return Err(DiagnoseError::NonFinite {
+                    what: "true follow-up reading",
+                    id: probe.id.clone(),
+                });
+            }
+            let row = super::followup::probe_row(contexts, probe)?;
             let mut value = *truth;
             for effect in effects {
                 value += effect.deviation_um(row.cut);

@@ -56,6 +56,20 @@ impl Default for SyntheticOptions {
     }
 }
 
+impl SyntheticOptions {
+    /// The second part of docs/diagnose.md: a dome cut with A over 15–85° and
+    /// C over −50…70° (the saddle raster's A spans 23–47°).
+    pub fn dome() -> Self {
+        SyntheticOptions {
+            dome: true,
+            a_mid_deg: 50.0,
+            a_span_deg: 35.0,
+            c_span_deg: 60.0,
+            ..SyntheticOptions::default()
+        }
+    }
+}
+
 /// Contexts and the true volumetric error `e` (µm, part coordinates) of each.
 #[derive(Clone, Debug)]
 pub struct SyntheticPart {

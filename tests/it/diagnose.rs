@@ -1092,13 +1092,7 @@ fn an_unexplained_gap_is_said_to_be_unexplained() {
 /// rotary_location (the 8 location parameters still span a setup error).
 #[test]
 fn a_wide_a_range_separates_rotary_location_from_setup_error() {
-    let part = saddle_raster(&SyntheticOptions {
-        dome: true,
-        a_mid_deg: 50.0,
-        a_span_deg: 35.0,
-        c_span_deg: 60.0,
-        ..SyntheticOptions::default()
-    });
+    let part = saddle_raster(&SyntheticOptions::dome());
     for (kind, seed) in [
         (EffectKind::RotaryLocation, 1u64),
         (EffectKind::RotaryLocation, 2),
