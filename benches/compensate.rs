@@ -64,12 +64,7 @@ fn write_program(path: &Path, blocks: usize) -> std::io::Result<()> {
 fn load() -> (Machine, ErrorModel) {
     volcomp::cli::common::load_model(
         &root().join("machines/ref-trt.toml"),
-        &volcomp::cli::common::ModelArgs {
-            extrapolate: volcomp::cli::common::Extrapolate::Error,
-            fit_method: volcomp::nurbs::KnotMethod::Best,
-            model: None,
-            exact_lookups: false,
-        },
+        &volcomp::cli::common::ModelArgs::default(),
     )
     .expect("ref-trt loads")
 }

@@ -73,6 +73,19 @@ pub struct ModelArgs {
     pub exact_lookups: bool,
 }
 
+impl Default for ModelArgs {
+    /// The command line's defaults: cv selection, lookups outside a table are errors.
+    fn default() -> Self {
+        Self {
+            extrapolate: Extrapolate::Error,
+            fit_select: crate::nurbs::Selection::Cv,
+            fit_method: None,
+            model: None,
+            exact_lookups: false,
+        }
+    }
+}
+
 impl ModelArgs {
     /// How the model is fitted, for stamps and reports: `cv`, or `emax METHOD`.
     pub fn fit_description(&self) -> String {
@@ -434,4 +447,30 @@ pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
 /// Output path given as an `Option`: helper to check `-` collisions.
 pub fn writes_stdout(path: Option<&PathBuf>) -> bool {
     path.is_some_and(|p| crate::io::is_stdio(p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Wrapper {
+        #[command(flatten)]
+        model: ModelArgs,
+    }
+
+    /// `ModelArgs::default()` (benches, examples) is what the command line gives
+    /// when no model option is passed.
+    #[test]
+    fn default_model_args_are_the_command_line_defaults() {
+        let parsed = Wrapper::parse_from(["volcomp"]).model;
+        let default = ModelArgs::default();
+        assert_eq!(parsed.extrapolate, default.extrapolate);
+        assert_eq!(parsed.fit_select, default.fit_select);
+        assert_eq!(parsed.fit_method, default.fit_method);
+        assert_eq!(parsed.model, default.model);
+        assert_eq!(parsed.exact_lookups, default.exact_lookups);
+        assert_eq!(parsed.fit_description(), "cv");
+    }
 }
