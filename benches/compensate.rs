@@ -1,7 +1,8 @@
 //! Compensation throughput, end to end (read, interpret, solve, split check,
 //! rewrite, write) over a seeded, smooth five-axis program inside the ref-trt
 //! travel (x ∈ [−150, 150], y ∈ [−100, 100], z ∈ [−150, 50], a ∈ [−60, 60],
-//! c multi-turn), against the G-code pass-through (`rewrite_stream` with
+//! c multi-turn), position only and with `--orientation` (X Y Z A C solved),
+//! against the G-code pass-through (`rewrite_stream` with
 //! unchanged targets) on the same file in the same run; and `predict` of the
 //! saddle's 372 plan points, with and without loading (fitting) the machine.
 //!
@@ -10,7 +11,7 @@
 //! The 1,000,000-block figure is measured once outside criterion:
 //! `VOLCOMP_BENCH_PROGRAM=/tmp/p1m.nc cargo bench --bench compensate` writes the
 //! program and exits, then
-//! `/usr/bin/time -v target/release/volcomp compensate machines/ref-trt.toml /tmp/p1m.nc -o /tmp/p1m-c.nc`.
+//! `/usr/bin/time -v target/release/volcomp compensate machines/ref-trt.toml /tmp/p1m.nc -o /tmp/p1m-c.nc [--orientation]`.
 use criterion::{Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -102,15 +103,24 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
             stats.blocks
         })
     });
-    group.bench_function("compensate", |b| {
-        b.iter(|| {
-            let input = Program::open(&program, ProgramSetup::default()).unwrap();
-            let mut out = BufWriter::with_capacity(1 << 16, File::create(&output).unwrap());
-            let report = compensate(input, &mut out, model, &options, |_| {}).unwrap();
-            out.flush().unwrap();
-            report.blocks_read
-        })
-    });
+    let orientation = CompensateOptions {
+        orientation: true,
+        ..options.clone()
+    };
+    for (name, options) in [
+        ("compensate", &options),
+        ("compensate_orientation", &orientation),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let input = Program::open(&program, ProgramSetup::default()).unwrap();
+                let mut out = BufWriter::with_capacity(1 << 16, File::create(&output).unwrap());
+                let report = compensate(input, &mut out, model, options, |_| {}).unwrap();
+                out.flush().unwrap();
+                report.blocks_read
+            })
+        });
+    }
     group.finish();
 }
 

@@ -9,9 +9,10 @@
 //! miss the compensated path in between) is split at its midpoint, recursively.
 //! Rapids are compensated at their ends and never split.
 //!
-//! Streaming: blocks are read in chunks; within a chunk the solves run in parallel
-//! (rayon) and the output is written in order through `gcode::rewrite`, so memory
-//! does not grow with the program. Nothing is printed here.
+//! Streaming: three stages run at once, each a chunk or two ahead of the next
+//! (bounded channels, so memory does not grow with the program): reading and
+//! interpreting; solving and planning, in parallel within a chunk (rayon); and
+//! writing in order through `gcode::rewrite`. Nothing is printed here.
 pub mod solve;
 pub mod stamp;
 
@@ -27,7 +28,8 @@ use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
-    SolveError, first_order_joints, first_order_joints_at, solve_joints_from, solve_pose_from,
+    SolveError, WarmStart, first_order_joints, first_order_joints_at, solve_joints_from,
+    solve_pose_from,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -270,17 +272,17 @@ struct Plan {
     end: Option<Axes>,
     via: Vec<Axes>,
     correction_um: f64,
+    /// Length of the tool cutting it, mm.
+    length_mm: f64,
     /// The model's standard uncertainty of e at the nominal end, µm.
     uncertainty_um: Option<f64>,
 }
 
-/// A compensated target: in the block's frame, the solve residual (mm) and the
-/// joint correction (X Y Z mm, A C degrees), which warm-starts the next solve.
+/// A compensated target: in the block's frame, and the solve residual (mm).
 #[derive(Clone, Copy, Debug)]
 struct Compensated {
     target: Axes,
     residual_mm: f64,
-    correction: [f64; 5],
     /// With `--orientation`: the tool-axis error before and after (µrad), and
     /// whether the pose was left to the position-only solve (A = 0 pole).
     orientation: Option<AxisCorrection>,
@@ -305,20 +307,21 @@ fn axis_error_urad(model: &ErrorModel, joints: &Axes, nominal: &Axes) -> Result<
     Ok(1e6 * crate::vec3::norm(crate::vec3::cross(actual, programmed)))
 }
 
-/// The compensated target of `target` (in `frame`), the solve starting from the
-/// joint correction `guess`; A and C corrected too when `orientation`.
+/// The compensated target of `target` (in `frame`), the solve starting from
+/// `warm` (updated when it succeeds); A and C corrected too when `orientation`.
 fn compensate_target(
     model: &ErrorModel,
     frame: Frame,
     target: &Axes,
     limits: Option<&Limits>,
-    guess: [f64; 5],
+    warm: &mut WarmStart,
     orientation: bool,
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
+    let guess = warm.correction;
     let (joints, residual_mm, axis) = if orientation {
-        match solve_pose_from(model, &nominal, guess).map_err(PointError::Solve)? {
+        match solve_pose_from(model, &nominal, warm).map_err(PointError::Solve)? {
             Some(pose) => (
                 pose.joints,
                 pose.residual_mm,
@@ -349,16 +352,15 @@ fn compensate_target(
         let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
         (solved.joints, solved.residual_mm, None)
     };
-    let correction = std::array::from_fn(|i| joints.to_array()[i] - nominal.to_array()[i]);
     if let Some(l) = limits
         && let Some((axis, value, range)) = l.violated(&joints)
     {
         return Err(PointError::Travel { axis, value, range });
     }
+    warm.correction = std::array::from_fn(|i| joints.to_array()[i] - nominal.to_array()[i]);
     Ok(Compensated {
         target: target_of(kin, frame, &joints),
         residual_mm,
-        correction,
         orientation: axis,
     })
 }
@@ -448,7 +450,7 @@ fn plan_motion(
                 frame,
                 &nominal_mid,
                 limits,
-                [0.0; 5],
+                &mut WarmStart::default(),
                 options.orientation,
             )?
             .target;
@@ -483,6 +485,7 @@ fn densify_arc(
     let step = (8.0 * r * sag).sqrt();
     let n = ((arc.length() / step).ceil() as usize).clamp(2, 100_000);
     let mut via = Vec::with_capacity(n - 1);
+    let mut warm = WarmStart::default();
     for i in 1..n {
         let p = motion.point_at(Some(arc), i as f64 / n as f64);
         via.push(
@@ -491,7 +494,7 @@ fn densify_arc(
                 frame,
                 &p,
                 options.limits.as_ref(),
-                [0.0; 5],
+                &mut warm,
                 options.orientation,
             )?
             .target,
@@ -540,14 +543,30 @@ pub fn compensate(
     let path = path.as_path();
     let held_before = model.held_lookups();
     let mut models = ToolModels::new(model);
-    // Reading and interpreting run on their own thread, a chunk or two ahead of
-    // the solves and the writing (bounded channel: memory stays bounded).
     let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
+    let (solved_sender, solved) = std::sync::mpsc::sync_channel::<Solved>(2);
     let interpret = options.interpret;
     let chunk_blocks = options.chunk_blocks.max(1);
+    let models_ref = &mut models;
     std::thread::scope(|scope| {
+        // Three stages, each a chunk or two ahead of the next (bounded channels:
+        // memory stays bounded): reading and interpreting; solving and planning
+        // (rayon); writing in order, here. A stage that stops (end, error, or a
+        // later stage gone) drops its sender, which ends the next one.
         scope.spawn(move || read_chunks(program, interpret, chunk_blocks, sender));
-        compensate_chunks(chunks, path, output, &mut models, options, &mut progress)
+        let solver =
+            scope.spawn(move || solve_chunks(chunks, path, models_ref, options, solved_sender));
+        let written = write_chunks(solved, path, output, options, &mut progress);
+        let axes = match solver.join() {
+            Ok(axes) => axes,
+            Err(panic) => std::panic::resume_unwind(panic),
+        };
+        written.map(|mut report| {
+            report.max_residual_nm = axes.max_residual_nm;
+            report.orientation = axes.orientation;
+            report.finish();
+            report
+        })
     })
     .map(|mut report| {
         report.held_lookups = models.held_lookups().saturating_sub(held_before);
@@ -604,25 +623,55 @@ fn compensated_moves(event: &BlockEvent) -> &[Motion] {
     }
 }
 
-/// The solving and writing side: chunks in, compensated program out.
-fn compensate_chunks(
+/// What the solving stage hands the writing stage, in program order: a solved
+/// chunk, or the error that stopped the solving.
+type Solved = Result<SolvedChunk, CompensateError>;
+
+/// A chunk with its compensated targets and split points.
+struct SolvedChunk {
+    chunk: Chunk,
+    /// Per block (an error is the first failure, reported in program order).
+    plans: Vec<Result<Plan, PointError>>,
+    /// Per block: its canned cycle's compensated move ends, if it is one.
+    cycles: Vec<Option<SolvedCycle>>,
+}
+
+/// The compensated moves of a canned cycle (written flat).
+struct SolvedCycle {
+    ends: Vec<Axes>,
+    /// |Δ(X, Y, Z)| of each end, µm.
+    corrections_um: Vec<f64>,
+    /// Length of the tool cutting it, mm.
+    length_mm: f64,
+}
+
+/// |Δ(X, Y, Z)| between a compensated and a programmed target, µm.
+fn xyz_correction_um(compensated: &Axes, programmed: &Axes) -> f64 {
+    compensated.xyz_distance(programmed) * 1e3
+}
+
+/// The solving stage: chunks in, compensated targets and split points out
+/// (rayon within a chunk). Returns what it recorded of the solves themselves
+/// (largest residual, tool-axis errors); it stops at the first error, which it
+/// sends on, or when the writing stage has gone.
+fn solve_chunks(
     chunks: std::sync::mpsc::Receiver<Result<Chunk, GcodeError>>,
     path: &Path,
-    output: &mut dyn Write,
     models: &mut ToolModels,
     options: &CompensateOptions,
-    progress: &mut dyn FnMut(usize),
-) -> Result<CompensateReport, CompensateError> {
-    let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
-    let mut report = CompensateReport {
-        tolerance_um: options.tolerance_um,
-        ..CompensateReport::default()
-    };
+    solved: std::sync::mpsc::SyncSender<Solved>,
+) -> CompensateReport {
+    let mut axes = CompensateReport::default();
     // Compensated end of the previous motion (the numbers written).
     let mut previous: Option<Axes> = None;
-    let mut emitted = Vec::with_capacity(256);
     for chunk in chunks {
-        let chunk = chunk?;
+        let chunk = match chunk {
+            Ok(chunk) => chunk,
+            Err(e) => {
+                let _ = solved.send(Err(e.into()));
+                return axes;
+            }
+        };
         models.prepare(chunk.iter().map(|(_, event)| &event.tool));
         let models = &*models;
         let uncertain =
@@ -633,7 +682,7 @@ fn compensate_chunks(
         let ends: Vec<Result<Compensated, PointError>> = chunk
             .par_chunks(WARM_START_RUN)
             .flat_map_iter(|piece| {
-                let mut guess = [0.0; 5];
+                let mut warm = WarmStart::default();
                 piece
                     .iter()
                     .flat_map(|(_, event)| {
@@ -641,26 +690,21 @@ fn compensate_chunks(
                         compensated_moves(event).iter().map(move |m| (model, m))
                     })
                     .map(|(model, m)| {
-                        let c = compensate_target(
+                        compensate_target(
                             model,
                             effective_frame(m),
                             &m.end,
                             options.limits.as_ref(),
-                            guess,
+                            &mut warm,
                             options.orientation,
-                        );
-                        if let Ok(c) = &c {
-                            guess = c.correction;
-                        }
-                        c
+                        )
                     })
                     .collect::<Vec<_>>()
             })
             .collect();
         // Per block: its single move's end, or its cycle's ends (`cycle_ends`).
         let mut resolved: Vec<Option<(Axes, f64)>> = Vec::with_capacity(chunk.len());
-        let mut cycle_ends: Vec<Vec<Axes>> = Vec::new();
-        let mut cycle_of: Vec<Option<usize>> = Vec::with_capacity(chunk.len());
+        let mut cycles: Vec<Option<SolvedCycle>> = Vec::with_capacity(chunk.len());
         let mut ends = ends.into_iter();
         for (block, event) in chunk.iter() {
             let moves = compensated_moves(event);
@@ -668,37 +712,40 @@ fn compensate_chunks(
             for _ in moves {
                 match ends.next() {
                     Some(Ok(c)) => {
-                        report.max_residual_nm = report.max_residual_nm.max(c.residual_mm * 1e6);
+                        axes.max_residual_nm = axes.max_residual_nm.max(c.residual_mm * 1e6);
                         if let Some(a) = c.orientation {
-                            report.record_axis(block.line, a);
+                            axes.record_axis(block.line, a);
                         }
                         mine.push((c.target, c.residual_mm));
                     }
-                    Some(Err(e)) => return Err(point_error(path, block.line, e)),
+                    Some(Err(e)) => {
+                        let _ = solved.send(Err(point_error(path, block.line, e)));
+                        return axes;
+                    }
                     None => unreachable!("one end per move"),
                 }
             }
             if event.motion.is_some() {
                 resolved.push(mine.first().copied());
-                cycle_of.push(None);
+                cycles.push(None);
             } else {
                 resolved.push(None);
-                if moves.is_empty() {
-                    cycle_of.push(None);
-                } else {
-                    for ((end, _), m) in mine.iter().zip(moves) {
-                        let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
-                        let um = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3;
-                        report.record(block.line, &event.tool, models.length_mm(&event.tool), um);
+                cycles.push((!moves.is_empty()).then(|| {
+                    SolvedCycle {
+                        ends: mine.iter().map(|e| e.0).collect(),
+                        corrections_um: mine
+                            .iter()
+                            .zip(moves)
+                            .map(|((end, _), m)| xyz_correction_um(end, &m.end))
+                            .collect(),
+                        length_mm: models.length_mm(&event.tool),
                     }
-                    cycle_of.push(Some(cycle_ends.len()));
-                    cycle_ends.push(mine.iter().map(|e| e.0).collect());
-                }
+                }));
             }
         }
         // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
-        for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycle_of) {
+        for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycles) {
             match (&event.motion, end) {
                 (Some(_), Some((e, _))) if !event.skipped => {
                     // Across a frame switch too: the interpreter (and so the
@@ -709,8 +756,8 @@ fn compensate_chunks(
                 }
                 _ => {
                     starts.push(None);
-                    if let Some(k) = cycle {
-                        previous = cycle_ends[*k].last().copied().or(previous);
+                    if let Some(cycle) = cycle {
+                        previous = cycle.ends.last().copied().or(previous);
                     }
                 }
             }
@@ -726,7 +773,6 @@ fn compensate_chunks(
                 };
                 let model = models.get(&event.tool);
                 let via = plan_motion(model, m, *start, *end, options)?;
-                let d = [end.x - m.end.x, end.y - m.end.y, end.z - m.end.z];
                 let uncertainty_um = if uncertain {
                     let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
                     Some(
@@ -741,19 +787,56 @@ fn compensate_chunks(
                 Ok(Plan {
                     end: Some(*end),
                     via,
-                    correction_um: (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * 1e3,
+                    correction_um: xyz_correction_um(end, &m.end),
+                    length_mm: models.length_mm(&event.tool),
                     uncertainty_um,
                 })
             })
             .collect();
+        let failed = plans.iter().any(|p| p.is_err());
+        let solved_chunk = SolvedChunk {
+            chunk,
+            plans,
+            cycles,
+        };
+        if solved.send(Ok(solved_chunk)).is_err() || failed {
+            return axes;
+        }
+    }
+    axes
+}
+
+/// The writing stage: solved chunks in, the compensated program out, in order.
+fn write_chunks(
+    solved: std::sync::mpsc::Receiver<Solved>,
+    path: &Path,
+    output: &mut dyn Write,
+    options: &CompensateOptions,
+    progress: &mut dyn FnMut(usize),
+) -> Result<CompensateReport, CompensateError> {
+    let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
+    let mut report = CompensateReport {
+        tolerance_um: options.tolerance_um,
+        ..CompensateReport::default()
+    };
+    let mut emitted = Vec::with_capacity(256);
+    for solved in solved {
         // 4. Emit in order.
-        for (((block, event), plan), cycle) in chunk.iter().zip(plans).zip(&cycle_of) {
+        let SolvedChunk {
+            chunk,
+            plans,
+            cycles,
+        } = solved?;
+        for (((block, event), plan), cycle) in chunk.iter().zip(plans).zip(&cycles) {
             let plan = plan.map_err(|e| point_error(path, block.line, e))?;
             report.blocks_read += 1;
-            if let Some(k) = cycle {
+            if let Some(cycle) = cycle {
+                for &um in &cycle.corrections_um {
+                    report.record(block.line, &event.tool, cycle.length_mm, um);
+                }
                 emitted.clear();
                 let e = rewriter
-                    .emit_cycle(block, event, &cycle_ends[*k], &mut emitted)
+                    .emit_cycle(block, event, &cycle.ends, &mut emitted)
                     .map_err(|source| CompensateError::Rewrite {
                         path: path.to_path_buf(),
                         line: block.line,
@@ -773,12 +856,7 @@ fn compensate_chunks(
             let target = match plan.end {
                 None => Target::Same,
                 Some(end) => {
-                    report.record(
-                        block.line,
-                        &event.tool,
-                        models.length_mm(&event.tool),
-                        plan.correction_um,
-                    );
+                    report.record(block.line, &event.tool, plan.length_mm, plan.correction_um);
                     if let Some(u) = plan.uncertainty_um {
                         report.record_uncertainty(u);
                     }
@@ -815,7 +893,6 @@ fn compensate_chunks(
         }
         progress(report.blocks_read);
     }
-    report.finish();
     Ok(report)
 }
 

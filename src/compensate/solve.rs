@@ -72,40 +72,98 @@ pub struct SolvedPose {
     pub iterations: usize,
 }
 
+/// Farthest a kept Jacobian is used from the pose it was taken at: degrees of
+/// A or C, and mm of X, Y or Z. Within it the Jacobian differs by ≲ 1e-2
+/// relative, so Newton with it still gains two decimals per step.
+const JACOBIAN_REACH_DEG: f64 = 1.0;
+const JACOBIAN_REACH_MM: f64 = 10.0;
+/// Steps taken with a kept Jacobian before it is taken afresh.
+const KEPT_JACOBIAN_STEPS: usize = 3;
+
+type Lu5 = nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>;
+
+/// What one solve passes to the next along a path: the joint correction
+/// (X Y Z mm, A C degrees) of the last pose, a good start since corrections
+/// change slowly, and the orientation solve's Jacobian with the joints it was
+/// taken at, kept while the path stays near them. The result does not depend on
+/// it beyond the residuals (1 nm, 0.01 µrad).
+#[derive(Clone, Debug, Default)]
+pub struct WarmStart {
+    pub correction: [f64; 5],
+    jacobian: Option<KeptJacobian>,
+}
+
+#[derive(Clone, Debug)]
+struct KeptJacobian {
+    lu: Lu5,
+    at: Axes,
+}
+
+impl KeptJacobian {
+    /// Whether it serves at `q`. Near the A = 0 pole the axis rows scale with
+    /// sin a, so the reach in A and C shrinks to a tenth of |a| there.
+    fn reaches(&self, q: &Axes) -> bool {
+        let degrees = JACOBIAN_REACH_DEG.min(0.1 * self.at.a.abs());
+        (self.at.a - q.a).abs() <= degrees
+            && (self.at.c - q.c).abs() <= degrees
+            && (self.at.x - q.x).abs() <= JACOBIAN_REACH_MM
+            && (self.at.y - q.y).abs() <= JACOBIAN_REACH_MM
+            && (self.at.z - q.z).abs() <= JACOBIAN_REACH_MM
+    }
+}
+
 /// Joints whose actual tip and tool axis are the programmed ones, starting from
-/// `nominal + guess` (X Y Z mm, A C degrees). `Ok(None)`: the pose is too close
-/// to the A = 0 pole for C to steer the axis (a step would turn C by more than
-/// [`MAX_C_CORRECTION_DEG`], the system is singular, or the iteration does not
-/// reach the residuals in [`MAX_ITERATIONS`] steps); the caller solves position
-/// only. The Jacobian of the first iterate serves every step (the errors' slope
-/// makes the next ones differ by ~1e-5).
+/// `nominal + warm.correction` (X Y Z mm, A C degrees) with the Jacobian `warm`
+/// keeps, if it is near. `Ok(None)`: the pose is too close to the A = 0 pole
+/// for C to steer the axis (a step with a fresh Jacobian would turn C by more
+/// than [`MAX_C_CORRECTION_DEG`], the system is singular, or the iteration does
+/// not reach the residuals in [`MAX_ITERATIONS`] steps); the caller solves
+/// position only. A Jacobian serves several steps and poses (the errors' slope
+/// makes it differ by ~1e-5, a nearby pose by ≲ 1e-2); a kept one that does not
+/// converge in [`KEPT_JACOBIAN_STEPS`] is taken afresh. `warm` is updated.
 pub fn solve_pose_from(
     model: &ErrorModel,
     nominal: &Axes,
-    guess: [f64; 5],
+    warm: &mut WarmStart,
 ) -> Result<Option<SolvedPose>, SolveError> {
     let target = PoseTarget::of(model, nominal)?;
     let mut q = *nominal;
+    let guess = warm.correction;
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
         q = Axes::from_array(std::array::from_fn(|i| q.to_array()[i] + guess[i]));
     }
-    let mut lu: Option<nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>> = None;
+    if !warm.jacobian.as_ref().is_some_and(|j| j.reaches(&q)) {
+        warm.jacobian = None;
+    }
+    let mut fresh = false;
+    let mut steps = 0;
     let mut before_urad = f64::NAN;
     for iteration in 0..=MAX_ITERATIONS {
         let (r, errors) = target.residual(model, &q)?;
         let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
         let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
-        if lu.is_none() {
-            let j = target.jacobian(model, &q, &errors);
-            // The axis residual at the programmed joints, to first order.
-            let d: Vec<f64> = (0..5)
-                .map(|i| q.to_array()[i] - nominal.to_array()[i])
-                .collect();
-            let at_nominal = |row: usize| r[row] - (0..5).map(|k| j[(row, k)] * d[k]).sum::<f64>();
-            before_urad = 1e6 * at_nominal(3).hypot(at_nominal(4));
-            lu = Some(j.lu());
+        let kept = match warm.jacobian.take() {
+            Some(kept) => kept,
+            None => {
+                let matrix = target.jacobian(model, &q, &errors);
+                fresh = true;
+                steps = 0;
+                KeptJacobian {
+                    lu: matrix.lu(),
+                    at: q,
+                }
+            }
+        };
+        if iteration == 0 {
+            // The axis residual at the programmed joints, to first order (the
+            // axis rows taken here: near the pole they change fast with A).
+            let rows = target.axis_rows(model, &q);
+            let (da, dc) = (q.a - nominal.a, q.c - nominal.c);
+            let at_nominal = |row: usize| r[3 + row] - rows[row][0] * da - rows[row][1] * dc;
+            before_urad = 1e6 * at_nominal(0).hypot(at_nominal(1));
         }
         if residual_mm < RESIDUAL_MM && residual_urad < RESIDUAL_URAD {
+            warm.jacobian = Some(kept);
             return Ok(Some(SolvedPose {
                 joints: q,
                 residual_mm,
@@ -114,10 +172,17 @@ pub fn solve_pose_from(
                 iterations: iteration,
             }));
         }
-        let Some(next) = lu.as_ref().and_then(|lu| target.next(lu, &q, &r)) else {
-            return Ok(None);
-        };
-        q = next;
+        match target.next(&kept.lu, &q, &r) {
+            Some(next) if fresh || steps < KEPT_JACOBIAN_STEPS => {
+                q = next;
+                steps += 1;
+                warm.jacobian = Some(kept);
+            }
+            // A kept Jacobian that does not serve: take it afresh here.
+            _ if !fresh => {}
+            // Near the pole, or singular: the caller solves position only.
+            _ => return Ok(None),
+        }
     }
     // Not converged: ill-conditioned (close to the pole); the caller falls back
     // to the position-only solve and counts the move.
@@ -172,42 +237,33 @@ impl PoseTarget {
     }
 
     /// ∂(residual)/∂(x, y, z mm; a, c degrees): the analytic tip Jacobian and
-    /// the nominal axis derivatives (central differences of the exact nominal
-    /// axis; the errors' share is ~1e-5 of it).
+    /// the analytic nominal axis derivatives (the errors' share is ~1e-5 of them).
     fn jacobian(
         &self,
         model: &ErrorModel,
         q: &Axes,
         errors: &crate::kinematics::ErrorValues,
     ) -> nalgebra::Matrix5<f64> {
-        let kin = model.kinematics();
-        let jt = kin.tip_jacobian(q, errors);
-        const H: f64 = 1e-3;
-        let du_d = |da: f64, dc: f64| {
-            let plus = kin.nominal_tool_axis(&Axes {
-                a: q.a + da,
-                c: q.c + dc,
-                ..*q
-            });
-            let minus = kin.nominal_tool_axis(&Axes {
-                a: q.a - da,
-                c: q.c - dc,
-                ..*q
-            });
-            crate::vec3::scale(crate::vec3::sub(plus, minus), 0.5 / H)
-        };
-        let (ua, uc) = (du_d(H, 0.0), du_d(0.0, H));
+        let jt = model.kinematics().tip_jacobian(q, errors);
+        let axis = self.axis_rows(model, q);
         let mut j = nalgebra::Matrix5::<f64>::zeros();
         for row in 0..3 {
             for col in 0..5 {
                 j[(row, col)] = jt[row][col];
             }
         }
-        for (row, e) in [(3, self.normals[0]), (4, self.normals[1])] {
-            j[(row, 3)] = crate::vec3::dot(ua, e);
-            j[(row, 4)] = crate::vec3::dot(uc, e);
+        for (row, values) in axis.iter().enumerate() {
+            j[(3 + row, 3)] = values[0];
+            j[(3 + row, 4)] = values[1];
         }
         j
+    }
+
+    /// ∂(axis residual along the two normals)/∂(a, c degrees) at `q`, nominal.
+    fn axis_rows(&self, model: &ErrorModel, q: &Axes) -> [[f64; 2]; 2] {
+        let (ua, uc) = model.kinematics().nominal_axis_jacobian(q);
+        self.normals
+            .map(|e| [crate::vec3::dot(ua, e), crate::vec3::dot(uc, e)])
     }
 
     /// The next iterate, `None` when the system is singular or C would turn by

@@ -82,6 +82,18 @@ impl Kinematics {
         out
     }
 
+    /// `∂(nominal tool axis)/∂a` and `∂/∂c` (per degree) at `joints`: the
+    /// derivatives of `(sin a sin c, sin a cos c, cos a)` (direction convention
+    /// applied), one trigonometric evaluation.
+    pub fn nominal_axis_jacobian(&self, joints: &Axes) -> ([f64; 3], [f64; 3]) {
+        let rot = self.rotations(joints.a, joints.c);
+        let k = self.direction_sign() * std::f64::consts::PI / 180.0;
+        (
+            [k * rot.ca * rot.sc, k * rot.ca * rot.cc, -k * rot.sa],
+            [k * rot.sa * rot.cc, -k * rot.sa * rot.sc, 0.0],
+        )
+    }
+
     /// Central difference of the actual tip (µm) in parameter `index` (flat
     /// [`ErrorValues`] index) around `errors`.
     fn parameter_derivative(&self, joints: &Axes, errors: &ErrorValues, index: usize) -> [f64; 3] {
@@ -174,6 +186,33 @@ mod tests {
                         jac[row][col]
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn nominal_axis_jacobian_matches_central_differences() {
+        for conventional in [false, true] {
+            let k = machine(conventional);
+            let q = Axes::new(12.0, -40.0, 25.0, -37.0, 123.0);
+            let (da, dc) = k.nominal_axis_jacobian(&q);
+            let h = 1e-4;
+            let diff = |dq: Axes| {
+                let plus = k.nominal_tool_axis(&Axes::from_array(std::array::from_fn(|i| {
+                    q.to_array()[i] + dq.to_array()[i]
+                })));
+                let minus = k.nominal_tool_axis(&Axes::from_array(std::array::from_fn(|i| {
+                    q.to_array()[i] - dq.to_array()[i]
+                })));
+                scale(sub(plus, minus), 0.5 / h)
+            };
+            let (fa, fc) = (
+                diff(Axes::new(0.0, 0.0, 0.0, h, 0.0)),
+                diff(Axes::new(0.0, 0.0, 0.0, 0.0, h)),
+            );
+            for i in 0..3 {
+                assert!((fa[i] - da[i]).abs() < 1e-10, "a {i}: {fa:?} {da:?}");
+                assert!((fc[i] - dc[i]).abs() < 1e-10, "c {i}: {fc:?} {dc:?}");
             }
         }
     }

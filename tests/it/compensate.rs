@@ -715,3 +715,49 @@ fn orientation_falls_back_to_position_only_at_the_pole() {
     assert_eq!(o.position_only_lines, vec![4, 5, 6]);
     assert!(report.max_residual_nm <= 1.0);
 }
+
+/// The orientation solve keeps its Jacobian from pose to pose along a path
+/// (`WarmStart`): on a path that sweeps A down to the pole and back, every pose
+/// solves as it does from a cold start (the same fall-backs to position only,
+/// the same joints within the residuals), and a kept Jacobian never lets a
+/// pose through that a fresh one would refuse.
+#[test]
+fn a_kept_jacobian_solves_as_a_fresh_one() {
+    use volcomp::axes::Axes;
+    use volcomp::compensate::solve::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_pose_from};
+    let (_, model) = ref_trt();
+    let mut warm = WarmStart::default();
+    let (mut kept_fallbacks, mut poses) = (0, 0);
+    for i in 0..=400 {
+        let t = i as f64 / 400.0;
+        let nominal = Axes::new(
+            -80.0 + 160.0 * t,
+            40.0 * (6.0 * t).sin(),
+            -30.0 + 20.0 * t,
+            30.0 * (2.0 * std::f64::consts::PI * t).cos().abs() + 0.05,
+            720.0 * t,
+        );
+        let kept = solve_pose_from(model, &nominal, &mut warm).expect("solves");
+        let fresh = solve_pose_from(model, &nominal, &mut WarmStart::default()).expect("solves");
+        poses += 1;
+        match (kept, fresh) {
+            (Some(k), Some(f)) => {
+                assert!(k.residual_mm < RESIDUAL_MM && k.residual_urad < RESIDUAL_URAD);
+                assert!(
+                    k.joints.xyz_distance(&f.joints) < 1e-5,
+                    "{nominal:?}: {k:?} {f:?}"
+                );
+                assert!((k.before_urad - f.before_urad).abs() < 1e-3 * f.before_urad.max(1.0));
+                // As `compensate` does: the next pose starts from this correction.
+                warm.correction =
+                    std::array::from_fn(|i| k.joints.to_array()[i] - nominal.to_array()[i]);
+            }
+            (None, None) => kept_fallbacks += 1,
+            (k, f) => panic!("{nominal:?}: kept {k:?}, fresh {f:?}"),
+        }
+    }
+    assert!(
+        kept_fallbacks > 0 && kept_fallbacks < poses / 4,
+        "{kept_fallbacks} of {poses}"
+    );
+}
