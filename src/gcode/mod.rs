@@ -75,4 +75,4 @@ pub use rewrite::{
     Emitted, RewriteError, RewriteOptions, RewriteStats, Rewriter, Target, rewrite_stream,
 };
 pub use summary::ProgramSummary;
-pub use tools::{ToolEntry, ToolInUse, ToolTable, ToolTableError};
+pub use tools::{CutterShape, ToolEntry, ToolInUse, ToolTable, ToolTableError};

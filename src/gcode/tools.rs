@@ -27,14 +27,27 @@ pub struct ToolEntry {
     pub length_mm: f64,
     /// Cutter diameter (`D`; 0 when the table has none), mm.
     pub diameter_mm: f64,
+    /// Its cutting shape, when the machine file names one (LinuxCNC's tables
+    /// do not).
+    pub shape: Option<CutterShape>,
     pub comment: String,
     /// Where the entry comes from (`file:line`), for messages.
     #[serde(skip)]
     pub origin: String,
 }
 
+/// The cutting shape of a tool (machine file `shape`; docs/extensions.md): a
+/// body of revolution about the tool axis, a cylinder of the tool's radius
+/// whose tip edge is rounded with `corner_radius_mm` (0: flat end; the radius:
+/// ball end; between: bull nose), cutting up to `flute_length_mm` above the tip.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CutterShape {
+    pub corner_radius_mm: f64,
+    pub flute_length_mm: f64,
+}
+
 /// The tool a block cuts with: its number, length (gauge point to tip) and
-/// radius, mm. Tool 0 is the default tool, whose length and radius the
+/// radius, mm, and its cutting shape when the machine file names one. Tool 0 is the default tool, whose length and radius the
 /// consumer knows (the machine file's `[tool]`, the error model's length):
 /// resolve it with [`ToolInUse::or`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -42,6 +55,7 @@ pub struct ToolInUse {
     pub number: u32,
     pub length_mm: f64,
     pub radius_mm: f64,
+    pub shape: Option<CutterShape>,
 }
 
 impl ToolInUse {
@@ -50,6 +64,7 @@ impl ToolInUse {
         number: 0,
         length_mm: 0.0,
         radius_mm: 0.0,
+        shape: None,
     };
 
     /// The default tool (number 0) of `length_mm` and `radius_mm`.
@@ -58,6 +73,7 @@ impl ToolInUse {
             number: 0,
             length_mm,
             radius_mm,
+            shape: None,
         }
     }
 
@@ -226,6 +242,7 @@ impl ToolTable {
             let entry = ToolEntry {
                 number,
                 pocket,
+                shape: None,
                 length_mm: length,
                 diameter_mm: diameter,
                 comment: comment.to_string(),
@@ -301,6 +318,7 @@ impl ToolTable {
             pocket: None,
             length_mm: 0.0,
             diameter_mm: 0.0,
+            shape: None,
             comment: String::new(),
             origin,
         });
@@ -320,6 +338,7 @@ impl ToolTable {
                 number,
                 length_mm: e.length_mm,
                 radius_mm: 0.5 * e.diameter_mm,
+                shape: e.shape,
             },
             _ => default,
         }

@@ -82,11 +82,72 @@ impl Limits {
     }
 }
 
-/// The tool: length (gauge point to tip) and ball-end radius, mm.
+/// The tool: length (gauge point to tip) and radius, mm, and its cutting shape
+/// when the file names one (`shape`, docs/extensions.md).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Tool {
     pub length: f64,
     pub radius: f64,
+    pub shape: Option<crate::gcode::CutterShape>,
+}
+
+/// The cutting shape a `[tool]` or `[[tools]]` entry names: `shape` ("ball",
+/// "flat" or "bull"), `corner_radius` (bull nose: required, between 0 and the
+/// radius; ball and flat: implied) and `flute_length` (required with a shape,
+/// at least the corner radius). Without `shape` the others must be absent: the
+/// deviations are then taken at the tool tip, as formats.md says.
+fn cutter_shape(
+    shape: Option<&str>,
+    radius: f64,
+    corner_radius: Option<f64>,
+    flute_length: Option<f64>,
+) -> Result<Option<crate::gcode::CutterShape>, String> {
+    let Some(shape) = shape else {
+        if corner_radius.is_some() || flute_length.is_some() {
+            return Err("corner_radius and flute_length describe a `shape` (\"ball\", \"flat\" or \"bull\"); name it".into());
+        }
+        return Ok(None);
+    };
+    let corner = match (shape, corner_radius) {
+        ("ball", None) => radius,
+        ("ball", Some(r)) if r == radius => radius,
+        ("ball", Some(_)) => {
+            return Err("a ball end's corner radius is its radius: leave corner_radius out".into());
+        }
+        ("flat", None | Some(0.0)) => 0.0,
+        ("flat", Some(_)) => {
+            return Err(
+                "a flat end has no corner radius: leave corner_radius out, or use shape = \"bull\""
+                    .into(),
+            );
+        }
+        ("bull", Some(r)) if r.is_finite() && r > 0.0 && r < radius => r,
+        ("bull", Some(r)) => {
+            return Err(format!(
+                "a bull nose's corner_radius must lie between 0 and the radius {radius} mm (exclusive), not {r}"
+            ));
+        }
+        ("bull", None) => return Err("a bull nose needs its corner_radius (mm)".into()),
+        (other, _) => {
+            return Err(format!(
+                "shape `{other}`: expected \"ball\", \"flat\" or \"bull\""
+            ));
+        }
+    };
+    let Some(flute) = flute_length else {
+        return Err(format!(
+            "a `{shape}` tool needs its flute_length (mm of cutting side above the tip)"
+        ));
+    };
+    if !flute.is_finite() || flute < corner {
+        return Err(format!(
+            "flute_length must be a number of mm at least the corner radius {corner}, not {flute}"
+        ));
+    }
+    Ok(Some(crate::gcode::CutterShape {
+        corner_radius_mm: corner,
+        flute_length_mm: flute,
+    }))
 }
 
 /// A validated machine file.
@@ -172,6 +233,9 @@ struct RawMachine {
 struct RawTool {
     length: Spanned<f64>,
     radius: Spanned<f64>,
+    shape: Option<Spanned<String>>,
+    corner_radius: Option<f64>,
+    flute_length: Option<f64>,
 }
 
 /// A `[[tools]]` entry (extensions.md): a tool table for controllers other
@@ -183,6 +247,9 @@ struct RawToolEntry {
     length: f64,
     radius: f64,
     pocket: Option<u32>,
+    shape: Option<String>,
+    corner_radius: Option<f64>,
+    flute_length: Option<f64>,
     #[serde(default)]
     comment: String,
 }
@@ -343,18 +410,34 @@ impl Machine {
                 "every value must be a finite number",
             ));
         }
-        let tool = Tool {
-            length: *raw.tool.length.get_ref(),
-            radius: *raw.tool.radius.get_ref(),
-        };
-        src.finite(raw.tool.length.span(), "tool.length", &[tool.length])?;
-        src.finite(raw.tool.radius.span(), "tool.radius", &[tool.radius])?;
-        if tool.length < 0.0 {
+        let (length, radius) = (*raw.tool.length.get_ref(), *raw.tool.radius.get_ref());
+        src.finite(raw.tool.length.span(), "tool.length", &[length])?;
+        src.finite(raw.tool.radius.span(), "tool.radius", &[radius])?;
+        if length < 0.0 {
             return Err(src.invalid(raw.tool.length.span(), "tool.length", "must be ≥ 0 mm"));
         }
-        if tool.radius < 0.0 {
+        if radius < 0.0 {
             return Err(src.invalid(raw.tool.radius.span(), "tool.radius", "must be ≥ 0 mm"));
         }
+        let shape = cutter_shape(
+            raw.tool.shape.as_ref().map(|s| s.get_ref().as_str()),
+            radius,
+            raw.tool.corner_radius,
+            raw.tool.flute_length,
+        )
+        .map_err(|message| {
+            let span = raw
+                .tool
+                .shape
+                .as_ref()
+                .map_or(raw.tool.radius.span(), |s| s.span());
+            src.invalid(span, "tool.shape", message)
+        })?;
+        let tool = Tool {
+            length,
+            radius,
+            shape,
+        };
         let mut tools = crate::gcode::ToolTable::new();
         tools.set_source(format!("{} [[tools]]", path.display()));
         for entry in &raw.tools {
@@ -376,6 +459,13 @@ impl Machine {
                     "length (gauge point to tip) and radius must be ≥ 0 mm",
                 ));
             }
+            let shape = cutter_shape(
+                e.shape.as_deref(),
+                e.radius,
+                e.corner_radius,
+                e.flute_length,
+            )
+            .map_err(|message| src.invalid(span.clone(), &key, message))?;
             let (line, _) = line_column(text, span.start);
             tools
                 .insert(crate::gcode::ToolEntry {
@@ -383,6 +473,7 @@ impl Machine {
                     pocket: e.pocket,
                     length_mm: e.length,
                     diameter_mm: 2.0 * e.radius,
+                    shape,
                     comment: e.comment.clone(),
                     origin: format!("{}:{line}", path.display()),
                 })
@@ -503,7 +594,10 @@ impl Machine {
 
     /// The default tool (tool 0): `[tool]`.
     pub fn default_tool(&self) -> crate::gcode::ToolInUse {
-        crate::gcode::ToolInUse::default_tool(self.tool.length, self.tool.radius)
+        crate::gcode::ToolInUse {
+            shape: self.tool.shape,
+            ..crate::gcode::ToolInUse::default_tool(self.tool.length, self.tool.radius)
+        }
     }
 
     /// The kinematic model of this machine with `tool` in the spindle.

@@ -43,14 +43,9 @@ pub fn predict_plan(
         // Nominal contact point of the cutting path point, relative to the plan point.
         let offset = m.map(|m| {
             let t = m.point.tip;
-            let u = m.point.axis;
-            let radius = if m.point.tool.number == 0 {
-                options.tool_radius
-            } else {
-                m.point.tool.radius_mm
-            };
+            let c = m.contact_offset;
             (0..3)
-                .map(|k| (t[k] + radius * u[k] - radius * n[k] - p.point[k]) * n[k])
+                .map(|k| (t[k] + c[k] - p.point[k]) * n[k])
                 .sum::<f64>()
                 * 1e3
         });

@@ -19,6 +19,9 @@ pub struct CutOptions {
     /// Ball-end radius of the default tool (tool 0: the machine file's
     /// `[tool]`), mm; other tools bring their own.
     pub tool_radius: f64,
+    /// The default tool's cutting shape, when the machine file names one
+    /// (`contact`): deviations are then taken at the contact point.
+    pub tool_shape: Option<crate::gcode::CutterShape>,
     /// A plan point whose contact point is farther than this from every path
     /// point is not cut (formats.md: 0.5 mm).
     pub max_distance_mm: f64,
@@ -50,6 +53,7 @@ impl CutOptions {
                 rapid_mm_per_min: machine.rapid_mm_per_min,
             },
             tool_radius: machine.tool.radius,
+            tool_shape: machine.tool.shape,
             max_distance_mm: 0.5,
         }
     }
@@ -63,7 +67,8 @@ pub fn match_plan(
     options: &CutOptions,
 ) -> Result<(Vec<Option<PlanMatch>>, WalkSummary), GcodeError> {
     let points: Vec<([f64; 3], [f64; 3])> = plan.iter().map(|p| (p.point, p.normal)).collect();
-    let mut matcher = PlanMatcher::new(&points, options.tool_radius, options.max_distance_mm);
+    let mut matcher = PlanMatcher::new(&points, options.tool_radius, options.max_distance_mm)
+        .with_default_shape(options.tool_shape);
     let summary = walk_program(
         program,
         model.kinematics(),
@@ -96,7 +101,7 @@ pub fn contexts(
                     id: p.id.clone(),
                     source,
                 })?;
-            let e = kin.volumetric_error(&pp.joints, &errors).e_um;
+            let e = error_at_match(model, m, &errors);
             let axis_deviation_um = std::array::from_fn(|slot| {
                 let mut only = crate::kinematics::ErrorValues::ZERO;
                 only.component[slot] = errors.component[slot];
@@ -138,16 +143,31 @@ pub fn volumetric_errors(
             None => Ok(None),
             Some(m) => model
                 .errors_at(&m.point.joints)
-                .map(|errors| {
-                    let kin = kinematics_with(model, &m.point.tool);
-                    Some(kin.volumetric_error(&m.point.joints, &errors).e_um)
-                })
+                .map(|errors| Some(error_at_match(model, m, &errors)))
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,
                 }),
         })
         .collect()
+}
+
+/// The volumetric error (µm, part coordinates) where the matched path point's
+/// tool touched: the tip's error (formats.md), or, for a tool whose shape is
+/// named, the error at its contact point (`contact::error_at_contact`).
+fn error_at_match(
+    model: &ErrorModel,
+    m: &PlanMatch,
+    errors: &crate::kinematics::ErrorValues,
+) -> [f64; 3] {
+    let kin = kinematics_with(model, &m.point.tool);
+    let v = kin.volumetric_error(&m.point.joints, errors);
+    match m.tool.shape {
+        None => v.e_um,
+        Some(_) => {
+            super::contact::error_at_contact(v.e_um, m.point.axis, v.axis_urad, m.contact_offset)
+        }
+    }
 }
 
 fn not_cut(p: &PlanPoint) -> PointContext {

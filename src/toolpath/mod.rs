@@ -3,6 +3,7 @@
 //! context (time, direction, speed, curvature, …) that effects depend on.
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
+pub mod contact;
 pub mod context;
 pub mod cut;
 pub mod plan_match;

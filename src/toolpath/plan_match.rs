@@ -8,7 +8,14 @@
 //! sets, answered with a uniform grid over the plan side (one per tool radius:
 //! each path point carries its tool). Streaming: path points are offered one by
 //! one and only the best candidate per plan point is kept.
+//!
+//! A tool whose shape is named (`contact`, docs/extensions.md) touches at
+//! `t + r·u + (R − r)·v − r·n`, slid up its side for a flank cut: the grid is
+//! kept on `p + r·n` (r the corner radius) and widened by the contact's reach
+//! beyond it, and each candidate's contact point is computed exactly.
+use super::contact::{contact_offset, contact_reach};
 use super::walk::PathPoint;
+use crate::gcode::{CutterShape, ToolInUse};
 use std::collections::HashMap;
 
 /// The path point that cut a plan point, and how far its contact point is from it.
@@ -16,23 +23,31 @@ use std::collections::HashMap;
 pub struct PlanMatch {
     pub point: PathPoint,
     pub distance_mm: f64,
+    /// The tool that cut it, tool 0 resolved to the machine file's `[tool]`.
+    pub tool: ToolInUse,
+    /// The contact point's offset from the nominal tip, `c − t` (part, mm).
+    pub contact_offset: [f64; 3],
 }
 
-/// The plan side of the query for one ball radius: `p + R·n` per plan point,
-/// gridded.
+/// The plan side of the query for one tool radius and shape: `p + r·n` per plan
+/// point (r: the corner radius, the ball's radius when no shape is named),
+/// gridded with cells as wide as the match distance plus the contact's reach.
 #[derive(Debug)]
 struct RadiusGrid {
     radius_bits: u64,
+    shape: Option<CutterShape>,
+    corner: f64,
+    cell: f64,
     queries: Vec<[f64; 3]>,
     grid: HashMap<[i64; 3], Vec<u32>>,
 }
 
 #[derive(Debug)]
 pub struct PlanMatcher {
-    /// Ball radius of tool 0 (the default tool).
+    /// Radius and shape of tool 0 (the default tool).
     default_radius: f64,
+    default_shape: Option<CutterShape>,
     max_distance: f64,
-    cell: f64,
     /// (point, unit normal) per plan point, part coordinates.
     points: Vec<([f64; 3], [f64; 3])>,
     /// One grid per tool radius seen (programs change tools).
@@ -47,39 +62,52 @@ impl PlanMatcher {
     pub fn new(points: &[([f64; 3], [f64; 3])], default_radius: f64, max_distance_mm: f64) -> Self {
         PlanMatcher {
             default_radius,
+            default_shape: None,
             max_distance: max_distance_mm,
-            cell: max_distance_mm.max(1e-6),
             points: points.to_vec(),
             grids: Vec::new(),
             best: vec![None; points.len()],
         }
     }
 
-    /// The grid for ball radius `radius`, made on first use.
-    fn grid_for(&mut self, radius: f64) -> usize {
+    /// Tool 0's cutting shape (the machine file's `[tool] shape`).
+    pub fn with_default_shape(mut self, shape: Option<CutterShape>) -> Self {
+        self.default_shape = shape;
+        self
+    }
+
+    /// The grid for a tool of `radius` and `shape`, made on first use.
+    fn grid_for(&mut self, radius: f64, shape: Option<CutterShape>) -> usize {
         let bits = radius.to_bits();
-        if let Some(k) = self.grids.iter().position(|g| g.radius_bits == bits) {
+        if let Some(k) = self
+            .grids
+            .iter()
+            .position(|g| g.radius_bits == bits && g.shape == shape)
+        {
             return k;
         }
+        let corner = shape.map_or(radius, |s| s.corner_radius_mm);
+        let cell = (self.max_distance + contact_reach(radius, shape)).max(1e-6);
         let queries: Vec<[f64; 3]> = self
             .points
             .iter()
             .map(|(p, n)| {
                 [
-                    p[0] + radius * n[0],
-                    p[1] + radius * n[1],
-                    p[2] + radius * n[2],
+                    p[0] + corner * n[0],
+                    p[1] + corner * n[1],
+                    p[2] + corner * n[2],
                 ]
             })
             .collect();
         let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
         for (i, q) in queries.iter().enumerate() {
-            grid.entry(cell_of(*q, self.cell))
-                .or_default()
-                .push(i as u32);
+            grid.entry(cell_of(*q, cell)).or_default().push(i as u32);
         }
         self.grids.push(RadiusGrid {
             radius_bits: bits,
+            shape,
+            corner,
+            cell,
             queries,
             grid,
         });
@@ -88,19 +116,24 @@ impl PlanMatcher {
 
     /// Consider one path point (the first of equally near points wins).
     pub fn offer(&mut self, point: &PathPoint) {
-        let radius = if point.tool.number == 0 {
-            self.default_radius
+        let tool = if point.tool.number == 0 {
+            ToolInUse {
+                radius_mm: self.default_radius,
+                shape: self.default_shape,
+                ..point.tool
+            }
         } else {
-            point.tool.radius_mm
+            point.tool
         };
-        let k = self.grid_for(radius);
+        let radius = tool.radius_mm;
+        let k = self.grid_for(radius, tool.shape);
         let g = &self.grids[k];
         let centre = [
-            point.tip[0] + radius * point.axis[0],
-            point.tip[1] + radius * point.axis[1],
-            point.tip[2] + radius * point.axis[2],
+            point.tip[0] + g.corner * point.axis[0],
+            point.tip[1] + g.corner * point.axis[1],
+            point.tip[2] + g.corner * point.axis[2],
         ];
-        let c = cell_of(centre, self.cell);
+        let c = cell_of(centre, g.cell);
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
@@ -109,11 +142,22 @@ impl PlanMatcher {
                         continue;
                     };
                     for &i in ids {
-                        let q = g.queries[i as usize];
-                        let d = ((q[0] - centre[0]).powi(2)
-                            + (q[1] - centre[1]).powi(2)
-                            + (q[2] - centre[2]).powi(2))
-                        .sqrt();
+                        let (p, n) = self.points[i as usize];
+                        let d = match g.shape {
+                            // formats.md's ball: |(t + R·u) − (p + R·n)|.
+                            None => {
+                                let q = g.queries[i as usize];
+                                ((q[0] - centre[0]).powi(2)
+                                    + (q[1] - centre[1]).powi(2)
+                                    + (q[2] - centre[2]).powi(2))
+                                .sqrt()
+                            }
+                            Some(_) => {
+                                let o =
+                                    contact_offset(point.tip, point.axis, radius, g.shape, p, n);
+                                crate::vec3::dist(crate::vec3::add(point.tip, o), p)
+                            }
+                        };
                         if d > self.max_distance {
                             continue;
                         }
@@ -122,6 +166,10 @@ impl PlanMatcher {
                             *slot = Some(PlanMatch {
                                 point: *point,
                                 distance_mm: d,
+                                tool,
+                                contact_offset: contact_offset(
+                                    point.tip, point.axis, radius, g.shape, p, n,
+                                ),
                             });
                         }
                     }

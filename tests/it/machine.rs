@@ -59,6 +59,12 @@ fn scratch(text: &str) -> (tempfile::TempDir, PathBuf) {
     (dir, path)
 }
 
+/// The machine of `text` (in a scratch directory with the reference tables).
+fn load_text(text: &str) -> Machine {
+    let (_dir, path) = scratch(text);
+    Machine::load(&path).expect("loads")
+}
+
 /// The load error of `text`, with the scratch directory replaced by `<dir>`.
 fn load_error(text: &str, options: &LoadOptions) -> String {
     let (dir, path) = scratch(text);
@@ -532,4 +538,38 @@ mod cli {
         assert!(r["surfaces"][0]["emax_um"].as_f64().is_some());
         assert!(r["max_um"].as_f64().expect("max") > 0.0);
     }
+}
+
+/// `[tool]` and `[[tools]]` may name the cutting shape (docs/extensions.md);
+/// a shape missing what it needs, or values without a shape, are located errors.
+#[test]
+fn tool_shapes_are_read_and_checked() {
+    let with = |tool: &str| REF_TEXT.replace("[tool]\nlength = 100.0\nradius = 3.0\n", tool);
+    let m = load_text(&with(
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"bull\"\ncorner_radius = 1.0\nflute_length = 20.0\n",
+    ));
+    let s = m.tool.shape.expect("shape");
+    assert_eq!((s.corner_radius_mm, s.flute_length_mm), (1.0, 20.0));
+    let ball = load_text(&with(
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"ball\"\nflute_length = 12.0\n",
+    ));
+    assert_eq!(ball.tool.shape.expect("ball").corner_radius_mm, 3.0);
+    assert_eq!(ball.default_tool().shape, ball.tool.shape);
+    let flat = load_text(&REF_TEXT.replace(
+        "comment = \"ball end R5 roughing\"",
+        "comment = \"flat\"\nshape = \"flat\"\nflute_length = 25.0",
+    ));
+    let t2 = flat.tools.in_use(2, flat.default_tool());
+    assert_eq!(t2.shape.expect("T2 shape").corner_radius_mm, 0.0);
+    let errors: Vec<String> = [
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"bull\"\nflute_length = 20.0\n",
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"bull\"\ncorner_radius = 3.0\nflute_length = 20.0\n",
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"flat\"\n",
+        "[tool]\nlength = 100.0\nradius = 3.0\nshape = \"cone\"\nflute_length = 20.0\n",
+        "[tool]\nlength = 100.0\nradius = 3.0\nflute_length = 20.0\n",
+    ]
+    .iter()
+    .map(|t| load_error(&with(t), &LoadOptions::default()))
+    .collect();
+    insta::assert_snapshot!(errors.join("\n"));
 }
