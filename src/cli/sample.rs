@@ -1,6 +1,7 @@
 //! `volcomp sample`: write the bundled sample programs.
 use crate::io::write_file_atomic;
 use crate::machine::{LoadOptions, Machine};
+use crate::sample::flank::FlankOptions;
 use crate::sample::saddle::{SaddleOptions, generate};
 use anyhow::Context;
 use std::path::PathBuf;
@@ -9,17 +10,27 @@ const AFTER_HELP: &str = "\
 Examples:
   volcomp sample saddle
   volcomp sample saddle --machine machines/ref-trt.toml --out-dir samples
+  volcomp sample flank
 
 Writes saddle.nc (joint frame: a roughing pass with T2, a ball-end R5 leaving
 1 mm, then the finishing pass with T1, the machine's [tool]), saddle-tcp.nc (the
 same path with tool-tip control, G43.4 ... G49), saddle-plan.csv (372 inspection
 points with normals) and saddle.tbl (the LinuxCNC tool table of T1 and T2) into
---out-dir. The output is deterministic: the same machine gives the same bytes.";
+--out-dir.
+
+The flank sample writes flank.nc (joint frame: the wall of a drafted boss,
+R40 at the foot centred at X20 Y-15, 20 mm high, 10 deg draft, cut in one revolution by the side of
+T3, which the machine file's [[tools]] must list with a shape and a flute long
+enough for the wall) and flank-plan.csv (180 wall points with normals).
+
+The output is deterministic: the same machine gives the same bytes.";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SampleName {
     /// A saddle-style bicycle seat, like the seed paper's (blank 100 × 80 × 40 mm).
     Saddle,
+    /// The drafted wall of a round boss, flank-milled with the side of a flat end mill.
+    Flank,
 }
 
 #[derive(Debug, clap::Args)]
@@ -43,24 +54,71 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             extrapolation: crate::machine::ExtrapolationPolicy::Hold,
         },
     )?;
-    let options = SaddleOptions {
-        tool_radius: machine.tool.radius,
-        ..SaddleOptions::default()
-    };
-    let files = generate(
-        &machine.kinematics_model(),
-        Some(machine.limits.a),
-        &options,
-    )
-    .with_context(|| format!("generating the saddle for {}", args.machine.display()))?;
     std::fs::create_dir_all(&args.out_dir)
         .with_context(|| format!("cannot create {}", args.out_dir.display()))?;
-    for (name, text) in [
-        ("saddle.nc", &files.joint_program),
-        ("saddle-tcp.nc", &files.part_program),
-        ("saddle-plan.csv", &files.plan_csv),
-        ("saddle.tbl", &files.tool_table),
-    ] {
+    let files: Vec<(&str, String)> = match args.name {
+        SampleName::Saddle => {
+            let options = SaddleOptions {
+                tool_radius: machine.tool.radius,
+                ..SaddleOptions::default()
+            };
+            let files = generate(
+                &machine.kinematics_model(),
+                Some(machine.limits.a),
+                &options,
+            )
+            .with_context(|| format!("generating the saddle for {}", args.machine.display()))?;
+            vec![
+                ("saddle.nc", files.joint_program),
+                ("saddle-tcp.nc", files.part_program),
+                ("saddle-plan.csv", files.plan_csv),
+                ("saddle.tbl", files.tool_table),
+            ]
+        }
+        SampleName::Flank => {
+            let options = FlankOptions::default();
+            let tool = machine
+                .tools
+                .in_use(options.tool, machine.default_tool())
+                .or(machine.default_tool());
+            let shape = match tool.shape {
+                Some(s) if tool.number == options.tool => s,
+                _ => anyhow::bail!(
+                    "{}: the flank sample cuts with T{}, which [[tools]] must list with its shape and flute_length (docs/extensions.md)",
+                    args.machine.display(),
+                    options.tool
+                ),
+            };
+            let needed =
+                options.below_foot + options.height / options.draft_degrees.to_radians().cos();
+            if shape.flute_length_mm < needed {
+                anyhow::bail!(
+                    "{}: T{}'s flute_length {} mm is shorter than the wall it must cut ({needed:.2} mm)",
+                    args.machine.display(),
+                    options.tool,
+                    shape.flute_length_mm
+                );
+            }
+            let options = FlankOptions {
+                tool_radius: tool.radius_mm,
+                ..options
+            };
+            let files = crate::sample::flank::generate(
+                &machine.kinematics_model(),
+                tool.length_mm,
+                Some(machine.limits.a),
+                &options,
+            )
+            .with_context(|| {
+                format!("generating the flank sample for {}", args.machine.display())
+            })?;
+            vec![
+                ("flank.nc", files.joint_program),
+                ("flank-plan.csv", files.plan_csv),
+            ]
+        }
+    };
+    for (name, text) in &files {
         let path = args.out_dir.join(name);
         write_file_atomic(&path, text.as_bytes())?;
         crate::outln!("wrote {} ({} lines)", path.display(), text.lines().count());

@@ -761,3 +761,57 @@ fn a_kept_jacobian_solves_as_a_fresh_one() {
         "{kept_fallbacks} of {poses}"
     );
 }
+
+/// The flank sample (a drafted wall cut by the side of a flat end mill, T3
+/// with a 25 mm flute, docs/extensions.md tool shapes): `predict` takes each
+/// wall point's deviation where the side touches it, up to 21 mm up the
+/// flute, so the tool's tilt shows in the part. Position-only compensation puts
+/// the tip right and leaves the tilt acting on that lever; `--orientation`
+/// removes both. Measured as the part would come out: `profile_with_path_um`.
+#[test]
+fn flank_milling_needs_the_tool_axis_corrected() {
+    use volcomp::inspection::Plan;
+    use volcomp::predict::predict_plan;
+    use volcomp::toolpath::CutOptions;
+    let (machine, model) = ref_trt();
+    let original = read("samples/flank.nc");
+    let plan = Plan::read(&root().join("samples/flank-plan.csv")).expect("plan");
+    let options = CutOptions::for_machine(machine, Frame::Joint);
+    let predict = |text: &str| {
+        predict_plan(ref_program(text, "flank.nc"), model, &plan, &options).expect("predicts")
+    };
+    let before = predict(&original);
+    let (position_only, _) = compensate_with(&original, Frame::Joint, 0.5, false);
+    let (full, report) = compensate_with(&original, Frame::Joint, 0.5, true);
+    let position_only = predict(&position_only);
+    let full = predict(&full);
+    let o = report.orientation.expect("orientation report");
+    eprintln!(
+        "flank: profile before {:.2} µm; position-only {:.2} µm; full {:.2} µm; tool axis before {:.1} µrad RMS",
+        before.profile_with_path_um,
+        position_only.profile_with_path_um,
+        full.profile_with_path_um,
+        o.axis_error_before_rms_urad
+    );
+    for r in [&before, &position_only, &full] {
+        assert_eq!(r.points_cut, 180);
+    }
+    assert!(before.profile_with_path_um > 20.0);
+    assert!(
+        position_only.profile_with_path_um > 3.0,
+        "the tilt on the flute's lever remains"
+    );
+    assert!(full.profile_with_path_um < 0.5);
+    assert!(full.profile_with_path_um < 0.1 * position_only.profile_with_path_um);
+    // The tilt's share grows up the flute: position-only leaves more at the top.
+    let residual = |r: &volcomp::predict::PredictReport, z: f64| {
+        let d: Vec<f64> = r
+            .points
+            .iter()
+            .filter(|p| (p.point[2] - z).abs() < 1e-9)
+            .filter_map(|p| p.deviation_with_path_um)
+            .collect();
+        (d.iter().map(|v| v * v).sum::<f64>() / d.len() as f64).sqrt()
+    };
+    assert!(residual(&position_only, 18.0) > 3.0 * residual(&position_only, 2.0));
+}
