@@ -1,7 +1,8 @@
 //! Compensation throughput, end to end (read, interpret, solve, split check,
 //! rewrite, write) over a seeded, smooth five-axis program inside the ref-trt
 //! travel (x ∈ [−150, 150], y ∈ [−100, 100], z ∈ [−150, 50], a ∈ [−60, 60],
-//! c multi-turn), position only and with `--orientation` (X Y Z A C solved),
+//! c multi-turn), tip and tool axis (X Y Z A C solved, the default) and
+//! `--position-only`,
 //! against the G-code pass-through (`rewrite_stream` with
 //! unchanged targets) on the same file in the same run; and `predict` of the
 //! saddle's 372 plan points, with and without loading (fitting) the machine.
@@ -11,7 +12,7 @@
 //! The 1,000,000-block figure is measured once outside criterion:
 //! `VOLCOMP_BENCH_PROGRAM=/tmp/p1m.nc cargo bench --bench compensate` writes the
 //! program and exits, then
-//! `/usr/bin/time -v target/release/volcomp compensate machines/ref-trt.toml /tmp/p1m.nc -o /tmp/p1m-c.nc [--orientation]`.
+//! `/usr/bin/time -v target/release/volcomp compensate machines/ref-trt.toml /tmp/p1m.nc -o /tmp/p1m-c.nc [--position-only]`.
 use criterion::{Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -103,13 +104,13 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
             stats.blocks
         })
     });
-    let orientation = CompensateOptions {
-        orientation: true,
+    let position_only = CompensateOptions {
+        orientation: false,
         ..options.clone()
     };
     for (name, options) in [
+        ("compensate_position_only", &position_only),
         ("compensate", &options),
-        ("compensate_orientation", &orientation),
     ] {
         group.bench_function(name, |b| {
             b.iter(|| {

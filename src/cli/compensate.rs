@@ -14,10 +14,13 @@ Examples:
   cat big.nc | volcomp compensate machines/ref-trt.toml - -o big-comp.nc
   volcomp compensate machines/ref-trt.toml part.nc --in-place          # replace part.nc
   volcomp compensate machines/ref-trt.toml part-comp.nc -o again.nc --force   # compensate twice, knowingly
+  volcomp compensate machines/ref-trt.toml samples/saddle.nc -o tip-only.nc --position-only
 
 Every motion target is moved so that the modelled actual tool tip (the machine's
 measured errors, fitted as SMEM curves) lands on the programmed one, solved to
-1 nm; A and C stay as programmed. A cutting move is split where the correction
+1 nm, and the modelled tool axis on the programmed axis, to 0.01 µrad, through
+X Y Z A C together (--position-only: X Y Z only, A and C as programmed, the tilt
+errors left in the axis; near the A = 0 pole moves are position-only anyway). A cutting move is split where the correction
 along it departs from the straight move between its corrected ends by more than
 --tol. Blocks that do not move, and every non-motion line, come out byte for
 byte. The output is written to a temporary file and renamed: a failed or
@@ -56,12 +59,17 @@ pub struct Args {
     /// Split tolerance, µm: largest departure of a move from the compensated path.
     #[arg(long, value_name = "UM", default_value_t = 0.5)]
     pub tol: f64,
-    /// Correct the tool axis too: solve X Y Z A C so that the modelled actual
-    /// tip AND tool axis are the programmed ones (A and C words change where
-    /// the correction shows at the program's decimals). Near the A = 0 pole,
-    /// where C cannot steer the axis, moves stay position-only (counted).
-    #[arg(long)]
+    /// Correct the tool axis too (the default): solve X Y Z A C so that the
+    /// modelled actual tip AND tool axis are the programmed ones (A and C words
+    /// change where the correction shows at the program's decimals). Near the
+    /// A = 0 pole, where C cannot steer the axis, moves stay position-only
+    /// (counted and reported).
+    #[arg(long, conflicts_with = "position_only")]
     pub orientation: bool,
+    /// Correct the tool tip only, A and C as programmed (the seed paper's
+    /// compensation): the machine's tilt errors stay in the tool axis.
+    #[arg(long)]
+    pub position_only: bool,
     /// Write the summary as JSON, with the expected residual from the model's
     /// own noise.
     #[arg(long, value_name = "FILE.json")]
@@ -91,7 +99,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         // The model's own noise at every move end: with --report only (it
         // doubles the run time).
         expected_residual: args.report.is_some(),
-        orientation: args.orientation,
+        orientation: !args.position_only,
         ..CompensateOptions::default()
     };
     let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
@@ -120,7 +128,7 @@ Give the original program, or --force to compensate it anyway",
             args.program.display().to_string()
         },
         input_fnv1a64: input_hash.hex(),
-        orientation: args.orientation,
+        orientation: !args.position_only,
     };
     let program =
         crate::gcode::Program::new(input, &args.program, args.read.setup(Some(&machine))?);

@@ -57,7 +57,8 @@ pub struct CompensateOptions {
     /// compensation itself again).
     pub expected_residual: bool,
     /// Correct the tool axis too: solve X Y Z A C so that the modelled actual
-    /// tip and tool axis are the programmed ones (`compensate --orientation`).
+    /// tip and tool axis are the programmed ones (the default; `false` is
+    /// `compensate --position-only`, the seed paper's X Y Z correction).
     pub orientation: bool,
 }
 
@@ -71,7 +72,7 @@ impl Default for CompensateOptions {
             chunk_blocks: 4096,
             limits: None,
             expected_residual: false,
-            orientation: false,
+            orientation: true,
         }
     }
 }

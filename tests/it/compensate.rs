@@ -545,9 +545,12 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
     assert!(stdout.contains("\nM429\n"));
     assert!(!stdout.contains("blocks read"));
     assert!(stderr.contains("blocks read"), "{stderr}");
-    let (library, _) = compensate_text(
+    // The command's default: tip and tool axis.
+    let (library, _) = compensate_with(
         &read("tests/data/compensate/linuxcnc-demo.ngc"),
         Frame::Joint,
+        0.5,
+        true,
     );
     assert_eq!(stdout, library);
 }

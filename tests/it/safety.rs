@@ -52,18 +52,20 @@ fn compensated_program_is_stamped_and_refused_a_second_time() {
     assert_success(&out);
     let text = std::fs::read_to_string(&out_path).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    // After the `%` and `O` lines, eight comment lines, then the program.
+    // After the `%` and `O` lines, nine comment lines (the ninth: the tool
+    // axis was corrected too, the default), then the program.
     assert_eq!(lines[0], "%");
     assert!(lines[1].starts_with("O2016 "));
     assert!(
-        lines[2..10]
+        lines[2..11]
             .iter()
             .all(|l| l.starts_with(PREFIX) && l.ends_with(')'))
     );
-    assert!(!lines[10].starts_with(PREFIX));
+    assert_eq!(lines[10], "(volcomp-stamp corrected: tip and tool axis)");
+    assert!(!lines[11].starts_with(PREFIX));
     let original_lines: Vec<&str> = original.lines().collect();
-    assert_eq!(lines[10], original_lines[2]);
-    // Eight stamp lines, plus the blocks the tolerance split off.
+    assert_eq!(lines[11], original_lines[2]);
+    // Nine stamp lines, plus the blocks the tolerance split off.
     let stdout = String::from_utf8_lossy(&out.stdout);
     let added: usize = stdout
         .split("(+")
@@ -71,8 +73,9 @@ fn compensated_program_is_stamped_and_refused_a_second_time() {
         .and_then(|t| t.split_whitespace().next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no split count in {stdout}"));
-    assert_eq!(lines.len(), original_lines.len() + 8 + added);
-    let stamp = Stamp::find(&text).expect("the output carries a stamp");
+    assert_eq!(lines.len(), original_lines.len() + 9 + added);
+    assert!(stamp_of(&text).orientation);
+    let stamp = stamp_of(&text);
     assert_eq!(
         stamp.compensated_by,
         format!("volcomp {}", env!("CARGO_PKG_VERSION"))
@@ -424,4 +427,36 @@ fn an_interrupted_run_leaves_no_temporary_file() {
         );
         assert!(!output.exists());
     }
+}
+
+fn stamp_of(text: &str) -> Stamp {
+    Stamp::find(text).expect("the output carries a stamp")
+}
+
+/// `--position-only` corrects the tip alone (the seed paper's compensation):
+/// A and C stay as programmed, and the stamp has no ninth line.
+#[test]
+fn position_only_keeps_a_and_c_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = saddle_copy(dir.path());
+    let out_path = dir.path().join("tip.nc");
+    let out = compensate(
+        &input,
+        &["-o", out_path.to_str().unwrap(), "--position-only"],
+    );
+    assert_success(&out);
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    assert!(!stamp_of(&text).orientation);
+    assert!(!text.contains("corrected: tip and tool axis"));
+    let original = std::fs::read_to_string(&input).unwrap();
+    let rotary = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| !l.starts_with(PREFIX))
+            .flat_map(|l| l.split_whitespace().map(str::to_string).collect::<Vec<_>>())
+            .filter(|w| w.starts_with('A') || w.starts_with('C'))
+            .collect()
+    };
+    assert_eq!(rotary(&text), rotary(&original));
+    let both = compensate(&input, &["-o", "-", "--position-only", "--orientation"]);
+    assert_eq!(both.status.code(), Some(2));
 }
