@@ -198,20 +198,7 @@ pub fn generate(
     block(&mut out, "M30");
     out.push_str("%\n");
 
-    let mut plan = String::from("id,x,y,z,i,j,k\n");
-    for (id, (p, nrm)) in options.plan_points().iter().enumerate() {
-        let _ = writeln!(
-            plan,
-            "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}",
-            id + 1,
-            p[0],
-            p[1],
-            p[2],
-            nrm[0],
-            nrm[1],
-            nrm[2]
-        );
-    }
+    let plan = super::plan_csv(&options.plan_points());
     Ok(FlankFiles {
         joint_program: out,
         plan_csv: plan,

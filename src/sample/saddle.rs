@@ -375,20 +375,7 @@ pub fn generate(
     joint.push_str("%\n");
     part.push_str("%\n");
 
-    let mut plan = String::from("id,x,y,z,i,j,k\n");
-    for (id, (p, nrm)) in plan_points().iter().enumerate() {
-        let _ = writeln!(
-            plan,
-            "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}",
-            id + 1,
-            p[0],
-            p[1],
-            p[2],
-            nrm[0],
-            nrm[1],
-            nrm[2]
-        );
-    }
+    let plan = super::plan_csv(&plan_points());
     let mut tool_table = format!(
         "T1 P1 Z{:.3} D{:.3} ;ball end R{} finishing\n",
         kinematics.tool_length,
