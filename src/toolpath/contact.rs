@@ -9,7 +9,9 @@
 //! the tip. Its contact point follows the normal on the corner torus, and for a
 //! normal square to the axis (within [`FLANK_COS`]) slides up the side to the
 //! plan point's height (flank milling); its deviation adds the tool's tilt
-//! acting on the contact's lever: `e + (u × δu) × (c − t)`.
+//! acting on the contact's lever: `e + (u × δu) × (c − t)`, the end of a flat
+//! or bull-nose tool touching with its lowest point under that tilt
+//! ([`error_at_contact`]).
 //!
 //! Invariant: pure geometry on part coordinates; no I/O, no kinematics.
 use crate::gcode::CutterShape;
@@ -72,16 +74,40 @@ pub fn contact_reach(radius: f64, shape: Option<CutterShape>) -> f64 {
 }
 
 /// The error at a contact point (µm, part coordinates): the tip's error
-/// `e_um` plus the tilt of the tool (actual axis − nominal axis `axis_error_urad`,
+/// `e_um` plus the tilt of the tool (actual − nominal axis, `axis_error_urad`,
 /// about the tip) acting on the contact's offset `offset` (mm) from the tip.
+///
+/// `rim` is the radius `R − r` of the corner circle when the end of a named
+/// flat or bull-nose tool cuts (not its side), else 0. The end touches with its
+/// lowest point relative to the surface: for a normal `n` close to the axis
+/// that point is chosen by the tilt itself, so the rim's share along `n` is
+/// `−rim·(|w| − |n⊥|)` with `w = n⊥ − (n·u)·δu⊥` (`n⊥`, `δu⊥`: the parts square
+/// to `u`): `−rim·|δu⊥|` on a floor square to the axis (the tilted face digs in
+/// with its rim), `−rim·(v·δu)` on a surface clearly tilted from it.
 pub fn error_at_contact(
     e_um: [f64; 3],
     axis: [f64; 3],
     axis_error_urad: [f64; 3],
     offset: [f64; 3],
+    normal: [f64; 3],
+    rim: f64,
 ) -> [f64; 3] {
     let tilt = cross(axis, axis_error_urad);
-    add(e_um, scale(cross(tilt, offset), 1e-3))
+    let across = |v: [f64; 3]| sub(v, scale(axis, dot(v, axis)));
+    let n_across = across(normal);
+    // The offset without its radial (rim) part, when the end cuts.
+    let radial = if rim > 0.0 && norm(n_across) > 0.0 {
+        scale(n_across, -rim / norm(n_across))
+    } else {
+        [0.0; 3]
+    };
+    let e = add(e_um, scale(cross(tilt, sub(offset, radial)), 1e-3));
+    if rim <= 0.0 {
+        return e;
+    }
+    let du_across = scale(across(axis_error_urad), 1e-6);
+    let w = sub(n_across, scale(du_across, dot(normal, axis)));
+    add(e, scale(normal, -rim * (norm(w) - norm(n_across)) * 1e3))
 }
 
 #[cfg(test)]
@@ -139,11 +165,40 @@ mod tests {
 
     #[test]
     fn the_tilt_acts_on_the_lever_of_the_contact() {
-        // Axis z tilted by 50 µrad towards +x: a point 20 mm up moves 1 µm in x.
-        let e = error_at_contact([0.1, 0.2, 0.3], Z, [50.0, 0.0, 0.0], [-5.0, 0.0, 20.0]);
+        // Axis z tilted by 50 µrad towards +x: a wall point 20 mm up the side
+        // moves 1 µm in x (the side cuts: no rim term).
+        let wall = [-1.0, 0.0, 0.0];
+        let e = error_at_contact(
+            [0.1, 0.2, 0.3],
+            Z,
+            [50.0, 0.0, 0.0],
+            [-5.0, 0.0, 20.0],
+            wall,
+            0.0,
+        );
         assert!((e[0] - 1.1).abs() < 1e-12, "{e:?}");
         assert!((e[1] - 0.2).abs() < 1e-12);
-        // The rim of a flat end 5 mm out on −x rises by 0.25 µm.
-        assert!((e[2] - (0.3 + 0.25)).abs() < 1e-12, "{e:?}");
+    }
+
+    #[test]
+    fn a_tilted_flat_end_digs_into_a_floor_with_its_rim() {
+        // A floor square to the axis, a flat R5 tilted by 50 µrad: its rim
+        // goes 0.25 µm deeper, whichever way it tilts.
+        for tilt in [[50.0, 0.0, 0.0], [0.0, -50.0, 0.0], [30.0, 40.0, 0.0]] {
+            let e = error_at_contact([0.0; 3], Z, tilt, [0.0; 3], Z, 5.0);
+            assert!((dot(e, Z) + 0.25).abs() < 1e-9, "{tilt:?}: {e:?}");
+        }
+        // A surface tilted 1 mrad from the axis (≫ the error): the rim point
+        // on its low side touches, and the tilt moves it as a lever would.
+        let n = crate::vec3::normalise([1e-3, 0.0, 1.0]);
+        let v = [-1.0, 0.0, 0.0];
+        let o = contact_offset([0.0; 3], Z, 5.0, shape(0.0, 20.0), [0.0; 3], n);
+        assert!(close(o, scale(v, 5.0)), "{o:?}");
+        let e = error_at_contact([0.0; 3], Z, [50.0, 0.0, 0.0], o, n, 5.0);
+        // −rim·(v·δu) = −5 mm · (−50 µrad) = +0.25 µm (that side rises).
+        assert!((dot(e, n) - 0.25).abs() < 2e-3, "{e:?}");
+        // Without a tilt, nothing.
+        let e = error_at_contact([0.0; 3], Z, [0.0; 3], o, n, 5.0);
+        assert!(norm(e) < 1e-12);
     }
 }

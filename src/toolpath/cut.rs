@@ -101,7 +101,7 @@ pub fn contexts(
                     id: p.id.clone(),
                     source,
                 })?;
-            let e = error_at_match(model, m, &errors);
+            let e = error_at_match(model, m, p.normal, &errors);
             let axis_deviation_um = std::array::from_fn(|slot| {
                 let mut only = crate::kinematics::ErrorValues::ZERO;
                 only.component[slot] = errors.component[slot];
@@ -143,7 +143,7 @@ pub fn volumetric_errors(
             None => Ok(None),
             Some(m) => model
                 .errors_at(&m.point.joints)
-                .map(|errors| Some(error_at_match(model, m, &errors)))
+                .map(|errors| Some(error_at_match(model, m, p.normal, &errors)))
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,
@@ -158,16 +158,29 @@ pub fn volumetric_errors(
 fn error_at_match(
     model: &ErrorModel,
     m: &PlanMatch,
+    normal: [f64; 3],
     errors: &crate::kinematics::ErrorValues,
 ) -> [f64; 3] {
     let kin = kinematics_with(model, &m.point.tool);
     let v = kin.volumetric_error(&m.point.joints, errors);
-    match m.tool.shape {
-        None => v.e_um,
-        Some(_) => {
-            super::contact::error_at_contact(v.e_um, m.point.axis, v.axis_urad, m.contact_offset)
-        }
-    }
+    let Some(shape) = m.tool.shape else {
+        return v.e_um;
+    };
+    // The end (not the side) cuts: its rim radius, for the lowest point.
+    let end_cuts = dot(normal, m.point.axis) > super::contact::FLANK_COS;
+    let rim = if end_cuts {
+        (m.tool.radius_mm - shape.corner_radius_mm).max(0.0)
+    } else {
+        0.0
+    };
+    super::contact::error_at_contact(
+        v.e_um,
+        m.point.axis,
+        v.axis_urad,
+        m.contact_offset,
+        normal,
+        rim,
+    )
 }
 
 fn not_cut(p: &PlanPoint) -> PointContext {
