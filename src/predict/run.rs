@@ -4,7 +4,7 @@ use crate::gcode::{GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError};
-use crate::toolpath::cut::{CutError, CutOptions, match_plan, volumetric_errors};
+use crate::toolpath::cut::{CutError, CutOptions, contact_errors, match_plan, volumetric_errors};
 use crate::toolpath::{effective_frame, joints_of};
 use std::time::Instant;
 
@@ -32,14 +32,23 @@ pub fn predict_plan(
     let started = Instant::now();
     let (matches, _) = match_plan(program, model, &plan.points, options)?;
     let errors = volumetric_errors(model, &plan.points, &matches)?;
+    let at_contact = contact_errors(model, &plan.points, &matches)?;
     let uncertain = model.has_uncertainty();
     let mut points = Vec::with_capacity(plan.points.len());
     let mut deviations = Vec::new();
     let mut with_path = Vec::new();
     let mut max_offset = 0.0f64;
-    for ((p, m), e) in plan.points.iter().zip(&matches).zip(&errors) {
+    for (((p, m), e), ec) in plan
+        .points
+        .iter()
+        .zip(&matches)
+        .zip(&errors)
+        .zip(&at_contact)
+    {
         let n = p.normal;
         let deviation = e.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
+        // What the part measures: the error where the tool touches.
+        let at_contact = ec.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
         // Nominal contact point of the cutting path point, relative to the plan point.
         let offset = m.map(|m| {
             let t = m.point.tip;
@@ -49,7 +58,7 @@ pub fn predict_plan(
                 .sum::<f64>()
                 * 1e3
         });
-        let deviation_with_path = match (deviation, offset) {
+        let deviation_with_path = match (at_contact, offset) {
             (Some(d), Some(o)) => {
                 max_offset = max_offset.max(o.abs());
                 with_path.push(d + o);

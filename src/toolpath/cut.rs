@@ -101,7 +101,7 @@ pub fn contexts(
                     id: p.id.clone(),
                     source,
                 })?;
-            let e = error_at_match(model, m, p.normal, &errors);
+            let e = error_at_match(model, m, p.normal, &errors, ErrorAt::Deviation);
             let axis_deviation_um = std::array::from_fn(|slot| {
                 let mut only = crate::kinematics::ErrorValues::ZERO;
                 only.component[slot] = errors.component[slot];
@@ -131,11 +131,45 @@ pub fn contexts(
         .collect()
 }
 
-/// Volumetric error (µm, part coordinates) at every matched point (`None`: not cut).
+/// Volumetric error (µm, part coordinates) at every matched point (`None`: not
+/// cut), as the predicted deviation takes it: at the tip (formats.md), or at
+/// the contact point of a tool whose shape is named.
 pub fn volumetric_errors(
     model: &ErrorModel,
     plan: &[PlanPoint],
     matches: &[Option<PlanMatch>],
+) -> Result<Vec<Option<[f64; 3]>>, CutError> {
+    errors_per_match(model, plan, matches, ErrorAt::Deviation)
+}
+
+/// Volumetric error (µm, part coordinates) at every matched point's contact
+/// point, for every tool: a tool without a named shape is formats.md's ball,
+/// whose error at the contact is that of its centre, the tip's plus `R·δu`.
+/// This is what the part measures (`deviation_with_path_um`): after a
+/// compensation that corrects the tool axis, the tip rule alone would miss the
+/// axis correction's effect on the ball.
+pub fn contact_errors(
+    model: &ErrorModel,
+    plan: &[PlanPoint],
+    matches: &[Option<PlanMatch>],
+) -> Result<Vec<Option<[f64; 3]>>, CutError> {
+    errors_per_match(model, plan, matches, ErrorAt::Contact)
+}
+
+/// Where [`error_at_match`] takes the error of a tool without a named shape.
+#[derive(Clone, Copy, PartialEq)]
+enum ErrorAt {
+    /// At the tip (formats.md's predicted deviation).
+    Deviation,
+    /// At the contact point of formats.md's ball.
+    Contact,
+}
+
+fn errors_per_match(
+    model: &ErrorModel,
+    plan: &[PlanPoint],
+    matches: &[Option<PlanMatch>],
+    at: ErrorAt,
 ) -> Result<Vec<Option<[f64; 3]>>, CutError> {
     plan.iter()
         .zip(matches)
@@ -143,7 +177,7 @@ pub fn volumetric_errors(
             None => Ok(None),
             Some(m) => model
                 .errors_at(&m.point.joints)
-                .map(|errors| Some(error_at_match(model, m, p.normal, &errors)))
+                .map(|errors| Some(error_at_match(model, m, p.normal, &errors, at)))
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,
@@ -160,18 +194,17 @@ fn error_at_match(
     m: &PlanMatch,
     normal: [f64; 3],
     errors: &crate::kinematics::ErrorValues,
+    at: ErrorAt,
 ) -> [f64; 3] {
     let kin = kinematics_with(model, &m.point.tool);
     let v = kin.volumetric_error(&m.point.joints, errors);
-    let Some(shape) = m.tool.shape else {
-        return v.e_um;
-    };
-    // The end (not the side) cuts: its rim radius, for the lowest point.
+    // The end (not the side) cuts: its rim radius, for the lowest point (a
+    // ball, formats.md's tool, has none).
     let end_cuts = dot(normal, m.point.axis) > super::contact::FLANK_COS;
-    let rim = if end_cuts {
-        (m.tool.radius_mm - shape.corner_radius_mm).max(0.0)
-    } else {
-        0.0
+    let rim = match m.tool.shape {
+        None if at == ErrorAt::Deviation => return v.e_um,
+        Some(shape) if end_cuts => (m.tool.radius_mm - shape.corner_radius_mm).max(0.0),
+        _ => 0.0,
     };
     super::contact::error_at_contact(
         v.e_um,

@@ -87,6 +87,33 @@ fn compensated_saddle_profile_with_path_is_under_five_percent() {
     assert!(after.profile_with_path_um < 0.05 * before.profile_with_path_um);
 }
 
+/// What the part measures is taken where the ball touches, so the tool's tilt
+/// acts on the ball's radius (`R·δu`): compensating the tool axis too (the
+/// default) leaves less than the tip alone, which leaves that tilt.
+#[test]
+fn correcting_the_tool_axis_leaves_less_on_the_saddle_than_the_tip_alone() {
+    let plan = saddle_plan();
+    let original = read("samples/saddle.nc");
+    let (tip_only, _) = compensate_text(&original, Frame::Joint);
+    let (full, _) = crate::compensate::compensate_with(&original, Frame::Joint, 0.5, true);
+    let tip_only = predict_text(&tip_only, &plan);
+    let full = predict_text(&full, &plan);
+    eprintln!(
+        "saddle profile_with_path: tip only {:.3} µm, tip and axis {:.3} µm",
+        tip_only.profile_with_path_um, full.profile_with_path_um
+    );
+    assert!(
+        full.profile_with_path_um < 0.3,
+        "{}",
+        full.profile_with_path_um
+    );
+    assert!(
+        tip_only.profile_with_path_um > 0.6,
+        "{}",
+        tip_only.profile_with_path_um
+    );
+}
+
 #[test]
 fn prediction_without_plan_lists_every_motion_block() {
     let text = read("tests/data/compensate/linuxcnc-demo.ngc");
