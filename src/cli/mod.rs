@@ -62,7 +62,7 @@ pub enum Command {
     Map(map::Args),
     /// Parse and interpret a program; report its blocks, frames, time and problems.
     Check(check::Args),
-    /// Rewrite a program so the modelled actual tool tip lands on the programmed one.
+    /// Rewrite a program so the modelled tool tip and axis land on the programmed ones.
     Compensate(compensate::Args),
     /// Predicted deviations and profile error of the part a program cuts.
     Predict(predict::Args),
