@@ -20,10 +20,10 @@ Every motion target is moved so that the modelled actual tool tip (the machine's
 measured errors, fitted as SMEM curves) lands on the programmed one, solved to
 1 nm, and the modelled tool axis on the programmed axis, to 0.01 µrad, through
 X Y Z A C together (--position-only: X Y Z only, A and C as programmed, the tilt
-errors left in the axis; near the A = 0 pole moves are position-only anyway). A cutting move is split where the correction
-along it departs from the straight move between its corrected ends by more than
---tol. Blocks that do not move, and every non-motion line, come out byte for
-byte. The output is written to a temporary file and renamed: a failed or
+errors left in the axis; near the A = 0 pole moves are position-only anyway).
+A cutting move is split where the correction along it departs from the
+straight move between its corrected ends by more than --tol. Blocks that do not
+move, and every non-motion line, come out byte for byte. The output is written to a temporary file and renamed: a failed or
 interrupted run (SIGINT, SIGTERM) leaves no partial program.
 
 The output starts with a provenance stamp, comment lines after the `%` and `O`

@@ -77,10 +77,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         SampleName::Flank => {
             let options = FlankOptions::default();
-            let tool = machine
-                .tools
-                .in_use(options.tool, machine.default_tool())
-                .or(machine.default_tool());
+            let tool = machine.tools.in_use(options.tool, machine.default_tool());
             let shape = match tool.shape {
                 Some(s) if tool.number == options.tool => s,
                 _ => anyhow::bail!(
@@ -89,8 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     options.tool
                 ),
             };
-            let needed =
-                options.below_foot + options.height / options.draft_degrees.to_radians().cos();
+            let needed = options.flute_needed_mm();
             if shape.flute_length_mm < needed {
                 anyhow::bail!(
                     "{}: T{}'s flute_length {} mm is shorter than the wall it must cut ({needed:.2} mm)",

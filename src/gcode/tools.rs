@@ -47,9 +47,10 @@ pub struct CutterShape {
 }
 
 /// The tool a block cuts with: its number, length (gauge point to tip) and
-/// radius, mm, and its cutting shape when the machine file names one. Tool 0 is the default tool, whose length and radius the
-/// consumer knows (the machine file's `[tool]`, the error model's length):
-/// resolve it with [`ToolInUse::or`].
+/// radius, mm, and its cutting shape when the machine file names one. Tool 0
+/// is the default tool, whose length, radius and shape the consumer knows
+/// (the machine file's `[tool]`, the error model's length): resolve it with
+/// [`ToolInUse::or`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ToolInUse {
     pub number: u32,

@@ -4,8 +4,9 @@ use crate::gcode::{GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError};
-use crate::toolpath::cut::{CutError, CutOptions, contact_errors, match_plan, volumetric_errors};
+use crate::toolpath::cut::{CutError, CutOptions, match_errors, match_plan};
 use crate::toolpath::{effective_frame, joints_of};
+use crate::vec3::dot;
 use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
@@ -31,24 +32,17 @@ pub fn predict_plan(
 ) -> Result<PredictReport, PredictError> {
     let started = Instant::now();
     let (matches, _) = match_plan(program, model, &plan.points, options)?;
-    let errors = volumetric_errors(model, &plan.points, &matches)?;
-    let at_contact = contact_errors(model, &plan.points, &matches)?;
+    let errors = match_errors(model, &plan.points, &matches)?;
     let uncertain = model.has_uncertainty();
     let mut points = Vec::with_capacity(plan.points.len());
     let mut deviations = Vec::new();
     let mut with_path = Vec::new();
     let mut max_offset = 0.0f64;
-    for (((p, m), e), ec) in plan
-        .points
-        .iter()
-        .zip(&matches)
-        .zip(&errors)
-        .zip(&at_contact)
-    {
+    for ((p, m), e) in plan.points.iter().zip(&matches).zip(&errors) {
         let n = p.normal;
-        let deviation = e.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
+        let deviation = e.map(|e| dot(n, e.deviation));
         // What the part measures: the error where the tool touches.
-        let at_contact = ec.map(|e| n[0] * e[0] + n[1] * e[1] + n[2] * e[2]);
+        let at_contact = e.map(|e| dot(n, e.contact));
         // Nominal contact point of the cutting path point, relative to the plan point.
         let offset = m.map(|m| {
             let t = m.point.tip;
@@ -89,7 +83,7 @@ pub fn predict_plan(
             tool: m.map(|m| m.point.tool.number),
             point: p.point,
             normal: p.normal,
-            e_um: *e,
+            e_um: e.map(|e| e.deviation),
             distance_mm: m.map(|m| m.distance_mm),
             deviation_with_path_um: deviation_with_path,
             deviation_u_um: deviation_u,
@@ -108,7 +102,7 @@ pub fn predict_plan(
     let magnitudes: Vec<f64> = errors
         .iter()
         .flatten()
-        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .map(|e| crate::vec3::norm(e.deviation))
         .collect();
     Ok(PredictReport {
         profile_um: prof.profile_um,

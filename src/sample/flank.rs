@@ -105,6 +105,12 @@ impl FlankOptions {
         std::array::from_fn(|k| foot[k] + self.tool_radius * n[k] - self.below_foot * u[k])
     }
 
+    /// The flute length the wall needs: from the tip, below the foot, up the
+    /// ruling to the top of the wall, mm.
+    pub fn flute_needed_mm(&self) -> f64 {
+        self.below_foot + self.height / self.draft_degrees.to_radians().cos()
+    }
+
     /// The plan: (point, normal) over azimuths every 10° and five heights.
     pub fn plan_points(&self) -> Vec<([f64; 3], [f64; 3])> {
         let mut points = Vec::new();

@@ -101,7 +101,7 @@ pub fn contexts(
                     id: p.id.clone(),
                     source,
                 })?;
-            let e = error_at_match(model, m, p.normal, &errors, ErrorAt::Deviation);
+            let e = errors_at_match(model, m, p.normal, &errors).deviation;
             let axis_deviation_um = std::array::from_fn(|slot| {
                 let mut only = crate::kinematics::ErrorValues::ZERO;
                 only.component[slot] = errors.component[slot];
@@ -132,52 +132,46 @@ pub fn contexts(
 }
 
 /// Volumetric error (µm, part coordinates) at every matched point (`None`: not
-/// cut), as the predicted deviation takes it: at the tip (formats.md), or at
-/// the contact point of a tool whose shape is named.
+/// cut), as the predicted deviation takes it ([`MatchErrors::deviation`]).
 pub fn volumetric_errors(
     model: &ErrorModel,
     plan: &[PlanPoint],
     matches: &[Option<PlanMatch>],
 ) -> Result<Vec<Option<[f64; 3]>>, CutError> {
-    errors_per_match(model, plan, matches, ErrorAt::Deviation)
+    Ok(match_errors(model, plan, matches)?
+        .into_iter()
+        .map(|e| e.map(|e| e.deviation))
+        .collect())
 }
 
-/// Volumetric error (µm, part coordinates) at every matched point's contact
-/// point, for every tool: a tool without a named shape is formats.md's ball,
-/// whose error at the contact is that of its centre, the tip's plus `R·δu`.
-/// This is what the part measures (`deviation_with_path_um`): after a
-/// compensation that corrects the tool axis, the tip rule alone would miss the
-/// axis correction's effect on the ball.
-pub fn contact_errors(
+/// The volumetric error (µm, part coordinates) of a matched plan point, taken
+/// two ways from one lookup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MatchErrors {
+    /// As the predicted deviation takes it: at the tip (formats.md), or at the
+    /// contact point of a tool whose shape is named.
+    pub deviation: [f64; 3],
+    /// At the contact point for every tool: a tool without a named shape is
+    /// formats.md's ball, whose error there is its centre's, the tip's plus
+    /// `R·δu`. This is what the part measures (`deviation_with_path_um`): after
+    /// a compensation that corrects the tool axis, the tip rule alone would
+    /// miss the axis correction's effect on the ball.
+    pub contact: [f64; 3],
+}
+
+/// [`MatchErrors`] of every matched point (`None`: not cut).
+pub fn match_errors(
     model: &ErrorModel,
     plan: &[PlanPoint],
     matches: &[Option<PlanMatch>],
-) -> Result<Vec<Option<[f64; 3]>>, CutError> {
-    errors_per_match(model, plan, matches, ErrorAt::Contact)
-}
-
-/// Where [`error_at_match`] takes the error of a tool without a named shape.
-#[derive(Clone, Copy, PartialEq)]
-enum ErrorAt {
-    /// At the tip (formats.md's predicted deviation).
-    Deviation,
-    /// At the contact point of formats.md's ball.
-    Contact,
-}
-
-fn errors_per_match(
-    model: &ErrorModel,
-    plan: &[PlanPoint],
-    matches: &[Option<PlanMatch>],
-    at: ErrorAt,
-) -> Result<Vec<Option<[f64; 3]>>, CutError> {
+) -> Result<Vec<Option<MatchErrors>>, CutError> {
     plan.iter()
         .zip(matches)
         .map(|(p, m)| match m {
             None => Ok(None),
             Some(m) => model
                 .errors_at(&m.point.joints)
-                .map(|errors| Some(error_at_match(model, m, p.normal, &errors, at)))
+                .map(|errors| Some(errors_at_match(model, m, p.normal, &errors)))
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,
@@ -186,34 +180,39 @@ fn errors_per_match(
         .collect()
 }
 
-/// The volumetric error (µm, part coordinates) where the matched path point's
-/// tool touched: the tip's error (formats.md), or, for a tool whose shape is
-/// named, the error at its contact point (`contact::error_at_contact`).
-fn error_at_match(
+/// The volumetric error where the matched path point's tool touched
+/// ([`MatchErrors`]; `contact::error_at_contact`).
+fn errors_at_match(
     model: &ErrorModel,
     m: &PlanMatch,
     normal: [f64; 3],
     errors: &crate::kinematics::ErrorValues,
-    at: ErrorAt,
-) -> [f64; 3] {
+) -> MatchErrors {
     let kin = kinematics_with(model, &m.point.tool);
     let v = kin.volumetric_error(&m.point.joints, errors);
-    // The end (not the side) cuts: its rim radius, for the lowest point (a
-    // ball, formats.md's tool, has none).
+    // The end (not the side) of a named flat or bull-nose tool cuts: its rim
+    // radius, for the lowest point (a ball has none).
     let end_cuts = dot(normal, m.point.axis) > super::contact::FLANK_COS;
     let rim = match m.tool.shape {
-        None if at == ErrorAt::Deviation => return v.e_um,
         Some(shape) if end_cuts => (m.tool.radius_mm - shape.corner_radius_mm).max(0.0),
         _ => 0.0,
     };
-    super::contact::error_at_contact(
+    let contact = super::contact::error_at_contact(
         v.e_um,
         m.point.axis,
         v.axis_urad,
         m.contact_offset,
         normal,
         rim,
-    )
+    );
+    MatchErrors {
+        deviation: if m.tool.shape.is_some() {
+            contact
+        } else {
+            v.e_um
+        },
+        contact,
+    }
 }
 
 fn not_cut(p: &PlanPoint) -> PointContext {

@@ -143,20 +143,11 @@ impl PlanMatcher {
                     };
                     for &i in ids {
                         let (p, n) = self.points[i as usize];
+                        let offset = contact_offset(point.tip, point.axis, radius, g.shape, p, n);
                         let d = match g.shape {
                             // formats.md's ball: |(t + R·u) − (p + R·n)|.
-                            None => {
-                                let q = g.queries[i as usize];
-                                ((q[0] - centre[0]).powi(2)
-                                    + (q[1] - centre[1]).powi(2)
-                                    + (q[2] - centre[2]).powi(2))
-                                .sqrt()
-                            }
-                            Some(_) => {
-                                let o =
-                                    contact_offset(point.tip, point.axis, radius, g.shape, p, n);
-                                crate::vec3::dist(crate::vec3::add(point.tip, o), p)
-                            }
+                            None => crate::vec3::dist(g.queries[i as usize], centre),
+                            Some(_) => crate::vec3::dist(crate::vec3::add(point.tip, offset), p),
                         };
                         if d > self.max_distance {
                             continue;
@@ -167,9 +158,7 @@ impl PlanMatcher {
                                 point: *point,
                                 distance_mm: d,
                                 tool,
-                                contact_offset: contact_offset(
-                                    point.tip, point.axis, radius, g.shape, p, n,
-                                ),
+                                contact_offset: offset,
                             });
                         }
                     }
