@@ -9,7 +9,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput};
-use volcomp::nurbs::exhaustive::combinations;
+use volcomp::nurbs::knot_grid::combinations;
 use volcomp::nurbs::synthetic::paper_like_curve;
 use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, Selection, SmemCurve, fit_parameter};
 

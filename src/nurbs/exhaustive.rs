@@ -8,25 +8,9 @@
 use rayon::prelude::*;
 
 use super::fit_error::FitError;
+use super::knot_grid::{GridResult, combinations};
 use super::knot_placement::grid_knots;
-use super::optimise::GridResult;
 use super::problem::FitProblem;
-
-/// `C(n, k)`, saturating at `u64::MAX`.
-pub fn combinations(n: usize, k: usize) -> u64 {
-    if k > n {
-        return 0;
-    }
-    let k = k.min(n - k);
-    let mut r: u128 = 1;
-    for i in 0..k {
-        r = r * (n - i) as u128 / (i + 1) as u128;
-        if r > u64::MAX as u128 {
-            return u64::MAX;
-        }
-    }
-    r as u64
-}
 
 /// Advance `idx` (sorted, values in `lo..=hi`) to the next combination; false at the end.
 fn next_combination(idx: &mut [usize], hi: usize) -> bool {

@@ -23,8 +23,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use super::knot_grid::{GridResult, random_indices};
 use super::knot_placement::grid_knots;
-use super::optimise::{GridResult, random_indices};
 use super::problem::FitProblem;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -4,7 +4,7 @@
 //!
 //! Layout by concept: `basis` (eq. 2), `knot_vector` (eq. 3), `curve` (eq. 1),
 //! `parameterization` (eq. 11–12), `least_squares` (eq. 5–10), `knot_placement`
-//! (eq. 13–15), `genetic` (§3.2), `exhaustive` (Table 4's combination search),
+//! (eq. 13–15), `knot_grid` (the candidate grid the searches share), `genetic` (§3.2), `exhaustive` (Table 4's combination search),
 //! `optimise` (method `best`), `problem` (the shared objective), `lookup` (the
 //! inversion `position → value`), `smem` (the adaptive loop, Fig. 8).
 pub mod basis;
@@ -12,6 +12,7 @@ pub mod curve;
 pub mod exhaustive;
 pub mod fit_error;
 pub mod genetic;
+pub mod knot_grid;
 pub mod knot_placement;
 pub mod knot_vector;
 pub mod least_squares;

@@ -174,7 +174,9 @@ pub struct FitOptions {
     /// Optimise the weights when knots alone miss the tolerance (§3.2.3).
     pub optimise_weights: bool,
     /// Segments `M` of the candidate-knot grid for ga, exhaustive and best; `None` =
-    /// `2 (n − p) + 1` (the paper's M = 13 for n = 9; best refines off the grid).
+    /// `2 (n − p) + 1` for ga and exhaustive (the paper's M = 13 for n = 9) and
+    /// `3 (n − p) + 1` for best, which also admits double knots and refines off
+    /// the grid.
     pub grid_segments: Option<usize>,
     /// Largest number of combinations the exhaustive method may enumerate.
     pub exhaustive_limit: u64,
@@ -451,8 +453,11 @@ fn validate(positions: &[f64], values: &[f64], degree: usize) -> Result<(), FitE
 
 /// The default grid `M` for `n + 1` control points (see [`FitOptions::grid_segments`]).
 pub fn default_grid_segments(method: KnotMethod, n: usize, p: usize, samples: usize) -> usize {
-    let _ = (method, samples);
-    2 * (n - p) + 1
+    let _ = samples;
+    match method {
+        KnotMethod::Best => optimise::default_segments(n - p),
+        _ => 2 * (n - p) + 1,
+    }
 }
 
 /// Knots (and weights) for `count` control points with the chosen method.
