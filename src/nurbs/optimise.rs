@@ -494,7 +494,7 @@ fn chebyshev_step(r: &[f64], jac: &[f64], k: usize, mu: f64) -> Option<Vec<f64>>
             })
             .collect();
         let total: f64 = w.iter().zip(&e).map(|(w, e)| w * e).sum();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             break;
         }
         for (wi, ei) in w.iter_mut().zip(&e) {
