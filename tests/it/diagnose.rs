@@ -818,7 +818,7 @@ mod cli {
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
         let factors = v["model_check"]["factors"].as_object().unwrap();
-        // Measured: X ×1.48, Y ×1.47, Z ×1.63, A ×1.15, C ×1.41 (truth 1.5).
+        // Measured: X ×1.48, Y ×1.47, Z ×1.63, A ×1.14, C ×1.41 (truth 1.5).
         for axis in ["X", "Y", "Z", "C"] {
             let b = factors[axis].as_f64().unwrap();
             assert!((b - 0.5).abs() < 0.2, "{axis}: {b}");
