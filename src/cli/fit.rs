@@ -22,8 +22,8 @@ Examples:
 
 Each measured column is fitted with a cubic NURBS. By default (--select cv) the curve
 follows the machine, not the measurement noise: a penalised cubic B-spline whose number
-of control points and smoothness minimise generalised cross-validation, periodic over a
-full C turn. The table shows each parameter's estimated noise (from the data alone), the
+of control points and smoothness minimise generalised cross-validation, smoothing less
+where the curve bends (a locally adaptive penalty), periodic over a full C turn. The table shows each parameter's estimated noise (from the data alone), the
 effective number of parameters (dof) and the cross-validated error (cv: the expected RMS
 error at a new measurement of that table).
 
