@@ -13,10 +13,12 @@
 //!      to any grid index (doubling one is a move), taking the best move, until
 //!      no move lowers `(emax, erms)` (lexicographic, so plateaus of the max norm
 //!      are left through the RMS); then [`KICKS`] times, move two knots of the
-//!      incumbent at random and descend again. Fits are memoised; every pass
-//!      strictly improves, so each descent stops.
-//! 2. **Continuous refinement** of the best [`POLISHED`] grid optima off the
-//!    grid, by two local methods whose better result is kept:
+//!      incumbent at random and descend again. Descents run in parallel (the
+//!      starts, then the kicks in rounds), each with its memo of fits; every
+//!      pass strictly improves, so each descent stops.
+//! 2. **Continuous refinement** of the best [`POLISHED`] grid optima, one per
+//!    basin (a knot set within one grid step of a better one is skipped), off
+//!    the grid by two local methods whose better result is kept:
 //!    - [`minimax_knots`]: Levenberg–Marquardt steps on linearised Chebyshev
 //!      problems (finite-difference Jacobian of the residuals in the knots);
 //!    - [`refine_knots`]: a compass search, first on a smooth surrogate of the
