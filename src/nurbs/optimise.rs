@@ -469,41 +469,32 @@ const LAWSON_ITERATIONS: usize = 60;
 /// least squares) with a Levenberg–Marquardt damping `μ ‖δ‖²`. `jac` is row-major
 /// `r.len() × k`.
 fn chebyshev_step(r: &[f64], jac: &[f64], k: usize, mu: f64) -> Option<Vec<f64>> {
+    use nalgebra::{DMatrix, DVector};
     let m = r.len();
-    let mut w = vec![1.0 / m as f64; m];
-    let mut delta = vec![0.0; k];
+    let j = DMatrix::from_row_slice(m, k, jac);
+    let r = DVector::from_column_slice(r);
+    let mut w = DVector::from_element(m, 1.0 / m as f64);
+    let mut delta = DVector::zeros(k);
     for _ in 0..LAWSON_ITERATIONS {
-        let mut a = nalgebra::DMatrix::<f64>::zeros(k, k);
-        let mut b = nalgebra::DVector::<f64>::zeros(k);
-        for i in 0..m {
-            let row = &jac[i * k..(i + 1) * k];
-            for p in 0..k {
-                b[p] -= w[i] * row[p] * r[i];
-                for q in 0..k {
-                    a[(p, q)] += w[i] * row[p] * row[q];
-                }
-            }
-        }
+        // Normal equations of the weighted problem: (Jᵀ W J + μ I) δ = −Jᵀ W r.
+        let scaled = DMatrix::from_fn(m, k, |i, c| j[(i, c)] * w[i].sqrt());
+        let mut a = scaled.tr_mul(&scaled);
         for p in 0..k {
             a[(p, p)] += mu;
         }
-        let d = a.cholesky()?.solve(&b);
-        delta.copy_from_slice(d.as_slice());
-        let e: Vec<f64> = (0..m)
-            .map(|i| {
-                let row = &jac[i * k..(i + 1) * k];
-                (r[i] + row.iter().zip(&delta).map(|(a, b)| a * b).sum::<f64>()).abs()
-            })
-            .collect();
-        let total: f64 = w.iter().zip(&e).map(|(w, e)| w * e).sum();
+        let b = -j.tr_mul(&r.component_mul(&w));
+        delta = a.cholesky()?.solve(&b);
+        let e = (&r + &j * &delta).abs();
+        let total = w.dot(&e);
         if total.is_nan() || total <= 0.0 {
             break;
         }
-        for (wi, ei) in w.iter_mut().zip(&e) {
-            *wi = *wi * ei / total;
-        }
+        w = w.component_mul(&e) / total;
     }
-    delta.iter().all(|v| v.is_finite()).then_some(delta)
+    delta
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| delta.as_slice().to_vec())
 }
 
 /// Minimax refinement of the knot positions off any grid: a Levenberg–Marquardt
