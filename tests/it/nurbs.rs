@@ -49,6 +49,45 @@ proptest! {
         }
     }
 
+    /// Any finite table fits, by the default and by `best` on a few control
+    /// points, or says why not: no panic, no NaN in a returned curve.
+    #[test]
+    fn any_table_fits_or_says_why(
+        gaps in prop::collection::vec(0.1..20.0f64, 5..30),
+        values in prop::collection::vec(-50.0..50.0f64, 30),
+        spike in 0usize..30,
+        constant in any::<bool>(),
+        extra in 0usize..6,
+    ) {
+        let mut x = vec![0.0];
+        for g in &gaps {
+            x.push(x.last().unwrap() + g);
+        }
+        let mut y: Vec<f64> = values[..x.len()].to_vec();
+        if constant {
+            y.iter_mut().for_each(|v| *v = 3.0);
+        }
+        let k = spike % y.len();
+        y[k] += 1000.0;
+        let options = [
+            FitOptions::default(),
+            FitOptions {
+                select: Selection::Emax,
+                method: KnotMethod::Best,
+                control_points: Some((4 + extra).min(x.len())),
+                ..FitOptions::default()
+            },
+        ];
+        for o in &options {
+            if let Ok(curve) = fit_parameter(&x, &y, ParameterKind::Length, o) {
+                for t in 0..=50 {
+                    let at = x[0] + (x[x.len() - 1] - x[0]) * t as f64 / 50.0;
+                    prop_assert!(curve.value_at(at).is_finite());
+                }
+            }
+        }
+    }
+
     /// value_at inverts x(u) exactly on a fitted SMEM curve.
     #[test]
     fn lookup_round_trip(u in 0.0..=1.0f64) {
