@@ -36,13 +36,16 @@ use volcomp::kinematics::{ErrorValues, Kinematics};
 use volcomp::machine::Machine;
 use volcomp::nurbs::smem::{FitOptions, KnotMethod, ParameterKind, Selection, fit_parameter};
 
+/// A function of one position: a truth or a model of it.
+type Model = Box<dyn Fn(f64) -> f64 + Send + Sync>;
+
 /// One tabulated parameter with its truth.
 struct Parameter {
     kind: ParameterKind,
     periodic: bool,
     positions: Vec<f64>,
     noisy: Vec<f64>,
-    truth: Box<dyn Fn(f64) -> f64 + Send + Sync>,
+    truth: Model,
 }
 
 const MODELS: [&str; 6] = [
@@ -61,14 +64,7 @@ fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
 }
 
 /// A smooth truth like a real error parameter on `[lo, hi]`, amplitude `amp`.
-fn truth(
-    rng: &mut ChaCha8Rng,
-    lo: f64,
-    hi: f64,
-    step: f64,
-    amp: f64,
-    periodic: bool,
-) -> Box<dyn Fn(f64) -> f64 + Send + Sync> {
+fn truth(rng: &mut ChaCha8Rng, lo: f64, hi: f64, step: f64, amp: f64, periodic: bool) -> Model {
     if periodic {
         let h: Vec<(f64, f64)> = (1..=3)
             .map(|k| {
@@ -234,10 +230,10 @@ fn smoothing(xs: &[f64], ys: &[f64]) -> Vec<f64> {
 }
 
 /// Each model's value at `x` for one parameter, built once (in [`MODELS`] order).
-fn models(p: &Parameter, fast: bool) -> Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>> {
+fn models(p: &Parameter, fast: bool) -> Vec<Model> {
     let xs = p.positions.clone();
     let ys = p.noisy.clone();
-    let smem = |options: FitOptions| -> Box<dyn Fn(f64) -> f64 + Send + Sync> {
+    let smem = |options: FitOptions| -> Model {
         let curve = fit_parameter(&xs, &ys, p.kind, &options).expect("fits");
         Box::new(move |x| curve.value_at(x))
     };
@@ -251,7 +247,7 @@ fn models(p: &Parameter, fast: bool) -> Vec<Box<dyn Fn(f64) -> f64 + Send + Sync
     let ms = natural_second_derivatives(&xs, &smooth);
     let (x1, y1, x2, y2, x3) = (xs.clone(), ys.clone(), xs.clone(), ys.clone(), xs.clone());
     // Left out in fast mode: a stand-in that is never reported.
-    let skipped = || -> Box<dyn Fn(f64) -> f64 + Send + Sync> { Box::new(|_| f64::NAN) };
+    let skipped = || -> Model { Box::new(|_| f64::NAN) };
     vec![
         if fast {
             skipped()
@@ -323,7 +319,7 @@ fn compensate(
 /// distance of the TRUE tip from the target after compensating with the model.
 fn volumetric(
     kin: &Kinematics,
-    models: &[Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>>],
+    models: &[Vec<Model>],
     truths: &[&(dyn Fn(f64) -> f64 + Send + Sync)],
     poses: &[Axes],
     first: usize,
@@ -379,8 +375,7 @@ fn main() {
     for m in 0..machines {
         let table = machine(seed + m);
         use rayon::prelude::*;
-        let built: Vec<Vec<Box<dyn Fn(f64) -> f64 + Send + Sync>>> =
-            table.par_iter().map(|p| models(p, fast)).collect();
+        let built: Vec<Vec<Model>> = table.par_iter().map(|p| models(p, fast)).collect();
         // One row per parameter: RMS vs truth, densely between the table points.
         let rms: Vec<(usize, [f64; M])> = table
             .par_iter()
