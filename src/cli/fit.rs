@@ -23,9 +23,10 @@ Examples:
 Each measured column is fitted with a cubic NURBS. By default (--select cv) the curve
 follows the machine, not the measurement noise: a penalised cubic B-spline whose number
 of control points and smoothness minimise generalised cross-validation, smoothing less
-where the curve bends (a locally adaptive penalty), periodic over a full C turn. The table shows each parameter's estimated noise (from the data alone), the
-effective number of parameters (dof) and the cross-validated error (cv: the expected RMS
-error at a new measurement of that table).
+where the curve bends (a locally adaptive penalty), periodic over a full C turn. The
+table shows each parameter's estimated noise (from the data alone), the effective
+number of parameters (dof) and the cross-validated error (cv: the expected RMS error at
+a new measurement of that table).
 
 --select emax is the paper's (He et al. 2016): knots by --method, weights optimised,
 control points added until the largest error at the measured points is within tolerance

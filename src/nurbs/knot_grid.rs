@@ -42,11 +42,27 @@ pub const MAX_MULTIPLICITY: usize = 2;
 
 /// A random k-subset of `1..segments`, sorted (distinct indices).
 pub fn random_indices(rng: &mut impl Rng, segments: usize, k: usize) -> Vec<usize> {
-    let mut all: Vec<usize> = (1..segments).collect();
-    all.shuffle(rng);
-    let mut s = all[..k].to_vec();
-    s.sort_unstable();
-    s
+    sorted_sample(rng, (1..segments).collect(), k)
+}
+
+/// A random sorted multiset of `k` indices in `1..segments`, each at most
+/// [`MAX_MULTIPLICITY`] times: distinct when the grid holds `k` of them.
+pub fn random_multiset(rng: &mut impl Rng, segments: usize, k: usize) -> Vec<usize> {
+    if k < segments {
+        return random_indices(rng, segments, k);
+    }
+    let pool = (1..segments)
+        .flat_map(|t| std::iter::repeat_n(t, MAX_MULTIPLICITY))
+        .collect();
+    sorted_sample(rng, pool, k)
+}
+
+/// `k` of `pool`, drawn at random, sorted.
+fn sorted_sample(rng: &mut impl Rng, mut pool: Vec<usize>, k: usize) -> Vec<usize> {
+    pool.shuffle(rng);
+    pool.truncate(k);
+    pool.sort_unstable();
+    pool
 }
 
 /// Snap knots in (0, 1) to distinct sorted grid indices in `1..segments`

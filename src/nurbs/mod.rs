@@ -4,8 +4,8 @@
 //!
 //! Layout by concept: `basis` (eq. 2), `knot_vector` (eq. 3), `curve` (eq. 1),
 //! `parameterization` (eq. 11–12), `least_squares` (eq. 5–10), `knot_placement`
-//! (eq. 13–15), `knot_grid` (the candidate grid the searches share), `genetic` (§3.2), `exhaustive` (Table 4's combination search),
-//! `optimise` (method `best`), `problem` (the shared objective), `lookup` (the
+//! (eq. 13–15), `knot_grid` (the candidate grid the searches share), `genetic`
+//! (§3.2), `exhaustive` (Table 4's combination search), `optimise` (method `best`), `problem` (the shared objective), `lookup` (the
 //! inversion `position → value`), `smem` (the adaptive loop, Fig. 8).
 pub mod basis;
 pub mod curve;

@@ -38,7 +38,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::knot_grid::{
-    GridResult, MAX_MULTIPLICITY, multiset_count, multisets, random_indices, snap,
+    GridResult, MAX_MULTIPLICITY, multiset_count, multisets, random_multiset, snap,
     within_multiplicity,
 };
 use super::knot_placement::{self, grid_knots};
@@ -80,10 +80,8 @@ pub fn default_segments(k: usize) -> usize {
 
 type Score = (f64, f64);
 
+/// `(emax, erms)` of a valid knot multiset (`+∞` when infeasible).
 fn score_of(problem: &FitProblem, indices: &[usize], segments: usize, weights: &[f64]) -> Score {
-    if !within_multiplicity(indices) {
-        return (f64::INFINITY, f64::INFINITY);
-    }
     problem
         .evaluate(&grid_knots(indices, segments), weights)
         .map_or((f64::INFINITY, f64::INFINITY), |c| (c.emax, c.erms))
@@ -226,26 +224,6 @@ pub fn grid_search_top(
         optima.sort_by(order);
     }
     finish(optima, evaluations)
-}
-
-/// A random sorted multiset of `k` indices in `1..segments`, each at most twice
-/// (distinct when the grid holds them).
-fn random_multiset(rng: &mut impl Rng, segments: usize, k: usize) -> Vec<usize> {
-    if k < segments {
-        return random_indices(rng, segments, k);
-    }
-    let mut all: Vec<usize> = (1..segments)
-        .flat_map(|t| std::iter::repeat_n(t, MAX_MULTIPLICITY))
-        .collect();
-    rand::seq::SliceRandom::shuffle(all.as_mut_slice(), rng);
-    let mut s = all[..k].to_vec();
-    s.sort_unstable();
-    s
-}
-
-/// The best grid knot set of [`grid_search_top`].
-pub fn grid_search(problem: &FitProblem, n: usize, segments: usize, seed: u64) -> GridResult {
-    grid_search_top(problem, n, segments, seed, 1).swap_remove(0)
 }
 
 /// Steps 1 and 2: refine the best few grid optima off the grid and keep the best.
