@@ -158,7 +158,7 @@ fn bench_pose(c: &mut Criterion, model: &ErrorModel) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let poses: Vec<volcomp::axes::Axes> = (0..1000)
         .map(|_| {
-            volcomp::axes::Axes::new(
+            volcomp::axes::Axes::xyzac(
                 rng.random_range(-150.0..150.0),
                 rng.random_range(-100.0..100.0),
                 rng.random_range(-150.0..50.0),

@@ -34,7 +34,7 @@ fn poses(n: usize) -> Vec<Axes> {
     let mut rng = ChaCha8Rng::seed_from_u64(2016);
     (0..n)
         .map(|_| {
-            Axes::new(
+            Axes::xyzac(
                 rng.random_range(-200.0..200.0),
                 rng.random_range(-150.0..150.0),
                 rng.random_range(-200.0..100.0),

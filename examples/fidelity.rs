@@ -419,12 +419,14 @@ fn main() {
         // The volumetric error and the closed loop at 40 poses in the travel.
         let mut rng = ChaCha8Rng::seed_from_u64(seed + m + 1000);
         let poses: Vec<Axes> = (0..40)
-            .map(|_| Axes {
-                x: rng.random_range(-190.0..190.0),
-                y: rng.random_range(-190.0..190.0),
-                z: rng.random_range(-190.0..190.0),
-                a: rng.random_range(-105.0..105.0),
-                c: rng.random_range(0.0..360.0),
+            .map(|_| {
+                Axes::xyzac(
+                    rng.random_range(-190.0..190.0),
+                    rng.random_range(-190.0..190.0),
+                    rng.random_range(-190.0..190.0),
+                    rng.random_range(-105.0..105.0),
+                    rng.random_range(0.0..360.0),
+                )
             })
             .collect();
         let truths: Vec<&(dyn Fn(f64) -> f64 + Send + Sync)> =

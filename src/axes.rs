@@ -1,31 +1,63 @@
-//! Five-axis positions shared by every layer: `X Y Z` in mm, `A C` in degrees.
+//! Axis positions shared by every layer: the nine axis letters of RS274NGC
+//! (`X Y Z A B C U V W`, LinuxCNC's `EmcPose`), linear in mm, rotary in degrees.
 //!
-//! The same type carries joint commands (machine coordinates, as a joint-frame
-//! program writes them) and part-frame targets (tool tip in part coordinates plus
-//! A and C); which one a value is depends on where it came from (see `gcode::Frame`).
+//! The program layer tracks all nine, as LinuxCNC's interpreter does; a machine
+//! has X Y Z, two of A B C and possibly some of U V W (`kinematics::MachineChain`
+//! says which), and a word for a letter the machine lacks is refused where the
+//! machine is known. The same type carries joint commands (machine coordinates,
+//! as a joint-frame program writes them) and part-frame targets (tool tip in part
+//! coordinates plus the rotary joints); which one a value is depends on where it
+//! came from (see `gcode::Frame`).
 use serde::{Deserialize, Serialize};
 
+/// A position of all nine axes. Letters a machine lacks stay 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Axes {
     pub x: f64,
     pub y: f64,
     pub z: f64,
     pub a: f64,
+    #[serde(default)]
+    pub b: f64,
     pub c: f64,
+    #[serde(default)]
+    pub u: f64,
+    #[serde(default)]
+    pub v: f64,
+    #[serde(default)]
+    pub w: f64,
 }
 
-/// One of the five axes, in program order.
+/// One of the nine axis letters, in RS274NGC order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Axis {
     X,
     Y,
     Z,
     A,
+    B,
     C,
+    U,
+    V,
+    W,
 }
 
+/// Number of axis letters.
+pub const AXIS_COUNT: usize = 9;
+
 impl Axis {
-    pub const ALL: [Axis; 5] = [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::C];
+    /// Every letter, in RS274NGC order (the index of a letter is `axis as usize`).
+    pub const ALL: [Axis; AXIS_COUNT] = [
+        Axis::X,
+        Axis::Y,
+        Axis::Z,
+        Axis::A,
+        Axis::B,
+        Axis::C,
+        Axis::U,
+        Axis::V,
+        Axis::W,
+    ];
 
     pub fn letter(self) -> char {
         match self {
@@ -33,12 +65,22 @@ impl Axis {
             Axis::Y => 'Y',
             Axis::Z => 'Z',
             Axis::A => 'A',
+            Axis::B => 'B',
             Axis::C => 'C',
+            Axis::U => 'U',
+            Axis::V => 'V',
+            Axis::W => 'W',
         }
     }
 
+    /// The lower-case letter (machine-file keys, CSV columns).
+    pub fn lower(self) -> char {
+        self.letter().to_ascii_lowercase()
+    }
+
+    /// A, B and C turn (degrees); the others travel (mm).
     pub fn is_rotary(self) -> bool {
-        matches!(self, Axis::A | Axis::C)
+        matches!(self, Axis::A | Axis::B | Axis::C)
     }
 
     pub fn from_letter(c: char) -> Option<Axis> {
@@ -47,15 +89,88 @@ impl Axis {
             'Y' => Some(Axis::Y),
             'Z' => Some(Axis::Z),
             'A' => Some(Axis::A),
+            'B' => Some(Axis::B),
             'C' => Some(Axis::C),
+            'U' => Some(Axis::U),
+            'V' => Some(Axis::V),
+            'W' => Some(Axis::W),
             _ => None,
         }
+    }
+
+    /// "mm" or "°".
+    pub fn unit(self) -> &'static str {
+        if self.is_rotary() { "°" } else { "mm" }
+    }
+}
+
+/// A set of axis letters (which letters a machine has).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct AxisSet(u16);
+
+impl Default for AxisSet {
+    /// Every letter (a program read without a machine, as LinuxCNC's `rs274`).
+    fn default() -> Self {
+        AxisSet::ALL
+    }
+}
+
+impl AxisSet {
+    pub const ALL: AxisSet = AxisSet((1 << AXIS_COUNT) - 1);
+    /// X Y Z A B C: what LinuxCNC's `rs274` reads without an INI file.
+    pub const RS274: AxisSet = AxisSet(0b111111);
+    pub const EMPTY: AxisSet = AxisSet(0);
+
+    pub fn of(axes: &[Axis]) -> AxisSet {
+        axes.iter().fold(AxisSet::EMPTY, |s, a| s.with(*a))
+    }
+
+    pub fn with(self, axis: Axis) -> AxisSet {
+        AxisSet(self.0 | (1 << axis as u16))
+    }
+
+    pub fn contains(self, axis: Axis) -> bool {
+        self.0 & (1 << axis as u16) != 0
+    }
+
+    pub fn iter(self) -> impl Iterator<Item = Axis> {
+        Axis::ALL.into_iter().filter(move |a| self.contains(*a))
+    }
+
+    /// The letters, in order (`"XYZBC"`).
+    pub fn letters(self) -> String {
+        self.iter().map(Axis::letter).collect()
     }
 }
 
 impl Axes {
-    pub const fn new(x: f64, y: f64, z: f64, a: f64, c: f64) -> Self {
-        Axes { x, y, z, a, c }
+    /// A position of an A/C machine (`xyzac-trt`); the other letters 0.
+    pub const fn xyzac(x: f64, y: f64, z: f64, a: f64, c: f64) -> Self {
+        Axes {
+            x,
+            y,
+            z,
+            a,
+            b: 0.0,
+            c,
+            u: 0.0,
+            v: 0.0,
+            w: 0.0,
+        }
+    }
+
+    /// X Y Z and every rotary letter 0 but `rotary`s.
+    pub fn xyz_rotary(xyz: [f64; 3], rotary: [(Axis, f64); 2]) -> Self {
+        let mut out = Axes {
+            x: xyz[0],
+            y: xyz[1],
+            z: xyz[2],
+            ..Axes::default()
+        };
+        for (axis, v) in rotary {
+            out.set(axis, v);
+        }
+        out
     }
 
     pub fn get(&self, axis: Axis) -> f64 {
@@ -64,7 +179,11 @@ impl Axes {
             Axis::Y => self.y,
             Axis::Z => self.z,
             Axis::A => self.a,
+            Axis::B => self.b,
             Axis::C => self.c,
+            Axis::U => self.u,
+            Axis::V => self.v,
+            Axis::W => self.w,
         }
     }
 
@@ -74,7 +193,11 @@ impl Axes {
             Axis::Y => self.y = value,
             Axis::Z => self.z = value,
             Axis::A => self.a = value,
+            Axis::B => self.b = value,
             Axis::C => self.c = value,
+            Axis::U => self.u = value,
+            Axis::V => self.v = value,
+            Axis::W => self.w = value,
         }
     }
 
@@ -82,23 +205,37 @@ impl Axes {
         [self.x, self.y, self.z]
     }
 
-    pub fn to_array(&self) -> [f64; 5] {
-        [self.x, self.y, self.z, self.a, self.c]
+    /// All nine, in [`Axis::ALL`] order.
+    pub fn to_array(&self) -> [f64; AXIS_COUNT] {
+        [
+            self.x, self.y, self.z, self.a, self.b, self.c, self.u, self.v, self.w,
+        ]
     }
 
-    pub fn from_array(v: [f64; 5]) -> Self {
-        Axes::new(v[0], v[1], v[2], v[3], v[4])
-    }
-
-    /// Linear interpolation of every axis (A and C taken literally, no shortest path).
-    pub fn lerp(&self, other: &Axes, t: f64) -> Axes {
-        let a = self.to_array();
-        let b = other.to_array();
-        let mut out = [0.0; 5];
-        for i in 0..5 {
-            out[i] = a[i] + (b[i] - a[i]) * t;
+    /// From all nine, in [`Axis::ALL`] order.
+    pub fn from_array(v: [f64; AXIS_COUNT]) -> Self {
+        Axes {
+            x: v[0],
+            y: v[1],
+            z: v[2],
+            a: v[3],
+            b: v[4],
+            c: v[5],
+            u: v[6],
+            v: v[7],
+            w: v[8],
         }
-        Axes::from_array(out)
+    }
+
+    /// `f` applied letter by letter to `self` and `other`.
+    pub fn zip_with(&self, other: &Axes, f: impl Fn(f64, f64) -> f64) -> Axes {
+        let (a, b) = (self.to_array(), other.to_array());
+        Axes::from_array(std::array::from_fn(|i| f(a[i], b[i])))
+    }
+
+    /// Linear interpolation of every axis (rotary axes taken literally, no shortest path).
+    pub fn lerp(&self, other: &Axes, t: f64) -> Axes {
+        self.zip_with(other, |a, b| a + (b - a) * t)
     }
 
     /// Length of the XYZ part of `other - self`, mm.
@@ -109,7 +246,36 @@ impl Axes {
         (dx * dx + dy * dy + dz * dz).sqrt()
     }
 
+    /// `√(Σ Δ²)` over the rotary letters A B C, degrees.
+    pub fn rotary_distance(&self, other: &Axes) -> f64 {
+        let (da, db, dc) = (other.a - self.a, other.b - self.b, other.c - self.c);
+        (da * da + db * db + dc * dc).sqrt()
+    }
+
+    /// The largest `|Δ|` over the rotary letters A B C, degrees.
+    pub fn rotary_max_step(&self, other: &Axes) -> f64 {
+        (other.a - self.a)
+            .abs()
+            .max((other.b - self.b).abs())
+            .max((other.c - self.c).abs())
+    }
+
+    /// Length of the U V W part of `other - self`, mm.
+    pub fn uvw_distance(&self, other: &Axes) -> f64 {
+        let (du, dv, dw) = (other.u - self.u, other.v - self.v, other.w - self.w);
+        (du * du + dv * dv + dw * dw).sqrt()
+    }
+
     pub fn is_finite(&self) -> bool {
         self.to_array().iter().all(|v| v.is_finite())
+    }
+
+    /// The axis words of `letters` with `decimals` decimals: `X1.0000 Y2.0000 …`.
+    pub fn words(&self, letters: AxisSet, decimals: usize) -> String {
+        letters
+            .iter()
+            .map(|a| format!("{}{:.*}", a.letter(), decimals, self.get(a)))
+            .collect::<Vec<_>>()
+            .join(" ")
     }
 }

@@ -20,6 +20,7 @@ Examples:
   volcomp check part.ngc --subroutine-path subs/              # o<name> call finds subs/name.ngc
   volcomp check part.ngc --flatten -o flat.ngc                # loops, subroutines and cycles written out
   volcomp check part.nc --frame part          # program starts with tool-tip control on
+  volcomp check bc-part.nc --machine machines/bc-trt.toml   # B/C program: the machine's axis letters
   volcomp check legacy.nc --lenient           # pass constructs it cannot understand through
   cat part.nc | volcomp check -";
 
@@ -30,17 +31,24 @@ pub struct Args {
     pub program: PathBuf,
     #[command(flatten)]
     pub read: ProgramArgs,
-    /// Rapid rate for G0 durations, mm/min.
-    #[arg(long, default_value_t = 10_000.0)]
-    pub rapid: f64,
+    /// Rapid rate for G0 durations, mm/min (default: the machine's, else 10000).
+    #[arg(long)]
+    pub rapid: Option<f64>,
+    /// The machine the program is for: its axis letters (a word for an axis it
+    /// lacks is an error, as LinuxCNC's "Bad character"), the columns of
+    /// --targets, its tool table and rapid rate. Without it X Y Z A B C are read,
+    /// as LinuxCNC's rs274 does without an INI file.
+    #[arg(long, value_name = "MACHINE.toml")]
+    pub machine: Option<PathBuf>,
     /// Honour block delete: skip lines starting with `/`.
     #[arg(long)]
     pub skip_deleted: bool,
     /// Write every executed motion end point (loops and cycles expanded):
     /// `line,motion,x,y,z,a,b,c,tool` in machine coordinates, mm and degrees
     /// (work origin, G92 and units applied; tool length offset not applied;
-    /// `b` empty on an A/C machine; `tool`: the tool in the spindle, 0 before
-    /// the first tool change). `-` for standard output.
+    /// the columns of rotary axes the machine lacks empty, `u,v,w` added for a
+    /// machine that has them; `tool`: the tool in the spindle, 0 before the
+    /// first tool change). `-` for standard output.
     #[arg(long, value_name = "FILE.csv", conflicts_with = "flatten")]
     pub targets: Option<PathBuf>,
     /// Write the program flat to `-o`, without compensating: every block that
@@ -55,18 +63,37 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    if !(args.rapid.is_finite() && args.rapid > 0.0) {
+    let machine = args
+        .machine
+        .as_deref()
+        .map(|path| {
+            crate::machine::Machine::load_with(
+                path,
+                &crate::machine::LoadOptions {
+                    extrapolation: crate::machine::ExtrapolationPolicy::Hold,
+                },
+            )
+        })
+        .transpose()?;
+    let rapid = args.rapid.unwrap_or(
+        machine
+            .as_ref()
+            .map_or(10_000.0, |m| m.rapid_mm_per_min),
+    );
+    if !(rapid.is_finite() && rapid > 0.0) {
         return Err(super::UsageError(format!(
-            "--rapid must be a positive number of mm/min, got {}",
-            args.rapid
+            "--rapid must be a positive number of mm/min, got {rapid}"
         ))
         .into());
     }
+    let letters = machine
+        .as_ref()
+        .map_or(crate::axes::AxisSet::RS274, |m| m.letters());
     let options = InterpretOptions {
         skip_deleted_blocks: args.skip_deleted,
-        ..args.read.interpret_options(args.rapid)
+        ..args.read.interpret_options(rapid, letters)
     };
-    let setup = args.read.setup(None)?;
+    let setup = args.read.setup(machine.as_ref())?;
     let name = if crate::io::is_stdio(&args.program) {
         PathBuf::from("<stdin>")
     } else {
@@ -170,8 +197,18 @@ pub fn check_stream(
 ) -> anyhow::Result<ProgramSummary> {
     let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
+    use crate::axes::Axis;
+    let letters = options.axes;
+    // The contract's columns, plus u v w for a machine that has them.
+    let mut columns = vec![Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C];
+    columns.extend(
+        [Axis::U, Axis::V, Axis::W]
+            .into_iter()
+            .filter(|a| letters.contains(*a)),
+    );
     if let Some((out, to)) = targets.as_mut() {
-        out.write_all(b"line,motion,x,y,z,a,b,c,tool\n")
+        let names: Vec<String> = columns.iter().map(|a| a.lower().to_string()).collect();
+        out.write_all(format!("line,motion,{},tool\n", names.join(",")).as_bytes())
             .with_context(|| format!("cannot write the targets to {to}"))?;
     }
     let mut row = String::new();
@@ -184,11 +221,15 @@ pub fn check_stream(
                 let code = motion_code(m, event);
                 let e = &m.end;
                 use std::fmt::Write as _;
-                let _ = writeln!(
-                    row,
-                    "{},{code},{:.6},{:.6},{:.6},{:.6},,{:.6},{}",
-                    executed.line, e.x, e.y, e.z, e.a, e.c, event.tool.number
-                );
+                let _ = write!(row, "{},{code}", executed.line);
+                for axis in &columns {
+                    if letters.contains(*axis) {
+                        let _ = write!(row, ",{:.6}", e.get(*axis));
+                    } else {
+                        row.push(',');
+                    }
+                }
+                let _ = writeln!(row, ",{}", event.tool.number);
                 out.write_all(row.as_bytes())
                     .with_context(|| format!("cannot write the targets to {to}"))?;
             }
@@ -279,7 +320,22 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Resul
         range(&s.y),
         range(&s.z)
     );
-    crate::outln!("  A {}  C {} deg", range(&s.a), range(&s.c));
+    let rotary: Vec<String> = [("A", &s.a), ("B", &s.b), ("C", &s.c)]
+        .iter()
+        .filter(|(_, r)| r.is_some())
+        .map(|(l, r)| format!("{l} {}", range(r)))
+        .collect();
+    if !rotary.is_empty() {
+        crate::outln!("  {} deg", rotary.join("  "));
+    }
+    let uvw: Vec<String> = [("U", &s.u), ("V", &s.v), ("W", &s.w)]
+        .iter()
+        .filter(|(_, r)| r.is_some())
+        .map(|(l, r)| format!("{l} {}", range(r)))
+        .collect();
+    if !uvw.is_empty() {
+        crate::outln!("  {} mm", uvw.join("  "));
+    }
     crate::outln!("  tools: {}", tool_runs(s));
     let list = |map: &mut dyn Iterator<Item = (String, usize)>| {
         let v: Vec<String> = map.map(|(k, n)| format!("{k}×{n}")).collect();

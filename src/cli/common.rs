@@ -125,7 +125,9 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         None => ErrorModel::from_machine(&machine, &model_options)
             .with_context(|| format!("fitting the error tables of {}", path.display()))?,
     };
-    let unmeasured: Vec<String> = crate::axes::Axis::ALL
+    let unmeasured: Vec<String> = machine
+        .layout()
+        .slot_axes()
         .into_iter()
         .filter(|axis| machine.table(*axis).is_none())
         .map(|axis| axis.letter().to_string())
@@ -235,14 +237,27 @@ pub fn select_tool(
     }
 }
 
-/// Parse `G54=X,Y,Z[,A,C]` into (system number 1 … 9, origin).
-pub fn parse_offset(text: &str) -> Result<(usize, crate::axes::Axes), String> {
+/// Parse `G54=X,Y,Z[,R1,R2]` (plain numbers: X Y Z and then the machine's two
+/// rotary axes in letter order, `rotary`) or `G54=X100,Y50,B10` (letter-prefixed
+/// values, any letters) into (system number 1 … 9, origin). A letter given twice,
+/// or a letter the machine lacks (`letters`), is an error.
+pub fn parse_offset(
+    text: &str,
+    rotary: [crate::axes::Axis; 2],
+    letters: crate::axes::AxisSet,
+) -> Result<(usize, crate::axes::Axes), String> {
+    use crate::axes::{Axes, Axis};
     const SYSTEMS: [&str; 9] = [
         "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
     ];
+    let plain = format!(
+        "X,Y,Z[,{},{}]",
+        rotary[0].letter(),
+        rotary[1].letter()
+    );
     let Some((name, values)) = text.split_once('=') else {
         return Err(format!(
-            "--offset `{text}`: expected G54=X,Y,Z[,A,C] (e.g. G54=100,50,-200)"
+            "--offset `{text}`: expected G54={plain} (e.g. G54=100,50,-200) or G54=X100,Y50,Z-200"
         ));
     };
     let name = name.trim().to_ascii_uppercase();
@@ -251,20 +266,62 @@ pub fn parse_offset(text: &str) -> Result<(usize, crate::axes::Axes), String> {
             "--offset `{text}`: `{name}` is not a work coordinate system (G54 … G59, G59.1 … G59.3)"
         ));
     };
-    let numbers: Result<Vec<f64>, _> = values.split(',').map(|v| v.trim().parse::<f64>()).collect();
+    let fields: Vec<&str> = values.split(',').map(str::trim).collect();
+    let lettered = fields
+        .iter()
+        .any(|f| f.chars().next().is_some_and(|c| c.is_ascii_alphabetic()));
+    let mut origin = Axes::default();
+    if lettered {
+        let mut seen = crate::axes::AxisSet::EMPTY;
+        for field in &fields {
+            let mut chars = field.chars();
+            let axis = chars.next().and_then(Axis::from_letter);
+            let value = chars.as_str().trim().parse::<f64>().ok().filter(|v| v.is_finite());
+            match (axis, value) {
+                (Some(axis), Some(v)) if !seen.contains(axis) && letters.contains(axis) => {
+                    seen = seen.with(axis);
+                    origin.set(axis, v);
+                }
+                (Some(axis), Some(_)) if seen.contains(axis) => {
+                    return Err(format!(
+                        "--offset `{text}`: {} is given twice",
+                        axis.letter()
+                    ));
+                }
+                (Some(axis), Some(_)) => {
+                    return Err(format!(
+                        "--offset `{text}`: the machine has no {} axis (its axes: {})",
+                        axis.letter(),
+                        letters.letters()
+                    ));
+                }
+                _ => {
+                    return Err(format!(
+                        "--offset `{text}`: `{field}` is not a letter and a finite number (e.g. X100, B-5.5)"
+                    ));
+                }
+            }
+        }
+        return Ok((n + 1, origin));
+    }
+    let numbers: Result<Vec<f64>, _> = fields.iter().map(|v| v.parse::<f64>()).collect();
     let numbers = match numbers {
         Ok(v) if (v.len() == 3 || v.len() == 5) && v.iter().all(|x| x.is_finite()) => v,
         _ => {
             return Err(format!(
-                "--offset `{text}`: give 3 or 5 finite numbers X,Y,Z[,A,C] in mm and degrees"
+                "--offset `{text}`: give 3 or 5 finite numbers {plain} in mm and degrees, or letter-prefixed values such as X100,Y50,Z-200,{}10",
+                rotary[0].letter()
             ));
         }
     };
-    let get = |i: usize| numbers.get(i).copied().unwrap_or(0.0);
-    Ok((
-        n + 1,
-        crate::axes::Axes::new(get(0), get(1), get(2), get(3), get(4)),
-    ))
+    origin.x = numbers[0];
+    origin.y = numbers[1];
+    origin.z = numbers[2];
+    if numbers.len() == 5 {
+        origin.set(rotary[0], numbers[3]);
+        origin.set(rotary[1], numbers[4]);
+    }
+    Ok((n + 1, origin))
 }
 
 impl ProgramArgs {
@@ -294,8 +351,16 @@ impl ProgramArgs {
                 setup.parameters.set(n, v);
             }
         }
+        let (rotary, letters) = match machine {
+            Some(m) => (m.chain.rotary(), m.letters()),
+            None => (
+                [crate::axes::Axis::A, crate::axes::Axis::C],
+                crate::axes::AxisSet::RS274,
+            ),
+        };
         for text in &self.offset {
-            let (n, origin) = parse_offset(text).map_err(|m| super::UsageError(m))?;
+            let (n, origin) =
+                parse_offset(text, rotary, letters).map_err(|m| super::UsageError(m))?;
             setup.set_origin(n, &origin);
         }
         for dir in &self.subroutine_path {
@@ -340,12 +405,18 @@ impl ProgramArgs {
         ))
     }
 
-    /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min`.
-    pub fn interpret_options(&self, rapid_mm_per_min: f64) -> crate::gcode::InterpretOptions {
+    /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min` and
+    /// whose axis letters are `axes`.
+    pub fn interpret_options(
+        &self,
+        rapid_mm_per_min: f64,
+        axes: crate::axes::AxisSet,
+    ) -> crate::gcode::InterpretOptions {
         crate::gcode::InterpretOptions {
             initial_frame: self.frame.into(),
             rapid_mm_per_min,
             lenient: self.lenient,
+            axes,
             ..crate::gcode::InterpretOptions::default()
         }
     }

@@ -94,7 +94,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (machine, model) = args.machine.load()?;
     let options = CompensateOptions {
         tolerance_um: args.tol,
-        interpret: args.read.interpret_options(machine.rapid_mm_per_min),
+        interpret: args
+            .read
+            .interpret_options(machine.rapid_mm_per_min, machine.letters()),
         limits: (!args.no_limits).then_some(machine.limits),
         // The model's own noise at every move end: with --report only (it
         // doubles the run time).

@@ -322,7 +322,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 let text = probing_program(
                     &design,
                     &ProbingOptions {
-                        safe_z_mm: part.machine.limits.z[1],
+                        safe_z_mm: part.machine.limits.linear(crate::axes::Axis::Z)[1],
                         feed_mm_min: 100.0,
                         clearance_mm: 2.0,
                         overtravel_mm: 1.0,

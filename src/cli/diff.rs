@@ -58,7 +58,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         // Durations do not matter to a diff: the default rapid rate will do.
         interpret: args
             .read
-            .interpret_options(InterpretOptions::default().rapid_mm_per_min),
+            .interpret_options(
+                InterpretOptions::default().rapid_mm_per_min,
+                crate::axes::AxisSet::ALL,
+            ),
         top: args.top,
     };
     let (a, stamp_a) = args.read.program_and_stamp(&args.a, None)?;
@@ -97,8 +100,8 @@ pub fn summary_text(r: &crate::diff::DiffReport) -> String {
     );
     let _ = writeln!(s, "axis  unit  max Δ (signed)     mean |Δ|          RMS");
     for a in &r.axes {
-        // X Y Z in µm, A C in millidegrees: both are the value × 1000.
-        let unit = if matches!(a.axis, 'A' | 'C') {
+        // lengths in µm, angles in millidegrees: both are the value × 1000.
+        let unit = if matches!(a.axis, 'A' | 'B' | 'C') {
             "mdeg"
         } else {
             "µm  "

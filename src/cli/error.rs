@@ -19,7 +19,8 @@ Examples:
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
 
-The pose is X,Y,Z (mm), A,C (degrees). With --frame joint (default) X Y Z are the
+The pose is X,Y,Z (mm) and the machine's two rotary axes in letter order (degrees):
+X,Y,Z,A,C on an A/C machine, X,Y,Z,B,C on a B/C machine. With --frame joint (default) X Y Z are the
 machine coordinates of the tool tip; with --frame part they are the tool tip in part
 coordinates (converted with the nominal kinematics). e is actual minus nominal tool
 tip in part coordinates (µm); the tool-axis error is in µrad.";
@@ -30,10 +31,11 @@ tip in part coordinates (µm); the tool-axis error is in µrad.";
 pub struct Args {
     /// Machine file (TOML).
     pub machine: PathBuf,
-    /// One pose: X,Y,Z,A,C (mm, degrees).
+    /// One pose: X,Y,Z and the two rotary axes in letter order (mm, degrees).
     #[arg(long, value_name = "X,Y,Z,A,C", allow_hyphen_values = true)]
     pub at: Option<String>,
-    /// Many poses: a CSV file with the header `x,y,z,a,c`, one pose per row.
+    /// Many poses: a CSV file with the header `x,y,z` and the machine's rotary
+    /// letters (`x,y,z,a,c`; `x,y,z,b,c` on a B/C machine), in any order.
     #[arg(long, value_name = "FILE.csv")]
     pub poses: Option<PathBuf>,
     /// Frame of X Y Z.
@@ -57,20 +59,27 @@ pub struct Args {
     pub model: ModelArgs,
 }
 
-/// Parse `X,Y,Z,A,C`.
-pub(crate) fn parse_pose(text: &str) -> anyhow::Result<Axes> {
+/// The machine's five joint letters: X Y Z and its rotaries in letter order.
+fn joint_letters(kin: &crate::kinematics::Kinematics) -> [crate::axes::Axis; 5] {
+    use crate::axes::Axis;
+    let [r1, r2] = kin.rotary();
+    [Axis::X, Axis::Y, Axis::Z, r1, r2]
+}
+
+/// Parse `X,Y,Z,R1,R2` (the machine's rotary letters in letter order).
+pub(crate) fn parse_pose(text: &str, kin: &crate::kinematics::Kinematics) -> anyhow::Result<Axes> {
+    let letters = joint_letters(kin);
+    let names = letters.map(|a| a.letter().to_string());
     let fields: Vec<&str> = text.split(',').map(str::trim).collect();
     if fields.len() != 5 {
         return Err(crate::cli::UsageError(format!(
-            "--at expects five comma-separated numbers X,Y,Z,A,C, got \"{text}\""
+            "--at expects five comma-separated numbers {}, got \"{text}\"",
+            names.join(",")
         ))
         .into());
     }
     let mut v = [0.0; 5];
-    for (slot, (field, name)) in v
-        .iter_mut()
-        .zip(fields.iter().zip(["X", "Y", "Z", "A", "C"]))
-    {
+    for (slot, (field, name)) in v.iter_mut().zip(fields.iter().zip(&names)) {
         *slot = field
             .parse::<f64>()
             .ok()
@@ -79,12 +88,18 @@ pub(crate) fn parse_pose(text: &str) -> anyhow::Result<Axes> {
                 crate::cli::UsageError(format!("--at: {name} = \"{field}\" is not a finite number"))
             })?;
     }
-    Ok(Axes::from_array(v))
+    Ok(kin.with_joints(&Axes::default(), v))
 }
 
-/// Read a pose CSV (`x,y,z,a,c` header, any column order, `#` comments). Returns the
-/// poses with their 1-based line numbers.
-pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
+/// Read a pose CSV (`x,y,z` and the machine's rotary letters, any column order, `#`
+/// comments). Returns the poses with their 1-based line numbers.
+pub(crate) fn read_poses(
+    path: &Path,
+    kin: &crate::kinematics::Kinematics,
+) -> anyhow::Result<Vec<(usize, Axes)>> {
+    let letters = joint_letters(kin);
+    let wanted = letters.map(|a| a.lower().to_string());
+    let expected = wanted.join(",");
     let text = crate::io::read_to_string(path)?;
     let mut lines = text
         .lines()
@@ -93,7 +108,7 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
     let (header_line, header) = lines.next().ok_or_else(|| {
         anyhow!(
-            "{}: empty file (expected the header x,y,z,a,c)",
+            "{}: empty file (expected the header {expected})",
             path.display()
         )
     })?;
@@ -102,13 +117,23 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
         .map(|s| s.trim().to_ascii_lowercase())
         .collect();
     let mut index = [usize::MAX; 5];
-    for (slot, want) in index.iter_mut().zip(["x", "y", "z", "a", "c"]) {
+    for (slot, want) in index.iter_mut().zip(&wanted) {
         *slot = names.iter().position(|n| n == want).ok_or_else(|| {
             anyhow!(
-                "{}:{header_line}: header lacks column `{want}` (expected x,y,z,a,c, got \"{header}\")",
+                "{}:{header_line}: header lacks column `{want}` (expected {expected}, got \"{header}\")",
                 path.display()
             )
         })?;
+    }
+    if let Some(extra) = names.iter().find(|n| {
+        !wanted.contains(n)
+            && n.len() == 1
+            && n.chars().next().and_then(crate::axes::Axis::from_letter).is_some()
+    }) {
+        return Err(anyhow!(
+            "{}:{header_line}: column `{extra}` is an axis this machine lacks (its joints: {expected})",
+            path.display()
+        ));
     }
     let mut out = Vec::new();
     for (line, row) in lines {
@@ -132,12 +157,12 @@ pub(crate) fn read_poses(path: &Path) -> anyhow::Result<Vec<(usize, Axes)>> {
                         "{}:{line}: field {} (`{}`) = \"{}\" is not a finite number",
                         path.display(),
                         col + 1,
-                        ["x", "y", "z", "a", "c"][k],
+                        wanted[k],
                         fields[col]
                     )
                 })?;
         }
-        out.push((line, Axes::from_array(v)));
+        out.push((line, kin.with_joints(&Axes::default(), v)));
     }
     Ok(out)
 }
@@ -167,10 +192,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::cli::UsageError("--verbose applies to a single pose (--at)".into()).into(),
         );
     }
-    // Validate the input before the (slower) fit.
-    let single = args.at.as_deref().map(parse_pose).transpose()?;
-    let many = args.poses.as_deref().map(read_poses).transpose()?;
     let (machine, model) = load_model(&args.machine, &args.model)?;
+    let single = args
+        .at
+        .as_deref()
+        .map(|t| parse_pose(t, model.kinematics()))
+        .transpose()?;
+    let many = args
+        .poses
+        .as_deref()
+        .map(|p| read_poses(p, model.kinematics()))
+        .transpose()?;
     let tool = super::common::select_tool(&machine, args.tool, args.tools.as_deref())?;
     let model = model.with_tool_length(tool.length_mm);
     let kin = model.kinematics();
@@ -205,14 +237,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         } else {
             crate::outln!("machine {} ({})", machine.name, machine.source.display());
             crate::outln!("tool    {tool}");
-            let j = joints;
+            let j = kin.joints(&joints);
+            let [r1, r2] = kin.rotary();
             crate::outln!(
-                "joints  X {:.4} Y {:.4} Z {:.4} mm  A {:.4} C {:.4} deg",
-                j.x,
-                j.y,
-                j.z,
-                j.a,
-                j.c
+                "joints  X {:.4} Y {:.4} Z {:.4} mm  {} {:.4} {} {:.4} deg",
+                j[0],
+                j[1],
+                j[2],
+                r1.letter(),
+                j[3],
+                r2.letter(),
+                j[4]
             );
             let tip = kin.nominal_tip(&joints);
             crate::outln!("tip (part) {} mm", fmt3(tip, 4));

@@ -47,10 +47,13 @@ pub struct Args {
     /// Position of the normal axis, e.g. `z=0` for the XY plane (default 0).
     #[arg(long, value_name = "AXIS=VALUE", allow_hyphen_values = true)]
     pub at: Option<String>,
-    /// A angle, degrees.
+    /// A angle, degrees (machines with an A axis).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub a: f64,
-    /// C angle, degrees.
+    /// B angle, degrees (machines with a B axis).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub b: f64,
+    /// C angle, degrees (machines with a C axis).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub c: f64,
     /// Ranges of the two in-plane axes, `U0:U1,V0:V1` (mm); default: the travel.
@@ -149,8 +152,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )));
         }
     }
-    if !(args.a.is_finite() && args.c.is_finite()) {
-        return Err(usage("--a and --c must be finite".into()));
+    if !(args.a.is_finite() && args.b.is_finite() && args.c.is_finite()) {
+        return Err(usage("--a, --b and --c must be finite".into()));
     }
     let plane: Plane = args.plane.into();
     let (ua, va, na) = plane.axes();
@@ -160,13 +163,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let ranges = args.range.as_deref().map(parse_ranges).transpose()?;
     let (machine, model) = load_model(&args.machine, &args.model)?;
+    let mut rotaries = crate::axes::Axes::default();
+    for (axis, value) in [(Axis::A, args.a), (Axis::B, args.b), (Axis::C, args.c)] {
+        if value != 0.0 && !machine.letters().contains(axis) {
+            return Err(usage(format!(
+                "--{} {value}: {} has no {} axis (its axes: {})",
+                axis.lower(),
+                machine.name,
+                axis.letter(),
+                machine.letters().letters()
+            )));
+        }
+        rotaries.set(axis, value);
+    }
+    let [r1, r2] = machine.chain.rotary();
+    let rotary_text = format!(
+        "{}={} {}={}",
+        r1.letter(),
+        rotaries.get(r1),
+        r2.letter(),
+        rotaries.get(r2)
+    );
     let travel = |axis: Axis| machine.limits.get(axis).unwrap_or([-100.0, 100.0]);
     let [u_range, v_range] = ranges.unwrap_or([travel(ua), travel(va)]);
     let spec = MapSpec {
         plane,
         level,
-        a: args.a,
-        c: args.c,
+        rotaries,
         u_range,
         v_range,
         grid: args.grid,
@@ -177,14 +200,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .fit_surfaces(args.control)
         .context("fitting the map surfaces")?;
     let title = format!(
-        "{}: |e| over {}{} at {}={} mm, A={} C={}",
+        "{}: |e| over {}{} at {}={} mm, {rotary_text}",
         machine.name,
         ua.letter(),
         va.letter(),
         na.letter(),
         level,
-        args.a,
-        args.c
     );
     let svg = map.to_svg(&title, &|u, v| surfaces.magnitude.eval(u, v));
     crate::io::write_file_atomic(&args.out, svg.as_bytes())?;
@@ -201,7 +222,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::io::write_json_atomic(path, &report)?;
     }
     crate::outln!(
-        "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, A={} C={}",
+        "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, {rotary_text}",
         machine.name,
         args.grid,
         args.grid,
@@ -210,8 +231,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         va.letter(),
         v_range,
         na.letter(),
-        args.a,
-        args.c
     );
     crate::outln!("|e|: max {:.3} um, rms {rms:.3} um", map.max_magnitude());
     for fit in &surfaces.fits {

@@ -47,6 +47,11 @@ pub struct Args {
     pub out_dir: PathBuf,
 }
 
+/// The travel of the machine's two rotary axes (letter order).
+fn rotary_limits(machine: &Machine) -> [Option<[f64; 2]>; 2] {
+    machine.chain.rotary().map(|a| machine.limits.get(a))
+}
+
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let machine = Machine::load_with(
         &args.machine,
@@ -62,11 +67,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 tool_radius: machine.tool.radius,
                 ..SaddleOptions::default()
             };
-            let files = generate(
-                &machine.kinematics_model(),
-                Some(machine.limits.a),
-                &options,
-            )
+            let files = generate(&machine.kinematics_model(), rotary_limits(&machine), &options)
             .with_context(|| format!("generating the saddle for {}", args.machine.display()))?;
             vec![
                 ("saddle.nc", files.joint_program),
@@ -102,7 +103,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let files = crate::sample::flank::generate(
                 &machine.kinematics_model(),
                 tool.length_mm,
-                Some(machine.limits.a),
+                rotary_limits(&machine),
                 &options,
             )
             .with_context(|| {

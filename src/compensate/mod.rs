@@ -358,7 +358,8 @@ fn compensate_target(
     {
         return Err(PointError::Travel { axis, value, range });
     }
-    warm.correction = std::array::from_fn(|i| joints.to_array()[i] - nominal.to_array()[i]);
+    let (jq, jn) = (kin.joints(&joints), kin.joints(&nominal));
+    warm.correction = std::array::from_fn(|i| jq[i] - jn[i]);
     Ok(Compensated {
         target: target_of(kin, frame, &joints),
         residual_mm,
@@ -368,17 +369,18 @@ fn compensate_target(
 
 /// First-order estimate of [`compensate_target`] for the split decision (one
 /// error evaluation, no limits): X Y Z such that the actual tip lands on the
-/// programmed one, at the programmed A and C or at `rotary` (degrees).
+/// programmed one, at the programmed rotary joints or at `rotary` (degrees, slot
+/// order).
 fn estimate_target(
     model: &ErrorModel,
     frame: Frame,
     target: &Axes,
-    rotary: Option<(f64, f64)>,
+    rotary: Option<[f64; 2]>,
 ) -> Result<Axes, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
     let q = match rotary {
-        Some((a, c)) => first_order_joints_at(model, &nominal, a, c),
+        Some(r) => first_order_joints_at(model, &nominal, r),
         None => first_order_joints(model, &nominal),
     }
     .map_err(PointError::Solve)?;
@@ -425,24 +427,17 @@ fn plan_motion(
         // What the control would do between the compensated ends.
         let n0 = motion.point_at(arc.as_ref(), t0);
         let n1 = motion.point_at(arc.as_ref(), t1);
-        let straight = Axes::from_array({
-            let (a, b, na, nb, nm) = (
-                c0.to_array(),
-                c1.to_array(),
-                n0.to_array(),
-                n1.to_array(),
-                nominal_mid.to_array(),
-            );
-            let mut v = [0.0; 5];
-            for i in 0..5 {
-                // The correction interpolated between the ends, applied at the nominal midpoint.
-                v[i] = nm[i] + 0.5 * ((a[i] - na[i]) + (b[i] - nb[i]));
-            }
-            v
-        });
-        // With `--orientation` the control turns A and C to the interpolated
-        // corrected angles: the X Y Z the tip needs there, to first order.
-        let rotary = options.orientation.then_some((straight.a, straight.c));
+        // The correction interpolated between the ends, applied at the nominal midpoint.
+        let correction = c0
+            .zip_with(&n0, |c, n| c - n)
+            .zip_with(&c1.zip_with(&n1, |c, n| c - n), |a, b| 0.5 * (a + b));
+        let straight = nominal_mid.zip_with(&correction, |n, d| n + d);
+        // With the orientation solve the control turns the rotary axes to the
+        // interpolated corrected angles: the X Y Z the tip needs there, to first order.
+        let [r1, r2] = model.kinematics().rotary();
+        let rotary = options
+            .orientation
+            .then_some([straight.get(r1), straight.get(r2)]);
         let estimate = estimate_target(model, frame, &nominal_mid, rotary)?;
         let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
         if needs_split && depth < options.max_split_depth {

@@ -1,9 +1,9 @@
 //! The compensation solve: joints whose modelled ACTUAL tool tip lands on the
 //! programmed (nominal) one.
 //!
-//! With A and C kept as programmed, the actual tip `r_act(x, y, z)` is the nominal
-//! tip plus the volumetric error, and the nominal map is an exact rigid motion whose
-//! inverse is `Kinematics::nominal_machine_point`. The iteration
+//! With the rotary joints kept as programmed, the actual tip `r_act(x, y, z)` is the
+//! nominal tip plus the volumetric error, and the nominal map is an exact affine map
+//! whose inverse is `Kinematics::tip_to_joints`. The iteration
 //!
 //! ```text
 //! q_{k+1} = q_k + M(r_target) − M(r_act(q_k))        (M = nominal part → machine map)
@@ -13,19 +13,23 @@
 //! error functions (a few µm per 100 mm, so ~1e-4 per step) and reaches the 1 nm
 //! residual in two or three steps. It stops with a typed error when it does not.
 //!
-//! By default rotary errors are not corrected through A and C: the tool-axis
-//! error (µrad) remains, as in the seed paper, which moves only X, Y, Z.
+//! With `--position-only` rotary errors are not corrected through the rotary
+//! joints: the tool-axis error (µrad) remains, as in the seed paper, which moves
+//! only X, Y, Z.
 //!
-//! [`solve_pose_from`] (`compensate --orientation`) solves X Y Z A C together so
-//! that the actual tip AND the actual tool axis equal the programmed ones: five
-//! equations (the tip, and the axis's two components normal to the programmed
-//! axis; a rotation about the axis does not matter). Newton with the analytic
-//! tip Jacobian and the nominal axis derivatives (the errors' own dependence
-//! on the joints is ~1e-5 of them), to 1 nm and 0.01 µrad. Near the A = 0 pole
-//! C cannot steer the axis: when a step would turn C by more than
+//! [`solve_pose_from`] (the default) solves X Y Z and the two rotary joints
+//! together so that the actual tip AND the actual tool axis equal the programmed
+//! ones: five equations (the tip, and the axis's two components normal to the
+//! programmed axis; a rotation about the axis does not matter). Newton with the
+//! analytic tip Jacobian and the nominal axis derivatives (the errors' own
+//! dependence on the joints is ~1e-5 of them), to 1 nm and 0.01 µrad. Near the
+//! pole (the tool axis along the outer rotary axis: A = 0 on an A/C table) the
+//! outer joint cannot steer the axis: when a step would turn it by more than
 //! [`MAX_C_CORRECTION_DEG`] (or the iteration stalls there), the block is left
-//! to the position-only solve, and counted.
+//! to the position-only solve, and counted. Joint vectors are `(x, y, z, r₁, r₂)`
+//! with the machine's rotary letters in letter order.
 use crate::axes::Axes;
+use crate::kinematics::Kinematics;
 use crate::machine::{ErrorModel, LookupError};
 
 /// Residual at which the solve stops, mm (1 nm).
@@ -38,11 +42,11 @@ pub enum SolveError {
     #[error(transparent)]
     Lookup(#[from] LookupError),
     #[error(
-        "the compensation did not converge at X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}: residual {residual_um:.4} µm after {iterations} iterations",
-        joints.x, joints.y, joints.z, joints.a, joints.c
+        "the compensation did not converge at {joints}: residual {residual_um:.4} µm after {iterations} iterations"
     )]
     NoConvergence {
-        joints: Axes,
+        /// The programmed joints, as `X… Y… Z… B… C…`.
+        joints: String,
         residual_um: f64,
         iterations: usize,
     },
@@ -52,15 +56,16 @@ pub enum SolveError {
 
 /// Tool-axis residual at which the orientation solve stops, µrad.
 pub const RESIDUAL_URAD: f64 = 0.01;
-/// Largest C correction of the orientation solve, degrees: beyond it the pose
-/// is too close to the A = 0 pole for C to steer the axis (a 50 µrad tilt needs
-/// 0.05° of C at sin a ≈ 0.06, a = 3.3°).
+/// Largest correction of the outer rotary joint in the orientation solve,
+/// degrees: beyond it the pose is too close to the pole for that joint to steer
+/// the axis (on an A/C table a 50 µrad tilt needs 0.05° of C at sin a ≈ 0.06,
+/// a = 3.3°).
 pub const MAX_C_CORRECTION_DEG: f64 = 0.05;
 
 /// A solved pose of the orientation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolvedPose {
-    /// Compensated joints, A and C included.
+    /// Compensated joints, the rotary joints included.
     pub joints: Axes,
     /// Final |r_act − r_target|, mm.
     pub residual_mm: f64,
@@ -73,7 +78,7 @@ pub struct SolvedPose {
 }
 
 /// Farthest a kept Jacobian is used from the pose it was taken at: degrees of
-/// A or C, and mm of X, Y or Z. Within it the Jacobian differs by ≲ 1e-2
+/// a rotary joint, and mm of X, Y or Z. Within it the Jacobian differs by ≲ 1e-2
 /// relative, so Newton with it still gains two decimals per step.
 const JACOBIAN_REACH_DEG: f64 = 1.0;
 const JACOBIAN_REACH_MM: f64 = 10.0;
@@ -83,7 +88,7 @@ const KEPT_JACOBIAN_STEPS: usize = 3;
 type Lu5 = nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>;
 
 /// What one solve passes to the next along a path: the joint correction
-/// (X Y Z mm, A C degrees) of the last pose, a good start since corrections
+/// (X Y Z mm, rotary joints degrees, slot order) of the last pose, a good start since corrections
 /// change slowly, and the orientation solve's Jacobian with the joints it was
 /// taken at, kept while the path stays near them. The result does not depend on
 /// it beyond the residuals (1 nm, 0.01 µrad).
@@ -96,20 +101,37 @@ pub struct WarmStart {
 #[derive(Clone, Debug)]
 struct KeptJacobian {
     lu: Lu5,
-    at: Axes,
+    /// Joints it was taken at.
+    at: [f64; 5],
+    /// The pole angle there (degrees, [`Kinematics::pole_angle_deg`]).
+    pole_deg: f64,
 }
 
 impl KeptJacobian {
-    /// Whether it serves at `q`. Near the A = 0 pole the axis rows scale with
-    /// sin a, so the reach in A and C shrinks to a tenth of |a| there.
-    fn reaches(&self, q: &Axes) -> bool {
-        let degrees = JACOBIAN_REACH_DEG.min(0.1 * self.at.a.abs());
-        (self.at.a - q.a).abs() <= degrees
-            && (self.at.c - q.c).abs() <= degrees
-            && (self.at.x - q.x).abs() <= JACOBIAN_REACH_MM
-            && (self.at.y - q.y).abs() <= JACOBIAN_REACH_MM
-            && (self.at.z - q.z).abs() <= JACOBIAN_REACH_MM
+    /// Whether it serves at joints `q`. Near the pole the axis rows scale with the
+    /// sine of the pole angle, so the reach of the rotary joints shrinks to a tenth
+    /// of that angle there.
+    fn reaches(&self, q: &[f64; 5]) -> bool {
+        let degrees = JACOBIAN_REACH_DEG.min(0.1 * self.pole_deg);
+        (0..3).all(|i| (self.at[i] - q[i]).abs() <= JACOBIAN_REACH_MM)
+            && (3..5).all(|i| (self.at[i] - q[i]).abs() <= degrees)
     }
+}
+
+/// `X… Y… Z… B… C…` of the machine's joints (messages).
+pub(crate) fn describe_joints(kin: &Kinematics, q: &Axes) -> String {
+    let j = kin.joints(q);
+    let [r1, r2] = kin.rotary();
+    format!(
+        "X{:.4} Y{:.4} Z{:.4} {}{:.4} {}{:.4}",
+        j[0],
+        j[1],
+        j[2],
+        r1.letter(),
+        j[3],
+        r2.letter(),
+        j[4]
+    )
 }
 
 /// Joints whose actual tip and tool axis are the programmed ones, starting from
@@ -127,12 +149,18 @@ pub fn solve_pose_from(
     warm: &mut WarmStart,
 ) -> Result<Option<SolvedPose>, SolveError> {
     let target = PoseTarget::of(model, nominal)?;
+    let kin = model.kinematics();
     let mut q = *nominal;
     let guess = warm.correction;
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
-        q = Axes::from_array(std::array::from_fn(|i| q.to_array()[i] + guess[i]));
+        let j = kin.joints(&q);
+        q = kin.with_joints(&q, std::array::from_fn(|i| j[i] + guess[i]));
     }
-    if !warm.jacobian.as_ref().is_some_and(|j| j.reaches(&q)) {
+    if !warm
+        .jacobian
+        .as_ref()
+        .is_some_and(|j| j.reaches(&kin.joints(&q)))
+    {
         warm.jacobian = None;
     }
     let mut fresh = false;
@@ -150,7 +178,8 @@ pub fn solve_pose_from(
                 steps = 0;
                 KeptJacobian {
                     lu: matrix.lu(),
-                    at: q,
+                    at: kin.joints(&q),
+                    pole_deg: kin.pole_angle_deg(&q),
                 }
             }
         };
@@ -158,7 +187,8 @@ pub fn solve_pose_from(
             // The axis residual at the programmed joints, to first order (the
             // axis rows taken here: near the pole they change fast with A).
             let rows = target.axis_rows(model, &q);
-            let (da, dc) = (q.a - nominal.a, q.c - nominal.c);
+            let (jq, jn) = (kin.joints(&q), kin.joints(nominal));
+            let (da, dc) = (jq[3] - jn[3], jq[4] - jn[4]);
             let at_nominal = |row: usize| r[3 + row] - rows[row][0] * da - rows[row][1] * dc;
             before_urad = 1e6 * at_nominal(0).hypot(at_nominal(1));
         }
@@ -172,7 +202,7 @@ pub fn solve_pose_from(
                 iterations: iteration,
             }));
         }
-        match target.next(&kept.lu, &q, &r) {
+        match target.next(kin, &kept.lu, &q, &r) {
             Some(next) if fresh || steps < KEPT_JACOBIAN_STEPS => {
                 q = next;
                 steps += 1;
@@ -191,7 +221,8 @@ pub fn solve_pose_from(
 
 /// The programmed tip and tool axis, and two unit vectors normal to the axis.
 struct PoseTarget {
-    nominal: Axes,
+    /// The programmed value of the outer rotary joint and its slot (3 or 4).
+    outer: (f64, usize),
     tip: [f64; 3],
     axis: [f64; 3],
     normals: [[f64; 3]; 2],
@@ -205,8 +236,9 @@ impl PoseTarget {
         let kin = model.kinematics();
         let axis = kin.nominal_tool_axis(nominal);
         let (e1, e2) = normal_basis(axis);
+        let outer = kin.outer_rotary();
         Ok(PoseTarget {
-            nominal: *nominal,
+            outer: (nominal.get(outer), kin.chain.slot(outer).unwrap_or(4)),
             tip: kin.nominal_tip(nominal),
             axis,
             normals: [e1, e2],
@@ -236,7 +268,7 @@ impl PoseTarget {
         ))
     }
 
-    /// ∂(residual)/∂(x, y, z mm; a, c degrees): the analytic tip Jacobian and
+    /// ∂(residual)/∂(x, y, z mm; r₁, r₂ degrees): the analytic tip Jacobian and
     /// the analytic nominal axis derivatives (the errors' share is ~1e-5 of them).
     fn jacobian(
         &self,
@@ -259,31 +291,29 @@ impl PoseTarget {
         j
     }
 
-    /// ∂(axis residual along the two normals)/∂(a, c degrees) at `q`, nominal.
+    /// ∂(axis residual along the two normals)/∂(r₁, r₂ degrees) at `q`, nominal.
     fn axis_rows(&self, model: &ErrorModel, q: &Axes) -> [[f64; 2]; 2] {
         let (ua, uc) = model.kinematics().nominal_axis_jacobian(q);
         self.normals
             .map(|e| [crate::vec3::dot(ua, e), crate::vec3::dot(uc, e)])
     }
 
-    /// The next iterate, `None` when the system is singular or C would turn by
-    /// more than [`MAX_C_CORRECTION_DEG`] (the pole).
+    /// The next iterate, `None` when the system is singular or the outer rotary
+    /// joint would turn by more than [`MAX_C_CORRECTION_DEG`] (the pole).
     fn next(
         &self,
+        kin: &Kinematics,
         lu: &nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>,
         q: &Axes,
         r: &[f64; 5],
     ) -> Option<Axes> {
         let step = lu.solve(&nalgebra::Vector5::from_column_slice(r))?;
-        let next = Axes {
-            x: q.x - step[0],
-            y: q.y - step[1],
-            z: q.z - step[2],
-            a: q.a - step[3],
-            c: q.c - step[4],
-        };
-        (next.is_finite() && (next.c - self.nominal.c).abs() <= MAX_C_CORRECTION_DEG)
-            .then_some(next)
+        let j = kin.joints(q);
+        let next: [f64; 5] = std::array::from_fn(|i| j[i] - step[i]);
+        let (outer, slot) = self.outer;
+        (next.iter().all(|v| v.is_finite())
+            && (next[slot] - outer).abs() <= MAX_C_CORRECTION_DEG)
+            .then(|| kin.with_joints(q, next))
     }
 }
 
@@ -302,7 +332,7 @@ fn normal_basis(u: [f64; 3]) -> ([f64; 3], [f64; 3]) {
 /// A solved target.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Solved {
-    /// Compensated joints (A and C as programmed).
+    /// Compensated joints (rotary joints as programmed).
     pub joints: Axes,
     /// Final |r_act − r_target|, mm.
     pub residual_mm: f64,
@@ -347,46 +377,48 @@ pub fn solve_joints_from(
         q = next;
     }
     Err(SolveError::NoConvergence {
-        joints: *nominal,
+        joints: describe_joints(model.kinematics(), nominal),
         residual_um: residual * 1e3,
         iterations: MAX_ITERATIONS,
     })
 }
 
-/// First-order compensated joints with one error evaluation: `q − M⁻¹·e(q)`, A and
-/// C as given (the first step of [`solve_joints`]). Its departure from the exact
+/// First-order compensated joints with one error evaluation: `q − M⁻¹·e(q)`, the
+/// rotary joints as given (the first step of [`solve_joints`]). Its departure from the exact
 /// solve is the error's slope times the correction (≈ 1e-4 × tens of µm, a few
 /// nm), so it serves to decide whether a move must be split, never as output.
 pub fn first_order_joints(model: &ErrorModel, nominal: &Axes) -> Result<Axes, SolveError> {
     Ok(Target::of(model, nominal)?.newton_step(model, nominal)?.0)
 }
 
-/// First-order X Y Z at rotary angles `a`, `c` (degrees) such that the actual tip
-/// lands on the nominal tip of `nominal`: one error evaluation (the split
-/// decision of `--orientation`, where the control turns A and C to the
-/// interpolated corrected angles between two compensated ends).
+/// First-order X Y Z at the rotary joints `rotary` (degrees, slot order) such that
+/// the actual tip lands on the nominal tip of `nominal`: one error evaluation (the
+/// split decision of the orientation solve, where the control turns the rotary
+/// axes to the interpolated corrected angles between two compensated ends).
 pub fn first_order_joints_at(
     model: &ErrorModel,
     nominal: &Axes,
-    a: f64,
-    c: f64,
+    rotary: [f64; 2],
 ) -> Result<Axes, SolveError> {
+    let kin = model.kinematics();
+    let mut turned = *nominal;
+    let [r1, r2] = kin.rotary();
+    turned.set(r1, rotary[0]);
+    turned.set(r2, rotary[1]);
     let mut target = Target::of(model, nominal)?;
-    target.machine = model.kinematics().nominal_machine_point(target.tip, a, c);
-    let start = Axes {
-        x: target.machine[0],
-        y: target.machine[1],
-        z: target.machine[2],
-        a,
-        c,
-    };
+    target.map = kin.tip_to_joints(&turned);
+    target.machine = target.map.linear_joints(target.tip);
+    let start = target.map.joints(target.tip);
     Ok(target.newton_step(model, &start)?.0)
 }
 
-/// The nominal tool tip to land on, and its machine point at the programmed A, C.
+/// The nominal tool tip to land on, and its machine point at the programmed
+/// rotary joints.
 struct Target {
     tip: [f64; 3],
     machine: [f64; 3],
+    /// The nominal part → machine map at those rotary joints.
+    map: crate::kinematics::TipToJoints,
 }
 
 impl Target {
@@ -396,9 +428,11 @@ impl Target {
         }
         let kinematics = model.kinematics();
         let tip = kinematics.nominal_tip(nominal);
+        let map = kinematics.tip_to_joints(nominal);
         Ok(Target {
             tip,
-            machine: kinematics.nominal_machine_point(tip, nominal.a, nominal.c),
+            machine: map.linear_joints(tip),
+            map,
         })
     }
 
@@ -408,7 +442,7 @@ impl Target {
         let errors = model.errors_at(q)?;
         let actual = kinematics.actual_tip_and_axis(q, &errors).tip;
         let residual = crate::vec3::dist(actual, self.tip);
-        let m_actual = kinematics.nominal_machine_point(actual, q.a, q.c);
+        let m_actual = self.map.linear_joints(actual);
         let next = Axes {
             x: q.x + self.machine[0] - m_actual[0],
             y: q.y + self.machine[1] - m_actual[1],

@@ -212,13 +212,13 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
         next = spacing - 1 + rng.random_range(0..=2) - 1;
         let (time_min, sigma, cut_length_m) = per_point[i];
         let (kappa, n_machine) = curvature(path[i - 1].machine, p.machine, path[i + 1].machine);
-        let joints = Axes {
-            x: p.machine[0],
-            y: p.machine[1],
-            z: p.machine[2] + TOOL_LENGTH,
-            a: p.a_deg,
-            c: p.c_deg,
-        };
+        let joints = Axes::xyzac(
+            p.machine[0],
+            p.machine[1],
+            p.machine[2] + TOOL_LENGTH,
+            p.a_deg,
+            p.c_deg,
+        );
         let (a, c) = (p.a_deg.to_radians(), p.c_deg.to_radians());
         let to_part = |v: [f64; 3]| machine_to_part(p.a_deg, p.c_deg, v);
         let q = [joints.x, joints.y, joints.z];

@@ -197,7 +197,7 @@ mod tests {
         BlockSummary {
             line,
             number: None,
-            motion: Some((1, Axes::new(x, 0.0, 0.0, 0.0, 0.0))),
+            motion: Some((1, Axes::xyzac(x, 0.0, 0.0, 0.0, 0.0))),
             key: format!("G1X{x}"),
         }
     }

@@ -11,12 +11,12 @@ pub mod program;
 pub use align::{AlignOptions, Aligner};
 pub use program::{BlockSummaries, DiffOptions, diff_programs};
 
-use crate::axes::Axis;
+use crate::axes::{AXIS_COUNT, Axis, AxisSet};
 use align::{Aligned, BlockSummary};
 use serde::Serialize;
 
 /// Statistics of the change of one axis over paired motion blocks (B − A), in mm
-/// (X Y Z) or degrees (A C).
+/// (X Y Z U V W) or degrees (A B C).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct AxisChange {
     pub axis: char,
@@ -34,8 +34,9 @@ pub struct LargeChange {
     pub line_b: usize,
     /// |Δ(X, Y, Z)|, µm.
     pub xyz_change_um: f64,
-    /// Δ per axis (X Y Z in µm, A C in millidegrees).
-    pub delta: [f64; 5],
+    /// Δ per axis of the report's `axes`, in their order (mm axes in µm, rotary
+    /// axes in millidegrees).
+    pub delta: Vec<f64>,
 }
 
 /// The diff report (`--report` JSON).
@@ -50,6 +51,7 @@ pub struct DiffReport {
     pub removed: usize,
     /// Paired motion blocks whose targets were compared.
     pub motion_pairs: usize,
+    /// X Y Z, and every other letter a paired target of either program moves.
     pub axes: Vec<AxisChange>,
     /// |Δ(X, Y, Z)| over paired motion blocks, µm.
     pub max_xyz_change_um: f64,
@@ -70,28 +72,31 @@ impl DiffReport {
 #[derive(Debug)]
 pub struct DiffAccumulator {
     report: DiffReport,
-    sum_abs: [f64; 5],
-    sum_sq: [f64; 5],
+    changes: [AxisChange; AXIS_COUNT],
+    sum_abs: [f64; AXIS_COUNT],
+    sum_sq: [f64; AXIS_COUNT],
     sum_sq_xyz: f64,
+    /// Letters a paired target reaches (X Y Z always).
+    used: AxisSet,
+    /// The largest changes with Δ of all nine letters (projected on finish).
+    largest: Vec<(LargeChange, [f64; AXIS_COUNT])>,
     keep: usize,
 }
 
 impl DiffAccumulator {
     /// `keep`: how many of the largest changes (and added/removed lines) to keep.
     pub fn new(keep: usize) -> Self {
-        let mut report = DiffReport::default();
-        report.axes = Axis::ALL
-            .iter()
-            .map(|a| AxisChange {
+        DiffAccumulator {
+            report: DiffReport::default(),
+            changes: Axis::ALL.map(|a| AxisChange {
                 axis: a.letter(),
                 ..AxisChange::default()
-            })
-            .collect();
-        DiffAccumulator {
-            report,
-            sum_abs: [0.0; 5],
-            sum_sq: [0.0; 5],
+            }),
+            sum_abs: [0.0; AXIS_COUNT],
+            sum_sq: [0.0; AXIS_COUNT],
             sum_sq_xyz: 0.0,
+            used: AxisSet::of(&[Axis::X, Axis::Y, Axis::Z]),
+            largest: Vec::new(),
             keep,
         }
     }
@@ -126,13 +131,16 @@ impl DiffAccumulator {
                 if let (Some((_, ta)), Some((_, tb))) = (&a.motion, &b.motion) {
                     r.motion_pairs += 1;
                     let (va, vb) = (ta.to_array(), tb.to_array());
-                    let mut delta = [0.0; 5];
-                    for i in 0..5 {
+                    let mut delta = [0.0; AXIS_COUNT];
+                    for i in 0..AXIS_COUNT {
+                        if va[i] != 0.0 || vb[i] != 0.0 {
+                            self.used = self.used.with(Axis::ALL[i]);
+                        }
                         let d = vb[i] - va[i];
                         delta[i] = d;
                         self.sum_abs[i] += d.abs();
                         self.sum_sq[i] += d * d;
-                        let ax = &mut r.axes[i];
+                        let ax = &mut self.changes[i];
                         if d.abs() > ax.max_abs {
                             ax.max_abs = d.abs();
                             ax.max_signed = d;
@@ -142,20 +150,14 @@ impl DiffAccumulator {
                         (delta[0].powi(2) + delta[1].powi(2) + delta[2].powi(2)).sqrt() * 1e3;
                     self.sum_sq_xyz += xyz_um * xyz_um;
                     r.max_xyz_change_um = r.max_xyz_change_um.max(xyz_um);
-                    if xyz_um > 0.0 || delta[3] != 0.0 || delta[4] != 0.0 {
+                    if delta.iter().any(|d| *d != 0.0) {
                         let change = LargeChange {
                             line_a: a.line,
                             line_b: b.line,
                             xyz_change_um: xyz_um,
-                            delta: [
-                                delta[0] * 1e3,
-                                delta[1] * 1e3,
-                                delta[2] * 1e3,
-                                delta[3] * 1e3,
-                                delta[4] * 1e3,
-                            ],
+                            delta: Vec::new(),
                         };
-                        insert_largest(&mut r.largest, change, self.keep);
+                        insert_largest(&mut self.largest, (change, delta), self.keep);
                     }
                 }
             }
@@ -164,10 +166,21 @@ impl DiffAccumulator {
 
     pub fn finish(mut self) -> DiffReport {
         let n = self.report.motion_pairs.max(1) as f64;
-        for i in 0..5 {
-            self.report.axes[i].mean_abs = self.sum_abs[i] / n;
-            self.report.axes[i].rms = (self.sum_sq[i] / n).sqrt();
+        let used: Vec<usize> = self.used.iter().map(|a| a as usize).collect();
+        for &i in &used {
+            let mut change = self.changes[i].clone();
+            change.mean_abs = self.sum_abs[i] / n;
+            change.rms = (self.sum_sq[i] / n).sqrt();
+            self.report.axes.push(change);
         }
+        self.report.largest = self
+            .largest
+            .into_iter()
+            .map(|(mut change, delta)| {
+                change.delta = used.iter().map(|&i| delta[i] * 1e3).collect();
+                change
+            })
+            .collect();
         self.report.rms_xyz_change_um = (self.sum_sq_xyz / n).sqrt();
         self.report
     }
@@ -178,20 +191,20 @@ fn same_block(a: &BlockSummary, b: &BlockSummary) -> bool {
     a.key == b.key && a.motion == b.motion && a.number == b.number
 }
 
-fn insert_largest(list: &mut Vec<LargeChange>, change: LargeChange, keep: usize) {
+fn insert_largest<T>(list: &mut Vec<(LargeChange, T)>, change: (LargeChange, T), keep: usize) {
     if keep == 0 {
         return;
     }
     if list.len() == keep
         && list
             .last()
-            .is_some_and(|last| last.xyz_change_um >= change.xyz_change_um)
+            .is_some_and(|last| last.0.xyz_change_um >= change.0.xyz_change_um)
     {
         return;
     }
     let pos = list
         .iter()
-        .position(|c| c.xyz_change_um < change.xyz_change_um)
+        .position(|c| c.0.xyz_change_um < change.0.xyz_change_um)
         .unwrap_or(list.len());
     list.insert(pos, change);
     list.truncate(keep);

@@ -39,6 +39,11 @@ pub enum ErrorKind {
     BracketAfterOKeyword(&'static str),
     #[error("unexpected character `{0}`")]
     UnexpectedCharacter(String),
+    #[error(
+        "Bad character '{}' used: the machine has no {letter} axis (its axes: {axes})",
+        letter.to_ascii_lowercase()
+    )]
+    AxisNotOnMachine { letter: char, axes: String },
     #[error("subroutine call `{0}` is not supported")]
     SubroutineCall(String),
     #[error("cutter radius compensation {0} is active during a move")]
@@ -157,6 +162,9 @@ impl ErrorKind {
             | ErrorKind::UnknownOWordKeyword
             | ErrorKind::BracketAfterOKeyword(_) => {
                 "an O-word line holds only the O-word, its keyword, its bracketed arguments and comments"
+            }
+            ErrorKind::AxisNotOnMachine { .. } => {
+                "the program is for another machine (check the machine file's axes), or pass --lenient to ignore the word (reported)"
             }
             ErrorKind::SubroutineCall(_) => {
                 "expand subroutines in the CAM post-processor, or pass --lenient to pass the line through untouched (its geometry is then ignored)"

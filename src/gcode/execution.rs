@@ -47,10 +47,7 @@ impl ProgramSetup {
     /// Set the origin of work coordinate system `n` (1 = G54 … 9 = G59.3),
     /// mm and degrees.
     pub fn set_origin(&mut self, n: usize, origin: &Axes) {
-        for (k, v) in [origin.x, origin.y, origin.z, origin.a, 0.0, origin.c]
-            .into_iter()
-            .enumerate()
-        {
+        for (k, v) in origin.to_array().into_iter().enumerate() {
             self.parameters.set(numbers::coord(n, k), v);
         }
     }

@@ -62,6 +62,9 @@ pub struct InterpretOptions {
     pub initial_position: Axes,
     /// Honour block delete: skip lines that start with `/`.
     pub skip_deleted_blocks: bool,
+    /// The axis letters the machine has: a word for another is LinuxCNC's "Bad
+    /// character" (default: X Y Z A B C, what `rs274` reads without an INI file).
+    pub axes: crate::axes::AxisSet,
 }
 
 impl Default for InterpretOptions {
@@ -72,6 +75,7 @@ impl Default for InterpretOptions {
             lenient: false,
             initial_position: Axes::default(),
             skip_deleted_blocks: false,
+            axes: crate::axes::AxisSet::RS274,
         }
     }
 }
@@ -285,7 +289,7 @@ impl ToolStep {
 /// Per-block word values, fixed size (no allocation). Linear values are mm.
 #[derive(Default)]
 struct Words {
-    axes: [Option<(f64, usize)>; 5],
+    axes: [Option<(f64, usize)>; crate::axes::AXIS_COUNT],
     ijk: [Option<f64>; 3],
     r: Option<f64>,
     p: Option<f64>,
@@ -308,8 +312,6 @@ impl Words {
     }
 }
 
-/// The axis index of LinuxCNC's parameter order (X Y Z A B C U V W) of ours.
-const PARAM_AXIS: [usize; 5] = [0, 1, 2, 3, 5];
 
 impl Interpreter {
     pub fn new(options: InterpretOptions) -> Self {
@@ -501,10 +503,10 @@ impl Interpreter {
         self.stored_axes(numbers::coord(n as usize, 0))
     }
 
-    /// Five axes stored at `base` (X) … in LinuxCNC's parameter order.
+    /// The nine axes stored at `base` (X) … in LinuxCNC's parameter order.
     fn stored_axes(&self, base: usize) -> Axes {
         let mut a = Axes::default();
-        for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+        for (k, axis) in Axis::ALL.into_iter().enumerate() {
             a.set(axis, self.params.get(base + k));
         }
         a
@@ -517,7 +519,7 @@ impl Interpreter {
         let unit = |axis: Axis, v: f64| if axis.is_rotary() { v } else { v / scale };
         let mut pos = [0.0; 9];
         let mut abs = [0.0; 9];
-        for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+        for (k, axis) in Axis::ALL.into_iter().enumerate() {
             pos[k] = unit(axis, program.get(axis));
             abs[k] = unit(axis, self.position.get(axis));
         }
@@ -801,8 +803,24 @@ impl Interpreter {
                         _ => {}
                     },
                 },
-                b'X' | b'Y' | b'Z' | b'A' | b'C' => {
+                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
                     if let Some(axis) = Axis::from_letter(w.letter as char) {
+                        if !self.options.axes.contains(axis) {
+                            // LinuxCNC: "Bad character 'b' used" for an axis its
+                            // configuration lacks; under --lenient the word is
+                            // ignored and reported.
+                            self.fail(
+                                block,
+                                event,
+                                ErrorKind::AxisNotOnMachine {
+                                    letter: axis.letter(),
+                                    axes: self.options.axes.letters(),
+                                },
+                                w.start,
+                                w.end,
+                            )?;
+                            continue;
+                        }
                         let i = axis as usize;
                         let v = if axis.is_rotary() {
                             w.value
@@ -895,8 +913,8 @@ impl Interpreter {
         let mut new_position = self.position;
         let mut motion = None;
         let mut store: Vec<(usize, f64)> = Vec::new();
-        let given = |words: &Words| -> [bool; 5] {
-            let mut g = [false; 5];
+        let given = |words: &Words| -> [bool; crate::axes::AXIS_COUNT] {
+            let mut g = [false; crate::axes::AXIS_COUNT];
             for (i, a) in words.axes.iter().enumerate() {
                 g[i] = a.is_some();
             }
@@ -935,7 +953,7 @@ impl Interpreter {
                     }
                 }
                 store.push((numbers::G92_ENABLED, 1.0));
-                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                for (k, axis) in Axis::ALL.into_iter().enumerate() {
                     store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
                 }
             }
@@ -944,19 +962,14 @@ impl Interpreter {
                 if !words.has_axes() {
                     self.fail(block, event, ErrorKind::G92WithoutAxes, 0, block.raw.len())?;
                 }
-                let mut q = program_now;
-                q.x += origin.g92.x;
-                q.y += origin.g92.y;
-                q.z += origin.g92.z;
-                q.a += origin.g92.a;
-                q.c += origin.g92.c;
+                let q = program_now.zip_with(&origin.g92, |p, g| p + g);
                 for axis in Axis::ALL {
                     if let Some((v, _)) = words.axes[axis as usize] {
                         origin.g92.set(axis, q.get(axis) - v);
                     }
                 }
                 store.push((numbers::G92_ENABLED, 1.0));
-                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                for (k, axis) in Axis::ALL.into_iter().enumerate() {
                     store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
                 }
             }
@@ -1024,7 +1037,7 @@ impl Interpreter {
             } else {
                 numbers::G30_POSITION
             };
-            for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+            for (k, axis) in Axis::ALL.into_iter().enumerate() {
                 store.push((base + k, self.position.get(axis)));
             }
         }
@@ -1144,7 +1157,7 @@ impl Interpreter {
             // units, #5070 is 0.
             let p = origin.to_program(&m.end);
             let mut values = [0.0; 9];
-            for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+            for (k, axis) in Axis::ALL.into_iter().enumerate() {
                 let v = p.get(axis);
                 values[k] = if axis.is_rotary() { v } else { v / scale };
             }
@@ -1530,7 +1543,7 @@ impl Interpreter {
                         }
                     }
                 }
-                for (axis, k) in Axis::ALL.into_iter().zip(PARAM_AXIS) {
+                for (k, axis) in Axis::ALL.into_iter().enumerate() {
                     store.push((numbers::coord(n as usize, k), o.get(axis)));
                 }
                 let mut rotation = self.params.get(numbers::coord(n as usize, 9));
@@ -1974,13 +1987,18 @@ impl Interpreter {
 /// Duration of a move by the effects.md rules, minutes, from its programmed
 /// coordinates (see [`duration_from_lengths`]).
 pub fn duration_min(m: &Motion, rapid_mm_per_min: f64) -> f64 {
-    let rotary = (m.end.a - m.start.a).hypot(m.end.c - m.start.c);
-    duration_from_lengths(&m.feed, m.xyz_length(), rotary, rapid_mm_per_min)
+    let rotary = m.start.rotary_distance(&m.end);
+    // LinuxCNC's feed rule: the XYZ length, else the UVW length, else the rotary.
+    let linear = match m.xyz_length() {
+        0.0 => m.start.uvw_distance(&m.end),
+        l => l,
+    };
+    duration_from_lengths(&m.feed, linear, rotary, rapid_mm_per_min)
 }
 
 /// Duration (minutes) of a move with XYZ path length `xyz_mm` and rotary length
-/// `rotary_deg` = √(Δa² + Δc²): the XYZ length over F, the rotary length over F
-/// when only A/C move, the rapid rate for G0, 1/F under G93; 0 when the feed gives
+/// `rotary_deg` = √(Δa² + Δb² + Δc²): the XYZ length over F, the rotary length over
+/// F when only the rotary axes move, the rapid rate for G0, 1/F under G93; 0 when the feed gives
 /// no time (F0).
 pub fn duration_from_lengths(
     feed: &Feed,

@@ -91,9 +91,7 @@ impl Motion {
         };
         let arc = self.arc_geometry();
         let len = arc.map_or_else(|| self.start.xyz_distance(&self.end), |g| g.length());
-        let rot = (self.end.a - self.start.a)
-            .abs()
-            .max((self.end.c - self.start.c).abs());
+        let rot = self.start.rotary_max_step(&self.end);
         let n = ((len.max(rot) / step).ceil() as usize).clamp(1, 1_000_000);
         for i in 1..n {
             out.push(self.point_at(arc.as_ref(), i as f64 / n as f64));

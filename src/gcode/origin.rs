@@ -21,8 +21,8 @@ pub struct Origin {
 impl Origin {
     /// The identity (machine coordinates, as G53 uses).
     pub const MACHINE: Origin = Origin {
-        work: Axes::new(0.0, 0.0, 0.0, 0.0, 0.0),
-        g92: Axes::new(0.0, 0.0, 0.0, 0.0, 0.0),
+        work: Axes::xyzac(0.0, 0.0, 0.0, 0.0, 0.0),
+        g92: Axes::xyzac(0.0, 0.0, 0.0, 0.0, 0.0),
         rotation_deg: 0.0,
     };
 
@@ -33,37 +33,40 @@ impl Origin {
     /// Program coordinates → machine coordinates.
     pub fn to_machine(&self, p: &Axes) -> Axes {
         let (x, y) = rotate(p.x + self.g92.x, p.y + self.g92.y, self.rotation_deg);
+        let shifted = p.zip_with(&self.g92, |v, g| v + g);
         Axes {
             x: x + self.work.x,
             y: y + self.work.y,
-            z: p.z + self.g92.z + self.work.z,
-            a: p.a + self.g92.a + self.work.a,
-            c: p.c + self.g92.c + self.work.c,
+            ..shifted.zip_with(&self.work, |v, w| v + w)
         }
     }
 
     /// Machine coordinates → program coordinates (inverse of [`Origin::to_machine`]).
     pub fn to_program(&self, m: &Axes) -> Axes {
         let (x, y) = rotate(m.x - self.work.x, m.y - self.work.y, -self.rotation_deg);
+        let shifted = m.zip_with(&self.work, |v, w| v - w);
         Axes {
             x: x - self.g92.x,
             y: y - self.g92.y,
-            z: m.z - self.work.z - self.g92.z,
-            a: m.a - self.work.a - self.g92.a,
-            c: m.c - self.work.c - self.g92.c,
+            ..shifted.zip_with(&self.g92, |v, g| v - g)
         }
     }
 
     /// A point given by its X Y Z only (an arc centre) → machine XYZ.
     pub fn xyz_to_machine(&self, p: [f64; 3]) -> [f64; 3] {
-        self.to_machine(&Axes::new(p[0], p[1], p[2], 0.0, 0.0))
+        self.to_machine(&Axes::xyzac(p[0], p[1], p[2], 0.0, 0.0))
             .xyz()
     }
 
     /// Machine XYZ → program XYZ.
     pub fn xyz_to_program(&self, m: [f64; 3]) -> [f64; 3] {
-        self.to_program(&Axes::new(m[0], m[1], m[2], self.work.a, self.work.c))
-            .xyz()
+        self.to_program(&Axes {
+            x: m[0],
+            y: m[1],
+            z: m[2],
+            ..self.work
+        })
+        .xyz()
     }
 }
 
@@ -82,11 +85,11 @@ mod tests {
     #[test]
     fn round_trip_with_rotation() {
         let o = Origin {
-            work: Axes::new(10.0, 20.0, 5.0, 1.0, 90.0),
-            g92: Axes::new(1.0, -2.0, 0.5, 0.0, 3.0),
+            work: Axes::xyzac(10.0, 20.0, 5.0, 1.0, 90.0),
+            g92: Axes::xyzac(1.0, -2.0, 0.5, 0.0, 3.0),
             rotation_deg: 30.0,
         };
-        let p = Axes::new(3.0, 4.0, -1.0, 15.0, 200.0);
+        let p = Axes::xyzac(3.0, 4.0, -1.0, 15.0, 200.0);
         let back = o.to_program(&o.to_machine(&p));
         for (a, b) in back.to_array().iter().zip(p.to_array()) {
             assert!((a - b).abs() < 1e-12);
@@ -95,7 +98,7 @@ mod tests {
             rotation_deg: 90.0,
             ..Origin::MACHINE
         }
-        .to_machine(&Axes::new(1.0, 0.0, 0.0, 0.0, 0.0));
+        .to_machine(&Axes::xyzac(1.0, 0.0, 0.0, 0.0, 0.0));
         assert!((m.x).abs() < 1e-12 && (m.y - 1.0).abs() < 1e-12);
     }
 }

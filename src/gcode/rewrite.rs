@@ -217,7 +217,7 @@ pub struct Rewriter {
     emitted_motion: MotionMode,
     /// Motion mode of the original program after the last block.
     original_motion: MotionMode,
-    decimals: [u8; 5],
+    decimals: [u8; crate::axes::AXIS_COUNT],
     edits: Vec<Edit>,
     text: String,
     line: Vec<u8>,
@@ -233,7 +233,7 @@ impl Rewriter {
             emitted: initial_position,
             emitted_motion: MotionMode::None,
             original_motion: MotionMode::None,
-            decimals: [0; 5],
+            decimals: [0; crate::axes::AXIS_COUNT],
             edits: Vec::new(),
             text: String::new(),
             line: Vec::new(),
@@ -403,7 +403,7 @@ impl Rewriter {
 
         // Axis words.
         let mut last_axis_end = None;
-        let mut appended: [Option<f64>; 5] = [None; 5];
+        let mut appended: [Option<f64>; crate::axes::AXIS_COUNT] = [None; crate::axes::AXIS_COUNT];
         for axis in Axis::ALL {
             let i = axis as usize;
             let unit = ctx.unit(axis);
@@ -1051,7 +1051,7 @@ fn fractions(start: Axes, via: &[Axes], end: Axes) -> Vec<f64> {
         .collect();
     let rot: Vec<f64> = points
         .windows(2)
-        .map(|p| (p[1].a - p[0].a).hypot(p[1].c - p[0].c))
+        .map(|p| p[0].rotary_distance(&p[1]))
         .collect();
     let total_xyz: f64 = xyz.iter().sum();
     let total_rot: f64 = rot.iter().sum();

@@ -83,7 +83,11 @@ pub struct ProgramSummary {
     pub y: Option<Range>,
     pub z: Option<Range>,
     pub a: Option<Range>,
+    pub b: Option<Range>,
     pub c: Option<Range>,
+    pub u: Option<Range>,
+    pub v: Option<Range>,
+    pub w: Option<Range>,
     /// Words with a letter the interpreter does not know, by letter.
     pub unknown_words: BTreeMap<char, usize>,
     pub warnings: usize,
@@ -151,7 +155,11 @@ impl ProgramSummary {
             widen(&mut self.y, p.y);
             widen(&mut self.z, p.z);
             widen(&mut self.a, p.a);
+            widen(&mut self.b, p.b);
             widen(&mut self.c, p.c);
+            widen(&mut self.u, p.u);
+            widen(&mut self.v, p.v);
+            widen(&mut self.w, p.w);
         }
     }
 

@@ -1,28 +1,49 @@
-//! Nominal inverse kinematics from a tool tip and a tool-axis direction (part frame).
+//! Nominal inverse kinematics from a tool tip and a tool-axis direction (part frame),
+//! for any chain.
 //!
-//! The tool axis `u = (sin a sin c, sin a cos c, cos a)` (effective angles, after the
-//! direction convention) has two solutions away from the poles: `(a, c)` and
-//! `(−a, c + 180°)`. Each is unwrapped to the C nearest the previous C (any number
-//! of turns), solutions outside the A limits are dropped, and the one with the
-//! smallest joint motion `|Δa| + |Δc|` wins (ties: `a ≥ 0` in the effective angle).
-//! At the poles (`sin a` below [`POLE_SIN`]) C is undetermined and the previous C is
-//! kept.
+//! The tool axis depends on the rotary joints alone: `u = R(e₁, φ₁)·R(e₂, φ₂)·u₀`
+//! (the chain's rotations from part to tool, outermost first; see
+//! `MachineChain::orientation`). Paden–Kahan's subproblem 2 gives up to two
+//! `(φ₁, φ₂)` for a reachable `u` — for an A/C table `(a, c)` and `(−a, c + 180°)` —
+//! whatever the directions (nutating heads included). Each joint is taken at the
+//! turn nearest the previous block's joint (inside its travel where it has limits),
+//! and of the solutions inside the travel the one nearest the previous joints
+//! (Euclidean over the two rotary joints) wins, as kinematics.md asks; ties go to the
+//! larger first rotary joint (A ≥ 0 on an A/C table). At a singular pose (`u` along
+//! `e₁`, e.g. A = 0 on an A/C table) `φ₁` is free and the previous joint is kept.
+//! The linear joints then follow exactly (the tip is affine in them).
 use super::Kinematics;
-use super::transform::norm;
+use super::chain::{angle_about, inner_angles, rotation};
+use super::transform::{cross, mat_vec, norm};
 use crate::axes::Axes;
 
-/// `|sin a|` below which the tool axis is taken as lying on the C axis (A = 0° or
-/// 180°, within about 6e-8°): C is then the previous C.
+/// `|sin|` of the angle between the tool axis and the outer rotary axis below which
+/// the pose is singular (about 6e-8°): the outer joint is then the previous one.
 pub const POLE_SIN: f64 = 1e-9;
+
+/// A jump of a rotary joint between consecutive solutions beyond which the move is
+/// reported as a flip (kinematics.md).
+pub const FLIP_DEG: f64 = 90.0;
 
 /// Where the inverse starts from and what it may choose.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct InverseOptions {
-    /// The previous joint position: C is chosen nearest `previous.c`, A nearest
-    /// `previous.a` between the two branches.
+    /// The previous joint position: each rotary joint is chosen nearest it.
     pub previous: Axes,
-    /// A travel `[min, max]` in degrees; `None` means any A.
-    pub a_limits: Option<[f64; 2]>,
+    /// Travel `[min, max]` (degrees) of the two rotary joints in letter order;
+    /// `None`: endless.
+    pub limits: [Option<[f64; 2]>; 2],
+}
+
+/// The joints of one pose and what the choice met.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseSolution {
+    pub joints: Axes,
+    /// The tool axis lies on the outer rotary axis: its joint was kept.
+    pub singular: bool,
+    /// The largest change of a rotary joint from the previous position, degrees
+    /// (a flip when above [`FLIP_DEG`]).
+    pub jump_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -31,15 +52,15 @@ pub enum InverseError {
     BadAxis { axis: [f64; 3] },
     #[error("the tool tip target is not finite: {tip:?}")]
     BadTip { tip: [f64; 3] },
+    #[error("the machine's rotary axes cannot turn the tool to {axis:?} (outside its cone of reach)")]
+    Unreachable { axis: [f64; 3] },
     #[error(
-        "tool axis {axis:?} needs A = {a_first:.6}° or {a_second:.6}°, both outside the A limits [{}, {}]",
-        limits[0], limits[1]
+        "tool axis {axis:?} needs {first} or {second}, outside the travel of the rotary axes"
     )]
-    OutsideALimits {
+    OutsideLimits {
         axis: [f64; 3],
-        a_first: f64,
-        a_second: f64,
-        limits: [f64; 2],
+        first: String,
+        second: String,
     },
 }
 
@@ -48,15 +69,107 @@ pub fn nearest_turn(c: f64, previous: f64) -> f64 {
     c + 360.0 * ((previous - c) / 360.0).round()
 }
 
+/// The value of `q` (mod 360) nearest `previous` inside `limits` (any turn when
+/// `None`); `None` when no turn of it is inside.
+fn joint_near(q: f64, previous: f64, limits: Option<[f64; 2]>) -> Option<f64> {
+    let near = nearest_turn(q, previous);
+    let Some([lo, hi]) = limits else {
+        return Some(near);
+    };
+    let inside = |v: f64| v >= lo - 1e-9 && v <= hi + 1e-9;
+    [near, near - 360.0, near + 360.0, near - 720.0, near + 720.0]
+        .into_iter()
+        .filter(|v| inside(*v))
+        .min_by(|a, b| (a - previous).abs().total_cmp(&(b - previous).abs()))
+}
+
+/// The raw solutions of the orientation: joint values of the two orientation axes
+/// (outer first, degrees, any turn) and whether the pose is singular.
+struct Orientations {
+    joints: Vec<(f64, f64)>,
+    singular: bool,
+}
+
 impl Kinematics {
+    /// Paden–Kahan on the unit tool axis `u`; `previous_outer` is the outer joint kept
+    /// at a singular pose.
+    fn orientations(&self, u: [f64; 3], previous_outer: f64) -> Option<Orientations> {
+        let chain = &self.chain;
+        let [(o1, s1), (o2, s2)] = chain.orientation();
+        let (a1, a2) = (chain.axis(o1), chain.axis(o2));
+        let (e1, e2) = (a1.direction, a2.direction);
+        let u0 = chain.tool_axis();
+        // φ (rad) of an orientation rotation → joint (degrees) of its axis.
+        let to_joint =
+            |phi: f64, sign: f64, joint_sign: f64| phi.to_degrees() / (sign * joint_sign);
+        if norm(cross(e1, u)) < POLE_SIN {
+            let phi1 = (s1 * a1.joint_sign * previous_outer).to_radians();
+            let (s, c) = (-phi1).sin_cos();
+            let z = mat_vec(&rotation(e1, s, c), u);
+            let phi2 = angle_about(e2, u0, z)?;
+            return Some(Orientations {
+                joints: vec![(previous_outer, to_joint(phi2, s2, a2.joint_sign))],
+                singular: true,
+            });
+        }
+        let phi1_previous = (s1 * a1.joint_sign * previous_outer).to_radians();
+        let mut singular = false;
+        let joints: Vec<(f64, f64)> = inner_angles(e1, e2, u0, u)
+            .into_iter()
+            .map(|phi2| {
+                let (s, c) = phi2.sin_cos();
+                let v = mat_vec(&rotation(e2, s, c), u0);
+                // Numerically on the outer axis: the outer joint is free.
+                let phi1 = angle_about(e1, v, u).unwrap_or_else(|| {
+                    singular = true;
+                    phi1_previous
+                });
+                (
+                    to_joint(phi1, s1, a1.joint_sign),
+                    to_joint(phi2, s2, a2.joint_sign),
+                )
+            })
+            .collect();
+        (!joints.is_empty()).then_some(Orientations { joints, singular })
+    }
+
+    /// The rotary joints (degrees, letter order, each in (−180°, 180°]) of every
+    /// solution for tool axis `axis` (part coordinates, any positive length); at a
+    /// singular pose the outer joint is 0. Empty when no orientation of the machine
+    /// gives `axis`.
+    pub fn orientation_solutions(&self, axis: [f64; 3]) -> Vec<[f64; 2]> {
+        let n = norm(axis);
+        if !n.is_finite() || n < 1e-12 {
+            return Vec::new();
+        }
+        let u = [axis[0] / n, axis[1] / n, axis[2] / n];
+        let Some(found) = self.orientations(u, 0.0) else {
+            return Vec::new();
+        };
+        let wrap = |v: f64| -> f64 {
+            let w = v.rem_euclid(360.0);
+            if w > 180.0 { w - 360.0 } else { w }
+        };
+        let outer_first = self.chain.orientation()[0].0 == self.rotary()[0];
+        found
+            .joints
+            .into_iter()
+            .map(|(q1, q2)| {
+                let (a, b) = if outer_first { (q1, q2) } else { (q2, q1) };
+                [wrap(a), wrap(b)]
+            })
+            .collect()
+    }
+
     /// Joints that put the nominal tool tip at `tip` (part coordinates, mm) with the
-    /// tool axis along `axis` (part coordinates, any positive length).
+    /// tool axis along `axis` (part coordinates, any positive length); U V W are
+    /// `options.previous`'s.
     pub fn inverse_tool_axis(
         &self,
         tip: [f64; 3],
         axis: [f64; 3],
         options: &InverseOptions,
-    ) -> Result<Axes, InverseError> {
+    ) -> Result<InverseSolution, InverseError> {
         if !tip.iter().all(|v| v.is_finite()) {
             return Err(InverseError::BadTip { tip });
         }
@@ -65,47 +178,65 @@ impl Kinematics {
             return Err(InverseError::BadAxis { axis });
         }
         let u = [axis[0] / n, axis[1] / n, axis[2] / n];
-        let s = if self.conventional_directions {
-            -1.0
-        } else {
-            1.0
-        };
-        let rho = u[0].hypot(u[1]);
-        // Effective A in [0°, 180°], well conditioned everywhere (unlike acos near ±1).
-        let a_eff = rho.atan2(u[2]).to_degrees();
+        let [(o1, _), (o2, _)] = self.chain.orientation();
         let prev = options.previous;
-        let candidates: [(f64, f64); 2] = if rho < POLE_SIN {
-            [(s * a_eff, prev.c), (-s * a_eff, prev.c)]
-        } else {
-            let c_eff = u[0].atan2(u[1]).to_degrees();
-            [
-                (s * a_eff, nearest_turn(s * c_eff, prev.c)),
-                (-s * a_eff, nearest_turn(s * (c_eff + 180.0), prev.c)),
-            ]
-        };
-        let inside = |a: f64| match options.a_limits {
-            Some([lo, hi]) => a >= lo - 1e-9 && a <= hi + 1e-9,
-            None => true,
-        };
-        let cost = |(a, c): (f64, f64)| (a - prev.a).abs() + (c - prev.c).abs();
-        let mut best: Option<(f64, f64)> = None;
-        for cand in candidates {
-            if !inside(cand.0) {
-                continue;
+        let found = self
+            .orientations(u, prev.get(o1))
+            .ok_or(InverseError::Unreachable { axis })?;
+        let rotary = self.rotary();
+        let limit_of = |a| {
+            if a == rotary[0] {
+                options.limits[0]
+            } else {
+                options.limits[1]
             }
-            best = match best {
-                Some(b) if cost(b) <= cost(cand) => Some(b),
-                _ => Some(cand),
+        };
+        let mut best: Option<(f64, Axes)> = None;
+        for (q1, q2) in &found.joints {
+            let (Some(j1), Some(j2)) = (
+                joint_near(*q1, prev.get(o1), limit_of(o1)),
+                joint_near(*q2, prev.get(o2), limit_of(o2)),
+            ) else {
+                continue;
             };
+            let mut joints = prev;
+            joints.set(o1, j1);
+            joints.set(o2, j2);
+            let d = ((j1 - prev.get(o1)).powi(2) + (j2 - prev.get(o2)).powi(2)).sqrt();
+            let better = match &best {
+                None => true,
+                Some((bd, bj)) => {
+                    d < bd - 1e-9
+                        || ((d - bd).abs() <= 1e-9
+                            && joints.get(rotary[0]) > bj.get(rotary[0]) + 1e-12)
+                }
+            };
+            if better {
+                best = Some((d, joints));
+            }
         }
-        let (a, c) = best.ok_or(InverseError::OutsideALimits {
-            axis,
-            a_first: candidates[0].0,
-            a_second: candidates[1].0,
-            limits: options.a_limits.unwrap_or([f64::NAN; 2]),
-        })?;
-        let m = self.nominal_machine_point(tip, a, c);
-        Ok(Axes::new(m[0], m[1], m[2], a, c))
+        let Some((_, rotaries)) = best else {
+            let describe = |(q1, q2): (f64, f64)| {
+                format!("{}{q1:.6}° {}{q2:.6}°", o1.letter(), o2.letter())
+            };
+            return Err(InverseError::OutsideLimits {
+                axis,
+                first: describe(found.joints[0]),
+                second: found
+                    .joints
+                    .get(1)
+                    .map_or_else(|| "nothing else".to_string(), |r| describe(*r)),
+            });
+        };
+        let joints = self.nominal_joints_for_tip(tip, &rotaries);
+        let jump_deg = (joints.get(o1) - prev.get(o1))
+            .abs()
+            .max((joints.get(o2) - prev.get(o2)).abs());
+        Ok(InverseSolution {
+            joints,
+            singular: found.singular,
+            jump_deg,
+        })
     }
 }
 
@@ -124,30 +255,31 @@ mod tests {
     fn pole_keeps_previous_c() {
         let k = Kinematics::new(Geometry::default(), 100.0);
         let opts = InverseOptions {
-            previous: Axes::new(0.0, 0.0, 0.0, 5.0, 1234.5),
-            a_limits: Some([-110.0, 110.0]),
+            previous: Axes::xyzac(0.0, 0.0, 0.0, 5.0, 1234.5),
+            limits: [Some([-110.0, 110.0]), None],
         };
-        let j = k
+        let s = k
             .inverse_tool_axis([1.0, 2.0, 3.0], [0.0, 0.0, 2.0], &opts)
             .unwrap();
-        assert_eq!(j.c, 1234.5);
-        assert!(j.a.abs() < 1e-12);
+        assert!(s.singular);
+        assert_eq!(s.joints.c, 1234.5);
+        assert!(s.joints.a.abs() < 1e-12);
     }
 
     #[test]
     fn limits_pick_the_other_branch() {
         let k = Kinematics::new(Geometry::default(), 100.0);
-        let axis = k.nominal_tool_axis(&Axes::new(0.0, 0.0, 0.0, 30.0, 40.0));
+        let axis = k.nominal_tool_axis(&Axes::xyzac(0.0, 0.0, 0.0, 30.0, 40.0));
         let opts = InverseOptions {
             previous: Axes::default(),
-            a_limits: Some([-100.0, 0.0]),
+            limits: [Some([-100.0, 0.0]), None],
         };
-        let j = k.inverse_tool_axis([0.0; 3], axis, &opts).unwrap();
-        assert!((j.a + 30.0).abs() < 1e-9);
-        assert!((j.c - (-140.0)).abs() < 1e-9);
+        let j = k.inverse_tool_axis([0.0; 3], axis, &opts).unwrap().joints;
+        assert!((j.a + 30.0).abs() < 1e-9, "{j:?}");
+        assert!((j.c - (-140.0)).abs() < 1e-9, "{j:?}");
         let none = InverseOptions {
             previous: Axes::default(),
-            a_limits: Some([50.0, 60.0]),
+            limits: [Some([50.0, 60.0]), None],
         };
         assert!(k.inverse_tool_axis([0.0; 3], axis, &none).is_err());
     }

@@ -6,19 +6,18 @@
 //! * [`Kinematics::squareness_jacobian`] and [`Kinematics::location_jacobian`]: with
 //!   respect to the position-independent parameters, by central differences (see
 //!   [`PARAMETER_STEP`] for the step).
-use super::error_values::{ErrorValues, SQUARENESS_NAMES};
-use super::transform::{mat_vec, scale, sub};
-use super::{Kinematics, linear_index};
+use super::Kinematics;
+use super::error_values::{COMPONENT_COUNT, ErrorValues, ParameterLayout, SQUARENESS_NAMES};
+use super::transform::{scale, sub};
 use crate::axes::{Axes, Axis};
 
 /// Names of the squareness parameters, in the order of
 /// [`Kinematics::squareness_jacobian`](super::Kinematics::squareness_jacobian)'s rows.
 pub const SQUARENESS_PARAMETERS: [&str; 3] = SQUARENESS_NAMES;
-/// Names of the rotary location parameters (the `rotary_location` effect), in
-/// the order of the location Jacobian's rows.
-pub const LOCATION_PARAMETERS: [&str; 8] = [
-    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
-];
+/// Names of the rotary location parameters of an A/C machine (the
+/// `rotary_location` effect), in the order of the location Jacobian's rows; a
+/// machine's own are [`ParameterLayout::location_effect_names`].
+pub const LOCATION_PARAMETERS: [&str; 8] = ParameterLayout::AC.location_effect_names();
 
 /// Step of the central differences over squareness and location parameters: 1 µrad
 /// (or 1 µm).
@@ -35,44 +34,13 @@ pub const LOCATION_PARAMETERS: [&str; 8] = [
 pub const PARAMETER_STEP: f64 = 1.0;
 
 impl Kinematics {
-    /// `∂(actual tool tip, part, mm) / ∂(x, y, z mm; a, c degrees)` at `joints` with
-    /// the error values `errors` held fixed: `J[row = tip x y z][column = x y z a c]`.
+    /// `∂(actual tool tip, part, mm) / ∂(x, y, z mm; r₁, r₂ degrees)` at `joints` with
+    /// the error values `errors` held fixed: `J[row = tip x y z][column = joint slot]`.
     /// Pass [`ErrorValues::ZERO`] for the nominal Jacobian.
     pub fn tip_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 5]; 3] {
-        let chain = self.chain(joints, errors);
-        let r = chain.tip(self.tool_length);
-        let minv = &chain.work_inv.m;
-        let mut columns = [[0.0; 3]; 5];
-        // r = M⁻¹·p: ∂r/∂q_k = M⁻¹·(prefix_k · d_k), the translation T_k(q_k) = Trans(q_k·d_k).
-        for axis in [Axis::X, Axis::Y, Axis::Z] {
-            let i = linear_index(axis);
-            columns[i] = mat_vec(minv, mat_vec(&chain.prefix[i], chain.directions[i]));
-        }
-        let per_degree = self.direction_sign() * std::f64::consts::PI / 180.0;
-        // ∂r/∂θ = −M⁻¹·(∂M/∂θ)·r, M = T_A·T_C.
-        // A: ∂T_A/∂a·v = L_A·Rx'(a)·E_A·L_A⁻¹·(v − P_A), applied to v = T_C·r.
-        {
-            let v = chain.table_c.apply_point(r);
-            let w = chain
-                .location_a_inv
-                .apply_point(sub(v, self.geometry.a_point()));
-            let u = chain.error_a.apply_point(w);
-            let (s, c) = chain.angle_a.sin_cos();
-            let d = [0.0, -s * u[1] - c * u[2], c * u[1] - s * u[2]];
-            let dm = chain.location_a.apply_vector(d);
-            columns[3] = scale(mat_vec(minv, dm), -per_degree);
-        }
-        // C: T_A·∂T_C/∂c·r = T_A·L_C·Rz'(c)·E_C·L_C⁻¹·(r − P_C).
-        {
-            let w = chain
-                .location_c_inv
-                .apply_point(sub(r, self.geometry.c_point()));
-            let u = chain.error_c.apply_point(w);
-            let (s, c) = chain.angle_c.sin_cos();
-            let d = [-s * u[0] - c * u[1], c * u[0] - s * u[1], 0.0];
-            let dm = chain.table_a.apply_vector(chain.location_c.apply_vector(d));
-            columns[4] = scale(mat_vec(minv, dm), -per_degree);
-        }
+        let pose = self.pose(joints, errors);
+        let [r1, r2] = self.rotary();
+        let columns = [Axis::X, Axis::Y, Axis::Z, r1, r2].map(|a| pose.tip_derivative(a));
         let mut out = [[0.0; 5]; 3];
         for (j, col) in columns.iter().enumerate() {
             for (i, row) in out.iter_mut().enumerate() {
@@ -82,16 +50,11 @@ impl Kinematics {
         out
     }
 
-    /// `∂(nominal tool axis)/∂a` and `∂/∂c` (per degree) at `joints`: the
-    /// derivatives of `(sin a sin c, sin a cos c, cos a)` (direction convention
-    /// applied), one trigonometric evaluation.
+    /// `∂(nominal tool axis)/∂r₁` and `∂/∂r₂` (per degree) at `joints`.
     pub fn nominal_axis_jacobian(&self, joints: &Axes) -> ([f64; 3], [f64; 3]) {
-        let rot = self.rotations(joints.a, joints.c);
-        let k = self.direction_sign() * std::f64::consts::PI / 180.0;
-        (
-            [k * rot.ca * rot.sc, k * rot.ca * rot.cc, -k * rot.sa],
-            [k * rot.sa * rot.cc, -k * rot.sa * rot.sc, 0.0],
-        )
+        let pose = self.pose(joints, &ErrorValues::ZERO);
+        let [r1, r2] = self.rotary();
+        (pose.axis_derivative(r1), pose.axis_derivative(r2))
     }
 
     /// Central difference of the actual tip (µm) in parameter `index` (flat
@@ -103,8 +66,8 @@ impl Kinematics {
             *p += PARAMETER_STEP;
             *m -= PARAMETER_STEP;
         }
-        let tp = self.chain(joints, &plus).tip(self.tool_length);
-        let tm = self.chain(joints, &minus).tip(self.tool_length);
+        let tp = self.pose(joints, &plus).tip();
+        let tm = self.pose(joints, &minus).tip();
         scale(sub(tp, tm), 1e3 / (2.0 * PARAMETER_STEP))
     }
 
@@ -112,22 +75,19 @@ impl Kinematics {
     /// one row per parameter (the layout of `PointContext::squareness_jacobian`).
     pub fn squareness_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 3]; 3] {
         let mut out = [[0.0; 3]; 3];
-        for (row, name) in out.iter_mut().zip(SQUARENESS_NAMES) {
-            if let Some(index) = ErrorValues::index_of(name) {
-                *row = self.parameter_derivative(joints, errors, index);
-            }
+        for (s, row) in out.iter_mut().enumerate() {
+            *row = self.parameter_derivative(joints, errors, COMPONENT_COUNT + s);
         }
         out
     }
 
     /// `∂(actual tip, part, µm)/∂(location parameter, µm or µrad)` at `joints` around
-    /// `errors`, rows in the order of [`LOCATION_PARAMETERS`].
+    /// `errors`, rows in the order of the machine's
+    /// [`ParameterLayout::location_effect_names`].
     pub fn location_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 3]; 8] {
         let mut out = [[0.0; 3]; 8];
-        for (row, name) in out.iter_mut().zip(LOCATION_PARAMETERS) {
-            if let Some(index) = ErrorValues::index_of(name) {
-                *row = self.parameter_derivative(joints, errors, index);
-            }
+        for (row, index) in out.iter_mut().zip(ParameterLayout::LOCATION_EFFECT_INDICES) {
+            *row = self.parameter_derivative(joints, errors, index);
         }
         out
     }
@@ -139,18 +99,18 @@ mod tests {
     use crate::kinematics::{Geometry, PARAMETER_COUNT, ToolChain};
 
     fn machine(conventional: bool) -> Kinematics {
-        Kinematics {
-            geometry: Geometry {
+        Kinematics::xyzac_trt(
+            Geometry {
                 x_rot_point: -5.0,
                 y_rot_point: 10.0,
                 z_rot_point: 30.0,
                 y_offset: 7.5,
                 z_offset: -20.0,
             },
-            tool_length: 90.0,
-            tool_chain: ToolChain::from_names(&["Y", "X", "Z"]).unwrap(),
-            conventional_directions: conventional,
-        }
+            ToolChain::from_names(&["Y", "X", "Z"]).unwrap(),
+            conventional,
+            90.0,
+        )
     }
 
     fn errors() -> ErrorValues {
@@ -168,16 +128,16 @@ mod tests {
         for conventional in [false, true] {
             let k = machine(conventional);
             let e = errors();
-            let j0 = Axes::new(12.0, -40.0, 25.0, -37.0, 123.0);
+            let j0 = Axes::xyzac(12.0, -40.0, 25.0, -37.0, 123.0);
             let jac = k.tip_jacobian(&j0, &e);
             for col in 0..5 {
                 let h = 1e-4;
-                let mut p = j0.to_array();
-                let mut m = j0.to_array();
+                let mut p = k.joints(&j0);
+                let mut m = k.joints(&j0);
                 p[col] += h;
                 m[col] -= h;
-                let tp = k.actual_tip_and_axis(&Axes::from_array(p), &e).tip;
-                let tm = k.actual_tip_and_axis(&Axes::from_array(m), &e).tip;
+                let tp = k.actual_tip_and_axis(&k.with_joints(&j0, p), &e).tip;
+                let tm = k.actual_tip_and_axis(&k.with_joints(&j0, m), &e).tip;
                 for row in 0..3 {
                     let fd = (tp[row] - tm[row]) / (2.0 * h);
                     assert!(
@@ -194,7 +154,7 @@ mod tests {
     fn nominal_axis_jacobian_matches_central_differences() {
         for conventional in [false, true] {
             let k = machine(conventional);
-            let q = Axes::new(12.0, -40.0, 25.0, -37.0, 123.0);
+            let q = Axes::xyzac(12.0, -40.0, 25.0, -37.0, 123.0);
             let (da, dc) = k.nominal_axis_jacobian(&q);
             let h = 1e-4;
             let diff = |dq: Axes| {
@@ -207,8 +167,8 @@ mod tests {
                 scale(sub(plus, minus), 0.5 / h)
             };
             let (fa, fc) = (
-                diff(Axes::new(0.0, 0.0, 0.0, h, 0.0)),
-                diff(Axes::new(0.0, 0.0, 0.0, 0.0, h)),
+                diff(Axes::xyzac(0.0, 0.0, 0.0, h, 0.0)),
+                diff(Axes::xyzac(0.0, 0.0, 0.0, 0.0, h)),
             );
             for i in 0..3 {
                 assert!((fa[i] - da[i]).abs() < 1e-10, "a {i}: {fa:?} {da:?}");
@@ -221,7 +181,7 @@ mod tests {
     fn squareness_derivative_is_first_order_lever() {
         // Only s_xy: the tip moves by −y·s_xy along X in the machine frame (A = C = 0).
         let k = Kinematics::new(Geometry::default(), 100.0);
-        let j = Axes::new(10.0, 50.0, -20.0, 0.0, 0.0);
+        let j = Axes::xyzac(10.0, 50.0, -20.0, 0.0, 0.0);
         let d = k.squareness_jacobian(&j, &ErrorValues::ZERO);
         assert!((d[0][0] - (-50.0 * 1e-3)).abs() < 1e-9, "{:?}", d[0]);
         let loc = k.location_jacobian(&j, &ErrorValues::ZERO);

@@ -1,32 +1,31 @@
-//! Kinematics of the `xyzac-trt` machine (kinematics.md is the contract): nominal
-//! forward and inverse kinematics, the actual chain with the 43 error parameters,
-//! the volumetric error `e` and the tool-axis error, and Jacobians.
+//! Kinematics of any serial five-axis machine (kinematics.md is the contract): the
+//! chain ([`chain::MachineChain`]) with its error parameters, nominal forward and
+//! inverse kinematics, the volumetric error `e` and the tool-axis error, and
+//! Jacobians. `xyzac-trt` and `xyzbc-trt` (LinuxCNC's names) are presets that build
+//! a chain ([`Kinematics::xyzac_trt`], [`Kinematics::xyzbc_trt`]).
 //!
-//! Invariants: no I/O, no allocation on the hot path (`volumetric_error` works on
+//! Invariants: no I/O, no allocation on the hot path (the chain is evaluated on
 //! fixed-size [`transform::Affine`] values); every inverse is the exact inverse of
 //! the matrix as written (never a first-order `L(−δ, −ε)`); angles in degrees at the
 //! API, radians inside; errors in µm/µrad at the API, mm/rad inside; results are
-//! in part coordinates. Finite input gives finite output (no matrix of the chain
-//! can be singular, see [`transform::Affine::inverse`]); callers check inputs for
-//! NaN at their boundary.
+//! in part coordinates. Joint vectors are `(x, y, z, r₁, r₂)` with the machine's two
+//! rotary letters in letter order (`a, c` on xyzac-trt). Finite input gives finite
+//! output; callers check inputs for NaN at their boundary.
+pub mod chain;
 pub mod error_values;
 pub mod inverse;
 pub mod jacobian;
 pub mod transform;
 
 use crate::axes::{Axes, Axis};
+pub use chain::{ChainAxis, ChainError, MachineChain, Side};
 pub use error_values::{
     COMPONENT_NAMES, ErrorValues, LOCATION_NAMES, PARAMETER_COUNT, PARAMETER_NAMES,
-    SQUARENESS_NAMES, UnknownParameter,
+    ParameterLayout, SQUARENESS_NAMES, UnknownParameter,
 };
 pub use inverse::{InverseError, InverseOptions};
 use serde::{Deserialize, Serialize};
-use transform::{Affine, add, sub};
-
-/// µm → mm.
-const UM: f64 = 1e-3;
-/// µrad → rad.
-const URAD: f64 = 1e-6;
+use transform::{Mat3, sub};
 
 /// Nominal geometry (mm) of kinematics.md: `P_C` = rotary points, `P_A` = `P_C` +
 /// `(0, y_offset, z_offset)`.
@@ -129,16 +128,76 @@ pub(crate) fn linear_index(axis: Axis) -> usize {
     }
 }
 
-/// The kinematic model of one `xyzac-trt` machine.
+/// Nominal geometry (mm) of LinuxCNC's `xyzbc-trt`: `P_C` = rotary points, `P_B` =
+/// `P_C` + `(x_offset, 0, z_offset)` (kinematics.md: B in place of A, `y_offset`
+/// replaced by `x_offset`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BcGeometry {
+    pub x_rot_point: f64,
+    pub y_rot_point: f64,
+    pub z_rot_point: f64,
+    pub x_offset: f64,
+    pub z_offset: f64,
+}
+
+impl BcGeometry {
+    /// `P_C`, a point on the C axis.
+    pub fn c_point(&self) -> [f64; 3] {
+        [self.x_rot_point, self.y_rot_point, self.z_rot_point]
+    }
+
+    /// `P_B`, a point on the B axis.
+    pub fn b_point(&self) -> [f64; 3] {
+        [
+            self.x_rot_point + self.x_offset,
+            self.y_rot_point,
+            self.z_rot_point + self.z_offset,
+        ]
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.c_point().iter().all(|v| v.is_finite())
+            && self.x_offset.is_finite()
+            && self.z_offset.is_finite()
+    }
+}
+
+/// The exact nominal map part-frame tip → linear joints at fixed rotary joints
+/// ([`Kinematics::tip_to_joints`]): `q = M⁻¹·(tip − r₀)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TipToJoints {
+    base: Axes,
+    r0: [f64; 3],
+    inverse: Mat3,
+}
+
+impl TipToJoints {
+    /// X Y Z (mm) that put the nominal tip at `tip`.
+    #[inline]
+    pub fn linear_joints(&self, tip: [f64; 3]) -> [f64; 3] {
+        transform::mat_vec(&self.inverse, sub(tip, self.r0))
+    }
+
+    /// The whole position: X Y Z for `tip`, the rest as given.
+    #[inline]
+    pub fn joints(&self, tip: [f64; 3]) -> Axes {
+        let q = self.linear_joints(tip);
+        Axes {
+            x: q[0],
+            y: q[1],
+            z: q[2],
+            ..self.base
+        }
+    }
+}
+
+/// The kinematic model of one machine with one tool: its chain and the tool length.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Kinematics {
-    pub geometry: Geometry,
+    pub chain: MachineChain,
     /// Tool length `L`, mm (gauge point to tip).
     pub tool_length: f64,
-    pub tool_chain: ToolChain,
-    /// LinuxCNC's `conventional-directions = 1`: A and C are negated before the
-    /// formulas of kinematics.md (the tables are still looked up at the commanded A, C).
-    pub conventional_directions: bool,
 }
 
 /// Volumetric error `e` (µm) and tool-axis error (µrad), part coordinates.
@@ -162,62 +221,74 @@ pub struct TipAndAxis {
     pub axis: [f64; 3],
 }
 
-/// Sines and cosines of the effective rotary angles (after the direction convention).
-#[derive(Clone, Copy, Debug)]
-struct Rotations {
-    sa: f64,
-    ca: f64,
-    sc: f64,
-    cc: f64,
-}
-
-/// The actual chain at one pose, with the pieces the Jacobians need.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Chain {
-    /// `T·E` pairs in tool-chain order, product `tool`.
-    pub(crate) tool: Affine,
-    /// Rotation part of the product of the pairs before each linear axis (X, Y, Z index).
-    pub(crate) prefix: [transform::Mat3; 3],
-    /// Actual travel directions `d_X, d_Y, d_Z`.
-    pub(crate) directions: [[f64; 3]; 3],
-    pub(crate) location_a: Affine,
-    pub(crate) location_a_inv: Affine,
-    pub(crate) error_a: Affine,
-    pub(crate) angle_a: f64,
-    pub(crate) location_c: Affine,
-    pub(crate) location_c_inv: Affine,
-    pub(crate) error_c: Affine,
-    pub(crate) angle_c: f64,
-    pub(crate) table_a: Affine,
-    pub(crate) table_c: Affine,
-    /// `(T_A·T_C)⁻¹`.
-    pub(crate) work_inv: Affine,
-}
-
-impl Chain {
-    /// Actual tool tip (mm) in part coordinates.
-    pub(crate) fn tip(&self, tool_length: f64) -> [f64; 3] {
-        let p_tool = self.tool.apply_point([0.0, 0.0, -tool_length]);
-        self.work_inv.apply_point(p_tool)
-    }
-
-    /// Actual tool axis in part coordinates (third column of the rotation part).
-    pub(crate) fn axis(&self) -> [f64; 3] {
-        let m = &self.tool.m;
-        self.work_inv.apply_vector([m[0][2], m[1][2], m[2][2]])
-    }
-}
-
-fn component(errors: &ErrorValues, axis: usize) -> Affine {
-    let c = &errors.component[axis];
-    Affine::small(
-        [c[0] * UM, c[1] * UM, c[2] * UM],
-        [c[3] * URAD, c[4] * URAD, c[5] * URAD],
-    )
+fn linear_axes(tool_chain: ToolChain) -> [ChainAxis; 3] {
+    tool_chain.order().map(|a| {
+        let mut d = [0.0; 3];
+        d[linear_index(a)] = 1.0;
+        ChainAxis::linear(a, d)
+    })
 }
 
 impl Kinematics {
-    /// Nominal kinematics with the default tool chain and directions.
+    /// A machine from its chain.
+    pub fn from_chain(chain: MachineChain, tool_length: f64) -> Kinematics {
+        Kinematics { chain, tool_length }
+    }
+
+    /// `xyzac-trt` with the default tool chain and directions.
+    pub fn new(geometry: Geometry, tool_length: f64) -> Kinematics {
+        Kinematics::xyzac_trt(geometry, ToolChain::XYZ, false, tool_length)
+    }
+
+    /// LinuxCNC's `xyzac-trt` (kinematics.md): workpiece side A (about X through
+    /// `P_A`) then C (about Z through `P_C`), tool side the linear axes in
+    /// `tool_chain` order. `conventional_directions` negates A and C before the
+    /// formulas.
+    pub fn xyzac_trt(
+        geometry: Geometry,
+        tool_chain: ToolChain,
+        conventional_directions: bool,
+        tool_length: f64,
+    ) -> Kinematics {
+        let work = [
+            ChainAxis::rotary(Axis::A, [1.0, 0.0, 0.0], geometry.a_point()),
+            ChainAxis::rotary(Axis::C, [0.0, 0.0, 1.0], geometry.c_point()),
+        ];
+        Kinematics::trt(work, tool_chain, conventional_directions, tool_length)
+    }
+
+    /// LinuxCNC's `xyzbc-trt`: as `xyzac-trt` with B (about Y through `P_B`) in
+    /// place of A.
+    pub fn xyzbc_trt(
+        geometry: BcGeometry,
+        tool_chain: ToolChain,
+        conventional_directions: bool,
+        tool_length: f64,
+    ) -> Kinematics {
+        let work = [
+            ChainAxis::rotary(Axis::B, [0.0, 1.0, 0.0], geometry.b_point()),
+            ChainAxis::rotary(Axis::C, [0.0, 0.0, 1.0], geometry.c_point()),
+        ];
+        Kinematics::trt(work, tool_chain, conventional_directions, tool_length)
+    }
+
+    fn trt(
+        work: [ChainAxis; 2],
+        tool_chain: ToolChain,
+        conventional_directions: bool,
+        tool_length: f64,
+    ) -> Kinematics {
+        // A table-table machine with orthogonal axes is always a valid chain.
+        let chain = MachineChain::new(&work, &linear_axes(tool_chain), [0.0, 0.0, 1.0])
+            .unwrap_or_else(|e| unreachable!("a table-table preset is a valid chain: {e}"));
+        let chain = if conventional_directions {
+            chain.with_negated_rotaries()
+        } else {
+            chain
+        };
+        Kinematics { chain, tool_length }
+    }
+
     /// The same machine with a tool of `tool_length` mm (gauge point to tip).
     pub fn with_tool_length(&self, tool_length: f64) -> Kinematics {
         Kinematics {
@@ -226,225 +297,145 @@ impl Kinematics {
         }
     }
 
-    pub fn new(geometry: Geometry, tool_length: f64) -> Kinematics {
-        Kinematics {
-            geometry,
-            tool_length,
-            tool_chain: ToolChain::XYZ,
-            conventional_directions: false,
-        }
+    /// The machine's two rotary letters, in letter order (joint slots 3 and 4).
+    pub fn rotary(&self) -> [Axis; 2] {
+        self.chain.rotary()
     }
 
-    /// +1, or −1 with conventional directions.
-    pub(crate) fn direction_sign(&self) -> f64 {
-        if self.conventional_directions {
-            -1.0
-        } else {
-            1.0
-        }
+    /// The names of this machine's error parameters.
+    pub fn layout(&self) -> ParameterLayout {
+        self.chain.layout()
     }
 
-    /// Effective rotary angles in radians (A, C), after the direction convention.
-    fn angles(&self, a_deg: f64, c_deg: f64) -> (f64, f64) {
-        let s = self.direction_sign();
-        ((s * a_deg).to_radians(), (s * c_deg).to_radians())
+    /// The joint vector `(x, y, z, r₁, r₂)` of a position.
+    #[inline]
+    pub fn joints(&self, q: &Axes) -> [f64; 5] {
+        self.chain.joints(q)
     }
 
-    fn rotations(&self, a_deg: f64, c_deg: f64) -> Rotations {
-        let (a, c) = self.angles(a_deg, c_deg);
-        let (sa, ca) = a.sin_cos();
-        let (sc, cc) = c.sin_cos();
-        Rotations { sa, ca, sc, cc }
+    /// `q` with its five joints replaced.
+    #[inline]
+    pub fn with_joints(&self, q: &Axes, j: [f64; 5]) -> Axes {
+        self.chain.with_joints(q, j)
     }
 
-    fn nominal_tip_with(&self, rot: &Rotations, q: [f64; 3]) -> [f64; 3] {
-        let pa = self.geometry.a_point();
-        let pc = self.geometry.c_point();
-        // w = Rx(−a)·(q − P_A)
-        let v = sub(q, pa);
-        let w = [
-            v[0],
-            rot.ca * v[1] + rot.sa * v[2],
-            -rot.sa * v[1] + rot.ca * v[2],
-        ];
-        // r = P_C + Rz(−c)·(P_A + w − P_C)
-        let u = sub(add(pa, w), pc);
-        add(
-            pc,
-            [
-                rot.cc * u[0] + rot.sc * u[1],
-                -rot.sc * u[0] + rot.cc * u[1],
-                u[2],
-            ],
-        )
+    /// The actual chain at `joints` with `errors`.
+    #[inline]
+    pub fn pose(&self, joints: &Axes, errors: &ErrorValues) -> chain::ChainPose {
+        chain::ChainPose::new(&self.chain, self.tool_length, joints, errors)
     }
 
-    fn nominal_axis_with(rot: &Rotations) -> [f64; 3] {
-        [rot.sa * rot.sc, rot.sa * rot.cc, rot.ca]
-    }
-
-    /// Nominal tool tip in part coordinates (mm) for joint position `joints`:
-    /// `r = P_C + Rz(−c)·(P_A + Rx(−a)·(q − P_A) − P_C)`.
+    /// Nominal tool tip in part coordinates (mm) for joint position `joints`.
     pub fn nominal_tip(&self, joints: &Axes) -> [f64; 3] {
-        let rot = self.rotations(joints.a, joints.c);
-        self.nominal_tip_with(&rot, joints.xyz())
+        self.pose(joints, &ErrorValues::ZERO).tip()
     }
 
-    /// Nominal unit tool axis (tip → spindle) in part coordinates:
-    /// `(sin a sin c, sin a cos c, cos a)` (with the direction convention applied).
+    /// Nominal unit tool axis (tip → spindle) in part coordinates.
     pub fn nominal_tool_axis(&self, joints: &Axes) -> [f64; 3] {
-        Self::nominal_axis_with(&self.rotations(joints.a, joints.c))
+        let r = chain::nominal_orientation(&self.chain, joints);
+        transform::mat_vec(&r, self.chain.tool_axis())
     }
 
-    /// Nominal machine point of part point `part` at rotary angles `a`, `c` (degrees):
-    /// `m = P_A + Rx(a)·(P_C + Rz(c)·(r − P_C) − P_A)`; the exact inverse of
-    /// [`Kinematics::nominal_tip`] for the same A, C.
-    pub fn nominal_machine_point(&self, part: [f64; 3], a_deg: f64, c_deg: f64) -> [f64; 3] {
-        let rot = self.rotations(a_deg, c_deg);
-        let pa = self.geometry.a_point();
-        let pc = self.geometry.c_point();
-        let u = sub(part, pc);
-        let v = add(
-            pc,
-            [
-                rot.cc * u[0] - rot.sc * u[1],
-                rot.sc * u[0] + rot.cc * u[1],
-                u[2],
-            ],
-        );
-        let w = sub(v, pa);
-        add(
-            pa,
-            [
-                w[0],
-                rot.ca * w[1] - rot.sa * w[2],
-                rot.sa * w[1] + rot.ca * w[2],
-            ],
-        )
+    /// The nominal rotation of machine (bed) directions into part coordinates at
+    /// `joints` (the rotation part of `W⁻¹`).
+    pub fn machine_to_part_rotation(&self, joints: &Axes) -> Mat3 {
+        self.pose(joints, &ErrorValues::ZERO).machine_to_part().m
+    }
+
+    /// A machine-frame vector in part coordinates at `joints` (nominal).
+    pub fn machine_to_part(&self, joints: &Axes, v: [f64; 3]) -> [f64; 3] {
+        transform::mat_vec(&self.machine_to_part_rotation(joints), v)
+    }
+
+    /// The nominal map from a part-frame tool tip to the linear joints at the rotary
+    /// joints (and U V W) of `rotaries`: the tip is affine in the linear joints, so
+    /// the map is exact ([`TipToJoints`]).
+    pub fn tip_to_joints(&self, rotaries: &Axes) -> TipToJoints {
+        let base = Axes {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            ..*rotaries
+        };
+        let pose = self.pose(&base, &ErrorValues::ZERO);
+        let r0 = pose.tip();
+        let cols = [Axis::X, Axis::Y, Axis::Z].map(|a| pose.tip_derivative(a));
+        let m = [
+            [cols[0][0], cols[1][0], cols[2][0]],
+            [cols[0][1], cols[1][1], cols[2][1]],
+            [cols[0][2], cols[1][2], cols[2][2]],
+        ];
+        TipToJoints {
+            base,
+            r0,
+            inverse: transform::mat_inverse(&m),
+        }
+    }
+
+    /// The joints that put the nominal tool tip at part point `part` with the rotary
+    /// joints (and U V W) of `rotaries`.
+    pub fn nominal_joints_for_tip(&self, part: [f64; 3], rotaries: &Axes) -> Axes {
+        self.tip_to_joints(rotaries).joints(part)
+    }
+
+    /// Nominal machine point (the linear joints) of part point `part` at the rotary
+    /// joints of `rotaries`; the exact inverse of [`Kinematics::nominal_tip`] for the
+    /// same rotary joints.
+    pub fn nominal_machine_point(&self, part: [f64; 3], rotaries: &Axes) -> [f64; 3] {
+        self.tip_to_joints(rotaries).linear_joints(part)
+    }
+
+    /// The angle (degrees) between the nominal tool axis and the outer rotary axis
+    /// (the one a tool axis along it makes free: C on an A/C table, where this is
+    /// |A|). Near 0 that joint cannot steer the tool axis (the pole).
+    pub fn pole_angle_deg(&self, joints: &Axes) -> f64 {
+        let [(outer, _), (inner, sign)] = self.chain.orientation();
+        let (e1, a2) = (self.chain.axis(outer).direction, self.chain.axis(inner));
+        let theta = (sign * a2.joint_sign * joints.get(inner)).to_radians();
+        let (s, c) = theta.sin_cos();
+        let v = transform::mat_vec(&chain::rotation(a2.direction, s, c), self.chain.tool_axis());
+        transform::dot(v, e1).abs().min(1.0).acos().to_degrees()
+    }
+
+    /// The outer rotary letter (see [`Kinematics::pole_angle_deg`]).
+    pub fn outer_rotary(&self) -> Axis {
+        self.chain.orientation()[0].0
     }
 
     /// Joints of a part-frame target: `part.x, part.y, part.z` the tool tip in part
-    /// coordinates, `part.a, part.c` the rotary angles (taken as given).
+    /// coordinates, the rotary letters (and U V W) taken as given.
     pub fn joints_from_part(&self, part: &Axes) -> Axes {
-        let m = self.nominal_machine_point(part.xyz(), part.a, part.c);
-        Axes::new(m[0], m[1], m[2], part.a, part.c)
+        self.nominal_joints_for_tip(part.xyz(), part)
     }
 
     /// Part-frame target of a joint position: the nominal tool tip in part
-    /// coordinates with the same A and C (inverse of [`Kinematics::joints_from_part`]).
+    /// coordinates with the same rotary joints (inverse of [`Kinematics::joints_from_part`]).
     pub fn part_from_joints(&self, joints: &Axes) -> Axes {
         let r = self.nominal_tip(joints);
-        Axes::new(r[0], r[1], r[2], joints.a, joints.c)
-    }
-
-    /// The actual chain of kinematics.md at `joints` with `errors`.
-    pub(crate) fn chain(&self, joints: &Axes, errors: &ErrorValues) -> Chain {
-        self.chain_with(&self.rotations(joints.a, joints.c), joints, errors)
-    }
-
-    /// [`Kinematics::chain`] with the nominal rotations already computed: the rotary
-    /// zero offsets are added by the angle-sum formulas (one trigonometric call on a
-    /// large angle per axis instead of two).
-    fn chain_with(&self, rot: &Rotations, joints: &Axes, errors: &ErrorValues) -> Chain {
-        let s = &errors.squareness;
-        let directions = [
-            [1.0, 0.0, 0.0],
-            [-s[0] * URAD, 1.0, 0.0],
-            [-s[1] * URAD, -s[2] * URAD, 1.0],
-        ];
-        let q = joints.xyz();
-        let mut tool = Affine::IDENTITY;
-        let mut prefix = [transform::IDENTITY3; 3];
-        for axis in self.tool_chain.order() {
-            let i = linear_index(axis);
-            prefix[i] = tool.m;
-            let e = component(errors, i);
-            let mut t = transform::scale(directions[i], q[i]);
-            if i == 2 {
-                t[2] += self.tool_length;
-            }
-            // Trans(t)·E = [E.m, E.t + t]
-            let pair = Affine {
-                m: e.m,
-                t: add(e.t, t),
-            };
-            tool = tool.mul(&pair);
-        }
-
-        let loc = &errors.location;
-        use error_values::location as l;
-        let location_a = Affine::small(
-            [0.0, loc[l::EY0A] * UM, loc[l::EZ0A] * UM],
-            [0.0, loc[l::EB0A] * URAD, loc[l::EC0A] * URAD],
-        );
-        let location_c = Affine::small(
-            [loc[l::EX0C] * UM, loc[l::EY0C] * UM, 0.0],
-            [loc[l::EA0C] * URAD, loc[l::EB0C] * URAD, 0.0],
-        );
-        let location_a_inv = location_a.inverse();
-        let location_c_inv = location_c.inverse();
-        let (a, c) = self.angles(joints.a, joints.c);
-        let (offset_a, offset_c) = (loc[l::EA0A] * URAD, loc[l::EC0C] * URAD);
-        let angle_a = a + offset_a;
-        let angle_c = c + offset_c;
-        // sin(θ + δ) = sin θ cos δ + cos θ sin δ, cos(θ + δ) = cos θ cos δ − sin θ sin δ.
-        let (so, co) = offset_a.sin_cos();
-        let rx = Affine::rot_x_sin_cos(rot.sa * co + rot.ca * so, rot.ca * co - rot.sa * so);
-        let (so, co) = offset_c.sin_cos();
-        let rz = Affine::rot_z_sin_cos(rot.sc * co + rot.cc * so, rot.cc * co - rot.sc * so);
-        let error_a = component(errors, 3);
-        let error_c = component(errors, 4);
-        let table_a = location_a
-            .mul(&rx)
-            .mul(&error_a)
-            .mul(&location_a_inv)
-            .about(self.geometry.a_point());
-        let table_c = location_c
-            .mul(&rz)
-            .mul(&error_c)
-            .mul(&location_c_inv)
-            .about(self.geometry.c_point());
-        let work_inv = table_a.mul(&table_c).inverse();
-        Chain {
-            tool,
-            prefix,
-            directions,
-            location_a,
-            location_a_inv,
-            error_a,
-            angle_a,
-            location_c,
-            location_c_inv,
-            error_c,
-            angle_c,
-            table_a,
-            table_c,
-            work_inv,
+        Axes {
+            x: r[0],
+            y: r[1],
+            z: r[2],
+            ..*joints
         }
     }
 
     /// Actual tool tip (mm) and tool axis (not re-normalised), part coordinates.
     pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {
-        let chain = self.chain(joints, errors);
+        let pose = self.pose(joints, errors);
         TipAndAxis {
-            tip: chain.tip(self.tool_length),
-            axis: chain.axis(),
+            tip: pose.tip(),
+            axis: pose.axis(),
         }
     }
 
     /// Volumetric error `e = r_act − r_nom` (µm) and tool-axis error (µrad), part
     /// coordinates, at `joints` with the parameter values `errors` (µm, µrad).
     pub fn volumetric_error(&self, joints: &Axes, errors: &ErrorValues) -> VolumetricError {
-        let rot = self.rotations(joints.a, joints.c);
-        let chain = self.chain_with(&rot, joints, errors);
-        let actual = TipAndAxis {
-            tip: chain.tip(self.tool_length),
-            axis: chain.axis(),
-        };
-        let tip = self.nominal_tip_with(&rot, joints.xyz());
-        let axis = Self::nominal_axis_with(&rot);
-        let e = sub(actual.tip, tip);
-        let u = sub(actual.axis, axis);
+        let actual = self.pose(joints, errors);
+        let nominal = self.pose(joints, &ErrorValues::ZERO);
+        let e = sub(actual.tip(), nominal.tip());
+        let u = sub(actual.axis(), nominal.axis());
         VolumetricError {
             e_um: transform::scale(e, 1e3),
             axis_urad: transform::scale(u, 1e6),

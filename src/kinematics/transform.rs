@@ -115,7 +115,7 @@ impl Affine {
     }
 }
 
-pub use crate::vec3::{add, dot, norm, scale, sub};
+pub use crate::vec3::{add, cross, dot, norm, scale, sub};
 
 #[inline]
 pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {

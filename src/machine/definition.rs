@@ -1,17 +1,27 @@
 //! The machine file (formats.md "Machine file"): TOML read with serde, unknown keys
 //! rejected, every value validated, error tables read through [`ErrorTable::read`].
 //!
+//! Three kinds (formats.md): `xyzac-trt` (`[geometry]` with `y_offset`),
+//! `xyzbc-trt` (LinuxCNC's names: `x_offset` instead of `y_offset`) and `chain`
+//! (any serial five-axis machine: `workpiece_side`, `tool_side`, `tool_axis`,
+//! `[axes.K]`). All three become one [`MachineChain`].
+//!
 //! Invariants of a loaded [`Machine`]: every number is finite; limits are
-//! `min < max`; the tool chain is a permutation of X Y Z; every table exists, has
+//! `min < max`; the chain is a valid five-axis machine (X Y Z once each, two
+//! rotaries, heads after carriages, directions non-zero); limits, tables and
+//! location errors name only the machine's own letters; every table exists, has
 //! the right columns (checked by the table reader) and covers the travel of its
-//! axis unless the load options hold end values (a C table over one revolution
-//! covers any C). Errors name the machine file with line and column of the key, or
-//! (for a table) the CSV file and line.
+//! axis unless the load options hold end values (a rotary table over one
+//! revolution covers any angle). Errors name the machine file with line and
+//! column of the key, or (for a table) the CSV file and line.
 use super::table::{ErrorTable, TableError};
-use crate::axes::{Axes, Axis};
-use crate::kinematics::error_values::{LOCATION_NAMES, SQUARENESS_NAMES};
-use crate::kinematics::{ErrorValues, Geometry, Kinematics, ToolChain};
+use crate::axes::{Axes, Axis, AxisSet};
+use crate::kinematics::error_values::{ParameterLayout, SQUARENESS_NAMES};
+use crate::kinematics::{
+    BcGeometry, ChainAxis, ErrorValues, Geometry, Kinematics, MachineChain, ToolChain,
+};
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -24,12 +34,18 @@ pub const DEFAULT_RAPID_MM_PER_MIN: f64 = 10_000.0;
 pub enum KinematicsType {
     /// `xyzac-trt`: tilting rotary table, A about X carrying C about Z (kinematics.md).
     XyzacTrt,
+    /// `xyzbc-trt`: tilting rotary table, B about Y carrying C about Z (LinuxCNC's).
+    XyzbcTrt,
+    /// `chain`: any serial five-axis machine described axis by axis.
+    Chain,
 }
 
 impl KinematicsType {
     pub fn name(self) -> &'static str {
         match self {
             KinematicsType::XyzacTrt => "xyzac-trt",
+            KinematicsType::XyzbcTrt => "xyzbc-trt",
+            KinematicsType::Chain => "chain",
         }
     }
 }
@@ -51,25 +67,35 @@ pub struct LoadOptions {
     pub extrapolation: ExtrapolationPolicy,
 }
 
-/// Travel limits: `[min, max]`, mm or degrees; `c = None` is endless.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+/// Travel limits per letter: `[min, max]`, mm or degrees; `None` is endless (a
+/// rotary axis without limits) or a letter the machine lacks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Limits {
-    pub x: [f64; 2],
-    pub y: [f64; 2],
-    pub z: [f64; 2],
-    pub a: [f64; 2],
-    pub c: Option<[f64; 2]>,
+    ranges: [Option<[f64; 2]>; crate::axes::AXIS_COUNT],
 }
 
 impl Limits {
-    pub fn get(&self, axis: Axis) -> Option<[f64; 2]> {
-        match axis {
-            Axis::X => Some(self.x),
-            Axis::Y => Some(self.y),
-            Axis::Z => Some(self.z),
-            Axis::A => Some(self.a),
-            Axis::C => self.c,
+    /// Limits from `(letter, [min, max])` pairs.
+    pub fn from_pairs(pairs: &[(Axis, [f64; 2])]) -> Limits {
+        let mut out = Limits::default();
+        for (axis, r) in pairs {
+            out.ranges[*axis as usize] = Some(*r);
         }
+        out
+    }
+
+    pub fn get(&self, axis: Axis) -> Option<[f64; 2]> {
+        self.ranges[axis as usize]
+    }
+
+    pub fn set(&mut self, axis: Axis, range: Option<[f64; 2]>) {
+        self.ranges[axis as usize] = range;
+    }
+
+    /// The travel of linear `axis`, `[0, 0]` when it has none (callers pass the
+    /// machine's linear letters, which always have limits).
+    pub fn linear(&self, axis: Axis) -> [f64; 2] {
+        self.get(axis).unwrap_or([0.0; 2])
     }
 
     /// The first axis whose limit `joints` exceeds (by more than 1e-9).
@@ -155,8 +181,8 @@ fn cutter_shape(
 pub struct Machine {
     pub name: String,
     pub kinematics: KinematicsType,
-    pub tool_chain: ToolChain,
-    pub geometry: Geometry,
+    /// The nominal chain (presets built from their `[geometry]`).
+    pub chain: MachineChain,
     pub tool: Tool,
     /// `[[tools]]`: the machine's tool table (empty when the file has none).
     pub tools: crate::gcode::ToolTable,
@@ -165,14 +191,13 @@ pub struct Machine {
     pub rapid_mm_per_min: f64,
     /// Whether `rapid_mm_per_min` is the default rather than the file's value.
     pub rapid_is_default: bool,
-    /// Measured tables per axis, in `Axis::ALL` order (X Y Z A C); `None` = not measured.
+    /// Measured tables per joint slot (X Y Z and the two rotaries in letter order,
+    /// `MachineChain::slot`); `None` = not measured.
     pub tables: [Option<ErrorTable>; 5],
     /// `s_xy, s_xz, s_yz`, µrad.
     pub squareness: [f64; 3],
-    /// Rotary location errors in `kinematics::LOCATION_NAMES` order (µm, µrad).
+    /// Rotary location errors in `ParameterLayout::location_names` order (µm, µrad).
     pub location: [f64; 10],
-    /// LinuxCNC's `conventional-directions` (kinematics.md).
-    pub conventional_directions: bool,
     /// The machine file this was read from.
     pub source: PathBuf,
 }
@@ -215,17 +240,41 @@ struct RawMachine {
     name: String,
     kinematics: Spanned<String>,
     tool_chain: Option<Spanned<Vec<String>>>,
-    #[serde(default)]
-    conventional_directions: bool,
-    geometry: Spanned<Geometry>,
+    conventional_directions: Option<Spanned<bool>>,
+    geometry: Option<Spanned<RawGeometry>>,
+    workpiece_side: Option<Spanned<Vec<String>>>,
+    tool_side: Option<Spanned<Vec<String>>>,
+    tool_axis: Option<Spanned<[f64; 3]>>,
+    axes: Option<Spanned<BTreeMap<String, Spanned<RawAxis>>>>,
     tool: RawTool,
     #[serde(default)]
     tools: Vec<Spanned<RawToolEntry>>,
-    limits: Spanned<RawLimits>,
+    limits: Spanned<BTreeMap<String, Spanned<[f64; 2]>>>,
     rates: Option<RawRates>,
-    errors: Option<RawErrors>,
+    errors: Option<Spanned<BTreeMap<String, Spanned<String>>>>,
     squareness: Option<Spanned<RawSquareness>>,
-    location: Option<Spanned<RawLocation>>,
+    location: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+}
+
+/// `[geometry]` of the two presets (which keys each takes is checked in
+/// [`preset_chain`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGeometry {
+    x_rot_point: Option<f64>,
+    y_rot_point: Option<f64>,
+    z_rot_point: Option<f64>,
+    x_offset: Option<f64>,
+    y_offset: Option<f64>,
+    z_offset: Option<f64>,
+}
+
+/// `[axes.K]` of a chain machine.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAxis {
+    direction: Option<[f64; 3]>,
+    point: Option<[f64; 3]>,
 }
 
 #[derive(Deserialize)]
@@ -256,28 +305,8 @@ struct RawToolEntry {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawLimits {
-    x: Spanned<[f64; 2]>,
-    y: Spanned<[f64; 2]>,
-    z: Spanned<[f64; 2]>,
-    a: Spanned<[f64; 2]>,
-    c: Option<Spanned<[f64; 2]>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct RawRates {
     rapid: Option<Spanned<f64>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawErrors {
-    x: Option<Spanned<String>>,
-    y: Option<Spanned<String>>,
-    z: Option<Spanned<String>>,
-    a: Option<Spanned<String>>,
-    c: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize, Default)]
@@ -286,22 +315,6 @@ struct RawSquareness {
     s_xy: f64,
     s_xz: f64,
     s_yz: f64,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields, default)]
-#[allow(non_snake_case)]
-struct RawLocation {
-    EY0A: f64,
-    EZ0A: f64,
-    EB0A: f64,
-    EC0A: f64,
-    EA0A: f64,
-    EX0C: f64,
-    EY0C: f64,
-    EA0C: f64,
-    EB0C: f64,
-    EC0C: f64,
 }
 
 /// 1-based line and column of byte `offset` in `text`.
@@ -357,6 +370,287 @@ impl Source<'_> {
         }
         Ok(v)
     }
+
+    /// The axis letter of a key (`"b"`, `"B"`), or a located error.
+    fn letter(&self, span: Range<usize>, key: &str, name: &str) -> Result<Axis, MachineError> {
+        let mut chars = name.chars();
+        match (chars.next().and_then(Axis::from_letter), chars.next()) {
+            (Some(axis), None) => Ok(axis),
+            _ => Err(self.invalid(
+                span,
+                key,
+                format!("`{name}` is not an axis letter (expected one of X Y Z A B C U V W)"),
+            )),
+        }
+    }
+
+    /// Axis letters of a side list, each once.
+    fn side(
+        &self,
+        key: &str,
+        list: &Spanned<Vec<String>>,
+        seen: &mut AxisSet,
+    ) -> Result<Vec<Axis>, MachineError> {
+        let mut out = Vec::new();
+        for name in list.get_ref() {
+            let axis = self.letter(list.span(), key, name)?;
+            if seen.contains(axis) {
+                return Err(self.invalid(
+                    list.span(),
+                    key,
+                    format!(
+                        "axis {} appears twice (each letter once, on one side)",
+                        axis.letter()
+                    ),
+                ));
+            }
+            *seen = seen.with(axis);
+            out.push(axis);
+        }
+        Ok(out)
+    }
+}
+
+/// The natural direction of a letter (ISO 841): X/A/U along X, Y/B/V along Y, Z/C/W
+/// along Z.
+fn natural_direction(axis: Axis) -> [f64; 3] {
+    match axis {
+        Axis::X | Axis::A | Axis::U => [1.0, 0.0, 0.0],
+        Axis::Y | Axis::B | Axis::V => [0.0, 1.0, 0.0],
+        Axis::Z | Axis::C | Axis::W => [0.0, 0.0, 1.0],
+    }
+}
+
+/// The chain of a `xyzac-trt` or `xyzbc-trt` file from its `[geometry]`,
+/// `tool_chain` and `conventional_directions`.
+fn preset_chain(
+    src: &Source<'_>,
+    raw: &RawMachine,
+    kind: KinematicsType,
+) -> Result<MachineChain, MachineError> {
+    for (present, key) in [
+        (raw.workpiece_side.as_ref().map(|s| s.span()), "workpiece_side"),
+        (raw.tool_side.as_ref().map(|s| s.span()), "tool_side"),
+        (raw.tool_axis.as_ref().map(|s| s.span()), "tool_axis"),
+        (raw.axes.as_ref().map(|s| s.span()), "axes"),
+    ] {
+        if let Some(span) = present {
+            return Err(src.invalid(
+                span,
+                key,
+                format!(
+                    "`{key}` describes a `kinematics = \"chain\"` machine; a {} machine is given by [geometry]",
+                    kind.name()
+                ),
+            ));
+        }
+    }
+    let tool_chain = match &raw.tool_chain {
+        None => ToolChain::XYZ,
+        Some(chain) => ToolChain::from_names(chain.get_ref())
+            .map_err(|e| src.invalid(chain.span(), "tool_chain", e.to_string()))?,
+    };
+    let conventional = raw
+        .conventional_directions
+        .as_ref()
+        .is_some_and(|c| *c.get_ref());
+    let Some(geometry) = &raw.geometry else {
+        return Err(src.invalid(
+            raw.kinematics.span(),
+            "geometry",
+            format!("a {} machine needs its [geometry] (rotary points and offsets, mm)", kind.name()),
+        ));
+    };
+    let g = geometry.get_ref();
+    let (wrong, wrong_name, needed) = match kind {
+        KinematicsType::XyzacTrt => (g.x_offset, "x_offset", "y_offset"),
+        _ => (g.y_offset, "y_offset", "x_offset"),
+    };
+    if wrong.is_some() {
+        return Err(src.invalid(
+            geometry.span(),
+            &format!("geometry.{wrong_name}"),
+            format!(
+                "{} takes `{needed}`, not `{wrong_name}` (LinuxCNC's {}-kins ignores {wrong_name})",
+                kind.name(),
+                kind.name()
+            ),
+        ));
+    }
+    let get = |value: Option<f64>, name: &str| -> Result<f64, MachineError> {
+        let v = value.ok_or_else(|| {
+            src.invalid(
+                geometry.span(),
+                &format!("geometry.{name}"),
+                format!("missing `{name}` (mm)"),
+            )
+        })?;
+        src.finite(geometry.span(), &format!("geometry.{name}"), &[v])?;
+        Ok(v)
+    };
+    let (x, y, z) = (
+        get(g.x_rot_point, "x_rot_point")?,
+        get(g.y_rot_point, "y_rot_point")?,
+        get(g.z_rot_point, "z_rot_point")?,
+    );
+    let z_offset = get(g.z_offset, "z_offset")?;
+    let kin = match kind {
+        KinematicsType::XyzacTrt => Kinematics::xyzac_trt(
+            Geometry {
+                x_rot_point: x,
+                y_rot_point: y,
+                z_rot_point: z,
+                y_offset: get(g.y_offset, "y_offset")?,
+                z_offset,
+            },
+            tool_chain,
+            conventional,
+            0.0,
+        ),
+        _ => Kinematics::xyzbc_trt(
+            BcGeometry {
+                x_rot_point: x,
+                y_rot_point: y,
+                z_rot_point: z,
+                x_offset: get(g.x_offset, "x_offset")?,
+                z_offset,
+            },
+            tool_chain,
+            conventional,
+            0.0,
+        ),
+    };
+    Ok(kin.chain)
+}
+
+/// The chain of a `kinematics = "chain"` file (formats.md "Machine file for any
+/// five-axis machine").
+fn described_chain(src: &Source<'_>, raw: &RawMachine) -> Result<MachineChain, MachineError> {
+    for (present, key) in [
+        (raw.geometry.as_ref().map(|s| s.span()), "geometry"),
+        (raw.tool_chain.as_ref().map(|s| s.span()), "tool_chain"),
+        (
+            raw.conventional_directions.as_ref().map(|s| s.span()),
+            "conventional_directions",
+        ),
+    ] {
+        if let Some(span) = present {
+            let hint = match key {
+                "geometry" => "describe the axes in [axes.K] (direction, point)",
+                "tool_chain" => "list the tool's axes in tool_side",
+                _ => "give a rotary axis a negative direction to reverse it",
+            };
+            return Err(src.invalid(
+                span,
+                key,
+                format!("`{key}` belongs to the xyzac-trt/xyzbc-trt presets; a chain machine does not take it: {hint}"),
+            ));
+        }
+    }
+    let mut seen = AxisSet::EMPTY;
+    let need = |side: &Option<Spanned<Vec<String>>>, key: &str| -> Result<(), MachineError> {
+        if side.is_none() {
+            return Err(src.invalid(
+                raw.kinematics.span(),
+                key,
+                format!("a chain machine needs `{key}` (a list of axis letters, bed outwards; may be empty)"),
+            ));
+        }
+        Ok(())
+    };
+    need(&raw.workpiece_side, "workpiece_side")?;
+    need(&raw.tool_side, "tool_side")?;
+    let empty = Spanned::new(0..0, Vec::new());
+    let work_raw = raw.workpiece_side.as_ref().unwrap_or(&empty);
+    let tool_raw = raw.tool_side.as_ref().unwrap_or(&empty);
+    let work = src.side("workpiece_side", work_raw, &mut seen)?;
+    let tool = src.side("tool_side", tool_raw, &mut seen)?;
+    let mut described: BTreeMap<Axis, (&Spanned<RawAxis>, Range<usize>)> = BTreeMap::new();
+    if let Some(axes) = &raw.axes {
+        for (name, entry) in axes.get_ref() {
+            let key = format!("axes.{name}");
+            let axis = src.letter(entry.span(), &key, name)?;
+            if !seen.contains(axis) {
+                return Err(src.invalid(
+                    entry.span(),
+                    &key,
+                    format!(
+                        "axis {} is described but is in neither workpiece_side nor tool_side (the machine's axes: {})",
+                        axis.letter(),
+                        seen.letters()
+                    ),
+                ));
+            }
+            if described.insert(axis, (entry, entry.span())).is_some() {
+                return Err(src.invalid(
+                    entry.span(),
+                    &key,
+                    format!("axis {} is described twice", axis.letter()),
+                ));
+            }
+        }
+    }
+    let build = |axis: Axis| -> Result<ChainAxis, MachineError> {
+        let key = format!("axes.{}", axis.letter());
+        let entry = described.get(&axis);
+        let span = entry.map_or(raw.kinematics.span(), |e| e.1.clone());
+        let (direction, point) = entry.map_or((None, None), |e| {
+            (e.0.get_ref().direction, e.0.get_ref().point)
+        });
+        let direction = direction.unwrap_or(natural_direction(axis));
+        src.finite(span.clone(), &format!("{key}.direction"), &direction)?;
+        if crate::vec3::norm(direction) < 1e-12 {
+            return Err(src.invalid(
+                span,
+                &format!("{key}.direction"),
+                "the direction is the zero vector: give the axis's unit direction at home",
+            ));
+        }
+        if axis.is_rotary() {
+            let Some(point) = point else {
+                return Err(src.invalid(
+                    span,
+                    &key,
+                    format!(
+                        "rotary axis {} needs `point`, a point on its line at home (mm; workpiece side: machine coordinates, tool side: relative to the gauge point)",
+                        axis.letter()
+                    ),
+                ));
+            };
+            src.finite(span, &format!("{key}.point"), &point)?;
+            Ok(ChainAxis::rotary(axis, direction, point))
+        } else {
+            if point.is_some() {
+                return Err(src.invalid(
+                    span,
+                    &format!("{key}.point"),
+                    format!("linear axis {} takes a direction only, not a point", axis.letter()),
+                ));
+            }
+            Ok(ChainAxis::linear(axis, direction))
+        }
+    };
+    let work: Vec<ChainAxis> = work.into_iter().map(build).collect::<Result<_, _>>()?;
+    let tool: Vec<ChainAxis> = tool.into_iter().map(build).collect::<Result<_, _>>()?;
+    let tool_axis = match &raw.tool_axis {
+        Some(t) => {
+            src.finite(t.span(), "tool_axis", t.get_ref())?;
+            *t.get_ref()
+        }
+        None => [0.0, 0.0, 1.0],
+    };
+    let span = raw
+        .tool_side
+        .as_ref()
+        .map_or(raw.kinematics.span(), |s| s.span());
+    MachineChain::new(&work, &tool, tool_axis).map_err(|e| {
+        let key = match e {
+            crate::kinematics::ChainError::BadToolAxis
+            | crate::kinematics::ChainError::ToolAxisAlongRotary(_) => "tool_axis",
+            _ => "tool_side",
+        };
+        src.invalid(span, key, e.to_string())
+    })
 }
 
 impl Machine {
@@ -389,27 +683,24 @@ impl Machine {
 
         let kinematics = match raw.kinematics.get_ref().as_str() {
             "xyzac-trt" => KinematicsType::XyzacTrt,
+            "xyzbc-trt" => KinematicsType::XyzbcTrt,
+            "chain" => KinematicsType::Chain,
             other => {
                 return Err(src.invalid(
                     raw.kinematics.span(),
                     "kinematics",
-                    format!("unsupported kinematics \"{other}\" (expected \"xyzac-trt\")"),
+                    format!(
+                        "unsupported kinematics \"{other}\" (expected \"xyzac-trt\", \"xyzbc-trt\" or \"chain\")"
+                    ),
                 ));
             }
         };
-        let tool_chain = match &raw.tool_chain {
-            None => ToolChain::XYZ,
-            Some(chain) => ToolChain::from_names(chain.get_ref())
-                .map_err(|e| src.invalid(chain.span(), "tool_chain", e.to_string()))?,
+        let chain = match kinematics {
+            KinematicsType::Chain => described_chain(&src, &raw)?,
+            preset => preset_chain(&src, &raw, preset)?,
         };
-        let geometry = *raw.geometry.get_ref();
-        if !geometry.is_finite() {
-            return Err(src.invalid(
-                raw.geometry.span(),
-                "geometry",
-                "every value must be a finite number",
-            ));
-        }
+        let letters = chain.letters();
+        let layout = chain.layout();
         let (length, radius) = (*raw.tool.length.get_ref(), *raw.tool.radius.get_ref());
         src.finite(raw.tool.length.span(), "tool.length", &[length])?;
         src.finite(raw.tool.radius.span(), "tool.radius", &[radius])?;
@@ -485,18 +776,51 @@ impl Machine {
                     )
                 })?;
         }
+        // Limits: every linear axis of the machine; a rotary axis may be omitted
+        // (endless), but the tilting axis of the presets is required (formats.md).
         let limits_span = raw.limits.span();
-        let raw_limits = raw.limits.get_ref();
-        let limits = Limits {
-            x: src.range("limits.x", &raw_limits.x)?,
-            y: src.range("limits.y", &raw_limits.y)?,
-            z: src.range("limits.z", &raw_limits.z)?,
-            a: src.range("limits.a", &raw_limits.a)?,
-            c: match &raw_limits.c {
-                Some(c) => Some(src.range("limits.c", c)?),
-                None => None,
-            },
+        let mut limits = Limits::default();
+        for (name, value) in raw.limits.get_ref() {
+            let key = format!("limits.{name}");
+            let axis = src.letter(value.span(), &key, name)?;
+            if !letters.contains(axis) {
+                return Err(src.invalid(
+                    value.span(),
+                    &key,
+                    format!(
+                        "the machine has no axis {} (its axes: {})",
+                        axis.letter(),
+                        letters.letters()
+                    ),
+                ));
+            }
+            if limits.get(axis).is_some() {
+                return Err(src.invalid(
+                    value.span(),
+                    &key,
+                    format!("limits of {} given twice", axis.letter()),
+                ));
+            }
+            limits.set(axis, Some(src.range(&key, value)?));
+        }
+        let tilting = match kinematics {
+            KinematicsType::XyzacTrt => Some(Axis::A),
+            KinematicsType::XyzbcTrt => Some(Axis::B),
+            KinematicsType::Chain => None,
         };
+        for axis in letters.iter() {
+            if limits.get(axis).is_none() && (!axis.is_rotary() || Some(axis) == tilting) {
+                return Err(src.invalid(
+                    limits_span.clone(),
+                    &format!("limits.{}", axis.lower()),
+                    format!(
+                        "missing the travel of {} ([min, max], {})",
+                        axis.letter(),
+                        axis.unit()
+                    ),
+                ));
+            }
+        }
         let (rapid_mm_per_min, rapid_is_default) =
             match raw.rates.as_ref().and_then(|r| r.rapid.as_ref()) {
                 Some(rapid) => {
@@ -521,31 +845,50 @@ impl Machine {
             }
             None => [0.0; 3],
         };
-        let location = match &raw.location {
-            Some(l) => {
-                let r = l.get_ref();
-                let v = [
-                    r.EY0A, r.EZ0A, r.EB0A, r.EC0A, r.EA0A, r.EX0C, r.EY0C, r.EA0C, r.EB0C, r.EC0C,
-                ];
-                src.finite(l.span(), "location", &v)?;
-                v
+        let mut location = [0.0; 10];
+        if let Some(l) = &raw.location {
+            let names = layout.location_names();
+            for (name, value) in l.get_ref() {
+                let key = format!("location.{name}");
+                let Some(i) = names.iter().position(|n| n == name) else {
+                    return Err(src.invalid(
+                        value.span(),
+                        &key,
+                        format!(
+                            "unknown location error `{name}`: this machine's rotary axes {} and {} take {}",
+                            layout.rotary()[0].letter(),
+                            layout.rotary()[1].letter(),
+                            names.join(", ")
+                        ),
+                    ));
+                };
+                src.finite(value.span(), &key, &[*value.get_ref()])?;
+                location[i] = *value.get_ref();
             }
-            None => [0.0; 10],
-        };
+        }
 
         let base = path.parent().unwrap_or(Path::new(""));
         let mut tables: [Option<ErrorTable>; 5] = Default::default();
         if let Some(errors) = &raw.errors {
-            let entries = [
-                (Axis::X, &errors.x),
-                (Axis::Y, &errors.y),
-                (Axis::Z, &errors.z),
-                (Axis::A, &errors.a),
-                (Axis::C, &errors.c),
-            ];
-            for (slot, (axis, entry)) in tables.iter_mut().zip(entries) {
-                let Some(entry) = entry else { continue };
-                let key = format!("errors.{}", axis.letter().to_ascii_lowercase());
+            for (name, entry) in errors.get_ref() {
+                let key = format!("errors.{name}");
+                let axis = src.letter(entry.span(), &key, name)?;
+                let Some(slot) = chain.slot(axis) else {
+                    let why = if letters.contains(axis) {
+                        "U, V and W carry no error tables (volcomp models their position only)"
+                            .to_string()
+                    } else {
+                        format!("the machine has no axis {} (its axes: {})", axis.letter(), letters.letters())
+                    };
+                    return Err(src.invalid(entry.span(), &key, why));
+                };
+                if tables[slot].is_some() {
+                    return Err(src.invalid(
+                        entry.span(),
+                        &key,
+                        format!("the table of {} is given twice", axis.letter()),
+                    ));
+                }
                 let table_path = base.join(entry.get_ref());
                 let table = ErrorTable::read(&table_path, Some(axis)).map_err(|source| {
                     let (line, column) = line_column(text, entry.span().start);
@@ -558,17 +901,16 @@ impl Machine {
                     }
                 })?;
                 if options.extrapolation == ExtrapolationPolicy::Error {
-                    check_coverage(&src, raw_limits, limits_span.clone(), axis, &table, &key)?;
+                    check_coverage(&src, &raw, &limits, axis, &table, &key)?;
                 }
-                *slot = Some(table);
+                tables[slot] = Some(table);
             }
         }
 
         Ok(Machine {
             name: raw.name,
             kinematics,
-            tool_chain,
-            geometry,
+            chain,
             tool,
             tools,
             limits,
@@ -577,19 +919,13 @@ impl Machine {
             tables,
             squareness,
             location,
-            conventional_directions: raw.conventional_directions,
             source: path.to_path_buf(),
         })
     }
 
     /// The kinematic model of this machine.
     pub fn kinematics_model(&self) -> Kinematics {
-        Kinematics {
-            geometry: self.geometry,
-            tool_length: self.tool.length,
-            tool_chain: self.tool_chain,
-            conventional_directions: self.conventional_directions,
-        }
+        Kinematics::from_chain(self.chain, self.tool.length)
     }
 
     /// The default tool (tool 0): `[tool]`.
@@ -605,9 +941,19 @@ impl Machine {
         self.kinematics_model().with_tool_length(tool.length_mm)
     }
 
+    /// The machine's axis letters.
+    pub fn letters(&self) -> AxisSet {
+        self.chain.letters()
+    }
+
+    /// The names of the machine's error parameters.
+    pub fn layout(&self) -> ParameterLayout {
+        self.chain.layout()
+    }
+
     /// The table of `axis`, if measured.
     pub fn table(&self, axis: Axis) -> Option<&ErrorTable> {
-        self.tables[axis_slot(axis)].as_ref()
+        self.chain.slot(axis).and_then(|s| self.tables[s].as_ref())
     }
 
     /// The position-independent parameters (squareness, location) with every
@@ -617,65 +963,52 @@ impl Machine {
         values.squareness = self.squareness;
         values.location = self.location;
         debug_assert_eq!(SQUARENESS_NAMES.len(), 3);
-        debug_assert_eq!(LOCATION_NAMES.len(), 10);
         values
     }
 }
 
-/// Index of `axis` in `Axis::ALL` (the order of [`Machine::tables`]).
-pub(crate) fn axis_slot(axis: Axis) -> usize {
-    match axis {
-        Axis::X => 0,
-        Axis::Y => 1,
-        Axis::Z => 2,
-        Axis::A => 3,
-        Axis::C => 4,
-    }
-}
-
-/// The travel of `axis` must lie inside the table's positions (a C table over one
-/// revolution covers everything).
+/// The travel of `axis` must lie inside the table's positions (a rotary table over
+/// one revolution covers everything).
 fn check_coverage(
     src: &Source<'_>,
-    limits: &RawLimits,
-    limits_span: Range<usize>,
+    raw: &RawMachine,
+    limits: &Limits,
     axis: Axis,
     table: &ErrorTable,
     table_key: &str,
 ) -> Result<(), MachineError> {
-    if axis == Axis::C && table.one_revolution {
+    if table.one_revolution {
         return Ok(());
     }
     let (Some(first), Some(last)) = (table.positions.first(), table.positions.last()) else {
         return Ok(());
     };
-    let spanned = match axis {
-        Axis::X => Some(&limits.x),
-        Axis::Y => Some(&limits.y),
-        Axis::Z => Some(&limits.z),
-        Axis::A => Some(&limits.a),
-        Axis::C => limits.c.as_ref(),
-    };
     let unit = if axis.is_rotary() { "°" } else { " mm" };
-    let key = format!("limits.{}", axis.letter().to_ascii_lowercase());
+    let key = format!("limits.{}", axis.lower());
     let hint = "a lookup inside the travel would fall outside the table; extend the table, \
 narrow the limits, or hold the end values (--extrapolate hold)";
-    match spanned {
+    let span = raw
+        .limits
+        .get_ref()
+        .iter()
+        .find(|(k, _)| k.eq_ignore_ascii_case(&axis.lower().to_string()))
+        .map_or(raw.limits.span(), |(_, v)| v.span());
+    match limits.get(axis) {
         None => Err(src.invalid(
-            limits_span,
+            span,
             &key,
             format!(
-                "C is endless (no limits.c) but the {} table covers only {first}{unit} to {last}{unit} \
+                "{} is endless (no {key}) but the {} table covers only {first}{unit} to {last}{unit} \
 and is not one revolution (0 to 360°); {hint}",
+                axis.letter(),
                 table_key
             ),
         )),
-        Some(limit) => {
-            let [lo, hi] = *limit.get_ref();
+        Some([lo, hi]) => {
             let tol = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
             if lo < first - tol || hi > last + tol {
                 Err(src.invalid(
-                    limit.span(),
+                    span,
                     &key,
                     format!(
                         "travel [{lo}, {hi}]{unit} is not covered by the table of `{table_key}` \

@@ -49,9 +49,8 @@ pub struct MapSpec {
     pub plane: Plane,
     /// Joint position of the normal axis, mm.
     pub level: f64,
-    /// Rotary axes, degrees.
-    pub a: f64,
-    pub c: f64,
+    /// The rotary joints (degrees) of the map; its linear letters are ignored.
+    pub rotaries: Axes,
     /// Ranges of the in-plane axes (joint mm), `min < max`.
     pub u_range: [f64; 2],
     pub v_range: [f64; 2],
@@ -123,12 +122,13 @@ fn linspace(range: [f64; 2], n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// `Rx(a)·Rz(c)·v` with the effective (direction-convention) angles of `kin`.
-fn part_to_machine(kin: &crate::kinematics::Kinematics, a: f64, c: f64, v: [f64; 3]) -> [f64; 3] {
-    // The nominal tip map is affine with rotation Rx(a)·Rz(c): read it off the
-    // nominal machine point of two part points (keeps the convention in one place).
-    let o = kin.nominal_machine_point([0.0; 3], a, c);
-    let p = kin.nominal_machine_point(v, a, c);
+/// A part-frame vector `v` in machine directions at the rotary joints of `rotaries`.
+fn part_to_machine(kin: &crate::kinematics::Kinematics, rotaries: &Axes, v: [f64; 3]) -> [f64; 3] {
+    // The nominal tip map is affine: read its linear part off the machine points of
+    // two part points (keeps the chain's conventions in one place).
+    let map = kin.tip_to_joints(rotaries);
+    let o = map.linear_joints([0.0; 3]);
+    let p = map.linear_joints(v);
     [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
 }
 
@@ -143,7 +143,7 @@ impl ErrorMap {
                 return Err(MapError::Range(r));
             }
         }
-        if !(spec.level.is_finite() && spec.a.is_finite() && spec.c.is_finite()) {
+        if !(spec.level.is_finite() && spec.rotaries.is_finite()) {
             return Err(MapError::NotFinite);
         }
         let (ua, va, na) = spec.plane.axes();
@@ -153,7 +153,7 @@ impl ErrorMap {
         let points = (0..spec.grid * spec.grid)
             .into_par_iter()
             .map(|k| {
-                let mut joints = Axes::new(0.0, 0.0, 0.0, spec.a, spec.c);
+                let mut joints = spec.rotaries;
                 joints.set(ua, u[k % spec.grid]);
                 joints.set(va, v[k / spec.grid]);
                 joints.set(na, spec.level);
@@ -161,7 +161,7 @@ impl ErrorMap {
                 Ok(MapPoint {
                     joints,
                     error,
-                    e_machine_um: part_to_machine(&kin, spec.a, spec.c, error.e_um),
+                    e_machine_um: part_to_machine(&kin, &spec.rotaries, error.e_um),
                     magnitude_um: error.magnitude_um(),
                 })
             })

@@ -2,9 +2,9 @@
 //! every measured table column, plus the position-independent scalars, and the
 //! lookup `joints → ErrorValues → VolumetricError`.
 //!
-//! Lookup policy (formats.md): linear axes are looked up by position (mm), A by
-//! angle (degrees); a C table over one revolution wraps (`c` reduced modulo 360 into
-//! the table's range, for any number of turns); outside a table's range a lookup is
+//! Lookup policy (formats.md): linear axes are looked up by position (mm), rotary
+//! axes by angle (degrees); a rotary table over one revolution wraps (the angle
+//! reduced modulo 360 into the table's range, for any number of turns); outside a table's range a lookup is
 //! [`LookupError::OutOfRange`] unless the policy is [`ExtrapolationPolicy::Hold`],
 //! which holds the end value and counts it ([`ErrorModel::held_lookups`]).
 //! Unmeasured axes and columns contribute zero.
@@ -12,11 +12,11 @@
 //! Invariants: built once, then read-only and `Sync` (the hold counter is atomic):
 //! compensate and predict call [`ErrorModel::volumetric_error`] from many threads;
 //! the lookup allocates nothing; every returned value is finite (inputs are checked).
-use super::definition::{ExtrapolationPolicy, Machine, axis_slot};
+use super::definition::{ExtrapolationPolicy, Machine};
 use super::resampled::ResampledAxis;
 use super::table::ErrorTable;
 use crate::axes::{Axes, Axis};
-use crate::kinematics::error_values::{COMPONENT_NAMES, PARAMETER_COUNT, PARAMETER_NAMES};
+use crate::kinematics::error_values::PARAMETER_COUNT;
 use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
 use crate::nurbs::{
     FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fit_parameter,
@@ -189,11 +189,12 @@ impl ErrorModel {
         options: &ModelOptions,
     ) -> Result<ErrorModel, ModelError> {
         let mut jobs = Vec::new();
-        for (slot, axis) in Axis::ALL.into_iter().enumerate() {
+        let layout = machine.layout();
+        for (slot, axis) in layout.slot_axes().into_iter().enumerate() {
             let Some(table) = machine.table(axis) else {
                 continue;
             };
-            for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
+            for (k, name) in layout.component_names(slot).iter().enumerate() {
                 if let Some(column) = table.columns.iter().find(|c| c.name == *name) {
                     jobs.push((slot, k, *name, table, column));
                 }
@@ -250,12 +251,13 @@ impl ErrorModel {
             message,
         };
         let mut axes = Self::empty_axes(machine);
-        for (slot, axis) in Axis::ALL.into_iter().enumerate() {
+        let layout = machine.layout();
+        for (slot, axis) in layout.slot_axes().into_iter().enumerate() {
             let Some(table) = machine.table(axis) else {
                 continue;
             };
             let hash = format!("{:016x}", table_hash(table)?);
-            for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
+            for (k, name) in layout.component_names(slot).iter().enumerate() {
                 if table.column(name).is_none() {
                     continue;
                 }
@@ -299,12 +301,13 @@ impl ErrorModel {
             parameters: Vec::new(),
             not_measured: Vec::new(),
         };
-        for (slot, axis) in Axis::ALL.into_iter().enumerate() {
+        let layout = machine.layout();
+        for (slot, axis) in layout.slot_axes().into_iter().enumerate() {
             let Some(table) = machine.table(axis) else {
                 continue;
             };
             let hash = table_hash(table)?;
-            for (k, name) in COMPONENT_NAMES[slot].iter().enumerate() {
+            for (k, name) in layout.component_names(slot).iter().enumerate() {
                 let curve = self.axes[slot]
                     .as_ref()
                     .and_then(|ac| ac.curves[k].as_ref());
@@ -372,16 +375,16 @@ impl ErrorModel {
     /// One entry per measured axis with its range and no curves yet.
     fn empty_axes(machine: &Machine) -> [Option<AxisCurves>; 5] {
         let mut axes: [Option<AxisCurves>; 5] = Default::default();
-        for axis in Axis::ALL {
+        for (slot, axis) in machine.layout().slot_axes().into_iter().enumerate() {
             if let Some(table) = machine.table(axis) {
                 let (Some(first), Some(last)) = (table.positions.first(), table.positions.last())
                 else {
                     continue;
                 };
-                axes[axis_slot(axis)] = Some(AxisCurves {
+                axes[slot] = Some(AxisCurves {
                     axis,
                     range: [*first, *last],
-                    wrap: axis == Axis::C && table.one_revolution,
+                    wrap: table.one_revolution,
                     curves: Default::default(),
                     resampled: None,
                 });
@@ -439,7 +442,7 @@ impl ErrorModel {
 
     /// The fitted curve of a parameter (`"EXX"`...), if measured.
     pub fn curve(&self, parameter: &str) -> Option<&SmemCurve> {
-        let index = ErrorValues::index_of(parameter)?;
+        let index = self.kinematics.layout().index_of(parameter)?;
         if index >= 30 {
             return None;
         }
@@ -448,7 +451,7 @@ impl ErrorModel {
 
     /// Table range `[first, last]` of a measured axis, and whether it wraps.
     pub fn table_range(&self, axis: Axis) -> Option<([f64; 2], bool)> {
-        self.axes[axis_slot(axis)]
+        self.axes[self.kinematics.chain.slot(axis)?]
             .as_ref()
             .map(|ac| (ac.range, ac.wrap))
     }
@@ -461,7 +464,7 @@ impl ErrorModel {
                     .as_ref()
                     .is_some_and(|ac| ac.curves[i % 6].is_some())
             })
-            .map(|i| PARAMETER_NAMES[i])
+            .map(|i| self.kinematics.layout().name(i))
             .collect()
     }
 
@@ -586,6 +589,7 @@ impl ErrorModel {
     /// zero), largest |e| first; parameters that are zero there are left out.
     pub fn contributions(&self, joints: &Axes) -> Result<Vec<Contribution>, LookupError> {
         let errors = self.errors_at(joints)?;
+        let names = self.kinematics.layout().names();
         let mut out: Vec<Contribution> = (0..PARAMETER_COUNT)
             .filter_map(|i| {
                 let value = errors.get_index(i)?;
@@ -594,7 +598,7 @@ impl ErrorModel {
                 }
                 let v = self.kinematics.volumetric_error(joints, &errors.only(i));
                 Some(Contribution {
-                    parameter: PARAMETER_NAMES[i],
+                    parameter: names[i],
                     value,
                     e_um: v.e_um,
                     axis_urad: v.axis_urad,

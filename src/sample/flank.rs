@@ -128,16 +128,15 @@ impl FlankOptions {
 pub fn generate(
     kinematics: &Kinematics,
     tool_length: f64,
-    a_limits: Option<[f64; 2]>,
+    limits: [Option<[f64; 2]>; 2],
     options: &FlankOptions,
 ) -> Result<FlankFiles, FlankError> {
+    use crate::axes::{Axis, AxisSet};
     let kin = kinematics.with_tool_length(tool_length);
-    let fmt = |a: &Axes| {
-        format!(
-            "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
-            a.x, a.y, a.z, a.a, a.c
-        )
-    };
+    let [r1, r2] = kin.rotary();
+    let letters = AxisSet::of(&[Axis::X, Axis::Y, Axis::Z, r1, r2]);
+    let fmt = |a: &Axes| a.words(letters, 4);
+    let lifted = |j: &Axes, by: f64| super::lifted(&kin, j, by).0;
     let mut out = String::new();
     let mut n = 10;
     let mut block = |out: &mut String, text: &str| {
@@ -172,23 +171,34 @@ pub fn generate(
     );
     block(&mut out, &format!("G43 H{}", options.tool));
     block(&mut out, "S10000 M3");
+    // Start from the solution for the draft lean towards +Y whose first rotary
+    // joint is positive (A = draft, C = 0 on an A/C table).
+    let lean = options.draft_degrees.to_radians();
+    let lean_axis = [0.0, lean.sin(), lean.cos()];
+    let start = kin
+        .orientation_solutions(lean_axis)
+        .into_iter()
+        .find(|s| s[0] > 0.0)
+        .unwrap_or([0.0, 0.0]);
     let mut inverse = InverseOptions {
-        previous: Axes::new(0.0, 0.0, 0.0, options.draft_degrees, 0.0),
-        a_limits,
+        previous: Axes::xyz_rotary([0.0; 3], [(r1, start[0]), (r2, start[1])]),
+        limits,
     };
     let steps = (360.0 / options.step_degrees).round() as usize;
     let mut last = Axes::default();
     for i in 0..=steps {
         let phi = i as f64 * options.step_degrees;
-        let joints = kin.inverse_tool_axis(options.tip(phi), options.ruling(phi), &inverse)?;
+        let joints = kin
+            .inverse_tool_axis(options.tip(phi), options.ruling(phi), &inverse)?
+            .joints;
         inverse.previous = joints;
         if i == 0 {
-            let above = Axes {
-                z: joints.z + options.clearance,
-                ..joints
-            };
+            let above = lifted(&joints, options.clearance);
             block(&mut out, &format!("G0 {}", fmt(&above)));
-            block(&mut out, &format!("G1 Z{:.4} F400. (PLUNGE)", joints.z));
+            block(
+                &mut out,
+                &format!("G1 {} F400. (PLUNGE)", super::moved_words(&above, &joints)),
+            );
         } else {
             let feed = if i == 1 {
                 format!(" F{:.0}.", options.feed)
@@ -199,7 +209,11 @@ pub fn generate(
         }
         last = joints;
     }
-    block(&mut out, &format!("G0 Z{:.4}", last.z + options.clearance));
+    let retract = lifted(&last, options.clearance);
+    block(
+        &mut out,
+        &format!("G0 {}", super::moved_words(&last, &retract)),
+    );
     block(&mut out, "M5");
     block(&mut out, "M30");
     out.push_str("%\n");

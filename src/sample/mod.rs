@@ -21,3 +21,38 @@ pub fn plan_csv(points: &[([f64; 3], [f64; 3])]) -> String {
     }
     plan
 }
+
+/// The linear words (`X… Y… Z…`, 4 decimals) of `to` that differ from `from` as
+/// written: the words of a plunge or a retract.
+pub(crate) fn moved_words(from: &crate::axes::Axes, to: &crate::axes::Axes) -> String {
+    use crate::axes::{Axis, AxisSet};
+    let xyz = AxisSet::of(&[Axis::X, Axis::Y, Axis::Z]);
+    let (before, after) = (from.words(xyz, 4), to.words(xyz, 4));
+    before
+        .split(' ')
+        .zip(after.split(' '))
+        .filter(|(b, a)| b != a)
+        .map(|(_, a)| a)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The joints `by` mm above `j` along the tool axis, and their tool tip (part
+/// coordinates). On a table-tilting machine the tool axis is machine Z and only Z
+/// moves.
+pub(crate) fn lifted(
+    kinematics: &crate::kinematics::Kinematics,
+    j: &crate::axes::Axes,
+    by: f64,
+) -> (crate::axes::Axes, [f64; 3]) {
+    let chain = &kinematics.chain;
+    let head = chain.tool_side().iter().any(|a| a.is_rotary());
+    if !head && chain.tool_axis() == [0.0, 0.0, 1.0] {
+        let up = crate::axes::Axes { z: j.z + by, ..*j };
+        return (up, kinematics.nominal_tip(&up));
+    }
+    let axis = kinematics.nominal_tool_axis(j);
+    let tip = kinematics.nominal_tip(j);
+    let up_tip: [f64; 3] = std::array::from_fn(|k| tip[k] + by * axis[k]);
+    (kinematics.nominal_joints_for_tip(up_tip, j), up_tip)
+}

@@ -284,13 +284,35 @@ pub enum SampleError {
     Inverse(#[from] crate::kinematics::InverseError),
 }
 
-/// Generate the saddle sample for a machine's nominal kinematics.
+/// The joints every pass starts its orientations from: the solution for the
+/// typical lean (20° from the vertical towards −Y) whose first rotary joint (in
+/// letter order) is positive, each joint in (−180°, 180°] (A20 C180 on an A/C
+/// table).
+pub fn start_joints(
+    kinematics: &crate::kinematics::Kinematics,
+) -> Result<crate::axes::Axes, SampleError> {
+    let lean = 20f64.to_radians();
+    let axis = [0.0, -lean.sin(), lean.cos()];
+    let solutions = kinematics.orientation_solutions(axis);
+    let chosen = solutions
+        .iter()
+        .find(|s| s[0] > 0.0)
+        .or(solutions.first())
+        .ok_or(crate::kinematics::InverseError::Unreachable { axis })?;
+    let [r1, r2] = kinematics.rotary();
+    Ok(crate::axes::Axes::xyz_rotary(
+        [0.0; 3],
+        [(r1, chosen[0]), (r2, chosen[1])],
+    ))
+}
+
+/// Generate the saddle sample for a machine's nominal kinematics; `limits` is the
+/// travel of its two rotary axes (letter order, `None` endless).
 pub fn generate(
     kinematics: &crate::kinematics::Kinematics,
-    a_limits: Option<[f64; 2]>,
+    limits: [Option<[f64; 2]>; 2],
     options: &SaddleOptions,
 ) -> Result<SaddleFiles, SampleError> {
-    use crate::axes::Axes;
     use crate::kinematics::InverseOptions;
     use std::fmt::Write as _;
 
@@ -323,7 +345,7 @@ pub fn generate(
     header(&mut part, "TOOL-TIP CONTROL G43.4");
     let mut w = Writer { joint, part, n: 10 };
     w.block("G21 G90 G94 G17", "G21 G90 G94 G17");
-    let start = Axes::new(0.0, 0.0, 0.0, 20.0, 180.0);
+    let start = start_joints(kinematics)?;
     let finishing = Pass {
         tool: 1,
         label: format!("BALL END R{}", options.tool_radius),
@@ -361,7 +383,7 @@ pub fn generate(
         // finishing pass is the same with or without roughing.
         let inverse = InverseOptions {
             previous: start,
-            a_limits,
+            limits,
         };
         w.pass(kinematics, &pass, inverse, options.clearance)?;
     }
@@ -431,33 +453,28 @@ impl Writer {
         mut inverse: crate::kinematics::InverseOptions,
         clearance: f64,
     ) -> Result<(), SampleError> {
-        use crate::axes::Axes;
-        let fmt_axes = |a: &Axes| {
-            format!(
-                "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
-                a.x, a.y, a.z, a.a, a.c
-            )
-        };
+        use crate::axes::{Axes, Axis, AxisSet};
+        let [r1, r2] = kinematics.rotary();
+        let letters = AxisSet::of(&[Axis::X, Axis::Y, Axis::Z, r1, r2]);
+        let fmt_axes = |a: &Axes| a.words(letters, 4);
         let fmt_part = |t: [f64; 3], a: &Axes| {
-            format!(
-                "X{:.4} Y{:.4} Z{:.4} A{:.4} C{:.4}",
-                t[0], t[1], t[2], a.a, a.c
-            )
+            Axes {
+                x: t[0],
+                y: t[1],
+                z: t[2],
+                ..*a
+            }
+            .words(letters, 4)
         };
-        // The joints `clearance` above a point along the tool axis (machine Z
-        // for a table-tilting machine), and their tool tip in part coordinates.
-        let lifted = |j: &Axes| {
-            let up = Axes {
-                z: j.z + clearance,
-                ..*j
-            };
-            (up, kinematics.nominal_tip(&up))
-        };
+        let moved = super::moved_words;
+        let lifted = |j: &Axes| super::lifted(kinematics, j, clearance);
         let mut first = true;
         let mut last = Axes::default();
         for (i, line) in pass.raster.iter().enumerate() {
             for (k, cl) in line.iter().enumerate() {
-                let joints = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
+                let joints = kinematics
+                    .inverse_tool_axis(cl.tip, cl.axis, &inverse)?
+                    .joints;
                 inverse.previous = joints;
                 if first {
                     // Approach: rapid above the first point, then plunge.
@@ -467,7 +484,7 @@ impl Writer {
                         &format!("G43.4 H{} G0 {}", pass.tool, fmt_part(above_tip, &above)),
                     );
                     self.block(
-                        &format!("G1 Z{:.4} F400. (PLUNGE)", joints.z),
+                        &format!("G1 {} F400. (PLUNGE)", moved(&above, &joints)),
                         &format!(
                             "G1 X{:.4} Y{:.4} Z{:.4} F400. (PLUNGE)",
                             cl.tip[0], cl.tip[1], cl.tip[2]
@@ -496,7 +513,7 @@ impl Writer {
         }
         let (retract, retract_tip) = lifted(&last);
         self.block(
-            &format!("G0 Z{:.4}", retract.z),
+            &format!("G0 {}", moved(&last, &retract)),
             &format!(
                 "G0 X{:.4} Y{:.4} Z{:.4}",
                 retract_tip[0], retract_tip[1], retract_tip[2]

@@ -46,6 +46,7 @@ impl CutOptions {
             interpret: InterpretOptions {
                 initial_frame,
                 rapid_mm_per_min: machine.rapid_mm_per_min,
+                axes: machine.letters(),
                 ..InterpretOptions::default()
             },
             walk: WalkOptions {
@@ -267,9 +268,9 @@ pub fn probe_context(
     use crate::axes::Axes;
     let kin = model.kinematics().with_tool_length(probe.length_mm);
     let (n, p) = (cut.normal, cut.point);
-    let u = kin.nominal_tool_axis(&Axes::new(0.0, 0.0, 0.0, a_deg, c_deg));
+    let u = kin.nominal_tool_axis(&Axes::xyzac(0.0, 0.0, 0.0, a_deg, c_deg));
     let tip = [0, 1, 2].map(|k| p[k] + probe.radius_mm * (n[k] - u[k]));
-    let joints = kin.joints_from_part(&Axes::new(tip[0], tip[1], tip[2], a_deg, c_deg));
+    let joints = kin.joints_from_part(&Axes::xyzac(tip[0], tip[1], tip[2], a_deg, c_deg));
     if limits.is_some_and(|l| l.violated(&joints).is_some()) {
         return Ok(None);
     }

@@ -170,9 +170,7 @@ impl<'k> PathWalker<'k> {
             machine_len += prev.xyz_distance(s);
             prev = *s;
         }
-        let rotary = ((end_joints.a - start_joints.a).powi(2)
-            + (end_joints.c - start_joints.c).powi(2))
-        .sqrt();
+        let rotary = start_joints.rotary_distance(&end_joints);
         let duration = duration_from_lengths(
             &motion.feed,
             machine_len,
@@ -307,6 +305,7 @@ impl<'k> PathWalker<'k> {
                 let tip1 = self.kinematics.nominal_tip(end_joints);
                 let lever = norm(tip0).max(norm(tip1)) + motion.start.xyz_distance(&motion.end);
                 let sweep = ((end_joints.a - start_joints.a).abs()
+                    + (end_joints.b - start_joints.b).abs()
                     + (end_joints.c - start_joints.c).abs())
                 .to_radians();
                 let bound = motion.xyz_length().max(dist(tip0, tip1)) + sweep * lever;
@@ -317,8 +316,7 @@ impl<'k> PathWalker<'k> {
                     let n = (bound / step).ceil().max(1.0);
                     let ref_len = motion
                         .xyz_length()
-                        .max((end_joints.a - start_joints.a).abs())
-                        .max((end_joints.c - start_joints.c).abs());
+                        .max(start_joints.rotary_max_step(end_joints));
                     if ref_len > 0.0 { ref_len / n } else { step }
                 } else {
                     step

@@ -733,7 +733,7 @@ fn a_kept_jacobian_solves_as_a_fresh_one() {
     let (mut kept_fallbacks, mut poses) = (0, 0);
     for i in 0..=400 {
         let t = i as f64 / 400.0;
-        let nominal = Axes::new(
+        let nominal = Axes::xyzac(
             -80.0 + 160.0 * t,
             40.0 * (6.0 * t).sin(),
             -30.0 + 20.0 * t,

@@ -367,7 +367,7 @@ mod rewriting {
 
     fn offset(a: Axes, k: usize) -> Axes {
         let s = if k % 2 == 0 { 1.0 } else { -1.0 };
-        Axes::new(
+        Axes::xyzac(
             a.x + 0.0123 * s,
             a.y - 0.0071,
             a.z + 0.0049 * s,
@@ -607,10 +607,10 @@ mod rewriting {
             (line == 2).then(|| {
                 (
                     vec![
-                        Axes::new(10.0, 0.0, 0.0, 0.0, 10.0),
-                        Axes::new(20.0, 0.0, 0.0, 0.0, 20.0),
+                        Axes::xyzac(10.0, 0.0, 0.0, 0.0, 10.0),
+                        Axes::xyzac(20.0, 0.0, 0.0, 0.0, 20.0),
                     ],
-                    Axes::new(30.0, 0.0, 0.0, 0.0, 30.0),
+                    Axes::xyzac(30.0, 0.0, 0.0, 0.0, 30.0),
                 )
             })
         });
@@ -628,7 +628,7 @@ mod rewriting {
     fn a_straightened_arc_restores_the_arc_mode_of_the_next_block() {
         let text = "G21 G90 G94 G17\nG0 X10 Y0\nN30 G2 X0 Y10 I-10 J0 F100\nN40 X-10 Y0 I0 J-10\n";
         let out = rewrite(text.as_bytes(), |line, m| {
-            (line == 3).then(|| (vec![Axes::new(7.0711, 7.0711, 0.0, 0.0, 0.0)], m.end))
+            (line == 3).then(|| (vec![Axes::xyzac(7.0711, 7.0711, 0.0, 0.0, 0.0)], m.end))
         });
         assert_eq!(
             String::from_utf8(out).unwrap(),
@@ -913,7 +913,7 @@ mod rewrite_property {
             };
             let shift = |a: Axes, line: usize, k: usize| {
                 let d = delta(line, k);
-                Axes::new(a.x + d.0, a.y + d.1, a.z + d.2, a.a + d.3, a.c + d.4)
+                Axes::xyzac(a.x + d.0, a.y + d.1, a.z + d.2, a.a + d.3, a.c + d.4)
             };
             let plan = |line: usize, m: &volcomp::gcode::Motion| {
                 let end = shift(m.end, line, 0);

@@ -4,7 +4,8 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use volcomp::axes::Axes;
 use volcomp::kinematics::{
-    ErrorValues, Geometry, InverseOptions, Kinematics, PARAMETER_COUNT, PARAMETER_NAMES, ToolChain,
+    ErrorValues, Geometry, InverseOptions, Kinematics, PARAMETER_COUNT, PARAMETER_NAMES,
+    ParameterLayout, ToolChain,
 };
 
 #[derive(Deserialize)]
@@ -53,15 +54,17 @@ fn every_vector_case_matches() {
     let mut failures = Vec::new();
     let mut worst = (0.0f64, 0.0f64);
     for case in &file.cases {
-        let kin = Kinematics {
-            geometry: case.geometry,
-            tool_length: case.tool_length,
-            tool_chain: ToolChain::from_names(&case.tool_chain).expect("tool chain"),
-            conventional_directions: false,
-        };
+        let kin = Kinematics::xyzac_trt(
+            case.geometry,
+            ToolChain::from_names(&case.tool_chain).expect("tool chain"),
+            false,
+            case.tool_length,
+        );
         let mut errors = ErrorValues::ZERO;
         for (name, value) in &case.errors {
-            errors.set(name, *value).expect("known parameter");
+            errors
+                .set(&ParameterLayout::AC, name, *value)
+                .expect("known parameter");
         }
         assert_eq!(case.errors.len(), PARAMETER_COUNT, "{}", case.name);
         let got = kin.volumetric_error(&case.pose, &errors);
@@ -121,12 +124,12 @@ fn kinematics() -> impl Strategy<Value = Kinematics> {
             ["Z", "X", "Y"],
             ["Z", "Y", "X"],
         ];
-        Kinematics {
-            geometry: g,
-            tool_length: l,
-            tool_chain: ToolChain::from_names(&orders[chain]).expect("permutation"),
-            conventional_directions: conv,
-        }
+        Kinematics::xyzac_trt(
+            g,
+            ToolChain::from_names(&orders[chain]).expect("permutation"),
+            conv,
+            l,
+        )
     })
 }
 
@@ -143,7 +146,7 @@ fn joints() -> impl Strategy<Value = Axes> {
         a_angle(),
         -5000.0..5000.0f64,
     )
-        .prop_map(|(x, y, z, a, c)| Axes::new(x, y, z, a, c))
+        .prop_map(|(x, y, z, a, c)| Axes::xyzac(x, y, z, a, c))
 }
 
 fn random_errors() -> impl Strategy<Value = ErrorValues> {
@@ -152,7 +155,8 @@ fn random_errors() -> impl Strategy<Value = ErrorValues> {
             let mut e = ErrorValues::ZERO;
             for i in 0..PARAMETER_COUNT {
                 let v = if i < 32 { head[i] } else { tail[i - 32] };
-                e.set(PARAMETER_NAMES[i], v).expect("known name");
+                e.set(&ParameterLayout::AC, PARAMETER_NAMES[i], v)
+                    .expect("known name");
             }
             e
         })
@@ -181,9 +185,9 @@ proptest! {
     fn fk_ik_identity_tool_axis(kin in kinematics(), j in joints(), dc in -89.0..89.0f64) {
         let tip = kin.nominal_tip(&j);
         let axis = kin.nominal_tool_axis(&j);
-        let previous = Axes::new(0.0, 0.0, 0.0, j.a, j.c + dc);
-        let opts = InverseOptions { previous, a_limits: None };
-        let back = kin.inverse_tool_axis(tip, axis, &opts).expect("inverse");
+        let previous = Axes::xyzac(0.0, 0.0, 0.0, j.a, j.c + dc);
+        let opts = InverseOptions { previous, limits: [None, None] };
+        let back = kin.inverse_tool_axis(tip, axis, &opts).expect("inverse").joints;
         prop_assert!(close(kin.nominal_tip(&back), tip, 1e-9));
         let pole = j.a.to_radians().sin().abs() < volcomp::kinematics::inverse::POLE_SIN;
         // At the pole A snaps to 0: the axis moves by at most POLE_SIN.

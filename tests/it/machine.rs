@@ -79,26 +79,31 @@ fn load_error(text: &str, options: &LoadOptions) -> String {
 fn reference_machine_loads() {
     let (m, model) = ref_model();
     assert_eq!(m.name, "ref-trt");
-    assert_eq!(m.limits.x, [-200.0, 200.0]);
-    assert_eq!(m.limits.c, None);
+    assert_eq!(m.limits.get(Axis::X), Some([-200.0, 200.0]));
+    assert_eq!(m.limits.get(Axis::C), None);
     assert_eq!(m.rapid_mm_per_min, 30000.0);
     assert_eq!(m.squareness, [-39.9, 32.8, 14.5]);
     assert_eq!(m.location[0], 12.7);
-    assert!(Axis::ALL.iter().all(|a| m.table(*a).is_some()));
+    assert!(
+        [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::C]
+            .iter()
+            .all(|a| m.table(*a).is_some())
+    );
     assert_eq!(model.fitted_parameters().len(), 30);
-    assert!(!m.conventional_directions);
+    assert_eq!(m.chain.rotary(), [Axis::A, Axis::C]);
 }
 
 #[test]
 fn linuxcnc_sim_machine_is_nominal() {
     let m = Machine::load(&project("machines/xyzac-trt.toml")).expect("loads");
-    assert_eq!(m.geometry.y_offset, 20.0);
-    assert_eq!(m.geometry.z_offset, 10.0);
-    assert_eq!(m.limits.c, Some([-36000.0, 36000.0]));
+    // P_A = P_C + (0, y_offset, z_offset) = (0, 20, 10).
+    assert_eq!(m.chain.axis(Axis::A).point, [0.0, 20.0, 10.0]);
+    assert_eq!(m.chain.axis(Axis::C).point, [0.0, 0.0, 0.0]);
+    assert_eq!(m.limits.get(Axis::C), Some([-36000.0, 36000.0]));
     assert!(Axis::ALL.iter().all(|a| m.table(*a).is_none()));
     let model = ErrorModel::from_machine(&m, &fast_fit()).expect("model");
     let v = model
-        .volumetric_error(&Axes::new(10.0, -20.0, 30.0, -45.0, 7200.5))
+        .volumetric_error(&Axes::xyzac(10.0, -20.0, 30.0, -45.0, 7200.5))
         .expect("lookup");
     assert!(
         v.e_um.iter().chain(&v.axis_urad).all(|x| x.abs() < 1e-9),
@@ -181,7 +186,7 @@ fn non_finite_and_reversed_values_are_named() {
 #[test]
 fn c_lookup_wraps_over_any_number_of_turns() {
     let (_, model) = ref_model();
-    let base = Axes::new(10.0, -20.0, -30.0, 15.0, 37.5);
+    let base = Axes::xyzac(10.0, -20.0, -30.0, 15.0, 37.5);
     let e0 = model.errors_at(&base).expect("inside");
     for k in [-7i32, -1, 1, 3, 100] {
         let j = Axes {
@@ -206,7 +211,7 @@ fn c_lookup_wraps_over_any_number_of_turns() {
 fn out_of_range_is_an_error_naming_axis_and_range() {
     let (_, model) = ref_model();
     let err = model
-        .errors_at(&Axes::new(250.0, 0.0, 0.0, 0.0, 0.0))
+        .errors_at(&Axes::xyzac(250.0, 0.0, 0.0, 0.0, 0.0))
         .expect_err("outside X");
     assert_eq!(
         err,
@@ -219,7 +224,7 @@ fn out_of_range_is_an_error_naming_axis_and_range() {
     insta::assert_snapshot!(err.to_string());
     assert!(
         model
-            .errors_at(&Axes::new(0.0, 0.0, 0.0, 0.0, f64::NAN))
+            .errors_at(&Axes::xyzac(0.0, 0.0, 0.0, 0.0, f64::NAN))
             .is_err()
     );
 }
@@ -231,15 +236,15 @@ fn hold_policy_holds_the_end_value_and_counts() {
     model.set_policy(ExtrapolationPolicy::Hold);
     model.reset_held_lookups();
     let end = model
-        .errors_at(&Axes::new(200.0, 0.0, 0.0, 0.0, 0.0))
+        .errors_at(&Axes::xyzac(200.0, 0.0, 0.0, 0.0, 0.0))
         .expect("end");
     let past = model
-        .errors_at(&Axes::new(260.0, 0.0, 0.0, 0.0, 0.0))
+        .errors_at(&Axes::xyzac(260.0, 0.0, 0.0, 0.0, 0.0))
         .expect("held");
     assert_eq!(end.component[0], past.component[0]);
     assert_eq!(model.held_lookups(), 1);
     let _ = model
-        .errors_at(&Axes::new(0.0, 0.0, 0.0, -130.0, 0.0))
+        .errors_at(&Axes::xyzac(0.0, 0.0, 0.0, -130.0, 0.0))
         .expect("held A");
     assert_eq!(model.held_lookups(), 2);
 }
@@ -263,7 +268,7 @@ fn model_reproduces_the_tables_within_the_fit_error() {
                 let got = model
                     .errors_at(&j)
                     .expect("inside")
-                    .get(&column.name)
+                    .get(&m.layout(), &column.name)
                     .expect("name");
                 assert!(
                     (got - v).abs() <= emax + 2e-6, // + the resampling tolerance
@@ -278,7 +283,7 @@ fn model_reproduces_the_tables_within_the_fit_error() {
 #[test]
 fn contributions_sum_to_e_to_first_order() {
     let (_, model) = ref_model();
-    let j = Axes::new(120.0, -80.0, -150.0, 60.0, 200.0);
+    let j = Axes::xyzac(120.0, -80.0, -150.0, 60.0, 200.0);
     let v = model.volumetric_error(&j).expect("inside");
     let parts = model.contributions(&j).expect("inside");
     let mut sum = [0.0; 3];
@@ -332,7 +337,7 @@ fn resampled_lookups_match_exact_lookups() {
     );
     runner
         .run(&poses, |(x, y, z, a, c)| {
-            let j = Axes::new(x, y, z, a, c);
+            let j = Axes::xyzac(x, y, z, a, c);
             let (f, e) = (
                 fast.errors_at(&j).expect("in"),
                 exact.errors_at(&j).expect("in"),
@@ -356,7 +361,7 @@ fn model_file_round_trip_and_stale_tables() {
     let path = ref_model_file(dir.path());
     let back =
         ErrorModel::from_model_file(machine, &path, &ModelOptions::default()).expect("reads");
-    let j = Axes::new(33.0, -44.0, -55.0, 66.0, 777.0);
+    let j = Axes::xyzac(33.0, -44.0, -55.0, 66.0, 777.0);
     let (a, b) = (
         model.errors_at(&j).expect("in"),
         back.errors_at(&j).expect("in"),
@@ -415,7 +420,7 @@ mod cli {
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
         let (_, model) = super::ref_model();
         let want = model
-            .volumetric_error(&volcomp::axes::Axes::new(-10.0, 20.0, -30.0, 15.0, 405.0))
+            .volumetric_error(&volcomp::axes::Axes::xyzac(-10.0, 20.0, -30.0, 15.0, 405.0))
             .expect("inside");
         for i in 0..3 {
             let got = v["e_um"][i].as_f64().expect("number");
@@ -429,7 +434,7 @@ mod cli {
         }
         // The standard uncertainty per axis, as the library propagates it.
         let u = model
-            .uncertainty_at(&volcomp::axes::Axes::new(-10.0, 20.0, -30.0, 15.0, 405.0))
+            .uncertainty_at(&volcomp::axes::Axes::xyzac(-10.0, 20.0, -30.0, 15.0, 405.0))
             .expect("inside")
             .per_axis_um();
         for i in 0..3 {
@@ -459,7 +464,7 @@ mod cli {
         assert_eq!(v.len(), 3);
         let (_, model) = super::ref_model();
         let second = model
-            .volumetric_error(&volcomp::axes::Axes::new(
+            .volumetric_error(&volcomp::axes::Axes::xyzac(
                 100.0, -50.0, -100.0, 45.0, 1000.0,
             ))
             .expect("inside");
@@ -467,7 +472,7 @@ mod cli {
         assert!((got - second.e_um[2]).abs() < 1e-9);
         // The same pose given as a part-frame target.
         let kin = model.kinematics();
-        let joints = volcomp::axes::Axes::new(100.0, -50.0, -100.0, 45.0, 1000.0);
+        let joints = volcomp::axes::Axes::xyzac(100.0, -50.0, -100.0, 45.0, 1000.0);
         let tip = kin.nominal_tip(&joints);
         let at = format!("{},{},{},45,1000", tip[0], tip[1], tip[2]);
         let out = success(

@@ -1,5 +1,6 @@
 //! The one integration-test binary: a module per area.
 mod bad_inputs;
+mod chain;
 mod cli;
 mod compensate;
 mod diagnose;

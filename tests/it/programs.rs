@@ -78,7 +78,7 @@ fn part(o: [f64; 3]) -> String {
 
 #[test]
 fn a_part_in_g54_compensates_to_the_same_machine_positions_as_in_machine_coordinates() {
-    let origin = Axes::new(35.5, 12.25, -30.125, 0.0, 0.0);
+    let origin = Axes::xyzac(35.5, 12.25, -30.125, 0.0, 0.0);
     let machine_setup = ProgramSetup::default();
     let work_setup = with_g54(origin);
     let in_machine = part([0.0; 3]);
