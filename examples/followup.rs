@@ -48,8 +48,8 @@ fn main() {
         length_mm: machine.tool.length,
         radius_mm: 1.0,
     };
-    let candidates = followup::candidates(contexts, |cut, a, c| {
-        probe_context(&model, &probe, Some(&machine.limits), cut, a, c, end)
+    let candidates = followup::candidates(contexts, |cut, rotary| {
+        probe_context(&model, &probe, Some(&machine.limits), cut, rotary, end)
     })
     .expect("candidates");
     println!(

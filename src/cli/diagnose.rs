@@ -177,7 +177,12 @@ impl CutPart {
                         )
                     })?;
                 let context = crate::toolpath::cut::probe_context(
-                    &self.model, &tool, None, &contexts[of], f.a_deg, f.c_deg, f.time_min,
+                    &self.model,
+                    &tool,
+                    None,
+                    &contexts[of],
+                    [f.a_deg, f.c_deg],
+                    f.time_min,
                 )?
                 .context("a probe without travel limits is always placed")?;
                 Ok(Probe {
@@ -281,14 +286,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         report.followup = Some(outcome);
     } else if let Some(out) = &args.followup_program {
         let tool = part.probe_tool(&args.probe);
-        let candidates = followup::candidates(&contexts, |cut, a, c| {
+        let candidates = followup::candidates(&contexts, |cut, rotary| {
             crate::toolpath::cut::probe_context(
                 &part.model,
                 &tool,
                 Some(&part.machine.limits),
                 cut,
-                a,
-                c,
+                rotary,
                 part.end_min,
             )
         })?;

@@ -56,11 +56,20 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let effects = args
-        .effects
-        .iter()
-        .map(|s| Effect::parse(s).map_err(|e| UsageError(format!("--effect {s}: {e}"))))
-        .collect::<Result<Vec<_>, _>>()?;
+    // Checked before the (slower) machine load with A/C names; parsed again
+    // below with the machine's own (rotary_location names its axes).
+    let check_syntax = |rotary| {
+        args.effects
+            .iter()
+            .map(|s| {
+                Effect::parse_for(s, rotary).map_err(|e| UsageError(format!("--effect {s}: {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()
+    };
+    let is_location = |s: &String| s.trim_start().starts_with("rotary_location");
+    if !args.effects.iter().any(is_location) {
+        check_syntax([crate::axes::Axis::A, crate::axes::Axis::C])?;
+    }
     if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
@@ -73,6 +82,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .transpose()?;
     let part =
         super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
+    let rotary = part.machine.chain.rotary();
+    let effects = check_syntax(rotary)?;
     let contexts = part.contexts()?;
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &contexts)?;
@@ -99,7 +110,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::outln!(
                 "simulated {} follow-up probes with {}; noise {} µm, seed {}; readings {:.2} µm RMS -> {}",
                 readings.len(),
-                effects_text(&effects),
+                effects_text(&effects, rotary),
                 args.noise_um,
                 args.seed,
                 crate::inspection::rms(&readings),
@@ -118,7 +129,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::outln!(
             "simulated {} points ({cut} cut by the program) with {}; noise {} µm, seed {}",
             deviations.len(),
-            effects_text(&effects),
+            effects_text(&effects, rotary),
             args.noise_um,
             args.seed
         );
@@ -132,13 +143,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn effects_text(effects: &[Effect]) -> String {
+fn effects_text(effects: &[Effect], rotary: [crate::axes::Axis; 2]) -> String {
     if effects.is_empty() {
         "no unmodelled effect".to_string()
     } else {
         effects
             .iter()
-            .map(Effect::to_spec)
+            .map(|e| e.to_spec_for(rotary))
             .collect::<Vec<_>>()
             .join(" + ")
     }

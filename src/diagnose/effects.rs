@@ -6,8 +6,15 @@
 //! which is linear in `dx, dy, dz` for a fixed `tau` (its last parameter);
 //! displacements are µm in part coordinates; parameter order is the order of
 //! [`EffectKind::parameters`].
+use crate::axes::Axis;
+use crate::kinematics::ParameterLayout;
 use crate::toolpath::PointContext;
 use crate::toolpath::context::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
+
+/// The `rotary_location` parameters of each pair of rotary letters (the offsets
+/// and tilts of kinematics.md, named by the machine's own axes).
+const LOCATION_AB: [&str; 8] = ParameterLayout::new([Axis::A, Axis::B]).location_effect_names();
+const LOCATION_BC: [&str; 8] = ParameterLayout::new([Axis::B, Axis::C]).location_effect_names();
 use crate::vec3::{dot, scale};
 use serde::{Deserialize, Serialize};
 
@@ -75,8 +82,26 @@ impl EffectKind {
         EffectKind::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// All parameter names; for `thermal_drift` the nonlinear `tau` comes last.
+    /// All parameter names on an A/C machine; for `thermal_drift` the nonlinear
+    /// `tau` comes last.
     pub fn parameters(self) -> &'static [&'static str] {
+        self.parameters_for([Axis::A, Axis::C])
+    }
+
+    /// All parameter names on a machine whose rotary letters are `rotary` (letter
+    /// order): `rotary_location` names its own axes (`EX0B …` on a B/C machine).
+    pub fn parameters_for(self, rotary: [Axis; 2]) -> &'static [&'static str] {
+        match self {
+            EffectKind::RotaryLocation => match rotary {
+                [Axis::A, Axis::B] => &LOCATION_AB,
+                [Axis::B, Axis::C] => &LOCATION_BC,
+                _ => &LOCATION_PARAMETERS,
+            },
+            other => other.parameters_common(),
+        }
+    }
+
+    fn parameters_common(self) -> &'static [&'static str] {
         match self {
             EffectKind::ThermalDrift => &["dx", "dy", "dz", "tau"],
             EffectKind::Backlash => &["bx", "by", "bz"],
@@ -212,14 +237,25 @@ impl Effect {
 
     /// Build from named values; unnamed parameters are 0 (`tau` must be given).
     pub fn from_pairs(kind: EffectKind, pairs: &[(&str, f64)]) -> Result<Effect, EffectError> {
-        let mut values = vec![0.0; kind.parameters().len()];
+        Effect::from_pairs_for(kind, pairs, [Axis::A, Axis::C])
+    }
+
+    /// [`Effect::from_pairs`] with the parameter names of a machine whose rotary
+    /// letters are `rotary`.
+    pub fn from_pairs_for(
+        kind: EffectKind,
+        pairs: &[(&str, f64)],
+        rotary: [Axis; 2],
+    ) -> Result<Effect, EffectError> {
+        let names = kind.parameters_for(rotary);
+        let mut values = vec![0.0; names.len()];
         let mut given = vec![false; values.len()];
         for (name, value) in pairs {
-            let Some(i) = kind.parameters().iter().position(|p| p == name) else {
+            let Some(i) = names.iter().position(|p| p == name) else {
                 return Err(EffectError::UnknownParameter {
                     effect: kind.name().into(),
                     parameter: name.to_string(),
-                    valid: kind.parameters().join(", "),
+                    valid: names.join(", "),
                 });
             };
             if given[i] {
@@ -243,8 +279,15 @@ impl Effect {
         Ok(Effect { kind, values })
     }
 
-    /// Parse `name` or `name:k=v,k=v` (effects.md), e.g. `backlash:bx=6,by=0,bz=3`.
+    /// Parse `name` or `name:k=v,k=v` (effects.md), e.g. `backlash:bx=6,by=0,bz=3`,
+    /// with an A/C machine's names.
     pub fn parse(spec: &str) -> Result<Effect, EffectError> {
+        Effect::parse_for(spec, [Axis::A, Axis::C])
+    }
+
+    /// [`Effect::parse`] with the names of a machine whose rotary letters are
+    /// `rotary` (`rotary_location:EX0B=3` on a B/C machine).
+    pub fn parse_for(spec: &str, rotary: [Axis; 2]) -> Result<Effect, EffectError> {
         let (name, rest) = match spec.split_once(':') {
             Some((n, r)) => (n.trim(), r.trim()),
             None => (spec.trim(), ""),
@@ -263,7 +306,7 @@ impl Effect {
             let v: f64 = v.trim().parse().map_err(|_| bad())?;
             pairs.push((k.trim(), v));
         }
-        Effect::from_pairs(kind, &pairs)
+        Effect::from_pairs_for(kind, &pairs, rotary)
     }
 
     /// `tau` of `thermal_drift` (unused otherwise).
@@ -293,11 +336,17 @@ impl Effect {
         dot(ctx.normal, self.displacement(ctx))
     }
 
-    /// `name:k=v,...` (the CLI form; parses back to the same effect).
+    /// `name:k=v,...` (the CLI form, A/C names; parses back to the same effect).
     pub fn to_spec(&self) -> String {
+        self.to_spec_for([Axis::A, Axis::C])
+    }
+
+    /// [`Effect::to_spec`] with the names of a machine whose rotary letters are
+    /// `rotary`.
+    pub fn to_spec_for(&self, rotary: [Axis; 2]) -> String {
         let pairs: Vec<String> = self
             .kind
-            .parameters()
+            .parameters_for(rotary)
             .iter()
             .zip(&self.values)
             .map(|(k, v)| format!("{k}={v}"))

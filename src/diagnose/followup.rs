@@ -92,17 +92,21 @@ pub const MIN_CONTACT_COS: f64 = 0.5;
 /// Candidate probes: every cut point in every pose of
 /// [`CANDIDATE_A_OFFSETS_DEG`] × [`CANDIDATE_C_OFFSETS_DEG`] that `probe_at`
 /// (the caller's kinematics: `toolpath::cut::probe_context`) accepts and whose
-/// stylus meets the surface within 60° of its normal. `probe_at(cut, a, c)`
-/// gives the probe's context at the end time, or `None` outside the travel.
+/// stylus meets the surface within 60° of its normal. `probe_at(cut, rotary)`
+/// gives the probe's context at the end time at the rotary joints `rotary`
+/// (the machine's two rotary axes in letter order; the A offsets apply to the
+/// first, the C offsets to the second), or `None` outside the travel.
 pub fn candidates<E>(
     contexts: &[PointContext],
-    mut probe_at: impl FnMut(&PointContext, f64, f64) -> Result<Option<PointContext>, E>,
+    mut probe_at: impl FnMut(&PointContext, [f64; 2]) -> Result<Option<PointContext>, E>,
 ) -> Result<Vec<Probe>, E> {
     let mut out = Vec::new();
     for (of, cut) in contexts.iter().enumerate().filter(|(_, c)| c.cut) {
+        let [r1, r2] = cut.rotary;
         for da in CANDIDATE_A_OFFSETS_DEG {
             for dc in CANDIDATE_C_OFFSETS_DEG {
-                let Some(context) = probe_at(cut, cut.joints.a + da, cut.joints.c + dc)? else {
+                let at = [cut.joints.get(r1) + da, cut.joints.get(r2) + dc];
+                let Some(context) = probe_at(cut, at)? else {
                     continue;
                 };
                 if crate::vec3::dot(context.normal, context.tool_axis) < MIN_CONTACT_COS {
@@ -444,14 +448,12 @@ const CUTTING_POSE: &str = "cutting pose";
 
 /// The pose of a probe relative to the cut, in words.
 fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
-    let da = probe.joints.a - cut.joints.a;
-    let dc = probe.joints.c - cut.joints.c;
     let mut parts = Vec::new();
-    if da.abs() > 1e-6 {
-        parts.push(format!("A {da:+.0}°"));
-    }
-    if dc.abs() > 1e-6 {
-        parts.push(format!("C {dc:+.0}°"));
+    for axis in cut.rotary {
+        let d = probe.joints.get(axis) - cut.joints.get(axis);
+        if d.abs() > 1e-6 {
+            parts.push(format!("{} {d:+.0}°", axis.letter()));
+        }
     }
     if parts.is_empty() {
         CUTTING_POSE.into()
@@ -563,8 +565,8 @@ pub fn design(
             DesignedProbe {
                 id: p.id.clone(),
                 point_id: cut.id.clone(),
-                a_deg: p.context.joints.a,
-                c_deg: p.context.joints.c,
+                a_deg: p.context.joints.get(p.context.rotary[0]),
+                c_deg: p.context.joints.get(p.context.rotary[1]),
                 time_min: p.context.time_min,
                 pose: pose_words(cut, &p.context),
                 expected_um: h.iter().map(|x| (x.label(), x.value(&row))).collect(),

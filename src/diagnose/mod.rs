@@ -111,13 +111,17 @@ pub(crate) fn check_context(ctx: &PointContext) -> Result<(), DiagnoseError> {
     }
 }
 
-fn named_params(fit: &SetFit, member: usize) -> (BTreeMap<String, f64>, BTreeMap<String, f64>) {
+fn named_params(
+    fit: &SetFit,
+    member: usize,
+    rotary: [crate::axes::Axis; 2],
+) -> (BTreeMap<String, f64>, BTreeMap<String, f64>) {
     let offset: usize = fit.kinds[..member].iter().map(|k| k.linear_count()).sum();
     let kind = fit.kinds[member];
     let mut params = BTreeMap::new();
     let mut std = BTreeMap::new();
     for (j, name) in kind
-        .parameters()
+        .parameters_for(rotary)
         .iter()
         .enumerate()
         .take(kind.linear_count())
@@ -186,6 +190,9 @@ pub fn diagnose_with_followup(
     }
     let used: Vec<&PointContext> = used_idx.iter().map(|&i| &contexts[i]).collect();
     let measured: Vec<f64> = used_idx.iter().map(|&i| measured_um[i]).collect();
+    // The machine's axes, as the contexts name them (one machine per diagnosis).
+    let slot_letters = used[0].slot_letters();
+    let rotary = used[0].rotary;
     let predicted: Vec<f64> = used.iter().map(|c| c.predicted_um).collect();
     let r0: Vec<f64> = measured
         .iter()
@@ -351,7 +358,7 @@ pub fn diagnose_with_followup(
         let mut named_cols: Vec<(String, Vec<f64>)> = (0..5)
             .map(|k| {
                 (
-                    crate::axes::Axis::ALL[k].letter().to_string(),
+                    slot_letters[k].letter().to_string(),
                     rows.iter()
                         .map(|row| row.axis_deviation_um(k))
                         .collect::<Vec<f64>>(),
@@ -426,7 +433,7 @@ pub fn diagnose_with_followup(
     let effects: Vec<EffectFit> = candidates
         .iter()
         .map(|c| {
-            let (params, var) = named_params(&c.fit, 0);
+            let (params, var) = named_params(&c.fit, 0, rotary);
             let dof = (n as f64 - c.fit.linear.rank as f64).max(1.0);
             let s2 = c.fit.linear.sse / dof;
             let params_std = var.into_iter().map(|(k, v)| (k, (v * s2).sqrt())).collect();
@@ -475,7 +482,12 @@ pub fn diagnose_with_followup(
     } else {
         let fit = fit_set(&sig, &selected, &all_rows, &r);
         let params = (0..selected.len())
-            .map(|m| (selected[m].name().to_string(), named_params(&fit, m).0))
+            .map(|m| {
+                (
+                    selected[m].name().to_string(),
+                    named_params(&fit, m, rotary).0,
+                )
+            })
             .collect();
         (fit.contribution(&sig), params)
     };

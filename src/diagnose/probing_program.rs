@@ -46,10 +46,13 @@ fn comment(s: &str) -> String {
     format!("({inner})")
 }
 
-/// `Rx(a)·Rz(c)·v`: a part-frame vector in the machine frame.
-fn part_to_machine(a_deg: f64, c_deg: f64, v: [f64; 3]) -> [f64; 3] {
-    use crate::vec3::{rot_x, rot_z};
-    rot_x(a_deg.to_radians(), rot_z(c_deg.to_radians(), v))
+/// A part-frame vector in the machine frame at `ctx`'s pose (the transpose of
+/// its machine → part rotation; `Rx(a)·Rz(c)·v` on an A/C table).
+fn part_to_machine(ctx: &crate::toolpath::PointContext, v: [f64; 3]) -> [f64; 3] {
+    // The rotation is orthonormal: its inverse is its transpose, read off the
+    // images of the machine axes.
+    let cols = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|e| ctx.machine_to_part(e));
+    std::array::from_fn(|i| crate::vec3::dot(cols[i], v))
 }
 
 fn xyz(p: [f64; 3]) -> String {
@@ -91,11 +94,7 @@ pub fn probing_program(design: &FollowupDesign, options: &ProbingOptions) -> Str
         let ctx = &p.probe.context;
         let j = ctx.joints;
         let along = |d: f64| {
-            let off = part_to_machine(
-                j.a,
-                j.c,
-                [ctx.normal[0] * d, ctx.normal[1] * d, ctx.normal[2] * d],
-            );
+            let off = part_to_machine(ctx, [ctx.normal[0] * d, ctx.normal[1] * d, ctx.normal[2] * d]);
             [j.x + off[0], j.y + off[1], j.z + off[2]]
         };
         let start = along(options.clearance_mm);
@@ -111,7 +110,14 @@ pub fn probing_program(design: &FollowupDesign, options: &ProbingOptions) -> Str
             p.id, p.point_id, p.pose, p.time_min, expects
         )));
         line(format!("G0 Z{:.4}", options.safe_z_mm));
-        line(format!("G0 A{:.4} C{:.4}", j.a, j.c));
+        let [r1, r2] = ctx.rotary;
+        line(format!(
+            "G0 {}{:.4} {}{:.4}",
+            r1.letter(),
+            j.get(r1),
+            r2.letter(),
+            j.get(r2)
+        ));
         line(format!("G0 X{:.4} Y{:.4}", start[0], start[1]));
         line(format!("G0 Z{:.4}", start[2]));
         line(format!("G38.2 {} F{}", xyz(end), options.feed_mm_min));

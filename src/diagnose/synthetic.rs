@@ -288,6 +288,8 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
             squareness_jacobian,
             location_jacobian,
             axis_deviation_um,
+            rotary: [crate::axes::Axis::A, crate::axes::Axis::C],
+            machine_to_part_rotation: None,
         });
         truth.push(e);
     }

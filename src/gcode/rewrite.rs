@@ -636,7 +636,9 @@ impl Rewriter {
                     });
                     for axis in Axis::ALL {
                         let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
-                        if axis.is_rotary() && !moved {
+                        // X Y Z always (a cycle move names them); the other
+                        // letters where they move.
+                        if !matches!(axis, Axis::X | Axis::Y | Axis::Z) && !moved {
                             continue;
                         }
                         let unit = ctx.unit(axis);

@@ -261,12 +261,12 @@ struct RawMachine {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawGeometry {
-    x_rot_point: Option<f64>,
-    y_rot_point: Option<f64>,
-    z_rot_point: Option<f64>,
-    x_offset: Option<f64>,
-    y_offset: Option<f64>,
-    z_offset: Option<f64>,
+    x_rot_point: Option<Spanned<f64>>,
+    y_rot_point: Option<Spanned<f64>>,
+    z_rot_point: Option<Spanned<f64>>,
+    x_offset: Option<Spanned<f64>>,
+    y_offset: Option<Spanned<f64>>,
+    z_offset: Option<Spanned<f64>>,
 }
 
 /// `[axes.K]` of a chain machine.
@@ -463,12 +463,12 @@ fn preset_chain(
     };
     let g = geometry.get_ref();
     let (wrong, wrong_name, needed) = match kind {
-        KinematicsType::XyzacTrt => (g.x_offset, "x_offset", "y_offset"),
-        _ => (g.y_offset, "y_offset", "x_offset"),
+        KinematicsType::XyzacTrt => (&g.x_offset, "x_offset", "y_offset"),
+        _ => (&g.y_offset, "y_offset", "x_offset"),
     };
-    if wrong.is_some() {
+    if let Some(wrong) = wrong {
         return Err(src.invalid(
-            geometry.span(),
+            wrong.span(),
             &format!("geometry.{wrong_name}"),
             format!(
                 "{} takes `{needed}`, not `{wrong_name}` (LinuxCNC's {}-kins ignores {wrong_name})",
@@ -477,30 +477,30 @@ fn preset_chain(
             ),
         ));
     }
-    let get = |value: Option<f64>, name: &str| -> Result<f64, MachineError> {
-        let v = value.ok_or_else(|| {
+    let get = |value: &Option<Spanned<f64>>, name: &str| -> Result<f64, MachineError> {
+        let v = value.as_ref().ok_or_else(|| {
             src.invalid(
                 geometry.span(),
                 &format!("geometry.{name}"),
                 format!("missing `{name}` (mm)"),
             )
         })?;
-        src.finite(geometry.span(), &format!("geometry.{name}"), &[v])?;
-        Ok(v)
+        src.finite(v.span(), &format!("geometry.{name}"), &[*v.get_ref()])?;
+        Ok(*v.get_ref())
     };
     let (x, y, z) = (
-        get(g.x_rot_point, "x_rot_point")?,
-        get(g.y_rot_point, "y_rot_point")?,
-        get(g.z_rot_point, "z_rot_point")?,
+        get(&g.x_rot_point, "x_rot_point")?,
+        get(&g.y_rot_point, "y_rot_point")?,
+        get(&g.z_rot_point, "z_rot_point")?,
     );
-    let z_offset = get(g.z_offset, "z_offset")?;
+    let z_offset = get(&g.z_offset, "z_offset")?;
     let kin = match kind {
         KinematicsType::XyzacTrt => Kinematics::xyzac_trt(
             Geometry {
                 x_rot_point: x,
                 y_rot_point: y,
                 z_rot_point: z,
-                y_offset: get(g.y_offset, "y_offset")?,
+                y_offset: get(&g.y_offset, "y_offset")?,
                 z_offset,
             },
             tool_chain,
@@ -512,7 +512,7 @@ fn preset_chain(
                 x_rot_point: x,
                 y_rot_point: y,
                 z_rot_point: z,
-                x_offset: get(g.x_offset, "x_offset")?,
+                x_offset: get(&g.x_offset, "x_offset")?,
                 z_offset,
             },
             tool_chain,

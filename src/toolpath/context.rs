@@ -2,7 +2,7 @@
 //! (effects.md "Context of a plan point"). Built by the toolpath layer from the
 //! interpreted program and the machine; consumed by `predict`, `simulate` and
 //! `diagnose`, which need nothing else from the program or the kinematics.
-use crate::axes::Axes;
+use crate::axes::{Axes, Axis};
 use serde::{Deserialize, Serialize};
 
 /// The parameter names of the Jacobians a context carries (defined by
@@ -46,18 +46,39 @@ pub struct PointContext {
     /// ∂(tool tip, part coordinates, µm)/∂(location parameter, µm or µrad), rows in
     /// the order of [`LOCATION_PARAMETERS`].
     pub location_jacobian: [[f64; 3]; 8],
-    /// `n·e` of each axis's measured errors alone (X Y Z A C tables, first
-    /// order), µm: what the model attributes to each table at this point. Zero
-    /// in contexts written before this field.
+    /// `n·e` of each joint slot's measured errors alone (X Y Z and the two
+    /// rotary tables, first order), µm: what the model attributes to each table
+    /// at this point. Zero in contexts written before this field.
     #[serde(default)]
     pub axis_deviation_um: [f64; 5],
+    /// The machine's two rotary letters in letter order (slots 3 and 4; A and C
+    /// in contexts written before this field).
+    #[serde(default = "ac")]
+    pub rotary: [Axis; 2],
+    /// The nominal rotation from machine (bed) directions to part coordinates at
+    /// the point's joints (the rotation of `W⁻¹`); `None` in contexts written
+    /// before this field, which are A/C tables: `Rz(−c)·Rx(−a)`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub machine_to_part_rotation: Option<[[f64; 3]; 3]>,
+}
+
+fn ac() -> [Axis; 2] {
+    [Axis::A, Axis::C]
 }
 
 impl PointContext {
-    /// Rotate a machine-frame vector into part coordinates: `Rz(−c)·Rx(−a)·v`
-    /// (effects.md "machine frame → part").
+    /// Rotate a machine-frame vector into part coordinates (effects.md "machine
+    /// frame → part"; `Rz(−c)·Rx(−a)·v` on an A/C table).
     pub fn machine_to_part(&self, v: [f64; 3]) -> [f64; 3] {
-        machine_to_part(self.joints.a, self.joints.c, v)
+        match &self.machine_to_part_rotation {
+            Some(m) => crate::kinematics::transform::mat_vec(m, v),
+            None => machine_to_part(self.joints.a, self.joints.c, v),
+        }
+    }
+
+    /// The letter of each joint slot: X Y Z and the two rotary axes.
+    pub fn slot_letters(&self) -> [Axis; 5] {
+        [Axis::X, Axis::Y, Axis::Z, self.rotary[0], self.rotary[1]]
     }
 }
 

@@ -91,7 +91,7 @@ pub fn contexts(
         .zip(matches)
         .map(|(p, m)| {
             let Some(m) = m else {
-                return Ok(not_cut(p));
+                return Ok(not_cut(p, model.kinematics().rotary()));
             };
             let pp = &m.point;
             // The chain with the tool that cut the point.
@@ -127,6 +127,8 @@ pub fn contexts(
                 squareness_jacobian: kin.squareness_jacobian(&pp.joints, &errors),
                 location_jacobian: kin.location_jacobian(&pp.joints, &errors),
                 axis_deviation_um,
+                rotary: kin.rotary(),
+                machine_to_part_rotation: Some(kin.machine_to_part_rotation(&pp.joints)),
             })
         })
         .collect()
@@ -216,7 +218,7 @@ fn errors_at_match(
     }
 }
 
-fn not_cut(p: &PlanPoint) -> PointContext {
+fn not_cut(p: &PlanPoint, rotary: [crate::axes::Axis; 2]) -> PointContext {
     PointContext {
         id: p.id.clone(),
         point: p.point,
@@ -236,6 +238,8 @@ fn not_cut(p: &PlanPoint) -> PointContext {
         squareness_jacobian: [[0.0; 3]; 3],
         location_jacobian: [[0.0; 3]; 8],
         axis_deviation_um: [0.0; 5],
+        rotary,
+        machine_to_part_rotation: None,
     }
 }
 
@@ -250,7 +254,8 @@ pub struct ProbeTool {
 
 /// The context of probing the cut point `cut` again on the machine (a
 /// follow-up probe, docs/diagnose.md "Follow-up"): the stylus ball touches the
-/// plan point at rotary angles `a_deg`, `c_deg`, approaching along −n, at
+/// plan point at the rotary joints `rotary` (degrees, the machine's two rotary
+/// axes in letter order: A and C on an A/C table), approaching along −n, at
 /// `time_min`. Its joints put the stylus tip at `p + R·(n − u)` (the ball's
 /// centre at `p + R·n`); `sigma` is the sign of each linear axis's approach
 /// (0 for an axis that does not move in it); speed, curvature and cut length
@@ -261,16 +266,22 @@ pub fn probe_context(
     probe: &ProbeTool,
     limits: Option<&crate::machine::Limits>,
     cut: &PointContext,
-    a_deg: f64,
-    c_deg: f64,
+    rotary: [f64; 2],
     time_min: f64,
 ) -> Result<Option<PointContext>, CutError> {
     use crate::axes::Axes;
     let kin = model.kinematics().with_tool_length(probe.length_mm);
     let (n, p) = (cut.normal, cut.point);
-    let u = kin.nominal_tool_axis(&Axes::xyzac(0.0, 0.0, 0.0, a_deg, c_deg));
+    let [r1, r2] = kin.rotary();
+    let at = Axes::xyz_rotary([0.0; 3], [(r1, rotary[0]), (r2, rotary[1])]);
+    let u = kin.nominal_tool_axis(&at);
     let tip = [0, 1, 2].map(|k| p[k] + probe.radius_mm * (n[k] - u[k]));
-    let joints = kin.joints_from_part(&Axes::xyzac(tip[0], tip[1], tip[2], a_deg, c_deg));
+    let joints = kin.joints_from_part(&Axes {
+        x: tip[0],
+        y: tip[1],
+        z: tip[2],
+        ..at
+    });
     if limits.is_some_and(|l| l.violated(&joints).is_some()) {
         return Ok(None);
     }
@@ -286,14 +297,10 @@ pub fn probe_context(
         only.component[slot] = errors.component[slot];
         dot(n, kin.volumetric_error(&joints, &only).e_um)
     });
-    // Approach along −n, turned into the machine frame: Rx(a)·Rz(c)·(−n).
-    let approach = {
-        use crate::vec3::{rot_x, rot_z};
-        rot_x(
-            a_deg.to_radians(),
-            rot_z(c_deg.to_radians(), [-n[0], -n[1], -n[2]]),
-        )
-    };
+    // Approach along −n, turned into the machine frame (the transpose of the
+    // machine → part rotation; Rx(a)·Rz(c)·(−n) on an A/C table).
+    let to_part = kin.machine_to_part_rotation(&joints);
+    let approach = std::array::from_fn(|i| -(0..3).map(|k| to_part[k][i] * n[k]).sum::<f64>());
     let sigma = approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() });
     Ok(Some(PointContext {
         id: cut.id.clone(),
@@ -314,5 +321,7 @@ pub fn probe_context(
         squareness_jacobian: kin.squareness_jacobian(&joints, &errors),
         location_jacobian: kin.location_jacobian(&joints, &errors),
         axis_deviation_um,
+        rotary: kin.rotary(),
+        machine_to_part_rotation: Some(to_part),
     }))
 }

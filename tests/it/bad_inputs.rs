@@ -255,7 +255,7 @@ fn cases() -> Vec<Case> {
             )],
             MACHINE,
             1,
-            &["{d}/bad.toml:5:1: `geometry`: every value must be a finite number"],
+            &["{d}/bad.toml:6:15: `geometry.x_rot_point`: must be a finite number"],
         ),
         case(
             "machine file",

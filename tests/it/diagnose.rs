@@ -1154,8 +1154,8 @@ fn a_followup_tells_rotary_location_from_setup_error() {
         length_mm: machine.tool.length,
         radius_mm: 1.0,
     };
-    let candidates = followup::candidates(contexts, |cut, a, c| {
-        probe_context(&model, &tool, Some(&machine.limits), cut, a, c, end)
+    let candidates = followup::candidates(contexts, |cut, rotary| {
+        probe_context(&model, &tool, Some(&machine.limits), cut, rotary, end)
     })
     .unwrap();
     // The case of `cargo run --example followup` (rotary_location, seed 1).

@@ -964,19 +964,31 @@ mod interpreting {
     }
 
     #[test]
-    fn unknown_letters_are_warned_about_once() {
-        let ev = motions("G0 X0 B5\nG1 X1 B6 F100 U1\n", Default::default());
-        let w: Vec<_> = ev
-            .iter()
-            .flat_map(|e| e.warnings.iter().map(|w| w.kind.clone()))
-            .collect();
-        assert_eq!(
-            w,
-            vec![
-                WarningKind::UnknownLetter('B'),
-                WarningKind::UnknownLetter('U')
-            ]
-        );
+    fn an_axis_the_machine_lacks_is_a_bad_character() {
+        use volcomp::axes::{Axis, AxisSet};
+        // Without a machine, rs274's X Y Z A B C: B is an axis, U is not.
+        let ev = motions("G0 X0 B5\nG1 X1 B6 F100\n", Default::default());
+        assert_eq!(ev[1].motion.unwrap().end.b, 6.0);
+        let err = interpret_program("G0 X0 U1\n".as_bytes(), Default::default()).unwrap_err();
+        assert_eq!(err.line, 1);
+        assert_eq!(err.column, 7);
+        assert!(err.to_string().contains("Bad character 'u' used"), "{err}");
+        // An A/C machine: B is a located error, and under --lenient a reported
+        // warning, the word ignored.
+        let ac = InterpretOptions {
+            axes: AxisSet::of(&[Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::C]),
+            ..Default::default()
+        };
+        let err = interpret_program("G0 X0\nG1 X1 B6 F100\n".as_bytes(), ac).unwrap_err();
+        assert_eq!((err.line, err.column), (2, 7));
+        assert!(err.to_string().contains("no B axis (its axes: XYZAC)"), "{err}");
+        let lenient = InterpretOptions { lenient: true, ..ac };
+        let ev = motions("G0 X0\nG1 X1 B6 F100\n", lenient);
+        assert_eq!(ev[1].motion.unwrap().end.b, 0.0);
+        assert!(matches!(
+            &ev[1].warnings[0].kind,
+            WarningKind::Lenient(volcomp::gcode::ErrorKind::AxisNotOnMachine { letter: 'B', .. })
+        ));
     }
 
     #[test]

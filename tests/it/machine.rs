@@ -139,7 +139,7 @@ fn bad_tool_chain_is_named() {
 
 #[test]
 fn other_kinematics_is_refused() {
-    let text = REF_TEXT.replace(r#"kinematics = "xyzac-trt""#, r#"kinematics = "xyzbc-trt""#);
+    let text = REF_TEXT.replace(r#"kinematics = "xyzac-trt""#, r#"kinematics = "xyzbd-trt""#);
     insta::assert_snapshot!(load_error(&text, &LoadOptions::default()));
 }
 
@@ -252,7 +252,7 @@ fn hold_policy_holds_the_end_value_and_counts() {
 #[test]
 fn model_reproduces_the_tables_within_the_fit_error() {
     let (m, model) = ref_model();
-    for axis in Axis::ALL {
+    for axis in m.layout().slot_axes() {
         let table = m.table(axis).expect("table");
         for column in &table.columns {
             let curve = model.curve(&column.name).expect("fitted");
