@@ -234,12 +234,12 @@ impl PoseTarget {
             return Err(SolveError::NotFinite(*nominal));
         }
         let kin = model.kinematics();
-        let axis = kin.nominal_tool_axis(nominal);
+        let (tip, axis) = kin.nominal_tip_and_axis(nominal);
         let (e1, e2) = normal_basis(axis);
         let outer = kin.outer_rotary();
         Ok(PoseTarget {
             outer: (nominal.get(outer), kin.chain.slot(outer).unwrap_or(4)),
-            tip: kin.nominal_tip(nominal),
+            tip,
             axis,
             normals: [e1, e2],
         })
@@ -400,14 +400,21 @@ pub fn first_order_joints_at(
     nominal: &Axes,
     rotary: [f64; 2],
 ) -> Result<Axes, SolveError> {
+    if !nominal.is_finite() {
+        return Err(SolveError::NotFinite(*nominal));
+    }
     let kin = model.kinematics();
     let mut turned = *nominal;
     let [r1, r2] = kin.rotary();
     turned.set(r1, rotary[0]);
     turned.set(r2, rotary[1]);
-    let mut target = Target::of(model, nominal)?;
-    target.map = kin.tip_to_joints(&turned);
-    target.machine = target.map.linear_joints(target.tip);
+    let tip = kin.nominal_tip(nominal);
+    let map = kin.tip_to_joints(&turned);
+    let target = Target {
+        tip,
+        machine: map.linear_joints(tip),
+        map,
+    };
     let start = target.map.joints(target.tip);
     Ok(target.newton_step(model, &start)?.0)
 }
@@ -426,12 +433,12 @@ impl Target {
         if !nominal.is_finite() {
             return Err(SolveError::NotFinite(*nominal));
         }
-        let kinematics = model.kinematics();
-        let tip = kinematics.nominal_tip(nominal);
-        let map = kinematics.tip_to_joints(nominal);
+        let map = model.kinematics().tip_to_joints(nominal);
+        // The nominal tip from the same (exact, affine) map: r₀ + J·(x, y, z).
+        let tip = map.tip_of(nominal.xyz());
         Ok(Target {
             tip,
-            machine: map.linear_joints(tip),
+            machine: nominal.xyz(),
             map,
         })
     }

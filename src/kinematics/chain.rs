@@ -12,7 +12,7 @@
 //! Invariants: no I/O, no allocation (fixed arrays); every inverse is the exact
 //! inverse of the matrix as written.
 use super::error_values::{ErrorValues, ParameterLayout};
-use super::transform::{Affine, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub};
+use super::transform::{Affine, IDENTITY3, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub};
 use crate::axes::{Axes, Axis, AxisSet};
 
 /// µm → mm.
@@ -112,6 +112,8 @@ pub struct MachineChain {
     /// vector and of [`ErrorValues::component`]).
     rotary: [Axis; 2],
     letters: AxisSet,
+    /// Nominal directions of X, Y, Z (the squareness formulas use them).
+    directions: [[f64; 3]; 3],
     /// Index in `tool` after which `Trans(g)` acts when Z is not on the tool side
     /// (0: at the start), `None` when it is within Z's factor.
     gauge_after: Option<usize>,
@@ -214,7 +216,10 @@ impl MachineChain {
             letters,
             gauge_after,
             orientation: [orientation[0], orientation[1]],
+            directions: [[0.0; 3]; 3],
         };
+        let mut chain = chain;
+        chain.directions = [Axis::X, Axis::Y, Axis::Z].map(|l| chain.axis(l).direction);
         let (e1, e2) = (
             chain.axis(orientation[0].0).direction,
             chain.axis(orientation[1].0).direction,
@@ -343,15 +348,11 @@ pub fn rotation(d: [f64; 3], s: f64, c: f64) -> Mat3 {
 
 /// The location matrix `L(δ, ε)` of rotary axis `axis` from its five location
 /// values (kinematics.md: two offsets, two tilts, zero offset, named by the letter).
+#[inline]
 fn location_matrix(axis: Axis, v: &[f64]) -> Affine {
-    let k = match axis {
-        Axis::A => 0,
-        Axis::B => 1,
-        _ => 2,
-    };
-    let (i, j) = match k {
-        0 => (1, 2),
-        1 => (0, 2),
+    let (i, j) = match axis {
+        Axis::A => (1, 2),
+        Axis::B => (0, 2),
         _ => (0, 1),
     };
     let mut delta = [0.0; 3];
@@ -363,6 +364,7 @@ fn location_matrix(axis: Axis, v: &[f64]) -> Affine {
     Affine::small(delta, eps)
 }
 
+#[inline]
 fn component(errors: &ErrorValues, slot: usize) -> Affine {
     let c = &errors.component[slot];
     Affine::small(
@@ -371,229 +373,432 @@ fn component(errors: &ErrorValues, slot: usize) -> Affine {
     )
 }
 
-/// One factor `T_K` of a side, with what its derivative needs.
+/// The pieces of a rotary factor `T = Trans(p)·L·R·E·L⁻¹·Trans(−p)`.
 #[derive(Clone, Copy, Debug)]
-struct Factor {
-    transform: Affine,
-    /// Linear: `s·d` (the derivative of the translation per mm). Rotary: unused.
-    travel: [f64; 3],
-    rotary: Option<RotaryFactor>,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct RotaryFactor {
-    /// `L` (location), `R`, `E·L⁻¹·Trans(−p)` pieces: `T = Trans(p)·L·R·E·L⁻¹·Trans(−p)`.
-    location: Affine,
+struct RotaryParts {
+    /// Rotation part of `L`.
+    location: Mat3,
     rotation: Mat3,
     /// `E·L⁻¹·Trans(−p)`.
     inner: Affine,
     direction: [f64; 3],
-    /// `joint_sign·π/180`: dθ/dq in rad per degree.
+    /// `dθ/dq`, rad per degree (`joint_sign·π/180`).
     per_degree: f64,
 }
 
-impl Factor {
-    /// `∂T/∂q · x` (a vector) at the factor's output point `x` (the point the factor
-    /// maps, i.e. expressed in the factor's child frame).
+impl RotaryParts {
+    /// `∂T/∂q · x` for the point `x` the factor maps.
     #[inline]
-    fn derivative(&self, x: [f64; 3]) -> [f64; 3] {
-        match &self.rotary {
-            None => self.travel,
-            Some(r) => {
-                let y = mat_vec(&r.rotation, r.inner.apply_point(x));
-                let dy = cross(r.direction, y);
-                scale(r.location.apply_vector(dy), r.per_degree)
+    fn point_derivative(&self, x: [f64; 3]) -> [f64; 3] {
+        let y = mat_vec(&self.rotation, self.inner.apply_point(x));
+        scale(mat_vec(&self.location, cross(self.direction, y)), self.per_degree)
+    }
+
+    /// `∂(rotation of T)/∂q · v` for a direction `v`.
+    #[inline]
+    fn vector_derivative(&self, v: [f64; 3]) -> [f64; 3] {
+        let y = mat_vec(&self.rotation, self.inner.apply_vector(v));
+        scale(mat_vec(&self.location, cross(self.direction, y)), self.per_degree)
+    }
+}
+
+/// What every factor of one evaluation shares: the pose, the error values, the
+/// actual travel directions and the gauge offset.
+#[derive(Clone, Copy)]
+struct Evaluation<'a> {
+    chain: &'a MachineChain,
+    q: &'a Axes,
+    errors: &'a ErrorValues,
+    /// Error-free: every `E` and `L` is the identity (skipped).
+    nominal: bool,
+    /// Actual directions of Y and Z with squareness (X's is its own).
+    d_y: [f64; 3],
+    d_z: [f64; 3],
+    /// `g = L·u₀`.
+    gauge: [f64; 3],
+    /// `(sin, cos)` of each rotary joint's angle `joint_sign·q` (letter order),
+    /// before the zero offset.
+    trig: [(f64, f64); 2],
+}
+
+/// `(sin, cos)` of each rotary joint angle of `q` (letter order).
+#[inline]
+fn joint_trig(chain: &MachineChain, q: &Axes) -> [(f64, f64); 2] {
+    chain.rotary.map(|r| {
+        let a = chain.axis(r);
+        (a.joint_sign * q.get(r)).to_radians().sin_cos()
+    })
+}
+
+/// `(sin, cos)` of `θ + δ` from those of `θ` and a zero offset `δ` (rad): the
+/// angle-sum formulas, with the Taylor series of `δ` where it is small (µrad
+/// offsets: the series is exact in double precision below 1e-3).
+#[inline]
+fn plus_offset((s, c): (f64, f64), delta: f64) -> (f64, f64) {
+    if delta == 0.0 {
+        return (s, c);
+    }
+    let (sd, cd) = if delta.abs() < 1e-3 {
+        let d2 = delta * delta;
+        (
+            delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0)),
+            1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0)),
+        )
+    } else {
+        delta.sin_cos()
+    };
+    (s * cd + c * sd, c * cd - s * sd)
+}
+
+impl<'a> Evaluation<'a> {
+    #[inline]
+    fn new(
+        chain: &'a MachineChain,
+        tool_length: f64,
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        nominal: bool,
+    ) -> Evaluation<'a> {
+        Evaluation::with_trig(chain, tool_length, q, errors, nominal, joint_trig(chain, q))
+    }
+
+    /// [`Evaluation::new`] with the joint angles' sines and cosines given.
+    #[inline]
+    fn with_trig(
+        chain: &'a MachineChain,
+        tool_length: f64,
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        nominal: bool,
+        trig: [(f64, f64); 2],
+    ) -> Evaluation<'a> {
+        let s = &errors.squareness;
+        let (dx, dy, dz) = (chain.directions[0], chain.directions[1], chain.directions[2]);
+        let (d_y, d_z) = if nominal {
+            (dy, dz)
+        } else {
+            (
+                sub(dy, scale(dx, s[0] * URAD)),
+                sub(sub(dz, scale(dx, s[1] * URAD)), scale(dy, s[2] * URAD)),
+            )
+        };
+        Evaluation {
+            chain,
+            q,
+            errors,
+            nominal,
+            d_y,
+            d_z,
+            gauge: scale(chain.tool_axis, tool_length),
+            trig,
+        }
+    }
+
+    /// The actual travel direction of linear axis `a`.
+    #[inline]
+    fn direction(&self, a: &ChainAxis) -> [f64; 3] {
+        match a.axis {
+            Axis::Y => self.d_y,
+            Axis::Z => self.d_z,
+            _ => a.direction,
+        }
+    }
+
+    /// `s·d`: the derivative of a linear factor's translation per mm.
+    #[inline]
+    fn travel(&self, a: &ChainAxis, side_sign: f64) -> [f64; 3] {
+        scale(self.direction(a), side_sign)
+    }
+
+    /// The location values of rotary `a` and its index (0 or 1, letter order).
+    #[inline]
+    fn location(&self, a: &ChainAxis) -> (&'a [f64], usize) {
+        let r = usize::from(a.axis != self.chain.rotary[0]);
+        (&self.errors.location[5 * r..5 * r + 5], r)
+    }
+
+    /// `R(d, θ + zero offset)` of rotary `a`.
+    #[inline]
+    fn rotation_of(&self, a: &ChainAxis) -> Mat3 {
+        let (loc, r) = self.location(a);
+        let offset = if self.nominal { 0.0 } else { loc[4] * URAD };
+        let (sn, cs) = plus_offset(self.trig[r], offset);
+        rotation(a.direction, sn, cs)
+    }
+
+    /// The transform of rotary factor `a`: `(L·R·E·L⁻¹)` about its point.
+    #[inline]
+    fn rotary(&self, a: &ChainAxis) -> Affine {
+        let rot = Affine {
+            m: self.rotation_of(a),
+            t: [0.0; 3],
+        };
+        if self.nominal {
+            return rot.about(a.point);
+        }
+        let location = location_matrix(a.axis, self.location(a).0);
+        let e = component(self.errors, self.chain.slot(a.axis).unwrap_or(4));
+        location
+            .mul(&rot)
+            .mul(&e)
+            .mul(&location.inverse())
+            .about(a.point)
+    }
+
+    /// The pieces of rotary factor `a` for its derivative.
+    fn rotary_parts(&self, a: &ChainAxis) -> RotaryParts {
+        let rot = self.rotation_of(a);
+        let per_degree = a.joint_sign * std::f64::consts::PI / 180.0;
+        let back = Affine::translation(scale(a.point, -1.0));
+        if self.nominal {
+            return RotaryParts {
+                location: IDENTITY3,
+                rotation: rot,
+                inner: back,
+                direction: a.direction,
+                per_degree,
+            };
+        }
+        let location = location_matrix(a.axis, self.location(a).0);
+        let e = component(self.errors, self.chain.slot(a.axis).unwrap_or(4));
+        RotaryParts {
+            location: location.m,
+            rotation: rot,
+            inner: e.mul(&location.inverse()).mul(&back),
+            direction: a.direction,
+            per_degree,
+        }
+    }
+
+    /// The transform of linear axis `a`: `Trans(s·q·d + gauge)·E`.
+    #[inline]
+    fn linear(&self, a: &ChainAxis, side_sign: f64, gauge: [f64; 3]) -> Affine {
+        let t = add(scale(self.travel(a, side_sign), self.q.get(a.axis)), gauge);
+        match (self.nominal, self.chain.slot(a.axis)) {
+            (false, Some(slot)) => {
+                let e = component(self.errors, slot);
+                Affine {
+                    m: e.m,
+                    t: add(e.t, t),
+                }
+            }
+            _ => Affine::translation(t),
+        }
+    }
+
+    /// The transform `T_K` of axis `a` on the side with sign `side_sign`.
+    #[inline]
+    fn factor(&self, a: &ChainAxis, side_sign: f64) -> Affine {
+        if a.is_rotary() {
+            self.rotary(a)
+        } else {
+            let gauge = if side_sign > 0.0 && a.axis == Axis::Z {
+                self.gauge
+            } else {
+                [0.0; 3]
+            };
+            self.linear(a, side_sign, gauge)
+        }
+    }
+
+    /// Calls `visit(letter, factor)` for every factor of the tool side in order,
+    /// `Trans(g)` included (letter `None`).
+    #[inline]
+    fn tool_factors(&self, mut visit: impl FnMut(Option<&ChainAxis>, Affine)) {
+        let chain = self.chain;
+        if chain.gauge_after == Some(0) {
+            visit(None, Affine::translation(self.gauge));
+        }
+        for (k, a) in chain.tool_side().iter().enumerate() {
+            visit(Some(a), self.factor(a, 1.0));
+            if chain.gauge_after == Some(k + 1) {
+                visit(None, Affine::translation(self.gauge));
             }
         }
     }
 
-    /// `∂(rotation part of T)/∂q · v` for a direction `v` in the child frame.
+    /// `W` and `S`.
     #[inline]
-    fn derivative_vector(&self, v: [f64; 3]) -> [f64; 3] {
-        match &self.rotary {
-            None => [0.0; 3],
-            Some(r) => {
-                let y = mat_vec(&r.rotation, r.inner.apply_vector(v));
-                scale(r.location.apply_vector(cross(r.direction, y)), r.per_degree)
-            }
+    fn products(&self) -> (Affine, Affine) {
+        let mut w = Affine::IDENTITY;
+        for a in self.chain.workpiece_side() {
+            w = w.mul_fast(&self.factor(a, -1.0));
         }
+        let mut s = Affine::IDENTITY;
+        self.tool_factors(|_, f| s = s.mul_fast(&f));
+        (w, s)
     }
 }
 
-/// The factors of one side and their prefix products.
-#[derive(Clone, Copy, Debug)]
-struct SideEval {
-    factors: [Factor; MAX_SIDE + 1],
-    /// Letter of each factor (`None` for the gauge offset).
-    letters: [Option<Axis>; MAX_SIDE + 1],
-    len: usize,
-    /// `prefix[k]` = product of factors before `k`; `prefix[len]` = the whole side.
-    prefix: [Affine; MAX_SIDE + 2],
+/// The tool tip (mm) and tool axis (not re-normalised) in part coordinates, with
+/// no storage: the hot path of every lookup.
+#[inline]
+pub fn tip_and_axis(
+    chain: &MachineChain,
+    tool_length: f64,
+    q: &Axes,
+    errors: &ErrorValues,
+    nominal: bool,
+) -> ([f64; 3], [f64; 3]) {
+    let eval = Evaluation::new(chain, tool_length, q, errors, nominal);
+    let (w, s) = eval.products();
+    let w_inv = w.inverse();
+    let tip = w_inv.apply_point(s.apply_point(scale(eval.gauge, -1.0)));
+    let axis = w_inv.apply_vector(s.apply_vector(chain.tool_axis));
+    (tip, axis)
 }
 
-const NO_FACTOR: Factor = Factor {
-    transform: Affine::IDENTITY,
-    travel: [0.0; 3],
-    rotary: None,
-};
-
-impl SideEval {
-    fn new() -> SideEval {
-        SideEval {
-            factors: [NO_FACTOR; MAX_SIDE + 1],
-            letters: [None; MAX_SIDE + 1],
-            len: 0,
-            prefix: [Affine::IDENTITY; MAX_SIDE + 2],
+/// The nominal tool tip at zero linear joints and `∂tip/∂(x, y, z)` (columns), at
+/// the rotary joints (and U V W) of `rotaries`: the tip is affine in the linear
+/// joints, so `tip = r₀ + J·(x, y, z)` exactly. No storage.
+pub fn nominal_linear_map(
+    chain: &MachineChain,
+    tool_length: f64,
+    rotaries: &Axes,
+) -> ([f64; 3], [[f64; 3]; 3]) {
+    let base = Axes {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        ..*rotaries
+    };
+    let eval = Evaluation::new(chain, tool_length, &base, &ErrorValues::ZERO, true);
+    // W with the rotation before each workpiece linear axis; S (nominal tool-side
+    // linear factors are translations before any head rotary: ∂ = the direction).
+    let mut w = Affine::IDENTITY;
+    let mut columns = [[0.0; 3]; 3];
+    let mut work_linear: [(usize, Mat3); 3] = [(3, IDENTITY3); 3];
+    for a in chain.workpiece_side() {
+        if let Some(i) = linear_slot(a.axis) {
+            work_linear[i] = (i, w.m);
+        }
+        w = w.mul(&eval.factor(a, -1.0));
+    }
+    let mut s = Affine::IDENTITY;
+    eval.tool_factors(|_, f| s = s.mul(&f));
+    let w_inv = w.inverse();
+    for a in chain.tool_side() {
+        if let Some(i) = linear_slot(a.axis) {
+            columns[i] = w_inv.apply_vector(a.direction);
         }
     }
-
-    #[inline]
-    fn push(&mut self, letter: Option<Axis>, f: Factor) {
-        let k = self.len;
-        self.factors[k] = f;
-        self.letters[k] = letter;
-        self.prefix[k + 1] = self.prefix[k].mul(&f.transform);
-        self.len += 1;
-    }
-
-    #[inline]
-    fn total(&self) -> &Affine {
-        &self.prefix[self.len]
-    }
-
-    fn index_of(&self, axis: Axis) -> Option<usize> {
-        self.letters[..self.len].iter().position(|l| *l == Some(axis))
-    }
-
-    /// `∂(side · x)/∂q_axis` for a point `x` in the side's end frame: the factor's
-    /// derivative at the point it maps, carried through the prefix's rotation.
-    fn point_derivative(&self, k: usize, x: [f64; 3]) -> [f64; 3] {
-        // The point in factor k's child frame: suffix product applied to x.
-        let mut p = x;
-        for f in self.factors[k + 1..self.len].iter().rev() {
-            p = f.transform.apply_point(p);
+    for (i, prefix) in work_linear {
+        if i < 3 {
+            // ∂(W⁻¹·p)/∂q = −W⁻¹·prefix·(−d)
+            columns[i] = w_inv.apply_vector(mat_vec(&prefix, chain.directions[i]));
         }
-        self.prefix[k].apply_vector(self.factors[k].derivative(p))
     }
+    let tip = w_inv.apply_point(s.apply_point(scale(eval.gauge, -1.0)));
+    (tip, columns)
+}
 
-    /// As [`SideEval::point_derivative`] for a direction.
-    fn vector_derivative(&self, k: usize, v: [f64; 3]) -> [f64; 3] {
-        let mut p = v;
-        for f in self.factors[k + 1..self.len].iter().rev() {
-            p = f.transform.apply_vector(p);
-        }
-        self.prefix[k].apply_vector(self.factors[k].derivative_vector(p))
+/// 0, 1, 2 for X, Y, Z.
+#[inline]
+fn linear_slot(axis: Axis) -> Option<usize> {
+    match axis {
+        Axis::X => Some(0),
+        Axis::Y => Some(1),
+        Axis::Z => Some(2),
+        _ => None,
     }
 }
 
-/// The chain evaluated at one pose with one set of error values.
-#[derive(Clone, Copy, Debug)]
-pub struct ChainPose {
-    workpiece: SideEval,
-    tool: SideEval,
+/// `∂u/∂q` (per degree) of the nominal tool axis for the two rotary joints in
+/// letter order: with `u = R(e₁, φ₁)·R(e₂, φ₂)·u₀`, `∂u/∂φ₁ = e₁ × u` and
+/// `∂u/∂φ₂ = R(e₁, φ₁)·(e₂ × R(e₂, φ₂)·u₀)`.
+pub fn nominal_axis_derivatives(chain: &MachineChain, q: &Axes) -> [[f64; 3]; 2] {
+    let [(o1, s1), (o2, s2)] = chain.orientation();
+    let (a1, a2) = (chain.axis(o1), chain.axis(o2));
+    let (k1, k2) = (s1 * a1.joint_sign, s2 * a2.joint_sign);
+    let (sn2, cs2) = (k2 * q.get(o2)).to_radians().sin_cos();
+    let (sn1, cs1) = (k1 * q.get(o1)).to_radians().sin_cos();
+    let r1 = rotation(a1.direction, sn1, cs1);
+    let v = mat_vec(&rotation(a2.direction, sn2, cs2), chain.tool_axis);
+    let u = mat_vec(&r1, v);
+    let per = std::f64::consts::PI / 180.0;
+    let d1 = scale(cross(a1.direction, u), k1 * per);
+    let d2 = scale(mat_vec(&r1, cross(a2.direction, v)), k2 * per);
+    if o1 == chain.rotary[0] { [d1, d2] } else { [d2, d1] }
+}
+
+/// The actual and the nominal tool tip and axis (part coordinates) at `q` in one
+/// pass: the joint angles' sines and cosines are shared.
+#[inline]
+pub fn actual_and_nominal(
+    chain: &MachineChain,
+    tool_length: f64,
+    q: &Axes,
+    errors: &ErrorValues,
+) -> [([f64; 3], [f64; 3]); 2] {
+    let trig = joint_trig(chain, q);
+    [(errors, false), (&ErrorValues::ZERO, true)].map(|(e, nominal)| {
+        let eval = Evaluation::with_trig(chain, tool_length, q, e, nominal, trig);
+        let (w, s) = eval.products();
+        let w_inv = w.inverse();
+        (
+            w_inv.apply_point(s.apply_point(scale(eval.gauge, -1.0))),
+            w_inv.apply_vector(s.apply_vector(chain.tool_axis)),
+        )
+    })
+}
+
+/// The chain evaluated at one pose with one set of error values, with the prefix
+/// products the derivatives need.
+pub struct ChainPose<'a> {
+    eval: Evaluation<'a>,
+    /// Prefix products of the workpiece side: `work[k]` = product of the factors
+    /// before `k`; `work[len]` = `W`.
+    work: [Affine; MAX_SIDE + 1],
+    work_factors: [Affine; MAX_SIDE],
+    /// The same for the tool side (with `Trans(g)`).
+    tool: [Affine; MAX_SIDE + 2],
+    tool_factors: [Affine; MAX_SIDE + 1],
+    tool_letters: [Option<Axis>; MAX_SIDE + 1],
+    tool_len: usize,
     /// `W⁻¹`.
     work_inv: Affine,
-    /// `−g`, the tip in the spindle frame.
-    tip_local: [f64; 3],
-    tool_axis: [f64; 3],
     /// Tool tip in machine (bed) coordinates.
     tip_machine: [f64; 3],
 }
 
-impl ChainPose {
-    /// Evaluates `chain` at `q` with `errors` and a tool of `tool_length` mm.
+impl<'a> ChainPose<'a> {
+    /// Evaluates `chain` at `q` with `errors` and a tool of `tool_length` mm
+    /// (`nominal`: the errors are all zero and are skipped).
     pub fn new(
-        chain: &MachineChain,
+        chain: &'a MachineChain,
         tool_length: f64,
-        q: &Axes,
-        errors: &ErrorValues,
-    ) -> ChainPose {
-        let s = &errors.squareness;
-        // Actual travel directions of X Y Z with squareness (kinematics.md).
-        let (dx, dy, dz) = (
-            chain.axis(Axis::X).direction,
-            chain.axis(Axis::Y).direction,
-            chain.axis(Axis::Z).direction,
-        );
-        let d_y = sub(dy, scale(dx, s[0] * URAD));
-        let d_z = sub(sub(dz, scale(dx, s[1] * URAD)), scale(dy, s[2] * URAD));
-        let direction_of = |a: &ChainAxis| match a.axis {
-            Axis::X => dx,
-            Axis::Y => d_y,
-            Axis::Z => d_z,
-            _ => a.direction,
-        };
-        let g = scale(chain.tool_axis, tool_length);
-        let factor = |a: &ChainAxis, side_sign: f64, gauge: [f64; 3]| -> Factor {
-            let value = q.get(a.axis);
-            let slot = chain.slot(a.axis);
-            let e = slot.map_or(Affine::IDENTITY, |k| component(errors, k));
-            if a.is_rotary() {
-                let offset_index = if a.axis == chain.rotary[0] { 0 } else { 5 };
-                let loc = &errors.location[offset_index..offset_index + 5];
-                let location = location_matrix(a.axis, loc);
-                let location_inv = location.inverse();
-                let theta = (a.joint_sign * value).to_radians() + loc[4] * URAD;
-                let (sn, cs) = theta.sin_cos();
-                let rotation = rotation(a.direction, sn, cs);
-                let inner = e
-                    .mul(&location_inv)
-                    .mul(&Affine::translation(scale(a.point, -1.0)));
-                let transform = Affine::translation(a.point)
-                    .mul(&location)
-                    .mul(&Affine {
-                        m: rotation,
-                        t: [0.0; 3],
-                    })
-                    .mul(&inner);
-                Factor {
-                    transform,
-                    travel: [0.0; 3],
-                    rotary: Some(RotaryFactor {
-                        location,
-                        rotation,
-                        inner,
-                        direction: a.direction,
-                        per_degree: a.joint_sign * std::f64::consts::PI / 180.0,
-                    }),
-                }
-            } else {
-                let travel = scale(direction_of(a), side_sign);
-                // Trans(s·q·d + gauge)·E
-                let t = add(scale(travel, value), gauge);
-                Factor {
-                    transform: Affine {
-                        m: e.m,
-                        t: add(e.t, t),
-                    },
-                    travel,
-                    rotary: None,
-                }
-            }
-        };
-        let mut workpiece = SideEval::new();
-        for a in chain.workpiece_side() {
-            workpiece.push(Some(a.axis), factor(a, -1.0, [0.0; 3]));
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        nominal: bool,
+    ) -> ChainPose<'a> {
+        let eval = Evaluation::new(chain, tool_length, q, errors, nominal);
+        let mut work = [Affine::IDENTITY; MAX_SIDE + 1];
+        let mut work_factors = [Affine::IDENTITY; MAX_SIDE];
+        for (k, a) in chain.workpiece_side().iter().enumerate() {
+            work_factors[k] = eval.factor(a, -1.0);
+            work[k + 1] = work[k].mul(&work_factors[k]);
         }
-        let mut tool = SideEval::new();
-        if chain.gauge_after == Some(0) {
-            tool.push(None, gauge_factor(g));
-        }
-        for (k, a) in chain.tool_side().iter().enumerate() {
-            let gauge = if a.axis == Axis::Z { g } else { [0.0; 3] };
-            tool.push(Some(a.axis), factor(a, 1.0, gauge));
-            if chain.gauge_after == Some(k + 1) {
-                tool.push(None, gauge_factor(g));
-            }
-        }
-        let tip_local = scale(g, -1.0);
-        let tip_machine = tool.total().apply_point(tip_local);
+        let mut tool = [Affine::IDENTITY; MAX_SIDE + 2];
+        let mut tool_factors = [Affine::IDENTITY; MAX_SIDE + 1];
+        let mut tool_letters = [None; MAX_SIDE + 1];
+        let mut k = 0;
+        eval.tool_factors(|a, f| {
+            tool_factors[k] = f;
+            tool[k + 1] = tool[k].mul(&f);
+            tool_letters[k] = a.map(|a| a.axis);
+            k += 1;
+        });
+        let w = &work[chain.workpiece_len];
+        let tip_machine = tool[k].apply_point(scale(eval.gauge, -1.0));
         ChainPose {
-            work_inv: workpiece.total().inverse(),
-            workpiece,
+            work_inv: w.inverse(),
+            eval,
+            work,
+            work_factors,
             tool,
-            tip_local,
-            tool_axis: chain.tool_axis,
+            tool_factors,
+            tool_letters,
+            tool_len: k,
             tip_machine,
         }
     }
@@ -608,7 +813,7 @@ impl ChainPose {
     #[inline]
     pub fn axis(&self) -> [f64; 3] {
         self.work_inv
-            .apply_vector(self.tool.total().apply_vector(self.tool_axis))
+            .apply_vector(self.tool[self.tool_len].apply_vector(self.eval.chain.tool_axis))
     }
 
     /// Tool tip in machine (bed) coordinates, mm.
@@ -621,17 +826,50 @@ impl ChainPose {
         &self.work_inv
     }
 
+    /// The point `x` of side `factors[k + 1..len]`'s end frame carried back to factor
+    /// `k`'s output frame: the suffix product applied to `x`.
+    fn suffix_point(&self, side: Side, k: usize, x: [f64; 3], vector: bool) -> [f64; 3] {
+        let factors = match side {
+            Side::Workpiece => &self.work_factors[k + 1..self.eval.chain.workpiece_len],
+            Side::Tool => &self.tool_factors[k + 1..self.tool_len],
+        };
+        factors.iter().rev().fold(x, |p, f| {
+            if vector { f.apply_vector(p) } else { f.apply_point(p) }
+        })
+    }
+
+    /// `∂(factor k of side)·x` (a vector) for a linear or rotary axis `a`.
+    fn factor_derivative(&self, a: &ChainAxis, side_sign: f64, x: [f64; 3], vector: bool) -> [f64; 3] {
+        if a.is_rotary() {
+            let parts = self.eval.rotary_parts(a);
+            if vector {
+                parts.vector_derivative(x)
+            } else {
+                parts.point_derivative(x)
+            }
+        } else if vector {
+            [0.0; 3]
+        } else {
+            self.eval.travel(a, side_sign)
+        }
+    }
+
     /// `∂tip/∂q` (part coordinates, mm per mm or per degree) for the machine's joint
     /// `axis`, error values held fixed.
     pub fn tip_derivative(&self, axis: Axis) -> [f64; 3] {
-        if let Some(k) = self.tool.index_of(axis) {
-            let d = self.tool.point_derivative(k, self.tip_local);
-            self.work_inv.apply_vector(d)
-        } else if let Some(k) = self.workpiece.index_of(axis) {
+        let chain = self.eval.chain;
+        if let Some(k) = self.tool_letters[..self.tool_len]
+            .iter()
+            .position(|l| *l == Some(axis))
+        {
+            let x = self.suffix_point(Side::Tool, k, scale(self.eval.gauge, -1.0), false);
+            let d = self.factor_derivative(chain.axis(axis), 1.0, x, false);
+            self.work_inv.apply_vector(self.tool[k].apply_vector(d))
+        } else if let Some(k) = chain.workpiece_side().iter().position(|a| a.axis == axis) {
             // ∂(W⁻¹·p) = −W⁻¹·∂W·W⁻¹·p
-            let r = self.tip();
-            let d = self.workpiece.point_derivative(k, r);
-            scale(self.work_inv.apply_vector(d), -1.0)
+            let x = self.suffix_point(Side::Workpiece, k, self.tip(), false);
+            let d = self.factor_derivative(chain.axis(axis), -1.0, x, false);
+            scale(self.work_inv.apply_vector(self.work[k].apply_vector(d)), -1.0)
         } else {
             [0.0; 3]
         }
@@ -639,24 +877,21 @@ impl ChainPose {
 
     /// `∂(tool axis)/∂q` (part coordinates, per degree) for rotary joint `axis`.
     pub fn axis_derivative(&self, axis: Axis) -> [f64; 3] {
-        if let Some(k) = self.tool.index_of(axis) {
-            let d = self.tool.vector_derivative(k, self.tool_axis);
-            self.work_inv.apply_vector(d)
-        } else if let Some(k) = self.workpiece.index_of(axis) {
-            let u = self.axis();
-            let d = self.workpiece.vector_derivative(k, u);
-            scale(self.work_inv.apply_vector(d), -1.0)
+        let chain = self.eval.chain;
+        if let Some(k) = self.tool_letters[..self.tool_len]
+            .iter()
+            .position(|l| *l == Some(axis))
+        {
+            let v = self.suffix_point(Side::Tool, k, chain.tool_axis, true);
+            let d = self.factor_derivative(chain.axis(axis), 1.0, v, true);
+            self.work_inv.apply_vector(self.tool[k].apply_vector(d))
+        } else if let Some(k) = chain.workpiece_side().iter().position(|a| a.axis == axis) {
+            let v = self.suffix_point(Side::Workpiece, k, self.axis(), true);
+            let d = self.factor_derivative(chain.axis(axis), -1.0, v, true);
+            scale(self.work_inv.apply_vector(self.work[k].apply_vector(d)), -1.0)
         } else {
             [0.0; 3]
         }
-    }
-}
-
-fn gauge_factor(g: [f64; 3]) -> Factor {
-    Factor {
-        transform: Affine::translation(g),
-        travel: [0.0; 3],
-        rotary: None,
     }
 }
 

@@ -52,9 +52,8 @@ impl Kinematics {
 
     /// `∂(nominal tool axis)/∂r₁` and `∂/∂r₂` (per degree) at `joints`.
     pub fn nominal_axis_jacobian(&self, joints: &Axes) -> ([f64; 3], [f64; 3]) {
-        let pose = self.pose(joints, &ErrorValues::ZERO);
-        let [r1, r2] = self.rotary();
-        (pose.axis_derivative(r1), pose.axis_derivative(r2))
+        let [d1, d2] = super::chain::nominal_axis_derivatives(&self.chain, joints);
+        (d1, d2)
     }
 
     /// Central difference of the actual tip (µm) in parameter `index` (flat
@@ -66,8 +65,8 @@ impl Kinematics {
             *p += PARAMETER_STEP;
             *m -= PARAMETER_STEP;
         }
-        let tp = self.pose(joints, &plus).tip();
-        let tm = self.pose(joints, &minus).tip();
+        let tp = self.actual_tip_and_axis(joints, &plus).tip;
+        let tm = self.actual_tip_and_axis(joints, &minus).tip;
         scale(sub(tp, tm), 1e3 / (2.0 * PARAMETER_STEP))
     }
 

@@ -169,10 +169,18 @@ impl BcGeometry {
 pub struct TipToJoints {
     base: Axes,
     r0: [f64; 3],
+    /// `J`: the columns ∂tip/∂x, ∂y, ∂z as rows of a matrix (`J[i][k]`).
+    jacobian: Mat3,
     inverse: Mat3,
 }
 
 impl TipToJoints {
+    /// The nominal tip at linear joints `xyz`: `r₀ + J·xyz`.
+    #[inline]
+    pub fn tip_of(&self, xyz: [f64; 3]) -> [f64; 3] {
+        transform::add(self.r0, transform::mat_vec(&self.jacobian, xyz))
+    }
+
     /// X Y Z (mm) that put the nominal tip at `tip`.
     #[inline]
     pub fn linear_joints(&self, tip: [f64; 3]) -> [f64; 3] {
@@ -319,15 +327,28 @@ impl Kinematics {
         self.chain.with_joints(q, j)
     }
 
-    /// The actual chain at `joints` with `errors`.
+    /// The actual chain at `joints` with `errors`, ready for derivatives.
     #[inline]
-    pub fn pose(&self, joints: &Axes, errors: &ErrorValues) -> chain::ChainPose {
-        chain::ChainPose::new(&self.chain, self.tool_length, joints, errors)
+    pub fn pose<'a>(&'a self, joints: &'a Axes, errors: &'a ErrorValues) -> chain::ChainPose<'a> {
+        chain::ChainPose::new(&self.chain, self.tool_length, joints, errors, false)
+    }
+
+    /// The nominal chain at `joints`, ready for derivatives.
+    #[inline]
+    pub fn nominal_pose<'a>(&'a self, joints: &'a Axes) -> chain::ChainPose<'a> {
+        chain::ChainPose::new(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true)
     }
 
     /// Nominal tool tip in part coordinates (mm) for joint position `joints`.
+    #[inline]
     pub fn nominal_tip(&self, joints: &Axes) -> [f64; 3] {
-        self.pose(joints, &ErrorValues::ZERO).tip()
+        chain::tip_and_axis(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true).0
+    }
+
+    /// Nominal tool tip (mm) and unit tool axis in part coordinates, one pass.
+    #[inline]
+    pub fn nominal_tip_and_axis(&self, joints: &Axes) -> ([f64; 3], [f64; 3]) {
+        chain::tip_and_axis(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true)
     }
 
     /// Nominal unit tool axis (tip → spindle) in part coordinates.
@@ -339,7 +360,7 @@ impl Kinematics {
     /// The nominal rotation of machine (bed) directions into part coordinates at
     /// `joints` (the rotation part of `W⁻¹`).
     pub fn machine_to_part_rotation(&self, joints: &Axes) -> Mat3 {
-        self.pose(joints, &ErrorValues::ZERO).machine_to_part().m
+        self.nominal_pose(joints).machine_to_part().m
     }
 
     /// A machine-frame vector in part coordinates at `joints` (nominal).
@@ -351,23 +372,21 @@ impl Kinematics {
     /// joints (and U V W) of `rotaries`: the tip is affine in the linear joints, so
     /// the map is exact ([`TipToJoints`]).
     pub fn tip_to_joints(&self, rotaries: &Axes) -> TipToJoints {
-        let base = Axes {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            ..*rotaries
-        };
-        let pose = self.pose(&base, &ErrorValues::ZERO);
-        let r0 = pose.tip();
-        let cols = [Axis::X, Axis::Y, Axis::Z].map(|a| pose.tip_derivative(a));
+        let (r0, cols) = chain::nominal_linear_map(&self.chain, self.tool_length, rotaries);
         let m = [
             [cols[0][0], cols[1][0], cols[2][0]],
             [cols[0][1], cols[1][1], cols[2][1]],
             [cols[0][2], cols[1][2], cols[2][2]],
         ];
         TipToJoints {
-            base,
+            base: Axes {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                ..*rotaries
+            },
             r0,
+            jacobian: m,
             inverse: transform::mat_inverse(&m),
         }
     }
@@ -421,21 +440,19 @@ impl Kinematics {
     }
 
     /// Actual tool tip (mm) and tool axis (not re-normalised), part coordinates.
+    #[inline]
     pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {
-        let pose = self.pose(joints, errors);
-        TipAndAxis {
-            tip: pose.tip(),
-            axis: pose.axis(),
-        }
+        let (tip, axis) = chain::tip_and_axis(&self.chain, self.tool_length, joints, errors, false);
+        TipAndAxis { tip, axis }
     }
 
     /// Volumetric error `e = r_act − r_nom` (µm) and tool-axis error (µrad), part
     /// coordinates, at `joints` with the parameter values `errors` (µm, µrad).
     pub fn volumetric_error(&self, joints: &Axes, errors: &ErrorValues) -> VolumetricError {
-        let actual = self.pose(joints, errors);
-        let nominal = self.pose(joints, &ErrorValues::ZERO);
-        let e = sub(actual.tip(), nominal.tip());
-        let u = sub(actual.axis(), nominal.axis());
+        let [(tip, axis), (tip0, axis0)] =
+            chain::actual_and_nominal(&self.chain, self.tool_length, joints, errors);
+        let e = sub(tip, tip0);
+        let u = sub(axis, axis0);
         VolumetricError {
             e_um: transform::scale(e, 1e3),
             axis_urad: transform::scale(u, 1e6),

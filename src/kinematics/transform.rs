@@ -78,6 +78,25 @@ impl Affine {
         }
     }
 
+    /// `self · other`, cheaper when one of them is a pure translation (the
+    /// nominal linear factors of a chain): the same numbers as [`Affine::mul`].
+    #[inline]
+    pub fn mul_fast(&self, other: &Affine) -> Affine {
+        if other.m == IDENTITY3 {
+            Affine {
+                m: self.m,
+                t: add(mat_vec(&self.m, other.t), self.t),
+            }
+        } else if self.m == IDENTITY3 {
+            Affine {
+                m: other.m,
+                t: add(other.t, self.t),
+            }
+        } else {
+            self.mul(other)
+        }
+    }
+
     /// `self · (p, 1)`.
     #[inline]
     pub fn apply_point(&self, p: [f64; 3]) -> [f64; 3] {
