@@ -294,8 +294,16 @@ impl ProgramArgs {
                 setup.parameters.set(n, v);
             }
         }
+        let mut given: [Option<&str>; 10] = [None; 10];
         for text in &self.offset {
             let (n, origin) = parse_offset(text).map_err(|m| super::UsageError(m))?;
+            if let Some(first) = given[n] {
+                return Err(super::UsageError(format!(
+                    "--offset `{text}`: that work coordinate system is already given (--offset `{first}`); give each system once"
+                ))
+                .into());
+            }
+            given[n] = Some(text);
             setup.set_origin(n, &origin);
         }
         for dir in &self.subroutine_path {
@@ -375,35 +383,41 @@ pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::Program
     Ok(Box::new(BufReader::with_capacity(1 << 16, file)))
 }
 
+/// How much of a program's head is searched for its stamp.
+const HEAD_BYTES: u64 = 256 * 1024;
+
 /// The first bytes of a program (what [`crate::compensate::stamp::Stamp::find`]
 /// reads); the input is rewound.
 pub fn program_head(input: &mut dyn crate::gcode::ProgramInput) -> anyhow::Result<String> {
     use std::io::Read;
     let mut head = Vec::new();
     input
-        .take(16 * 1024)
+        .take(HEAD_BYTES)
         .read_to_end(&mut head)
         .context("cannot read the program")?;
     input.rewind().context("cannot read the program")?;
     Ok(String::from_utf8_lossy(&head).into_owned())
 }
 
-/// FNV-1a 64 of a program's bytes; the input is rewound.
+/// FNV-1a 64 of a program's bytes, and the line of the first stamp line
+/// anywhere in it; the input is rewound.
 pub fn program_hash(
     input: &mut dyn crate::gcode::ProgramInput,
-) -> anyhow::Result<crate::compensate::stamp::Fnv1a64> {
+) -> anyhow::Result<(crate::compensate::stamp::Fnv1a64, Option<usize>)> {
     let mut hash = crate::compensate::stamp::Fnv1a64::default();
+    let mut scan = crate::compensate::stamp::StampScan::default();
     loop {
         let buf = input.fill_buf().context("cannot read the program")?;
         if buf.is_empty() {
             break;
         }
         hash.update(buf);
+        scan.update(buf);
         let n = buf.len();
         input.consume(n);
     }
     input.rewind().context("cannot read the program")?;
-    Ok(hash)
+    Ok((hash, scan.finish()))
 }
 
 /// The stamp of an already compensated program (`-`: standard input), with the

@@ -103,15 +103,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ..CompensateOptions::default()
     };
     let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
+    let name = crate::io::display_name(&args.program).replace("standard output", "standard input");
     if let (Some(old), false) = (&old_stamp, args.force) {
         anyhow::bail!(
-            "{} is already compensated ({}); compensating it again would add the corrections twice. \
+            "{name} is already compensated ({}); compensating it again would add the corrections twice. \
 Give the original program, or --force to compensate it anyway",
-            crate::io::display_name(&args.program).replace("standard output", "standard input"),
             old.summary()
         );
     }
-    let input_hash = super::common::program_hash(input.as_mut())?;
+    // The whole program is read for its hash: a stamp line anywhere in it
+    // (not only at its head) is found too.
+    let (input_hash, stamp_line) = super::common::program_hash(input.as_mut())?;
+    if let (Some(line), false) = (stamp_line, args.force) {
+        anyhow::bail!(
+            "{name} is already compensated: line {line} is a line of volcomp's stamp; compensating it again would add the corrections twice. \
+Give the original program, or --force to compensate it anyway"
+        );
+    }
+    let setup = args.read.setup(Some(&machine))?;
     let stamp = Stamp {
         compensated_by: format!("volcomp {}", env!("CARGO_PKG_VERSION")),
         machine: machine.name.clone(),
@@ -120,8 +129,15 @@ Give the original program, or --force to compensate it anyway",
             Some(file) => format!("model {}", file.display()),
             None => format!("fit {}", args.machine.model.fit_description()),
         },
-        tool_length_mm: machine.tool.length,
-        tolerance_um: args.tol,
+        tool_length_mm: Some(machine.tool.length),
+        tools_mm: Stamp::tools_text(
+            &setup
+                .tools
+                .entries()
+                .map(|t| (t.number, t.length_mm))
+                .collect::<Vec<_>>(),
+        ),
+        tolerance_um: Some(args.tol),
         input: if crate::io::is_stdio(&args.program) {
             "<stdin>".to_string()
         } else {
@@ -130,8 +146,7 @@ Give the original program, or --force to compensate it anyway",
         input_fnv1a64: input_hash.hex(),
         orientation: !args.position_only,
     };
-    let program =
-        crate::gcode::Program::new(input, &args.program, args.read.setup(Some(&machine))?);
+    let program = crate::gcode::Program::new(input, &args.program, setup);
     let bar = progress_bar(&args.program, "compensating");
     let mut report: Option<CompensateReport> = None;
     write_atomic(output, |out| -> anyhow::Result<()> {

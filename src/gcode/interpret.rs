@@ -343,10 +343,13 @@ impl Interpreter {
             cycle_memory: CycleMemory::default(),
             pending_dwell_min: 0.0,
         };
-        let system = i.params.get(numbers::COORD_SYSTEM).round();
+        // LinuxCNC's `init`: `(int)(pars[5220] + 0.0001)`, truncated (1.9 is
+        // G54), and 1 (with #5220 reset to 1) when out of 1 … 9.
+        let system = (i.params.get(numbers::COORD_SYSTEM) + 0.0001).trunc();
         i.modal.coord_system = if (1.0..=9.0).contains(&system) {
             system as u8
         } else {
+            i.params.set(numbers::COORD_SYSTEM, 1.0);
             1
         };
         i.origin.work = i.stored_origin(i.modal.coord_system);

@@ -283,7 +283,39 @@ impl ErrorModel {
                         ),
                     ));
                 }
+                if !entry.curve_hash.is_empty()
+                    && entry.curve_hash != format!("{:016x}", entry.computed_curve_hash())
+                {
+                    return Err(model_error(
+                        name,
+                        format!(
+                            "its curve was changed after the fit (its numbers no longer match the recorded hash {}); refit with volcomp fit",
+                            entry.curve_hash
+                        ),
+                    ));
+                }
                 let curve = entry.to_curve().map_err(|m| model_error(name, m))?;
+                // The curve must reproduce its recorded fit at the table's
+                // points (files written before `curve_hash` are checked so too).
+                if let Some(column) = table.column(name) {
+                    let recomputed = table
+                        .positions
+                        .iter()
+                        .zip(&column.values)
+                        .fold(0.0f64, |m, (x, y)| m.max((curve.value_at(*x) - y).abs()));
+                    let recorded = entry.stats.emax;
+                    if !(recomputed.is_finite()
+                        && (recomputed - recorded).abs() <= 1e-6 * (1.0 + recorded.abs()))
+                    {
+                        return Err(model_error(
+                            name,
+                            format!(
+                                "its curve departs from the table by up to {recomputed:.6} {unit} at the table's points, but the file records {recorded:.6} {unit} for its fit: the file was edited; refit with volcomp fit",
+                                unit = if entry.unit == "urad" { "µrad" } else { "µm" }
+                            ),
+                        ));
+                    }
+                }
                 if let Some(ac) = axes[slot].as_mut() {
                     ac.curves[k] = Some(curve);
                 }
