@@ -113,6 +113,46 @@ pub enum WarningKind {
     },
 }
 
+impl WarningKind {
+    /// Its kind, for grouping (`crate::warnings`).
+    pub fn key(&self) -> &'static str {
+        match self {
+            WarningKind::UnknownLetter(_) => "unknown_word",
+            WarningKind::Home(_) => "home",
+            WarningKind::MissingInverseTimeFeed => "inverse_time_feed",
+            WarningKind::ZeroFeed => "zero_feed",
+            WarningKind::ArcRadiusMismatch(_) => "arc_radius",
+            WarningKind::AfterProgramEnd => "after_program_end",
+            WarningKind::Lenient(_) => "lenient",
+            WarningKind::NoToolTable(_) => "no_tool_table",
+            WarningKind::ToolLengthOffsetMismatch { .. } => "tool_length_offset",
+        }
+    }
+
+    /// What it changes in a command's result (empty: nothing but time or
+    /// the report): a tool length assumed, words or lines ignored.
+    pub fn effect(&self) -> &'static str {
+        match self {
+            WarningKind::UnknownLetter(_) => "unknown words ignored",
+            WarningKind::Lenient(_) => "passed through unread (--lenient)",
+            WarningKind::NoToolTable(_) => "tool length assumed",
+            WarningKind::ToolLengthOffsetMismatch { .. } => {
+                "tool length offset differs from the tool"
+            }
+            _ => "",
+        }
+    }
+}
+
+impl Warning {
+    /// The message without its place.
+    pub fn message(&self) -> String {
+        let text = self.to_string();
+        let prefix = format!("line {}:{}: ", self.line, self.column);
+        text.strip_prefix(&prefix).unwrap_or(&text).to_string()
+    }
+}
+
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "line {}:{}: ", self.line, self.column)?;
