@@ -695,6 +695,35 @@ mod tests {
         model: ModelArgs,
     }
 
+    #[test]
+    fn rates_are_whole_with_thousands_separated() {
+        assert_eq!(thousands(203_087.9885), "203,088");
+        assert_eq!(thousands(999.4), "999");
+        assert_eq!(thousands(1_000.0), "1,000");
+        assert_eq!(thousands(-1234567.0), "-1,234,567");
+        assert_eq!(thousands(0.2), "0");
+    }
+
+    /// The progress bar's position: the farthest byte read, across seeks back.
+    #[test]
+    fn a_tracked_input_records_the_farthest_byte_read() {
+        use std::io::{BufRead, Read, Seek};
+        let data = b"G1 X1\nG1 X2\nG1 X3\n".to_vec();
+        let (mut input, total, farthest) = track(Box::new(std::io::Cursor::new(data))).unwrap();
+        assert_eq!(total, 18);
+        let mut line = String::new();
+        input.read_line(&mut line).unwrap();
+        input.read_line(&mut line).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 12);
+        input.rewind().unwrap();
+        let mut first = [0u8; 3];
+        input.read_exact(&mut first).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 12);
+        let mut rest = Vec::new();
+        input.read_to_end(&mut rest).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 18);
+    }
+
     /// `ModelArgs::default()` (benches, examples) is what the command line gives
     /// when no model option is passed.
     #[test]

@@ -275,8 +275,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let cut = contexts.iter().filter(|c| c.cut).count();
     if cut < MIN_DIAGNOSED_POINTS {
         anyhow::bail!(
-            "{}: {cut} measured points were cut by the program; a diagnosis needs at least {MIN_DIAGNOSED_POINTS} (points are held out by region and by time to judge each effect)",
-            args.measured.display()
+            "{}: {} cut by the program; a diagnosis needs at least {MIN_DIAGNOSED_POINTS} (points are held out by region and by time to judge each effect)",
+            args.measured.display(),
+            if cut == 1 {
+                "1 measured point was".to_string()
+            } else {
+                format!("{cut} measured points were")
+            }
         );
     }
     if let Some(path) = &args.dump_contexts {
