@@ -126,12 +126,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         crate::humanln!(
             data_on_stdout,
-            "{}: {} blocks executed ({} single moves), {} written flat (+{} lines for canned cycles), flat program written to {}{}",
+            "{}: {} executed ({}), {} written flat (+{} for canned cycles), flat program written to {}{}",
             args.program.display(),
-            stats.blocks,
-            stats.motions,
+            super::common::count(stats.blocks as u64, "block", "blocks"),
+            super::common::count(stats.motions as u64, "single move", "single moves"),
             stats.flat,
-            stats.pieces,
+            super::common::count(stats.pieces as u64, "line", "lines"),
             crate::io::display_name(output),
             super::common::result_note(&groups)
         );

@@ -227,8 +227,8 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     };
     let msg = match &report.orientation {
         Some(o) => format!(
-            "{msg}\ntool axis (modelled, {} move ends): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
-            o.moves,
+            "{msg}\ntool axis (modelled, {}): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
+            super::common::count(o.moves as u64, "move end", "move ends"),
             o.axis_error_before_max_urad,
             o.axis_error_before_rms_urad,
             o.axis_error_after_max_urad,

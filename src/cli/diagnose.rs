@@ -443,8 +443,8 @@ fn followup_sentence(
         .collect::<Vec<_>>()
         .join("; ");
     format!(
-        "Follow-up ({} probes, readings {:.2} µm RMS beyond the model): selected {} before it, {} with it{}{}.",
-        outcome.probes,
+        "Follow-up ({}, readings {:.2} µm RMS beyond the model): selected {} before it, {} with it{}{}.",
+        super::common::count(outcome.probes as u64, "probe", "probes"),
         outcome.reading_rms_um,
         name(before),
         name(after),

@@ -280,10 +280,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::outln!("{}", serde_json::to_string(&list)?);
         } else {
             crate::outln!(
-                "machine {} ({}), {} poses from {}",
+                "machine {} ({}), {} from {}",
                 machine.name,
                 machine.source.display(),
-                results.len(),
+                super::common::count(results.len() as u64, "pose", "poses"),
                 path.display()
             );
             crate::outln!(
