@@ -5,6 +5,8 @@
 //!
 //!     cargo build --release && cargo run --release --example fuzz_readback [-- MUTANTS [SEED]]
 //!
+//! `VOLCOMP_BIN=PATH` runs another build of the command (an older one).
+//!
 //! Seeds: the programs of `tests/data/rs274`, `tests/data/gcode`,
 //! `tests/data/compensate` and the two samples. Each mutant applies one to
 //! three edits to a seed, drawn with ChaCha8 from `SEED` (default 23): a byte
@@ -54,7 +56,10 @@ fn main() {
     let count: usize = args.first().map_or(2000, |s| s.parse().expect("a count"));
     let seed: u64 = args.get(1).map_or(23, |s| s.parse().expect("a seed"));
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let volcomp = root.join("target/release/volcomp");
+    // VOLCOMP_BIN=path runs another build (an older one, to see what it missed).
+    let volcomp = std::env::var_os("VOLCOMP_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target/release/volcomp"));
     assert!(
         volcomp.exists(),
         "build the command first: cargo build --release"
