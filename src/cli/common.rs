@@ -679,11 +679,6 @@ pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Output path given as an `Option`: helper to check `-` collisions.
-pub fn writes_stdout(path: Option<&PathBuf>) -> bool {
-    path.is_some_and(|p| crate::io::is_stdio(p))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
