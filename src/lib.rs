@@ -19,3 +19,4 @@ pub mod report;
 pub mod sample;
 pub mod toolpath;
 pub mod vec3;
+pub mod warnings;

@@ -1,10 +1,11 @@
 //! Reader + interpreter + rewriter: any bytes as a program, with a tool table.
 //! Invariants: no panic; a program volcomp compensates or flattens reads back
-//! through volcomp without error, and compensating it again is refused only
-//! by the stamp (the library has none), i.e. the output is a valid program.
+//! through volcomp without error, the compensated one written through the
+//! stamp writer as `volcomp compensate` writes it (and its stamp found again).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
+use volcomp::compensate::stamp::{Stamp, StampWriter};
 use volcomp::compensate::{CompensateOptions, compensate};
 use volcomp::gcode::{InterpretOptions, Program, ProgramSetup, RewriteOptions, ToolTable, rewrite_stream};
 use volcomp::kinematics::{ErrorValues, Geometry, Kinematics};
@@ -55,10 +56,33 @@ fuzz_target!(|data: &[u8]| {
     scalars.squareness = [20.0, -15.0, 10.0];
     scalars.location[0] = 5.0;
     let model = ErrorModel::scalars_only(Kinematics::new(Geometry::default(), 100.0), scalars);
+    // Through the stamp writer, as `volcomp compensate` writes it: the stamp
+    // must not break the program (issue 23: before a `%` behind blank lines).
     let mut out = Vec::new();
-    if compensate(program(data), &mut out, &model, &CompensateOptions::default(), |_| {}).is_ok() {
+    let written = {
+        let mut stamped = StampWriter::new(&mut out, stamp());
+        compensate(program(data), &mut stamped, &model, &CompensateOptions::default(), |_| {}).is_ok()
+            && stamped.finish().is_ok()
+    };
+    if written {
         if let Err(e) = runs(&out) {
             panic!("compensated program does not read back: {e}\n{}", String::from_utf8_lossy(&out));
         }
+        assert!(Stamp::find(&String::from_utf8_lossy(&out)).is_some(), "the stamp is not found again");
     }
 });
+
+fn stamp() -> Stamp {
+    Stamp {
+        compensated_by: "volcomp fuzz".into(),
+        machine: "fuzz".into(),
+        model_fnv1a64: "0123456789abcdef".into(),
+        model_source: "scalars".into(),
+        tool_length_mm: Some(100.0),
+        tools_mm: "T1=40 T2=120".into(),
+        tolerance_um: Some(0.5),
+        input: "fuzz.ngc".into(),
+        input_fnv1a64: "0123456789abcdef".into(),
+        orientation: true,
+    }
+}

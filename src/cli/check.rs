@@ -60,6 +60,10 @@ pub struct Args {
     /// Output of `--flatten` (`-` for standard output).
     #[arg(short, long, value_name = "OUT", requires = "flatten")]
     pub output: Option<PathBuf>,
+    /// Print the summary as JSON on standard output (the human summary then
+    /// goes to standard error): counts, ranges, tools, warnings, stamp.
+    #[arg(long)]
+    pub json: bool,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -89,11 +93,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let letters = machine
         .as_ref()
         .map_or(crate::axes::AxisSet::RS274, |m| m.letters());
+    let data_on_stdout = super::common::stdout_output(&[
+        (
+            "--targets -",
+            super::common::is_stdout(args.targets.as_deref()),
+        ),
+        ("-o -", super::common::is_stdout(args.output.as_deref())),
+        ("--json", args.json),
+    ])?;
     let options = InterpretOptions {
         skip_deleted_blocks: args.skip_deleted,
         ..args.read.interpret_options(rapid, letters)
     };
     let setup = args.read.setup(machine.as_ref())?;
+    let warnings = setup.warnings.clone();
     let name = if crate::io::is_stdio(&args.program) {
         PathBuf::from("<stdin>")
     } else {
@@ -119,27 +132,41 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )
         })?;
         let stats = stats.expect("written");
+        let groups = warnings.groups();
+        if args.json {
+            let report = FlattenReport {
+                program: name.display().to_string(),
+                blocks: stats.blocks,
+                motions: stats.motions,
+                flat: stats.flat,
+                pieces: stats.pieces,
+                output: output.display().to_string(),
+                compensated: stamp.is_some(),
+                stamp: stamp.as_ref(),
+                warnings: &groups,
+            };
+            super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
+        }
+        super::common::print_warnings(&groups);
         if let Some(stamp) = &stamp {
             eprintln!("note: {}: {}", args.program.display(), stamp.summary());
         }
-        if !crate::io::is_stdio(output) {
-            crate::outln!(
-                "{}: {} blocks executed ({} single moves), {} written flat (+{} lines for canned cycles), flat program written to {}",
-                args.program.display(),
-                stats.blocks,
-                stats.motions,
-                stats.flat,
-                stats.pieces,
-                output.display()
-            );
-        }
+        crate::humanln!(
+            data_on_stdout,
+            "{}: {} executed ({}), {} written flat (+{} for canned cycles), flat program written to {}{}",
+            args.program.display(),
+            super::common::count(stats.blocks as u64, "block", "blocks"),
+            super::common::count(stats.motions as u64, "single move", "single moves"),
+            stats.flat,
+            super::common::count(stats.pieces as u64, "line", "lines"),
+            crate::io::display_name(output),
+            super::common::result_note(&groups)
+        );
         return Ok(());
     }
-    let to_stdout = super::common::writes_stdout(args.targets.as_ref());
     let summary = match &args.targets {
         None => check_stream(input, &name, options, &setup, None)?,
-        Some(path) if to_stdout => {
-            let _ = path;
+        Some(path) if crate::io::is_stdio(path) => {
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());
             let s = check_stream(
@@ -169,21 +196,66 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             summary.expect("written")
         }
     };
-    if to_stdout {
-        return Ok(());
+    let groups = warnings.groups();
+    if args.json {
+        let report = CheckReport {
+            program: name.display().to_string(),
+            frame: match options.initial_frame {
+                Frame::Joint => "joint",
+                Frame::Part => "part",
+            },
+            summary: &summary,
+            passed_through: summary.passed_through(),
+            targets: args.targets.as_ref().map(|p| p.display().to_string()),
+            compensated: stamp.is_some(),
+            stamp: stamp.as_ref(),
+            warnings: &groups,
+        };
+        super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
     }
-    print_summary(&args.program, &summary, options.initial_frame)?;
+    let mut text = summary_text(&args.program, &summary, options.initial_frame, &groups);
     if let Some(stamp) = &stamp {
-        crate::outln!("  stamp: {}", stamp.summary());
+        text.push_str(&format!("\n  stamp: {}", stamp.summary()));
     }
     if let Some(path) = &args.targets {
-        crate::outln!(
-            "  targets: {} rows written to {}",
-            summary.motion.total(),
-            path.display()
-        );
+        text.push_str(&format!(
+            "\n  targets: {} written to {}",
+            super::common::count(summary.motion.total() as u64, "row", "rows"),
+            crate::io::display_name(path)
+        ));
     }
-    Ok(())
+    super::common::say(data_on_stdout, &text)
+}
+
+/// `check --json`.
+#[derive(serde::Serialize)]
+struct CheckReport<'a> {
+    program: String,
+    frame: &'static str,
+    #[serde(flatten)]
+    summary: &'a ProgramSummary,
+    passed_through: std::collections::BTreeMap<String, usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    targets: Option<String>,
+    compensated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stamp: Option<&'a crate::compensate::stamp::Stamp>,
+    warnings: &'a [crate::warnings::WarningGroup],
+}
+
+/// `check --flatten --json`.
+#[derive(serde::Serialize)]
+struct FlattenReport<'a> {
+    program: String,
+    blocks: usize,
+    motions: usize,
+    flat: usize,
+    pieces: usize,
+    output: String,
+    compensated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stamp: Option<&'a crate::compensate::stamp::Stamp>,
+    warnings: &'a [crate::warnings::WarningGroup],
 }
 
 /// Run `input` through both layers, counting as it goes, and write every
@@ -283,60 +355,35 @@ pub(crate) fn tool_runs(s: &ProgramSummary) -> String {
     parts.join("; ")
 }
 
-fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Result<()> {
-    let m = &s.motion;
-    crate::outln!(
-        "{}: {} lines executed, {} blocks, {} comments, {} with block delete",
-        path.display(),
-        s.lines,
-        s.blocks,
-        s.comments,
-        s.deleted_blocks
-    );
-    crate::outln!(
-        "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
-        m.total(),
-        m.rapid,
-        m.linear,
-        m.arc_cw,
-        m.arc_ccw,
-        s.machine_coordinate_motions,
-        s.home_blocks
-    );
-    crate::outln!(
-        "  frame: {} at start, {} switches, {} part-frame (tool-tip) moves",
-        match frame {
-            Frame::Joint => "joint",
-            Frame::Part => "part",
-        },
-        s.frame_switches,
-        s.part_frame_motions
-    );
-    crate::outln!("  G93 inverse-time moves: {}", s.inverse_time_motions);
-    crate::outln!("  machining time: {:.3} min", s.time_min);
-    crate::outln!(
-        "  X {}  Y {}  Z {} mm",
-        range(&s.x),
-        range(&s.y),
-        range(&s.z)
-    );
-    let rotary: Vec<String> = [("A", &s.a), ("B", &s.b), ("C", &s.c)]
-        .iter()
-        .filter(|(_, r)| r.is_some())
-        .map(|(l, r)| format!("{l} {}", range(r)))
-        .collect();
-    if !rotary.is_empty() {
-        crate::outln!("  {} deg", rotary.join("  "));
-    }
-    let uvw: Vec<String> = [("U", &s.u), ("V", &s.v), ("W", &s.w)]
-        .iter()
-        .filter(|(_, r)| r.is_some())
-        .map(|(l, r)| format!("{l} {}", range(r)))
-        .collect();
+/// The ranges of the rotary axes (and U V W) the program moves.
+fn rotary_ranges(s: &ProgramSummary) -> String {
+    let moved = |list: [(&str, &Option<Range>); 3]| -> Vec<String> {
+        list.iter()
+            .filter(|(_, r)| r.as_ref().is_some_and(|r| r.min != 0.0 || r.max != 0.0))
+            .map(|(l, r)| format!("{l} {}", range(r)))
+            .collect()
+    };
+    let rotary = moved([("A", &s.a), ("B", &s.b), ("C", &s.c)]);
+    let uvw = moved([("U", &s.u), ("V", &s.v), ("W", &s.w)]);
+    let mut text = if rotary.is_empty() {
+        "  rotary axes: not moved".to_string()
+    } else {
+        format!("  {} deg", rotary.join("  "))
+    };
     if !uvw.is_empty() {
-        crate::outln!("  {} mm", uvw.join("  "));
+        text.push_str(&format!("; {} mm", uvw.join("  ")));
     }
-    crate::outln!("  tools: {}", tool_runs(s));
+    text
+}
+
+/// The human summary: one line about the program, then indented details.
+fn summary_text(
+    path: &Path,
+    s: &ProgramSummary,
+    frame: Frame,
+    warnings: &[crate::warnings::WarningGroup],
+) -> String {
+    let m = &s.motion;
     let list = |map: &mut dyn Iterator<Item = (String, usize)>| {
         let v: Vec<String> = map.map(|(k, n)| format!("{k}×{n}")).collect();
         if v.is_empty() {
@@ -345,20 +392,65 @@ fn print_summary(path: &Path, s: &ProgramSummary, frame: Frame) -> anyhow::Resul
             v.join(" ")
         }
     };
-    crate::outln!(
-        "  unknown words: {}",
-        list(&mut s.unknown_words.iter().map(|(k, n)| (k.to_string(), *n)))
-    );
-    crate::outln!(
-        "  passed through: {}",
-        list(&mut s.passed_through().into_iter())
-    );
-    crate::outln!("  warnings: {}", s.warnings);
-    for w in &s.first_warnings {
-        crate::outln!("    {w}");
+    let mut lines = vec![
+        format!(
+            "{}: {} executed, {}, {}, {} with block delete{}",
+            path.display(),
+            super::common::count(s.lines as u64, "line", "lines"),
+            super::common::count(s.blocks as u64, "block", "blocks"),
+            super::common::count(s.comments as u64, "comment", "comments"),
+            s.deleted_blocks,
+            super::common::result_note(warnings)
+        ),
+        format!(
+            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
+            m.total(),
+            m.rapid,
+            m.linear,
+            m.arc_cw,
+            m.arc_ccw,
+            s.machine_coordinate_motions,
+            s.home_blocks
+        ),
+        format!(
+            "  frame: {} at start, {} switches, {} part-frame (tool-tip) moves",
+            match frame {
+                Frame::Joint => "joint",
+                Frame::Part => "part",
+            },
+            s.frame_switches,
+            s.part_frame_motions
+        ),
+        format!("  G93 inverse-time moves: {}", s.inverse_time_motions),
+        format!("  machining time: {:.3} min", s.time_min),
+        format!(
+            "  X {}  Y {}  Z {} mm",
+            range(&s.x),
+            range(&s.y),
+            range(&s.z)
+        ),
+        rotary_ranges(s),
+        format!("  tools: {}", tool_runs(s)),
+        format!(
+            "  unknown words: {}",
+            list(&mut s.unknown_words.iter().map(|(k, n)| (k.to_string(), *n)))
+        ),
+        format!(
+            "  passed through: {}",
+            list(&mut s.passed_through().into_iter())
+        ),
+    ];
+    let total: u64 = warnings.iter().map(|g| g.count).sum();
+    lines.push(format!(
+        "  warnings: {}",
+        if warnings.len() > 1 {
+            format!("{total} of {} kinds", warnings.len())
+        } else {
+            total.to_string()
+        }
+    ));
+    for w in super::common::warning_lines(warnings) {
+        lines.push(format!("    {w}"));
     }
-    if s.warnings > s.first_warnings.len() {
-        crate::outln!("    … {} more", s.warnings - s.first_warnings.len());
-    }
-    Ok(())
+    lines.join("\n")
 }

@@ -8,6 +8,8 @@ use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Out-of-table lookups.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -358,9 +360,17 @@ impl ProgramArgs {
                 crate::axes::AxisSet::RS274,
             ),
         };
+        let mut given: [Option<&str>; 10] = [None; 10];
         for text in &self.offset {
             let (n, origin) =
                 parse_offset(text, rotary, letters).map_err(|m| super::UsageError(m))?;
+            if let Some(first) = given[n] {
+                return Err(super::UsageError(format!(
+                    "--offset `{text}`: that work coordinate system is already given (--offset `{first}`); give each system once"
+                ))
+                .into());
+            }
+            given[n] = Some(text);
             setup.set_origin(n, &origin);
         }
         for dir in &self.subroutine_path {
@@ -446,35 +456,41 @@ pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::Program
     Ok(Box::new(BufReader::with_capacity(1 << 16, file)))
 }
 
+/// How much of a program's head is searched for its stamp.
+const HEAD_BYTES: u64 = 256 * 1024;
+
 /// The first bytes of a program (what [`crate::compensate::stamp::Stamp::find`]
 /// reads); the input is rewound.
 pub fn program_head(input: &mut dyn crate::gcode::ProgramInput) -> anyhow::Result<String> {
     use std::io::Read;
     let mut head = Vec::new();
     input
-        .take(16 * 1024)
+        .take(HEAD_BYTES)
         .read_to_end(&mut head)
         .context("cannot read the program")?;
     input.rewind().context("cannot read the program")?;
     Ok(String::from_utf8_lossy(&head).into_owned())
 }
 
-/// FNV-1a 64 of a program's bytes; the input is rewound.
+/// FNV-1a 64 of a program's bytes, and the line of the first stamp line
+/// anywhere in it; the input is rewound.
 pub fn program_hash(
     input: &mut dyn crate::gcode::ProgramInput,
-) -> anyhow::Result<crate::compensate::stamp::Fnv1a64> {
+) -> anyhow::Result<(crate::compensate::stamp::Fnv1a64, Option<usize>)> {
     let mut hash = crate::compensate::stamp::Fnv1a64::default();
+    let mut scan = crate::compensate::stamp::StampScan::default();
     loop {
         let buf = input.fill_buf().context("cannot read the program")?;
         if buf.is_empty() {
             break;
         }
         hash.update(buf);
+        scan.update(buf);
         let n = buf.len();
         input.consume(n);
     }
     input.rewind().context("cannot read the program")?;
-    Ok(hash)
+    Ok((hash, scan.finish()))
 }
 
 /// The stamp of an already compensated program (`-`: standard input), with the
@@ -491,18 +507,237 @@ pub fn open_program_with_stamp(
     Ok((input, crate::compensate::stamp::Stamp::find(&head)))
 }
 
-/// A block counter on stderr for long runs (none when stderr is not a terminal).
-pub fn progress_bar(path: &Path, what: &str) -> Option<ProgressBar> {
-    if !std::io::stderr().is_terminal() {
-        return None;
+/// A progress bar on stderr for long runs (none when stderr is not a
+/// terminal): the share of the program's bytes read, with the time left, and
+/// the blocks done.
+pub struct Progress {
+    bar: ProgressBar,
+    /// The farthest byte of the program read so far ([`track`]).
+    position: Arc<AtomicU64>,
+    started: std::time::Instant,
+}
+
+impl Progress {
+    /// A bar over `total` bytes read at `position`, named `what path`.
+    pub fn new(path: &Path, what: &str, total: u64, position: Arc<AtomicU64>) -> Option<Progress> {
+        if !std::io::stderr().is_terminal() {
+            return None;
+        }
+        let bar = ProgressBar::new(total.max(1));
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{prefix}: {percent:>3}% [{bar:30}] {msg} ({elapsed}, about {eta} left)",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        bar.set_prefix(format!("{what} {}", crate::io::display_name(path)));
+        Some(Progress {
+            bar,
+            position,
+            started: std::time::Instant::now(),
+        })
     }
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg}: {pos} blocks ({per_sec}, {elapsed})")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+
+    /// `blocks` are done.
+    pub fn update(&self, blocks: usize) {
+        self.bar.set_position(self.position.load(Ordering::Relaxed));
+        let seconds = self.started.elapsed().as_secs_f64().max(1e-3);
+        self.bar.set_message(format!(
+            "{} blocks, {} blocks/s",
+            thousands(blocks as f64),
+            thousands(blocks as f64 / seconds)
+        ));
+    }
+
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+
+    pub fn abandon(&self) {
+        self.bar.abandon();
+    }
+}
+
+/// A program input that records the farthest byte read (loops seek back;
+/// the farthest point is the progress through the file).
+struct Tracked<R> {
+    inner: R,
+    at: u64,
+    farthest: Arc<AtomicU64>,
+}
+
+impl<R: std::io::Read> std::io::Read for Tracked<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.advance(n as u64);
+        Ok(n)
+    }
+}
+
+impl<R: std::io::BufRead> std::io::BufRead for Tracked<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        self.inner.fill_buf()
+    }
+    fn consume(&mut self, n: usize) {
+        self.inner.consume(n);
+        self.advance(n as u64);
+    }
+}
+
+impl<R: std::io::Seek> std::io::Seek for Tracked<R> {
+    fn seek(&mut self, to: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.at = self.inner.seek(to)?;
+        Ok(self.at)
+    }
+}
+
+impl<R> Tracked<R> {
+    fn advance(&mut self, n: u64) {
+        self.at += n;
+        self.farthest.fetch_max(self.at, Ordering::Relaxed);
+    }
+}
+
+/// `input` recording the farthest byte read into the returned counter, and
+/// its length in bytes (the input is rewound).
+pub fn track(
+    mut input: Box<dyn crate::gcode::ProgramInput>,
+) -> anyhow::Result<(Box<dyn crate::gcode::ProgramInput>, u64, Arc<AtomicU64>)> {
+    use std::io::Seek;
+    let total = input
+        .seek(std::io::SeekFrom::End(0))
+        .context("cannot read the program")?;
+    input.rewind().context("cannot read the program")?;
+    let farthest = Arc::new(AtomicU64::new(0));
+    let tracked = Tracked {
+        inner: input,
+        at: 0,
+        farthest: Arc::clone(&farthest),
+    };
+    Ok((Box::new(tracked), total, farthest))
+}
+
+/// Which of a command's outputs go to standard output (`-`, or `--json`):
+/// `Ok(true)` when one does (the human summary then goes to standard error),
+/// a usage error when two do (their bytes would mix on one stream).
+pub fn stdout_output(outputs: &[(&str, bool)]) -> anyhow::Result<bool> {
+    let on_stdout: Vec<&str> = outputs
+        .iter()
+        .filter(|(_, yes)| *yes)
+        .map(|(name, _)| *name)
+        .collect();
+    if on_stdout.len() > 1 {
+        return Err(super::UsageError(format!(
+            "{} would {} write to standard output; give all but one of them a file",
+            on_stdout.join(" and "),
+            if on_stdout.len() == 2 { "both" } else { "all" }
+        ))
+        .into());
+    }
+    Ok(!on_stdout.is_empty())
+}
+
+/// Whether `path` is given and is `-` (standard output).
+pub fn is_stdout(path: Option<&Path>) -> bool {
+    path.is_some_and(crate::io::is_stdio)
+}
+
+/// A unit for people: `µm` and `µrad` for the files' `um` and `urad`.
+pub fn unit_symbol(unit: &str) -> &str {
+    match unit {
+        "um" => "µm",
+        "urad" => "µrad",
+        other => other,
+    }
+}
+
+/// `n word`, the word in the plural unless `n` is 1 (`1 move`, `3 moves`).
+pub fn count(n: u64, singular: &str, plural: &str) -> String {
+    if n == 1 {
+        format!("{n} {singular}")
+    } else {
+        format!("{n} {plural}")
+    }
+}
+
+/// A rate or count for people: whole, with thousands separated by commas
+/// (`203,088`).
+pub fn thousands(v: f64) -> String {
+    if !v.is_finite() {
+        return v.to_string();
+    }
+    let digits = format!("{:.0}", v.abs());
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    if v < 0.0 && digits != "0" {
+        out.insert(0, '-');
+    }
+    out
+}
+
+/// The warnings of a run as lines, once per kind: the first one's place and
+/// message, and how many there were in all.
+pub fn warning_lines(groups: &[crate::warnings::WarningGroup]) -> Vec<String> {
+    groups
+        .iter()
+        .map(|g| {
+            let place = match (&g.file, g.first_line, g.first_column) {
+                (Some(f), Some(l), Some(c)) => format!("{f}:{l}:{c}: "),
+                (Some(f), Some(l), None) => format!("{f}:{l}: "),
+                (None, Some(l), _) => format!("line {l}: "),
+                (Some(f), None, _) => format!("{f}: "),
+                (None, None, _) => String::new(),
+            };
+            let more = match g.count {
+                1 => String::new(),
+                n => format!(" ({n} in all, the first shown)"),
+            };
+            format!("{place}{}{more}", g.message)
+        })
+        .collect()
+}
+
+/// Print the warnings of a run to standard error (`warning: …`), once per kind.
+pub fn print_warnings(groups: &[crate::warnings::WarningGroup]) {
+    for line in warning_lines(groups) {
+        eprintln!("warning: {line}");
+    }
+}
+
+/// What to append to a summary's first line when warnings change the
+/// result: ` (warnings change this result: 1× tool length assumed)`.
+pub fn result_note(groups: &[crate::warnings::WarningGroup]) -> String {
+    let parts: Vec<String> = groups
+        .iter()
+        .filter(|g| g.changes_result)
+        .map(|g| format!("{}× {}", g.count, g.effect))
+        .collect();
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(" (warnings change this result: {})", parts.join(", "))
+    }
+}
+
+/// Add the model's held lookups (`--extrapolate hold`) to a run's warnings.
+pub fn add_held_lookups(warnings: &crate::warnings::Warnings, held: u64) {
+    warnings.add(
+        &crate::warnings::Warning {
+            kind: "held_lookups",
+            file: None,
+            line: None,
+            column: None,
+            effect: "table end held (--extrapolate hold)",
+        },
+        held,
+        || "a lookup outside an error table held the table's end value (--extrapolate hold)".into(),
     );
-    bar.set_message(format!("{what} {}", path.display()));
-    Some(bar)
 }
 
 /// Print to stdout, or to stderr when stdout carries the command's output.
@@ -515,11 +750,6 @@ pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Output path given as an `Option`: helper to check `-` collisions.
-pub fn writes_stdout(path: Option<&PathBuf>) -> bool {
-    path.is_some_and(|p| crate::io::is_stdio(p))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -529,6 +759,35 @@ mod tests {
     struct Wrapper {
         #[command(flatten)]
         model: ModelArgs,
+    }
+
+    #[test]
+    fn rates_are_whole_with_thousands_separated() {
+        assert_eq!(thousands(203_087.9885), "203,088");
+        assert_eq!(thousands(999.4), "999");
+        assert_eq!(thousands(1_000.0), "1,000");
+        assert_eq!(thousands(-1234567.0), "-1,234,567");
+        assert_eq!(thousands(0.2), "0");
+    }
+
+    /// The progress bar's position: the farthest byte read, across seeks back.
+    #[test]
+    fn a_tracked_input_records_the_farthest_byte_read() {
+        use std::io::{BufRead, Read, Seek};
+        let data = b"G1 X1\nG1 X2\nG1 X3\n".to_vec();
+        let (mut input, total, farthest) = track(Box::new(std::io::Cursor::new(data))).unwrap();
+        assert_eq!(total, 18);
+        let mut line = String::new();
+        input.read_line(&mut line).unwrap();
+        input.read_line(&mut line).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 12);
+        input.rewind().unwrap();
+        let mut first = [0u8; 3];
+        input.read_exact(&mut first).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 12);
+        let mut rest = Vec::new();
+        input.read_to_end(&mut rest).unwrap();
+        assert_eq!(farthest.load(Ordering::Relaxed), 18);
     }
 
     /// `ModelArgs::default()` (benches, examples) is what the command line gives

@@ -1,5 +1,5 @@
 //! `volcomp compensate`: the compensated program.
-use super::common::{MachineArgs, ProgramArgs, progress_bar};
+use super::common::{MachineArgs, ProgramArgs, Progress};
 use crate::compensate::stamp::{Fnv1a64, Stamp, StampWriter};
 use crate::compensate::{CompensateOptions, CompensateReport, compensate};
 use crate::io::{OutputError, write_atomic, write_json_atomic};
@@ -91,6 +91,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let output = output_path(args)?;
     let output = output.as_path();
+    let data_on_stdout = super::common::stdout_output(&[
+        ("-o -", crate::io::is_stdio(output)),
+        (
+            "--report -",
+            super::common::is_stdout(args.report.as_deref()),
+        ),
+    ])?;
     let (machine, model) = args.machine.load()?;
     let options = CompensateOptions {
         tolerance_um: args.tol,
@@ -105,15 +112,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ..CompensateOptions::default()
     };
     let (mut input, old_stamp) = super::common::open_program_with_stamp(&args.program)?;
+    let name = crate::io::display_name(&args.program).replace("standard output", "standard input");
     if let (Some(old), false) = (&old_stamp, args.force) {
         anyhow::bail!(
-            "{} is already compensated ({}); compensating it again would add the corrections twice. \
+            "{name} is already compensated ({}); compensating it again would add the corrections twice. \
 Give the original program, or --force to compensate it anyway",
-            crate::io::display_name(&args.program).replace("standard output", "standard input"),
             old.summary()
         );
     }
-    let input_hash = super::common::program_hash(input.as_mut())?;
+    // The whole program is read for its hash: a stamp line anywhere in it
+    // (not only at its head) is found too.
+    let (input_hash, stamp_line) = super::common::program_hash(input.as_mut())?;
+    if let (Some(line), false) = (stamp_line, args.force) {
+        anyhow::bail!(
+            "{name} is already compensated: line {line} is a line of volcomp's stamp; compensating it again would add the corrections twice. \
+Give the original program, or --force to compensate it anyway"
+        );
+    }
+    let setup = args.read.setup(Some(&machine))?;
     let stamp = Stamp {
         compensated_by: format!("volcomp {}", env!("CARGO_PKG_VERSION")),
         machine: machine.name.clone(),
@@ -122,8 +138,15 @@ Give the original program, or --force to compensate it anyway",
             Some(file) => format!("model {}", file.display()),
             None => format!("fit {}", args.machine.model.fit_description()),
         },
-        tool_length_mm: machine.tool.length,
-        tolerance_um: args.tol,
+        tool_length_mm: Some(machine.tool.length),
+        tools_mm: Stamp::tools_text(
+            &setup
+                .tools
+                .entries()
+                .map(|t| (t.number, t.length_mm))
+                .collect::<Vec<_>>(),
+        ),
+        tolerance_um: Some(args.tol),
         input: if crate::io::is_stdio(&args.program) {
             "<stdin>".to_string()
         } else {
@@ -132,15 +155,16 @@ Give the original program, or --force to compensate it anyway",
         input_fnv1a64: input_hash.hex(),
         orientation: !args.position_only,
     };
-    let program =
-        crate::gcode::Program::new(input, &args.program, args.read.setup(Some(&machine))?);
-    let bar = progress_bar(&args.program, "compensating");
+    let (input, total, position) = super::common::track(input)?;
+    let program = crate::gcode::Program::new(input, &args.program, setup);
+    let warnings = program.warnings();
+    let bar = Progress::new(&args.program, "compensating", total, position);
     let mut report: Option<CompensateReport> = None;
     write_atomic(output, |out| -> anyhow::Result<()> {
         let mut out = StampWriter::new(out, stamp);
         let r = compensate(program, &mut out, &model, &options, |n| {
             if let Some(b) = &bar {
-                b.set_position(n as u64);
+                b.update(n);
             }
         })?;
         out.finish()
@@ -164,36 +188,35 @@ Give the original program, or --force to compensate it anyway",
         )
     })?;
     if let Some(b) = &bar {
-        b.finish_and_clear();
+        b.finish();
     }
-    let report = report.expect("set by the writer");
+    let mut report = report.expect("set by the writer");
+    super::common::add_held_lookups(&warnings, report.held_lookups);
+    if let Some(t) = &report.table_ends {
+        add_table_ends(&warnings, &args.program, t);
+    }
+    report.warnings = warnings.groups();
     if let Some(path) = &args.report {
         write_json_atomic(path, &report).map_err(|e: OutputError| anyhow::anyhow!(e))?;
     }
+    super::common::print_warnings(&report.warnings);
     let msg = format!(
-        "{} blocks read, {} motion, {} changed, {} split (+{} blocks)\n\
+        "{} read, {} motion, {} changed, {} split (+{}){}\n\
 max correction {:.3} µm (line {}), RMS {:.3} µm, solver residual ≤ {:.3} nm, tolerance {} µm\n\
-{:.2} s ({:.0} blocks/s){}",
-        report.blocks_read,
+{:.2} s ({} blocks/s)",
+        super::common::count(report.blocks_read as u64, "block", "blocks"),
         report.motion_blocks,
         report.blocks_changed,
         report.blocks_split,
-        report.blocks_added,
+        super::common::count(report.blocks_added as u64, "block", "blocks"),
+        super::common::result_note(&report.warnings),
         report.max_correction_um,
         report.max_correction_line,
         report.rms_correction_um,
         report.max_residual_nm,
         report.tolerance_um,
         report.seconds,
-        report.blocks_read as f64 / report.seconds.max(1e-9),
-        if report.held_lookups > 0 {
-            format!(
-                "\n{} lookups outside the error tables held the end value (--extrapolate hold)",
-                report.held_lookups
-            )
-        } else {
-            String::new()
-        }
+        super::common::thousands(report.blocks_read as f64 / report.seconds.max(1e-9)),
     ) + &match (
         report.expected_residual_rms_um,
         report.expected_residual_max_um,
@@ -206,8 +229,8 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     };
     let msg = match &report.orientation {
         Some(o) => format!(
-            "{msg}\ntool axis (modelled, {} move ends): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
-            o.moves,
+            "{msg}\ntool axis (modelled, {}): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
+            super::common::count(o.moves as u64, "move end", "move ends"),
             o.axis_error_before_max_urad,
             o.axis_error_before_rms_urad,
             o.axis_error_after_max_urad,
@@ -240,11 +263,11 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
             };
             msg.push_str(&format!(
                 "
-  {name} (L {} mm) lines {}–{}: {} moves, max correction {:.3} µm, RMS {:.3} µm",
+  {name} (L {} mm) lines {}–{}: {}, max correction {:.3} µm, RMS {:.3} µm",
                 t.length_mm,
                 t.first_line,
                 t.last_line,
-                t.moves,
+                super::common::count(t.moves as u64, "move", "moves"),
                 t.max_correction_um,
                 t.rms_correction_um
             ));
@@ -253,9 +276,44 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     } else {
         msg
     };
-    // The summary goes to stderr when the program itself goes to stdout.
-    super::common::say(crate::io::is_stdio(output), &msg)?;
+    // The summary goes to stderr when the program or the report goes to stdout.
+    super::common::say(data_on_stdout, &msg)?;
     Ok(())
+}
+
+/// Say once that move ends at a table's end were compensated with the end
+/// value held over the sliver their corrections cross.
+fn add_table_ends(
+    warnings: &crate::warnings::Warnings,
+    program: &std::path::Path,
+    t: &crate::compensate::TableEndReport,
+) {
+    let file = crate::io::display_name(program).replace("standard output", "<stdin>");
+    warnings.add(
+        &crate::warnings::Warning {
+            kind: "table_end",
+            file: (t.moves > 0).then_some(file.as_str()),
+            line: (t.moves > 0).then_some(t.first_line),
+            column: None,
+            effect: "table end held over a sliver",
+        },
+        t.moves.max(1) as u64,
+        || {
+            if t.moves == 0 {
+                "a split point's correction crosses the end of an error table; the table's end value is held over that sliver".to_string()
+            } else {
+                format!(
+                    "the target is inside the error tables but its correction crosses a table's end, by up to {:.3} µm{}: the table's end value is held over that sliver",
+                    t.max_um,
+                    if t.max_urad > 0.0 {
+                        format!(" / {:.3} µrad", t.max_urad)
+                    } else {
+                        String::new()
+                    }
+                )
+            }
+        },
+    );
 }
 
 /// Where the compensated program goes: `-o`, refused when it is the input

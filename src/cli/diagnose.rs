@@ -106,6 +106,10 @@ pub(crate) struct CutPart {
     pub matches: Vec<Option<crate::toolpath::PlanMatch>>,
     /// The program's machining time, minutes (its end).
     pub end_min: f64,
+    /// The warnings of reading the program (and of the model's lookups:
+    /// [`CutPart::warnings`]).
+    warnings: crate::warnings::Warnings,
+    held_before: u64,
 }
 
 impl CutPart {
@@ -119,6 +123,8 @@ impl CutPart {
         let (machine_def, model) = machine.load()?;
         let options = read.cut_options(&machine_def);
         let program = read.program(program, Some(&machine_def))?;
+        let warnings = program.warnings();
+        let held_before = model.held_lookups();
         let (matches, summary) =
             crate::toolpath::cut::match_plan(program, &model, &plan.points, &options)?;
         Ok(CutPart {
@@ -127,7 +133,23 @@ impl CutPart {
             plan,
             matches,
             end_min: summary.time_min,
+            warnings,
+            held_before,
         })
+    }
+
+    /// The warnings of the run so far: the program's, and the lookups that
+    /// held a table's end value (`--extrapolate hold`).
+    pub(crate) fn warnings(&self) -> Vec<crate::warnings::WarningGroup> {
+        let log = self.warnings.clone();
+        let mut groups = log.groups();
+        let held = self.model.held_lookups().saturating_sub(self.held_before);
+        if held > 0 {
+            let extra = crate::warnings::Warnings::new();
+            super::common::add_held_lookups(&extra, held);
+            groups.extend(extra.groups());
+        }
+        groups
     }
 
     /// The context of every plan point.
@@ -232,6 +254,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .into());
         }
     }
+    let data_on_stdout = super::common::stdout_output(&[
+        ("--report -", crate::io::is_stdio(&args.report)),
+        ("--html -", super::common::is_stdout(args.html.as_deref())),
+        (
+            "--dump-contexts -",
+            super::common::is_stdout(args.dump_contexts.as_deref()),
+        ),
+    ])?;
     let measurement = Measurement::read(&args.measured)?;
     let followup_measured = args
         .followup
@@ -250,8 +280,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let cut = contexts.iter().filter(|c| c.cut).count();
     if cut < MIN_DIAGNOSED_POINTS {
         anyhow::bail!(
-            "{}: {cut} measured points were cut by the program; a diagnosis needs at least {MIN_DIAGNOSED_POINTS} (points are held out by region and by time to judge each effect)",
-            args.measured.display()
+            "{}: {} cut by the program; a diagnosis needs at least {MIN_DIAGNOSED_POINTS} (points are held out by region and by time to judge each effect)",
+            args.measured.display(),
+            if cut == 1 {
+                "1 measured point was".to_string()
+            } else {
+                format!("{cut} measured points were")
+            }
         );
     }
     if let Some(path) = &args.dump_contexts {
@@ -364,21 +399,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
     }
+    report.warnings = part.warnings();
     crate::io::write_json_atomic(&args.report, &report)?;
     if let Some(path) = &args.html {
         crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
     }
-    if !crate::io::is_stdio(&args.report) {
-        super::stdout_text(&summary_text(&report))?;
-        if let Some((program, plan)) = program_written {
-            crate::outln!(
-                "follow-up: probing program {} and its plan {}",
-                program.display(),
-                plan.display()
-            );
-        }
+    super::common::print_warnings(&report.warnings);
+    let mut text = summary_text(&report);
+    if let Some((program, plan)) = program_written {
+        text.push_str(&format!(
+            "follow-up: probing program {} and its plan {}\n",
+            program.display(),
+            plan.display()
+        ));
     }
-    Ok(())
+    super::common::say(data_on_stdout, text.trim_end())
 }
 
 /// The summary sentence of a measured follow-up.
@@ -412,8 +447,8 @@ fn followup_sentence(
         .collect::<Vec<_>>()
         .join("; ");
     format!(
-        "Follow-up ({} probes, readings {:.2} µm RMS beyond the model): selected {} before it, {} with it{}{}.",
-        outcome.probes,
+        "Follow-up ({}, readings {:.2} µm RMS beyond the model): selected {} before it, {} with it{}{}.",
+        super::common::count(outcome.probes as u64, "probe", "probes"),
         outcome.reading_rms_um,
         name(before),
         name(after),
@@ -426,14 +461,15 @@ fn followup_sentence(
 pub fn summary_text(report: &DiagnoseReport) -> String {
     let g = &report.gap;
     let mut out = format!(
-        "{} points ({} used): measured profile {:.2} µm, predicted {:.2} µm; residual RMS {:.2} µm, noise floor {:.2} µm ({})\n",
-        report.points,
+        "{} ({} used): measured profile {:.2} µm, predicted {:.2} µm; residual RMS {:.2} µm, noise floor {:.2} µm ({}){}\n",
+        super::common::count(report.points as u64, "point", "points"),
         report.points_used,
         g.measured_profile_um,
         g.predicted_profile_um,
         g.residual_rms_um,
         g.noise_floor_um,
-        g.noise_floor_source
+        g.noise_floor_source,
+        super::common::result_note(&report.warnings)
     );
     out.push_str(&format!(
         "selected: {}\n",

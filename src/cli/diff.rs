@@ -34,6 +34,14 @@ pub struct Args {
     /// How many of the largest changes to list.
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub top: usize,
+    /// Print the report as JSON on standard output (the human summary then
+    /// goes to standard error).
+    #[arg(long)]
+    pub json: bool,
+    /// Exit 1 when a paired motion block's |Δ(X,Y,Z)| exceeds this many µm
+    /// (for CI: a program changed more than expected).
+    #[arg(long, value_name = "UM")]
+    pub fail_over: Option<f64>,
     /// How both programs are read.
     #[command(flatten)]
     pub read: ProgramArgs,
@@ -50,6 +58,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if crate::io::is_stdio(&args.a) && crate::io::is_stdio(&args.b) {
         return Err(super::UsageError("only one of A and B can be `-`".into()).into());
     }
+    if let Some(um) = args.fail_over
+        && !(um.is_finite() && um >= 0.0)
+    {
+        return Err(super::UsageError(format!(
+            "--fail-over must be a non-negative number of µm (got {um})"
+        ))
+        .into());
+    }
+    let data_on_stdout = super::common::stdout_output(&[
+        (
+            "--report -",
+            super::common::is_stdout(args.report.as_deref()),
+        ),
+        ("--json", args.json),
+    ])?;
     let options = DiffOptions {
         align: AlignOptions {
             match_tolerance: args.match_tol,
@@ -66,10 +89,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let (a, stamp_a) = args.read.program_and_stamp(&args.a, None)?;
     let (b, stamp_b) = args.read.program_and_stamp(&args.b, None)?;
-    let report = diff_programs(a, b, &options)?;
+    let (warnings_a, warnings_b) = (a.warnings(), b.warnings());
+    let mut report = diff_programs(a, b, &options)?;
+    report.warnings = warnings_a.groups();
+    report.warnings.extend(warnings_b.groups());
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;
     }
+    if args.json {
+        super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
+    }
+    super::common::print_warnings(&report.warnings);
     let mut text = String::new();
     for (name, path, stamp) in [("A", &args.a, &stamp_a), ("B", &args.b, &stamp_b)] {
         if let Some(stamp) = stamp {
@@ -77,7 +107,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     text.push_str(&summary_text(&report));
-    super::common::say(super::common::writes_stdout(args.report.as_ref()), &text)?;
+    super::common::say(data_on_stdout, &text)?;
+    if let Some(limit) = args.fail_over
+        && report.max_xyz_change_um > limit
+    {
+        let at = report.largest.first().map_or(String::new(), |c| {
+            format!(" (line {} → line {})", c.line_a, c.line_b)
+        });
+        anyhow::bail!(
+            "a paired motion block changed by {:.3} µm{at}, more than --fail-over {limit} µm",
+            report.max_xyz_change_um
+        );
+    }
     Ok(())
 }
 
@@ -86,8 +127,15 @@ pub fn summary_text(r: &crate::diff::DiffReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "A: {} blocks, B: {} blocks; {} paired ({} unchanged, {} changed), {} added, {} removed",
-        r.blocks_a, r.blocks_b, r.paired, r.unchanged, r.changed, r.added, r.removed
+        "A: {}, B: {}; {} paired ({} unchanged, {} changed), {} added, {} removed{}",
+        super::common::count(r.blocks_a as u64, "block", "blocks"),
+        super::common::count(r.blocks_b as u64, "block", "blocks"),
+        r.paired,
+        r.unchanged,
+        r.changed,
+        r.added,
+        r.removed,
+        super::common::result_note(&r.warnings)
     );
     if r.is_identical() {
         let _ = write!(s, "no change");

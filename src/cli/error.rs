@@ -252,31 +252,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let tip = kin.nominal_tip(&joints);
             crate::outln!("tip (part) {} mm", fmt3(tip, 4));
             crate::outln!(
-                "e         {} um   |e| = {:.4} um",
+                "e         {} µm   |e| = {:.4} µm",
                 fmt3(v.e_um, 4),
                 v.magnitude_um()
             );
             match u {
                 Some(u) => crate::outln!(
-                    "u(e)      {} um   (1 sigma: table noise and fit; unmodelled effects not included)",
+                    "u(e)      {} µm   (1 sigma: table noise and fit; unmodelled effects not included)",
                     fmt3(u, 4)
                 ),
                 None => crate::outln!(
                     "u(e)      unknown (the model file carries no uncertainties; refit)"
                 ),
             }
-            crate::outln!("tool axis {} urad", fmt3(v.axis_urad, 4));
+            crate::outln!("tool axis {} µrad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {
                 crate::outln!("contributions (each parameter alone, largest |e| first):");
                 crate::outln!(
                     "  {:<6} {:>12}  {:>34}  {:>9}",
                     "param",
                     "value",
-                    "e (um)",
-                    "|e| um"
+                    "e (µm)",
+                    "|e| µm"
                 );
                 for c in list {
-                    let unit = if is_length(c.parameter) { "um" } else { "urad" };
+                    let unit = if is_length(c.parameter) {
+                        "µm"
+                    } else {
+                        "µrad"
+                    };
                     crate::outln!(
                         "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
                         c.parameter,
@@ -311,18 +315,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::outln!("{}", serde_json::to_string(&list)?);
         } else {
             crate::outln!(
-                "machine {} ({}), {} poses from {}",
+                "machine {} ({}), {} from {}",
                 machine.name,
                 machine.source.display(),
-                results.len(),
+                super::common::count(results.len() as u64, "pose", "poses"),
                 path.display()
             );
             crate::outln!(
                 "{:>6}  {:>34}  {:>9}  {:>9}",
                 "line",
-                "e (um)",
-                "|e| um",
-                "u(e) um"
+                "e (µm)",
+                "|e| µm",
+                "u(e) µm"
             );
             for ((line, _), (v, u)) in poses.iter().zip(&results) {
                 let u = u.map_or("unknown".to_string(), |u| {
@@ -341,12 +345,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             } else {
                 (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
             };
-            crate::outln!("max |e| = {max:.4} um, rms |e| = {rms:.4} um");
+            crate::outln!("max |e| = {max:.4} µm, RMS |e| = {rms:.4} µm");
         }
     }
     let held = model.held_lookups();
     if held > 0 {
-        eprintln!("note: {held} table lookups were outside a table's range and held its end value");
+        let warnings = crate::warnings::Warnings::new();
+        super::common::add_held_lookups(&warnings, held);
+        super::common::print_warnings(&warnings.groups());
     }
     Ok(())
 }

@@ -30,7 +30,7 @@ a new measurement of that table).
 
 --select emax is the paper's (He et al. 2016): knots by --method, weights optimised,
 control points added until the largest error at the measured points is within tolerance
-(default 0.5 um for lengths, 1.0 urad for angles). A parameter that misses its tolerance
+(default 0.5 µm for lengths, 1.0 µrad for angles). A parameter that misses its tolerance
 is reported and makes the command fail (exit 1) after the report is written.";
 
 #[derive(Debug, clap::Args)]
@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long, default_value = "cv", value_name = "cv|emax")]
     pub select: Selection,
     /// Tolerance on the largest error at the measured points, in table units
-    /// (um for lengths; also urad for angles unless --tol-angle is given).
+    /// (µm for lengths; also µrad for angles unless --tol-angle is given).
     /// With --select emax.
     #[arg(long, value_name = "UM")]
     pub tol: Option<f64>,
@@ -148,6 +148,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .into());
         }
     }
+    // The human table goes to standard error when the report goes to
+    // standard output.
+    let data_on_stdout = super::common::is_stdout(args.report.as_deref());
     let tables = load_tables(args)?;
     let defaults = FitOptions::default();
     let base = FitOptions {
@@ -205,11 +208,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let cv = args.select == Selection::Cv;
     if cv {
-        crate::outln!(
+        crate::humanln!(
+            data_on_stdout,
             "axis  parameter  samples  ctrl  dof    noise     cv        emax      unit  periodic  seconds"
         );
     } else {
-        crate::outln!(
+        crate::humanln!(
+            data_on_stdout,
             "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
         );
     }
@@ -229,7 +234,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         if cv {
             let s = &entry.stats;
-            crate::outln!(
+            crate::humanln!(
+                data_on_stdout,
                 "{:<4}  {:<9}  {:>7}  {:>4}  {:>5.1}  {:>8.4}  {:>8.4}  {:>8.4}  {:<4}  {:<8}  {:>7.3}",
                 entry.axis,
                 entry.parameter,
@@ -239,14 +245,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 s.noise,
                 s.cv_error,
                 s.emax,
-                entry.unit,
+                super::common::unit_symbol(&entry.unit),
                 if s.periodic { "yes" } else { "no" },
                 s.seconds
             );
             report.parameters.push(entry);
             continue;
         }
-        crate::outln!(
+        crate::humanln!(
+            data_on_stdout,
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
             entry.parameter,
@@ -255,7 +262,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             entry.stats.emax,
             entry.stats.erms,
             entry.stats.tolerance,
-            entry.unit,
+            super::common::unit_symbol(&entry.unit),
             if entry.stats.met { "yes" } else { "NO" },
             entry.stats.seconds
         );
@@ -263,7 +270,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     for t in &tables {
         for m in &t.missing {
-            crate::outln!(
+            crate::humanln!(
+                data_on_stdout,
                 "{:<4}  {:<9}  not measured (taken as zero)",
                 t.axis.letter(),
                 m
@@ -278,13 +286,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|p| p.parameter.as_str())
         .collect();
     if cv {
-        crate::outln!(
+        crate::humanln!(
+            data_on_stdout,
             "{} parameters fitted by cross-validation in {:.2} s",
             report.parameters.len(),
             started.elapsed().as_secs_f64(),
         );
     } else {
-        crate::outln!(
+        crate::humanln!(
+            data_on_stdout,
             "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
             report.parameters.len(),
             base.method,
@@ -294,11 +304,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.report {
         crate::io::write_json_atomic(path, &report)?;
-        crate::outln!("report: {}", path.display());
+        crate::humanln!(data_on_stdout, "report: {}", path.display());
     }
     if let Some(dir) = &args.plot {
         write_plots(dir, &jobs, &fits)?;
-        crate::outln!("plots: {}", dir.display());
+        crate::humanln!(data_on_stdout, "plots: {}", dir.display());
     }
     if !missed.is_empty() {
         anyhow::bail!(
@@ -326,7 +336,7 @@ fn write_plots(
                 s.control_points,
                 s.dof,
                 s.noise,
-                job.kind.unit()
+                super::common::unit_symbol(job.kind.unit())
             ),
             Selection::Emax => format!(
                 "{}: {} control points, {} knots, Emax {:.3} {}",
@@ -334,7 +344,7 @@ fn write_plots(
                 s.control_points,
                 s.method,
                 s.emax,
-                job.kind.unit()
+                super::common::unit_symbol(job.kind.unit())
             ),
         };
         let x_label = if job.table.axis.is_rotary() {
@@ -342,7 +352,7 @@ fn write_plots(
         } else {
             "Axis position (mm)"
         };
-        let y_label = format!("Error ({})", job.kind.unit());
+        let y_label = format!("Error ({})", super::common::unit_symbol(job.kind.unit()));
         let svg = plot_fit(
             &job.table.positions,
             &column.values,

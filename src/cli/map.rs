@@ -155,6 +155,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if !(args.a.is_finite() && args.b.is_finite() && args.c.is_finite()) {
         return Err(usage("--a, --b and --c must be finite".into()));
     }
+    let data_on_stdout = super::common::stdout_output(&[
+        ("--out -", crate::io::is_stdio(&args.out)),
+        (
+            "--report -",
+            super::common::is_stdout(args.report.as_deref()),
+        ),
+    ])?;
     let plane: Plane = args.plane.into();
     let (ua, va, na) = plane.axes();
     let level = match &args.at {
@@ -221,7 +228,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         crate::io::write_json_atomic(path, &report)?;
     }
-    crate::outln!(
+    crate::humanln!(
+        data_on_stdout,
         "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, {rotary_text}",
         machine.name,
         args.grid,
@@ -232,25 +240,57 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         v_range,
         na.letter(),
     );
-    crate::outln!("|e|: max {:.3} um, rms {rms:.3} um", map.max_magnitude());
+    crate::humanln!(
+        data_on_stdout,
+        "|e|: max {:.3} µm, RMS {rms:.3} µm",
+        map.max_magnitude()
+    );
     for fit in &surfaces.fits {
-        crate::outln!(
-            "NURBS surface of {:<3} (degree {}, {}x{} control points): fit error max {:.2e} um, rms {:.2e} um",
+        crate::humanln!(
+            data_on_stdout,
+            "NURBS surface of {:<3} (degree {}, {}×{} control points): fit error max {} µm, RMS {} µm",
             fit.quantity,
             fit.degree,
             fit.control_points[0],
             fit.control_points[1],
-            fit.emax_um,
-            fit.erms_um
+            small_um(fit.emax_um),
+            small_um(fit.erms_um)
         );
     }
-    crate::outln!("wrote {}", args.out.display());
+    crate::humanln!(
+        data_on_stdout,
+        "wrote {}",
+        crate::io::display_name(&args.out)
+    );
     if let Some(path) = &args.report {
-        crate::outln!("wrote {}", path.display());
+        crate::humanln!(data_on_stdout, "wrote {}", crate::io::display_name(path));
     }
     let held = model.held_lookups();
     if held > 0 {
-        eprintln!("note: {held} table lookups were outside a table's range and held its end value");
+        let warnings = crate::warnings::Warnings::new();
+        super::common::add_held_lookups(&warnings, held);
+        super::common::print_warnings(&warnings.groups());
     }
     Ok(())
+}
+
+/// A fit error for people: three decimals, or two significant digits in
+/// scientific notation when it is below 0.01 µm (`0.004 µm` would hide it).
+fn small_um(v: f64) -> String {
+    if v == 0.0 || v.abs() >= 0.01 {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Issue 23: "1.26e0 um" is 1.260 µm.
+    #[test]
+    fn fit_errors_read_as_numbers() {
+        assert_eq!(super::small_um(1.2634), "1.263");
+        assert_eq!(super::small_um(0.0), "0.000");
+        assert_eq!(super::small_um(3.21e-5), "3.2e-5");
+    }
 }

@@ -72,7 +72,7 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Explain the gap between measured and predicted deviations.
     Diagnose(diagnose::Args),
-    /// Write the bundled sample programs (the saddle).
+    /// Write the bundled samples: the saddle (program, plan, tool table) or the flank (program, plan).
     Sample(sample::Args),
 }
 
@@ -113,6 +113,20 @@ pub fn stdout_text(text: &str) -> Result<(), crate::io::OutputError> {
 macro_rules! outln {
     ($($arg:tt)*) => {
         $crate::cli::stdout_line(format_args!($($arg)*))?
+    };
+}
+
+/// A line of the human summary: to standard output, or to standard error
+/// when standard output carries the command's data (`--report -`, `-o -`,
+/// `--json`), so that the data parses.
+#[macro_export]
+macro_rules! humanln {
+    ($data_on_stdout:expr, $($arg:tt)*) => {
+        if $data_on_stdout {
+            eprintln!($($arg)*);
+        } else {
+            $crate::cli::stdout_line(format_args!($($arg)*))?
+        }
     };
 }
 

@@ -38,19 +38,41 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let data_on_stdout = super::common::stdout_output(&[
+        (
+            "--report -",
+            super::common::is_stdout(args.report.as_deref()),
+        ),
+        ("--html -", super::common::is_stdout(args.html.as_deref())),
+    ])?;
     if args.report.is_none() && args.html.is_none() {
         eprintln!("note: no --report or --html given; printing the summary only");
     }
     let (machine, model) = args.machine.load()?;
     let options = args.read.cut_options(&machine);
     let (program, stamp) = args.read.program_and_stamp(&args.program, Some(&machine))?;
+    let warnings = program.warnings();
+    let held_before = model.held_lookups();
     let mut report = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;
-            predict_plan(program, &model, &plan, &options)?
+            let report = predict_plan(program, &model, &plan, &options)?;
+            if report.points_cut == 0 {
+                super::common::print_warnings(&warnings.groups());
+                anyhow::bail!(
+                    "{}: none of its {} plan points is cut by {}: no tool-path point comes within {} mm of any (another part's plan, or the program's work offset or frame differs from the plan's: --var, --offset, --frame)",
+                    plan_path.display(),
+                    report.points_total,
+                    crate::io::display_name(&args.program),
+                    report.match_distance_mm
+                );
+            }
+            report
         }
         None => predict_path(program, &model, &options)?,
     };
+    super::common::add_held_lookups(&warnings, model.held_lookups() - held_before);
+    report.warnings = warnings.groups();
     report.compensated = stamp.is_some();
     report.stamp = stamp;
     if let Some(path) = &args.report {
@@ -64,30 +86,45 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         write_file_atomic(path, html::render(&report, &title).as_bytes())?;
     }
-    let to_stdout = super::common::writes_stdout(args.report.as_ref())
-        || super::common::writes_stdout(args.html.as_ref());
+    super::common::print_warnings(&report.warnings);
+    let note = super::common::result_note(&report.warnings);
     let text = if args.plan.is_some() {
         let not_cut = report.points_total - report.points_cut;
+        let c = report.compensated;
         let worst = report
             .points
             .iter()
-            .filter_map(|p| p.deviation_um.map(|d| (p, d)))
+            .filter_map(|p| p.shown_um(c).map(|d| (p, d)))
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
-        format!(
-            "predicted profile error {:.2}{} µm (range {:.2} µm) over {} of {} plan points{}\n\
-volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} s",
-            report.profile_um,
-            report
-                .profile_u_um
-                .map_or(String::new(), |u| format!(" ± {u:.2}")),
-            report.range_um,
+        let over = format!(
+            "over {} of {} plan points{}",
             report.points_cut,
             report.points_total,
             if not_cut > 0 {
                 format!(" ({not_cut} not cut)")
             } else {
                 String::new()
-            },
+            }
+        );
+        let uncertainty = report
+            .profile_u_um
+            .map_or(String::new(), |u| format!(" ± {u:.2}"));
+        let headline = if c {
+            // A compensated program: what the part will measure, with the
+            // uncompensated figure beside it.
+            format!(
+                "the part will measure profile {:.2} µm (range {:.2} µm) {over}{note}; uncompensated it would be {:.2}{uncertainty} µm (n·e)",
+                report.profile_with_path_um, report.range_with_path_um, report.profile_um
+            )
+        } else {
+            format!(
+                "predicted profile error {:.2}{uncertainty} µm (range {:.2} µm) {over}{note}",
+                report.profile_um, report.range_um
+            )
+        };
+        format!(
+            "{headline}\n\
+volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} s",
             report.max_error_um,
             report.rms_error_um,
             worst.map_or(String::new(), |(p, d)| format!(
@@ -104,10 +141,10 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} 
                     .to_string(),
             },
             report.seconds
-        ) + &if report.max_path_offset_um > 0.5 {
+        ) + &if report.max_path_offset_um > 0.5 && !c {
             format!(
                 "\nthe program's own path departs from the plan points by up to {:.2} µm along the normals \
-(a compensated program?): with it, the part would measure profile {:.2} µm (range {:.2} µm)",
+(a compensated program without its stamp?): with it, the part would measure profile {:.2} µm (range {:.2} µm)",
                 report.max_path_offset_um, report.profile_with_path_um, report.range_with_path_um
             )
         } else {
@@ -119,8 +156,8 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} 
             .iter()
             .max_by(|a, b| a.norm_um.total_cmp(&b.norm_um));
         format!(
-            "{} motion blocks: volumetric error max {:.2} µm{}, RMS {:.2} µm\n{:.3} s",
-            report.blocks.len(),
+            "{}: volumetric error max {:.2} µm{}, RMS {:.2} µm{note}\n{:.3} s",
+            super::common::count(report.blocks.len() as u64, "motion block", "motion blocks"),
             report.max_error_um,
             worst.map_or(String::new(), |b| format!(" (line {})", b.line)),
             report.rms_error_um,
@@ -152,12 +189,12 @@ plan points cut per tool: {}",
     };
     let text = match &report.stamp {
         Some(stamp) => format!(
-            "note: {} is already compensated: {}\n{text}",
+            "{text}\nnote: {} is already compensated: {}",
             args.program.display(),
             stamp.summary()
         ),
         None => text,
     };
-    super::common::say(to_stdout, &text)?;
+    super::common::say(data_on_stdout, &text)?;
     Ok(())
 }

@@ -74,6 +74,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(UsageError(format!("--noise-um must be ≥ 0, got {}", args.noise_um)).into());
     }
     args.probe.check()?;
+    let data_on_stdout = super::common::stdout_output(&[
+        ("-o -", crate::io::is_stdio(&args.output)),
+        (
+            "--dump-contexts -",
+            super::common::is_stdout(args.dump_contexts.as_deref()),
+        ),
+    ])?;
     let plan = Plan::read(&args.plan)?;
     let followup_plan = args
         .followup
@@ -106,17 +113,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             f.measured = Some([0, 1, 2].map(|k| p[k] + r * n[k] / 1000.0));
         }
         followup.write(&args.output)?;
-        if !crate::io::is_stdio(&args.output) {
-            crate::outln!(
-                "simulated {} follow-up probes with {}; noise {} µm, seed {}; readings {:.2} µm RMS -> {}",
-                readings.len(),
-                effects_text(&effects, rotary),
-                args.noise_um,
-                args.seed,
-                crate::inspection::rms(&readings),
-                args.output.display()
-            );
-        }
+        let warnings = part.warnings();
+        super::common::print_warnings(&warnings);
+        crate::humanln!(
+            data_on_stdout,
+            "simulated {} with {}; noise {} µm, seed {}; readings {:.2} µm RMS -> {}{}",
+            super::common::count(readings.len() as u64, "follow-up probe", "follow-up probes"),
+            effects_text(&effects, rotary),
+            args.noise_um,
+            args.seed,
+            crate::inspection::rms(&readings),
+            crate::io::display_name(&args.output),
+            super::common::result_note(&warnings)
+        );
         return Ok(());
     }
     let measurement = simulate(&contexts, &part.truth_um()?, &effects, &options)
@@ -125,21 +134,31 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let cut = contexts.iter().filter(|c| c.cut).count();
     let deviations = measurement.deviations_um();
     let p = profile(&deviations);
-    if !crate::io::is_stdio(&args.output) {
-        crate::outln!(
-            "simulated {} points ({cut} cut by the program) with {}; noise {} µm, seed {}",
-            deviations.len(),
-            effects_text(&effects, rotary),
-            args.noise_um,
-            args.seed
-        );
-        crate::outln!(
-            "measured profile {:.2} µm (range {:.2} µm) -> {}",
-            p.profile_um,
-            p.range_um,
-            args.output.display()
+    let warnings = part.warnings();
+    super::common::print_warnings(&warnings);
+    crate::humanln!(
+        data_on_stdout,
+        "simulated {} ({cut} cut by the program) with {}; noise {} µm, seed {}{}",
+        super::common::count(deviations.len() as u64, "point", "points"),
+        effects_text(&effects, rotary),
+        args.noise_um,
+        args.seed,
+        super::common::result_note(&warnings)
+    );
+    if cut < deviations.len() {
+        crate::humanln!(
+            data_on_stdout,
+            "{} of the plan not cut by the program: measured as the part's nominal surface moved by the error there",
+            super::common::count((deviations.len() - cut) as u64, "point", "points")
         );
     }
+    crate::humanln!(
+        data_on_stdout,
+        "measured profile {:.2} µm (range {:.2} µm) -> {}",
+        p.profile_um,
+        p.range_um,
+        crate::io::display_name(&args.output)
+    );
     Ok(())
 }
 

@@ -22,7 +22,7 @@ use crate::gcode::{
     Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
-use crate::machine::{ErrorModel, Limits, ToolModels};
+use crate::machine::{ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels};
 use crate::toolpath::{effective_frame, joints_of, target_of};
 use crate::vec3::dist;
 use rayon::prelude::*;
@@ -113,10 +113,31 @@ pub struct CompensateReport {
     /// the position-only solve near the A = 0 pole, with their first lines.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation: Option<OrientationReport>,
+    /// Move ends inside the tables whose corrections cross a table's end:
+    /// the end value was held over that sliver (absent when none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table_ends: Option<TableEndReport>,
+    /// The warnings of the run (`crate::warnings`; the command fills it).
+    pub warnings: Vec<crate::warnings::WarningGroup>,
     #[serde(skip)]
     residual_sum_sq: f64,
     #[serde(skip)]
     residual_moves: usize,
+}
+
+/// Targets at a table's end whose corrections cross it (issue 23): the
+/// table's end value is held over the sliver beyond it, as long as it is
+/// shorter than the correction itself.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct TableEndReport {
+    /// Move ends so compensated.
+    pub moves: usize,
+    pub first_line: usize,
+    /// How far beyond a table's end, at most: X Y Z µm, A µrad.
+    pub max_um: f64,
+    pub max_urad: f64,
+    /// Lookups held over such slivers (move ends and split points).
+    pub lookups: u64,
 }
 
 /// The tool-axis side of `compensate --orientation`.
@@ -198,6 +219,17 @@ impl CompensateReport {
                 o.position_only_lines.push(line);
             }
         }
+    }
+
+    /// Count a move end whose correction crosses a table's end.
+    fn record_table_end(&mut self, line: usize, end: TableEnd) {
+        let t = self.table_ends.get_or_insert_with(|| TableEndReport {
+            first_line: line,
+            ..TableEndReport::default()
+        });
+        t.moves += 1;
+        t.max_um = t.max_um.max(end.um);
+        t.max_urad = t.max_urad.max(end.urad);
     }
 
     /// Count the model's standard uncertainty `um` at one compensated move end.
@@ -287,6 +319,16 @@ struct Compensated {
     /// With `--orientation`: the tool-axis error before and after (µrad), and
     /// whether the pose was left to the position-only solve (A = 0 pole).
     orientation: Option<AxisCorrection>,
+    /// The target is inside the tables and its correction crosses a table's
+    /// end: how far (the end value was held over that sliver).
+    beyond_table: Option<TableEnd>,
+}
+
+/// How far a compensated target lies beyond a table's end: X Y Z µm, A µrad.
+#[derive(Clone, Copy, Debug)]
+struct TableEnd {
+    um: f64,
+    urad: f64,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -320,6 +362,60 @@ fn compensate_target(
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
+    let (joints, residual_mm, axis, beyond) = match solve_target(model, &nominal, warm, orientation)
+    {
+        Err(PointError::Solve(SolveError::Lookup(e @ LookupError::OutOfRange { .. })))
+            if model.policy() == ExtrapolationPolicy::Error
+                && model.errors_at(&nominal).is_ok() =>
+        {
+            // The target is inside every table but its correction crosses a
+            // table's end: hold the end value over that sliver when it is
+            // shorter than the correction itself (issue 23), else the
+            // lookup error stands.
+            let held = model.holding_ends();
+            let (joints, residual_mm, axis) = solve_target(held, &nominal, warm, orientation)?;
+            let beyond = model.beyond_tables(&joints);
+            let within = crate::axes::Axis::ALL.into_iter().all(|a| {
+                let b = beyond.get(a);
+                b == 0.0 || b <= (joints.get(a) - nominal.get(a)).abs()
+            });
+            if !within {
+                return Err(PointError::Solve(SolveError::Lookup(e)));
+            }
+            (joints, residual_mm, axis, Some(beyond))
+        }
+        other => {
+            let (joints, residual_mm, axis) = other?;
+            (joints, residual_mm, axis, None)
+        }
+    };
+    if let Some(l) = limits
+        && let Some((axis, value, range)) = l.violated(&joints)
+    {
+        return Err(PointError::Travel { axis, value, range });
+    }
+    let (jq, jn) = (kin.joints(&joints), kin.joints(&nominal));
+    warm.correction = std::array::from_fn(|i| jq[i] - jn[i]);
+    Ok(Compensated {
+        target: target_of(kin, frame, &joints),
+        residual_mm,
+        orientation: axis,
+        beyond_table: beyond.map(|b| TableEnd {
+            um: 1e3 * b.x.max(b.y).max(b.z),
+            urad: b.a.max(b.b).max(b.c).to_radians() * 1e6,
+        }),
+    })
+}
+
+/// The joints of [`compensate_target`] (no travel check), their residual and
+/// tool-axis correction.
+fn solve_target(
+    model: &ErrorModel,
+    nominal: &Axes,
+    warm: &mut WarmStart,
+    orientation: bool,
+) -> Result<(Axes, f64, Option<AxisCorrection>), PointError> {
+    let nominal = *nominal;
     let guess = warm.correction;
     let (joints, residual_mm, axis) = if orientation {
         match solve_pose_from(model, &nominal, warm).map_err(PointError::Solve)? {
@@ -353,18 +449,7 @@ fn compensate_target(
         let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
         (solved.joints, solved.residual_mm, None)
     };
-    if let Some(l) = limits
-        && let Some((axis, value, range)) = l.violated(&joints)
-    {
-        return Err(PointError::Travel { axis, value, range });
-    }
-    let (jq, jn) = (kin.joints(&joints), kin.joints(&nominal));
-    warm.correction = std::array::from_fn(|i| jq[i] - jn[i]);
-    Ok(Compensated {
-        target: target_of(kin, frame, &joints),
-        residual_mm,
-        orientation: axis,
-    })
+    Ok((joints, residual_mm, axis))
 }
 
 /// First-order estimate of [`compensate_target`] for the split decision (one
@@ -379,9 +464,20 @@ fn estimate_target(
 ) -> Result<Axes, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
-    let q = match rotary {
+    let estimate = |model: &ErrorModel| match rotary {
         Some(r) => first_order_joints_at(model, &nominal, r),
         None => first_order_joints(model, &nominal),
+    };
+    let q = match estimate(model) {
+        // Corrected angles just beyond a table's end: held over the sliver,
+        // as `compensate_target` does.
+        Err(SolveError::Lookup(LookupError::OutOfRange { .. }))
+            if model.policy() == ExtrapolationPolicy::Error
+                && model.errors_at(&nominal).is_ok() =>
+        {
+            estimate(model.holding_ends())
+        }
+        other => other,
     }
     .map_err(PointError::Solve)?;
     Ok(target_of(kin, frame, &q))
@@ -538,6 +634,7 @@ pub fn compensate(
     let path = program.path().to_path_buf();
     let path = path.as_path();
     let held_before = model.held_lookups();
+    let sliver_before = model.table_end_lookups();
     let mut models = ToolModels::new(model);
     let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
     let (solved_sender, solved) = std::sync::mpsc::sync_channel::<Solved>(2);
@@ -560,12 +657,20 @@ pub fn compensate(
         written.map(|mut report| {
             report.max_residual_nm = axes.max_residual_nm;
             report.orientation = axes.orientation;
+            report.table_ends = axes.table_ends;
             report.finish();
             report
         })
     })
     .map(|mut report| {
         report.held_lookups = models.held_lookups().saturating_sub(held_before);
+        let sliver = models.table_end_lookups().saturating_sub(sliver_before);
+        if sliver > 0 {
+            report
+                .table_ends
+                .get_or_insert_with(TableEndReport::default)
+                .lookups = sliver;
+        }
         report.seconds = started.elapsed().as_secs_f64();
         report
     })
@@ -711,6 +816,9 @@ fn solve_chunks(
                         axes.max_residual_nm = axes.max_residual_nm.max(c.residual_mm * 1e6);
                         if let Some(a) = c.orientation {
                             axes.record_axis(block.line, a);
+                        }
+                        if let Some(end) = c.beyond_table {
+                            axes.record_table_end(block.line, end);
                         }
                         mine.push((c.target, c.residual_mm));
                     }

@@ -583,6 +583,7 @@ pub fn diagnose_with_followup(
         model_check,
         followup_design: None,
         followup: None,
+        warnings: Vec::new(),
     })
 }
 

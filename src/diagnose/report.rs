@@ -36,6 +36,10 @@ pub struct DiagnoseReport {
     /// What a measured follow-up showed (`--followup`; extension, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
     pub followup: Option<super::followup::FollowupOutcome>,
+    /// The warnings of reading the program (`crate::warnings`; the command
+    /// fills it).
+    #[serde(default)]
+    pub warnings: Vec<crate::warnings::WarningGroup>,
 }
 
 /// Is the machine's error model itself off? The residual is fitted as factors

@@ -98,6 +98,13 @@ pub fn simulate(
         let noise = noise.draw();
         let measured =
             [0, 1, 2].map(|k| ctx.point[k] + total[k] / 1000.0 + noise * ctx.normal[k] / 1000.0);
+        if !measured.iter().all(|v| v.is_finite()) {
+            // An effect's parameters so large that the displacement overflows.
+            return Err(DiagnoseError::NonFinite {
+                what: "the simulated measured point (the effects' displacement overflows: check their parameters)",
+                id: ctx.id.clone(),
+            });
+        }
         points.push(MeasuredPoint {
             plan: PlanPoint {
                 id: ctx.id.clone(),
@@ -147,7 +154,14 @@ pub fn simulate_followup(
                     value -= effect.deviation_um(p);
                 }
             }
-            Ok(value + noise.draw())
+            let value = value + noise.draw();
+            if !value.is_finite() {
+                return Err(DiagnoseError::NonFinite {
+                    what: "the simulated reading (the effects' displacement overflows: check their parameters)",
+                    id: probe.id.clone(),
+                });
+            }
+            Ok(value)
         })
         .collect()
 }

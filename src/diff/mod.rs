@@ -60,6 +60,9 @@ pub struct DiffReport {
     /// Lines of the first added and removed blocks (up to `largest` many).
     pub added_lines: Vec<usize>,
     pub removed_lines: Vec<usize>,
+    /// The warnings of reading A, then B (`crate::warnings`; each names its
+    /// file; the command fills it).
+    pub warnings: Vec<crate::warnings::WarningGroup>,
 }
 
 impl DiffReport {

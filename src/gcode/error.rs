@@ -126,6 +126,8 @@ pub enum ErrorKind {
     EndlessProgram(u64),
     #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
     BareCarriageReturn,
+    #[error("Bad character '\\357' used: the file starts with a UTF-8 byte order mark (EF BB BF)")]
+    ByteOrderMark,
     #[error("Requested tool {0} not found in the tool table")]
     ToolNotInTable(u32),
     #[error("{0} word: a tool number must be a whole number ≥ 0")]
@@ -193,6 +195,9 @@ impl ErrorKind {
             ErrorKind::NonFinite => "check the numbers of the block",
             ErrorKind::EndlessProgram(_) => {
                 "check the loop's condition (the line shown is where it stopped): volcomp stops a program after a billion executed lines"
+            }
+            ErrorKind::ByteOrderMark => {
+                "LinuxCNC refuses it (as rs274 says: Bad character '\\357' used): save the program without the byte order mark (as UTF-8 without BOM, or ASCII)"
             }
             ErrorKind::BareCarriageReturn => {
                 "convert the line ends to LF or CR LF (e.g. `tr '\\r' '\\n'`); LinuxCNC would read the whole file as one block"

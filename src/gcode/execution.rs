@@ -41,6 +41,9 @@ pub struct ProgramSetup {
     /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
     /// ended with no percent sign or program end"); off for fragments.
     pub require_program_end: bool,
+    /// Where the run's warnings are collected (shared: a clone of the setup
+    /// adds to the same collection).
+    pub warnings: crate::warnings::Warnings,
 }
 
 impl ProgramSetup {
@@ -95,6 +98,11 @@ impl Program {
         &self.path
     }
 
+    /// Where its run's warnings are collected (a shared handle).
+    pub fn warnings(&self) -> crate::warnings::Warnings {
+        self.setup.warnings.clone()
+    }
+
     pub fn setup(&self) -> &ProgramSetup {
         &self.setup
     }
@@ -125,6 +133,7 @@ pub struct Execution {
     done: bool,
     /// The program has ended; the rest of the main file is passed over.
     tail: bool,
+    warnings: crate::warnings::Warnings,
 }
 
 impl Execution {
@@ -155,6 +164,33 @@ impl Execution {
             lenient: options.lenient,
             done: false,
             tail: false,
+            warnings: setup.warnings.clone(),
+        }
+    }
+
+    /// Add the event's warnings to the run's collection.
+    fn collect_warnings(&self) {
+        if self.event.warnings.is_empty() {
+            return;
+        }
+        let executed = self.executor.executed();
+        let file = if executed.file == 0 {
+            self.path.display().to_string()
+        } else {
+            self.executor.file_name(executed.file).to_string()
+        };
+        for w in &self.event.warnings {
+            self.warnings.add(
+                &crate::warnings::Warning {
+                    kind: w.kind.key(),
+                    file: Some(&file),
+                    line: Some(w.line),
+                    column: Some(w.column),
+                    effect: w.kind.effect(),
+                },
+                1,
+                || w.message(),
+            );
         }
     }
 
@@ -258,6 +294,7 @@ impl Execution {
                 }
                 self.event.index = self.blocks;
                 self.blocks += 1;
+                self.collect_warnings();
                 Some(Ok((block, &self.event, self.executor.executed())))
             }
         }

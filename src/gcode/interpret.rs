@@ -117,6 +117,46 @@ pub enum WarningKind {
     },
 }
 
+impl WarningKind {
+    /// Its kind, for grouping (`crate::warnings`).
+    pub fn key(&self) -> &'static str {
+        match self {
+            WarningKind::UnknownLetter(_) => "unknown_word",
+            WarningKind::Home(_) => "home",
+            WarningKind::MissingInverseTimeFeed => "inverse_time_feed",
+            WarningKind::ZeroFeed => "zero_feed",
+            WarningKind::ArcRadiusMismatch(_) => "arc_radius",
+            WarningKind::AfterProgramEnd => "after_program_end",
+            WarningKind::Lenient(_) => "lenient",
+            WarningKind::NoToolTable(_) => "no_tool_table",
+            WarningKind::ToolLengthOffsetMismatch { .. } => "tool_length_offset",
+        }
+    }
+
+    /// What it changes in a command's result (empty: nothing but time or
+    /// the report): a tool length assumed, words or lines ignored.
+    pub fn effect(&self) -> &'static str {
+        match self {
+            WarningKind::UnknownLetter(_) => "unknown words ignored",
+            WarningKind::Lenient(_) => "passed through unread (--lenient)",
+            WarningKind::NoToolTable(_) => "tool length assumed",
+            WarningKind::ToolLengthOffsetMismatch { .. } => {
+                "tool length offset differs from the tool"
+            }
+            _ => "",
+        }
+    }
+}
+
+impl Warning {
+    /// The message without its place.
+    pub fn message(&self) -> String {
+        let text = self.to_string();
+        let prefix = format!("line {}:{}: ", self.line, self.column);
+        text.strip_prefix(&prefix).unwrap_or(&text).to_string()
+    }
+}
+
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "line {}:{}: ", self.line, self.column)?;
@@ -345,10 +385,13 @@ impl Interpreter {
             cycle_memory: CycleMemory::default(),
             pending_dwell_min: 0.0,
         };
-        let system = i.params.get(numbers::COORD_SYSTEM).round();
+        // LinuxCNC's `init`: `(int)(pars[5220] + 0.0001)`, truncated (1.9 is
+        // G54), and 1 (with #5220 reset to 1) when out of 1 … 9.
+        let system = (i.params.get(numbers::COORD_SYSTEM) + 0.0001).trunc();
         i.modal.coord_system = if (1.0..=9.0).contains(&system) {
             system as u8
         } else {
+            i.params.set(numbers::COORD_SYSTEM, 1.0);
             1
         };
         i.origin.work = i.stored_origin(i.modal.coord_system);

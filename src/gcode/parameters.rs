@@ -250,6 +250,9 @@ impl Parameters {
             "_task" => 0.0,
             "_call_level" => self.call_level() as f64,
             "_remap_level" => 0.0,
+            // LinuxCNC's version, as the reference rs274 (2.9) reports it.
+            "_vmajor" => 2.9,
+            "_vminor" => 0.0,
             _ => {
                 if let Some(a) = name.strip_prefix("_abs_").and_then(axis) {
                     s.absolute[a]

@@ -184,13 +184,12 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
         return Err(err(ErrorKind::BareCarriageReturn, k, k + 1));
     }
 
-    // A UTF-8 byte order mark at the start of the file is kept but not read.
-    let bom = if *offset == 0 && line.starts_with(b"\xEF\xBB\xBF") {
-        3
-    } else {
-        0
-    };
-    let mut pos = ws(&line[bom..]).map(|(r, _)| pos_of(r)).unwrap_or(bom);
+    // A UTF-8 byte order mark at the start of the file: LinuxCNC refuses it
+    // ("Bad character '\357' used").
+    if *offset == 0 && line.starts_with(b"\xEF\xBB\xBF") {
+        return Err(err(ErrorKind::ByteOrderMark, 0, 3));
+    }
+    let mut pos = ws(line).map(|(r, _)| pos_of(r)).unwrap_or(0);
     if pos < len && line[pos] == b'%' {
         *percent = true;
         return Ok(());

@@ -1,5 +1,6 @@
 //! What `volcomp check` reports about a program, accumulated block by block
-//! (streaming: constant memory apart from the first warnings it keeps).
+//! (streaming: constant memory). Its warnings are collected by the run
+//! (`crate::warnings`, through [`super::ProgramSetup::warnings`]).
 use std::collections::BTreeMap;
 
 use serde::Serialize;
@@ -8,9 +9,6 @@ use super::block::Block;
 use super::interpret::BlockEvent;
 use super::modal::{GCode, MCode, classify_g, classify_m, code_text, is_known_letter};
 use super::motion::{Feed, Frame, MotionKind};
-
-/// How many warning messages a summary keeps (all are counted).
-pub const KEPT_WARNINGS: usize = 20;
 
 /// How many tool runs a summary keeps (all are counted).
 pub const KEPT_TOOL_RUNS: usize = 256;
@@ -90,9 +88,6 @@ pub struct ProgramSummary {
     pub w: Option<Range>,
     /// Words with a letter the interpreter does not know, by letter.
     pub unknown_words: BTreeMap<char, usize>,
-    pub warnings: usize,
-    /// The first [`KEPT_WARNINGS`] warnings, rendered.
-    pub first_warnings: Vec<String>,
     /// The moves per tool, run by run in program order (the first
     /// [`KEPT_TOOL_RUNS`]; `tool_runs` counts them all).
     pub tools: Vec<ToolRun>,
@@ -120,12 +115,6 @@ impl ProgramSummary {
             self.home_blocks += 1;
         }
         self.time_min = event.time_min;
-        self.warnings += event.warnings.len();
-        for w in &event.warnings {
-            if self.first_warnings.len() < KEPT_WARNINGS {
-                self.first_warnings.push(w.to_string());
-            }
-        }
         if !event.skipped {
             for w in &block.words {
                 self.count_word(w.letter, w.code10());

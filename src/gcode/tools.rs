@@ -161,6 +161,9 @@ impl ToolTable {
             let mut length = 0.0;
             let mut diameter = 0.0;
             let mut column = 1;
+            // Letters seen on the line, with their column: a repeated word
+            // (`Z100 Z200`) is refused rather than one of them picked.
+            let mut seen: [Option<usize>; 26] = [None; 26];
             for token in body.split([' ', '\t']) {
                 let here = column;
                 column += token.len() + 1;
@@ -175,6 +178,19 @@ impl ToolTable {
                     0
                 };
                 let value = &token[first.len_utf8()..];
+                if letter.is_ascii_uppercase() {
+                    let slot = &mut seen[(letter - b'A') as usize];
+                    if let Some(at) = *slot {
+                        return Err(fail(
+                            here,
+                            format!(
+                                "`{token}`: {} is given twice on the line (first at column {at}); give each word once",
+                                letter as char
+                            ),
+                        ));
+                    }
+                    *slot = Some(here);
+                }
                 let number_of = |what: &str| -> Result<f64, ToolTableError> {
                     match value.parse::<f64>() {
                         Ok(v) if v.is_finite() && v.abs() < 1e9 => Ok(v),

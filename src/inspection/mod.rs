@@ -141,12 +141,24 @@ fn plan_point(
 ) -> Result<PlanPoint, InspectionError> {
     let v = &record.values;
     let norm = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
-    if norm < 1e-9 {
+    if !(norm.is_finite() && norm >= 1e-9) {
+        // Zero, or so large that its length overflows: no direction to
+        // divide out (a unit normal is expected).
         return Err(InspectionError::Field {
             path: path.to_path_buf(),
             line: record.line,
             column: "i,j,k".into(),
-            message: "expected a non-zero surface normal, found (0, 0, 0)".into(),
+            message: if norm.is_finite() {
+                format!(
+                    "expected a non-zero surface normal, found ({}, {}, {})",
+                    v[3], v[4], v[5]
+                )
+            } else {
+                format!(
+                    "expected a unit surface normal, found ({:e}, {:e}, {:e}), whose length overflows",
+                    v[3], v[4], v[5]
+                )
+            },
         });
     }
     if !seen.insert(record.id.clone()) {
@@ -169,7 +181,7 @@ fn parse_points<T>(
     path: &Path,
     text: &str,
     columns: &[&str],
-    make: impl Fn(&reader::Record, PlanPoint) -> T,
+    make: impl Fn(&reader::Record, PlanPoint) -> Result<T, InspectionError>,
 ) -> Result<Vec<T>, InspectionError> {
     let records = reader::read_records(path, text, columns)?;
     if records.is_empty() {
@@ -180,7 +192,7 @@ fn parse_points<T>(
     let mut seen = HashSet::new();
     records
         .iter()
-        .map(|r| Ok(make(r, plan_point(path, r, &mut seen)?)))
+        .map(|r| make(r, plan_point(path, r, &mut seen)?))
         .collect()
 }
 
@@ -206,7 +218,7 @@ fn write_rows<'a>(
 impl Plan {
     /// Parse a plan CSV (`id,x,y,z,i,j,k`); `path` names the file in errors.
     pub fn parse(path: &Path, text: &str) -> Result<Plan, InspectionError> {
-        let points = parse_points(path, text, &PLAN_COLUMNS, |_, p| p)?;
+        let points = parse_points(path, text, &PLAN_COLUMNS, |_, p| Ok(p))?;
         Ok(Plan { points })
     }
 
@@ -227,9 +239,11 @@ impl Plan {
 impl Measurement {
     /// Parse a measurement CSV (`id,x,y,z,i,j,k,mx,my,mz`).
     pub fn parse(path: &Path, text: &str) -> Result<Measurement, InspectionError> {
-        let points = parse_points(path, text, &MEASUREMENT_COLUMNS, |r, plan| MeasuredPoint {
-            plan,
-            measured: [r.values[6], r.values[7], r.values[8]],
+        let points = parse_points(path, text, &MEASUREMENT_COLUMNS, |r, plan| {
+            Ok(MeasuredPoint {
+                plan,
+                measured: [r.values[6], r.values[7], r.values[8]],
+            })
         })?;
         Ok(Measurement { points })
     }
@@ -282,6 +296,10 @@ pub struct Followup {
     pub points: Vec<FollowupPoint>,
 }
 
+/// Farthest a follow-up's probed point may lie from its plan point, mm: a
+/// reading is the machine's error there (µm), not a different point.
+pub const MAX_PROBE_OFFSET_MM: f64 = 1.0;
+
 const FOLLOWUP_PLAN_COLUMNS: [&str; 9] = ["x", "y", "z", "i", "j", "k", "a", "c", "t_min"];
 const FOLLOWUP_MEASUREMENT_COLUMNS: [&str; 12] = [
     "x", "y", "z", "i", "j", "k", "a", "c", "t_min", "mx", "my", "mz",
@@ -294,12 +312,44 @@ impl Followup {
         } else {
             &FOLLOWUP_PLAN_COLUMNS
         };
-        let points = parse_points(path, text, columns, |r, plan| FollowupPoint {
-            plan,
-            a_deg: r.values[6],
-            c_deg: r.values[7],
-            time_min: r.values[8],
-            measured: measured.then(|| [r.values[9], r.values[10], r.values[11]]),
+        let points = parse_points(path, text, columns, |r, plan| {
+            let f = FollowupPoint {
+                plan,
+                a_deg: r.values[6],
+                c_deg: r.values[7],
+                time_min: r.values[8],
+                measured: measured.then(|| [r.values[9], r.values[10], r.values[11]]),
+            };
+            // What one field cannot show: a probe taken before the part
+            // program started, a probed point that is not the plan point.
+            let field = |column: &str, message: String| InspectionError::Field {
+                path: path.to_path_buf(),
+                line: r.line,
+                column: column.into(),
+                message,
+            };
+            if f.time_min < 0.0 {
+                return Err(field(
+                    "t_min",
+                    format!(
+                        "expected minutes since the part program's start (≥ 0), found {}",
+                        f.time_min
+                    ),
+                ));
+            }
+            if let Some(m) = f.measured {
+                let off = crate::vec3::dist(m, f.plan.point);
+                if off > MAX_PROBE_OFFSET_MM {
+                    return Err(field(
+                        "mx,my,mz",
+                        format!(
+                            "the probed point ({}, {}, {}) is {off:.4} mm from the plan point; a follow-up probes the plan point again (within {MAX_PROBE_OFFSET_MM} mm)",
+                            m[0], m[1], m[2]
+                        ),
+                    ));
+                }
+            }
+            Ok(f)
         })?;
         Ok(Followup { points })
     }

@@ -1,6 +1,7 @@
 //! A small CSV record reader for plans and measurements: header with named
 //! columns (any order, extra columns ignored), `#` comment lines and blank lines
-//! skipped, every error naming file, line and column.
+//! skipped, a leading byte order mark ignored, every error naming file, line and
+//! column.
 //!
 //! Invariant: a returned record holds exactly the requested columns, parsed as
 //! finite `f64` (except the `id` column, kept as text).
@@ -25,6 +26,8 @@ pub fn read_records(
 ) -> Result<Vec<Record>, InspectionError> {
     let mut header: Option<(usize, Vec<usize>)> = None;
     let mut records = Vec::new();
+    // A byte order mark (spreadsheets write one) is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;
         let trimmed = raw.trim();

@@ -317,7 +317,7 @@ impl ErrorMap {
                 }
             }
             let note = format!(
-                "arrows: in-plane error, longest {longest:.2} um = {:.0} px",
+                "arrows: in-plane error, longest {longest:.2} µm = {:.0} px",
                 0.8 * step_px
             );
             chart

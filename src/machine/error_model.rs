@@ -25,6 +25,7 @@ use crate::nurbs::{
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 
 /// How the model is built.
 #[derive(Clone, Debug, Default)]
@@ -166,17 +167,23 @@ pub struct ErrorModel {
     axes: [Option<AxisCurves>; 5],
     scalars: ErrorValues,
     policy: ExtrapolationPolicy,
-    held: AtomicU64,
+    /// Lookups that held an end value; shared with the models of other tool
+    /// lengths made from this one ([`ErrorModel::with_tool_length`]).
+    held: Arc<AtomicU64>,
+    /// [`ErrorModel::holding_ends`], made on first use.
+    holding: OnceLock<Box<ErrorModel>>,
 }
 
 impl Clone for ErrorModel {
+    /// An independent copy (its own count of held lookups, from the current one).
     fn clone(&self) -> Self {
         ErrorModel {
             kinematics: self.kinematics,
             axes: self.axes.clone(),
             scalars: self.scalars,
             policy: self.policy,
-            held: AtomicU64::new(self.held.load(Ordering::Relaxed)),
+            held: Arc::new(AtomicU64::new(self.held.load(Ordering::Relaxed))),
+            holding: OnceLock::new(),
         }
     }
 }
@@ -285,7 +292,39 @@ impl ErrorModel {
                         ),
                     ));
                 }
+                if !entry.curve_hash.is_empty()
+                    && entry.curve_hash != format!("{:016x}", entry.computed_curve_hash())
+                {
+                    return Err(model_error(
+                        name,
+                        format!(
+                            "its curve was changed after the fit (its numbers no longer match the recorded hash {}); refit with volcomp fit",
+                            entry.curve_hash
+                        ),
+                    ));
+                }
                 let curve = entry.to_curve().map_err(|m| model_error(name, m))?;
+                // The curve must reproduce its recorded fit at the table's
+                // points (files written before `curve_hash` are checked so too).
+                if let Some(column) = table.column(name) {
+                    let recomputed = table
+                        .positions
+                        .iter()
+                        .zip(&column.values)
+                        .fold(0.0f64, |m, (x, y)| m.max((curve.value_at(*x) - y).abs()));
+                    let recorded = entry.stats.emax;
+                    if !(recomputed.is_finite()
+                        && (recomputed - recorded).abs() <= 1e-6 * (1.0 + recorded.abs()))
+                    {
+                        return Err(model_error(
+                            name,
+                            format!(
+                                "its curve departs from the table by up to {recomputed:.6} {unit} at the table's points, but the file records {recorded:.6} {unit} for its fit: the file was edited; refit with volcomp fit",
+                                unit = if entry.unit == "urad" { "µrad" } else { "µm" }
+                            ),
+                        ));
+                    }
+                }
                 if let Some(ac) = axes[slot].as_mut() {
                     ac.curves[k] = Some(curve);
                 }
@@ -351,7 +390,8 @@ impl ErrorModel {
             axes,
             scalars: machine.scalar_errors(),
             policy: options.extrapolation,
-            held: AtomicU64::new(0),
+            held: Arc::new(AtomicU64::new(0)),
+            holding: OnceLock::new(),
         }
     }
 
@@ -404,7 +444,8 @@ impl ErrorModel {
             axes: Default::default(),
             scalars: values,
             policy: ExtrapolationPolicy::Error,
-            held: AtomicU64::new(0),
+            held: Arc::new(AtomicU64::new(0)),
+            holding: OnceLock::new(),
         }
     }
 
@@ -412,13 +453,48 @@ impl ErrorModel {
         &self.kinematics
     }
 
-    /// The same model with a tool of `length_mm` in the spindle (its held
-    /// lookups counted from zero). See [`super::ToolModels`].
+    /// The same model with a tool of `length_mm` in the spindle; its held
+    /// lookups are counted in this model's count (so the base model of
+    /// [`super::ToolModels`] counts every tool's). See [`super::ToolModels`].
     pub fn with_tool_length(&self, length_mm: f64) -> ErrorModel {
         let mut model = self.clone();
         model.kinematics = model.kinematics.with_tool_length(length_mm);
-        model.reset_held_lookups();
+        model.held = Arc::clone(&self.held);
         model
+    }
+
+    /// The same model, but a lookup beyond a table's end holds the end value
+    /// (with its own count of held lookups): what the compensation uses over
+    /// the sliver between a table's end and a corrected target just beyond it
+    /// (`compensate`). Made once, on first use.
+    pub fn holding_ends(&self) -> &ErrorModel {
+        self.holding.get_or_init(|| {
+            let mut model = self.clone();
+            model.policy = ExtrapolationPolicy::Hold;
+            model.held = Arc::new(AtomicU64::new(0));
+            Box::new(model)
+        })
+    }
+
+    /// Lookups that held an end value in [`ErrorModel::holding_ends`].
+    pub fn table_end_lookups(&self) -> u64 {
+        self.holding.get().map_or(0, |m| m.held_lookups())
+    }
+
+    /// How far `joints` lie beyond the ends of the tables, per axis (X Y Z
+    /// mm, A C degrees; 0 inside a table, for an unmeasured axis, and for a C
+    /// table that wraps).
+    pub fn beyond_tables(&self, joints: &Axes) -> Axes {
+        let mut beyond = Axes::default();
+        for ac in self.axes.iter().flatten() {
+            if ac.wrap {
+                continue;
+            }
+            let v = joints.get(ac.axis);
+            let [lo, hi] = ac.range;
+            beyond.set(ac.axis, (lo - v).max(v - hi).max(0.0));
+        }
+        beyond
     }
 
     pub fn policy(&self) -> ExtrapolationPolicy {

@@ -62,13 +62,20 @@ impl<'m> ToolModels<'m> {
         self.get(tool).kinematics().tool_length
     }
 
-    /// Lookups that held an end value, over every tool's model.
+    /// Lookups that held an end value, over every tool's model (they share
+    /// the base model's count: [`ErrorModel::with_tool_length`]).
     pub fn held_lookups(&self) -> u64 {
         self.base.held_lookups()
+    }
+
+    /// Lookups held over the sliver beyond a table's end, over every tool's
+    /// model ([`ErrorModel::holding_ends`]).
+    pub fn table_end_lookups(&self) -> u64 {
+        self.base.table_end_lookups()
             + self
                 .others
                 .iter()
-                .map(|(_, m)| m.held_lookups())
+                .map(|(_, m)| m.table_end_lookups())
                 .sum::<u64>()
     }
 }

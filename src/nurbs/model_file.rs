@@ -41,6 +41,12 @@ pub struct ParameterFit {
     /// (extension; absent in files written before it).
     #[serde(default)]
     pub uncertainty: Vec<[f64; 2]>,
+    /// FNV-1a 64 of the table's hash and the curve's numbers (degree, knots,
+    /// weights, control points, uncertainty, as f64 bits), 16 hex digits: a
+    /// curve edited after the fit does not match it. Empty in files written
+    /// before it (their curves are checked against the table only).
+    #[serde(default)]
+    pub curve_hash: String,
 }
 
 impl ParameterFit {
@@ -64,7 +70,36 @@ impl ParameterFit {
             table: table.to_string(),
             table_hash: format!("{table_hash:016x}"),
             uncertainty: curve.uncertainty().to_vec(),
+            curve_hash: String::new(),
         }
+        .with_curve_hash()
+    }
+
+    /// The same with [`ParameterFit::curve_hash`] set to its numbers' hash.
+    fn with_curve_hash(mut self) -> ParameterFit {
+        self.curve_hash = format!("{:016x}", self.computed_curve_hash());
+        self
+    }
+
+    /// FNV-1a 64 of `table_hash` and the curve's numbers (what `curve_hash`
+    /// must hold).
+    pub fn computed_curve_hash(&self) -> u64 {
+        let mut bytes = Vec::with_capacity(
+            24 + 8 * (self.knots.len() + self.weights.len())
+                + 16 * (self.points.len() + self.uncertainty.len()),
+        );
+        bytes.extend_from_slice(self.table_hash.as_bytes());
+        bytes.extend_from_slice(&(self.degree as u64).to_le_bytes());
+        let numbers = self
+            .knots
+            .iter()
+            .chain(&self.weights)
+            .chain(self.points.iter().flatten())
+            .chain(self.uncertainty.iter().flatten());
+        for v in numbers {
+            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+        }
+        fnv1a64(&bytes)
     }
 
     /// Rebuild the curve (validated; `x(u)` must be increasing).
@@ -96,6 +131,43 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 23: an edited curve no longer matches its hash.
+    #[test]
+    fn the_curve_hash_covers_every_number_of_the_curve() {
+        let fit = ParameterFit {
+            axis: "X".into(),
+            parameter: "EXX".into(),
+            unit: "um".into(),
+            stats: serde_json::from_str(
+                r#"{"samples":4,"control_points":4,"method":"best","emax":0.1,"erms":0.05,"tolerance":0.5,"met":true,"grid_segments":null,"evaluations":1,"seconds":0.0}"#,
+            )
+            .unwrap(),
+            degree: 3,
+            knots: vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0],
+            weights: vec![1.0; 4],
+            points: vec![[0.0, 1.0], [1.0, 2.0], [2.0, 2.5], [3.0, 1.0]],
+            table: "x.csv".into(),
+            table_hash: "0123456789abcdef".into(),
+            uncertainty: vec![],
+            curve_hash: String::new(),
+        }
+        .with_curve_hash();
+        assert_eq!(
+            fit.curve_hash,
+            format!("{:016x}", fit.computed_curve_hash())
+        );
+        let mut edited = fit.clone();
+        edited.points[2][1] = 499.0;
+        assert_ne!(edited.computed_curve_hash(), fit.computed_curve_hash());
+        let mut edited = fit.clone();
+        edited.weights[1] = 1.0 + 1e-15;
+        assert_ne!(edited.computed_curve_hash(), fit.computed_curve_hash());
+        // Through JSON and back, exactly.
+        let back: ParameterFit =
+            serde_json::from_str(&serde_json::to_string(&fit).unwrap()).unwrap();
+        assert_eq!(back.computed_curve_hash(), fit.computed_curve_hash());
+    }
 
     #[test]
     fn fnv_reference_values() {

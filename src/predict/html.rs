@@ -7,31 +7,53 @@ use crate::report::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent, histogra
 /// Render the self-contained HTML report.
 pub fn render(report: &PredictReport, title: &str) -> String {
     let mut page = HtmlPage::new(title);
-    page.paragraph(&format!(
-        "Predicted profile error {:.2} µm (2·max|d|), range {:.2} µm, over {} of {} plan points cut.",
-        report.profile_um, report.range_um, report.points_cut, report.points_total
-    ));
+    let c = report.compensated;
+    if c {
+        // A compensated program: what the part will measure comes first.
+        page.paragraph(&format!(
+            "The program is compensated: the part will measure a profile error of {:.2} µm (2·max|d|, \
+the compensated path's own offset included), range {:.2} µm, over {} of {} plan points cut. \
+Without compensation (n·e as formats.md defines it) it would be {:.2} µm{}.",
+            report.profile_with_path_um,
+            report.range_with_path_um,
+            report.points_cut,
+            report.points_total,
+            report.profile_um,
+            report
+                .profile_u_um
+                .map_or(String::new(), |u| format!(" ± {u:.2}"))
+        ));
+    } else {
+        page.paragraph(&format!(
+            "Predicted profile error {:.2} µm (2·max|d|), range {:.2} µm, over {} of {} plan points cut.",
+            report.profile_um, report.range_um, report.points_cut, report.points_total
+        ));
+    }
     let cut: Vec<_> = report.points.iter().filter(|p| p.cut).collect();
     if !cut.is_empty() {
         page.figure(
             &deviation_map(report),
-            "Predicted deviation n·e over the part (µm; red: material left, blue: cut too deep).",
+            if c {
+                "What the part will measure, n·e + n·(c − p), over the part (µm; red: material left, blue: cut too deep)."
+            } else {
+                "Predicted deviation n·e over the part (µm; red: material left, blue: cut too deep)."
+            },
         );
         page.figure(
             &vector_map(report),
             "Volumetric error vectors in the XY plane, magnified.",
         );
-        let devs: Vec<f64> = cut.iter().filter_map(|p| p.deviation_um).collect();
+        let devs: Vec<f64> = cut.iter().filter_map(|p| p.shown_um(c)).collect();
         page.figure(
             &histogram(&devs, 24, "Predicted deviations", "deviation (µm)"),
             "Distribution of predicted deviations.",
         );
         let mut worst: Vec<_> = cut.clone();
         worst.sort_by(|a, b| {
-            b.deviation_um
+            b.shown_um(c)
                 .unwrap_or(0.0)
                 .abs()
-                .total_cmp(&a.deviation_um.unwrap_or(0.0).abs())
+                .total_cmp(&a.shown_um(c).unwrap_or(0.0).abs())
         });
         page.heading("Largest predicted deviations");
         let rows: Vec<Vec<String>> = worst
@@ -40,7 +62,7 @@ pub fn render(report: &PredictReport, title: &str) -> String {
             .map(|p| {
                 vec![
                     p.id.clone(),
-                    format!("{:.3}", p.deviation_um.unwrap_or(0.0)),
+                    format!("{:.3}", p.shown_um(c).unwrap_or(0.0)),
                     p.line.map_or("-".into(), |l| l.to_string()),
                     format!("{:.2}, {:.2}, {:.2}", p.point[0], p.point[1], p.point[2]),
                 ]
@@ -87,15 +109,23 @@ fn part_chart(report: &PredictReport, title: &str) -> Chart {
 }
 
 fn deviation_map(report: &PredictReport) -> String {
-    let mut chart = part_chart(report, "Predicted deviation (µm)");
+    let c = report.compensated;
+    let mut chart = part_chart(
+        report,
+        if c {
+            "What the part will measure (µm)"
+        } else {
+            "Predicted deviation (µm)"
+        },
+    );
     let m = report
         .points
         .iter()
-        .filter_map(|p| p.deviation_um)
+        .filter_map(|p| p.shown_um(c))
         .fold(0.0f64, |m, d| m.max(d.abs()))
         .max(1e-6);
     for p in &report.points {
-        match p.deviation_um {
+        match p.shown_um(c) {
             Some(d) if p.cut => {
                 let label = format!("{}: {:.3} µm (line {})", p.id, d, p.line.unwrap_or(0));
                 chart.point(

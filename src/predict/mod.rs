@@ -83,4 +83,19 @@ pub struct PredictReport {
     /// That stamp, when there is one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stamp: Option<crate::compensate::stamp::Stamp>,
+    /// The warnings of the run (`crate::warnings`; the command fills it).
+    pub warnings: Vec<crate::warnings::WarningGroup>,
+}
+
+impl PredictedPoint {
+    /// The deviation a report shows first: what the part would measure,
+    /// `deviation_with_path_um`, for a compensated program; `deviation_um`
+    /// (formats.md) otherwise.
+    pub fn shown_um(&self, compensated: bool) -> Option<f64> {
+        if compensated {
+            self.deviation_with_path_um
+        } else {
+            self.deviation_um
+        }
+    }
 }

@@ -122,6 +122,7 @@ pub fn predict_plan(
         seconds: started.elapsed().as_secs_f64(),
         compensated: false,
         stamp: None,
+        warnings: Vec::new(),
     })
 }
 

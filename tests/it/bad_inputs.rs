@@ -53,6 +53,9 @@ const MEASURED: &str =
 const MODEL: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/bad.json";
 const TOOLS: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --tools {d}/bad.tbl";
+const OFFSETS: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G54=0,0,0 --offset G54=1,0,0";
+const FOLLOWUP: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --followup {d}/bad.csv";
+const SIMULATE: &str = "simulate {d}/ok.toml {d}/saddle.nc {d}/plan.csv -o {d}/out.csv --model {d}/fit.json --effect tool_wear:w=1e308";
 const VAR: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --var {d}/bad.var";
 
@@ -95,6 +98,16 @@ fn nan_at(row: &str, k: usize) -> String {
 
 fn plan_rows(rows: &[&str]) -> Vec<u8> {
     let mut s = String::from("id,x,y,z,i,j,k\n");
+    for r in rows {
+        s.push_str(r);
+        s.push('\n');
+    }
+    s.into_bytes()
+}
+
+/// A follow-up measurement: the header and `rows`.
+fn followup_rows(rows: &[&str]) -> Vec<u8> {
+    let mut s = String::from("id,x,y,z,i,j,k,a,c,t_min,mx,my,mz\n");
     for r in rows {
         s.push_str(r);
         s.push('\n');
@@ -220,6 +233,25 @@ fn cases() -> Vec<Case> {
             COMPENSATE,
             1,
             &["Attempt to divide by zero", "{d}/bad.nc:3:5"],
+        ),
+        case(
+            "program",
+            "a byte order mark at the start (LinuxCNC: Bad character)",
+            vec![(
+                "bad.nc",
+                [b"\xEF\xBB\xBF".as_slice(), PROGRAM.as_bytes()].concat(),
+            )],
+            COMPENSATE,
+            1,
+            &["Bad character '\\357' used", "{d}/bad.nc:1:1"],
+        ),
+        case(
+            "program",
+            "assigning a read-only parameter (`#<_vmajor>=1`)",
+            p("%\n#<_vmajor>=1\nG21 G90 G94\nG1 X5 Y5 Z2 A12 C30 F500\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["#<_vmajor> is read-only", "{d}/bad.nc:2:"],
         ),
         case(
             "program",
@@ -376,6 +408,39 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "plan (CSV)",
+            "a normal whose length overflows (1e300,1e300,1e300)",
+            vec![("bad.csv", plan_rows(&["1,0,0,1,1e300,1e300,1e300"]))],
+            PLAN,
+            1,
+            &[
+                "{d}/bad.csv:2: column `i,j,k`: expected a unit surface normal",
+                "overflows",
+            ],
+        ),
+        case(
+            "plan (CSV)",
+            "no move reaches it",
+            vec![(
+                "bad.csv",
+                plan_rows(&["1,500,0,1,0,0,1", "2,0,500,1,0,0,1"]),
+            )],
+            PLAN,
+            1,
+            &["{d}/bad.csv: none of its 2 plan points is cut by {d}/ok.nc"],
+        ),
+        case(
+            "plan (CSV)",
+            "a byte order mark before the header (accepted)",
+            vec![(
+                "bad.csv",
+                [b"\xEF\xBB\xBF".as_slice(), &plan_rows(&["1,0,0,1,0,0,1"])].concat(),
+            )],
+            PLAN,
+            0,
+            &["over 1 of 1 plan points"],
+        ),
+        case(
+            "plan (CSV)",
             "empty file",
             vec![("bad.csv", vec![])],
             PLAN,
@@ -405,7 +470,55 @@ fn cases() -> Vec<Case> {
             vec![("bad.csv", measured(&[], 1))],
             MEASURED,
             1,
-            &["{d}/bad.csv: 1 measured points were cut", "at least 20"],
+            &["{d}/bad.csv: 1 measured point was cut", "at least 20"],
+        ),
+        case(
+            "follow-up measurement (CSV)",
+            "a probe before the program started (t_min = -5)",
+            vec![
+                ("ok.csv", measured(&[], 30)),
+                (
+                    "bad.csv",
+                    followup_rows(&["F01,1,1,1,0,0,1,12,30,-5,1,1,1.001"]),
+                ),
+            ],
+            FOLLOWUP,
+            1,
+            &[
+                "{d}/bad.csv:2: column `t_min`: expected minutes since the part program's start (≥ 0), found -5",
+            ],
+        ),
+        case(
+            "follow-up measurement (CSV)",
+            "a probed point far from its plan point (my = 1e6)",
+            vec![
+                ("ok.csv", measured(&[], 30)),
+                (
+                    "bad.csv",
+                    followup_rows(&["F01,1,1,1,0,0,1,12,30,0.5,1,1e6,1.001"]),
+                ),
+            ],
+            FOLLOWUP,
+            1,
+            &["{d}/bad.csv:2: column `mx,my,mz`", "from the plan point"],
+        ),
+        // Effects.
+        case(
+            "effect (command line)",
+            "a parameter whose displacement overflows (tool_wear:w=1e308)",
+            vec![
+                (
+                    "saddle.nc",
+                    std::fs::read(root().join("samples/saddle.nc")).unwrap(),
+                ),
+                (
+                    "plan.csv",
+                    std::fs::read(root().join("samples/saddle-plan.csv")).unwrap(),
+                ),
+            ],
+            SIMULATE,
+            1,
+            &["the simulated measured point (the effects' displacement overflows"],
         ),
         // Fitted-model files.
         case(
@@ -435,6 +548,25 @@ fn cases() -> Vec<Case> {
                 "refit with volcomp fit",
             ],
         ),
+        case(
+            "model file (JSON)",
+            "a curve edited after the fit",
+            vec![("bad.json", b"EDITED".to_vec())],
+            MODEL,
+            1,
+            &["{d}/bad.json: EXX: its curve was changed after the fit"],
+        ),
+        case(
+            "model file (JSON)",
+            "a curve edited and its hash removed",
+            vec![("bad.json", b"EDITED-NO-HASH".to_vec())],
+            MODEL,
+            1,
+            &[
+                "{d}/bad.json: EXX: its curve departs from the table by up to",
+                "the file was edited",
+            ],
+        ),
         // Tool tables.
         case(
             "tool table",
@@ -459,6 +591,23 @@ fn cases() -> Vec<Case> {
             TOOLS,
             1,
             &["{d}/bad.tbl:1:1: `garbage`: not a tool table word"],
+        ),
+        case(
+            "tool table",
+            "a word given twice (`Z100 Z200`)",
+            vec![("bad.tbl", text("T1 Z100 Z200\n"))],
+            TOOLS,
+            1,
+            &["{d}/bad.tbl:1:9: `Z200`: Z is given twice on the line (first at column 4)"],
+        ),
+        // The command line.
+        case(
+            "work offsets (command line)",
+            "one system given twice (`--offset G54=… --offset G54=…`)",
+            vec![],
+            OFFSETS,
+            2,
+            &["--offset `G54=1,0,0`: that work coordinate system is already given"],
         ),
         // Parameter files.
         case(
@@ -513,6 +662,22 @@ fn stale_model(dir: &Path) -> Vec<u8> {
     serde_json::to_vec(&v).unwrap()
 }
 
+/// The model file with a control point of EXX moved by 499 µm (issue 23:
+/// such a file compensated with 499 µm corrections); its curve hash kept, or
+/// removed as in files written before it.
+fn edited_model(dir: &Path, keep_hash: bool) -> Vec<u8> {
+    let fit = std::fs::read_to_string(dir.join("fit.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&fit).unwrap();
+    let p = &mut v["parameters"][0];
+    assert_eq!(p["parameter"], "EXX");
+    let y = p["points"][3][1].as_f64().unwrap();
+    p["points"][3][1] = serde_json::json!(y + 499.0);
+    if !keep_hash {
+        p.as_object_mut().unwrap().remove("curve_hash");
+    }
+    serde_json::to_vec(&v).unwrap()
+}
+
 #[test]
 fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
     let dir = scratch();
@@ -520,10 +685,11 @@ fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
     let mut rows = Vec::new();
     for c in cases() {
         for (name, bytes) in &c.files {
-            let bytes = if bytes == b"STALE" {
-                stale_model(dir.path())
-            } else {
-                bytes.clone()
+            let bytes = match bytes.as_slice() {
+                b"STALE" => stale_model(dir.path()),
+                b"EDITED" => edited_model(dir.path(), true),
+                b"EDITED-NO-HASH" => edited_model(dir.path(), false),
+                _ => bytes.clone(),
             };
             std::fs::write(dir.path().join(name), bytes).unwrap();
         }
@@ -548,7 +714,9 @@ fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
             .filter(|n| n.starts_with("out.") || n.contains(".tmp"))
             .collect();
         if c.code == 0 {
-            assert_eq!(outputs, vec!["out.nc".to_string()], "{label}");
+            // The command's one output, whole.
+            assert_eq!(outputs.len(), 1, "{label}: {outputs:?}");
+            assert!(!outputs[0].contains(".tmp"), "{label}: {outputs:?}");
         } else {
             assert!(outputs.is_empty(), "{label}: left {outputs:?}");
         }

@@ -978,7 +978,11 @@ mod cli {
             .map(String::from)
             .collect();
         let mut fields: Vec<String> = lines[1].split(',').map(String::from).collect();
-        fields[1] = format!("{}", fields[1].parse::<f64>().unwrap() + 7.0);
+        // The plan point and the probed point moved together (a probe of
+        // another point, not a reading far off its point).
+        for k in [1, 10] {
+            fields[k] = format!("{}", fields[k].parse::<f64>().unwrap() + 7.0);
+        }
         lines[1] = fields.join(",");
         std::fs::write(&stranger, lines.join("\n") + "\n").unwrap();
         let report3 = dir.path().join("diag3.json");

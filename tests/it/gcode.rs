@@ -58,12 +58,15 @@ fn crlf_and_missing_final_newline_are_remembered() {
     assert_eq!(blocks[1].offset, 7);
 }
 
+/// Issue 23: LinuxCNC refuses a program that starts with a byte order mark
+/// (rs274: "Bad character '\357' used"), and so does volcomp, at 1:1.
 #[test]
-fn a_byte_order_mark_is_kept_and_ignored() {
-    let text = "\u{feff}%\nG0 X1\n";
-    let blocks = parse_program(text).unwrap();
-    assert!(blocks[0].percent);
-    assert_eq!(print_program(&blocks), text.as_bytes());
+fn a_byte_order_mark_is_refused_as_linuxcnc_refuses_it() {
+    let e = parse_program("\u{feff}%\nG0 X1\n").unwrap_err();
+    assert_eq!((e.line, e.column), (1, 1));
+    assert!(e.to_string().contains("Bad character '\\357' used"), "{e}");
+    // Elsewhere than at the start of the file it is an unexpected character.
+    assert!(parse_program("%\nG0 X1\n\u{feff}G0 X2\n").is_err());
 }
 
 #[test]

@@ -52,20 +52,22 @@ fn compensated_program_is_stamped_and_refused_a_second_time() {
     assert_success(&out);
     let text = std::fs::read_to_string(&out_path).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    // After the `%` and `O` lines, nine comment lines (the ninth: the tool
-    // axis was corrected too, the default), then the program.
+    // After the `%` and `O` lines, ten comment lines (the tools of the
+    // machine file's table; the last: the tool axis was corrected too, the
+    // default), then the program.
     assert_eq!(lines[0], "%");
     assert!(lines[1].starts_with("O2016 "));
     assert!(
-        lines[2..11]
+        lines[2..12]
             .iter()
             .all(|l| l.starts_with(PREFIX) && l.ends_with(')'))
     );
-    assert_eq!(lines[10], "(volcomp-stamp corrected: tip and tool axis)");
-    assert!(!lines[11].starts_with(PREFIX));
+    assert_eq!(lines[7], "(volcomp-stamp tools-mm: T1=100 T2=60 T3=80)");
+    assert_eq!(lines[11], "(volcomp-stamp corrected: tip and tool axis)");
+    assert!(!lines[12].starts_with(PREFIX));
     let original_lines: Vec<&str> = original.lines().collect();
-    assert_eq!(lines[11], original_lines[2]);
-    // Nine stamp lines, plus the blocks the tolerance split off.
+    assert_eq!(lines[12], original_lines[2]);
+    // Ten stamp lines, plus the blocks the tolerance split off.
     let stdout = String::from_utf8_lossy(&out.stdout);
     let added: usize = stdout
         .split("(+")
@@ -73,7 +75,7 @@ fn compensated_program_is_stamped_and_refused_a_second_time() {
         .and_then(|t| t.split_whitespace().next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no split count in {stdout}"));
-    assert_eq!(lines.len(), original_lines.len() + 9 + added);
+    assert_eq!(lines.len(), original_lines.len() + 10 + added);
     assert!(stamp_of(&text).orientation);
     let stamp = stamp_of(&text);
     assert_eq!(
@@ -81,8 +83,8 @@ fn compensated_program_is_stamped_and_refused_a_second_time() {
         format!("volcomp {}", env!("CARGO_PKG_VERSION"))
     );
     assert_eq!(stamp.machine, "ref-trt");
-    assert_eq!(stamp.tolerance_um, 0.4);
-    assert_eq!(stamp.tool_length_mm, 100.0);
+    assert_eq!(stamp.tolerance_um, Some(0.4));
+    assert_eq!(stamp.tool_length_mm, Some(100.0));
     assert_eq!(stamp.model_source, "fit cv");
     assert_eq!(stamp.model_fnv1a64.len(), 16);
     assert_eq!(
