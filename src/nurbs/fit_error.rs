@@ -31,4 +31,26 @@ pub enum FitError {
         "no feasible fit: every candidate knot vector left spans without data or made x(u) fold back"
     )]
     NoFeasibleFit,
+    #[error("{}", work_limit_message(*tolerance, *limit, *best))]
+    WorkLimit {
+        tolerance: f64,
+        /// The limit, samples × control points summed over the fits.
+        limit: u64,
+        /// The least Emax and its control points, over the counts searched
+        /// completely.
+        best: Option<(f64, usize)>,
+    },
+}
+
+fn work_limit_message(tolerance: f64, limit: u64, best: Option<(f64, usize)>) -> String {
+    format!(
+        "the tolerance {tolerance} was not met within the search's work limit ({limit} samples × \
+control points of least-squares fits){}; raise the tolerance, fix --control-points with a cheaper \
+--method (ukm, epm, lam), or use --select cv",
+        match best {
+            Some((emax, count)) =>
+                format!(": the least Emax was {emax:.4} with {count} control points"),
+            None => String::new(),
+        }
+    )
 }

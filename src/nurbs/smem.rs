@@ -191,7 +191,24 @@ pub struct FitOptions {
     /// paper's fits are not periodic).
     #[serde(default)]
     pub periodic: bool,
+    /// Most work the `Selection::Emax` search may do for one parameter, in
+    /// samples × control points summed over its least-squares fits (about
+    /// 100 ns each on one core); beyond it the fit fails with
+    /// [`FitError::WorkLimit`] instead of searching on for minutes.
+    #[serde(default = "default_work_limit")]
+    pub work_limit: u64,
 }
+
+/// Default of [`FitOptions::work_limit`]: [`DEFAULT_WORK_LIMIT`].
+fn default_work_limit() -> u64 {
+    DEFAULT_WORK_LIMIT
+}
+
+/// The default work limit of an Emax search: 1e8, about 8 s on one core of
+/// the development machine. The reference machine's 30 tables at their
+/// default tolerances need at most 2.7e7 (`volcomp fit machines/ref-trt.toml
+/// --select emax`), so a tolerance that takes more is rarely reachable.
+pub const DEFAULT_WORK_LIMIT: u64 = 100_000_000;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -209,6 +226,7 @@ impl Default for FitOptions {
             ga: GaSettings::default(),
             select: Selection::Cv,
             periodic: false,
+            work_limit: DEFAULT_WORK_LIMIT,
         }
     }
 }
@@ -586,7 +604,8 @@ pub fn fit_parameter(
     if options.select == Selection::Cv {
         return fit_cross_validated(positions, values, tolerance, options, started);
     }
-    let problem = FitProblem::new(positions, values, p, options.parameterization);
+    let problem = FitProblem::new(positions, values, p, options.parameterization)
+        .with_work_limit(options.work_limit);
     let problem = match options.method {
         KnotMethod::Ukm | KnotMethod::Epm | KnotMethod::Lam => problem,
         KnotMethod::Ga | KnotMethod::Exhaustive | KnotMethod::Best => problem.regular(),
@@ -594,7 +613,18 @@ pub fn fit_parameter(
     let mut evaluations = 0u64;
     let mut best: Option<Placed> = None;
     for count in counts {
-        let Some(placed) = place(&problem, count, options, tolerance, &mut evaluations)? else {
+        let placed = place(&problem, count, options, tolerance, &mut evaluations)?;
+        if problem.work_exhausted() {
+            // This count's search was cut short: only the complete ones count.
+            return Err(FitError::WorkLimit {
+                tolerance,
+                limit: options.work_limit,
+                best: best
+                    .as_ref()
+                    .map(|b| (b.candidate.emax, b.candidate.curve.points.len())),
+            });
+        }
+        let Some(placed) = placed else {
             continue;
         };
         let met = placed.candidate.emax <= tolerance;
