@@ -1,8 +1,8 @@
 //! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
 use super::common::{MachineArgs, ProgramArgs};
 use crate::inspection::Plan;
-use crate::io::{write_file_atomic, write_json_atomic};
-use crate::predict::{html, predict_path, predict_plan};
+use crate::io::{OutputError, write_atomic, write_file_atomic, write_json_atomic};
+use crate::predict::{PathErrors, PathReportStream, PathSummary, html, predict_plan};
 use std::path::PathBuf;
 
 const AFTER_HELP: &str = "\
@@ -44,18 +44,41 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (machine, model) = args.machine.load()?;
     let options = args.read.cut_options(&machine);
     let (program, stamp) = args.read.program_and_stamp(&args.program, Some(&machine))?;
-    let mut report = match &args.plan {
+    let (report, summary) = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;
-            predict_plan(program, &model, &plan, &options)?
+            let mut report = predict_plan(program, &model, &plan, &options)?;
+            report.compensated = stamp.is_some();
+            report.stamp = stamp;
+            if let Some(path) = &args.report {
+                write_json_atomic(path, &report)?;
+            }
+            (report, PathSummary::default())
         }
-        None => predict_path(program, &model, &options)?,
+        // Without a plan, every move end is a row: written as it is computed,
+        // never held (memory does not grow with the program).
+        None => {
+            let stream = PathReportStream::new(PathErrors::new(program, &model, &options), stamp);
+            match &args.report {
+                Some(path) => write_atomic(path, |w| -> anyhow::Result<()> {
+                    let written = serde_json::to_writer_pretty(&mut *w, &stream)
+                        .map_err(std::io::Error::from)
+                        .and_then(|()| w.write_all(b"\n"));
+                    match (stream.failure(), written) {
+                        (Some(failure), _) => Err(failure.into()),
+                        (None, Ok(())) => Ok(()),
+                        (None, Err(source)) => Err(OutputError::Write {
+                            path: path.clone(),
+                            source,
+                        }
+                        .into()),
+                    }
+                })?,
+                None => stream.drain()?,
+            }
+            (stream.report(), stream.summary())
+        }
     };
-    report.compensated = stamp.is_some();
-    report.stamp = stamp;
-    if let Some(path) = &args.report {
-        write_json_atomic(path, &report)?;
-    }
     if let Some(path) = &args.html {
         let title = format!(
             "volcomp predict: {} on {}",
@@ -114,15 +137,13 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} 
             String::new()
         }
     } else {
-        let worst = report
-            .blocks
-            .iter()
-            .max_by(|a, b| a.norm_um.total_cmp(&b.norm_um));
         format!(
             "{} motion blocks: volumetric error max {:.2} µm{}, RMS {:.2} µm\n{:.3} s",
-            report.blocks.len(),
+            summary.rows,
             report.max_error_um,
-            worst.map_or(String::new(), |b| format!(" (line {})", b.line)),
+            summary
+                .max_line
+                .map_or(String::new(), |line| format!(" (line {line})")),
             report.rms_error_um,
             report.seconds
         )
