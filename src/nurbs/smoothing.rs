@@ -152,8 +152,9 @@ struct FreeBasis {
     free: usize,
     /// The leading free coordinates that form the band.
     main: usize,
-    /// Row `a` of `T`: clamped coefficient `a` = Σ value · `f[index]`.
-    rows: Vec<Vec<(usize, f64)>>,
+    /// Row `a` of `T`: clamped coefficient `a` = Σ value · `f[index]`
+    /// (`None`: `T` is the identity).
+    rows: Option<Vec<Vec<(usize, f64)>>>,
 }
 
 impl FreeBasis {
@@ -162,7 +163,7 @@ impl FreeBasis {
             return FreeBasis {
                 free: count,
                 main: count,
-                rows: (0..count).map(|a| vec![(a, 1.0)]).collect(),
+                rows: None,
             };
         }
         seam_basis(p, knots, count).unwrap_or_else(|| {
@@ -171,14 +172,16 @@ impl FreeBasis {
             FreeBasis {
                 free: t.ncols(),
                 main: 0,
-                rows: (0..count)
-                    .map(|a| {
-                        (0..t.ncols())
-                            .filter(|&j| t[(a, j)] != 0.0)
-                            .map(|j| (j, t[(a, j)]))
-                            .collect()
-                    })
-                    .collect(),
+                rows: Some(
+                    (0..count)
+                        .map(|a| {
+                            (0..t.ncols())
+                                .filter(|&j| t[(a, j)] != 0.0)
+                                .map(|j| (j, t[(a, j)]))
+                                .collect()
+                        })
+                        .collect(),
+                ),
             }
         })
     }
@@ -187,29 +190,41 @@ impl FreeBasis {
     /// at coefficient `first`, into `out`.
     fn free_row(&self, first: usize, values: &[f64], out: &mut Vec<(usize, f64)>) {
         out.clear();
-        for (j, &v) in values.iter().enumerate() {
-            for &(i, t) in &self.rows[first + j] {
-                out.push((i, t * v));
+        match &self.rows {
+            None => out.extend(values.iter().enumerate().map(|(j, &v)| (first + j, v))),
+            Some(rows) => {
+                for (j, &v) in values.iter().enumerate() {
+                    for &(i, t) in &rows[first + j] {
+                        out.push((i, t * v));
+                    }
+                }
             }
         }
     }
 
     /// Clamped coefficients of the free ones.
     fn clamped(&self, f: &[f64]) -> Vec<f64> {
-        self.rows
-            .iter()
-            .map(|row| row.iter().map(|&(i, t)| t * f[i]).sum())
-            .collect()
+        match &self.rows {
+            None => f.to_vec(),
+            Some(rows) => rows
+                .iter()
+                .map(|row| row.iter().map(|&(i, t)| t * f[i]).sum())
+                .collect(),
+        }
     }
 
     /// `(−1)^a` for each free coordinate's clamped coefficient `a` where it
     /// enters alone (the most oscillating vector: a start for the largest
     /// eigenvalue of the penalty).
     fn alternating(&self) -> Vec<f64> {
+        let sign = |a: usize| if a % 2 == 0 { 1.0 } else { -1.0 };
+        let Some(rows) = &self.rows else {
+            return (0..self.free).map(sign).collect();
+        };
         let mut v = vec![0.0; self.free];
-        for (a, row) in self.rows.iter().enumerate() {
+        for (a, row) in rows.iter().enumerate() {
             if let [(i, _)] = row[..] {
-                v[i] = if a % 2 == 0 { 1.0 } else { -1.0 };
+                v[i] = sign(a);
             }
         }
         if v.iter().all(|x| *x == 0.0) {
@@ -258,7 +273,7 @@ fn seam_basis(p: usize, knots: &[f64], count: usize) -> Option<FreeBasis> {
         return None;
     }
     let main = count - 2 * r;
-    let rows = (0..count)
+    let rows: Vec<Vec<(usize, f64)>> = (0..count)
         .map(|a| {
             if a < r {
                 vec![(main + a, 1.0)]
@@ -274,7 +289,7 @@ fn seam_basis(p: usize, knots: &[f64], count: usize) -> Option<FreeBasis> {
     Some(FreeBasis {
         free: count - r,
         main,
-        rows,
+        rows: Some(rows),
     })
 }
 
@@ -439,6 +454,13 @@ const LANES: usize = 4;
 /// of half a decade shrinks to `0.5 · 0.4¹⁶ ≈ 2e-7` decades, as 30 steps of
 /// the golden section do (`0.5 · 0.618³⁰ ≈ 3e-7`).
 const REFINE_STEPS: usize = 16;
+
+/// Steps every candidate gets before the winner of a search is chosen; the
+/// winner then gets the rest of [`REFINE_STEPS`]. After 6 steps the bracket
+/// is `2e-3` decades wide, where GCV is flat to about `1e-5` of itself, far
+/// below the differences that choose between counts (the winner's `λ` is the
+/// same as with all steps for every candidate).
+const COARSE_STEPS: usize = 6;
 
 impl<'a> Penalised<'a> {
     fn new(design: &'a Design, penalty: BandBorder) -> Penalised<'a> {
@@ -639,14 +661,37 @@ impl Score {
     }
 }
 
-/// The `λ` minimising GCV for one count: a log grid, then golden-section
-/// refinement around the best grid point. `λ = 0` (plain least squares) is a
-/// candidate. Returns `(score, λ, evaluations)`.
+/// Where the search of `λ` for one count stands: the best point so far and
+/// its score, and (when refined with lanes) the bracket around it still to
+/// narrow.
+#[derive(Clone, Copy, Debug)]
+struct LambdaSearch {
+    score: f64,
+    /// `log₁₀(λ · top)`; `−∞` for `λ = 0`.
+    log_l: f64,
+    top: f64,
+    bracket: Option<(f64, f64)>,
+}
+
+impl LambdaSearch {
+    fn lambda(&self) -> f64 {
+        if self.log_l.is_finite() {
+            10f64.powf(self.log_l) / self.top
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The `λ` minimising GCV for one count: a log grid, then a refinement around
+/// the best grid point (`coarse` steps of [`refine`] with lanes, else the
+/// golden section). `λ = 0` (plain least squares) is a candidate. Returns the
+/// search and the evaluations it made.
 ///
 /// `tr H` falls as `λ` grows, so the grid is walked from the top down and
 /// left at its first point over the dof limit: every smaller `λ` is over it
 /// too (at `λ = 0`, `tr H` is the number of free coefficients).
-fn best_lambda(s: &mut Penalised<'_>, sc: Score) -> (f64, f64, u64) {
+fn best_lambda(s: &mut Penalised<'_>, sc: Score, coarse: usize) -> (LambdaSearch, u64) {
     let top = s.top;
     let mut evaluations = 0;
     let zero = if s.design.basis.free as f64 > sc.max_dof * sc.n {
@@ -655,11 +700,17 @@ fn best_lambda(s: &mut Penalised<'_>, sc: Score) -> (f64, f64, u64) {
         evaluations += 1;
         sc.at(s, 0.0).0
     };
+    let mut best = LambdaSearch {
+        score: zero,
+        log_l: f64::NEG_INFINITY,
+        top,
+        bracket: None,
+    };
     if !(top > 0.0 && top.is_finite()) {
-        return (zero, 0.0, evaluations);
+        return (best, evaluations);
     }
     // λ·top spans 1e-4 … 1e12: from no smoothing to the penalty's null space.
-    let mut best = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut grid_best = (f64::INFINITY, f64::NEG_INFINITY);
     let (lo, hi, steps) = (-4.0, 12.0, 64);
     let step = (hi - lo) / steps as f64;
     let grid: Vec<f64> = (0..=steps).rev().map(|i| lo + step * i as f64).collect();
@@ -671,70 +722,76 @@ fn best_lambda(s: &mut Penalised<'_>, sc: Score) -> (f64, f64, u64) {
                 break 'grid;
             }
             // The smallest λ wins a tie, λ = 0 above all.
-            if g.is_finite() && g <= best.0 {
-                best = (g, l);
+            if g.is_finite() && g <= grid_best.0 {
+                grid_best = (g, l);
             }
         }
     }
-    if zero <= best.0 && zero.is_finite() {
-        best = (zero, f64::NEG_INFINITY);
+    if !(zero <= grid_best.0 && zero.is_finite()) && grid_best.1.is_finite() {
+        best.score = grid_best.0;
+        best.log_l = grid_best.1;
     }
-    if best.1.is_finite() && s.lanes.is_some() {
-        // Refine the bracket around the best grid point: LANES points inside
-        // it at once, then the bracket of the best of them (2/(LANES + 1) of
-        // its width), to the precision of the golden section below.
-        let (mut a, mut b) = (best.1 - step, best.1 + step);
-        for _ in 0..REFINE_STEPS {
-            let h = (b - a) / (LANES + 1) as f64;
-            let points: Vec<f64> = (1..=LANES).map(|j| a + h * j as f64).collect();
-            let lambdas: Vec<f64> = points.iter().map(|l| 10f64.powf(*l) / top).collect();
-            evaluations += LANES as u64;
-            let scores = s.scores(&lambdas, sc);
-            let (j, g) = scores
-                .iter()
-                .enumerate()
-                .fold(
-                    (0, f64::INFINITY),
-                    |m, (j, &(g, _))| if g < m.1 { (j, g) } else { m },
-                );
-            if g < best.0 {
-                best = (g, points[j]);
-            }
-            (a, b) = (points[j] - h, points[j] + h);
+    if !best.log_l.is_finite() {
+        return (best, evaluations);
+    }
+    if s.lanes.is_some() {
+        best.bracket = Some((best.log_l - step, best.log_l + step));
+        evaluations += refine(s, sc, &mut best, coarse);
+        return (best, evaluations);
+    }
+    // Golden section, one new point per step.
+    let mut score = |log_l: f64| sc.at(s, 10f64.powf(log_l) / top).0;
+    let (mut a, mut b) = (best.log_l - step, best.log_l + step);
+    let phi = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - phi * (b - a), a + phi * (b - a));
+    let (mut fc, mut fd) = (score(c), score(d));
+    evaluations += 2;
+    for _ in 0..30 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - phi * (b - a);
+            fc = score(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + phi * (b - a);
+            fd = score(d);
         }
-    } else if best.1.is_finite() {
-        // Golden section, one new point per step.
-        let mut score = |log_l: f64| sc.at(s, 10f64.powf(log_l) / top).0;
-        let (mut a, mut b) = (best.1 - step, best.1 + step);
-        let phi = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut c, mut d) = (b - phi * (b - a), a + phi * (b - a));
-        let (mut fc, mut fd) = (score(c), score(d));
-        evaluations += 2;
-        for _ in 0..30 {
-            if fc < fd {
-                (b, d, fd) = (d, c, fc);
-                c = b - phi * (b - a);
-                fc = score(c);
-            } else {
-                (a, c, fc) = (c, d, fd);
-                d = a + phi * (b - a);
-                fd = score(d);
-            }
-            evaluations += 1;
-        }
-        let l = 0.5 * (a + b);
-        let g = score(l);
         evaluations += 1;
-        if g < best.0 {
-            best = (g, l);
-        }
     }
-    let lambda = if best.1.is_finite() {
-        10f64.powf(best.1) / top
-    } else {
-        0.0
+    let l = 0.5 * (a + b);
+    let g = score(l);
+    evaluations += 1;
+    if g < best.score {
+        best.score = g;
+        best.log_l = l;
+    }
+    (best, evaluations)
+}
+
+/// Narrow `search`'s bracket by `steps`: [`LANES`] points inside it at once,
+/// then the bracket of the best of them (`2/(LANES + 1)` of its width); the
+/// best point seen is kept. Returns the evaluations.
+fn refine(s: &mut Penalised<'_>, sc: Score, search: &mut LambdaSearch, steps: usize) -> u64 {
+    let Some((mut a, mut b)) = search.bracket else {
+        return 0;
     };
-    (best.0, lambda, evaluations)
+    let top = search.top;
+    for _ in 0..steps {
+        let h = (b - a) / (LANES + 1) as f64;
+        let points: Vec<f64> = (1..=LANES).map(|j| a + h * j as f64).collect();
+        let lambdas: Vec<f64> = points.iter().map(|l| 10f64.powf(*l) / top).collect();
+        let (j, g) = s.scores(&lambdas, sc).iter().enumerate().fold(
+            (0, f64::INFINITY),
+            |m, (j, &(g, _))| if g < m.1 { (j, g) } else { m },
+        );
+        if g < search.score {
+            search.score = g;
+            search.log_l = points[j];
+        }
+        (a, b) = (points[j] - h, points[j] + h);
+    }
+    search.bracket = Some((a, b));
+    (steps * LANES) as u64
 }
 
 /// The counts of control points tried: every count up to 16, then a
@@ -752,13 +809,18 @@ fn counts(p: usize, cap: usize) -> Vec<usize> {
     out
 }
 
-/// The winner of one search over `(k, q, λ)`.
+/// A candidate of one search over `(k, q, λ)`.
 #[derive(Clone, Copy, Debug)]
 struct Choice {
-    score: f64,
-    lambda: f64,
+    search: LambdaSearch,
     q: usize,
     count: usize,
+}
+
+impl Choice {
+    fn score(&self) -> f64 {
+        self.search.score
+    }
 }
 
 /// Fit one parameter (positions strictly increasing, values finite, at least
@@ -810,52 +872,67 @@ pub fn fit_smoothing(
         Some(c) => vec![c.clamp(p + 1, n)],
         None => counts(p, cap),
     };
-    let design = |count: usize| Design::new(&u, values, p, count, options.periodic);
+    // Every count's normal equations, once for both searches: O(N) in all.
+    let designs: Vec<Design> = tried
+        .par_iter()
+        .filter_map(|&count| Design::new(&u, values, p, count, options.periodic))
+        .collect();
     // One search over (k, q, λ) with the penalty density `weight` (counts in
-    // parallel); only the winner's parameters are kept, so memory stays O(N).
+    // parallel); only the winner's parameters are kept.
     let pass = |weight: &(dyn Fn(usize, f64) -> f64 + Sync)| -> (Option<Choice>, u64) {
-        let per_count: Vec<(Vec<Choice>, u64)> = tried
+        let per_count: Vec<(Vec<Choice>, u64)> = designs
             .par_iter()
-            .map(|&count| {
+            .map(|d| {
                 let mut found = Vec::new();
                 let mut evaluations = 0;
-                let Some(d) = design(count) else {
-                    return (found, evaluations);
-                };
                 for (penalty, &q) in d.penalties(p, &orders, weight).into_iter().zip(&orders) {
-                    let mut s = Penalised::new(&d, penalty);
-                    let (score, lambda, e) = best_lambda(&mut s, sc);
+                    let mut s = Penalised::new(d, penalty);
+                    let (search, e) = best_lambda(&mut s, sc, COARSE_STEPS);
                     evaluations += e;
-                    if score.is_finite() {
+                    if search.score.is_finite() {
                         found.push(Choice {
-                            score,
-                            lambda,
+                            search,
                             q,
-                            count,
+                            count: d.count,
                         });
                     }
                 }
                 (found, evaluations)
             })
             .collect();
-        let evaluations = per_count.iter().map(|c| c.1).sum();
+        let mut evaluations = per_count.iter().map(|c| c.1).sum();
         let all: Vec<Choice> = per_count.into_iter().flat_map(|c| c.0).collect();
-        let top = all.iter().map(|c| c.score).fold(f64::INFINITY, f64::min);
+        let top = all.iter().map(Choice::score).fold(f64::INFINITY, f64::min);
         // Prefer fewer control points on (near) ties: same curve, less to store.
-        let chosen = all
+        let mut chosen = all
             .into_iter()
-            .filter(|c| c.score <= top * (1.0 + options.compact))
-            .min_by(|a, b| a.count.cmp(&b.count).then(a.score.total_cmp(&b.score)));
+            .filter(|c| c.score() <= top * (1.0 + options.compact))
+            .min_by(|a, b| a.count.cmp(&b.count).then(a.score().total_cmp(&b.score())));
+        // The winner's λ to full precision.
+        if let Some(c) = &mut chosen {
+            if let Some(d) = designs.iter().find(|d| d.count == c.count) {
+                let mut s = Penalised::new(d, d.penalty(p, c.q, weight));
+                evaluations += refine(&mut s, sc, &mut c.search, REFINE_STEPS - COARSE_STEPS);
+            }
+        }
         (chosen, evaluations)
+    };
+    let design = |count: usize| {
+        designs
+            .iter()
+            .find(|d| d.count == count)
+            .ok_or(FitError::NoFeasibleFit)
     };
     let (first, mut evaluations) = pass(&|_, _| 1.0);
     let first = first.ok_or(FitError::NoFeasibleFit)?;
     // The adaptive penalty, weighted by the first fit's own derivatives: kept
     // when it scores better.
     let (chosen, weight) = if options.adaptive_penalty > 0.0 {
-        let d = design(first.count).ok_or(FitError::NoFeasibleFit)?;
-        let mut s = Penalised::new(&d, d.penalty(p, first.q, &|_, _| 1.0));
-        let c = s.solve(first.lambda).ok_or(FitError::NoFeasibleFit)?;
+        let d = design(first.count)?;
+        let mut s = Penalised::new(d, d.penalty(p, first.q, &|_, _| 1.0));
+        let c = s
+            .solve(first.search.lambda())
+            .ok_or(FitError::NoFeasibleFit)?;
         let weight = PenaltyWeight::new(
             d.basis.clamped(&c),
             d.knots.clone(),
@@ -865,19 +942,19 @@ pub fn fit_smoothing(
         let (adaptive, e) = pass(&|order, t| weight.at(order, t));
         evaluations += e;
         match adaptive {
-            Some(adaptive) if adaptive.score < first.score => (adaptive, Some(weight)),
+            Some(adaptive) if adaptive.score() < first.score() => (adaptive, Some(weight)),
             _ => (first, None),
         }
     } else {
         (first, None)
     };
-    let (lambda, q) = (chosen.lambda, chosen.q);
-    let d = design(chosen.count).ok_or(FitError::NoFeasibleFit)?;
+    let (lambda, q) = (chosen.search.lambda(), chosen.q);
+    let d = design(chosen.count)?;
     let penalty = match &weight {
         Some(w) => d.penalty(p, q, &|order, t| w.at(order, t)),
         None => d.penalty(p, q, &|_, _| 1.0),
     };
-    let mut s = Penalised::new(&d, penalty);
+    let mut s = Penalised::new(d, penalty);
     // (BᵀB + λP)⁻¹ on the pattern (left in s.inverse) gives the covariance
     // of every sample's fitted value.
     let (free, rss, dof) = s.fit(lambda).ok_or(FitError::NoFeasibleFit)?;
