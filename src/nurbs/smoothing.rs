@@ -430,7 +430,7 @@ impl Design {
     }
 }
 
-/// Largest `λ` in iterations of the penalty's scale estimate.
+/// Most steps of the power iteration that estimates the penalty's scale.
 const SCALE_ITERATIONS: usize = 20;
 
 /// One count with one penalty: the fit at any `λ` in `O(k)` (banded `LDLᵀ` of
