@@ -199,25 +199,22 @@ impl Entry {
             && self.fit == fit_key(fit)
     }
 
-    /// The tables of `machine` that the cached text does not reproduce exactly
-    /// (or that are missing from the cache, or extra in it).
+    /// The tables of `machine` that the cached text of the same axis does not
+    /// reproduce exactly (or that are missing from the cache, or extra in it).
+    /// Paths are not compared: the machine file is the same, and a table
+    /// reached through another relative path is the same table.
     fn changed_tables(&self, machine: &Machine) -> Vec<PathBuf> {
         let mut changed = Vec::new();
         let loaded: Vec<&ErrorTable> = machine.tables.iter().flatten().collect();
+        let axis = |t: &ErrorTable| t.axis.letter().to_string();
         for table in &loaded {
-            let cached = self
-                .tables
-                .iter()
-                .find(|c| c.axis == table.axis.letter().to_string() && c.path == table.path);
+            let cached = self.tables.iter().find(|c| c.axis == axis(table));
             if !cached.is_some_and(|c| same_table(table, &c.text)) {
                 changed.push(table.path.clone());
             }
         }
         for c in &self.tables {
-            if !loaded
-                .iter()
-                .any(|t| c.axis == t.axis.letter().to_string() && c.path == t.path)
-            {
+            if !loaded.iter().any(|t| c.axis == axis(t)) {
                 changed.push(c.path.clone());
             }
         }

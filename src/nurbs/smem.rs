@@ -195,7 +195,8 @@ pub struct FitOptions {
     /// samples × control points summed over its least-squares fits (about
     /// 80 ns each on one core); beyond it the fit fails with
     /// [`FitError::WorkLimit`] instead of searching on for minutes. `None`:
-    /// [`default_work_limit`].
+    /// [`default_work_limit`] for the adaptive loop, no limit for a fixed
+    /// count of control points (its search is bounded by its method).
     #[serde(default)]
     pub work_limit: Option<u64>,
 }
@@ -624,9 +625,13 @@ pub fn fit_parameter(
         return fit_cross_validated(positions, values, tolerance, options, started);
     }
     let noise = smoothing::estimate_noise(positions, values);
-    let work_limit = options
-        .work_limit
-        .unwrap_or_else(|| default_work_limit(tolerance, noise));
+    // The adaptive loop is what grows without bound; a fixed count's search
+    // is bounded by its method's own settings.
+    let work_limit = match (options.work_limit, options.control_points) {
+        (Some(limit), _) => limit,
+        (None, None) => default_work_limit(tolerance, noise),
+        (None, Some(_)) => u64::MAX,
+    };
     let problem =
         FitProblem::new(positions, values, p, options.parameterization).with_work_limit(work_limit);
     let problem = match options.method {

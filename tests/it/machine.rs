@@ -451,6 +451,22 @@ mod cache {
         let fourth = error_at(&machine, Some(cache.path()));
         assert_eq!(fourth.0, third.0);
         assert!(!fourth.1.contains("cached"), "said once: {}", fourth.1);
+        // The same machine through another relative path: the same model.
+        let relative = volcomp()
+            .current_dir(dir.path().join("ref-trt"))
+            .arg("error")
+            .arg("../machine.toml")
+            .args(["--at", "-10,20,-30,15,405", "--json"])
+            .env("VOLCOMP_MODEL_CACHE", cache.path())
+            .output()
+            .expect("runs");
+        assert_success(&relative);
+        assert_eq!(String::from_utf8_lossy(&relative.stdout), fourth.0);
+        assert!(
+            !String::from_utf8_lossy(&relative.stderr).contains("cached"),
+            "{}",
+            String::from_utf8_lossy(&relative.stderr)
+        );
         // A comment changes the bytes but not the table: still the same model.
         std::fs::write(
             &x,
