@@ -5,6 +5,13 @@
 //! The tables are measured once per run (wall-clock, single fits) and printed as
 //! markdown before criterion's lookup and fit timings. `SMEM_BENCH_MAX_M=25` skips
 //! the exhaustive searches of larger grids.
+//!
+//! The default fit's cost against the table length (issue 25) is measured on
+//! tables of 1 000, 10 000 and 100 000 rows like a laser run (trend, ripple
+//! and bump, N(0, 0.3 µm) noise; `benches/long_table.py` writes the same shape
+//! for `/usr/bin/time -v volcomp fit`): once each for the printed table
+//! (`SMEM_BENCH_MAX_ROWS=10000` skips the largest; `cargo test` fits the
+//! smallest only), then by criterion at 1 000 and 10 000 rows.
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -111,6 +118,57 @@ fn table4() {
     }
 }
 
+/// A laser run of `rows` points over −200…200 mm (seeded; the shape of
+/// `benches/long_table.py`).
+fn long_table(rows: usize) -> (Vec<f64>, Vec<f64>) {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(25);
+    let noise = Normal::new(0.0, 0.3).expect("valid normal");
+    let x: Vec<f64> = (0..rows)
+        .map(|i| -200.0 + 400.0 * i as f64 / (rows - 1) as f64)
+        .collect();
+    let y = x
+        .iter()
+        .map(|&x| {
+            0.02 * x - 2e-5 * x * x
+                + 3.0 * (x / 40.0).sin()
+                + 4.0 * (-((x - 35.0) / 20.0).powi(2)).exp()
+                + noise.sample(&mut rng)
+        })
+        .collect();
+    (x, y)
+}
+
+fn scaling() {
+    // `cargo test` runs this bench once as a test: the smallest table only.
+    let benching = std::env::args().any(|a| a == "--bench");
+    let max_rows: usize = std::env::var("SMEM_BENCH_MAX_ROWS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(if benching { 100_000 } else { 1_000 });
+    println!("\n### The default fit (--select cv) against the table length\n");
+    println!("| rows | time (s) | control points | dof | noise (um) | cv (um) |");
+    println!("|---|---|---|---|---|---|");
+    for rows in [1_000usize, 10_000, 100_000] {
+        if rows > max_rows {
+            continue;
+        }
+        let (x, y) = long_table(rows);
+        let t = Instant::now();
+        let c = fit_parameter(&x, &y, ParameterKind::Length, &FitOptions::default()).expect("fit");
+        let s = c.stats();
+        println!(
+            "| {rows} | {:.3} | {} | {:.1} | {:.3} | {:.3} |",
+            t.elapsed().as_secs_f64(),
+            s.control_points,
+            s.dof,
+            s.noise,
+            s.cv_error
+        );
+    }
+}
+
 fn criterion_benches(c: &mut Criterion) {
     let (curve, _) = fit(KnotMethod::Best, None, true);
     let (x0, x1) = curve.domain();
@@ -181,9 +239,20 @@ fn criterion_benches(c: &mut Criterion) {
         b.iter(|| fit_parameter(&cx, &cy, ParameterKind::Length, &FitOptions::default()))
     });
     group.finish();
+    let mut group = c.benchmark_group("cv fit of a long table");
+    group.sample_size(10);
+    for rows in [1_000usize, 10_000] {
+        let (x, y) = long_table(rows);
+        group.throughput(Throughput::Elements(rows as u64));
+        group.bench_function(format!("{rows} rows"), |b| {
+            b.iter(|| fit_parameter(&x, &y, ParameterKind::Length, &FitOptions::default()))
+        });
+    }
+    group.finish();
 }
 
 fn main() {
+    scaling();
     table3();
     table4();
     let mut c = Criterion::default().configure_from_args();

@@ -73,10 +73,21 @@ pub struct ModelArgs {
     /// (which stays within 1e-6 µm/µrad of it and is several times faster).
     #[arg(long)]
     pub exact_lookups: bool,
+    /// Folder of the fitted-model cache: a machine's tables are fitted once and
+    /// the model reused until a table, the fit settings or volcomp change
+    /// (default: $VOLCOMP_MODEL_CACHE, else $XDG_CACHE_HOME/volcomp, else
+    /// ~/.cache/volcomp; an empty VOLCOMP_MODEL_CACHE turns the cache off).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["model", "no_model_cache"])]
+    pub model_cache: Option<PathBuf>,
+    /// Fit the tables without the model cache (it is neither read nor written).
+    #[arg(long, conflicts_with = "model")]
+    pub no_model_cache: bool,
 }
 
 impl Default for ModelArgs {
-    /// The command line's defaults: cv selection, lookups outside a table are errors.
+    /// The command line's defaults: cv selection, lookups outside a table are
+    /// errors; but no model cache, so that library callers (benches, examples)
+    /// never read or write the user's.
     fn default() -> Self {
         Self {
             extrapolate: Extrapolate::Error,
@@ -84,11 +95,38 @@ impl Default for ModelArgs {
             fit_method: None,
             model: None,
             exact_lookups: false,
+            model_cache: None,
+            no_model_cache: true,
         }
     }
 }
 
 impl ModelArgs {
+    /// The model cache to use, if any: `--model-cache`, else
+    /// `$VOLCOMP_MODEL_CACHE` (empty: none), else `$XDG_CACHE_HOME/volcomp`
+    /// (an absolute path), else `$HOME/.cache/volcomp`; none with
+    /// `--no-model-cache` or `--model`.
+    pub fn cache(&self) -> Option<crate::machine::ModelCache> {
+        if self.no_model_cache || self.model.is_some() {
+            return None;
+        }
+        if let Some(dir) = &self.model_cache {
+            return Some(crate::machine::ModelCache::new(dir));
+        }
+        let env = |name: &str| std::env::var_os(name);
+        let dir = match env("VOLCOMP_MODEL_CACHE") {
+            Some(dir) if dir.is_empty() => return None,
+            Some(dir) => PathBuf::from(dir),
+            None => match env("XDG_CACHE_HOME").map(PathBuf::from) {
+                Some(dir) if dir.is_absolute() => dir.join("volcomp"),
+                _ => PathBuf::from(env("HOME").filter(|h| !h.is_empty())?)
+                    .join(".cache")
+                    .join("volcomp"),
+            },
+        };
+        Some(crate::machine::ModelCache::new(dir))
+    }
+
     /// How the model is fitted, for stamps and reports: `cv`, or `emax METHOD`.
     pub fn fit_description(&self) -> String {
         match self.fit_select {
@@ -122,9 +160,29 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         },
         exact_lookups: args.exact_lookups,
     };
-    let model = match &args.model {
-        Some(file) => ErrorModel::from_model_file(&machine, file, &model_options)?,
-        None => ErrorModel::from_machine(&machine, &model_options)
+    let model = match (&args.model, args.cache()) {
+        (Some(file), _) => ErrorModel::from_model_file(&machine, file, &model_options)?,
+        (None, Some(cache)) => {
+            let (model, report) = cache
+                .load_or_fit(&machine, path, &model_options)
+                .with_context(|| format!("fitting the error tables of {}", path.display()))?;
+            if let crate::machine::CacheOutcome::TablesChanged(tables) = &report.outcome {
+                let names: Vec<String> = tables.iter().map(|t| t.display().to_string()).collect();
+                eprintln!(
+                    "note: {}: {} changed since its model was cached: refitted",
+                    machine.name,
+                    names.join(", ")
+                );
+            }
+            if let Some(e) = &report.store_error {
+                eprintln!(
+                    "note: the fitted model was not cached in {}: {e}",
+                    cache.dir().display()
+                );
+            }
+            model
+        }
+        (None, None) => ErrorModel::from_machine(&machine, &model_options)
             .with_context(|| format!("fitting the error tables of {}", path.display()))?,
     };
     let unmeasured: Vec<String> = machine
@@ -802,5 +860,8 @@ mod tests {
         assert_eq!(parsed.model, default.model);
         assert_eq!(parsed.exact_lookups, default.exact_lookups);
         assert_eq!(parsed.fit_description(), "cv");
+        // The one difference: library callers fit without the user's cache.
+        assert!(!parsed.no_model_cache && default.no_model_cache);
+        assert!(default.cache().is_none());
     }
 }

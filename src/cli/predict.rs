@@ -1,8 +1,8 @@
 //! `volcomp predict`: predicted deviations and profile error of the part a program cuts.
 use super::common::{MachineArgs, ProgramArgs};
 use crate::inspection::Plan;
-use crate::io::{write_file_atomic, write_json_atomic};
-use crate::predict::{html, predict_path, predict_plan};
+use crate::io::{OutputError, write_atomic, write_file_atomic, write_json_atomic};
+use crate::predict::{PathErrors, PathReportStream, PathSummary, html, predict_plan};
 use std::path::PathBuf;
 
 const AFTER_HELP: &str = "\
@@ -53,10 +53,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (program, stamp) = args.read.program_and_stamp(&args.program, Some(&machine))?;
     let warnings = program.warnings();
     let held_before = model.held_lookups();
-    let mut report = match &args.plan {
+    // The run's warnings with the lookups it held (added once, after the run).
+    let added = std::cell::Cell::new(false);
+    let finish_warnings = || {
+        if !added.replace(true) {
+            super::common::add_held_lookups(&warnings, model.held_lookups() - held_before);
+        }
+        warnings.groups()
+    };
+    let (mut report, summary) = match &args.plan {
         Some(plan_path) => {
             let plan = Plan::read(plan_path)?;
-            let report = predict_plan(program, &model, &plan, &options)?;
+            let mut report = predict_plan(program, &model, &plan, &options)?;
             if report.points_cut == 0 {
                 super::common::print_warnings(&warnings.groups());
                 anyhow::bail!(
@@ -67,17 +75,41 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     report.match_distance_mm
                 );
             }
-            report
+            report.warnings = finish_warnings();
+            report.compensated = stamp.is_some();
+            report.stamp = stamp;
+            if let Some(path) = &args.report {
+                write_json_atomic(path, &report)?;
+            }
+            (report, PathSummary::default())
         }
-        None => predict_path(program, &model, &options)?,
+        // Without a plan, every move end is a row: written as it is computed,
+        // never held (memory does not grow with the program); the warnings
+        // come last, once the run is over.
+        None => {
+            let stream = PathReportStream::new(PathErrors::new(program, &model, &options), stamp)
+                .with_warnings(&finish_warnings);
+            match &args.report {
+                Some(path) => write_atomic(path, |w| -> anyhow::Result<()> {
+                    let written = serde_json::to_writer_pretty(&mut *w, &stream)
+                        .map_err(std::io::Error::from)
+                        .and_then(|()| w.write_all(b"\n"));
+                    match (stream.failure(), written) {
+                        (Some(failure), _) => Err(failure.into()),
+                        (None, Ok(())) => Ok(()),
+                        (None, Err(source)) => Err(OutputError::Write {
+                            path: path.clone(),
+                            source,
+                        }
+                        .into()),
+                    }
+                })?,
+                None => stream.drain()?,
+            }
+            (stream.report(), stream.summary())
+        }
     };
-    super::common::add_held_lookups(&warnings, model.held_lookups() - held_before);
-    report.warnings = warnings.groups();
-    report.compensated = stamp.is_some();
-    report.stamp = stamp;
-    if let Some(path) = &args.report {
-        write_json_atomic(path, &report)?;
-    }
+    report.warnings = finish_warnings();
     if let Some(path) = &args.html {
         let title = format!(
             "volcomp predict: {} on {}",
@@ -151,15 +183,13 @@ volumetric error at the cutting points: max {:.2} µm, RMS {:.2} µm{}{}\n{:.3} 
             String::new()
         }
     } else {
-        let worst = report
-            .blocks
-            .iter()
-            .max_by(|a, b| a.norm_um.total_cmp(&b.norm_um));
         format!(
             "{}: volumetric error max {:.2} µm{}, RMS {:.2} µm{note}\n{:.3} s",
-            super::common::count(report.blocks.len() as u64, "motion block", "motion blocks"),
+            super::common::count(summary.rows as u64, "motion block", "motion blocks"),
             report.max_error_um,
-            worst.map_or(String::new(), |b| format!(" (line {})", b.line)),
+            summary
+                .max_line
+                .map_or(String::new(), |line| format!(" (line {line})")),
             report.rms_error_um,
             report.seconds
         )

@@ -6,6 +6,7 @@
 pub mod definition;
 pub mod error_map;
 pub mod error_model;
+pub mod model_cache;
 pub mod resampled;
 pub mod table;
 pub mod tool_models;
@@ -17,4 +18,5 @@ pub use definition::{
 pub use error_model::{
     Contribution, ErrorModel, LookupError, ModelError, ModelOptions, ModelUncertainty,
 };
+pub use model_cache::{CacheOutcome, CacheReport, ModelCache};
 pub use tool_models::ToolModels;

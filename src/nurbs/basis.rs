@@ -64,9 +64,32 @@ pub fn basis_funs(span: usize, u: f64, p: usize, knots: &[f64], out: &mut [f64])
 /// A2.3): `ders[k][j]` is the k-th derivative of `N_{span-p+j, p}(u)`; orders above
 /// `p` are zero.
 pub fn ders_basis_funs(span: usize, u: f64, p: usize, nd: usize, knots: &[f64]) -> Vec<Vec<f64>> {
-    let mut ndu = vec![vec![0.0; p + 1]; p + 1];
-    let mut left = vec![0.0; p + 1];
-    let mut right = vec![0.0; p + 1];
+    let mut out = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
+    ders_basis_funs_into(span, u, p, nd.min(MAX_DEGREE), knots, &mut out);
+    (0..=nd)
+        .map(|k| {
+            if k <= MAX_DEGREE {
+                out[k][..=p].to_vec()
+            } else {
+                vec![0.0; p + 1]
+            }
+        })
+        .collect()
+}
+
+/// [`ders_basis_funs`] without allocating: `ders[k][j]` for `k <= nd`, `j <= p`
+/// (`nd, p <= MAX_DEGREE`); the rest of `ders` is left as it was.
+pub fn ders_basis_funs_into(
+    span: usize,
+    u: f64,
+    p: usize,
+    nd: usize,
+    knots: &[f64],
+    ders: &mut [[f64; MAX_DEGREE + 1]; MAX_DEGREE + 1],
+) {
+    let mut ndu = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
+    let mut left = [0.0; MAX_DEGREE + 1];
+    let mut right = [0.0; MAX_DEGREE + 1];
     ndu[0][0] = 1.0;
     for j in 1..=p {
         left[j] = u - knots[span + 1 - j];
@@ -84,11 +107,13 @@ pub fn ders_basis_funs(span: usize, u: f64, p: usize, nd: usize, knots: &[f64]) 
         }
         ndu[j][j] = saved;
     }
-    let mut ders = vec![vec![0.0; p + 1]; nd + 1];
+    for row in ders.iter_mut().take(nd + 1) {
+        row[..=p].iter_mut().for_each(|v| *v = 0.0);
+    }
     for j in 0..=p {
         ders[0][j] = ndu[j][p];
     }
-    let mut a = vec![vec![0.0; p + 1]; 2];
+    let mut a = [[0.0; MAX_DEGREE + 1]; 2];
     for r in 0..=p {
         let (mut s1, mut s2) = (0usize, 1usize);
         a[0][0] = 1.0;
@@ -137,7 +162,6 @@ pub fn ders_basis_funs(span: usize, u: f64, p: usize, nd: usize, knots: &[f64]) 
         }
         factor *= (p - k) as f64;
     }
-    ders
 }
 
 /// One basis function `N_{i,p}(u)` by the plain Cox–de Boor recursion (eq. 2), with

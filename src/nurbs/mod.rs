@@ -7,6 +7,7 @@
 //! (eq. 13–15), `knot_grid` (the candidate grid the searches share), `genetic`
 //! (§3.2), `exhaustive` (Table 4's combination search), `optimise` (method `best`), `problem` (the shared objective), `lookup` (the
 //! inversion `position → value`), `smem` (the adaptive loop, Fig. 8).
+pub mod banded;
 pub mod basis;
 pub mod curve;
 pub mod exhaustive;

@@ -20,6 +20,7 @@ use super::knot_vector;
 use super::least_squares::fit_control_points;
 use super::lookup::CurveLookup;
 use super::parameterization::{Parameterization, parameterize};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Least advance of consecutive control points in normalised position, as a
 /// fraction of the uniform spacing `1 / (n − 1)` (the table's range is 1): a
@@ -42,6 +43,27 @@ pub struct FitProblem {
     /// spacing): 0 for the fixed knot placements, [`MIN_CONTROL_ADVANCE`] for the
     /// searches ([`FitProblem::regular`]).
     min_control_advance: f64,
+    /// Work of the least-squares fits so far and its limit
+    /// ([`FitProblem::with_work_limit`]).
+    work: Work,
+}
+
+/// Work done by a problem's fits, in samples × control points per fit (a
+/// fit costs about that much), against a limit. Shared by the threads of a
+/// search through `&FitProblem`.
+#[derive(Debug)]
+struct Work {
+    done: AtomicU64,
+    limit: u64,
+}
+
+impl Clone for Work {
+    fn clone(&self) -> Self {
+        Work {
+            done: AtomicU64::new(self.done.load(Ordering::Relaxed)),
+            limit: self.limit,
+        }
+    }
 }
 
 /// A fitted candidate and its errors at the data points (table units).
@@ -104,7 +126,30 @@ impl FitProblem {
             origin: [x0, ymin],
             scale: [sx, sy],
             min_control_advance: 0.0,
+            work: Work {
+                done: AtomicU64::new(0),
+                limit: u64::MAX,
+            },
         }
+    }
+
+    /// The same problem with a limit on the work of its fits (samples ×
+    /// control points, summed over [`FitProblem::evaluate`] calls): once it is
+    /// spent, every candidate is infeasible, so any search ends quickly, and
+    /// [`FitProblem::work_exhausted`] says why.
+    pub fn with_work_limit(mut self, limit: u64) -> FitProblem {
+        self.work.limit = limit;
+        self
+    }
+
+    /// The work limit was reached: candidates after it were not evaluated.
+    pub fn work_exhausted(&self) -> bool {
+        self.work.done.load(Ordering::Relaxed) > self.work.limit
+    }
+
+    /// Work spent so far (samples × control points over all fits).
+    pub fn work_done(&self) -> u64 {
+        self.work.done.load(Ordering::Relaxed)
     }
 
     /// The same problem for a search over knots and weights: candidates whose
@@ -125,6 +170,11 @@ impl FitProblem {
     /// (`weights.len() = interior.len() + degree + 1`).
     pub fn evaluate(&self, interior: &[f64], weights: &[f64]) -> Option<Candidate> {
         let p = self.degree;
+        let cost = (self.positions.len() * weights.len()) as u64;
+        let before = self.work.done.fetch_add(cost, Ordering::Relaxed);
+        if before.saturating_add(cost) > self.work.limit {
+            return None;
+        }
         let knots = knot_vector::clamped(p, interior, 0.0, 1.0);
         if !knot_vector::is_valid_clamped(&knots, p)
             || !knot_vector::schoenberg_whitney(&knots, p, &self.params)

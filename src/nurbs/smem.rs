@@ -191,7 +191,44 @@ pub struct FitOptions {
     /// paper's fits are not periodic).
     #[serde(default)]
     pub periodic: bool,
+    /// Most work the `Selection::Emax` search may do for one parameter, in
+    /// samples × control points summed over its least-squares fits (about
+    /// 80 ns each on one core); beyond it the fit fails with
+    /// [`FitError::WorkLimit`] instead of searching on for minutes. `None`:
+    /// [`default_work_limit`] for the adaptive loop, no limit for a fixed
+    /// count of control points (its search is bounded by its method).
+    #[serde(default)]
+    pub work_limit: Option<u64>,
 }
+
+/// The work limit of an Emax search with this tolerance on a table with this
+/// noise (difference-based, [`smoothing::estimate_noise`]):
+/// [`WORK_LIMIT_BELOW_NOISE`] when the tolerance is below [`BELOW_NOISE`] of
+/// the noise, else [`WORK_LIMIT`].
+///
+/// A tolerance below half the noise asks the curve to pass nearer every point
+/// than the measurement scatters: only near-interpolants meet it, after a
+/// search through all the counts that costs minutes per parameter, so it gets
+/// about 8 s. Above, the limit is beyond what realistic tables need: of the
+/// fidelity bench's 1 200 Emax fits (noise up to the tolerance, methods best
+/// and ga), the hardest needed 1.7e9 and 61 more than 1e8; ref-trt's 30
+/// tables at most 2.7e7.
+pub fn default_work_limit(tolerance: f64, noise: f64) -> u64 {
+    if tolerance < BELOW_NOISE * noise {
+        WORK_LIMIT_BELOW_NOISE
+    } else {
+        WORK_LIMIT
+    }
+}
+
+/// See [`default_work_limit`]: 1e8, about 8 s of one core here.
+pub const WORK_LIMIT_BELOW_NOISE: u64 = 100_000_000;
+
+/// See [`default_work_limit`]: 4e9, about 5 minutes of one core here.
+pub const WORK_LIMIT: u64 = 4_000_000_000;
+
+/// See [`default_work_limit`].
+pub const BELOW_NOISE: f64 = 0.5;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -209,6 +246,7 @@ impl Default for FitOptions {
             ga: GaSettings::default(),
             select: Selection::Cv,
             periodic: false,
+            work_limit: None,
         }
     }
 }
@@ -586,7 +624,16 @@ pub fn fit_parameter(
     if options.select == Selection::Cv {
         return fit_cross_validated(positions, values, tolerance, options, started);
     }
-    let problem = FitProblem::new(positions, values, p, options.parameterization);
+    let noise = smoothing::estimate_noise(positions, values);
+    // The adaptive loop is what grows without bound; a fixed count's search
+    // is bounded by its method's own settings.
+    let work_limit = match (options.work_limit, options.control_points) {
+        (Some(limit), _) => limit,
+        (None, None) => default_work_limit(tolerance, noise),
+        (None, Some(_)) => u64::MAX,
+    };
+    let problem =
+        FitProblem::new(positions, values, p, options.parameterization).with_work_limit(work_limit);
     let problem = match options.method {
         KnotMethod::Ukm | KnotMethod::Epm | KnotMethod::Lam => problem,
         KnotMethod::Ga | KnotMethod::Exhaustive | KnotMethod::Best => problem.regular(),
@@ -594,7 +641,20 @@ pub fn fit_parameter(
     let mut evaluations = 0u64;
     let mut best: Option<Placed> = None;
     for count in counts {
-        let Some(placed) = place(&problem, count, options, tolerance, &mut evaluations)? else {
+        let placed = place(&problem, count, options, tolerance, &mut evaluations)?;
+        if problem.work_exhausted() {
+            // This count's search was cut short: only the complete ones count.
+            return Err(FitError::WorkLimit {
+                tolerance,
+                noise,
+                below_noise: tolerance < BELOW_NOISE * noise,
+                limit: work_limit,
+                best: best
+                    .as_ref()
+                    .map(|b| (b.candidate.emax, b.candidate.curve.points.len())),
+            });
+        }
+        let Some(placed) = placed else {
             continue;
         };
         let met = placed.candidate.emax <= tolerance;
@@ -633,7 +693,7 @@ pub fn fit_parameter(
         evaluations,
         seconds: started.elapsed().as_secs_f64(),
         select: Selection::Emax,
-        noise: smoothing::estimate_noise(positions, values),
+        noise,
         dof,
         cv_error: if n - dof >= 1.0 {
             (n * rss / (n - dof).powi(2)).sqrt()

@@ -20,8 +20,21 @@
 //!
 //! Periodic tables (the C axis over a full turn): the curve's value and first
 //! two derivatives agree at both ends (0° and 360° are one point; no step at
-//! the seam). The constraint is a null space of the clamped coefficients, so the
-//! result is still one clamped NURBS on the table's range.
+//! the seam). The last three coefficients are solved from the first three, so
+//! the result is still one clamped NURBS on the table's range.
+//!
+//! Cost: linear in the table length `N` (P-spline style, Eilers & Marx 1996).
+//! Each table point touches `p + 1` consecutive coefficients and the penalty
+//! couples coefficients at most `p` apart, so `BᵀB + λP` is banded (with a
+//! dense border of three rows for a periodic curve: `banded`). One count costs
+//! `O(N)` to set up; each `λ` then costs `O(k)`: a banded `LDLᵀ`, a solve, and
+//! the elements of `(BᵀB + λP)⁻¹` on the band (Hutchinson & de Hoog 1985),
+//! which give `tr H = tr((BᵀB + λP)⁻¹ BᵀB)` and the uncertainty below. The
+//! counts of control points grow geometrically beyond 16, so all of them
+//! together cost `O(N)`; memory is `O(N)` (only the winner of the search is
+//! refitted at the end, nothing is kept per candidate). Grid points of `λ` are
+//! evaluated four at a time (independent chains that the processor overlaps),
+//! and the counts in parallel.
 //!
 //! Noise: each table's noise is estimated from the data alone by Gasser et al.
 //! (1986) pseudo-residuals (second differences, any spacing; a line cancels
@@ -39,8 +52,10 @@
 //! returned number finite; the curve's `x(u)` is linear in `u` (control points at
 //! the Greville abscissae), so its lookup is exact.
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use rayon::prelude::*;
 
-use super::basis::{MAX_DEGREE, basis_funs, ders_basis_funs, find_span};
+use super::banded::{BandBorder, Ldl, Shifted};
+use super::basis::{MAX_DEGREE, basis_funs, ders_basis_funs, ders_basis_funs_into, find_span};
 use super::curve::NurbsCurve;
 use super::fit_error::FitError;
 use super::knot_vector;
@@ -127,116 +142,101 @@ pub fn estimate_noise(positions: &[f64], values: &[f64]) -> f64 {
     (sum / (n - 2) as f64).sqrt()
 }
 
-/// One count of control points, reduced to its spectral form: with `B T = Q R`
-/// and `R⁻ᵀ Tᵀ P T R⁻¹ = U Λ Uᵀ`, every `λ` costs `O(k)`.
-struct Spectral {
-    /// `Uᵀ Qᵀ y`.
-    z: DVector<f64>,
-    /// Eigenvalues of the scaled penalty (≥ 0).
-    eigen: DVector<f64>,
-    /// `‖y‖² − ‖Qᵀ y‖²`: the part of the data no coefficient can reach.
-    outside: f64,
-    /// `R⁻¹ U` mapping spectral coordinates to free coefficients.
-    to_free: DMatrix<f64>,
-    /// Clamped coefficients = `transform` · free coefficients.
-    transform: DMatrix<f64>,
-    knots: Vec<f64>,
+/// How the clamped coefficients `c` of one count depend on the free ones `f`
+/// (`c = T f`): the identity, or for a periodic curve the seam conditions
+/// solved for the last coefficients. Free coordinates are ordered so that the
+/// normal equations are a band with a border ([`BandBorder`]): the first
+/// `main` are band coordinates, the rest dense.
+struct FreeBasis {
+    /// Free coordinates.
+    free: usize,
+    /// The leading free coordinates that form the band.
+    main: usize,
+    /// Row `a` of `T`: clamped coefficient `a` = Σ value · `f[index]`
+    /// (`None`: `T` is the identity).
+    rows: Option<Vec<Vec<(usize, f64)>>>,
 }
 
-impl Spectral {
-    fn rss_dof(&self, lambda: f64) -> (f64, f64) {
-        let mut rss = self.outside;
-        let mut dof = 0.0;
-        for (z, e) in self.z.iter().zip(self.eigen.iter()) {
-            let s = 1.0 / (1.0 + lambda * e);
-            rss += ((1.0 - s) * z).powi(2);
-            dof += s;
+impl FreeBasis {
+    fn new(p: usize, knots: &[f64], count: usize, periodic: bool) -> FreeBasis {
+        if !periodic {
+            return FreeBasis {
+                free: count,
+                main: count,
+                rows: None,
+            };
         }
-        (rss.max(0.0), dof)
+        seam_basis(p, knots, count).unwrap_or_else(|| {
+            // Too few coefficients for the sparse form: the null space, dense.
+            let t = seam_transform(p, knots, count);
+            FreeBasis {
+                free: t.ncols(),
+                main: 0,
+                rows: Some(
+                    (0..count)
+                        .map(|a| {
+                            (0..t.ncols())
+                                .filter(|&j| t[(a, j)] != 0.0)
+                                .map(|j| (j, t[(a, j)]))
+                                .collect()
+                        })
+                        .collect(),
+                ),
+            }
+        })
     }
 
-    /// Clamped coefficients at `lambda`.
-    fn coefficients(&self, lambda: f64) -> DVector<f64> {
-        let shrunk = DVector::from_iterator(
-            self.z.len(),
-            self.z
-                .iter()
-                .zip(self.eigen.iter())
-                .map(|(z, e)| z / (1.0 + lambda * e)),
-        );
-        &self.transform * (&self.to_free * shrunk)
-    }
-
-    /// `(BᵀB + λP)⁻¹` in clamped coefficients.
-    fn covariance(&self, lambda: f64) -> DMatrix<f64> {
-        let d = DVector::from_iterator(
-            self.eigen.len(),
-            self.eigen.iter().map(|e| 1.0 / (1.0 + lambda * e)),
-        );
-        let m = &self.to_free * DMatrix::from_diagonal(&d) * self.to_free.transpose();
-        &self.transform * m * self.transform.transpose()
-    }
-}
-
-/// Basis row of the clamped spline at `u` (dense, `count` long).
-fn basis_row(u: f64, p: usize, knots: &[f64], count: usize) -> Vec<f64> {
-    let mut row = vec![0.0; count];
-    let span = find_span(count - 1, p, u, knots);
-    let mut b = [0.0; MAX_DEGREE + 1];
-    basis_funs(span, u, p, knots, &mut b);
-    for j in 0..=p {
-        row[span - p + j] = b[j];
-    }
-    row
-}
-
-/// `∫₀¹ N_i⁽ᵠ⁾ N_j⁽ᵠ⁾ du` (exact: 4-point Gauss–Legendre per knot span).
-fn penalty_matrix(
-    p: usize,
-    q: usize,
-    knots: &[f64],
-    count: usize,
-    weight: &dyn Fn(f64) -> f64,
-) -> DMatrix<f64> {
-    const NODES: [f64; 4] = [
-        -0.861_136_311_594_052_6,
-        -0.339_981_043_584_856_3,
-        0.339_981_043_584_856_3,
-        0.861_136_311_594_052_6,
-    ];
-    const WEIGHTS: [f64; 4] = [
-        0.347_854_845_137_453_9,
-        0.652_145_154_862_546_1,
-        0.652_145_154_862_546_1,
-        0.347_854_845_137_453_9,
-    ];
-    let mut m = DMatrix::<f64>::zeros(count, count);
-    for w in knots.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        if b <= a {
-            continue;
-        }
-        for (t, g) in NODES.iter().zip(WEIGHTS) {
-            let u = 0.5 * (a + b) + 0.5 * (b - a) * t;
-            let span = find_span(count - 1, p, u, knots);
-            let d = ders_basis_funs(span, u, p, q, knots);
-            let weight = 0.5 * (b - a) * g * weight(u);
-            for i in 0..=p {
-                for j in 0..=p {
-                    m[(span - p + i, span - p + j)] += weight * d[q][i] * d[q][j];
+    /// The free-coordinate row of a clamped row whose non-zero `values` start
+    /// at coefficient `first`, into `out`.
+    fn free_row(&self, first: usize, values: &[f64], out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        match &self.rows {
+            None => out.extend(values.iter().enumerate().map(|(j, &v)| (first + j, v))),
+            Some(rows) => {
+                for (j, &v) in values.iter().enumerate() {
+                    for &(i, t) in &rows[first + j] {
+                        out.push((i, t * v));
+                    }
                 }
             }
         }
     }
-    m
+
+    /// Clamped coefficients of the free ones.
+    fn clamped(&self, f: &[f64]) -> Vec<f64> {
+        match &self.rows {
+            None => f.to_vec(),
+            Some(rows) => rows
+                .iter()
+                .map(|row| row.iter().map(|&(i, t)| t * f[i]).sum())
+                .collect(),
+        }
+    }
+
+    /// `(−1)^a` for each free coordinate's clamped coefficient `a` where it
+    /// enters alone (the most oscillating vector: a start for the largest
+    /// eigenvalue of the penalty).
+    fn alternating(&self) -> Vec<f64> {
+        let sign = |a: usize| if a % 2 == 0 { 1.0 } else { -1.0 };
+        let Some(rows) = &self.rows else {
+            return (0..self.free).map(sign).collect();
+        };
+        let mut v = vec![0.0; self.free];
+        for (a, row) in rows.iter().enumerate() {
+            if let [(i, _)] = row[..] {
+                v[i] = sign(a);
+            }
+        }
+        if v.iter().all(|x| *x == 0.0) {
+            v.iter_mut().for_each(|x| *x = 1.0);
+        }
+        v
+    }
 }
 
-/// Free coefficients → clamped ones: the identity, or the null space of the
-/// seam conditions `y⁽ᵈ⁾(0) = y⁽ᵈ⁾(1)`, `d = 0, 1, 2` for a periodic curve.
-fn seam_transform(p: usize, knots: &[f64], count: usize, periodic: bool) -> DMatrix<f64> {
-    if !periodic {
-        return DMatrix::identity(count, count);
-    }
+/// The seam conditions `y⁽ᵈ⁾(0) = y⁽ᵈ⁾(1)`, `d < r = min(p, 2) + 1`, as rows of
+/// clamped coefficients: only the first and last `r` coefficients enter.
+fn seam_conditions(p: usize, knots: &[f64], count: usize) -> DMatrix<f64> {
     let orders = p.min(2) + 1;
     let mut c = DMatrix::<f64>::zeros(orders, count);
     for (end, sign) in [(0.0, 1.0), (1.0, -1.0)] {
@@ -248,6 +248,55 @@ fn seam_transform(p: usize, knots: &[f64], count: usize, periodic: bool) -> DMat
             }
         }
     }
+    c
+}
+
+/// The periodic free basis in sparse form: the last `r` coefficients solved
+/// from the seam conditions in terms of the first `r`, which become the border;
+/// `None` when the two ends overlap (`count < 2r`) or the solve fails.
+fn seam_basis(p: usize, knots: &[f64], count: usize) -> Option<FreeBasis> {
+    let r = p.min(2) + 1;
+    if count < 2 * r {
+        return None;
+    }
+    let c = seam_conditions(p, knots, count);
+    // Only the end coefficients may enter (clamped ends).
+    let scale = c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if (r..count - r).any(|j| (0..r).any(|d| c[(d, j)].abs() > 1e-12 * scale)) {
+        return None;
+    }
+    let start = c.columns(0, r).into_owned();
+    let end = c.columns(count - r, r).into_owned();
+    // start · c_first + end · c_last = 0  ⇒  c_last = −end⁻¹ start · c_first.
+    let solved = -end.lu().solve(&start)?;
+    if !solved.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let main = count - 2 * r;
+    let rows: Vec<Vec<(usize, f64)>> = (0..count)
+        .map(|a| {
+            if a < r {
+                vec![(main + a, 1.0)]
+            } else if a < count - r {
+                vec![(a - r, 1.0)]
+            } else {
+                (0..r)
+                    .map(|s| (main + s, solved[(a - (count - r), s)]))
+                    .collect()
+            }
+        })
+        .collect();
+    Some(FreeBasis {
+        free: count - r,
+        main,
+        rows: Some(rows),
+    })
+}
+
+/// Free coefficients → clamped ones for a periodic curve with too few
+/// coefficients for [`seam_basis`]: the null space of the seam conditions.
+fn seam_transform(p: usize, knots: &[f64], count: usize) -> DMatrix<f64> {
+    let c = seam_conditions(p, knots, count);
     // Null space from the eigenvectors of CᵀC with (numerically) zero eigenvalue.
     let e = SymmetricEigen::new(c.transpose() * c);
     let top = e.eigenvalues.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -261,53 +310,249 @@ fn seam_transform(p: usize, knots: &[f64], count: usize, periodic: bool) -> DMat
     DMatrix::from_columns(&columns)
 }
 
-fn spectral(
-    u: &[f64],
-    y: &DVector<f64>,
-    p: usize,
-    q: usize,
+/// Relative pivot below which the data do not determine a count's
+/// coefficients (`BᵀB` numerically singular: knot spans without data). The
+/// count is then not a candidate.
+const SINGULAR_PIVOT: f64 = 1e-14;
+
+/// One count of control points: the normal equations of the unpenalised fit
+/// in free coordinates, banded. `O(N)` to build, `O(k)` to keep.
+struct Design {
     count: usize,
-    periodic: bool,
-    weight: &dyn Fn(f64) -> f64,
-) -> Option<Spectral> {
-    let segments = count - p;
-    let interior: Vec<f64> = (1..segments).map(|i| i as f64 / segments as f64).collect();
-    let knots = knot_vector::clamped(p, &interior, 0.0, 1.0);
-    let n = u.len();
-    let mut b = DMatrix::<f64>::zeros(n, count);
-    for (k, &uk) in u.iter().enumerate() {
-        for (j, v) in basis_row(uk, p, &knots, count).into_iter().enumerate() {
-            b[(k, j)] = v;
+    knots: Vec<f64>,
+    basis: FreeBasis,
+    /// `Tᵀ BᵀB T`.
+    gram: BandBorder,
+    /// `Tᵀ Bᵀ y`.
+    rhs: Vec<f64>,
+    /// The unpenalised least-squares coefficients `c₀ = (BᵀB)⁻¹ Bᵀy`.
+    base: Vec<f64>,
+    /// Their residual sum of squares (what no coefficients reach), summed
+    /// residual by residual; the fit at any `λ` adds `(c − c₀)ᵀ BᵀB (c − c₀)`
+    /// to it. Both are accurate however small (no cancellation, unlike
+    /// `‖y‖² − 2cᵀBᵀy + cᵀBᵀBc`).
+    base_rss: f64,
+    /// `LDLᵀ` of `gram` (for the penalty's scale).
+    gram_factor: Ldl,
+}
+
+impl Design {
+    fn new(u: &[f64], y: &[f64], p: usize, count: usize, periodic: bool) -> Option<Design> {
+        let segments = count - p;
+        let interior: Vec<f64> = (1..segments).map(|i| i as f64 / segments as f64).collect();
+        let knots = knot_vector::clamped(p, &interior, 0.0, 1.0);
+        let basis = FreeBasis::new(p, &knots, count, periodic);
+        if basis.free == 0 || basis.free > u.len() {
+            return None;
+        }
+        let mut gram = BandBorder::zeros(basis.free, basis.main, p);
+        let mut rhs = vec![0.0; basis.free];
+        let mut values = [0.0; MAX_DEGREE + 1];
+        let mut row = Vec::new();
+        for (&uk, &yk) in u.iter().zip(y) {
+            let span = find_span(count - 1, p, uk, &knots);
+            basis_funs(span, uk, p, &knots, &mut values);
+            basis.free_row(span - p, &values[..=p], &mut row);
+            gram.add_outer(&row, 1.0);
+            for &(i, v) in &row {
+                rhs[i] += v * yk;
+            }
+        }
+        let gram_factor = gram.factor(SINGULAR_PIVOT * gram.max_diagonal())?;
+        let base = gram_factor.solve(&rhs);
+        let clamped = basis.clamped(&base);
+        let mut base_rss = 0.0;
+        for (&uk, &yk) in u.iter().zip(y) {
+            let span = find_span(count - 1, p, uk, &knots);
+            basis_funs(span, uk, p, &knots, &mut values);
+            let fitted: f64 = (0..=p).map(|j| values[j] * clamped[span - p + j]).sum();
+            base_rss += (yk - fitted).powi(2);
+        }
+        Some(Design {
+            count,
+            knots,
+            basis,
+            gram,
+            rhs,
+            base_rss,
+            base,
+            gram_factor,
+        })
+    }
+
+    /// `∫₀¹ w(q, u) (y⁽ᵠ⁾)² du` as a matrix in free coordinates, for each
+    /// order `q` of `orders` (exact for `w = 1`: 4-point Gauss–Legendre per
+    /// knot span).
+    fn penalties(
+        &self,
+        p: usize,
+        orders: &[usize],
+        weight: &dyn Fn(usize, f64) -> f64,
+    ) -> Vec<BandBorder> {
+        const NODES: [f64; 4] = [
+            -0.861_136_311_594_052_6,
+            -0.339_981_043_584_856_3,
+            0.339_981_043_584_856_3,
+            0.861_136_311_594_052_6,
+        ];
+        const WEIGHTS: [f64; 4] = [
+            0.347_854_845_137_453_9,
+            0.652_145_154_862_546_1,
+            0.652_145_154_862_546_1,
+            0.347_854_845_137_453_9,
+        ];
+        let knots = &self.knots;
+        let top = orders.iter().copied().max().unwrap_or(0);
+        let mut out: Vec<BandBorder> = orders.iter().map(|_| self.gram.zeros_like()).collect();
+        let mut row = Vec::new();
+        let mut d = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
+        for w in knots.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if b <= a {
+                continue;
+            }
+            for (t, g) in NODES.iter().zip(WEIGHTS) {
+                let u = 0.5 * (a + b) + 0.5 * (b - a) * t;
+                let span = find_span(self.count - 1, p, u, knots);
+                ders_basis_funs_into(span, u, p, top, knots, &mut d);
+                for (m, &q) in out.iter_mut().zip(orders) {
+                    self.basis.free_row(span - p, &d[q][..=p], &mut row);
+                    m.add_outer(&row, 0.5 * (b - a) * g * weight(q, u));
+                }
+            }
+        }
+        out
+    }
+
+    /// The penalty of order `q` alone (see [`Design::penalties`]).
+    fn penalty(&self, p: usize, q: usize, weight: &dyn Fn(usize, f64) -> f64) -> BandBorder {
+        self.penalties(p, &[q], weight).remove(0)
+    }
+}
+
+/// Most steps of the power iteration that estimates the penalty's scale.
+const SCALE_ITERATIONS: usize = 20;
+
+/// One count with one penalty: the fit at any `λ` in `O(k)` (banded `LDLᵀ` of
+/// `BᵀB + λP`, its inverse on the band for `tr H`).
+struct Penalised<'a> {
+    design: &'a Design,
+    penalty: BandBorder,
+    /// The largest eigenvalue of `P` relative to `BᵀB` (max `cᵀPc / cᵀBᵀBc`):
+    /// the scale of `λ`.
+    top: f64,
+    factor: Ldl,
+    inverse: BandBorder,
+    /// [`LANES`] values of `λ` at once, where the shape allows.
+    lanes: Option<Shifted<LANES>>,
+}
+
+/// Grid points of `λ` evaluated side by side.
+const LANES: usize = 4;
+
+/// Steps of the refinement of `λ` with [`LANES`] points per step: the bracket
+/// of half a decade shrinks to `0.5 · 0.4¹⁶ ≈ 2e-7` decades, as 30 steps of
+/// the golden section do (`0.5 · 0.618³⁰ ≈ 3e-7`).
+const REFINE_STEPS: usize = 16;
+
+/// Steps every candidate gets before the winner of a search is chosen; the
+/// winner then gets the rest of [`REFINE_STEPS`]. After 6 steps the bracket
+/// is `2e-3` decades wide, where GCV is flat to about `1e-5` of itself, far
+/// below the differences that choose between counts (the winner's `λ` is the
+/// same as with all steps for every candidate).
+const COARSE_STEPS: usize = 6;
+
+impl<'a> Penalised<'a> {
+    fn new(design: &'a Design, penalty: BandBorder) -> Penalised<'a> {
+        let top = largest_eigenvalue(design, &penalty);
+        Penalised {
+            design,
+            top,
+            factor: Ldl::buffer(&penalty),
+            inverse: penalty.zeros_like(),
+            lanes: Shifted::<LANES>::supports(&penalty).then(|| Shifted::new(&penalty)),
+            penalty,
         }
     }
-    let transform = seam_transform(p, &knots, count, periodic);
-    let free = transform.ncols();
-    if free == 0 || free > n {
-        return None;
+
+    /// [`Score::at`] for each of `lambdas` (at most [`LANES`]).
+    fn scores(&mut self, lambdas: &[f64], sc: Score) -> Vec<(f64, bool)> {
+        let d = self.design;
+        match &mut self.lanes {
+            Some(lanes) if lambdas.len() <= LANES => {
+                let mut shifts = [lambdas[lambdas.len() - 1]; LANES];
+                shifts[..lambdas.len()].copy_from_slice(lambdas);
+                lanes
+                    .evaluate(&d.gram, &self.penalty, shifts, &d.rhs, &d.base)
+                    .into_iter()
+                    .take(lambdas.len())
+                    .map(|lane| match lane {
+                        Some((dgd, dof)) => {
+                            let rss = d.base_rss + dgd;
+                            if rss.is_finite() && dof.is_finite() {
+                                sc.of(rss.max(0.0), dof)
+                            } else {
+                                (f64::INFINITY, false)
+                            }
+                        }
+                        None => (f64::INFINITY, false),
+                    })
+                    .collect()
+            }
+            _ => lambdas.iter().map(|&l| sc.at(self, l)).collect(),
+        }
     }
-    let bt = &b * &transform;
-    let qr = bt.qr();
-    let r = qr.r();
-    let diag_max = (0..free).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
-    if !(diag_max > 0.0) || (0..free).any(|i| r[(i, i)].abs() <= 1e-10 * diag_max) {
-        return None;
+
+    /// Free coefficients at `lambda`, with the factor of `BᵀB + λP` left in
+    /// `self.factor`; `None` when it is not positive definite.
+    fn solve(&mut self, lambda: f64) -> Option<Vec<f64>> {
+        let d = self.design;
+        if !self.factor.refactor(&d.gram, &self.penalty, lambda, 0.0) {
+            return None;
+        }
+        Some(self.factor.solve(&d.rhs))
     }
-    let r_inv = r.try_inverse()?;
-    let penalty = transform.transpose() * penalty_matrix(p, q, &knots, count, weight) * &transform;
-    let scaled = r_inv.transpose() * penalty * &r_inv;
-    let scaled = (&scaled + scaled.transpose()) * 0.5;
-    let e = SymmetricEigen::new(scaled);
-    let qty = qr.q().transpose() * y;
-    let z = e.eigenvectors.transpose() * &qty;
-    let eigen = e.eigenvalues.map(|v| v.max(0.0));
-    Some(Spectral {
-        z,
-        eigen,
-        outside: (y.norm_squared() - qty.norm_squared()).max(0.0),
-        to_free: r_inv * e.eigenvectors,
-        transform,
-        knots,
-    })
+
+    /// Free coefficients, RSS and `tr H` at `lambda`, with `(BᵀB + λP)⁻¹` on
+    /// the pattern left in `self.inverse`.
+    fn fit(&mut self, lambda: f64) -> Option<(Vec<f64>, f64, f64)> {
+        let c = self.solve(lambda)?;
+        let d = self.design;
+        let delta: Vec<f64> = c.iter().zip(&d.base).map(|(a, b)| a - b).collect();
+        let rss = d.base_rss + d.gram.quadratic_form(&delta);
+        self.factor.inverse_on_pattern_into(&mut self.inverse);
+        let dof = self.inverse.trace_product(&d.gram);
+        (rss.is_finite() && dof.is_finite()).then_some((c, rss.max(0.0), dof))
+    }
+}
+
+/// `max cᵀPc / cᵀGc` (`G = BᵀB`) by power iteration on `G⁻¹P` from the most
+/// oscillating vector, to a relative change of 1e-9 or [`SCALE_ITERATIONS`]
+/// steps. Only places the grid of `λ`; 0 when the penalty vanishes.
+fn largest_eigenvalue(design: &Design, penalty: &BandBorder) -> f64 {
+    let mut x = design.basis.alternating();
+    let mut rho = 0.0;
+    for _ in 0..SCALE_ITERATIONS {
+        let px = penalty.mul_vec(&x);
+        let xpx: f64 = px.iter().zip(&x).map(|(a, b)| a * b).sum();
+        let xgx = design.gram.quadratic_form(&x);
+        if !(xgx > 0.0) || !(xpx > 0.0) {
+            break;
+        }
+        let next = xpx / xgx;
+        let converged = (next - rho).abs() <= 1e-9 * next;
+        rho = next;
+        if converged {
+            break;
+        }
+        x = design.gram_factor.solve(&px);
+        let norm = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if !(norm > 0.0 && norm.is_finite()) {
+            break;
+        }
+        x.iter_mut().for_each(|v| *v /= norm);
+    }
+    rho
 }
 
 /// GCV score, or `+∞` when the fit leaves no degrees of freedom.
@@ -343,7 +588,7 @@ const ADAPTIVE_FLOOR: f64 = 0.1;
 /// penalty order `q`: small where the first fit bends (a bump the table
 /// resolves), 1 where it is straight (where the noise is all there is).
 struct PenaltyWeight {
-    coefficients: DVector<f64>,
+    coefficients: Vec<f64>,
     knots: Vec<f64>,
     degree: usize,
     gamma: f64,
@@ -351,10 +596,10 @@ struct PenaltyWeight {
 }
 
 impl PenaltyWeight {
-    fn new(first: &Spectral, lambda: f64, degree: usize, gamma: f64) -> PenaltyWeight {
+    fn new(coefficients: Vec<f64>, knots: Vec<f64>, degree: usize, gamma: f64) -> PenaltyWeight {
         let mut w = PenaltyWeight {
-            coefficients: first.coefficients(lambda),
-            knots: first.knots.clone(),
+            coefficients,
+            knots,
             degree,
             gamma,
             floor: Vec::new(),
@@ -375,7 +620,8 @@ impl PenaltyWeight {
         let p = self.degree;
         let count = self.coefficients.len();
         let span = find_span(count - 1, p, u, &self.knots);
-        let d = ders_basis_funs(span, u, p, order, &self.knots);
+        let mut d = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];
+        ders_basis_funs_into(span, u, p, order, &self.knots, &mut d);
         (0..=p)
             .map(|j| d[order][j] * self.coefficients[span - p + j])
             .sum()
@@ -395,64 +641,157 @@ struct Score {
 }
 
 impl Score {
-    fn at(&self, s: &Spectral, lambda: f64) -> f64 {
-        let (rss, dof) = s.rss_dof(lambda);
+    /// The score at `lambda`, and whether `tr H` is over the limit.
+    fn at(&self, s: &mut Penalised<'_>, lambda: f64) -> (f64, bool) {
+        match s.fit(lambda) {
+            Some((_, rss, dof)) => self.of(rss, dof),
+            None => (f64::INFINITY, false),
+        }
+    }
+
+    /// The score of a fit with this RSS and `tr H`, and whether `tr H` is
+    /// over the limit.
+    fn of(&self, rss: f64, dof: f64) -> (f64, bool) {
         // More effective parameters than the limit fits the noise: GCV's
         // known failure at small N (near-interpolation scores well).
         if dof > self.max_dof * self.n {
-            return f64::INFINITY;
+            return (f64::INFINITY, true);
         }
-        gcv(self.n, rss, dof)
+        (gcv(self.n, rss, dof), false)
     }
 }
 
-/// The `λ` minimising GCV for one count: a log grid, then golden-section
-/// refinement around the best grid point. `λ = 0` (plain least squares) is a
-/// candidate. Returns `(score, λ, evaluations)`.
-fn best_lambda(s: &Spectral, sc: Score) -> (f64, f64, u64) {
-    let top = s.eigen.iter().fold(0.0f64, |m, v| m.max(*v));
-    if top <= 0.0 {
-        return (sc.at(s, 0.0), 0.0, 1);
+/// Where the search of `λ` for one count stands: the best point so far and
+/// its score, and (when refined with lanes) the bracket around it still to
+/// narrow.
+#[derive(Clone, Copy, Debug)]
+struct LambdaSearch {
+    score: f64,
+    /// `log₁₀(λ · top)`; `−∞` for `λ = 0`.
+    log_l: f64,
+    top: f64,
+    bracket: Option<(f64, f64)>,
+}
+
+impl LambdaSearch {
+    fn lambda(&self) -> f64 {
+        if self.log_l.is_finite() {
+            10f64.powf(self.log_l) / self.top
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The `λ` minimising GCV for one count: a log grid, then a refinement around
+/// the best grid point (`coarse` steps of [`refine`] with lanes, else the
+/// golden section). `λ = 0` (plain least squares) is a candidate. Returns the
+/// search and the evaluations it made.
+///
+/// `tr H` falls as `λ` grows, so the grid is walked from the top down and
+/// left at its first point over the dof limit: every smaller `λ` is over it
+/// too (at `λ = 0`, `tr H` is the number of free coefficients).
+fn best_lambda(s: &mut Penalised<'_>, sc: Score, coarse: usize) -> (LambdaSearch, u64) {
+    let top = s.top;
+    let mut evaluations = 0;
+    let zero = if s.design.basis.free as f64 > sc.max_dof * sc.n {
+        f64::INFINITY
+    } else {
+        evaluations += 1;
+        sc.at(s, 0.0).0
+    };
+    let mut best = LambdaSearch {
+        score: zero,
+        log_l: f64::NEG_INFINITY,
+        top,
+        bracket: None,
+    };
+    if !(top > 0.0 && top.is_finite()) {
+        return (best, evaluations);
     }
     // λ·top spans 1e-4 … 1e12: from no smoothing to the penalty's null space.
-    let score = |log_l: f64| sc.at(s, 10f64.powf(log_l) / top);
-    let mut best = (sc.at(s, 0.0), f64::NEG_INFINITY);
-    let mut evaluations = 1;
+    let mut grid_best = (f64::INFINITY, f64::NEG_INFINITY);
     let (lo, hi, steps) = (-4.0, 12.0, 64);
     let step = (hi - lo) / steps as f64;
-    for i in 0..=steps {
-        let l = lo + step * i as f64;
-        let g = score(l);
-        evaluations += 1;
-        if g < best.0 {
-            best = (g, l);
-        }
-    }
-    if best.1.is_finite() {
-        let (mut a, mut b) = (best.1 - step, best.1 + step);
-        let phi = 0.5 * (5f64.sqrt() - 1.0);
-        for _ in 0..30 {
-            let c = b - phi * (b - a);
-            let d = a + phi * (b - a);
-            evaluations += 2;
-            if score(c) < score(d) {
-                b = d;
-            } else {
-                a = c;
+    let grid: Vec<f64> = (0..=steps).rev().map(|i| lo + step * i as f64).collect();
+    'grid: for chunk in grid.chunks(LANES) {
+        let lambdas: Vec<f64> = chunk.iter().map(|l| 10f64.powf(*l) / top).collect();
+        evaluations += chunk.len() as u64;
+        for (&l, (g, over)) in chunk.iter().zip(s.scores(&lambdas, sc)) {
+            if over {
+                break 'grid;
+            }
+            // The smallest λ wins a tie, λ = 0 above all.
+            if g.is_finite() && g <= grid_best.0 {
+                grid_best = (g, l);
             }
         }
-        let l = 0.5 * (a + b);
-        let g = score(l);
-        if g < best.0 {
-            best = (g, l);
-        }
     }
-    let lambda = if best.1.is_finite() {
-        10f64.powf(best.1) / top
-    } else {
-        0.0
+    if !(zero <= grid_best.0 && zero.is_finite()) && grid_best.1.is_finite() {
+        best.score = grid_best.0;
+        best.log_l = grid_best.1;
+    }
+    if !best.log_l.is_finite() {
+        return (best, evaluations);
+    }
+    if s.lanes.is_some() {
+        best.bracket = Some((best.log_l - step, best.log_l + step));
+        evaluations += refine(s, sc, &mut best, coarse);
+        return (best, evaluations);
+    }
+    // Golden section, one new point per step.
+    let mut score = |log_l: f64| sc.at(s, 10f64.powf(log_l) / top).0;
+    let (mut a, mut b) = (best.log_l - step, best.log_l + step);
+    let phi = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - phi * (b - a), a + phi * (b - a));
+    let (mut fc, mut fd) = (score(c), score(d));
+    evaluations += 2;
+    for _ in 0..30 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - phi * (b - a);
+            fc = score(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + phi * (b - a);
+            fd = score(d);
+        }
+        evaluations += 1;
+    }
+    let l = 0.5 * (a + b);
+    let g = score(l);
+    evaluations += 1;
+    if g < best.score {
+        best.score = g;
+        best.log_l = l;
+    }
+    (best, evaluations)
+}
+
+/// Narrow `search`'s bracket by `steps`: [`LANES`] points inside it at once,
+/// then the bracket of the best of them (`2/(LANES + 1)` of its width); the
+/// best point seen is kept. Returns the evaluations.
+fn refine(s: &mut Penalised<'_>, sc: Score, search: &mut LambdaSearch, steps: usize) -> u64 {
+    let Some((mut a, mut b)) = search.bracket else {
+        return 0;
     };
-    (best.0, lambda, evaluations)
+    let top = search.top;
+    for _ in 0..steps {
+        let h = (b - a) / (LANES + 1) as f64;
+        let points: Vec<f64> = (1..=LANES).map(|j| a + h * j as f64).collect();
+        let lambdas: Vec<f64> = points.iter().map(|l| 10f64.powf(*l) / top).collect();
+        let (j, g) = s.scores(&lambdas, sc).iter().enumerate().fold(
+            (0, f64::INFINITY),
+            |m, (j, &(g, _))| if g < m.1 { (j, g) } else { m },
+        );
+        if g < search.score {
+            search.score = g;
+            search.log_l = points[j];
+        }
+        (a, b) = (points[j] - h, points[j] + h);
+    }
+    search.bracket = Some((a, b));
+    (steps * LANES) as u64
 }
 
 /// The counts of control points tried: every count up to 16, then a
@@ -470,6 +809,20 @@ fn counts(p: usize, cap: usize) -> Vec<usize> {
     out
 }
 
+/// A candidate of one search over `(k, q, λ)`.
+#[derive(Clone, Copy, Debug)]
+struct Choice {
+    search: LambdaSearch,
+    q: usize,
+    count: usize,
+}
+
+impl Choice {
+    fn score(&self) -> f64 {
+        self.search.score
+    }
+}
+
 /// Fit one parameter (positions strictly increasing, values finite, at least
 /// `degree + 2` samples: validated by the caller).
 pub fn fit_smoothing(
@@ -482,7 +835,6 @@ pub fn fit_smoothing(
     let x0 = positions[0];
     let sx = positions[n - 1] - x0;
     let u: Vec<f64> = positions.iter().map(|&x| (x - x0) / sx).collect();
-    let y = DVector::from_column_slice(values);
     let orders: Vec<usize> = match options.penalty_order {
         Some(q) if (1..=p).contains(&q) => vec![q],
         Some(q) => {
@@ -516,65 +868,125 @@ pub fn fit_smoothing(
         max_dof: options.max_dof_fraction,
         n: n as f64,
     };
-    let mut evaluations = 0u64;
-    let mut pass = |weight: &dyn Fn(usize, f64) -> f64| -> Option<(f64, f64, usize, Spectral)> {
-        let mut all: Vec<(f64, f64, usize, Spectral)> = Vec::new();
-        for &q in &orders {
-            let tried = match options.control_points {
-                Some(c) => vec![c.clamp(p + 1, n)],
-                None => counts(p, cap),
-            };
-            for count in tried {
-                let Some(s) = spectral(&u, &y, p, q, count, options.periodic, &|t| weight(q, t))
-                else {
-                    continue;
-                };
-                let (score, lambda, e) = best_lambda(&s, sc);
-                evaluations += e;
-                if score.is_finite() {
-                    all.push((score, lambda, q, s));
+    let tried = match options.control_points {
+        Some(c) => vec![c.clamp(p + 1, n)],
+        None => counts(p, cap),
+    };
+    // Every count's normal equations, once for both searches: O(N) in all.
+    let designs: Vec<Design> = tried
+        .par_iter()
+        .filter_map(|&count| Design::new(&u, values, p, count, options.periodic))
+        .collect();
+    // One search over (k, q, λ) with the penalty density `weight` (counts in
+    // parallel); only the winner's parameters are kept.
+    let pass = |weight: &(dyn Fn(usize, f64) -> f64 + Sync)| -> (Option<Choice>, u64) {
+        let per_count: Vec<(Vec<Choice>, u64)> = designs
+            .par_iter()
+            .map(|d| {
+                let mut found = Vec::new();
+                let mut evaluations = 0;
+                for (penalty, &q) in d.penalties(p, &orders, weight).into_iter().zip(&orders) {
+                    let mut s = Penalised::new(d, penalty);
+                    let (search, e) = best_lambda(&mut s, sc, COARSE_STEPS);
+                    evaluations += e;
+                    if search.score.is_finite() {
+                        found.push(Choice {
+                            search,
+                            q,
+                            count: d.count,
+                        });
+                    }
                 }
+                (found, evaluations)
+            })
+            .collect();
+        let mut evaluations = per_count.iter().map(|c| c.1).sum();
+        let all: Vec<Choice> = per_count.into_iter().flat_map(|c| c.0).collect();
+        let top = all.iter().map(Choice::score).fold(f64::INFINITY, f64::min);
+        // Prefer fewer control points on (near) ties: same curve, less to store.
+        let mut chosen = all
+            .into_iter()
+            .filter(|c| c.score() <= top * (1.0 + options.compact))
+            .min_by(|a, b| a.count.cmp(&b.count).then(a.score().total_cmp(&b.score())));
+        // The winner's λ to full precision.
+        if let Some(c) = &mut chosen {
+            if let Some(d) = designs.iter().find(|d| d.count == c.count) {
+                let mut s = Penalised::new(d, d.penalty(p, c.q, weight));
+                evaluations += refine(&mut s, sc, &mut c.search, REFINE_STEPS - COARSE_STEPS);
             }
         }
-        let top = all.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
-        // Prefer fewer control points on (near) ties: same curve, less to store.
-        all.into_iter()
-            .filter(|c| c.0 <= top * (1.0 + options.compact))
-            .min_by(|a, b| a.3.z.len().cmp(&b.3.z.len()).then(a.0.total_cmp(&b.0)))
+        (chosen, evaluations)
     };
-    let (score, lambda, q, s) = pass(&|_, _| 1.0).ok_or(FitError::NoFeasibleFit)?;
+    let design = |count: usize| {
+        designs
+            .iter()
+            .find(|d| d.count == count)
+            .ok_or(FitError::NoFeasibleFit)
+    };
+    let (first, mut evaluations) = pass(&|_, _| 1.0);
+    let first = first.ok_or(FitError::NoFeasibleFit)?;
     // The adaptive penalty, weighted by the first fit's own derivatives: kept
     // when it scores better.
-    let (lambda, q, s) = if options.adaptive_penalty > 0.0 {
-        let weight = PenaltyWeight::new(&s, lambda, p, options.adaptive_penalty);
-        match pass(&|order, t| weight.at(order, t)) {
-            Some((adaptive, l, q2, s2)) if adaptive < score => (l, q2, s2),
-            _ => (lambda, q, s),
+    let (chosen, weight) = if options.adaptive_penalty > 0.0 {
+        let d = design(first.count)?;
+        let mut s = Penalised::new(d, d.penalty(p, first.q, &|_, _| 1.0));
+        let c = s
+            .solve(first.search.lambda())
+            .ok_or(FitError::NoFeasibleFit)?;
+        let weight = PenaltyWeight::new(
+            d.basis.clamped(&c),
+            d.knots.clone(),
+            p,
+            options.adaptive_penalty,
+        );
+        let (adaptive, e) = pass(&|order, t| weight.at(order, t));
+        evaluations += e;
+        match adaptive {
+            Some(adaptive) if adaptive.score() < first.score() => (adaptive, Some(weight)),
+            _ => (first, None),
         }
     } else {
-        (lambda, q, s)
+        (first, None)
     };
-    let coefficients = s.coefficients(lambda);
+    let (lambda, q) = (chosen.search.lambda(), chosen.q);
+    let d = design(chosen.count)?;
+    let penalty = match &weight {
+        Some(w) => d.penalty(p, q, &|order, t| w.at(order, t)),
+        None => d.penalty(p, q, &|_, _| 1.0),
+    };
+    let mut s = Penalised::new(d, penalty);
+    // (BᵀB + λP)⁻¹ on the pattern (left in s.inverse) gives the covariance
+    // of every sample's fitted value.
+    let (free, rss, dof) = s.fit(lambda).ok_or(FitError::NoFeasibleFit)?;
+    let coefficients = d.basis.clamped(&free);
     let count = coefficients.len();
-    let covariance = s.covariance(lambda);
-    let (rss, dof) = s.rss_dof(lambda);
     let score = gcv(n as f64, rss, dof);
     let residual_sigma = (rss / (n as f64 - dof).max(0.5)).sqrt();
     let mut residuals = Vec::with_capacity(n);
     let mut uncertainty = Vec::with_capacity(n);
+    let mut b = [0.0; MAX_DEGREE + 1];
+    let mut row = Vec::new();
     for (k, &uk) in u.iter().enumerate() {
-        let row = DVector::from_vec(basis_row(uk, p, &s.knots, count));
-        residuals.push(row.dot(&coefficients) - values[k]);
-        let v = (row.transpose() * &covariance * &row)[(0, 0)].max(0.0);
-        uncertainty.push(residual_sigma.max(noise) * v.sqrt());
+        let span = find_span(count - 1, p, uk, &d.knots);
+        basis_funs(span, uk, p, &d.knots, &mut b);
+        let fitted: f64 = (0..=p).map(|j| b[j] * coefficients[span - p + j]).sum();
+        residuals.push(fitted - values[k]);
+        d.basis.free_row(span - p, &b[..=p], &mut row);
+        let mut v = 0.0;
+        for &(i, x) in &row {
+            for &(j, y) in &row {
+                v += x * y * s.inverse.get(i, j);
+            }
+        }
+        uncertainty.push(residual_sigma.max(noise) * v.max(0.0).sqrt());
     }
-    let greville = knot_vector::greville(&s.knots, p);
+    let greville = knot_vector::greville(&d.knots, p);
     let points: Vec<[f64; 2]> = greville
         .iter()
         .zip(coefficients.iter())
         .map(|(&g, &c)| [x0 + sx * g, c])
         .collect();
-    let curve = NurbsCurve::new(p, s.knots.clone(), vec![1.0; count], points)
+    let curve = NurbsCurve::new(p, d.knots.clone(), vec![1.0; count], points)
         .map_err(|_| FitError::NoFeasibleFit)?;
     let fit = SmoothFit {
         curve,

@@ -4,7 +4,9 @@
 pub mod html;
 pub mod run;
 
-pub use run::{PredictError, predict_path, predict_plan};
+pub use run::{
+    PathErrors, PathReportStream, PathSummary, PredictError, predict_path, predict_plan,
+};
 
 use serde::Serialize;
 

@@ -1,12 +1,16 @@
 //! Running a prediction: program + error model (+ plan) → [`PredictReport`].
 use super::{BlockError, PredictReport, PredictedPoint};
-use crate::gcode::{GcodeError, Program};
+use crate::compensate::stamp::Stamp;
+use crate::gcode::{Execution, GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::tool_models::kinematics_with;
-use crate::machine::{ErrorModel, LookupError};
+use crate::machine::{ErrorModel, LookupError, ToolModels};
 use crate::toolpath::cut::{CutError, CutOptions, match_errors, match_plan};
 use crate::toolpath::{effective_frame, joints_of};
 use crate::vec3::dot;
+use serde::{Serialize, Serializer};
+use std::cell::{Cell, RefCell};
+use std::collections::VecDeque;
 use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
@@ -127,34 +131,133 @@ pub fn predict_plan(
 }
 
 /// Without a plan: the volumetric error at the end of every move (one row per
-/// move; a canned cycle's block gives several rows with its line).
+/// move; a canned cycle's block gives several rows with its line), collected.
+/// [`PathErrors`] gives the same rows one at a time, holding none.
 pub fn predict_path(
     program: Program,
     model: &ErrorModel,
     options: &CutOptions,
 ) -> Result<PredictReport, PredictError> {
-    let started = Instant::now();
-    let path = program.path().display().to_string();
-    let mut run = program.run(options.interpret);
-    let mut models = crate::machine::ToolModels::new(model);
+    let mut errors = PathErrors::new(program, model, options);
     let mut blocks = Vec::new();
-    while let Some(step) = run.next() {
-        let (_, event, _) = step?;
+    while let Some(row) = errors.next_row() {
+        blocks.push(row?);
+    }
+    let summary = errors.summary();
+    Ok(PredictReport {
+        max_error_um: summary.max_error_um,
+        rms_error_um: summary.rms_error_um(),
+        blocks,
+        match_distance_mm: options.max_distance_mm,
+        seconds: errors.seconds(),
+        ..PredictReport::default()
+    })
+}
+
+/// The volumetric error at the end of every move of a program, computed as
+/// the program runs, one row at a time ([`PathErrors::next_row`]). Only the
+/// running summary is kept, so memory does not grow with the program.
+pub struct PathErrors<'m> {
+    run: Execution,
+    models: ToolModels<'m>,
+    path: String,
+    /// Rows of the current block not handed out yet (a canned cycle's moves).
+    pending: VecDeque<BlockError>,
+    summary: PathSummary,
+    match_distance_mm: f64,
+    started: Instant,
+    /// An error was returned: no more rows.
+    failed: bool,
+}
+
+/// What the rows handed out so far add up to.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PathSummary {
+    pub rows: usize,
+    /// Largest `|e|`, µm (0 without rows).
+    pub max_error_um: f64,
+    /// The line of the last row with the largest `|e|`.
+    pub max_line: Option<usize>,
+    sum_of_squares: f64,
+}
+
+impl PathSummary {
+    /// RMS of `|e|` over the rows, µm (0 without rows).
+    pub fn rms_error_um(&self) -> f64 {
+        if self.rows == 0 {
+            0.0
+        } else {
+            (self.sum_of_squares / self.rows as f64).sqrt()
+        }
+    }
+
+    fn add(&mut self, row: &BlockError) {
+        self.rows += 1;
+        self.sum_of_squares += row.norm_um * row.norm_um;
+        if self.max_line.is_none() || row.norm_um >= self.max_error_um {
+            self.max_line = Some(row.line);
+        }
+        self.max_error_um = self.max_error_um.max(row.norm_um);
+    }
+}
+
+impl<'m> PathErrors<'m> {
+    pub fn new(program: Program, model: &'m ErrorModel, options: &CutOptions) -> PathErrors<'m> {
+        PathErrors {
+            path: program.path().display().to_string(),
+            run: program.run(options.interpret),
+            models: crate::machine::ToolModels::new(model),
+            pending: VecDeque::new(),
+            summary: PathSummary::default(),
+            match_distance_mm: options.max_distance_mm,
+            started: Instant::now(),
+            failed: false,
+        }
+    }
+
+    /// The next row, in program order; `None` at the end of the program or
+    /// after an error.
+    pub fn next_row(&mut self) -> Option<Result<BlockError, PredictError>> {
+        loop {
+            if let Some(row) = self.pending.pop_front() {
+                self.summary.add(&row);
+                return Some(Ok(row));
+            }
+            if self.failed {
+                return None;
+            }
+            if let Err(e) = self.fill()? {
+                self.failed = true;
+                return Some(Err(e));
+            }
+        }
+    }
+
+    /// Run the program to its next executed block and compute its rows into
+    /// `pending`; `None` at the end.
+    fn fill(&mut self) -> Option<Result<(), PredictError>> {
+        let (_, event, _) = match self.run.next()? {
+            Ok(step) => step,
+            Err(e) => return Some(Err(e.into())),
+        };
         if event.skipped {
-            continue;
+            return Some(Ok(()));
         }
         // Every move's end (a canned cycle's or a loop's moves each).
-        let model = models.get_or_make(&event.tool);
+        let model = self.models.get_or_make(&event.tool);
         for m in event.motions() {
             let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
-            let v = model
-                .volumetric_error(&joints)
-                .map_err(|source| PredictError::Lookup {
-                    path: path.clone(),
-                    line: event.line,
-                    source,
-                })?;
-            blocks.push(BlockError {
+            let v = match model.volumetric_error(&joints) {
+                Ok(v) => v,
+                Err(source) => {
+                    return Some(Err(PredictError::Lookup {
+                        path: self.path.clone(),
+                        line: event.line,
+                        source,
+                    }));
+                }
+            };
+            self.pending.push_back(BlockError {
                 line: event.line,
                 tool: event.tool.number,
                 e_um: v.e_um,
@@ -162,14 +265,167 @@ pub fn predict_path(
                 axis_urad: v.axis_urad,
             });
         }
+        Some(Ok(()))
     }
-    let norms: Vec<f64> = blocks.iter().map(|b| b.norm_um).collect();
-    Ok(PredictReport {
-        max_error_um: norms.iter().copied().fold(0.0, f64::max),
-        rms_error_um: rms(&norms),
-        blocks,
-        match_distance_mm: options.max_distance_mm,
-        seconds: started.elapsed().as_secs_f64(),
-        ..PredictReport::default()
-    })
+
+    /// The rows handed out so far, summed up.
+    pub fn summary(&self) -> PathSummary {
+        self.summary
+    }
+
+    /// Seconds since the run started.
+    pub fn seconds(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+}
+
+/// The `predict --report` JSON without a plan, written while the program runs:
+/// the same fields in the same order as [`PredictReport`] of [`predict_path`]
+/// (serde's output for it, byte for byte but for `seconds`), each row of
+/// `blocks` serialised as soon as it is computed. Serialising it runs the
+/// program; a failure of the prediction ends the serialisation, and
+/// [`PathReportStream::failure`] gives it.
+pub struct PathReportStream<'m> {
+    errors: RefCell<PathErrors<'m>>,
+    failure: RefCell<Option<PredictError>>,
+    compensated: bool,
+    stamp: Option<Stamp>,
+    seconds: Cell<f64>,
+    /// The run's warnings, asked for once the rows are written (the last field).
+    warnings: Option<&'m dyn Fn() -> Vec<crate::warnings::WarningGroup>>,
+}
+
+impl<'m> PathReportStream<'m> {
+    /// `compensated` and `stamp` as in [`PredictReport`].
+    pub fn new(errors: PathErrors<'m>, stamp: Option<Stamp>) -> PathReportStream<'m> {
+        PathReportStream {
+            errors: RefCell::new(errors),
+            failure: RefCell::new(None),
+            compensated: stamp.is_some(),
+            stamp,
+            seconds: Cell::new(0.0),
+            warnings: None,
+        }
+    }
+
+    /// The report's `warnings` field: `finish` gives them after the run.
+    pub fn with_warnings(
+        mut self,
+        finish: &'m dyn Fn() -> Vec<crate::warnings::WarningGroup>,
+    ) -> PathReportStream<'m> {
+        self.warnings = Some(finish);
+        self
+    }
+
+    /// Run the program without writing anything (the summary only).
+    pub fn drain(&self) -> Result<(), PredictError> {
+        let mut errors = self.errors.borrow_mut();
+        while let Some(row) = errors.next_row() {
+            row?;
+        }
+        self.seconds.set(errors.seconds());
+        Ok(())
+    }
+
+    /// The prediction's error, when serialising stopped because of it.
+    pub fn failure(&self) -> Option<PredictError> {
+        self.failure.borrow_mut().take()
+    }
+
+    /// The rows written (or drained), summed up.
+    pub fn summary(&self) -> PathSummary {
+        self.errors.borrow().summary()
+    }
+
+    /// The report without its rows (for the summary and the HTML page), after
+    /// the run.
+    pub fn report(&self) -> PredictReport {
+        let errors = self.errors.borrow();
+        let summary = errors.summary();
+        PredictReport {
+            max_error_um: summary.max_error_um,
+            rms_error_um: summary.rms_error_um(),
+            match_distance_mm: errors.match_distance_mm,
+            seconds: self.seconds.get(),
+            compensated: self.compensated,
+            stamp: self.stamp.clone(),
+            ..PredictReport::default()
+        }
+    }
+
+    /// The next row, or the failure kept for [`PathReportStream::failure`].
+    fn next_row<E: serde::ser::Error>(&self) -> Result<Option<BlockError>, E> {
+        match self.errors.borrow_mut().next_row() {
+            None => Ok(None),
+            Some(Ok(row)) => Ok(Some(row)),
+            Some(Err(e)) => {
+                let message = e.to_string();
+                *self.failure.borrow_mut() = Some(e);
+                Err(E::custom(message))
+            }
+        }
+    }
+}
+
+impl Serialize for PathReportStream<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        // The first row decides whether there is a `blocks` field at all (it
+        // is left out when empty, as PredictReport's).
+        let first = self.next_row()?;
+        let match_distance_mm = self.errors.borrow().match_distance_mm;
+        let mut s = serializer.serialize_struct("PredictReport", 17)?;
+        s.serialize_field("profile_um", &0.0)?;
+        s.serialize_field("range_um", &0.0)?;
+        s.serialize_field("points", &[] as &[super::PredictedPoint])?;
+        s.serialize_field("points_total", &0usize)?;
+        s.serialize_field("points_cut", &0usize)?;
+        s.serialize_field("profile_with_path_um", &0.0)?;
+        s.serialize_field("range_with_path_um", &0.0)?;
+        s.serialize_field("max_path_offset_um", &0.0)?;
+        s.serialize_field("match_distance_mm", &match_distance_mm)?;
+        if let Some(first) = first {
+            s.serialize_field(
+                "blocks",
+                &Rows {
+                    first: RefCell::new(Some(first)),
+                    stream: self,
+                },
+            )?;
+        }
+        let report = {
+            self.seconds.set(self.errors.borrow().seconds());
+            self.report()
+        };
+        s.serialize_field("max_error_um", &report.max_error_um)?;
+        s.serialize_field("rms_error_um", &report.rms_error_um)?;
+        s.serialize_field("seconds", &report.seconds)?;
+        s.serialize_field("compensated", &report.compensated)?;
+        if let Some(stamp) = &report.stamp {
+            s.serialize_field("stamp", stamp)?;
+        }
+        let warnings = self.warnings.map(|finish| finish()).unwrap_or_default();
+        s.serialize_field("warnings", &warnings)?;
+        s.end()
+    }
+}
+
+/// The `blocks` array of a [`PathReportStream`], pulled from the run.
+struct Rows<'a, 'm> {
+    first: RefCell<Option<BlockError>>,
+    stream: &'a PathReportStream<'m>,
+}
+
+impl Serialize for Rows<'_, '_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut seq = serializer.serialize_seq(None)?;
+        if let Some(first) = self.first.borrow_mut().take() {
+            seq.serialize_element(&first)?;
+        }
+        while let Some(row) = self.stream.next_row()? {
+            seq.serialize_element(&row)?;
+        }
+        seq.end()
+    }
 }

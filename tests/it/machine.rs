@@ -386,6 +386,199 @@ fn model_file_round_trip_and_stale_tables() {
     assert!(msg.contains("EXX: was fitted to different data"), "{msg}");
 }
 
+/// Issue 25: the fitted model is cached by the tables' content, the fit
+/// settings and the build of volcomp: a second command reuses it (the same
+/// numbers as fitting again), an edited table is refitted and said so once,
+/// a corrupt cache file is ignored, and the cache can be turned off.
+mod cache {
+    use super::{REF_TEXT, scratch};
+    use crate::support::{assert_success, volcomp};
+    use std::path::Path;
+
+    /// `volcomp error MACHINE --at … --json` with the cache in `cache`
+    /// (`None`: `--no-model-cache`): (stdout, stderr).
+    fn error_at(machine: &Path, cache: Option<&Path>) -> (String, String) {
+        let mut cmd = volcomp();
+        cmd.arg("error")
+            .arg(machine)
+            .args(["--at", "-10,20,-30,15,405", "--json"]);
+        match cache {
+            Some(dir) => cmd.env("VOLCOMP_MODEL_CACHE", dir),
+            None => cmd.arg("--no-model-cache"),
+        };
+        let out = cmd.output().expect("runs");
+        assert_success(&out);
+        (
+            String::from_utf8(out.stdout).expect("utf-8"),
+            String::from_utf8(out.stderr).expect("utf-8"),
+        )
+    }
+
+    fn cache_files(dir: &Path) -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(dir)
+            .map(|d| d.flatten().map(|e| e.path()).collect())
+            .unwrap_or_default()
+    }
+
+    #[test]
+    fn a_cached_model_is_reused_until_a_table_changes() {
+        let (dir, machine) = scratch(REF_TEXT);
+        let cache = tempfile::tempdir().expect("tempdir");
+        let fresh = error_at(&machine, None);
+        assert!(cache_files(cache.path()).is_empty());
+        // First run: fitted and stored.
+        let first = error_at(&machine, Some(cache.path()));
+        assert_eq!(first.0, fresh.0);
+        assert!(!first.1.contains("cached"), "{}", first.1);
+        let files = cache_files(cache.path());
+        assert_eq!(files.len(), 1, "{files:?}");
+        let stored = std::fs::read(&files[0]).expect("cache file");
+        // Second run: the cached model, the same numbers, the file untouched.
+        let second = error_at(&machine, Some(cache.path()));
+        assert_eq!(second, first);
+        assert_eq!(std::fs::read(&files[0]).expect("cache file"), stored);
+        // A table changed: refitted, said once, and stored again.
+        let x = dir.path().join("ref-trt/x.csv");
+        let table = std::fs::read_to_string(&x).expect("x");
+        let edited = table.replacen("-15.8661", "-14.8661", 1);
+        assert_ne!(edited, table);
+        std::fs::write(&x, edited).expect("write");
+        let third = error_at(&machine, Some(cache.path()));
+        assert_ne!(third.0, first.0, "the edited EXX changes e");
+        assert_eq!(third.0, error_at(&machine, None).0);
+        assert!(
+            third
+                .1
+                .contains("x.csv changed since its model was cached: refitted"),
+            "{}",
+            third.1
+        );
+        let fourth = error_at(&machine, Some(cache.path()));
+        assert_eq!(fourth.0, third.0);
+        assert!(!fourth.1.contains("cached"), "said once: {}", fourth.1);
+        // The same machine through another relative path: the same model.
+        let relative = volcomp()
+            .current_dir(dir.path().join("ref-trt"))
+            .arg("error")
+            .arg("../machine.toml")
+            .args(["--at", "-10,20,-30,15,405", "--json"])
+            .env("VOLCOMP_MODEL_CACHE", cache.path())
+            .output()
+            .expect("runs");
+        assert_success(&relative);
+        assert_eq!(String::from_utf8_lossy(&relative.stdout), fourth.0);
+        assert!(
+            !String::from_utf8_lossy(&relative.stderr).contains("cached"),
+            "{}",
+            String::from_utf8_lossy(&relative.stderr)
+        );
+        // A comment changes the bytes but not the table: still the same model.
+        std::fs::write(
+            &x,
+            format!("{}# a comment\n", std::fs::read_to_string(&x).unwrap()),
+        )
+        .expect("write");
+        let fifth = error_at(&machine, Some(cache.path()));
+        assert_eq!(fifth, fourth);
+    }
+
+    #[test]
+    fn a_corrupt_cache_file_is_ignored_and_replaced() {
+        let (_dir, machine) = scratch(REF_TEXT);
+        let cache = tempfile::tempdir().expect("tempdir");
+        let first = error_at(&machine, Some(cache.path()));
+        let files = cache_files(cache.path());
+        assert_eq!(files.len(), 1);
+        for garbage in [
+            &b"{\"format\": 1, \"volcomp\""[..],
+            b"",
+            b"\xff\xfe not json",
+        ] {
+            std::fs::write(&files[0], garbage).expect("corrupt");
+            let again = error_at(&machine, Some(cache.path()));
+            assert_eq!(again.0, first.0);
+            assert!(!again.1.contains("error"), "{}", again.1);
+            let json: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&files[0]).expect("file")).expect("json");
+            assert_eq!(json["format"], 1);
+        }
+        // A cached model of other tables, swapped in by hand, is not used: the
+        // tables in it are compared with the machine's.
+        let other = tempfile::tempdir().expect("tempdir");
+        let (dir2, machine2) = scratch(REF_TEXT);
+        let x = dir2.path().join("ref-trt/x.csv");
+        let table = std::fs::read_to_string(&x).expect("x");
+        std::fs::write(&x, table.replacen("-15.8661", "-10.0", 1)).expect("write");
+        error_at(&machine2, Some(other.path()));
+        let foreign = std::fs::read_to_string(&cache_files(other.path())[0]).expect("file");
+        let foreign = foreign.replace(
+            &dir2.path().display().to_string(),
+            &_dir.path().display().to_string(),
+        );
+        std::fs::write(&files[0], foreign).expect("swap");
+        let swapped = error_at(&machine, Some(cache.path()));
+        assert_eq!(swapped.0, first.0);
+        assert!(
+            swapped.1.contains("changed since its model was cached"),
+            "{}",
+            swapped.1
+        );
+    }
+
+    #[test]
+    fn the_cache_can_be_turned_off() {
+        let (_dir, machine) = scratch(REF_TEXT);
+        let cache = tempfile::tempdir().expect("tempdir");
+        let mut cmd = volcomp();
+        let out = cmd
+            .arg("error")
+            .arg(&machine)
+            .args(["--at", "0,0,0,0,0"])
+            .env("VOLCOMP_MODEL_CACHE", "")
+            .env("XDG_CACHE_HOME", cache.path())
+            .env("HOME", cache.path())
+            .output()
+            .expect("runs");
+        assert_success(&out);
+        let out = volcomp()
+            .arg("error")
+            .arg(&machine)
+            .args(["--at", "0,0,0,0,0", "--no-model-cache"])
+            .env("XDG_CACHE_HOME", cache.path())
+            .output()
+            .expect("runs");
+        assert_success(&out);
+        assert!(cache_files(cache.path()).is_empty());
+        // Without VOLCOMP_MODEL_CACHE, XDG_CACHE_HOME/volcomp.
+        let out = volcomp()
+            .arg("error")
+            .arg(&machine)
+            .args(["--at", "0,0,0,0,0"])
+            .env_remove("VOLCOMP_MODEL_CACHE")
+            .env("XDG_CACHE_HOME", cache.path())
+            .output()
+            .expect("runs");
+        assert_success(&out);
+        assert_eq!(cache_files(&cache.path().join("volcomp")).len(), 1);
+        // An unwritable cache folder: the command works and says why.
+        let file = cache.path().join("a-file");
+        std::fs::write(&file, "").expect("write");
+        let out = volcomp()
+            .arg("error")
+            .arg(&machine)
+            .args(["--at", "0,0,0,0,0", "--model-cache"])
+            .arg(&file)
+            .output()
+            .expect("runs");
+        assert_success(&out);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("the fitted model was not cached"),
+            "{stderr}"
+        );
+    }
+}
+
 mod cli {
     use super::{project, ref_model_file};
     use std::process::Command;

@@ -6,8 +6,8 @@ use volcomp::nurbs::knot_vector::{clamped, greville};
 use volcomp::nurbs::least_squares::fit_control_points;
 use volcomp::nurbs::synthetic::{paper_like_curve, paper_like_truth};
 use volcomp::nurbs::{
-    FitOptions, KnotMethod, NurbsCurve, ParameterKind, Selection, SmemCurve, SurfaceFitOptions,
-    fit_parameter, fit_surface,
+    FitError, FitOptions, KnotMethod, NurbsCurve, ParameterKind, Selection, SmemCurve,
+    SurfaceFitOptions, fit_parameter, fit_surface,
 };
 
 fn sorted_interior(raw: Vec<f64>) -> Vec<f64> {
@@ -285,6 +285,104 @@ fn adaptive_loop_stops_at_the_tolerance_or_says_it_missed() {
     // Missed, and said so; the best fit up to the cap is returned.
     assert!(!capped.stats().met && capped.stats().emax > 0.01);
     assert!(capped.stats().control_points <= 6);
+}
+
+/// Issue 25: the default fit is linear in the table length. A laser run of
+/// 20 000 rows (trend, ripple and a bump, N(0, 0.3) noise) fits in seconds
+/// (it took 36 s at 1 000 rows and over 130 s and 1 GB at 2 000 before the
+/// banded solver), and follows the truth far closer than the noise.
+#[test]
+fn a_long_table_fits_quickly_and_follows_the_truth() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let truth = |x: f64| {
+        0.02 * x - 2e-5 * x * x
+            + 3.0 * (x / 40.0).sin()
+            + 4.0 * (-((x - 35.0) / 20.0).powi(2)).exp()
+    };
+    let n = 20_000;
+    let x: Vec<f64> = (0..n)
+        .map(|i| -200.0 + 400.0 * i as f64 / (n - 1) as f64)
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(25);
+    let noise = Normal::new(0.0, 0.3).unwrap();
+    let y: Vec<f64> = x
+        .iter()
+        .map(|&v| truth(v) + noise.sample(&mut rng))
+        .collect();
+    let started = std::time::Instant::now();
+    let fit = fit_parameter(&x, &y, ParameterKind::Length, &FitOptions::default()).unwrap();
+    let seconds = started.elapsed().as_secs_f64();
+    assert!(seconds < 60.0, "{n} rows took {seconds} s");
+    let s = fit.stats();
+    assert!((s.noise - 0.3).abs() < 0.01, "noise {}", s.noise);
+    assert!(
+        s.control_points < 200,
+        "{} control points",
+        s.control_points
+    );
+    let rms = ((0..=4000)
+        .map(|i| {
+            let v = -200.0 + 0.1 * i as f64;
+            (fit.value_at(v) - truth(v)).powi(2)
+        })
+        .sum::<f64>()
+        / 4001.0)
+        .sqrt();
+    assert!(rms < 0.03, "RMS vs truth {rms}");
+    assert_eq!(fit.uncertainty().len(), n);
+}
+
+/// Issue 25: an Emax tolerance below the noise is out of reach for any count
+/// the loop could try in reasonable time. The search stops at its work limit
+/// with an error saying so and what it reached, instead of running for
+/// minutes (ref-trt's x.csv at 0.001 µm: 8 s of CPU with the default limit).
+#[test]
+fn an_unreachable_emax_tolerance_stops_at_the_work_limit() {
+    let (x, y) = paper_like_curve(3);
+    let started = std::time::Instant::now();
+    let err = fit_parameter(
+        &x,
+        &y,
+        ParameterKind::Length,
+        &FitOptions {
+            tolerance: Some(1e-6),
+            select: Selection::Emax,
+            work_limit: Some(3_000_000),
+            ..FitOptions::default()
+        },
+    )
+    .unwrap_err();
+    let seconds = started.elapsed().as_secs_f64();
+    match &err {
+        FitError::WorkLimit {
+            tolerance,
+            best,
+            below_noise,
+            noise,
+            ..
+        } => {
+            assert_eq!(*tolerance, 1e-6);
+            assert!(*below_noise && (noise - 0.5).abs() < 0.1, "noise {noise}");
+            let (emax, count) = best.expect("some counts were searched completely");
+            assert!(emax > 1e-6 && count >= 4, "{emax} at {count}");
+        }
+        other => panic!("expected the work limit, got {other}"),
+    }
+    let message = err.to_string();
+    assert!(
+        message.contains("work limit")
+            && message.contains("below half the table's noise")
+            && message.contains("--select cv"),
+        "{message}"
+    );
+    // Without the limit this search runs for minutes; with it, well under.
+    assert!(seconds < 20.0, "took {seconds} s");
+    // The default: short below half the noise, long (but bounded) above it.
+    use volcomp::nurbs::smem::{WORK_LIMIT, WORK_LIMIT_BELOW_NOISE, default_work_limit};
+    assert_eq!(default_work_limit(1e-6, 0.5), WORK_LIMIT_BELOW_NOISE);
+    assert_eq!(default_work_limit(0.3, 0.5), WORK_LIMIT);
+    assert!(WORK_LIMIT_BELOW_NOISE < WORK_LIMIT);
 }
 
 #[test]

@@ -140,6 +140,96 @@ fn prediction_without_plan_lists_every_motion_block() {
     approx::assert_relative_eq!(report.max_error_um, max, max_relative = 1e-12);
 }
 
+/// `seconds` differs from run to run: fixed for comparisons.
+fn without_seconds(json: &str) -> String {
+    json.lines()
+        .map(|l| {
+            if l.trim_start().starts_with("\"seconds\":") {
+                "  \"seconds\": 0.0,"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Issue 25: without a plan the report is written while the program runs
+/// (memory flat with program length), and it is the same JSON as serialising
+/// the whole report: the same fields in the same order, byte for byte, with
+/// rows, without any (no `blocks` field), and with a compensated program's
+/// stamp.
+#[test]
+fn the_streamed_path_report_is_the_collected_one() {
+    use volcomp::predict::{PathErrors, PathReportStream};
+    let model = &ref_trt().1;
+    let demo = read("tests/data/compensate/linuxcnc-demo.ngc");
+    let (compensated, _) = compensate_text(&demo, Frame::Joint);
+    // What `volcomp compensate` would have stamped it with.
+    let stamp = Some(volcomp::compensate::stamp::Stamp {
+        compensated_by: "volcomp 0.1.0".into(),
+        machine: "ref-trt".into(),
+        model_fnv1a64: "0123456789abcdef".into(),
+        model_source: "fit cv".into(),
+        tool_length_mm: Some(100.0),
+        tools_mm: String::new(),
+        tolerance_um: Some(0.5),
+        input: "demo.ngc".into(),
+        input_fnv1a64: "fedcba9876543210".into(),
+        orientation: true,
+    });
+    let no_motion = "G21 G90\nM30\n".to_string();
+    for (text, stamp) in [(&demo, None), (&compensated, stamp), (&no_motion, None)] {
+        let program = || volcomp::gcode::Program::from_text(text, "demo.ngc");
+        let mut whole = predict_path(program(), model, &options()).expect("predicts");
+        whole.compensated = stamp.is_some();
+        whole.stamp = stamp.clone();
+        let stream = PathReportStream::new(PathErrors::new(program(), model, &options()), stamp);
+        let streamed = serde_json::to_string_pretty(&stream).expect("streams");
+        assert!(stream.failure().is_none());
+        assert_eq!(
+            without_seconds(&streamed),
+            without_seconds(&serde_json::to_string_pretty(&whole).unwrap())
+        );
+        assert_eq!(stream.summary().rows, whole.blocks.len());
+        assert_eq!(streamed.contains("\"blocks\""), !whole.blocks.is_empty());
+        let report = stream.report();
+        assert_eq!(report.max_error_um, whole.max_error_um);
+        assert_eq!(report.rms_error_um, whole.rms_error_um);
+    }
+}
+
+/// A prediction that fails half way (a move outside a table) writes no
+/// report: the streamed file is a temporary one until the end.
+#[test]
+fn a_failing_streamed_report_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("out.nc");
+    std::fs::write(
+        &program,
+        "G21 G90 G94\nG1 X0 Y0 Z0 A0 C0 F500\nG1 X10\nG1 X900\nM30\n",
+    )
+    .unwrap();
+    let report = dir.path().join("report.json");
+    let out = crate::support::volcomp()
+        .arg("predict")
+        .arg(root().join("machines/ref-trt.toml"))
+        .arg(&program)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("out.nc:4") && stderr.contains("outside"),
+        "{stderr}"
+    );
+    assert!(!report.exists());
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+    assert_eq!(left.len(), 1, "only the program remains: {left:?}");
+}
+
 /// Our deviations (tables fitted as SMEM curves) against the blind examples'
 /// `expected_predicted.csv` (an independent implementation with the TRUE error
 /// functions): they differ by the table noise and the fit error only.

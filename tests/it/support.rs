@@ -8,9 +8,26 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The `volcomp` binary built for these tests.
+/// The `volcomp` binary built for these tests. Its model cache is a folder of
+/// this test run's own in the system's temporary folder (never the user's
+/// `~/.cache/volcomp`), shared by the tests: a model one test fitted is what
+/// another one loads, as for a user running several commands.
 pub fn volcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
+    let mut command = Command::new(env!("CARGO_BIN_EXE_volcomp"));
+    command.env("VOLCOMP_MODEL_CACHE", model_cache());
+    command
+}
+
+/// The model cache of this test run (see [`volcomp`]).
+pub fn model_cache() -> &'static std::path::Path {
+    static DIR: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        tempfile::Builder::new()
+            .prefix("volcomp-test-cache-")
+            .tempdir()
+            .expect("a temporary folder")
+    })
+    .path()
 }
 
 /// Assert that a command succeeded, showing its stderr otherwise.
