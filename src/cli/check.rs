@@ -74,6 +74,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let (input, stamp) = super::common::open_program_with_stamp(&args.program)?;
     if let (true, Some(output)) = (args.flatten, &args.output) {
+        // A flat program holds no O-words: the subroutine definitions the
+        // program passes over are left out (their calls come flat).
+        let mut setup = setup;
+        setup.language.drop_definitions = true;
         let program = crate::gcode::Program::new(input, &name, setup);
         let mut stats = None;
         crate::io::write_atomic(output, |out| -> anyhow::Result<()> {

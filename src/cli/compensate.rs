@@ -251,6 +251,47 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     } else {
         msg
     };
+    let msg = if report.subroutine_definitions.is_empty() {
+        msg
+    } else {
+        let list: Vec<String> = report
+            .subroutine_definitions
+            .iter()
+            .take(10)
+            .map(|d| format!("{} (lines {}–{})", d.name, d.first_line, d.last_line))
+            .collect();
+        let more = report.subroutine_definitions.len().saturating_sub(10);
+        format!(
+            "{msg}\n{} subroutine definition{} written as {}: not executed where {} (LinuxCNC skips {} there too), so not compensated; the calls this program makes are written flat and compensated: {}{}",
+            report.subroutine_definitions.len(),
+            if report.subroutine_definitions.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it is"
+            } else {
+                "they are"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it stands"
+            } else {
+                "they stand"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it"
+            } else {
+                "them"
+            },
+            list.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        )
+    };
     // The summary goes to stderr when the program itself goes to stdout.
     super::common::say(crate::io::is_stdio(output), &msg)?;
     Ok(())

@@ -113,10 +113,27 @@ pub struct CompensateReport {
     /// the position-only solve near the A = 0 pole, with their first lines.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation: Option<OrientationReport>,
+    /// Subroutine definitions written as they are: the program passes over
+    /// them (LinuxCNC skips a definition where it stands), so they are not
+    /// compensated there; the calls the program makes are written flat and
+    /// compensated (extension: docs/extensions.md).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub subroutine_definitions: Vec<PassedDefinition>,
     #[serde(skip)]
     residual_sum_sq: f64,
     #[serde(skip)]
     residual_moves: usize,
+}
+
+/// A subroutine definition written as it is (see
+/// [`CompensateReport::subroutine_definitions`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PassedDefinition {
+    /// Its label as written (`o<probe>`, `O100`).
+    pub name: String,
+    /// Lines of its `sub` and `endsub`.
+    pub first_line: usize,
+    pub last_line: usize,
 }
 
 /// The tool-axis side of `compensate --orientation`.
@@ -205,6 +222,39 @@ impl CompensateReport {
         self.residual_sum_sq += um * um;
         self.residual_moves += 1;
         self.expected_residual_max_um = Some(self.expected_residual_max_um.unwrap_or(0.0).max(um));
+    }
+
+    /// Note a line that is written as it is, not executed: the lines of a
+    /// subroutine definition the program passes over are counted by
+    /// definition.
+    fn record_passed(&mut self, block: &Block) {
+        use crate::gcode::block::OKeyword;
+        let Some(o) = &block.o_word else {
+            return;
+        };
+        match o.keyword {
+            OKeyword::Sub => {
+                let text = String::from_utf8_lossy(block.raw.get(o.start..o.end).unwrap_or(&[]));
+                // The label: the text before the keyword `sub`.
+                let label = text
+                    .trim_end()
+                    .get(..text.trim_end().len().saturating_sub(3))
+                    .unwrap_or("")
+                    .trim_end()
+                    .to_string();
+                self.subroutine_definitions.push(PassedDefinition {
+                    name: label,
+                    first_line: block.line,
+                    last_line: block.line,
+                });
+            }
+            OKeyword::EndSub => {
+                if let Some(d) = self.subroutine_definitions.last_mut() {
+                    d.last_line = block.line;
+                }
+            }
+            _ => {}
+        }
     }
 
     /// The RMS values, once every move is recorded.
@@ -831,6 +881,9 @@ fn write_chunks(
         for (((block, event), plan), cycle) in chunk.iter().zip(plans).zip(&cycles) {
             let plan = plan.map_err(|e| point_error(path, block.line, e))?;
             report.blocks_read += 1;
+            if event.skipped {
+                report.record_passed(block);
+            }
             if let Some(cycle) = cycle {
                 for &um in &cycle.corrections_um {
                     report.record(block.line, &event.tool, cycle.length_mm, um);

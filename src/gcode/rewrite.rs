@@ -254,6 +254,16 @@ impl Rewriter {
         target: Target<'_>,
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
+        if event.skipped {
+            // Not executed (a subroutine definition passed over, a line after
+            // the end, a deleted or unparsed line): as written, and the
+            // emitted program's state is unchanged.
+            if target != Target::Same {
+                return Err(RewriteError::NotAMotion { line: block.line });
+            }
+            block.write_raw(out)?;
+            return Ok(Emitted::default());
+        }
         for w in &block.words {
             if let Some(axis) = Axis::from_letter(w.letter as char) {
                 let i = axis as usize;

@@ -818,3 +818,100 @@ fn flank_milling_needs_the_tool_axis_corrected() {
     };
     assert!(residual(&position_only, 18.0) > 3.0 * residual(&position_only, 2.0));
 }
+
+/// The program without volcomp's stamp lines.
+fn unstamped(text: &str) -> String {
+    text.split_inclusive('\n')
+        .filter(|l| !l.starts_with(volcomp::compensate::stamp::PREFIX))
+        .collect()
+}
+
+/// Compensate `text` with the command (ref-trt, `args` added), with a report:
+/// the output, the summary and the report.
+fn compensate_cli(text: &str, args: &[&str]) -> (String, String, serde_json::Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("part.ngc");
+    std::fs::write(&program, text).unwrap();
+    let (out_path, report) = (dir.path().join("out.ngc"), dir.path().join("r.json"));
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml"])
+        .arg(&program)
+        .arg("-o")
+        .arg(&out_path)
+        .arg("--report")
+        .arg(&report)
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    crate::support::assert_success(&out);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    (
+        std::fs::read_to_string(&out_path).unwrap(),
+        String::from_utf8(out.stdout).unwrap(),
+        report,
+    )
+}
+
+/// Issue 23: a file that only defines subroutines came out empty, and
+/// `o<sq> sub … endsub` then `M2` came out as `M2`. Definitions the program
+/// passes over are written as they are (LinuxCNC skips them there too), and
+/// the summary and the report say they are not compensated.
+#[test]
+fn subroutine_definitions_are_written_as_they_are() {
+    let library = "(probing library)\no<probe> sub\n  G38.2 Z-10 F100\n  o<probe> if [#5070 EQ 0]\n    (abort, not found)\n  o<probe> endif\n  G0 Z#1 (retract)\no<probe> endsub\n\nO200 sub\n  G1 X#1 Y#2 F300\nO200 endsub\nM2\n";
+    let (out, summary, report) = compensate_cli(library, &[]);
+    assert_eq!(unstamped(&out), library);
+    assert!(
+        summary.contains("2 subroutine definitions written as they are")
+            && summary.contains("o<probe> (lines 2–8), O200 (lines 10–12)"),
+        "{summary}"
+    );
+    let defs = &report["subroutine_definitions"];
+    assert_eq!(defs[0]["name"], "o<probe>");
+    assert_eq!(
+        (
+            defs[1]["first_line"].as_u64(),
+            defs[1]["last_line"].as_u64()
+        ),
+        (Some(10), Some(12))
+    );
+    let sq = "o<sq> sub\n  G1 X#1 F100\no<sq> endsub\nM2\n";
+    assert_eq!(unstamped(&compensate_cli(sq, &[]).0), sq);
+}
+
+/// A called subroutine: its definition stays as written, its calls come flat
+/// and compensated, and LinuxCNC reads the written program to the same
+/// positions (within the corrections, µm).
+#[test]
+fn called_subroutines_are_written_flat_beside_their_definition() {
+    let text = "G21 G90 G17 G94 F300\nG0 X10 Y10 Z5 A0 C0\no<sq> sub\n  G1 X[10+#1] Y10 Z0\n  G1 Y[10+#1]\no<sq> endsub\no<sq> call [5]\no<later> call [2]\no<sq> call [7]\nG0 Z5\nM2\no<later> sub\n  G1 X#1\no<later> endsub\n";
+    let (out, _, report) = compensate_cli(text, &[]);
+    let out = unstamped(&out);
+    assert!(
+        out.contains("o<sq> sub\n  G1 X[10+#1] Y10 Z0\n  G1 Y[10+#1]\no<sq> endsub\n"),
+        "{out}"
+    );
+    assert!(
+        out.ends_with("M2\no<later> sub\n  G1 X#1\no<later> endsub\n"),
+        "{out}"
+    );
+    assert!(!out.contains("call"), "{out}");
+    assert_eq!(report["motion_blocks"], 7);
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ngc"), dir.path().join("b.ngc"));
+    std::fs::write(&a, text).unwrap();
+    std::fs::write(&b, &out).unwrap();
+    let original = crate::rs274::rs274_motions(&a).expect("rs274 reads the original");
+    let written = crate::rs274::rs274_motions(&b).expect("rs274 reads the written program");
+    assert_eq!(original.len(), written.len(), "{original:?}\n{written:?}");
+    for (p, q) in original.iter().zip(&written) {
+        let d = p
+            .iter()
+            .zip(q)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(d < 0.05, "{p:?} vs {q:?}");
+    }
+}

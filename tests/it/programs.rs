@@ -159,9 +159,16 @@ G92 X0 Y0 Z0\nG1 X10 Y5 Z-2\nG10 L20 P2 X1 Y2 Z3\nG55\nG1 X4 Y4 Z4\nG92.1\nG54\n
 
 /// `check --flatten` as a library call: the flat program and its stats.
 fn flatten(text: &str) -> (String, volcomp::gcode::RewriteStats) {
+    let mut setup = ProgramSetup::default();
+    setup.language.drop_definitions = true;
+    let program = Program::new(
+        Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+        std::path::Path::new("p.ngc"),
+        setup,
+    );
     let mut out = Vec::new();
     let stats = rewrite_stream(
-        Program::from_text(text, "p.ngc").run(interpret_options(Frame::Joint)),
+        program.run(interpret_options(Frame::Joint)),
         &mut out,
         RewriteOptions::default(),
         |_, _, _| None,

@@ -50,7 +50,7 @@ const PACKAGE_ROOTS: [&str; 2] = [
 static RS274: Mutex<()> = Mutex::new(());
 
 /// A point: X Y Z (mm) A B C (degrees), machine coordinates.
-type Point = [f64; 6];
+pub type Point = [f64; 6];
 
 fn data_dir() -> PathBuf {
     support::root().join("tests/data/rs274")
@@ -479,6 +479,27 @@ fn run_rs274(case: &Case, var_mm: &str, dir: &Path) -> Side {
             incomplete: Some(e),
             ..Side::default()
         },
+    }
+}
+
+/// What rs274 makes of the program at `path`, in the corpus's setup
+/// (`setup.var`, `sim.tbl`, `subs/` on the subroutine path): its motion end
+/// points in machine coordinates (zero-length moves dropped), or its error.
+/// For tests that read a written program back.
+pub fn rs274_motions(path: &Path) -> Result<Vec<Point>, String> {
+    check_rs274();
+    let case = Case {
+        name: path.display().to_string(),
+        path: path.to_path_buf(),
+        subroutine_path: vec![data_dir().join("subs")],
+    };
+    let var_mm = std::fs::read_to_string(data_dir().join("setup.var")).unwrap();
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let side = run_rs274(&case, &var_mm, dir.path());
+    match (side.accepted, side.incomplete) {
+        (false, _) => Err(side.message),
+        (true, Some(why)) => Err(why),
+        (true, None) => Ok(side.points),
     }
 }
 
