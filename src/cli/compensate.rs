@@ -251,6 +251,30 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     } else {
         msg
     };
+    let msg = match &report.split_cap {
+        Some(cap) => format!(
+            "{msg}\nwarning: {} move{} reached the split cap of {} pieces with the correction still departing from the pieces by up to {:.3} µm, more than the tolerance {} µm (line{} {}); raise --tol or split {} in the program",
+            cap.moves,
+            if cap.moves == 1 { "" } else { "s" },
+            cap.pieces,
+            cap.max_departure_um,
+            if report.tolerance_um >= 1e-3 {
+                report.tolerance_um.to_string()
+            } else {
+                format!("{:e}", report.tolerance_um)
+            },
+            if cap.lines.len() == 1 { "" } else { "s" },
+            cap.lines
+                .iter()
+                .take(10)
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+                + if cap.moves > 10 { ", …" } else { "" },
+            if cap.moves == 1 { "it" } else { "them" },
+        ),
+        None => msg,
+    };
     let msg = if report.subroutine_definitions.is_empty() {
         msg
     } else {

@@ -1,14 +1,24 @@
 //! Block alignment of two programs, streaming.
 //!
 //! Two blocks *match* when both carry the same N number (when both have one), or
-//! else when both are motion blocks of the same kind whose end targets agree within
-//! the match tolerance, or else when their words (without N and comments) are equal.
-//! The aligner walks both programs with a bounded look-ahead window: at each step it
-//! pairs matching blocks, or takes the shortest run of insertions (blocks only in
-//! B, such as the pieces of a split move) or deletions that restores a match, or
-//! else pairs the two blocks as a substitution. Memory is bounded by the window.
+//! else when both are motion blocks of the same kind (an arc and a straight
+//! move count as one kind: a split arc ends in a straight piece) whose end
+//! targets agree within the match tolerance, or else when their words (without
+//! N and comments) are equal. The aligner walks both programs with a bounded
+//! look-ahead window: at each step it pairs matching blocks, or takes the
+//! shortest run of insertions (blocks only in B, such as the pieces of a split
+//! move) or deletions that restores a match, or else pairs the two blocks as a
+//! substitution. Memory is bounded by the window, except while the straight
+//! pieces of a split arc are followed along the arc (at most
+//! [`MAX_ARC_PIECES`] blocks).
 use crate::axes::Axes;
+use crate::gcode::Motion;
+use crate::gcode::motion::to_plane;
 use std::collections::VecDeque;
+
+/// Most straight pieces of one split arc followed beyond the window
+/// (`compensate` writes at most 100,000 chords an arc).
+pub const MAX_ARC_PIECES: usize = 200_000;
 
 /// What the aligner needs of a block.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +32,9 @@ pub struct BlockSummary {
     pub motion: Option<(u8, Axes)>,
     /// The block's words without N number and comments, normalised (upper case, no spaces).
     pub key: String,
+    /// The block's last move (its path: an arc's centre and turns), when it
+    /// has one.
+    pub path: Option<Motion>,
 }
 
 /// One step of the alignment.
@@ -60,7 +73,7 @@ pub fn blocks_match(a: &BlockSummary, b: &BlockSummary, tolerance: f64) -> bool 
     }
     match (&a.motion, &b.motion) {
         (Some((ka, ta)), Some((kb, tb))) => {
-            ka == kb
+            same_kind(*ka, *kb)
                 && ta
                     .to_array()
                     .iter()
@@ -70,6 +83,36 @@ pub fn blocks_match(a: &BlockSummary, b: &BlockSummary, tolerance: f64) -> bool 
         (None, None) => a.key == b.key,
         _ => false,
     }
+}
+
+/// Motion kind codes that pair: equal, or an arc (2, 3) and a straight feed
+/// move (1): a split arc's last piece is a `G1`.
+fn same_kind(a: u8, b: u8) -> bool {
+    a == b || matches!((a, b), (2 | 3, 1) | (1, 2 | 3))
+}
+
+/// Does `b`'s end lie on `arc`'s path (its helix), within `tolerance`? A
+/// piece of the arc split into straight pieces does.
+fn on_arc(arc: &Motion, b: &BlockSummary, tolerance: f64) -> bool {
+    let (crate::gcode::MotionKind::Arc { centre, plane, .. }, Some((1, end)), None) =
+        (arc.kind, &b.motion, b.number)
+    else {
+        return false;
+    };
+    let (p, c) = (to_plane(plane, end.xyz()), to_plane(plane, centre));
+    let (s, e) = (
+        to_plane(plane, arc.start.xyz()),
+        to_plane(plane, arc.end.xyz()),
+    );
+    let (r0, r1) = (
+        (s[0] - c[0]).hypot(s[1] - c[1]),
+        (e[0] - c[0]).hypot(e[1] - c[1]),
+    );
+    let r = (p[0] - c[0]).hypot(p[1] - c[1]);
+    r >= r0.min(r1) - tolerance
+        && r <= r0.max(r1) + tolerance
+        && p[2] >= s[2].min(e[2]) - tolerance
+        && p[2] <= s[2].max(e[2]) + tolerance
 }
 
 /// Streaming aligner over two block iterators.
@@ -132,13 +175,25 @@ where
                 let x = self.buf_b.pop_front().expect("front");
                 self.out.push_back(Aligned::Added(x));
             }
-            (Some(fa), Some(fb)) => {
+            (Some(_), Some(_)) => {
+                let (fa, fb) = (&self.buf_a[0], &self.buf_b[0]);
                 if blocks_match(fa, fb, tol) {
                     let x = self.buf_a.pop_front().expect("front");
                     let y = self.buf_b.pop_front().expect("front");
                     self.out.push_back(Aligned::Pair(x, y));
                     return;
                 }
+                if let Some(n) = self.arc_pieces() {
+                    for _ in 0..n {
+                        let y = self.buf_b.pop_front().expect("buffered");
+                        self.out.push_back(Aligned::Added(y));
+                    }
+                    let x = self.buf_a.pop_front().expect("front");
+                    let y = self.buf_b.pop_front().expect("buffered");
+                    self.out.push_back(Aligned::Pair(x, y));
+                    return;
+                }
+                let (fa, fb) = (&self.buf_a[0], &self.buf_b[0]);
                 // Shortest run of insertions in B or deletions from A that restores a match.
                 let insert = self
                     .buf_b
@@ -174,6 +229,40 @@ where
     }
 }
 
+impl<A, B> Aligner<A, B>
+where
+    A: Iterator<Item = BlockSummary>,
+    B: Iterator<Item = BlockSummary>,
+{
+    /// When A's next block is an arc and B's next blocks are straight pieces
+    /// along it: how many come before the one that ends where the arc ends
+    /// (read beyond the window, up to [`MAX_ARC_PIECES`]); `None` otherwise.
+    fn arc_pieces(&mut self) -> Option<usize> {
+        let tol = self.options.match_tolerance;
+        let fa = self.buf_a.front()?;
+        let arc = fa
+            .path
+            .filter(|m| matches!(m.kind, crate::gcode::MotionKind::Arc { .. }))?;
+        let mut k = 0;
+        loop {
+            if k >= self.buf_b.len() {
+                if k >= MAX_ARC_PIECES {
+                    return None;
+                }
+                self.buf_b.push_back(self.b.next()?);
+            }
+            let b = &self.buf_b[k];
+            if k > 0 && blocks_match(fa, b, tol) {
+                return Some(k);
+            }
+            if !on_arc(&arc, b, tol) {
+                return None;
+            }
+            k += 1;
+        }
+    }
+}
+
 impl<A, B> Iterator for Aligner<A, B>
 where
     A: Iterator<Item = BlockSummary>,
@@ -199,6 +288,7 @@ mod tests {
             number: None,
             motion: Some((1, Axes::new(x, 0.0, 0.0, 0.0, 0.0))),
             key: format!("G1X{x}"),
+            path: None,
         }
     }
 

@@ -36,6 +36,20 @@ pub struct LargeChange {
     pub xyz_change_um: f64,
     /// Δ per axis (X Y Z in µm, A C in millidegrees).
     pub delta: [f64; 5],
+    /// How many blocks of B the block of A became (1, or the pieces of a
+    /// split move: B's `line_b` is the last).
+    pub pieces: usize,
+}
+
+/// A block of A that became several blocks of B (a split move, or a canned
+/// cycle written flat): the last of them is paired with it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SplitBlock {
+    pub line_a: usize,
+    /// Lines of B's first and last piece.
+    pub first_line_b: usize,
+    pub last_line_b: usize,
+    pub pieces: usize,
 }
 
 /// The diff report (`--report` JSON).
@@ -58,6 +72,13 @@ pub struct DiffReport {
     /// Lines of the first added and removed blocks (up to `largest` many).
     pub added_lines: Vec<usize>,
     pub removed_lines: Vec<usize>,
+    /// Blocks of A that became several blocks of B, and how many blocks of B
+    /// they became in all (the pieces are counted in `added` too, but the
+    /// last, which is paired).
+    pub split_blocks: usize,
+    pub split_pieces: usize,
+    /// The first of them (up to `largest` many).
+    pub splits: Vec<SplitBlock>,
 }
 
 impl DiffReport {
@@ -74,6 +95,10 @@ pub struct DiffAccumulator {
     sum_sq: [f64; 5],
     sum_sq_xyz: f64,
     keep: usize,
+    /// Motion blocks only in B just before the next pair: its pieces (count,
+    /// first line).
+    pending_pieces: usize,
+    pending_first: usize,
 }
 
 impl DiffAccumulator {
@@ -93,6 +118,8 @@ impl DiffAccumulator {
             sum_sq: [0.0; 5],
             sum_sq_xyz: 0.0,
             keep,
+            pending_pieces: 0,
+            pending_first: 0,
         }
     }
 
@@ -105,8 +132,17 @@ impl DiffAccumulator {
                 if r.added_lines.len() < self.keep {
                     r.added_lines.push(b.line);
                 }
+                if b.motion.is_some() {
+                    if self.pending_pieces == 0 {
+                        self.pending_first = b.line;
+                    }
+                    self.pending_pieces += 1;
+                } else {
+                    self.pending_pieces = 0;
+                }
             }
             Aligned::Removed(a) => {
+                self.pending_pieces = 0;
                 r.blocks_a += 1;
                 r.removed += 1;
                 if r.removed_lines.len() < self.keep {
@@ -123,8 +159,21 @@ impl DiffAccumulator {
                 } else {
                     r.changed += 1;
                 }
+                let pieces = std::mem::take(&mut self.pending_pieces) + 1;
                 if let (Some((_, ta)), Some((_, tb))) = (&a.motion, &b.motion) {
                     r.motion_pairs += 1;
+                    if pieces > 1 {
+                        r.split_blocks += 1;
+                        r.split_pieces += pieces;
+                        if r.splits.len() < self.keep {
+                            r.splits.push(SplitBlock {
+                                line_a: a.line,
+                                first_line_b: self.pending_first,
+                                last_line_b: b.line,
+                                pieces,
+                            });
+                        }
+                    }
                     let (va, vb) = (ta.to_array(), tb.to_array());
                     let mut delta = [0.0; 5];
                     for i in 0..5 {
@@ -154,6 +203,7 @@ impl DiffAccumulator {
                                 delta[3] * 1e3,
                                 delta[4] * 1e3,
                             ],
+                            pieces,
                         };
                         insert_largest(&mut r.largest, change, self.keep);
                     }

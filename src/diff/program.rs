@@ -73,6 +73,7 @@ pub fn summarize(block: &Block, event: &BlockEvent) -> BlockSummary {
             .filter(|_| !event.skipped)
             .map(|m| (motion_code(&m.kind), m.end)),
         key: block_key(block),
+        path: event.motions().last().filter(|_| !event.skipped).copied(),
     }
 }
 

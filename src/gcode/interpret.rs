@@ -1453,9 +1453,12 @@ impl Interpreter {
         }
         if arc && let Some(p) = words.p {
             let at = block.word(b'P').map_or((0, 0), |w| (w.start, w.end));
-            if (p.round_ties_even() - p).abs() > 0.001 {
+            // LinuxCNC's `round_to_int`: (int) nearbyint(P); beyond an int
+            // the conversion gives INT_MIN, which is then "not an integer".
+            let turns = arc_turns(p).map_or(i32::MIN as f64, |n| n as f64);
+            if (turns - p).abs() > 0.001 {
                 self.fail(block, event, ErrorKind::ArcTurnsNotInteger, at.0, at.1)?;
-            } else if p.round_ties_even() < 1.0 {
+            } else if turns < 1.0 {
                 self.fail(block, event, ErrorKind::ArcTurnsBelowOne, at.0, at.1)?;
             }
         }
@@ -1726,10 +1729,9 @@ impl Interpreter {
                 let e = origin.to_program(&end);
                 match self.arc_centre(block, event, modal, words, &s, &e, clockwise)? {
                     Some(centre) => {
-                        let turns = match words.p {
-                            Some(p) if (1.0..1e6).contains(&p) => {
-                                (p.round_ties_even() as u32).saturating_sub(1)
-                            }
+                        // P full circles (LinuxCNC runs every one of them).
+                        let turns = match words.p.and_then(arc_turns) {
+                            Some(n) if n >= 1 => (n - 1) as u32,
                             _ => 0,
                         };
                         MotionKind::Arc {
@@ -1969,6 +1971,13 @@ impl Interpreter {
     pub fn time_min(&self) -> f64 {
         self.time_min
     }
+}
+
+/// An arc's P as LinuxCNC's `round_to_int` reads it: the nearest integer
+/// (ties to even), `None` when it does not fit an `int`.
+fn arc_turns(p: f64) -> Option<i32> {
+    let n = p.round_ties_even();
+    (n >= i32::MIN as f64 && n <= i32::MAX as f64).then_some(n as i32)
 }
 
 /// Duration of a move by the effects.md rules, minutes, from its programmed

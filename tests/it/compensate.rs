@@ -562,7 +562,9 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
 fn a_full_circle_helix_keeps_its_centre() {
     let text = "%\nG21 G90 G94 G17 F400\nG0 X0 Y0 Z0 A10 C0\nG1 X10\n\
                 G3 X10 Y0 Z-5 I-5 J0 P2\nG2 X0 Y0 R5\nM30\n%\n";
-    let (compensated, _) = compensate_text(text, Frame::Joint);
+    // A tolerance the correction's variation round the helix stays within:
+    // it is not split (at 0.5 µm it is, into straight pieces).
+    let (compensated, _) = compensate_with_tolerance(text, Frame::Joint, 10.0);
     let helix = compensated
         .lines()
         .find(|l| l.starts_with("G3") && l.contains("P2"))
@@ -914,4 +916,106 @@ fn called_subroutines_are_written_flat_beside_their_definition() {
             .fold(0.0, f64::max);
         assert!(d < 0.05, "{p:?} vs {q:?}");
     }
+}
+
+/// Issue 23: a full circle of even `P` (its midpoint is its start) and `G1
+/// C720` (its midpoint is the pose of its ends) were never split, though the
+/// correction varies along them. The split test samples a move where its pose
+/// differs, at most a quarter turn apart.
+#[test]
+fn moves_whose_midpoint_is_the_pose_of_their_ends_are_split() {
+    for (name, text) in [
+        (
+            "full circle P2",
+            "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X-40 Y0 I40 J0 P2\nG1 X-50\nM2\n",
+        ),
+        (
+            "G1 C720",
+            "G21 G90 G94 F500\nG0 X50 Y30 Z10 A30 C0\nG1 X51\nG1 C720\nM2\n",
+        ),
+    ] {
+        // Unsplit (a tolerance it cannot exceed), the compensated move leaves
+        // the path by more than the default tolerance…
+        let (unsplit, report) = compensate_with_tolerance(text, Frame::Joint, 1e3);
+        assert_eq!(report.blocks_split, 0, "{name}");
+        let (before, unsplit) = closed_loop(text, &unsplit, Frame::Joint);
+        // …split, it stays within it.
+        let (compensated, report) = compensate_text(text, Frame::Joint);
+        let (_, after) = closed_loop(text, &compensated, Frame::Joint);
+        eprintln!(
+            "{name}: uncompensated max {:.3} µm; compensated unsplit max {:.3} µm, split ({} pieces) max {:.4} µm",
+            before.max_um,
+            unsplit.max_um,
+            report.blocks_added + 1,
+            after.max_um
+        );
+        assert!(unsplit.max_um > 1.0, "{name}: {unsplit:?}");
+        assert_eq!(report.blocks_split, 1, "{name}");
+        assert!(report.split_cap.is_none(), "{name}");
+        assert!(after.max_um < 0.5, "{name}: {after:?}");
+    }
+}
+
+/// Issue 23: an arc's `P` of a million turns or more was read as one turn
+/// (LinuxCNC runs them all), and `P100001` became 100,000 straight pieces of
+/// a turn each (the circle collapsed). Every turn is read; an arc that needs
+/// more straight pieces than volcomp writes is a located error.
+#[test]
+fn arcs_of_many_turns_are_read_whole_or_refused() {
+    let arc = |p: &str| {
+        format!(
+            "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X-40 Y0 I40 J0 P{p}\nM2\n"
+        )
+    };
+    let events = volcomp::gcode::interpret_program(
+        arc("1000001").as_bytes(),
+        interpret_options(Frame::Joint),
+    )
+    .expect("reads");
+    let m = events[3].1.motion.expect("the arc");
+    let turns = m.arc_geometry().unwrap().sweep().abs() / std::f64::consts::TAU;
+    assert!((turns - 1_000_001.0).abs() < 1e-6, "{turns}");
+    let (machine, model) = ref_trt();
+    let options = CompensateOptions {
+        interpret: interpret_options(Frame::Joint),
+        limits: Some(machine.limits.clone()),
+        ..CompensateOptions::default()
+    };
+    let e = compensate(
+        ref_program(&arc("100001"), "many.nc"),
+        &mut Vec::new(),
+        model,
+        &options,
+        |_| {},
+    )
+    .expect_err("too many pieces");
+    let message = e.to_string();
+    assert!(
+        message.starts_with("many.nc:4: the correction varies along this arc")
+            && message.contains("more than the 100000 volcomp writes"),
+        "{message}"
+    );
+}
+
+/// Issue 23: the split cap (256 pieces a move) was reached silently
+/// (`--tol 1e-300` on the flank: every move 256 pieces, exit 0). It is a
+/// counted warning, in the summary and the report.
+#[test]
+fn the_split_cap_reached_is_counted_and_said() {
+    let (_, summary, report) = compensate_cli(&read("samples/flank.nc"), &["--tol", "1e-300"]);
+    let cap = &report["split_cap"];
+    assert_eq!(cap["pieces"], 256);
+    let moves = cap["moves"].as_u64().unwrap();
+    assert!(moves > 300, "{cap}");
+    assert!(cap["max_departure_um"].as_f64().unwrap() > 0.0);
+    assert!(
+        summary.contains(&format!(
+            "warning: {moves} moves reached the split cap of 256 pieces"
+        )) && summary.contains("more than the tolerance 1e-300 µm"),
+        "{summary}"
+    );
+    // At the default tolerance no move reaches it, and the report says nothing.
+    let (_, summary, report) = compensate_cli(&read("samples/flank.nc"), &[]);
+    assert!(report.get("split_cap").is_none(), "{report}");
+    assert!(!summary.contains("split cap"), "{summary}");
 }

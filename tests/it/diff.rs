@@ -140,3 +140,43 @@ fn the_stamp_of_a_compensated_program_is_not_an_added_block() {
     assert!(stdout.contains("compensated by volcomp"), "{stdout}");
     assert!(stdout.contains(", 0 added, 0 removed"), "{stdout}");
 }
+
+/// Issue 23: `diff` paired a split arc with its FIRST straight piece and
+/// reported a 58 mm change where the correction is µm. A split block is paired
+/// with the piece that ends where it ends (arcs as lines), and the report
+/// says how many pieces it became; an arc of more pieces than the alignment
+/// window (1,024) is followed along its path.
+#[test]
+fn a_split_arc_pairs_with_its_last_piece() {
+    // A half circle of radius 40 and a full circle of radius 60 (about 2,400
+    // chords at the default tolerance).
+    let original = "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X40 Y0 I40 J0\nG1 X60\nG3 X60 Y0 I-60 J0\nG1 X70\nM2\n";
+    let (compensated, report) = compensate_text(original, Frame::Joint);
+    assert_eq!(report.blocks_split, 2, "{report:?}");
+    let r = diff(original, &compensated);
+    assert_eq!(r.removed, 0);
+    assert_eq!(r.added, report.blocks_added);
+    assert_eq!(r.paired, original.lines().count());
+    assert_eq!(r.split_blocks, 2);
+    assert_eq!(r.split_pieces, report.blocks_added + 2);
+    assert_eq!((r.splits[0].line_a, r.splits[1].line_a), (4, 6));
+    assert!(r.splits[1].pieces > 1024, "{:?}", r.splits);
+    // Every change is a correction (µm), none a pairing with the wrong piece.
+    assert!(r.max_xyz_change_um < 10.0, "{}", r.max_xyz_change_um);
+    approx::assert_relative_eq!(
+        r.max_xyz_change_um,
+        report.max_correction_um,
+        max_relative = 1e-2
+    );
+    let split = r.largest.iter().find(|c| c.line_a == 4).expect("listed");
+    assert_eq!(split.pieces, r.splits[0].pieces);
+    // The summary says it too.
+    let text = volcomp::cli::diff::summary_text(&r);
+    assert!(
+        text.contains(&format!(
+            "2 blocks of A became {} blocks of B",
+            r.split_pieces
+        )) && text.contains("(split into"),
+        "{text}"
+    );
+}
