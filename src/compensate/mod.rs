@@ -683,7 +683,12 @@ pub fn compensate(
     let mut models = ToolModels::new(model);
     let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
     let (solved_sender, solved) = std::sync::mpsc::sync_channel::<Solved>(2);
-    let interpret = options.interpret;
+    // Splines become straight pieces within a tenth of the tolerance of the
+    // curve, as split arcs do; each piece's end is compensated.
+    let interpret = InterpretOptions {
+        spline_tolerance_mm: options.tolerance_um * 1e-4,
+        ..options.interpret
+    };
     let chunk_blocks = options.chunk_blocks.max(1);
     let models_ref = &mut models;
     std::thread::scope(|scope| {
@@ -748,15 +753,15 @@ fn read_chunks(
 }
 
 /// The moves of a block that are compensated: its one move, or the moves of a
-/// canned cycle (written flat). G28/G30 legs go to stored positions and are
-/// not compensated.
+/// canned cycle or the straight pieces of a spline (written flat). G28/G30
+/// legs go to stored positions and are not compensated.
 fn compensated_moves(event: &BlockEvent) -> &[Motion] {
     if event.skipped {
         return &[];
     }
     match &event.motion {
         Some(m) => std::slice::from_ref(m),
-        None if !event.cycle_steps.is_empty() => &event.expanded,
+        None if !event.cycle_steps.is_empty() || event.spline.is_some() => &event.expanded,
         None => &[],
     }
 }
@@ -978,7 +983,7 @@ fn write_chunks(
                 }
                 emitted.clear();
                 let e = rewriter
-                    .emit_cycle(block, event, &cycle.ends, &mut emitted)
+                    .emit_flat(block, event, &cycle.ends, &mut emitted)
                     .map_err(|source| CompensateError::Rewrite {
                         path: path.to_path_buf(),
                         line: block.line,
