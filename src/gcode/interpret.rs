@@ -1993,7 +1993,8 @@ impl Interpreter {
         let refuse = |this: &Self, event: &mut BlockEvent, what: String| {
             this.fail(block, event, ErrorKind::Spline(what), span.0, span.1)
         };
-        event.spline = Some(SplineStep::NurbsPoint);
+        // (A G5.3 of the same block ran a curve: that is what the block says.)
+        event.spline.get_or_insert(SplineStep::NurbsPoint);
         let (x, y) = (words.axes[0].is_some(), words.axes[1].is_some());
         // LinuxCNC reads a missing P as -1.
         let p = words.p.unwrap_or(-1.0);

@@ -244,6 +244,17 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "program",
+            "a spline that needs more than 100,000 straight pieces (`--tol 1e-6`)",
+            p("%\nG21 G90 G17 F600\nG0 X0 Y0 Z0 A10 C0\nG5 I10 J0 P-10 Q0 X30 Y20\nM30\n%\n"),
+            "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --tol 1e-6",
+            1,
+            &[
+                "the curve needs more than 100000 straight pieces to stay within the tolerance of it",
+                "{d}/bad.nc:4:1",
+            ],
+        ),
+        case(
+            "program",
             "a target outside the machine's travel",
             p("%\nG21\nG1 X900 Y0 Z0 A0 C0 F100\nM30\n%\n"),
             COMPENSATE,

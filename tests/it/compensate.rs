@@ -1019,3 +1019,61 @@ fn the_split_cap_reached_is_counted_and_said() {
     assert!(report.get("split_cap").is_none(), "{report}");
     assert!(!summary.contains("split cap"), "{summary}");
 }
+
+/// Issue 23: splines (G5, G5.1, G5.2 … G5.3) are written flat by
+/// `compensate`: straight pieces within a tenth of the tolerance of the
+/// curve, each end compensated like any move. Replayed through the model,
+/// the written program follows the programmed curve within the tolerance.
+#[test]
+fn splines_are_written_as_compensated_straight_pieces() {
+    let text = "G21 G90 G17 G94 F600\nG0 X-40 Y-20 Z0 A0 C0\nG1 X-30\n\
+                G5 I10 J0 P-10 Q0 X10 Y10\nG5 P-5 Q-5 X40 Y-10\n\
+                G5.1 I5 J20 X60 Y-10\nG5.2 X60 Y20 P1 L4\nX30 Y40 P2\nX0 Y20 P1\nX-30 Y30 P1\nG5.3\n\
+                G1 X-40\nM2\n";
+    let (compensated, report) = compensate_text(text, Frame::Joint);
+    let (before, after) = closed_loop(text, &compensated, Frame::Joint);
+    eprintln!(
+        "splines: {} moves, uncompensated max {:.3} µm, compensated max {:.4} µm RMS {:.4} µm",
+        report.motion_blocks, before.max_um, after.max_um, after.rms_um
+    );
+    // Every piece's end is a compensated move; no spline word is left.
+    assert!(report.motion_blocks > 500, "{report:?}");
+    assert!(
+        !compensated.lines().any(|l| l
+            .split('(')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .any(|w| w == "G5" || w.starts_with("G5."))),
+        "{compensated}"
+    );
+    assert!(compensated.contains("(volcomp: G5 of line 4 written flat below)"));
+    assert!(compensated.contains("(volcomp: the G5.2 NURBS run by line 11 written flat below)"));
+    assert!(before.max_um > 2.0, "{before:?}");
+    assert!(after.max_um < 0.5, "{after:?}");
+}
+
+/// A G5.3 that also starts another NURBS (its X Y are that NURBS's first
+/// control point) cannot be written flat: a located error, not a lost point.
+#[test]
+fn a_g5_3_that_starts_another_nurbs_is_refused() {
+    let text = "G21 G90 G17 G94 F600\nG0 X0 Y0 Z0 A0 C0\nG5.2 X0 Y10 P1\nX10 Y10 P1\nX10 Y0 P1\nG5.3 X20 Y0 P1\nX30 Y10 P1\nX40 Y0 P1\nG5.3\nM2\n";
+    let (machine, model) = ref_trt();
+    let options = CompensateOptions {
+        interpret: interpret_options(Frame::Joint),
+        limits: Some(machine.limits.clone()),
+        ..CompensateOptions::default()
+    };
+    let e = compensate(
+        ref_program(text, "n.ngc"),
+        &mut Vec::new(),
+        model,
+        &options,
+        |_| {},
+    )
+    .expect_err("refused");
+    assert!(
+        e.to_string().starts_with("n.ngc:6: ") && e.to_string().contains("another NURBS"),
+        "{e}"
+    );
+}

@@ -10,7 +10,9 @@
 //!    degrees), after removing consecutive duplicate points on both sides,
 //!    within [`TOLERANCE`] plus the rounding of the numbers rs274 printed
 //!    (4 decimals in the units then current: up to 0.00005 in = 1.27 µm per
-//!    number in G20 programs; see [`parse_canon`]).
+//!    number in G20 programs; see [`parse_canon`]). A spline is one motion
+//!    on each side whose end is not compared: rs274 prints `NURBS_FEED(n,
+//!    ...)` without it; the moves after it show where it ended.
 //!
 //! rs274 prints canonical calls with positions in the work frame, in the
 //! units current at the time; this module turns them into machine
@@ -930,7 +932,13 @@ fn rs274_and_volcomp_read_programs_alike() {
              offsets, G92, XY rotation and units applied; tool length offsets not), \
              tolerance {TOLERANCE:e} mm/deg plus the rounding of the numbers rs274 prints \
              (4 decimals in the units then current: up to 0.00005 in = 1.27 µm per number \
-             in G20 programs), after removing zero-length moves on both sides.\n\n\
+             in G20 programs), after removing zero-length moves on both sides. A spline \
+             (G5, G5.1, G5.2 … G5.3) is one motion on each side: rs274 prints \
+             `NURBS_FEED(n, ...)`, the control points' count and not the curve's end, and \
+             volcomp writes the curve's straight pieces (collapsed into one motion, \
+             `G5`/`G5.1`/`G5.2` in its targets); the sides must agree that a spline runs \
+             there, and the moves after it (the fixtures follow every curve with a G91 \
+             move, which rs274 prints absolute) show that both end it at the same point.\n\n\
              Both get the same setup: `tests/data/rs274/setup.var` (work origins, G92, \
              G28/G30 positions; rs274 gets it in inches, its machine units), the tool \
              table `tests/data/rs274/sim.tbl`, and the subroutine path (`tests/data/rs274/subs`, \
