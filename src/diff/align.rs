@@ -85,6 +85,20 @@ pub fn blocks_match(a: &BlockSummary, b: &BlockSummary, tolerance: f64) -> bool 
     }
 }
 
+/// How far apart the ends of two motion blocks are (largest axis
+/// difference, mm or degrees); infinite unless both move.
+fn end_distance(a: &BlockSummary, b: &BlockSummary) -> f64 {
+    match (&a.motion, &b.motion) {
+        (Some((_, ta)), Some((_, tb))) => ta
+            .to_array()
+            .iter()
+            .zip(tb.to_array())
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max),
+        _ => f64::INFINITY,
+    }
+}
+
 /// Motion kind codes that pair: equal, or an arc (2, 3) and a straight feed
 /// move (1): a split arc's last piece is a `G1`.
 fn same_kind(a: u8, b: u8) -> bool {
@@ -178,19 +192,13 @@ where
             (Some(_), Some(_)) => {
                 let (fa, fb) = (&self.buf_a[0], &self.buf_b[0]);
                 if blocks_match(fa, fb, tol) {
-                    let x = self.buf_a.pop_front().expect("front");
-                    let y = self.buf_b.pop_front().expect("front");
-                    self.out.push_back(Aligned::Pair(x, y));
+                    let k = self.closest_in_run(0);
+                    self.pair_after(k);
                     return;
                 }
                 if let Some(n) = self.arc_pieces() {
-                    for _ in 0..n {
-                        let y = self.buf_b.pop_front().expect("buffered");
-                        self.out.push_back(Aligned::Added(y));
-                    }
-                    let x = self.buf_a.pop_front().expect("front");
-                    let y = self.buf_b.pop_front().expect("buffered");
-                    self.out.push_back(Aligned::Pair(x, y));
+                    let k = self.closest_in_run(n);
+                    self.pair_after(k);
                     return;
                 }
                 let (fa, fb) = (&self.buf_a[0], &self.buf_b[0]);
@@ -207,10 +215,8 @@ where
                     .position(|a| blocks_match(a, fb, tol));
                 match (insert, delete) {
                     (Some(i), d) if d.is_none_or(|d| i <= d) => {
-                        for _ in 0..=i {
-                            let y = self.buf_b.pop_front().expect("buffered");
-                            self.out.push_back(Aligned::Added(y));
-                        }
+                        let k = self.closest_in_run(i + 1);
+                        self.pair_after(k);
                     }
                     (_, Some(d)) => {
                         for _ in 0..=d {
@@ -234,6 +240,43 @@ where
     A: Iterator<Item = BlockSummary>,
     B: Iterator<Item = BlockSummary>,
 {
+    /// B's block `k` matches A's next block: the block of the run of
+    /// matching blocks from `k` on that ends closest to it (the short pieces
+    /// at the end of a split move all end within the match tolerance of it;
+    /// the last one ends where it ends).
+    fn closest_in_run(&mut self, mut k: usize) -> usize {
+        let tol = self.options.match_tolerance;
+        loop {
+            if k + 1 >= self.buf_b.len() {
+                if self.buf_b.len() >= MAX_ARC_PIECES {
+                    return k;
+                }
+                match self.b.next() {
+                    Some(x) => self.buf_b.push_back(x),
+                    None => return k,
+                }
+            }
+            let fa = &self.buf_a[0];
+            let (here, next) = (&self.buf_b[k], &self.buf_b[k + 1]);
+            if blocks_match(fa, next, tol) && end_distance(fa, next) < end_distance(fa, here) {
+                k += 1;
+            } else {
+                return k;
+            }
+        }
+    }
+
+    /// B's first `k` blocks are added; then A's next and B's next pair.
+    fn pair_after(&mut self, k: usize) {
+        for _ in 0..k {
+            let y = self.buf_b.pop_front().expect("buffered");
+            self.out.push_back(Aligned::Added(y));
+        }
+        let x = self.buf_a.pop_front().expect("front");
+        let y = self.buf_b.pop_front().expect("buffered");
+        self.out.push_back(Aligned::Pair(x, y));
+    }
+
     /// When A's next block is an arc and B's next blocks are straight pieces
     /// along it: how many come before the one that ends where the arc ends
     /// (read beyond the window, up to [`MAX_ARC_PIECES`]); `None` otherwise.

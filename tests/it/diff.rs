@@ -180,3 +180,36 @@ fn a_split_arc_pairs_with_its_last_piece() {
         "{text}"
     );
 }
+
+/// The straight pieces of a spline written flat are short: the last few all
+/// end within `--match-tol` of the curve's end. The block pairs with the one
+/// that ends closest to its end (the last), not the first within reach.
+#[test]
+fn a_flat_spline_pairs_with_its_last_piece() {
+    let original = "G21 G17 G90 G94 F600\nG0 X10 Y10 Z0 A0 C0\nG5 I5 J0 P-5 Q0 X30 Y20\nG5 P-5 Q0 X50 Y10\nG5.1 I5 J5 X60 Y10\nG1 X10 Y10\nM2\n";
+    let (compensated, report) = compensate_text(original, Frame::Joint);
+    let r = diff(original, &compensated);
+    assert_eq!(r.removed, 0);
+    let lines: Vec<usize> = r.splits.iter().map(|s| s.line_a).collect();
+    assert_eq!(lines[..3], [3, 4, 5], "{:?}", r.splits);
+    assert!(
+        r.max_xyz_change_um <= report.max_correction_um + 0.1,
+        "{r:?}"
+    );
+    // The paired piece is the curve's last: it ends where the curve ends.
+    for (s, end) in r
+        .splits
+        .iter()
+        .zip([[30.0, 20.0], [50.0, 10.0], [60.0, 10.0]])
+    {
+        let last = compensated.lines().nth(s.last_line_b - 1).unwrap();
+        let word = |letter: char| -> f64 {
+            last.split_whitespace()
+                .find_map(|w| w.strip_prefix(letter))
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(f64::NAN)
+        };
+        let d = (word('X') - end[0]).hypot(word('Y') - end[1]);
+        assert!(d < 0.005, "line {} → {last}", s.line_a);
+    }
+}
