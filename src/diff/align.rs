@@ -35,6 +35,12 @@ pub struct BlockSummary {
     /// The block's last move (its path: an arc's centre and turns), when it
     /// has one.
     pub path: Option<Motion>,
+    /// The line of the original program this block stands for when a writer
+    /// said so (`compensate`, `check --flatten`): a canned cycle or a spline
+    /// written flat (`(volcomp: G81 of line 5 expanded below)`, `(volcomp: G5
+    /// of line 4 written flat below)`), a G5.2 control point; the pieces
+    /// follow it.
+    pub written_for: Option<usize>,
 }
 
 /// One step of the alignment.
@@ -191,6 +197,16 @@ where
             }
             (Some(_), Some(_)) => {
                 let (fa, fb) = (&self.buf_a[0], &self.buf_b[0]);
+                if fb.written_for == Some(fa.line) {
+                    // Written flat for this block: it pairs with its last move.
+                    let k = if fa.motion.is_some() {
+                        self.flat_pieces()
+                    } else {
+                        0
+                    };
+                    self.pair_after(k);
+                    return;
+                }
                 if blocks_match(fa, fb, tol) {
                     let k = self.closest_in_run(0);
                     self.pair_after(k);
@@ -266,6 +282,41 @@ where
         }
     }
 
+    /// B's next block says it is written flat for A's next: the index of
+    /// the piece that ends where A's block ends (the first of the pieces
+    /// that follow, moves without N numbers and the dwell, spindle and
+    /// distance-mode lines of a flat cycle, that matches it, then the
+    /// closest of the run), read beyond the window up to
+    /// [`MAX_ARC_PIECES`]; 0 (the comment line itself) when none does.
+    fn flat_pieces(&mut self) -> usize {
+        let tol = self.options.match_tolerance;
+        let mut k = 1;
+        loop {
+            if k >= self.buf_b.len() {
+                if k >= MAX_ARC_PIECES {
+                    return 0;
+                }
+                match self.b.next() {
+                    Some(x) => self.buf_b.push_back(x),
+                    None => return 0,
+                }
+            }
+            let b = &self.buf_b[k];
+            let piece = b.number.is_none() && b.written_for.is_none();
+            let step = matches!(
+                b.key.as_str(),
+                "G90" | "G91" | "M3" | "M4" | "M5" | "M48" | "M49" | "M0"
+            ) || b.key.starts_with("G4P");
+            if !piece || (b.motion.is_none() && !step) {
+                return 0;
+            }
+            if b.motion.is_some() && blocks_match(&self.buf_a[0], b, tol) {
+                return self.closest_in_run(k);
+            }
+            k += 1;
+        }
+    }
+
     /// B's first `k` blocks are added; then A's next and B's next pair.
     fn pair_after(&mut self, k: usize) {
         for _ in 0..k {
@@ -332,6 +383,7 @@ mod tests {
             motion: Some((1, Axes::new(x, 0.0, 0.0, 0.0, 0.0))),
             key: format!("G1X{x}"),
             path: None,
+            written_for: None,
         }
     }
 

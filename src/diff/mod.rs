@@ -132,13 +132,13 @@ impl DiffAccumulator {
                 if r.added_lines.len() < self.keep {
                     r.added_lines.push(b.line);
                 }
+                // Moves only in B before the next pair are its pieces (the
+                // comment, dwell and mode lines of a flat block are not).
                 if b.motion.is_some() {
                     if self.pending_pieces == 0 {
                         self.pending_first = b.line;
                     }
                     self.pending_pieces += 1;
-                } else {
-                    self.pending_pieces = 0;
                 }
             }
             Aligned::Removed(a) => {

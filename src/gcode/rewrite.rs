@@ -414,9 +414,10 @@ impl Rewriter {
         let straighten = matches!(motion.kind, MotionKind::Arc { .. }) && !via.is_empty();
         let mut new_emitted = self.emitted;
         // Polar words (`@`, `^`) give X Y from the current point: a block
-        // whose start or end moves says its X Y instead.
-        let cartesian = (start_moved || end_moved)
-            && block.words.iter().any(|w| matches!(w.letter, b'@' | b'^'));
+        // whose start or end moves says its X Y instead; one that does not
+        // move keeps them (its X Y are the programmed ones).
+        let polar = block.words.iter().any(|w| matches!(w.letter, b'@' | b'^'));
+        let cartesian = (start_moved || end_moved) && polar;
         if cartesian {
             for w in block
                 .words
@@ -462,8 +463,10 @@ impl Rewriter {
                         self.emitted.get(axis) / unit
                     };
                     let dec = ctx.decimals(axis, self.decimals[i], &self.options);
-                    let polar_axis = cartesian && matches!(axis, Axis::X | Axis::Y);
-                    if (needed - implied).abs() > half_ulp(dec) || polar_axis {
+                    let polar_axis = polar && matches!(axis, Axis::X | Axis::Y);
+                    if polar_axis && !cartesian {
+                        new_emitted.set(axis, end.get(axis));
+                    } else if (needed - implied).abs() > half_ulp(dec) || polar_axis {
                         let printed = round_to(needed, dec);
                         appended[i] = Some(printed);
                         new_emitted.set(axis, base + printed * unit);

@@ -213,3 +213,31 @@ fn a_flat_spline_pairs_with_its_last_piece() {
         assert!(d < 0.005, "line {} → {last}", s.line_a);
     }
 }
+
+/// Curves smaller than `--match-tol` (LinuxCNC's `systems.ngc` writes letters
+/// of G5.1 curves a tenth of a millimetre high): every piece of several
+/// curves ends within the tolerance of each curve's end. The comment the
+/// writer puts before a block it writes flat says which block the pieces
+/// stand for; the curve pairs with its own last piece. Canned cycles too.
+#[test]
+fn blocks_written_flat_pair_by_the_writers_comment() {
+    let mut original = String::from("G21 G17 G90 G94 F600\nG0 X10 Y10 Z5 A0 C0\nG1 Z0\n");
+    for k in 0..20 {
+        let x = 10.0 + 0.01 * k as f64;
+        original.push_str(&format!("G5.1 I0.002 J0.004 X{:.3} Y10.01\n", x + 0.005));
+        original.push_str(&format!("G5.1 I0.002 J-0.004 X{:.3} Y10\n", x + 0.01));
+    }
+    original.push_str("G0 Z5\nM3 S1000\nG91 G82 X1 R-4 Z-2 P0.5 L3\nG90 G80\nM2\n");
+    let (compensated, report) = compensate_text(&original, Frame::Joint);
+    let r = diff(&original, &compensated);
+    assert_eq!(r.removed, 0, "{r:?}");
+    assert_eq!(r.paired, original.lines().count());
+    // 40 curves and one cycle, each paired with its last piece.
+    assert_eq!(r.split_blocks, 41, "{:?}", r.splits);
+    assert!(
+        r.max_xyz_change_um <= report.max_correction_um + 0.1,
+        "{} vs {}",
+        r.max_xyz_change_um,
+        report.max_correction_um
+    );
+}
