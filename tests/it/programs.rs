@@ -331,3 +331,18 @@ fn an_endless_empty_loop_is_an_error_not_a_hang() {
         "{err}"
     );
 }
+
+/// A block with polar words (`@`, `^`) whose move does not change is written
+/// as it is: its polar words give its X Y (found on LinuxCNC's `spiral.ngc`:
+/// X Y were added beside them, which LinuxCNC refuses).
+#[test]
+fn polar_blocks_that_do_not_move_stay_byte_for_byte() {
+    for name in ["polar_absolute.ngc", "polar_incremental.ngc"] {
+        let text =
+            std::fs::read_to_string(crate::support::root().join("tests/data/rs274").join(name))
+                .unwrap();
+        let (flat, stats) = flatten(&text);
+        assert_eq!(flat, text, "{name}");
+        assert_eq!(stats.rewritten, 0, "{name}");
+    }
+}
