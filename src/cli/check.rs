@@ -114,6 +114,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let (input, stamp) = super::common::open_program_with_stamp(&args.program)?;
     if let (true, Some(output)) = (args.flatten, &args.output) {
+        // A flat program holds no O-words: the subroutine definitions the
+        // program passes over are left out (their calls come flat).
+        let mut setup = setup;
+        setup.language.drop_definitions = true;
         let program = crate::gcode::Program::new(input, &name, setup);
         let mut stats = None;
         crate::io::write_atomic(output, |out| -> anyhow::Result<()> {
@@ -318,8 +322,15 @@ fn motion_code(m: &crate::gcode::Motion, event: &BlockEvent) -> &'static str {
             clockwise: true, ..
         } => "G2",
         MotionKind::Arc { .. } => "G3",
-        MotionKind::Linear => match (event.motion.is_some(), event.modal.motion) {
-            (true, MotionMode::Probe(_)) => event.modal.motion.word(),
+        MotionKind::Linear => match (event.motion.is_some(), event.modal.motion, event.spline) {
+            (true, MotionMode::Probe(_), _) => event.modal.motion.word(),
+            // The straight pieces of a spline: named by its code.
+            (false, _, Some(crate::gcode::interpret::SplineStep::Curve { code, .. })) => match code
+            {
+                50 => "G5",
+                51 => "G5.1",
+                _ => "G5.2",
+            },
             _ => "G1",
         },
     }

@@ -276,6 +276,71 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     } else {
         msg
     };
+    let msg = match &report.split_cap {
+        Some(cap) => format!(
+            "{msg}\nwarning: {} move{} reached the split cap of {} pieces with the correction still departing from the pieces by up to {:.3} µm, more than the tolerance {} µm (line{} {}); raise --tol or split {} in the program",
+            cap.moves,
+            if cap.moves == 1 { "" } else { "s" },
+            cap.pieces,
+            cap.max_departure_um,
+            if report.tolerance_um >= 1e-3 {
+                report.tolerance_um.to_string()
+            } else {
+                format!("{:e}", report.tolerance_um)
+            },
+            if cap.lines.len() == 1 { "" } else { "s" },
+            cap.lines
+                .iter()
+                .take(10)
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+                + if cap.moves > 10 { ", …" } else { "" },
+            if cap.moves == 1 { "it" } else { "them" },
+        ),
+        None => msg,
+    };
+    let msg = if report.subroutine_definitions.is_empty() {
+        msg
+    } else {
+        let list: Vec<String> = report
+            .subroutine_definitions
+            .iter()
+            .take(10)
+            .map(|d| format!("{} (lines {}–{})", d.name, d.first_line, d.last_line))
+            .collect();
+        let more = report.subroutine_definitions.len().saturating_sub(10);
+        format!(
+            "{msg}\n{} subroutine definition{} written as {}: not executed where {} (LinuxCNC skips {} there too), so not compensated; the calls this program makes are written flat and compensated: {}{}",
+            report.subroutine_definitions.len(),
+            if report.subroutine_definitions.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it is"
+            } else {
+                "they are"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it stands"
+            } else {
+                "they stand"
+            },
+            if report.subroutine_definitions.len() == 1 {
+                "it"
+            } else {
+                "them"
+            },
+            list.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        )
+    };
     // The summary goes to stderr when the program or the report goes to stdout.
     super::common::say(data_on_stdout, &msg)?;
     Ok(())

@@ -14,7 +14,9 @@ Examples:
 
 Blocks are paired by N number when both programs number them, otherwise by a
 sequence alignment: motion blocks of the same kind whose targets agree within
---match-tol pair up, the extra pieces of a split move count as added blocks.
+--match-tol pair up (a split arc's last straight piece with the arc), the
+extra pieces of a split move count as added blocks, and the summary says how
+many pieces each split block became.
 Changes are B − A of the interpreted end targets (absolute, mm and degrees);
 X Y Z changes are shown in µm, A C in millidegrees.";
 
@@ -167,12 +169,43 @@ pub fn summary_text(r: &crate::diff::DiffReport) -> String {
     if !r.largest.is_empty() {
         let _ = writeln!(s, "largest changes (line A → line B: |Δxyz| µm):");
         for c in &r.largest {
+            let pieces = if c.pieces > 1 {
+                format!("  (split into {} pieces; B's last)", c.pieces)
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 s,
-                "  {:>7} → {:<7} {:>10.3}",
+                "  {:>7} → {:<7} {:>10.3}{pieces}",
                 c.line_a, c.line_b, c.xyz_change_um
             );
         }
+    }
+    if r.split_blocks > 0 {
+        let list: Vec<String> = r
+            .splits
+            .iter()
+            .take(5)
+            .map(|p| {
+                format!(
+                    "line {} → lines {}–{} ({} pieces)",
+                    p.line_a, p.first_line_b, p.last_line_b, p.pieces
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "{} block{} of A became {} blocks of B (split moves, flat cycles; each paired with its last piece): {}{}",
+            r.split_blocks,
+            if r.split_blocks == 1 { "" } else { "s" },
+            r.split_pieces,
+            list.join(", "),
+            if r.split_blocks > list.len() {
+                ", …"
+            } else {
+                ""
+            }
+        );
     }
     if !r.added_lines.is_empty() {
         let _ = writeln!(s, "first added lines (B): {:?}", r.added_lines);

@@ -24,7 +24,6 @@ use crate::gcode::{
 };
 use crate::machine::{ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels};
 use crate::toolpath::{effective_frame, joints_of, target_of};
-use crate::vec3::dist;
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
@@ -44,8 +43,13 @@ pub struct CompensateOptions {
     /// A cutting move is split where the correction along it departs from the
     /// straight interpolation of its end corrections by more than this, µm.
     pub tolerance_um: f64,
-    /// Deepest recursive halving of one move (2^depth pieces at most).
+    /// Deepest recursive halving of one move (2^depth pieces at most). A
+    /// move that still departs from its pieces by more than the tolerance is
+    /// counted ([`CompensateReport::split_cap`]).
     pub max_split_depth: u32,
+    /// Most straight pieces a split arc becomes; an arc that needs more to
+    /// stay within the tolerance is refused (a located error).
+    pub max_arc_chords: usize,
     pub interpret: InterpretOptions,
     pub rewrite: RewriteOptions,
     /// Blocks per chunk (memory and parallel grain).
@@ -67,6 +71,7 @@ impl Default for CompensateOptions {
         CompensateOptions {
             tolerance_um: 0.5,
             max_split_depth: 8,
+            max_arc_chords: 100_000,
             interpret: InterpretOptions::default(),
             rewrite: RewriteOptions::default(),
             chunk_blocks: 4096,
@@ -119,6 +124,17 @@ pub struct CompensateReport {
     pub table_ends: Option<TableEndReport>,
     /// The warnings of the run (`crate::warnings`; the command fills it).
     pub warnings: Vec<crate::warnings::WarningGroup>,
+    /// Moves that reached the split cap (2^`max_split_depth` pieces) with the
+    /// correction still departing from a piece by more than the tolerance
+    /// (extension: docs/extensions.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_cap: Option<SplitCap>,
+    /// Subroutine definitions written as they are: the program passes over
+    /// them (LinuxCNC skips a definition where it stands), so they are not
+    /// compensated there; the calls the program makes are written flat and
+    /// compensated (extension: docs/extensions.md).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub subroutine_definitions: Vec<PassedDefinition>,
     #[serde(skip)]
     residual_sum_sq: f64,
     #[serde(skip)]
@@ -138,6 +154,30 @@ pub struct TableEndReport {
     pub max_urad: f64,
     /// Lookups held over such slivers (move ends and split points).
     pub lookups: u64,
+}
+
+/// The moves that reached the split cap (see [`CompensateReport::split_cap`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SplitCap {
+    /// Most pieces a move is split into.
+    pub pieces: usize,
+    pub moves: usize,
+    /// Their lines (the first 50).
+    pub lines: Vec<usize>,
+    /// The largest departure of the correction from the pieces written, µm
+    /// (at the points the split test samples).
+    pub max_departure_um: f64,
+}
+
+/// A subroutine definition written as it is (see
+/// [`CompensateReport::subroutine_definitions`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PassedDefinition {
+    /// Its label as written (`o<probe>`, `O100`).
+    pub name: String,
+    /// Lines of its `sub` and `endsub`.
+    pub first_line: usize,
+    pub last_line: usize,
 }
 
 /// The tool-axis side of `compensate --orientation`.
@@ -239,8 +279,54 @@ impl CompensateReport {
         self.expected_residual_max_um = Some(self.expected_residual_max_um.unwrap_or(0.0).max(um));
     }
 
+    /// Count a move that reached the split cap with `gap_um` left.
+    fn record_cap(&mut self, line: usize, gap_um: f64) {
+        let cap = self.split_cap.get_or_insert_with(SplitCap::default);
+        cap.moves += 1;
+        if cap.lines.len() < 50 {
+            cap.lines.push(line);
+        }
+        cap.max_departure_um = cap.max_departure_um.max(gap_um);
+    }
+
+    /// Note a line that is written as it is, not executed: the lines of a
+    /// subroutine definition the program passes over are counted by
+    /// definition.
+    fn record_passed(&mut self, block: &Block) {
+        use crate::gcode::block::OKeyword;
+        let Some(o) = &block.o_word else {
+            return;
+        };
+        match o.keyword {
+            OKeyword::Sub => {
+                let text = String::from_utf8_lossy(block.raw.get(o.start..o.end).unwrap_or(&[]));
+                // The label: the text before the keyword `sub`.
+                let label = text
+                    .trim_end()
+                    .get(..text.trim_end().len().saturating_sub(3))
+                    .unwrap_or("")
+                    .trim_end()
+                    .to_string();
+                self.subroutine_definitions.push(PassedDefinition {
+                    name: label,
+                    first_line: block.line,
+                    last_line: block.line,
+                });
+            }
+            OKeyword::EndSub => {
+                if let Some(d) = self.subroutine_definitions.last_mut() {
+                    d.last_line = block.line;
+                }
+            }
+            _ => {}
+        }
+    }
+
     /// The RMS values, once every move is recorded.
-    fn finish(&mut self) {
+    fn finish(&mut self, options: &CompensateOptions) {
+        if let Some(cap) = self.split_cap.as_mut() {
+            cap.pieces = 1usize << options.max_split_depth.min(63);
+        }
         if let Some(o) = self.orientation.as_mut()
             && o.moves > 0
         {
@@ -291,6 +377,17 @@ the machine cannot cut this block as compensated (move the part or relax the lim
         value: f64,
         range: [f64; 2],
     },
+    #[error(
+        "{path}:{line}: the correction varies along this arc, which must be written as straight pieces: \
+{needed:.0} are needed to stay within a tenth of the tolerance of the arc, more than the {cap} volcomp writes for one arc; \
+raise --tol, or split the arc in the program"
+    )]
+    TooManyChords {
+        path: PathBuf,
+        line: usize,
+        needed: f64,
+        cap: usize,
+    },
     #[error("{path}:{line}: {source}")]
     Rewrite {
         path: PathBuf,
@@ -304,6 +401,8 @@ the machine cannot cut this block as compensated (move the part or relax the lim
 struct Plan {
     end: Option<Axes>,
     via: Vec<Axes>,
+    /// The split cap was reached: the largest departure left, µm.
+    capped_gap_um: Option<f64>,
     correction_um: f64,
     /// Length of the tool cutting it, mm.
     length_mm: f64,
@@ -491,10 +590,49 @@ enum PointError {
         value: f64,
         range: [f64; 2],
     },
+    TooManyChords {
+        needed: f64,
+        cap: usize,
+    },
 }
 
 fn xyz_gap(a: &Axes, b: &Axes) -> f64 {
     a.xyz_distance(b)
+}
+
+/// The split points of one motion block, and whether the split cap was
+/// reached.
+#[derive(Clone, Debug, Default)]
+struct Split {
+    via: Vec<Axes>,
+    /// The piece cap ([`CompensateOptions::max_split_depth`]) was reached with
+    /// the correction still departing from a piece by this much, µm.
+    capped_gap_um: Option<f64>,
+}
+
+/// Turns a move sweeps: the arc's sweep, or A's or C's travel, whichever is
+/// most, in turns.
+fn turns_swept(motion: &Motion, arc: Option<&ArcGeometry>) -> f64 {
+    let sweep = arc.map_or(0.0, |g| g.sweep().abs() / std::f64::consts::TAU);
+    let a = (motion.end.a - motion.start.a).abs() / 360.0;
+    let c = (motion.end.c - motion.start.c).abs() / 360.0;
+    sweep.max(a).max(c)
+}
+
+/// Where the split test samples a piece `[t0, t1]` of a move that sweeps
+/// `turns` in all: its midpoint, and where the piece sweeps more than a
+/// quarter turn, `k` evenly spaced points at most a quarter turn apart
+/// (`j / (k + 1)`, never a whole turn from the ends: a full circle of even
+/// `P` or `G1 C720` has its midpoint at the pose of its ends).
+fn sample_fractions(turns: f64, t0: f64, t1: f64) -> impl Iterator<Item = f64> {
+    let k = (4.0 * turns * (t1 - t0)).ceil();
+    // Bounded: a move of 2^31 turns is refused before (too many chords).
+    let k = if k.is_finite() && k > 1.0 {
+        k.min(1e7) as usize
+    } else {
+        1
+    };
+    (1..=k).map(move |j| j as f64 / (k + 1) as f64)
 }
 
 /// Plan one motion block: its compensated end (already solved), and split points.
@@ -504,43 +642,59 @@ fn plan_motion(
     start_comp: Option<Axes>,
     end_comp: Axes,
     options: &CompensateOptions,
-) -> Result<Vec<Axes>, PointError> {
+) -> Result<Split, PointError> {
     let splittable = !matches!(motion.kind, MotionKind::Rapid);
     let Some(start_comp) = start_comp.filter(|_| splittable) else {
-        return Ok(Vec::new());
+        return Ok(Split::default());
     };
     let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
+    let turns = turns_swept(motion, arc.as_ref());
     let tol_mm = options.tolerance_um * 1e-3;
     let limits = options.limits.as_ref();
     // Recursive halving on [t0, t1] with compensated ends c0, c1.
-    let mut via = Vec::new();
+    let mut split = Split::default();
     let mut stack = vec![(0.0f64, 1.0f64, start_comp, end_comp, 0u32)];
     // Depth-first, left first, so `via` comes out in order.
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
-        let tm = 0.5 * (t0 + t1);
-        let nominal_mid = motion.point_at(arc.as_ref(), tm);
-        // What the control would do between the compensated ends.
         let n0 = motion.point_at(arc.as_ref(), t0);
         let n1 = motion.point_at(arc.as_ref(), t1);
-        // The correction interpolated between the ends, applied at the nominal midpoint.
-        let correction = c0
-            .zip_with(&n0, |c, n| c - n)
-            .zip_with(&c1.zip_with(&n1, |c, n| c - n), |a, b| 0.5 * (a + b));
-        let straight = nominal_mid.zip_with(&correction, |n, d| n + d);
-        // With the orientation solve the control turns the rotary axes to the
-        // interpolated corrected angles: the X Y Z the tip needs there, to first order.
-        let [r1, r2] = model.kinematics().rotary();
-        let rotary = options
-            .orientation
-            .then_some([straight.get(r1), straight.get(r2)]);
-        let estimate = estimate_target(model, frame, &nominal_mid, rotary)?;
-        let needs_split = xyz_gap(&estimate, &straight) > tol_mm;
-        if needs_split && depth < options.max_split_depth {
+        let (a, b, na, nb) = (c0.to_array(), c1.to_array(), n0.to_array(), n1.to_array());
+        // The largest departure of the exact correction from the straight
+        // interpolation of the corrections at the ends (what the control
+        // would do), over the samples.
+        let mut gap = 0.0f64;
+        for f in sample_fractions(turns, t0, t1) {
+            let nominal = motion.point_at(arc.as_ref(), t0 + f * (t1 - t0));
+            let nm = nominal.to_array();
+            let straight = Axes::from_array(std::array::from_fn(|i| {
+                nm[i] + (1.0 - f) * (a[i] - na[i]) + f * (b[i] - nb[i])
+            }));
+            // With `--orientation` the control turns the rotary axes to the interpolated
+            // corrected angles: the X Y Z the tip needs there, to first order.
+            let [r1, r2] = model.kinematics().rotary();
+            let rotary = options
+                .orientation
+                .then_some([straight.get(r1), straight.get(r2)]);
+            let estimate = estimate_target(model, frame, &nominal, rotary)?;
+            gap = gap.max(xyz_gap(&estimate, &straight));
+            if gap > tol_mm && depth < options.max_split_depth {
+                break;
+            }
+        }
+        if gap > tol_mm && arc.is_some() {
+            // A split arc becomes straight pieces on the compensated arc.
+            return Ok(Split {
+                via: densify_arc(model, motion, arc.as_ref().expect("arc"), frame, options)?,
+                capped_gap_um: None,
+            });
+        }
+        if gap > tol_mm && depth < options.max_split_depth {
+            let tm = 0.5 * (t0 + t1);
             let cm = compensate_target(
                 model,
                 frame,
-                &nominal_mid,
+                &motion.point_at(arc.as_ref(), tm),
                 limits,
                 &mut WarmStart::default(),
                 options.orientation,
@@ -549,22 +703,21 @@ fn plan_motion(
             // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
             stack.push((t0, tm, c0, cm, depth + 1));
-        } else if t1 < 1.0 {
-            via.push(c1);
+            continue;
+        }
+        if gap > tol_mm {
+            let um = gap * 1e3;
+            split.capped_gap_um = Some(split.capped_gap_um.map_or(um, |g| g.max(um)));
+        }
+        if t1 < 1.0 {
+            split.via.push(c1);
         }
     }
-    if via.is_empty() {
-        return Ok(via);
-    }
-    if let Some(g) = &arc {
-        // A split arc becomes straight pieces: put them on the compensated arc
-        // densely enough that the chords stay within a tenth of the tolerance.
-        return densify_arc(model, motion, g, frame, options);
-    }
-    Ok(via)
+    Ok(split)
 }
 
-/// Straight pieces along a compensated arc with chord error ≤ tolerance / 10.
+/// Straight pieces along a compensated arc, each within a tenth of the
+/// tolerance of the arc (at most [`CompensateOptions::max_arc_chords`]).
 fn densify_arc(
     model: &ErrorModel,
     motion: &Motion,
@@ -572,10 +725,14 @@ fn densify_arc(
     frame: Frame,
     options: &CompensateOptions,
 ) -> Result<Vec<Axes>, PointError> {
-    let r = arc_radius(motion, arc).max(1e-6);
-    let sag = (options.tolerance_um * 1e-4).max(1e-7);
-    let step = (8.0 * r * sag).sqrt();
-    let n = ((arc.length() / step).ceil() as usize).clamp(2, 100_000);
+    let n = arc_chords(arc, options.tolerance_um * 1e-4);
+    if n > options.max_arc_chords as f64 {
+        return Err(PointError::TooManyChords {
+            needed: n,
+            cap: options.max_arc_chords,
+        });
+    }
+    let n = n as usize;
     let mut via = Vec::with_capacity(n - 1);
     let mut warm = WarmStart::default();
     for i in 1..n {
@@ -595,29 +752,19 @@ fn densify_arc(
     Ok(via)
 }
 
-fn arc_radius(motion: &Motion, arc: &ArcGeometry) -> f64 {
-    let m = arc.point(0.5);
-    let s = motion.start.xyz();
-    let e = motion.end.xyz();
-    // Circumradius of start, middle, end.
-    let a = dist(s, m);
-    let b = dist(m, e);
-    let c = dist(s, e);
-    let area2 = {
-        let u = [m[0] - s[0], m[1] - s[1], m[2] - s[2]];
-        let v = [e[0] - s[0], e[1] - s[1], e[2] - s[2]];
-        let w = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
-    };
-    if area2 < 1e-12 {
-        arc.length()
+/// Chords of equal angle that keep an arc (a helix: its chords depart from
+/// it as its circle's do) within `sag_mm` of each chord: at least 2.
+fn arc_chords(arc: &ArcGeometry, sag_mm: f64) -> f64 {
+    let (r0, r1) = arc.radii();
+    let r = r0.max(r1).max(1e-9);
+    let sag = sag_mm.max(1e-7);
+    // A chord of angle θ departs from its circle by r (1 − cos θ/2).
+    let angle = if sag >= r {
+        std::f64::consts::PI
     } else {
-        a * b * c / (2.0 * area2)
-    }
+        2.0 * (1.0 - sag / r).acos()
+    };
+    (arc.sweep().abs() / angle.max(1e-12)).ceil().max(2.0)
 }
 
 /// Compensate `program` into `output`. `progress` is called after each chunk
@@ -638,7 +785,12 @@ pub fn compensate(
     let mut models = ToolModels::new(model);
     let (sender, chunks) = std::sync::mpsc::sync_channel::<Result<Chunk, GcodeError>>(2);
     let (solved_sender, solved) = std::sync::mpsc::sync_channel::<Solved>(2);
-    let interpret = options.interpret;
+    // Splines become straight pieces within a tenth of the tolerance of the
+    // curve, as split arcs do; each piece's end is compensated.
+    let interpret = InterpretOptions {
+        spline_tolerance_mm: options.tolerance_um * 1e-4,
+        ..options.interpret
+    };
     let chunk_blocks = options.chunk_blocks.max(1);
     let models_ref = &mut models;
     std::thread::scope(|scope| {
@@ -658,7 +810,7 @@ pub fn compensate(
             report.max_residual_nm = axes.max_residual_nm;
             report.orientation = axes.orientation;
             report.table_ends = axes.table_ends;
-            report.finish();
+            report.finish(options);
             report
         })
     })
@@ -711,15 +863,15 @@ fn read_chunks(
 }
 
 /// The moves of a block that are compensated: its one move, or the moves of a
-/// canned cycle (written flat). G28/G30 legs go to stored positions and are
-/// not compensated.
+/// canned cycle or the straight pieces of a spline (written flat). G28/G30
+/// legs go to stored positions and are not compensated.
 fn compensated_moves(event: &BlockEvent) -> &[Motion] {
     if event.skipped {
         return &[];
     }
     match &event.motion {
         Some(m) => std::slice::from_ref(m),
-        None if !event.cycle_steps.is_empty() => &event.expanded,
+        None if !event.cycle_steps.is_empty() || event.spline.is_some() => &event.expanded,
         None => &[],
     }
 }
@@ -876,7 +1028,7 @@ fn solve_chunks(
                     return Ok(Plan::default());
                 };
                 let model = models.get(&event.tool);
-                let via = plan_motion(model, m, *start, *end, options)?;
+                let split = plan_motion(model, m, *start, *end, options)?;
                 let uncertainty_um = if uncertain {
                     let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
                     Some(
@@ -890,7 +1042,8 @@ fn solve_chunks(
                 };
                 Ok(Plan {
                     end: Some(*end),
-                    via,
+                    via: split.via,
+                    capped_gap_um: split.capped_gap_um,
                     correction_um: xyz_correction_um(end, &m.end),
                     length_mm: models.length_mm(&event.tool),
                     uncertainty_um,
@@ -934,13 +1087,16 @@ fn write_chunks(
         for (((block, event), plan), cycle) in chunk.iter().zip(plans).zip(&cycles) {
             let plan = plan.map_err(|e| point_error(path, block.line, e))?;
             report.blocks_read += 1;
+            if event.skipped {
+                report.record_passed(block);
+            }
             if let Some(cycle) = cycle {
                 for &um in &cycle.corrections_um {
                     report.record(block.line, &event.tool, cycle.length_mm, um);
                 }
                 emitted.clear();
                 let e = rewriter
-                    .emit_cycle(block, event, &cycle.ends, &mut emitted)
+                    .emit_flat(block, event, &cycle.ends, &mut emitted)
                     .map_err(|source| CompensateError::Rewrite {
                         path: path.to_path_buf(),
                         line: block.line,
@@ -963,6 +1119,9 @@ fn write_chunks(
                     report.record(block.line, &event.tool, plan.length_mm, plan.correction_um);
                     if let Some(u) = plan.uncertainty_um {
                         report.record_uncertainty(u);
+                    }
+                    if let Some(gap) = plan.capped_gap_um {
+                        report.record_cap(block.line, gap);
                     }
                     if plan.via.is_empty() {
                         Target::Move(end)
@@ -1021,6 +1180,12 @@ fn point_error(path: &Path, line: usize, e: PointError) -> CompensateError {
             axis,
             value,
             range,
+        },
+        PointError::TooManyChords { needed, cap } => CompensateError::TooManyChords {
+            path: path.to_path_buf(),
+            line,
+            needed,
+            cap,
         },
     }
 }

@@ -37,6 +37,20 @@ pub struct LargeChange {
     /// Δ per axis of the report's `axes`, in their order (mm axes in µm, rotary
     /// axes in millidegrees).
     pub delta: Vec<f64>,
+    /// How many blocks of B the block of A became (1, or the pieces of a
+    /// split move: B's `line_b` is the last).
+    pub pieces: usize,
+}
+
+/// A block of A that became several blocks of B (a split move, or a canned
+/// cycle written flat): the last of them is paired with it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SplitBlock {
+    pub line_a: usize,
+    /// Lines of B's first and last piece.
+    pub first_line_b: usize,
+    pub last_line_b: usize,
+    pub pieces: usize,
 }
 
 /// The diff report (`--report` JSON).
@@ -63,6 +77,13 @@ pub struct DiffReport {
     /// The warnings of reading A, then B (`crate::warnings`; each names its
     /// file; the command fills it).
     pub warnings: Vec<crate::warnings::WarningGroup>,
+    /// Blocks of A that became several blocks of B, and how many blocks of B
+    /// they became in all (the pieces are counted in `added` too, but the
+    /// last, which is paired).
+    pub split_blocks: usize,
+    pub split_pieces: usize,
+    /// The first of them (up to `largest` many).
+    pub splits: Vec<SplitBlock>,
 }
 
 impl DiffReport {
@@ -84,6 +105,10 @@ pub struct DiffAccumulator {
     /// The largest changes with Δ of all nine letters (projected on finish).
     largest: Vec<(LargeChange, [f64; AXIS_COUNT])>,
     keep: usize,
+    /// Motion blocks only in B just before the next pair: its pieces (count,
+    /// first line).
+    pending_pieces: usize,
+    pending_first: usize,
 }
 
 impl DiffAccumulator {
@@ -101,6 +126,8 @@ impl DiffAccumulator {
             used: AxisSet::of(&[Axis::X, Axis::Y, Axis::Z]),
             largest: Vec::new(),
             keep,
+            pending_pieces: 0,
+            pending_first: 0,
         }
     }
 
@@ -113,8 +140,17 @@ impl DiffAccumulator {
                 if r.added_lines.len() < self.keep {
                     r.added_lines.push(b.line);
                 }
+                // Moves only in B before the next pair are its pieces (the
+                // comment, dwell and mode lines of a flat block are not).
+                if b.motion.is_some() {
+                    if self.pending_pieces == 0 {
+                        self.pending_first = b.line;
+                    }
+                    self.pending_pieces += 1;
+                }
             }
             Aligned::Removed(a) => {
+                self.pending_pieces = 0;
                 r.blocks_a += 1;
                 r.removed += 1;
                 if r.removed_lines.len() < self.keep {
@@ -131,8 +167,21 @@ impl DiffAccumulator {
                 } else {
                     r.changed += 1;
                 }
+                let pieces = std::mem::take(&mut self.pending_pieces) + 1;
                 if let (Some((_, ta)), Some((_, tb))) = (&a.motion, &b.motion) {
                     r.motion_pairs += 1;
+                    if pieces > 1 {
+                        r.split_blocks += 1;
+                        r.split_pieces += pieces;
+                        if r.splits.len() < self.keep {
+                            r.splits.push(SplitBlock {
+                                line_a: a.line,
+                                first_line_b: self.pending_first,
+                                last_line_b: b.line,
+                                pieces,
+                            });
+                        }
+                    }
                     let (va, vb) = (ta.to_array(), tb.to_array());
                     let mut delta = [0.0; AXIS_COUNT];
                     for i in 0..AXIS_COUNT {
@@ -159,6 +208,7 @@ impl DiffAccumulator {
                             line_b: b.line,
                             xyz_change_um: xyz_um,
                             delta: Vec::new(),
+                            pieces,
                         };
                         insert_largest(&mut self.largest, (change, delta), self.keep);
                     }

@@ -73,7 +73,27 @@ pub fn summarize(block: &Block, event: &BlockEvent) -> BlockSummary {
             .filter(|_| !event.skipped)
             .map(|m| (motion_code(&m.kind), m.end)),
         key: block_key(block),
+        path: event.motions().last().filter(|_| !event.skipped).copied(),
+        written_for: written_for(block),
     }
+}
+
+/// The original line a writer's comment says the block stands for (see
+/// [`BlockSummary::written_for`]).
+fn written_for(block: &Block) -> Option<usize> {
+    block.comments.iter().find_map(|c| {
+        let text = std::str::from_utf8(block.raw.get(c.clone())?).ok()?;
+        let inner = text.strip_prefix("(volcomp: ")?;
+        let flat = inner.ends_with(" written flat below)")
+            || inner.ends_with(" expanded below)")
+            || inner.starts_with("G5.2 control point of line ");
+        if !flat {
+            return None;
+        }
+        let after = &inner[inner.find("line ")? + 5..];
+        let digits: String = after.chars().take_while(char::is_ascii_digit).collect();
+        digits.parse().ok()
+    })
 }
 
 /// Streaming block summaries of a program. Yields `Err` once for the first bad

@@ -281,6 +281,11 @@ pub struct CycleBlock {
     /// the level of the top of the back bore: absolute under G90, from the
     /// bottom under G91.
     pub ijk: [Option<f64>; 3],
+    /// Polar words `@` radius (mm) and `^` angle (degrees), about the program
+    /// origin: in the XY plane (other planes' cycles do not read them, as in
+    /// LinuxCNC) they give the hole's X Y (G90), or are added to its radius
+    /// and angle in every repeat (G91).
+    pub polar: [Option<f64>; 2],
     /// A, B, C words present (refused in a canned cycle).
     pub rotary_words: [bool; 3],
     /// U, V, W words present (refused in a canned cycle in G17/G18/G19).
@@ -399,6 +404,8 @@ pub enum CycleError {
     /// volcomp: the block would expand to more than [`MAX_STEPS`] steps.
     #[error("the canned cycle would expand to more than {MAX_STEPS} moves")]
     TooManySteps,
+    #[error("Incremental motion with polar coordinates is indeterminate when at the origin")]
+    PolarAtOrigin,
 }
 
 fn depth_missing(plane: Plane) -> &'static str {
@@ -441,6 +448,7 @@ impl CycleError {
             | Self::IMissing
             | Self::JMissing
             | Self::KMissing
+            | Self::PolarAtOrigin
             | Self::TapSpindleStopped(_)
             | Self::ClockwiseInG74
             | Self::CounterClockwiseInG84
@@ -766,6 +774,13 @@ fn expand_inner(
         }
     };
     let (mut aa, mut bb, aa_inc, bb_inc, r, cc);
+    // Polar words: XY plane only (`convert_cycle_xy`).
+    let polar = if plane == Plane::XY {
+        block.polar
+    } else {
+        [None; 2]
+    };
+    let (mut radius_inc, mut theta_inc) = (0.0, 0.0);
     if block.incremental {
         aa_inc = block.xyz[ia].unwrap_or(0.0);
         bb_inc = block.xyz[ib].unwrap_or(0.0);
@@ -773,13 +788,22 @@ fn expand_inner(
         cc = r + depth_word;
         aa = pos[ia];
         bb = pos[ib];
+        radius_inc = polar[0].unwrap_or(0.0);
+        theta_inc = polar[1].unwrap_or(0.0).to_radians();
     } else {
         aa_inc = 0.0;
         bb_inc = 0.0;
         r = r_word;
         cc = depth_word;
-        aa = block.xyz[ia].unwrap_or(pos[ia]);
-        bb = block.xyz[ib].unwrap_or(pos[ib]);
+        if polar.iter().any(Option::is_some) {
+            let radius = polar[0].unwrap_or(pos[ib].hypot(pos[ia]));
+            let theta = polar[1].map_or(pos[ib].atan2(pos[ia]), f64::to_radians);
+            aa = radius * theta.cos();
+            bb = radius * theta.sin();
+        } else {
+            aa = block.xyz[ia].unwrap_or(pos[ia]);
+            bb = block.xyz[ib].unwrap_or(pos[ib]);
+        }
     }
     if !(r.is_finite() && cc.is_finite()) {
         return Err(CycleError::NonFiniteResult);
@@ -906,6 +930,21 @@ fn expand_inner(
     for repeat in 0..repeats {
         aa += aa_inc;
         bb += bb_inc;
+        // LinuxCNC's `CYCLE_MACRO`: a zero increment is no increment.
+        if radius_inc != 0.0 {
+            if aa == 0.0 && bb == 0.0 {
+                return Err(CycleError::PolarAtOrigin);
+            }
+            let (t, rad) = (bb.atan2(aa), bb.hypot(aa) + radius_inc);
+            (aa, bb) = (rad * t.cos(), rad * t.sin());
+        }
+        if theta_inc != 0.0 {
+            if aa == 0.0 && bb == 0.0 {
+                return Err(CycleError::PolarAtOrigin);
+            }
+            let (t, rad) = (bb.atan2(aa) + theta_inc, bb.hypot(aa));
+            (aa, bb) = (rad * t.cos(), rad * t.sin());
+        }
         if repeat == 0 && current_cc > r {
             emit.rapid(aa, bb, current_cc)?;
             emit.rapid(aa, bb, r)?;
@@ -1081,6 +1120,7 @@ mod tests {
             p: None,
             l: None,
             ijk: [None; 3],
+            polar: [None; 2],
             rotary_words: [false; 3],
             uvw_words: [false; 3],
             feed_rate: 100.0,
@@ -2408,6 +2448,7 @@ mod tests {
                         p,
                         l,
                         ijk,
+                        polar: [None; 2],
                         rotary_words: [words[0] && words[1], false, words[2] && words[3]],
                         uvw_words: [words[4] && words[5], false, false],
                         feed_rate: feed,
@@ -2465,6 +2506,7 @@ mod tests {
                         p: Some(p),
                         l: Some(l as f64),
                         ijk,
+                        polar: [None; 2],
                         rotary_words: [false; 3],
                         uvw_words: [false; 3],
                         feed_rate: 100.0,

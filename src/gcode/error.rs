@@ -136,6 +136,14 @@ pub enum ErrorKind {
     ToolOffsetAdd(&'static str),
     #[error("cannot read the input: {0}")]
     Io(String),
+    /// Polar coordinates (`@` radius, `^` angle) used where LinuxCNC
+    /// refuses them (its message).
+    #[error("{0}")]
+    Polar(&'static str),
+    /// A spline (G5, G5.1, G5.2 … G5.3) LinuxCNC refuses (its message), or
+    /// one volcomp cannot follow.
+    #[error("{0}")]
+    Spline(String),
 }
 
 impl ErrorKind {
@@ -248,6 +256,12 @@ impl ErrorKind {
                 "G53 moves with G0 or G1 to absolute machine coordinates (G90)"
             }
             ErrorKind::Io(_) => "check that the file exists and is readable",
+            ErrorKind::Polar(_) => {
+                "polar words (`@` radius, `^` angle, about the program origin in the XY plane) replace X and Y in G17 motion blocks"
+            }
+            ErrorKind::Spline(_) => {
+                "G5: X Y, I J (or neither) and P Q; G5.1: X Y, I J; G5.2 X Y P [L] lines, then G5.3 (XY plane, no Z A C words)"
+            }
         }
     }
 }

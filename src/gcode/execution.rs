@@ -210,9 +210,11 @@ impl Execution {
     }
 
     /// The next executed block with its meaning and its origin in the source.
-    /// After the program's end (M2, M30, closing `%`) the rest of the main
-    /// file follows as written, not executed (`skipped` events), so writers
-    /// lose no byte.
+    /// The lines of a subroutine definition that the main program passes over
+    /// come as written, not executed (`skipped` events, [`Executed::passed`]),
+    /// unless [`LanguageOptions::drop_definitions`]. After the program's end
+    /// (M2, M30, closing `%`) the rest of the main file follows as written,
+    /// not executed (`skipped` events), so writers lose no byte.
     #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> Option<Result<(&Block, &BlockEvent, &Executed), GcodeError>> {
         if self.done {
@@ -273,6 +275,14 @@ impl Execution {
                 } else {
                     e
                 }))
+            }
+            Some(Ok(())) if self.executor.executed().passed => {
+                // A subroutine definition passed over: as written, not run.
+                let block = self.executor.block();
+                self.interpreter.pass_over(block, &mut self.event);
+                self.event.index = self.blocks;
+                self.blocks += 1;
+                Some(Ok((block, &self.event, self.executor.executed())))
             }
             Some(Ok(())) => {
                 let block = self.executor.block();

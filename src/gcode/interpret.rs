@@ -65,7 +65,14 @@ pub struct InterpretOptions {
     /// The axis letters the machine has: a word for another is LinuxCNC's "Bad
     /// character" (default: X Y Z A B C, what `rs274` reads without an INI file).
     pub axes: crate::axes::AxisSet,
+    /// Splines (G5, G5.1, G5.2 … G5.3) become straight pieces within this
+    /// distance of the curve, mm (`compensate`: a tenth of `--tol`).
+    pub spline_tolerance_mm: f64,
 }
+
+/// Most straight pieces one spline becomes; a spline that needs more to stay
+/// within [`InterpretOptions::spline_tolerance_mm`] is refused (located).
+pub const MAX_SPLINE_PIECES: usize = 100_000;
 
 impl Default for InterpretOptions {
     fn default() -> Self {
@@ -76,6 +83,7 @@ impl Default for InterpretOptions {
             initial_position: Axes::default(),
             skip_deleted_blocks: false,
             axes: crate::axes::AxisSet::RS274,
+            spline_tolerance_mm: 5e-5,
         }
     }
 }
@@ -115,6 +123,9 @@ pub enum WarningKind {
         length_mm: f64,
         offset_mm: f64,
     },
+    /// A spline word or state LinuxCNC reads in a way a reader may not expect
+    /// (what it does, in words).
+    Spline(String),
 }
 
 impl WarningKind {
@@ -130,6 +141,7 @@ impl WarningKind {
             WarningKind::Lenient(_) => "lenient",
             WarningKind::NoToolTable(_) => "no_tool_table",
             WarningKind::ToolLengthOffsetMismatch { .. } => "tool_length_offset",
+            WarningKind::Spline(_) => "spline",
         }
     }
 
@@ -186,6 +198,7 @@ impl fmt::Display for Warning {
                 f,
                 "T{t} is loaded but there is no tool table (--tools FILE, or [[tools]] in the machine file): every block uses the default tool"
             ),
+            WarningKind::Spline(what) => write!(f, "{what}"),
             WarningKind::ToolLengthOffsetMismatch {
                 tool,
                 length_mm,
@@ -241,7 +254,27 @@ pub struct BlockEvent {
     pub program_end: bool,
     /// Not interpreted: deleted (when skipping), unparsed (lenient) or after the end.
     pub skipped: bool,
+    /// A spline block: G5 or G5.1, or the G5.3 that runs a G5.2 NURBS (its
+    /// curve's straight pieces are `expanded`), or a G5.2 control-point block.
+    pub spline: Option<SplineStep>,
     pub warnings: Vec<Warning>,
+}
+
+/// What a spline block does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplineStep {
+    /// A curve runs (G5: 50, G5.1: 51, the NURBS of G5.2 run by G5.3: 53):
+    /// `expanded` holds its straight pieces, within
+    /// [`InterpretOptions::spline_tolerance_mm`] of it.
+    Curve {
+        code: u16,
+        /// LinuxCNC's `NURBS_FEED` count: the control points, the start
+        /// included.
+        control_points: usize,
+    },
+    /// A G5.2 block: control points (or the first weight) are added; nothing
+    /// moves until G5.3.
+    NurbsPoint,
 }
 
 impl Default for BlockEvent {
@@ -263,6 +296,7 @@ impl Default for BlockEvent {
             home: false,
             program_end: false,
             skipped: false,
+            spline: None,
             warnings: Vec::new(),
         }
     }
@@ -304,6 +338,13 @@ pub struct Interpreter {
     cycle_memory: CycleMemory,
     /// Dwell time of the block being interpreted (G4, cycles), min.
     pending_dwell_min: f64,
+    /// LinuxCNC's one list of spline control points (program coordinates,
+    /// mm): filled by G5.2 blocks until G5.3 runs them, and by G5/G5.1 for
+    /// their own curve (LinuxCNC shares it: points a G5.2 block left pending
+    /// become part of the next G5/G5.1 curve).
+    nurbs: Vec<super::spline::ControlPoint>,
+    /// The order of the pending NURBS (`L`, 3 unless more).
+    nurbs_order: usize,
 }
 
 /// The tool state a block leaves (see [`Interpreter::tool_words`]).
@@ -340,11 +381,20 @@ struct Words {
     f: Option<f64>,
     /// Byte ranges of the F and first axis word (for error carets).
     f_span: Option<(usize, usize)>,
+    /// Polar words (LinuxCNC: the last of each wins): `@` radius (mm) and
+    /// `^` angle (degrees), and the first one's span.
+    radius: Option<f64>,
+    theta: Option<f64>,
+    polar_span: Option<(usize, usize)>,
 }
 
 impl Words {
     fn has_axes(&self) -> bool {
         self.axes.iter().any(Option::is_some)
+    }
+
+    fn polar(&self) -> bool {
+        self.radius.is_some() || self.theta.is_some()
     }
 
     fn first_axis(&self) -> usize {
@@ -384,6 +434,8 @@ impl Interpreter {
             no_table_warned: false,
             cycle_memory: CycleMemory::default(),
             pending_dwell_min: 0.0,
+            nurbs: Vec::new(),
+            nurbs_order: 3,
         };
         // LinuxCNC's `init`: `(int)(pars[5220] + 0.0001)`, truncated (1.9 is
         // G54), and 1 (with #5220 reset to 1) when out of 1 … 9.
@@ -480,6 +532,7 @@ impl Interpreter {
         event.home = false;
         event.program_end = false;
         event.skipped = false;
+        event.spline = None;
         event.warnings.clear();
         self.pending_dwell_min = 0.0;
         let (spindle, cycle_memory) = (self.spindle, self.cycle_memory);
@@ -513,6 +566,7 @@ impl Interpreter {
         event.home = false;
         event.program_end = false;
         event.skipped = true;
+        event.spline = None;
         event.warnings.clear();
     }
 
@@ -665,6 +719,7 @@ impl Interpreter {
         // G43/G43.1/G43.2/G49 (code × 10, span) and M61's span.
         let mut offset_code: Option<(i32, usize, usize)> = None;
         let mut m61: Option<(usize, usize)> = None;
+        let mut nurbs_end: Option<(usize, usize)> = None;
         let mut g_groups = [false; 16];
         let mut m_groups = [false; 11];
         let mut seen_letters = 0u32;
@@ -803,6 +858,7 @@ impl Interpreter {
                             }
                         }
                         GCode::Dwell => dwell = true,
+                        GCode::NurbsEnd => nurbs_end = Some((w.start, w.end)),
                         GCode::PassThrough => {}
                         GCode::CancelMotion => {
                             // Ignored when the block holds another motion code.
@@ -886,6 +942,14 @@ impl Interpreter {
                     words.f = Some(w.value);
                     words.f_span = Some((w.start, w.end));
                 }
+                b'@' => {
+                    words.radius = Some(w.value * scale);
+                    words.polar_span.get_or_insert((w.start, w.end));
+                }
+                b'^' => {
+                    words.theta = Some(w.value);
+                    words.polar_span.get_or_insert((w.start, w.end));
+                }
                 other => {
                     if !is_known_letter(other) && other.is_ascii_uppercase() {
                         let bit = 1u32 << (other - b'A');
@@ -926,6 +990,43 @@ impl Interpreter {
             }
         }
 
+        // Polar words (LinuxCNC's `enhance_block`): in the plane in force
+        // before the block, G17, in place of X and Y, in motion blocks only.
+        if words.polar() {
+            let (s, e) = words.polar_span.unwrap_or((0, block.raw.len()));
+            let refused = if self.modal.plane != Plane::XY {
+                Some("Cannot use polar coordinate except in G17 plane")
+            } else if words.axes[0].is_some() {
+                Some("Cannot specify both polar coordinate and X word")
+            } else if words.axes[1].is_some() {
+                Some("Cannot specify both polar coordinate and Y word")
+            } else if axis_user.is_some() {
+                Some("Polar coordinates can only be used for motion")
+            } else {
+                None
+            };
+            if let Some(what) = refused {
+                self.fail(block, event, ErrorKind::Polar(what), s, e)?;
+                words.radius = None;
+                words.theta = None;
+            }
+        }
+        // G5.3 with a motion code other than G5.2 (`check_g_codes`).
+        if let Some((s, e)) = nurbs_end
+            && let Some((ms, me)) = motion_word
+            && modal.motion != MotionMode::Spline(52)
+        {
+            let _ = (s, e);
+            self.fail(
+                block,
+                event,
+                ErrorKind::Spline(
+                    "Between G5.2 and G5.3 codes, only additional G5.2 codes are allowed.".into(),
+                ),
+                ms,
+                me,
+            )?;
+        }
         // A code volcomp does not know may use any word.
         if !unsupported {
             self.check_words(block, event, &words, axis_user.is_some())?;
@@ -1103,9 +1204,57 @@ impl Interpreter {
             _ => {}
         }
 
-        if axis_user.is_none() && words.has_axes() && !unsupported {
+        // G5.3 runs the NURBS of the G5.2 blocks before it (a group-0 code:
+        // before the block's motion; LinuxCNC's motion mode is then none).
+        let mut nurbs_ran = false;
+        if let Some((s, e)) = nurbs_end {
+            if self.modal.motion != MotionMode::Spline(52) {
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::Spline("Cannot use G5.3 without G5.2 first".into()),
+                    s,
+                    e,
+                )?;
+            } else if self.nurbs.len() < self.nurbs_order {
+                self.fail(
+                    block,
+                    event,
+                    ErrorKind::Spline(format!(
+                        "You must specify a number of control points at least equal to the order L = {}",
+                        self.nurbs_order
+                    )),
+                    s,
+                    e,
+                )?;
+            } else {
+                let curve = super::spline::Nurbs {
+                    points: std::mem::take(&mut self.nurbs),
+                    order: self.nurbs_order,
+                };
+                new_position = self.run_curve(
+                    block,
+                    event,
+                    &modal,
+                    &origin,
+                    self.position,
+                    &curve,
+                    53,
+                    (s, e),
+                )?;
+                nurbs_ran = true;
+            }
+            if motion_word.is_none() && !words.has_axes() {
+                modal.motion = MotionMode::None;
+            }
+        }
+        let nurbs_block = modal.motion == MotionMode::Spline(52) && motion_word.is_some();
+        if axis_user.is_none() && (words.has_axes() || words.polar() || nurbs_block) && !unsupported
+        {
             if modal.motion == MotionMode::None {
-                let at = words.first_axis();
+                let at = words
+                    .polar_span
+                    .map_or(words.first_axis(), |p| p.0.min(words.first_axis()));
                 self.fail(block, event, ErrorKind::NoMotionMode, at, at + 1)?;
                 modal.motion = MotionMode::Linear;
             }
@@ -1140,13 +1289,47 @@ impl Interpreter {
                         target.set(axis, base + v);
                     }
                 }
+                // Polar words (LinuxCNC's `find_ends`); a G5.2 control point
+                // takes X and Y only.
+                if words.polar() && modal.motion != MotionMode::Spline(52) {
+                    let (s, e) = words.polar_span.unwrap_or((0, block.raw.len()));
+                    if machine_coordinates {
+                        self.fail(
+                            block,
+                            event,
+                            ErrorKind::Polar("Cannot use polar coordinates with G53"),
+                            s,
+                            e,
+                        )?;
+                    } else {
+                        self.polar_target(block, event, &words, &mut target, incremental, (s, e))?;
+                    }
+                }
                 let block_origin = if machine_coordinates {
                     Origin::MACHINE
                 } else {
                     origin
                 };
                 let end_machine = block_origin.to_machine(&target);
-                if end_machine.is_finite() {
+                if let MotionMode::Spline(code) = modal.motion
+                    && !machine_coordinates
+                {
+                    let now = if nurbs_ran {
+                        new_position
+                    } else {
+                        self.position
+                    };
+                    let span = motion_word.unwrap_or((0, block.raw.len()));
+                    if code == 52 {
+                        self.nurbs_point(
+                            block, event, &modal, &words, &origin, now, &target, nurbs_ran, span,
+                        )?;
+                    } else {
+                        new_position = self.spline(
+                            block, event, &modal, &words, &origin, now, &target, code, span,
+                        )?;
+                    }
+                } else if end_machine.is_finite() {
                     let m = self.motion(
                         block,
                         event,
@@ -1437,15 +1620,16 @@ impl Interpreter {
         let motion = match block_motion {
             Some(c) => Some(c),
             None if axis_user => None,
-            None if words.has_axes() => Some(modal),
+            None if words.has_axes() || words.polar() => Some(modal),
             None if ijk && matches!(self.modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw) => {
                 Some(modal)
             }
             None => None,
         };
         if let Some(c) = block_motion
-            && !matches!(c, 0 | 10 | 20 | 30 | 800)
+            && !matches!(c, 0 | 10 | 20 | 30 | 52 | 800)
             && !words.has_axes()
+            && !words.polar()
             && !axis_user
         {
             let at = block
@@ -1467,22 +1651,22 @@ impl Interpreter {
             (b'E', !m(&[660, 670, 680])),
             // G43.4 and G234: tool-tip control of other controllers (Fanuc).
             (b'H', !g(&[430, 432, 434, 2340])),
-            (b'I', !(arc || is(&[870]) || g10)),
-            (b'J', !(arc || is(&[870]) || g10)),
+            (b'I', !(arc || is(&[870, 50, 51]) || g10)),
+            (b'J', !(arc || is(&[870, 50, 51]) || g10)),
             (b'K', !(arc || is(&[870]))),
             (
                 b'L',
-                !(motion.is_some_and(cycle) || g10 || comp || m(&[660])),
+                !(motion.is_some_and(cycle) || g10 || comp || m(&[660]) || is(&[52])),
             ),
             (
                 b'P',
                 !(g(&[100, 40, 640])
-                    || is(&[820, 860, 880, 890, 20, 30, 740, 840])
+                    || is(&[820, 860, 880, 890, 20, 30, 740, 840, 50, 52])
                     || m(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190])),
             ),
             (
                 b'Q',
-                !(is(&[830, 730]) || m(&[660, 670, 680, 610, 190]) || g10 || g(&[640])),
+                !(is(&[830, 730, 50]) || m(&[660, 670, 680, 610, 190]) || g10 || g(&[640])),
             ),
             (
                 b'R',
@@ -1509,9 +1693,12 @@ impl Interpreter {
         }
         if arc && let Some(p) = words.p {
             let at = block.word(b'P').map_or((0, 0), |w| (w.start, w.end));
-            if (p.round_ties_even() - p).abs() > 0.001 {
+            // LinuxCNC's `round_to_int`: (int) nearbyint(P); beyond an int
+            // the conversion gives INT_MIN, which is then "not an integer".
+            let turns = arc_turns(p).map_or(i32::MIN as f64, |n| n as f64);
+            if (turns - p).abs() > 0.001 {
                 self.fail(block, event, ErrorKind::ArcTurnsNotInteger, at.0, at.1)?;
-            } else if p.round_ties_even() < 1.0 {
+            } else if turns < 1.0 {
                 self.fail(block, event, ErrorKind::ArcTurnsBelowOne, at.0, at.1)?;
             }
         }
@@ -1637,6 +1824,383 @@ impl Interpreter {
         }
     }
 
+    /// The X Y of a target given in polar words (LinuxCNC's `find_ends`):
+    /// about the program origin, `@` the radius and `^` the angle in degrees
+    /// (absolute), or added to the current point's (G91); the one not given
+    /// is the current point's.
+    fn polar_target(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        words: &Words,
+        target: &mut Axes,
+        incremental: bool,
+        span: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        let (x, y) = (target.x, target.y);
+        let at_origin = x == 0.0 && y == 0.0;
+        let refuse = |this: &Self, event: &mut BlockEvent, what: &'static str| {
+            this.fail(block, event, ErrorKind::Polar(what), span.0, span.1)
+        };
+        let (mut px, mut py) = (x, y);
+        if !incremental {
+            match (words.radius, words.theta) {
+                (Some(r), Some(t)) => {
+                    let t = t.to_radians();
+                    (px, py) = (r * t.cos(), r * t.sin());
+                }
+                (Some(r), None) => {
+                    if at_origin {
+                        return refuse(
+                            self,
+                            event,
+                            "Must specify angle in polar coordinate if at the origin",
+                        );
+                    }
+                    let t = y.atan2(x);
+                    (px, py) = (r * t.cos(), r * t.sin());
+                }
+                (None, Some(t)) => {
+                    let r = y.hypot(x);
+                    let t = t.to_radians();
+                    (px, py) = (r * t.cos(), r * t.sin());
+                }
+                (None, None) => {}
+            }
+        } else {
+            if let Some(dr) = words.radius {
+                if px == 0.0 && py == 0.0 {
+                    return refuse(
+                        self,
+                        event,
+                        "Incremental motion with polar coordinates is indeterminate when at the origin",
+                    );
+                }
+                let t = py.atan2(px);
+                let r = py.hypot(px) + dr;
+                (px, py) = (r * t.cos(), r * t.sin());
+            }
+            if let Some(dt) = words.theta {
+                if px == 0.0 && py == 0.0 {
+                    return refuse(
+                        self,
+                        event,
+                        "G91 motion with polar coordinates is indeterminate when at the origin",
+                    );
+                }
+                let t = py.atan2(px) + dt.to_radians();
+                let r = py.hypot(px);
+                (px, py) = (r * t.cos(), r * t.sin());
+            }
+        }
+        target.x = px;
+        target.y = py;
+        Ok(())
+    }
+
+    /// A G5 (cubic) or G5.1 (quadratic) spline block from `now` (machine
+    /// coordinates) to `target` (program coordinates), LinuxCNC's checks
+    /// (`convert_spline`). Returns the position after the block.
+    #[allow(clippy::too_many_arguments)]
+    fn spline(
+        &mut self,
+        block: &Block,
+        event: &mut BlockEvent,
+        modal: &ModalState,
+        words: &Words,
+        origin: &Origin,
+        now: Axes,
+        target: &Axes,
+        code: u16,
+        span: (usize, usize),
+    ) -> Result<Axes, GcodeError> {
+        let scale = modal.units.scale();
+        let refuse = |this: &Self, event: &mut BlockEvent, what: &str| {
+            this.fail(block, event, ErrorKind::Spline(what.into()), span.0, span.1)
+        };
+        let mut ok = true;
+        if !modal.inverse_time && modal.feed == 0.0 {
+            self.fail(block, event, ErrorKind::ZeroFeed("spline"), span.0, span.1)?;
+            ok = false;
+        } else if modal.inverse_time && words.f.is_none() {
+            let at = (0, block.raw.len());
+            self.fail(
+                block,
+                event,
+                ErrorKind::InverseTimeFeedMissing("spline"),
+                at.0,
+                at.1,
+            )?;
+            ok = false;
+        }
+        let ij = (words.ijk[0], words.ijk[1]);
+        if ok && modal.plane != Plane::XY {
+            refuse(self, event, "Splines must be in the XY plane")?;
+            ok = false;
+        } else if ok
+            && [Axis::Z, Axis::A, Axis::C]
+                .iter()
+                .any(|a| words.axes[*a as usize].is_some())
+        {
+            refuse(self, event, "Splines may not have motion in Z, A, B, or C")?;
+            ok = false;
+        } else if ok && code == 51 && (ij.0.is_none() || ij.1.is_none()) {
+            refuse(self, event, "Must specify both I and J with G5.1")?;
+            ok = false;
+        } else if ok && code == 50 && ij.0.is_some() != ij.1.is_some() {
+            refuse(self, event, "Must specify both I and J, or neither")?;
+            ok = false;
+        } else if ok && code == 50 && (words.p.is_none() || words.q.is_none()) {
+            refuse(self, event, "Must specify both P and Q with G5")?;
+            ok = false;
+        }
+        let start = origin.to_program(&now);
+        if !ok {
+            // Lenient: a straight move to the end.
+            let mut end = start;
+            (end.x, end.y) = (target.x, target.y);
+            let end = origin.to_machine(&end);
+            let mut m = Motion {
+                kind: MotionKind::Linear,
+                frame: modal.frame,
+                machine_coordinates: false,
+                start: now,
+                end,
+                feed: if modal.inverse_time {
+                    Feed::InverseTime(modal.feed)
+                } else {
+                    Feed::PerMinute(modal.feed)
+                },
+                duration_min: 0.0,
+            };
+            m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
+            event.expanded.push(m);
+            event.spline = Some(SplineStep::Curve {
+                code,
+                control_points: 0,
+            });
+            return Ok(end);
+        }
+        use super::spline::ControlPoint;
+        let cp = |x: f64, y: f64| ControlPoint { x, y, w: 1.0 };
+        if !self.nurbs.is_empty() {
+            event.warnings.push(Warning {
+                line: block.line,
+                column: span.0 + 1,
+                kind: WarningKind::Spline(format!(
+                    "{} control points of a G5.2 block never ended by G5.3 become part of this {} curve, as LinuxCNC takes them",
+                    self.nurbs.len(),
+                    MotionMode::Spline(code).word()
+                )),
+            });
+        }
+        let (x0, y0) = (start.x, start.y);
+        let (x3, y3) = (target.x, target.y);
+        let order = if code == 51 {
+            let (i, j) = (ij.0.unwrap_or(0.0), ij.1.unwrap_or(0.0));
+            self.nurbs
+                .extend([cp(x0, y0), cp(x0 + i, y0 + j), cp(x3, y3)]);
+            3
+        } else {
+            // Without I and J: the last G5's −P −Q (LinuxCNC's `cycle_i`,
+            // `cycle_j`, which G87 shares), for a tangent continuation.
+            let (i, j) = match ij {
+                (Some(i), Some(j)) => (i, j),
+                _ => (self.cycle_memory.ijk[0], self.cycle_memory.ijk[1]),
+            };
+            let (p, q) = (
+                words.p.unwrap_or(0.0) * scale,
+                words.q.unwrap_or(0.0) * scale,
+            );
+            self.nurbs.extend([
+                cp(x0, y0),
+                cp(x0 + i, y0 + j),
+                cp(x3 + p, y3 + q),
+                cp(x3, y3),
+            ]);
+            self.cycle_memory.ijk[0] = -p;
+            self.cycle_memory.ijk[1] = -q;
+            4
+        };
+        let curve = super::spline::Nurbs {
+            points: std::mem::take(&mut self.nurbs),
+            order,
+        };
+        self.run_curve(block, event, modal, origin, now, &curve, code, span)
+    }
+
+    /// A G5.2 block (LinuxCNC's `convert_nurbs`): control points for the
+    /// NURBS that G5.3 runs; nothing moves. `now` is the current position
+    /// (machine coordinates), `target` the block's X Y (program
+    /// coordinates); `restart`: a G5.3 of the same block ended the last one.
+    #[allow(clippy::too_many_arguments)]
+    fn nurbs_point(
+        &mut self,
+        block: &Block,
+        event: &mut BlockEvent,
+        modal: &ModalState,
+        words: &Words,
+        origin: &Origin,
+        now: Axes,
+        target: &Axes,
+        restart: bool,
+        span: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        use super::spline::ControlPoint;
+        let refuse = |this: &Self, event: &mut BlockEvent, what: String| {
+            this.fail(block, event, ErrorKind::Spline(what), span.0, span.1)
+        };
+        // (A G5.3 of the same block ran a curve: that is what the block says.)
+        event.spline.get_or_insert(SplineStep::NurbsPoint);
+        let (x, y) = (words.axes[0].is_some(), words.axes[1].is_some());
+        // LinuxCNC reads a missing P as -1.
+        let p = words.p.unwrap_or(-1.0);
+        if x != y {
+            return refuse(
+                self,
+                event,
+                "You must specify both X and Y coordinates for Control Points".into(),
+            );
+        }
+        if !x && p > 0.0 && !self.nurbs.is_empty() {
+            return refuse(
+                self,
+                event,
+                "Can specify P without X and Y only for the first control point".into(),
+            );
+        }
+        if p <= 0.0 && !self.nurbs.is_empty() {
+            return refuse(
+                self,
+                event,
+                "Must specify positive weight P for every Control Point".into(),
+            );
+        }
+        if !modal.inverse_time && modal.feed == 0.0 {
+            return refuse(self, event, "Cannot make a NURBS with 0 feedrate".into());
+        }
+        let l = match words.l {
+            None => None,
+            Some(l) => match to_integer(l) {
+                Some(n) if n >= 0 => Some(n as usize),
+                Some(_) => return refuse(self, event, "Negative L word used".into()),
+                None => return refuse(self, event, "Non-integer value for integer".into()),
+            },
+        };
+        if self.modal.motion != MotionMode::Spline(52) || restart {
+            self.nurbs.clear();
+        }
+        if self.nurbs.is_empty() {
+            let start = origin.to_program(&now);
+            self.nurbs.push(ControlPoint {
+                x: start.x,
+                y: start.y,
+                w: if !x && p > 0.0 { p } else { 1.0 },
+            });
+            self.nurbs_order = 3;
+        }
+        if let Some(l) = l.filter(|l| *l > 3) {
+            self.nurbs_order = l;
+        }
+        if x {
+            self.nurbs.push(ControlPoint {
+                x: target.x,
+                y: target.y,
+                w: p,
+            });
+        }
+        if [Axis::Z, Axis::A, Axis::C]
+            .iter()
+            .any(|a| words.axes[*a as usize].is_some())
+        {
+            event.warnings.push(Warning {
+                line: block.line,
+                column: span.0 + 1,
+                kind: WarningKind::Spline(
+                    "Z, A and C words of a G5.2 block do not move (LinuxCNC takes X Y and P only)"
+                        .into(),
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The straight pieces of `curve` (program coordinates) from `now`
+    /// (machine coordinates; Z, A and C stay) into `event.expanded`.
+    /// Returns the position after the curve.
+    #[allow(clippy::too_many_arguments)]
+    fn run_curve(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        modal: &ModalState,
+        origin: &Origin,
+        now: Axes,
+        curve: &super::spline::Nurbs,
+        code: u16,
+        span: (usize, usize),
+    ) -> Result<Axes, GcodeError> {
+        let pieces =
+            match super::spline::chords(curve, self.options.spline_tolerance_mm, MAX_SPLINE_PIECES)
+            {
+                Ok(p) => p,
+                Err(e) => {
+                    self.fail(
+                        block,
+                        event,
+                        ErrorKind::Spline(e.to_string()),
+                        span.0,
+                        span.1,
+                    )?;
+                    return Ok(now);
+                }
+            };
+        let start = origin.to_program(&now);
+        let mut from = start;
+        let mut ends = Vec::with_capacity(pieces.len());
+        let mut total = 0.0;
+        for p in &pieces {
+            let mut to = start;
+            (to.x, to.y) = (p[0], p[1]);
+            total += from.xyz_distance(&to);
+            ends.push(to);
+            from = to;
+        }
+        let mut at = now;
+        let mut from = start;
+        for to in ends {
+            let end = origin.to_machine(&to);
+            let fraction = if total > 0.0 {
+                from.xyz_distance(&to) / total
+            } else {
+                1.0
+            };
+            let mut m = Motion {
+                kind: MotionKind::Linear,
+                frame: modal.frame,
+                machine_coordinates: false,
+                start: at,
+                end,
+                feed: if modal.inverse_time {
+                    // The curve takes 1/F: each piece its share.
+                    Feed::InverseTime(modal.feed / fraction.max(1e-12))
+                } else {
+                    Feed::PerMinute(modal.feed)
+                },
+                duration_min: 0.0,
+            };
+            m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
+            event.expanded.push(m);
+            at = end;
+            from = to;
+        }
+        event.spline = Some(SplineStep::Curve {
+            code,
+            control_points: curve.points.len(),
+        });
+        Ok(at)
+    }
+
     /// A canned-cycle block: its moves, expanded by [`super::cycles`], in
     /// machine coordinates. Returns the position after the block.
     fn cycle(
@@ -1680,6 +2244,7 @@ impl Interpreter {
             p: words.p,
             l: words.l,
             ijk: words.ijk,
+            polar: [words.radius, words.theta],
             rotary_words: [words.axes[3].is_some(), false, words.axes[4].is_some()],
             uvw_words: [false; 3],
             feed_rate: if modal.inverse_time { 0.0 } else { modal.feed },
@@ -1770,9 +2335,11 @@ impl Interpreter {
         let feed_span = words.f_span.unwrap_or((0, block.raw.len()));
         let mut kind = match modal.motion {
             MotionMode::Rapid => MotionKind::Rapid,
-            MotionMode::Linear | MotionMode::None | MotionMode::Probe(_) | MotionMode::Cycle(_) => {
-                MotionKind::Linear
-            }
+            MotionMode::Linear
+            | MotionMode::None
+            | MotionMode::Probe(_)
+            | MotionMode::Cycle(_)
+            | MotionMode::Spline(_) => MotionKind::Linear,
             MotionMode::ArcCw | MotionMode::ArcCcw => {
                 let clockwise = modal.motion == MotionMode::ArcCw;
                 if origin.rotation_deg != 0.0 && modal.plane != Plane::XY {
@@ -1782,10 +2349,9 @@ impl Interpreter {
                 let e = origin.to_program(&end);
                 match self.arc_centre(block, event, modal, words, &s, &e, clockwise)? {
                     Some(centre) => {
-                        let turns = match words.p {
-                            Some(p) if (1.0..1e6).contains(&p) => {
-                                (p.round_ties_even() as u32).saturating_sub(1)
-                            }
+                        // P full circles (LinuxCNC runs every one of them).
+                        let turns = match words.p.and_then(arc_turns) {
+                            Some(n) if n >= 1 => (n - 1) as u32,
                             _ => 0,
                         };
                         MotionKind::Arc {
@@ -2025,6 +2591,13 @@ impl Interpreter {
     pub fn time_min(&self) -> f64 {
         self.time_min
     }
+}
+
+/// An arc's P as LinuxCNC's `round_to_int` reads it: the nearest integer
+/// (ties to even), `None` when it does not fit an `int`.
+fn arc_turns(p: f64) -> Option<i32> {
+    let n = p.round_ties_even();
+    (n >= i32::MIN as f64 && n <= i32::MAX as f64).then_some(n as i32)
 }
 
 /// Duration of a move by the effects.md rules, minutes, from its programmed

@@ -20,6 +20,9 @@
 //! (6 decimals, trailing zeros dropped), assignments removed, and a comment
 //! naming the source appended: `(volcomp: line 12)`, `(volcomp: drill.ngc:3)`.
 //! Writers copy executed blocks, so a program with loops comes out flat.
+//! A subroutine definition in the main file is handed on as written where the
+//! program passes over it ([`Executed::passed`]; LinuxCNC skips it there too),
+//! so that a written program keeps it; its calls come flat.
 //!
 //! Streaming: memory is bounded by the call stack, the parameter table, the
 //! O-word table and a cache of parsed lines inside loops and subroutines (at
@@ -65,6 +68,11 @@ pub struct LanguageOptions {
     /// included) before it is refused as an endless loop (`None`:
     /// [`DEFAULT_MAX_EXECUTED_LINES`]).
     pub max_executed_lines: Option<u64>,
+    /// Drop the subroutine definitions the main program passes over
+    /// (`check --flatten`: a program with no O-words). By default they are
+    /// handed on as written, not executed ([`Executed::passed`]), so that
+    /// writers keep every byte of them.
+    pub drop_definitions: bool,
 }
 
 /// Lines a run may read: a billion, a thousand times the largest real
@@ -82,6 +90,11 @@ pub struct Executed {
     /// The block is the source line as written, executed once in sequence
     /// from the main program: writers may copy or edit it in place.
     pub literal: bool,
+    /// The line is not executed: a line of a subroutine definition that the
+    /// main program passes over (`o<name> sub` … `endsub`, read in sequence
+    /// from the main file, outside calls), handed on as written (`literal`)
+    /// so that writers lose none of it. LinuxCNC skips it the same way.
+    pub passed: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -150,6 +163,12 @@ pub struct Executor {
     doing_continue: bool,
     /// Defining (skipping over) a subroutine in the main program.
     defining_sub: Option<String>,
+    /// The definition being skipped over is handed on as written
+    /// ([`Executed::passed`]).
+    passing_definition: bool,
+    /// Offsets of the definitions handed on (a definition inside a loop of
+    /// the main program is read once per iteration, written once).
+    passed_definitions: std::collections::HashSet<u64>,
     /// Loops entered in the main program (not inside a call).
     main_loops: usize,
     cache: HashMap<(usize, u64), CachedLine>,
@@ -198,6 +217,8 @@ impl Executor {
             doing_break: false,
             doing_continue: false,
             defining_sub: None,
+            passing_definition: false,
+            passed_definitions: std::collections::HashSet::new(),
             main_loops: 0,
             cache: HashMap::new(),
             source: Block::default(),
@@ -206,6 +227,7 @@ impl Executor {
                 file: 0,
                 line: 0,
                 literal: true,
+                passed: false,
             },
             percent_seen: false,
             content_seen: false,
@@ -321,6 +343,20 @@ impl Executor {
                     block.raw.len(),
                 ));
             }
+            if self.passing_definition {
+                // A subroutine definition the main program passes over: its
+                // lines go on as written; only its end matters.
+                if block.unparsed.is_none()
+                    && let Some(o) = &block.o_word
+                {
+                    self.control(&block, o, params)?;
+                    if self.defining_sub.is_none() {
+                        self.passing_definition = false;
+                    }
+                }
+                self.emit_passed(&block);
+                return Ok(true);
+            }
             let skipping = self.skipping.is_some() || self.skipping_to_sub;
             if let Some(err) = &block.unparsed {
                 if skipping {
@@ -374,6 +410,11 @@ impl Executor {
             }
             if let Some(o) = &block.o_word {
                 self.control(&block, o, params)?;
+                if self.passing_definition {
+                    // The `sub` line of a definition passed over.
+                    self.emit_passed(&block);
+                    return Ok(true);
+                }
                 continue;
             }
             if skipping || self.defining_sub.is_some() && self.frames.is_empty() {
@@ -412,12 +453,24 @@ impl Executor {
         }
     }
 
+    /// Hand on a line of a definition passed over, as written.
+    fn emit_passed(&mut self, block: &Block) {
+        self.out.clone_from(block);
+        self.executed = Executed {
+            file: self.current,
+            line: block.line,
+            literal: true,
+            passed: true,
+        };
+    }
+
     fn emit_source(&mut self, block: &Block) {
         self.out.clone_from(block);
         self.executed = Executed {
             file: self.current,
             line: block.line,
             literal: self.current == 0 && self.frames.is_empty() && self.main_loops == 0,
+            passed: false,
         };
         if !self.executed.literal {
             self.append_origin_comment();
@@ -527,6 +580,7 @@ impl Executor {
             file: self.current,
             line: block.line,
             literal: false,
+            passed: false,
         };
         if !self.out.is_empty() || !self.out.comments.is_empty() {
             self.append_origin_comment();
@@ -803,10 +857,14 @@ impl Executor {
                 if self.defining_sub.is_some() {
                     return Err(o_err("Nested subroutine definition".into()));
                 }
-                // A definition in the main program: record and skip over it.
+                // A definition in the main program: record and skip over it
+                // (handing its lines on as written, once).
                 self.record(&label, block, LabelKind::Sub)?;
                 self.defining_sub = Some(label.clone());
                 self.skipping = Some(label);
+                self.passing_definition = self.current == 0
+                    && !self.options.drop_definitions
+                    && self.passed_definitions.insert(block.offset);
             }
             OKeyword::EndSub | OKeyword::Return => {
                 if self.frames.is_empty() {

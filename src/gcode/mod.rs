@@ -54,6 +54,7 @@ pub mod parameters;
 pub mod parser;
 pub mod reader;
 pub mod rewrite;
+pub mod spline;
 pub mod summary;
 pub mod tools;
 

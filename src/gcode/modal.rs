@@ -25,6 +25,9 @@ pub enum MotionMode {
     Probe(u16),
     /// A canned cycle, G73 or G81–G89 (the code × 10: 730, 810 … 890).
     Cycle(u16),
+    /// A spline (the code × 10): G5 cubic (50), G5.1 quadratic (51), G5.2
+    /// NURBS control points (52, executed by G5.3).
+    Spline(u16),
 }
 
 impl MotionMode {
@@ -51,6 +54,9 @@ impl MotionMode {
             MotionMode::Cycle(870) => "G87",
             MotionMode::Cycle(880) => "G88",
             MotionMode::Cycle(_) => "G89",
+            MotionMode::Spline(50) => "G5",
+            MotionMode::Spline(51) => "G5.1",
+            MotionMode::Spline(_) => "G5.2",
         }
     }
 
@@ -62,7 +68,7 @@ impl MotionMode {
             MotionMode::Linear => 10.0,
             MotionMode::ArcCw => 20.0,
             MotionMode::ArcCcw => 30.0,
-            MotionMode::Probe(c) | MotionMode::Cycle(c) => c as f64,
+            MotionMode::Probe(c) | MotionMode::Cycle(c) | MotionMode::Spline(c) => c as f64,
         }
     }
 }
@@ -182,12 +188,14 @@ pub enum GCode {
     RetractMode(bool),
     /// G4 dwell.
     Dwell,
+    /// G5.3: the end of a G5.2 NURBS block, which then runs.
+    NurbsEnd,
     /// G80: cancels the motion mode (canned cycles).
     CancelMotion,
     /// Harmless codes passed through and counted: G61/G61.1/G64 path control,
     /// G96/G97, G7/G8, G15, G50, G50.1, G69.
     PassThrough,
-    /// Anything else, assumed to change the geometry (G33, G76, G5.x, G70–G72,
+    /// Anything else, assumed to change the geometry (G33, G76, G70–G72,
     /// G41.1/G42.1, G52, G68, G51, G16, …).
     Unsupported,
 }
@@ -214,7 +222,8 @@ pub fn g_group(code: GCode) -> Option<u8> {
         | GCode::StoreHome(_)
         | GCode::SetData
         | GCode::AxisOffset(_)
-        | GCode::Dwell => 0,
+        | GCode::Dwell
+        | GCode::NurbsEnd => 0,
         GCode::PassThrough | GCode::Unsupported => return None,
     })
 }
@@ -230,6 +239,8 @@ pub fn classify_g(code10: i32) -> GCode {
         730 | 740 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
             GCode::Motion(MotionMode::Cycle(code10 as u16))
         }
+        50..=52 => GCode::Motion(MotionMode::Spline(code10 as u16)),
+        53 => GCode::NurbsEnd,
         40 => GCode::Dwell,
         100 => GCode::SetData,
         170 => GCode::Plane(Plane::XY),
@@ -344,6 +355,8 @@ pub fn is_known_letter(letter: u8) -> bool {
             | b'E'
             | b'N'
             | b'O'
+            | b'@'
+            | b'^'
     )
 }
 

@@ -195,6 +195,16 @@ impl ArcGeometry {
         }
     }
 
+    /// The angle swept, radians (negative clockwise), full turns included.
+    pub fn sweep(&self) -> f64 {
+        self.sweep
+    }
+
+    /// The radius at the start and at the end, mm.
+    pub fn radii(&self) -> (f64, f64) {
+        (self.radius_start, self.radius_end)
+    }
+
     pub fn length(&self) -> f64 {
         let r = 0.5 * (self.radius_start + self.radius_end);
         let planar = r * self.sweep.abs();

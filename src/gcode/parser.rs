@@ -247,7 +247,8 @@ pub fn parse_line(block: &mut Block) -> Result<(), GcodeError> {
                 });
                 pos = end;
             }
-            _ if c.is_ascii_alphabetic() => {
+            // `@` and `^`: LinuxCNC's polar radius and angle words.
+            _ if c.is_ascii_alphabetic() || c == b'@' || c == b'^' => {
                 let letter = c.to_ascii_uppercase();
                 if letter == b'O' && words.is_empty() && assignments.is_empty() {
                     if let Some(o) =

@@ -178,7 +178,9 @@ pub fn rewrite_stream(
     while let Some(step) = run.next() {
         let (block, event, executed) = step?;
         stats.blocks += 1;
-        if !executed.literal || (!event.cycle_steps.is_empty() && !event.skipped) {
+        if !executed.literal
+            || ((!event.cycle_steps.is_empty() || event.spline.is_some()) && !event.skipped)
+        {
             stats.flat += 1;
         }
         via.clear();
@@ -254,16 +256,27 @@ impl Rewriter {
         target: Target<'_>,
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
+        if event.skipped {
+            // Not executed (a subroutine definition passed over, a line after
+            // the end, a deleted or unparsed line): as written, and the
+            // emitted program's state is unchanged.
+            if target != Target::Same {
+                return Err(RewriteError::NotAMotion { line: block.line });
+            }
+            block.write_raw(out)?;
+            return Ok(Emitted::default());
+        }
         for w in &block.words {
             if let Some(axis) = Axis::from_letter(w.letter as char) {
                 let i = axis as usize;
                 self.decimals[i] = self.decimals[i].max(w.decimals);
             }
         }
-        if !event.cycle_steps.is_empty() && !event.skipped && target == Target::Same {
-            // A canned cycle is always written flat (see `emit_cycle`).
+        if (!event.cycle_steps.is_empty() || event.spline.is_some()) && target == Target::Same {
+            // Canned cycles and splines are always written flat (see
+            // `emit_flat`).
             let ends: Vec<Axes> = event.expanded.iter().map(|m| m.end).collect();
-            return self.emit_cycle(block, event, &ends, out);
+            return self.emit_flat(block, event, &ends, out);
         }
         let Some(motion) = event.motion.as_ref().filter(|_| !event.skipped) else {
             if target != Target::Same {
@@ -400,6 +413,20 @@ impl Rewriter {
         let end_moved = !same_point(&end, &motion.end, &ctx);
         let straighten = matches!(motion.kind, MotionKind::Arc { .. }) && !via.is_empty();
         let mut new_emitted = self.emitted;
+        // Polar words (`@`, `^`) give X Y from the current point: a block
+        // whose start or end moves says its X Y instead; one that does not
+        // move keeps them (its X Y are the programmed ones).
+        let polar = block.words.iter().any(|w| matches!(w.letter, b'@' | b'^'));
+        let cartesian = (start_moved || end_moved) && polar;
+        if cartesian {
+            for w in block
+                .words
+                .iter()
+                .filter(|w| matches!(w.letter, b'@' | b'^'))
+            {
+                self.remove_word(block, w);
+            }
+        }
 
         // Axis words.
         let mut last_axis_end = None;
@@ -436,7 +463,10 @@ impl Rewriter {
                         self.emitted.get(axis) / unit
                     };
                     let dec = ctx.decimals(axis, self.decimals[i], &self.options);
-                    if (needed - implied).abs() > half_ulp(dec) {
+                    let polar_axis = polar && matches!(axis, Axis::X | Axis::Y);
+                    if polar_axis && !cartesian {
+                        new_emitted.set(axis, end.get(axis));
+                    } else if (needed - implied).abs() > half_ulp(dec) || polar_axis {
                         let printed = round_to(needed, dec);
                         appended[i] = Some(printed);
                         new_emitted.set(axis, base + printed * unit);
@@ -530,6 +560,169 @@ impl Rewriter {
         Ok(Emitted { rewritten, pieces })
     }
 
+    /// Emit a block that is written flat, a canned cycle
+    /// ([`Rewriter::emit_cycle`]) or a spline ([`Rewriter::emit_spline`]),
+    /// with `ends[k]` the absolute target of `event.expanded[k]` (machine
+    /// coordinates).
+    pub fn emit_flat(
+        &mut self,
+        block: &Block,
+        event: &BlockEvent,
+        ends: &[Axes],
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        if event.spline.is_some() {
+            self.emit_spline(block, event, ends, out)
+        } else {
+            self.emit_cycle(block, event, ends, out)
+        }
+    }
+
+    /// Emit a spline block flat. A curve (G5, G5.1, or the G5.3 that runs a
+    /// G5.2 NURBS): the block without its spline words (its other words and
+    /// comments keep their effect) and a comment, then every straight piece
+    /// (`ends[k]` the absolute target of `event.expanded[k]`, machine
+    /// coordinates) as `G1 X… Y…` in absolute coordinates, under G93 with
+    /// its `F` (the piece's share of the curve's time). A G5.2 control-point
+    /// block: the block without its G5.2 X Y P L words, and a comment (its
+    /// curve is written at its G5.3).
+    pub fn emit_spline(
+        &mut self,
+        block: &Block,
+        event: &BlockEvent,
+        ends: &[Axes],
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        use super::interpret::SplineStep;
+        if ends.len() != event.expanded.len() {
+            return Err(RewriteError::NotAMotion { line: block.line });
+        }
+        if !ends.iter().all(Axes::is_finite) {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        let curve = match event.spline {
+            Some(SplineStep::Curve { code, .. }) => Some(code),
+            _ => None,
+        };
+        if curve == Some(53) && event.modal.motion == MotionMode::Spline(52) {
+            return Err(RewriteError::CannotFlatten {
+                line: block.line,
+                what: "a G5.3 block whose axis words start another NURBS",
+            });
+        }
+        for w in &block.words {
+            if let Some(axis) = Axis::from_letter(w.letter as char) {
+                let i = axis as usize;
+                self.decimals[i] = self.decimals[i].max(w.decimals);
+            }
+        }
+        let ctx = Context::new(block, event);
+        let ending: &[u8] = match block.ending {
+            super::block::LineEnding::CrLf => b"\r\n",
+            _ => b"\n",
+        };
+        // 1. The block without its spline words.
+        self.edits.clear();
+        self.text.clear();
+        for w in &block.words {
+            let spline_word = match w.letter {
+                b'G' => matches!(
+                    w.code10().map(classify_g),
+                    Some(GCode::Motion(MotionMode::Spline(_)) | GCode::NurbsEnd)
+                ),
+                b'X' | b'Y' | b'Z' | b'A' | b'C' | b'I' | b'J' | b'P' | b'Q' | b'L' | b'@'
+                | b'^' => true,
+                _ => false,
+            };
+            if spline_word {
+                self.remove_word(block, w);
+            }
+        }
+        let from = self.text.len();
+        {
+            use std::fmt::Write as _;
+            let _ = match curve {
+                Some(53) => write!(
+                    self.text,
+                    " (volcomp: the G5.2 NURBS run by line {} written flat below)",
+                    block.line
+                ),
+                Some(code) => write!(
+                    self.text,
+                    " (volcomp: {} of line {} written flat below)",
+                    MotionMode::Spline(code).word(),
+                    block.line
+                ),
+                None => write!(
+                    self.text,
+                    " (volcomp: G5.2 control point of line {}, the curve is written flat at its G5.3)",
+                    block.line
+                ),
+            };
+        }
+        self.record(from, block.raw.len(), block.raw.len());
+        let mut header = Vec::with_capacity(block.raw.len() + 64);
+        self.write_edited(block, &mut header)?;
+        out.write_all(header.trim_ascii_start())?;
+        let Some(_) = curve else {
+            self.original_motion = event.modal.motion;
+            return Ok(Emitted {
+                rewritten: true,
+                pieces: 0,
+            });
+        };
+        // 2. The pieces.
+        let mut written = Vec::new();
+        if ctx.incremental {
+            written.push("G90".to_string());
+        }
+        for (end, motion) in ends.iter().zip(&event.expanded) {
+            let program = event.origin.to_program(end);
+            let mut line = String::from("G1");
+            for axis in Axis::ALL {
+                let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
+                if !moved && axis != Axis::X && axis != Axis::Y {
+                    continue;
+                }
+                let unit = ctx.unit(axis);
+                let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
+                line.push(' ');
+                line.push(axis.letter());
+                push_number(&mut line, program.get(axis) / unit, dec);
+            }
+            if let Feed::InverseTime(f) = motion.feed {
+                line.push_str(" F");
+                push_number(
+                    &mut line,
+                    f,
+                    feed_decimals(f, ctx.feed_decimals, &self.options),
+                );
+            }
+            self.emitted = *end;
+            written.push(line);
+        }
+        if ctx.incremental {
+            written.push("G91".to_string());
+        }
+        for l in &written {
+            let l = if ctx.lowercase {
+                l.to_ascii_lowercase()
+            } else {
+                l.clone()
+            };
+            out.write_all(l.as_bytes())?;
+            out.write_all(ending)?;
+        }
+        if !event.expanded.is_empty() {
+            self.emitted_motion = MotionMode::Linear;
+        }
+        self.original_motion = event.modal.motion;
+        Ok(Emitted {
+            rewritten: true,
+            pieces: written.len(),
+        })
+    }
+
     /// Emit a canned-cycle block flat: the block without its cycle words (its
     /// other words and comments keep their effect), then every step as an
     /// explicit line: each move (`ends[k]` is the absolute target of
@@ -587,7 +780,7 @@ impl Rewriter {
                     Some(GCode::Motion(MotionMode::Cycle(_)))
                 ),
                 b'X' | b'Y' | b'Z' | b'A' | b'C' | b'R' | b'Q' | b'P' | b'L' | b'I' | b'J'
-                | b'K' => true,
+                | b'K' | b'@' | b'^' => true,
                 _ => false,
             };
             if cycle_word {
@@ -953,6 +1146,16 @@ impl Rewriter {
             pos = e.end;
         }
         self.line.extend_from_slice(&block.raw[pos..]);
+        // A line that started with a word that was removed (`@5 ^10` written
+        // as X Y) starts where its first kept word does.
+        if !block.raw.first().is_some_and(|b| b.is_ascii_whitespace()) {
+            let blank = self
+                .line
+                .iter()
+                .take_while(|b| matches!(b, b' ' | b'\t'))
+                .count();
+            self.line.drain(..blank);
+        }
         self.line.extend_from_slice(block.ending.as_bytes());
         out.write_all(&self.line)?;
         let body = &self.line[..self.line.len() - block.ending.as_bytes().len()];

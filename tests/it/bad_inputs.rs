@@ -255,6 +255,38 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "program",
+            "an arc `P` beyond an int (LinuxCNC: not an integer)",
+            p("%\nG21 G90 G17\nG0 X10 Y0 Z0 A10 C0\nG2 X10 Y0 I-10 J0 P2147483648 F500\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["P value not an integer with G2 or G3", "{d}/bad.nc:4:19"],
+        ),
+        case(
+            "program",
+            "an arc of 100,001 turns (more straight pieces than volcomp writes)",
+            p(
+                "%\nG21 G90 G17\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Z0 F500\nG2 X-40 Y0 I40 J0 P100001\nM30\n%\n",
+            ),
+            COMPENSATE,
+            1,
+            &[
+                "{d}/bad.nc:5: the correction varies along this arc",
+                "more than the 100000 volcomp writes for one arc",
+            ],
+        ),
+        case(
+            "program",
+            "a spline that needs more than 100,000 straight pieces (`--tol 1e-6`)",
+            p("%\nG21 G90 G17 F600\nG0 X0 Y0 Z0 A10 C0\nG5 I10 J0 P-10 Q0 X30 Y20\nM30\n%\n"),
+            "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --tol 1e-6",
+            1,
+            &[
+                "the curve needs more than 100000 straight pieces to stay within the tolerance of it",
+                "{d}/bad.nc:4:1",
+            ],
+        ),
+        case(
+            "program",
             "a target outside the machine's travel",
             p("%\nG21\nG1 X900 Y0 Z0 A0 C0 F100\nM30\n%\n"),
             COMPENSATE,

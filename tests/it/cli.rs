@@ -555,6 +555,9 @@ fn the_stamp_goes_after_the_percent_behind_blank_lines() {
         "{text}"
     );
     assert_success(&run(&["check", s(&out_path)]));
+    let _one_at_a_time = crate::rs274::RS274
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
     if let Ok(out) = std::process::Command::new("rs274")
         .arg("-g")
         .arg(&out_path)

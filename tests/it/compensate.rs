@@ -562,7 +562,9 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
 fn a_full_circle_helix_keeps_its_centre() {
     let text = "%\nG21 G90 G94 G17 F400\nG0 X0 Y0 Z0 A10 C0\nG1 X10\n\
                 G3 X10 Y0 Z-5 I-5 J0 P2\nG2 X0 Y0 R5\nM30\n%\n";
-    let (compensated, _) = compensate_text(text, Frame::Joint);
+    // A tolerance the correction's variation round the helix stays within:
+    // it is not split (at 0.5 µm it is, into straight pieces).
+    let (compensated, _) = compensate_with_tolerance(text, Frame::Joint, 10.0);
     let helix = compensated
         .lines()
         .find(|l| l.starts_with("G3") && l.contains("P2"))
@@ -817,4 +819,261 @@ fn flank_milling_needs_the_tool_axis_corrected() {
         (d.iter().map(|v| v * v).sum::<f64>() / d.len() as f64).sqrt()
     };
     assert!(residual(&position_only, 18.0) > 3.0 * residual(&position_only, 2.0));
+}
+
+/// The program without volcomp's stamp lines.
+fn unstamped(text: &str) -> String {
+    text.split_inclusive('\n')
+        .filter(|l| !l.starts_with(volcomp::compensate::stamp::PREFIX))
+        .collect()
+}
+
+/// Compensate `text` with the command (ref-trt, `args` added), with a report:
+/// the output, the summary and the report.
+fn compensate_cli(text: &str, args: &[&str]) -> (String, String, serde_json::Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("part.ngc");
+    std::fs::write(&program, text).unwrap();
+    let (out_path, report) = (dir.path().join("out.ngc"), dir.path().join("r.json"));
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml"])
+        .arg(&program)
+        .arg("-o")
+        .arg(&out_path)
+        .arg("--report")
+        .arg(&report)
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    crate::support::assert_success(&out);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    (
+        std::fs::read_to_string(&out_path).unwrap(),
+        String::from_utf8(out.stdout).unwrap(),
+        report,
+    )
+}
+
+/// Issue 23: a file that only defines subroutines came out empty, and
+/// `o<sq> sub … endsub` then `M2` came out as `M2`. Definitions the program
+/// passes over are written as they are (LinuxCNC skips them there too), and
+/// the summary and the report say they are not compensated.
+#[test]
+fn subroutine_definitions_are_written_as_they_are() {
+    let library = "(probing library)\no<probe> sub\n  G38.2 Z-10 F100\n  o<probe> if [#5070 EQ 0]\n    (abort, not found)\n  o<probe> endif\n  G0 Z#1 (retract)\no<probe> endsub\n\nO200 sub\n  G1 X#1 Y#2 F300\nO200 endsub\nM2\n";
+    let (out, summary, report) = compensate_cli(library, &[]);
+    assert_eq!(unstamped(&out), library);
+    assert!(
+        summary.contains("2 subroutine definitions written as they are")
+            && summary.contains("o<probe> (lines 2–8), O200 (lines 10–12)"),
+        "{summary}"
+    );
+    let defs = &report["subroutine_definitions"];
+    assert_eq!(defs[0]["name"], "o<probe>");
+    assert_eq!(
+        (
+            defs[1]["first_line"].as_u64(),
+            defs[1]["last_line"].as_u64()
+        ),
+        (Some(10), Some(12))
+    );
+    let sq = "o<sq> sub\n  G1 X#1 F100\no<sq> endsub\nM2\n";
+    assert_eq!(unstamped(&compensate_cli(sq, &[]).0), sq);
+}
+
+/// A called subroutine: its definition stays as written, its calls come flat
+/// and compensated, and LinuxCNC reads the written program to the same
+/// positions (within the corrections, µm).
+#[test]
+fn called_subroutines_are_written_flat_beside_their_definition() {
+    let text = "G21 G90 G17 G94 F300\nG0 X10 Y10 Z5 A0 C0\no<sq> sub\n  G1 X[10+#1] Y10 Z0\n  G1 Y[10+#1]\no<sq> endsub\no<sq> call [5]\no<later> call [2]\no<sq> call [7]\nG0 Z5\nM2\no<later> sub\n  G1 X#1\no<later> endsub\n";
+    let (out, _, report) = compensate_cli(text, &[]);
+    let out = unstamped(&out);
+    assert!(
+        out.contains("o<sq> sub\n  G1 X[10+#1] Y10 Z0\n  G1 Y[10+#1]\no<sq> endsub\n"),
+        "{out}"
+    );
+    assert!(
+        out.ends_with("M2\no<later> sub\n  G1 X#1\no<later> endsub\n"),
+        "{out}"
+    );
+    assert!(!out.contains("call"), "{out}");
+    assert_eq!(report["motion_blocks"], 7);
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ngc"), dir.path().join("b.ngc"));
+    std::fs::write(&a, text).unwrap();
+    std::fs::write(&b, &out).unwrap();
+    let original = crate::rs274::rs274_motions(&a).expect("rs274 reads the original");
+    let written = crate::rs274::rs274_motions(&b).expect("rs274 reads the written program");
+    assert_eq!(original.len(), written.len(), "{original:?}\n{written:?}");
+    for (p, q) in original.iter().zip(&written) {
+        let d = p
+            .iter()
+            .zip(q)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(d < 0.05, "{p:?} vs {q:?}");
+    }
+}
+
+/// Issue 23: a full circle of even `P` (its midpoint is its start) and `G1
+/// C720` (its midpoint is the pose of its ends) were never split, though the
+/// correction varies along them. The split test samples a move where its pose
+/// differs, at most a quarter turn apart.
+#[test]
+fn moves_whose_midpoint_is_the_pose_of_their_ends_are_split() {
+    for (name, text) in [
+        (
+            "full circle P2",
+            "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X-40 Y0 I40 J0 P2\nG1 X-50\nM2\n",
+        ),
+        (
+            "G1 C720",
+            "G21 G90 G94 F500\nG0 X50 Y30 Z10 A30 C0\nG1 X51\nG1 C720\nM2\n",
+        ),
+    ] {
+        // Unsplit (a tolerance it cannot exceed), the compensated move leaves
+        // the path by more than the default tolerance…
+        let (unsplit, report) = compensate_with_tolerance(text, Frame::Joint, 1e3);
+        assert_eq!(report.blocks_split, 0, "{name}");
+        let (before, unsplit) = closed_loop(text, &unsplit, Frame::Joint);
+        // …split, it stays within it.
+        let (compensated, report) = compensate_text(text, Frame::Joint);
+        let (_, after) = closed_loop(text, &compensated, Frame::Joint);
+        eprintln!(
+            "{name}: uncompensated max {:.3} µm; compensated unsplit max {:.3} µm, split ({} pieces) max {:.4} µm",
+            before.max_um,
+            unsplit.max_um,
+            report.blocks_added + 1,
+            after.max_um
+        );
+        assert!(unsplit.max_um > 1.0, "{name}: {unsplit:?}");
+        assert_eq!(report.blocks_split, 1, "{name}");
+        assert!(report.split_cap.is_none(), "{name}");
+        assert!(after.max_um < 0.5, "{name}: {after:?}");
+    }
+}
+
+/// Issue 23: an arc's `P` of a million turns or more was read as one turn
+/// (LinuxCNC runs them all), and `P100001` became 100,000 straight pieces of
+/// a turn each (the circle collapsed). Every turn is read; an arc that needs
+/// more straight pieces than volcomp writes is a located error.
+#[test]
+fn arcs_of_many_turns_are_read_whole_or_refused() {
+    let arc = |p: &str| {
+        format!(
+            "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X-40 Y0 I40 J0 P{p}\nM2\n"
+        )
+    };
+    let events = volcomp::gcode::interpret_program(
+        arc("1000001").as_bytes(),
+        interpret_options(Frame::Joint),
+    )
+    .expect("reads");
+    let m = events[3].1.motion.expect("the arc");
+    let turns = m.arc_geometry().unwrap().sweep().abs() / std::f64::consts::TAU;
+    assert!((turns - 1_000_001.0).abs() < 1e-6, "{turns}");
+    let (machine, model) = ref_trt();
+    let options = CompensateOptions {
+        interpret: interpret_options(Frame::Joint),
+        limits: Some(machine.limits.clone()),
+        ..CompensateOptions::default()
+    };
+    let e = compensate(
+        ref_program(&arc("100001"), "many.nc"),
+        &mut Vec::new(),
+        model,
+        &options,
+        |_| {},
+    )
+    .expect_err("too many pieces");
+    let message = e.to_string();
+    assert!(
+        message.starts_with("many.nc:4: the correction varies along this arc")
+            && message.contains("more than the 100000 volcomp writes"),
+        "{message}"
+    );
+}
+
+/// Issue 23: the split cap (256 pieces a move) was reached silently
+/// (`--tol 1e-300` on the flank: every move 256 pieces, exit 0). It is a
+/// counted warning, in the summary and the report.
+#[test]
+fn the_split_cap_reached_is_counted_and_said() {
+    let (_, summary, report) = compensate_cli(&read("samples/flank.nc"), &["--tol", "1e-300"]);
+    let cap = &report["split_cap"];
+    assert_eq!(cap["pieces"], 256);
+    let moves = cap["moves"].as_u64().unwrap();
+    assert!(moves > 300, "{cap}");
+    assert!(cap["max_departure_um"].as_f64().unwrap() > 0.0);
+    assert!(
+        summary.contains(&format!(
+            "warning: {moves} moves reached the split cap of 256 pieces"
+        )) && summary.contains("more than the tolerance 1e-300 µm"),
+        "{summary}"
+    );
+    // At the default tolerance no move reaches it, and the report says nothing.
+    let (_, summary, report) = compensate_cli(&read("samples/flank.nc"), &[]);
+    assert!(report.get("split_cap").is_none(), "{report}");
+    assert!(!summary.contains("split cap"), "{summary}");
+}
+
+/// Issue 23: splines (G5, G5.1, G5.2 … G5.3) are written flat by
+/// `compensate`: straight pieces within a tenth of the tolerance of the
+/// curve, each end compensated like any move. Replayed through the model,
+/// the written program follows the programmed curve within the tolerance.
+#[test]
+fn splines_are_written_as_compensated_straight_pieces() {
+    let text = "G21 G90 G17 G94 F600\nG0 X-40 Y-20 Z0 A0 C0\nG1 X-30\n\
+                G5 I10 J0 P-10 Q0 X10 Y10\nG5 P-5 Q-5 X40 Y-10\n\
+                G5.1 I5 J20 X60 Y-10\nG5.2 X60 Y20 P1 L4\nX30 Y40 P2\nX0 Y20 P1\nX-30 Y30 P1\nG5.3\n\
+                G1 X-40\nM2\n";
+    let (compensated, report) = compensate_text(text, Frame::Joint);
+    let (before, after) = closed_loop(text, &compensated, Frame::Joint);
+    eprintln!(
+        "splines: {} moves, uncompensated max {:.3} µm, compensated max {:.4} µm RMS {:.4} µm",
+        report.motion_blocks, before.max_um, after.max_um, after.rms_um
+    );
+    // Every piece's end is a compensated move; no spline word is left.
+    assert!(report.motion_blocks > 500, "{report:?}");
+    assert!(
+        !compensated.lines().any(|l| l
+            .split('(')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .any(|w| w == "G5" || w.starts_with("G5."))),
+        "{compensated}"
+    );
+    assert!(compensated.contains("(volcomp: G5 of line 4 written flat below)"));
+    assert!(compensated.contains("(volcomp: the G5.2 NURBS run by line 11 written flat below)"));
+    assert!(before.max_um > 2.0, "{before:?}");
+    assert!(after.max_um < 0.5, "{after:?}");
+}
+
+/// A G5.3 that also starts another NURBS (its X Y are that NURBS's first
+/// control point) cannot be written flat: a located error, not a lost point.
+#[test]
+fn a_g5_3_that_starts_another_nurbs_is_refused() {
+    let text = "G21 G90 G17 G94 F600\nG0 X0 Y0 Z0 A0 C0\nG5.2 X0 Y10 P1\nX10 Y10 P1\nX10 Y0 P1\nG5.3 X20 Y0 P1\nX30 Y10 P1\nX40 Y0 P1\nG5.3\nM2\n";
+    let (machine, model) = ref_trt();
+    let options = CompensateOptions {
+        interpret: interpret_options(Frame::Joint),
+        limits: Some(machine.limits.clone()),
+        ..CompensateOptions::default()
+    };
+    let e = compensate(
+        ref_program(text, "n.ngc"),
+        &mut Vec::new(),
+        model,
+        &options,
+        |_| {},
+    )
+    .expect_err("refused");
+    assert!(
+        e.to_string().starts_with("n.ngc:6: ") && e.to_string().contains("another NURBS"),
+        "{e}"
+    );
 }

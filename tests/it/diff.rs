@@ -140,3 +140,104 @@ fn the_stamp_of_a_compensated_program_is_not_an_added_block() {
     assert!(stdout.contains("compensated by volcomp"), "{stdout}");
     assert!(stdout.contains(", 0 added, 0 removed"), "{stdout}");
 }
+
+/// Issue 23: `diff` paired a split arc with its FIRST straight piece and
+/// reported a 58 mm change where the correction is µm. A split block is paired
+/// with the piece that ends where it ends (arcs as lines), and the report
+/// says how many pieces it became; an arc of more pieces than the alignment
+/// window (1,024) is followed along its path.
+#[test]
+fn a_split_arc_pairs_with_its_last_piece() {
+    // A half circle of radius 40 and a full circle of radius 60 (about 2,400
+    // chords at the default tolerance).
+    let original = "G21 G90 G17 G94 F500\nG0 X-50 Y0 Z10 A0 C0\nG1 X-40 Y0 Z0\nG2 X40 Y0 I40 J0\nG1 X60\nG3 X60 Y0 I-60 J0\nG1 X70\nM2\n";
+    let (compensated, report) = compensate_text(original, Frame::Joint);
+    assert_eq!(report.blocks_split, 2, "{report:?}");
+    let r = diff(original, &compensated);
+    assert_eq!(r.removed, 0);
+    assert_eq!(r.added, report.blocks_added);
+    assert_eq!(r.paired, original.lines().count());
+    assert_eq!(r.split_blocks, 2);
+    assert_eq!(r.split_pieces, report.blocks_added + 2);
+    assert_eq!((r.splits[0].line_a, r.splits[1].line_a), (4, 6));
+    assert!(r.splits[1].pieces > 1024, "{:?}", r.splits);
+    // Every change is a correction (µm), none a pairing with the wrong piece.
+    assert!(r.max_xyz_change_um < 10.0, "{}", r.max_xyz_change_um);
+    approx::assert_relative_eq!(
+        r.max_xyz_change_um,
+        report.max_correction_um,
+        max_relative = 1e-2
+    );
+    let split = r.largest.iter().find(|c| c.line_a == 4).expect("listed");
+    assert_eq!(split.pieces, r.splits[0].pieces);
+    // The summary says it too.
+    let text = volcomp::cli::diff::summary_text(&r);
+    assert!(
+        text.contains(&format!(
+            "2 blocks of A became {} blocks of B",
+            r.split_pieces
+        )) && text.contains("(split into"),
+        "{text}"
+    );
+}
+
+/// The straight pieces of a spline written flat are short: the last few all
+/// end within `--match-tol` of the curve's end. The block pairs with the one
+/// that ends closest to its end (the last), not the first within reach.
+#[test]
+fn a_flat_spline_pairs_with_its_last_piece() {
+    let original = "G21 G17 G90 G94 F600\nG0 X10 Y10 Z0 A0 C0\nG5 I5 J0 P-5 Q0 X30 Y20\nG5 P-5 Q0 X50 Y10\nG5.1 I5 J5 X60 Y10\nG1 X10 Y10\nM2\n";
+    let (compensated, report) = compensate_text(original, Frame::Joint);
+    let r = diff(original, &compensated);
+    assert_eq!(r.removed, 0);
+    let lines: Vec<usize> = r.splits.iter().map(|s| s.line_a).collect();
+    assert_eq!(lines[..3], [3, 4, 5], "{:?}", r.splits);
+    assert!(
+        r.max_xyz_change_um <= report.max_correction_um + 0.1,
+        "{r:?}"
+    );
+    // The paired piece is the curve's last: it ends where the curve ends.
+    for (s, end) in r
+        .splits
+        .iter()
+        .zip([[30.0, 20.0], [50.0, 10.0], [60.0, 10.0]])
+    {
+        let last = compensated.lines().nth(s.last_line_b - 1).unwrap();
+        let word = |letter: char| -> f64 {
+            last.split_whitespace()
+                .find_map(|w| w.strip_prefix(letter))
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(f64::NAN)
+        };
+        let d = (word('X') - end[0]).hypot(word('Y') - end[1]);
+        assert!(d < 0.005, "line {} → {last}", s.line_a);
+    }
+}
+
+/// Curves smaller than `--match-tol` (LinuxCNC's `systems.ngc` writes letters
+/// of G5.1 curves a tenth of a millimetre high): every piece of several
+/// curves ends within the tolerance of each curve's end. The comment the
+/// writer puts before a block it writes flat says which block the pieces
+/// stand for; the curve pairs with its own last piece. Canned cycles too.
+#[test]
+fn blocks_written_flat_pair_by_the_writers_comment() {
+    let mut original = String::from("G21 G17 G90 G94 F600\nG0 X10 Y10 Z5 A0 C0\nG1 Z0\n");
+    for k in 0..20 {
+        let x = 10.0 + 0.01 * k as f64;
+        original.push_str(&format!("G5.1 I0.002 J0.004 X{:.3} Y10.01\n", x + 0.005));
+        original.push_str(&format!("G5.1 I0.002 J-0.004 X{:.3} Y10\n", x + 0.01));
+    }
+    original.push_str("G0 Z5\nM3 S1000\nG91 G82 X1 R-4 Z-2 P0.5 L3\nG90 G80\nM2\n");
+    let (compensated, report) = compensate_text(&original, Frame::Joint);
+    let r = diff(&original, &compensated);
+    assert_eq!(r.removed, 0, "{r:?}");
+    assert_eq!(r.paired, original.lines().count());
+    // 40 curves and one cycle, each paired with its last piece.
+    assert_eq!(r.split_blocks, 41, "{:?}", r.splits);
+    assert!(
+        r.max_xyz_change_um <= report.max_correction_um + 0.1,
+        "{} vs {}",
+        r.max_xyz_change_um,
+        report.max_correction_um
+    );
+}

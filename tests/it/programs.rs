@@ -159,9 +159,16 @@ G92 X0 Y0 Z0\nG1 X10 Y5 Z-2\nG10 L20 P2 X1 Y2 Z3\nG55\nG1 X4 Y4 Z4\nG92.1\nG54\n
 
 /// `check --flatten` as a library call: the flat program and its stats.
 fn flatten(text: &str) -> (String, volcomp::gcode::RewriteStats) {
+    let mut setup = ProgramSetup::default();
+    setup.language.drop_definitions = true;
+    let program = Program::new(
+        Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+        std::path::Path::new("p.ngc"),
+        setup,
+    );
     let mut out = Vec::new();
     let stats = rewrite_stream(
-        Program::from_text(text, "p.ngc").run(interpret_options(Frame::Joint)),
+        program.run(interpret_options(Frame::Joint)),
         &mut out,
         RewriteOptions::default(),
         |_, _, _| None,
@@ -323,4 +330,19 @@ fn an_endless_empty_loop_is_an_error_not_a_hang() {
         matches!(err.kind, volcomp::gcode::ErrorKind::EndlessProgram(10_000)),
         "{err}"
     );
+}
+
+/// A block with polar words (`@`, `^`) whose move does not change is written
+/// as it is: its polar words give its X Y (found on LinuxCNC's `spiral.ngc`:
+/// X Y were added beside them, which LinuxCNC refuses).
+#[test]
+fn polar_blocks_that_do_not_move_stay_byte_for_byte() {
+    for name in ["polar_absolute.ngc", "polar_incremental.ngc"] {
+        let text =
+            std::fs::read_to_string(crate::support::root().join("tests/data/rs274").join(name))
+                .unwrap();
+        let (flat, stats) = flatten(&text);
+        assert_eq!(flat, text, "{name}");
+        assert_eq!(stats.rewritten, 0, "{name}");
+    }
 }

@@ -10,7 +10,9 @@
 //!    degrees), after removing consecutive duplicate points on both sides,
 //!    within [`TOLERANCE`] plus the rounding of the numbers rs274 printed
 //!    (4 decimals in the units then current: up to 0.00005 in = 1.27 µm per
-//!    number in G20 programs; see [`parse_canon`]).
+//!    number in G20 programs; see [`parse_canon`]). A spline is one motion
+//!    on each side whose end is not compared: rs274 prints `NURBS_FEED(n,
+//!    ...)` without it; the moves after it show where it ended.
 //!
 //! rs274 prints canonical calls with positions in the work frame, in the
 //! units current at the time; this module turns them into machine
@@ -47,10 +49,10 @@ const PACKAGE_ROOTS: [&str; 2] = [
 ];
 
 /// rs274 crashes (SIGBUS) when two copies run at once: one at a time.
-static RS274: Mutex<()> = Mutex::new(());
+pub(crate) static RS274: Mutex<()> = Mutex::new(());
 
 /// A point: X Y Z (mm) A B C (degrees), machine coordinates.
-type Point = [f64; 6];
+pub type Point = [f64; 6];
 
 fn data_dir() -> PathBuf {
     support::root().join("tests/data/rs274")
@@ -76,6 +78,10 @@ struct Side {
     /// Per point, how far rs274's rounding of the numbers it printed may
     /// move it (mm/deg); empty for volcomp.
     slack: Vec<f64>,
+    /// Per point: a spline (rs274's `NURBS_FEED`, whose end it does not
+    /// print: its point is NaN; volcomp's straight pieces of one spline
+    /// block, the last piece's end).
+    splines: Vec<bool>,
     /// Why the points cannot be compared (rs274 printed a move without its end).
     incomplete: Option<String>,
 }
@@ -240,11 +246,15 @@ fn var_in_inches(text: &str) -> String {
 }
 
 fn check_rs274() {
-    let out = Command::new("rs274").arg("-h").output();
+    let out = {
+        let _one_at_a_time = RS274.lock().unwrap_or_else(|e| e.into_inner());
+        Command::new("rs274").arg("-h").output()
+    };
     match out {
         Ok(o) if String::from_utf8_lossy(&o.stderr).contains("Usage: rs274") => {}
         Ok(o) => panic!(
-            "`rs274` ran but is not LinuxCNC's standalone interpreter: {}",
+            "`rs274` ran ({}) but is not LinuxCNC's standalone interpreter: {}",
+            o.status,
             String::from_utf8_lossy(&o.stderr)
         ),
         Err(e) => panic!(
@@ -291,9 +301,11 @@ impl Offset {
     }
 }
 
-/// rs274's canonical calls → motion end points in machine coordinates, and
-/// the rounding bound of each.
-fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>), String> {
+/// rs274's canonical calls → motion end points in machine coordinates, the
+/// rounding bound of each, and which are splines (`NURBS_FEED`: rs274 prints
+/// the number of control points only, so the point is NaN; the moves after
+/// it, printed absolute, show where it ended).
+fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>, Vec<bool>), String> {
     let mut inch = false;
     let mut plane = 0; // 0 XY, 1 YZ, 2 XZ
     let mut g5x = Offset {
@@ -308,6 +320,7 @@ fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>), String> {
     let mut program = [0.0f64; 6]; // last canon position (program units)
     let mut points = Vec::new();
     let mut slack = Vec::new();
+    let mut splines = Vec::new();
     let mut push = |p: &[f64; 6], inch: bool, g5x: &Offset, g92: &Offset, rot: f64| {
         let mut m = *p;
         if inch {
@@ -328,6 +341,7 @@ fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>), String> {
         let mix = if rot == 0.0 { 1.0 } else { s.abs() + c.abs() };
         points.push(m);
         slack.push(mix * (print_rounding(inch) + g92.rounding) + g5x.rounding);
+        splines.push(m.iter().any(|v| v.is_nan()));
     };
     for line in text.lines() {
         // "   16 N..... NAME(args)"
@@ -391,12 +405,13 @@ fn parse_canon(text: &str) -> Result<(Vec<Point>, Vec<f64>), String> {
                 push(&program, inch, &g5x, &g92, rotation);
             }
             "NURBS_FEED" => {
-                return Err("rs274 does not print the end point of NURBS_FEED".into());
+                // "NURBS_FEED(4, ...)": the control points' count only.
+                push(&[f64::NAN; 6], inch, &g5x, &g92, rotation);
             }
             _ => {}
         }
     }
-    Ok((points, slack))
+    Ok((points, slack, splines))
 }
 
 fn run_rs274(case: &Case, var_mm: &str, dir: &Path) -> Side {
@@ -463,13 +478,14 @@ fn run_rs274(case: &Case, var_mm: &str, dir: &Path) -> Side {
         ),
     }
     match parse_canon(&text) {
-        Ok((points, slack)) => {
-            let (points, slack) = dedup(points, slack);
+        Ok((points, slack, splines)) => {
+            let (points, slack, splines) = dedup(points, slack, splines);
             Side {
                 accepted: true,
                 message,
                 points,
                 slack,
+                splines,
                 incomplete: None,
             }
         }
@@ -479,6 +495,27 @@ fn run_rs274(case: &Case, var_mm: &str, dir: &Path) -> Side {
             incomplete: Some(e),
             ..Side::default()
         },
+    }
+}
+
+/// What rs274 makes of the program at `path`, in the corpus's setup
+/// (`setup.var`, `sim.tbl`, `subs/` on the subroutine path): its motion end
+/// points in machine coordinates (zero-length moves dropped), or its error.
+/// For tests that read a written program back.
+pub fn rs274_motions(path: &Path) -> Result<Vec<Point>, String> {
+    check_rs274();
+    let case = Case {
+        name: path.display().to_string(),
+        path: path.to_path_buf(),
+        subroutine_path: vec![data_dir().join("subs")],
+    };
+    let var_mm = std::fs::read_to_string(data_dir().join("setup.var")).unwrap();
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let side = run_rs274(&case, &var_mm, dir.path());
+    match (side.accepted, side.incomplete) {
+        (false, _) => Err(side.message),
+        (true, Some(why)) => Err(why),
+        (true, None) => Ok(side.points),
     }
 }
 
@@ -524,6 +561,9 @@ fn run_volcomp(case: &Case, var_mm: &Path, dir: &Path) -> Side {
     }
     let text = std::fs::read_to_string(&targets).expect("targets written");
     let mut points = Vec::new();
+    let mut splines: Vec<bool> = Vec::new();
+    // The line of the spline whose pieces are being read.
+    let mut spline_line: Option<&str> = None;
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
         let num = |i: usize| -> f64 {
@@ -533,31 +573,54 @@ fn run_volcomp(case: &Case, var_mm: &Path, dir: &Path) -> Side {
                 f[i].parse().unwrap_or_else(|e| panic!("`{line}`: {e}"))
             }
         };
-        points.push([num(2), num(3), num(4), num(5), num(6), num(7)]);
+        let p = [num(2), num(3), num(4), num(5), num(6), num(7)];
+        if f[1].starts_with("G5") {
+            // A spline's straight pieces: one entry, at the last one's end.
+            if spline_line == Some(f[0]) {
+                *points.last_mut().expect("a piece before") = p;
+                continue;
+            }
+            spline_line = Some(f[0]);
+            points.push(p);
+            splines.push(true);
+            continue;
+        }
+        spline_line = None;
+        points.push(p);
+        splines.push(false);
     }
     let slack = vec![0.0; points.len()];
-    let (points, _) = dedup(points, slack);
+    let (points, _, splines) = dedup(points, slack, splines);
     Side {
         accepted: true,
         points,
+        splines,
         ..Side::default()
     }
 }
 
 /// Drop points within half the tolerance of the previous one (zero-length
-/// moves; both start at the machine origin), with their slack.
-fn dedup(points: Vec<Point>, slack: Vec<f64>) -> (Vec<Point>, Vec<f64>) {
+/// moves; both start at the machine origin), with their slack. A spline is
+/// kept, and so is the point after it (rs274 does not say where it ended).
+fn dedup(
+    points: Vec<Point>,
+    slack: Vec<f64>,
+    splines: Vec<bool>,
+) -> (Vec<Point>, Vec<f64>, Vec<bool>) {
     let mut out: Vec<Point> = Vec::with_capacity(points.len());
     let mut out_slack = Vec::with_capacity(points.len());
-    for (p, s) in points.into_iter().zip(slack) {
+    let mut out_splines: Vec<bool> = Vec::with_capacity(points.len());
+    for ((p, s), spline) in points.into_iter().zip(slack).zip(splines) {
         let last = out.last().copied().unwrap_or([0.0; 6]);
-        if deviation(&last, &p) < TOLERANCE / 2.0 {
+        let after_spline = out_splines.last() == Some(&true);
+        if !spline && !after_spline && deviation(&last, &p) < TOLERANCE / 2.0 {
             continue;
         }
         out.push(p);
         out_slack.push(s);
+        out_splines.push(spline);
     }
-    (out, out_slack)
+    (out, out_slack, out_splines)
 }
 
 fn deviation(a: &Point, b: &Point) -> f64 {
@@ -592,12 +655,40 @@ fn compare(case: &Case, var_mm_text: &str, var_mm: &Path) -> Comparison {
             let (a, b) = (&rs274.points, &volcomp.points);
             compared = a.len().min(b.len());
             let mut first = None;
+            let mut spline_mismatch = None;
             for i in 0..compared {
+                let (sa, sb) = (rs274.splines[i], volcomp.splines[i]);
+                if sa || sb {
+                    // A spline: rs274 prints no end (the next moves show it).
+                    if sa != sb && spline_mismatch.is_none() && first.is_none() {
+                        spline_mismatch = Some(i);
+                    }
+                    continue;
+                }
                 let d = deviation(&a[i], &b[i]);
                 max_deviation = max_deviation.max(d);
-                if d > TOLERANCE + rs274.slack[i] && first.is_none() {
+                if d > TOLERANCE + rs274.slack[i] && first.is_none() && spline_mismatch.is_none() {
                     first = Some(i);
                 }
+            }
+            if let Some(i) = spline_mismatch {
+                let (who, other) = if rs274.splines[i] {
+                    ("rs274", "volcomp")
+                } else {
+                    ("volcomp", "rs274")
+                };
+                return Comparison {
+                    difference: Some(format!(
+                        "motion {} of {}/{}: {who} runs a spline where {other} moves straight",
+                        i + 1,
+                        a.len(),
+                        b.len()
+                    )),
+                    rs274,
+                    volcomp,
+                    compared,
+                    max_deviation,
+                };
             }
             match first {
                 Some(i) => Some(format!(
@@ -845,7 +936,13 @@ fn rs274_and_volcomp_read_programs_alike() {
              offsets, G92, XY rotation and units applied; tool length offsets not), \
              tolerance {TOLERANCE:e} mm/deg plus the rounding of the numbers rs274 prints \
              (4 decimals in the units then current: up to 0.00005 in = 1.27 µm per number \
-             in G20 programs), after removing zero-length moves on both sides.\n\n\
+             in G20 programs), after removing zero-length moves on both sides. A spline \
+             (G5, G5.1, G5.2 … G5.3) is one motion on each side: rs274 prints \
+             `NURBS_FEED(n, ...)`, the control points' count and not the curve's end, and \
+             volcomp writes the curve's straight pieces (collapsed into one motion, \
+             `G5`/`G5.1`/`G5.2` in its targets); the sides must agree that a spline runs \
+             there, and the moves after it (the fixtures follow every curve with a G91 \
+             move, which rs274 prints absolute) show that both end it at the same point.\n\n\
              Both get the same setup: `tests/data/rs274/setup.var` (work origins, G92, \
              G28/G30 positions; rs274 gets it in inches, its machine units), the tool \
              table `tests/data/rs274/sim.tbl`, and the subroutine path (`tests/data/rs274/subs`, \
@@ -864,4 +961,79 @@ fn rs274_and_volcomp_read_programs_alike() {
         failures.len(),
         failures.join("\n")
     );
+}
+
+/// Issue 23: polar words and splines are read as LinuxCNC reads them and
+/// written flat by `compensate` (a polar block whose target moves says its X
+/// Y; a spline becomes straight pieces, each end compensated). LinuxCNC reads
+/// each compensated fixture to the positions volcomp reads (`check
+/// --targets`), move for move.
+#[test]
+fn compensated_polar_and_spline_programs_read_back_alike() {
+    check_rs274();
+    let var_mm = data_dir().join("setup.var");
+    let var_mm_text = std::fs::read_to_string(&var_mm).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for case in fixture_cases() {
+        let name = case.name.as_str();
+        if name.starts_with("err_") || !(name.contains("polar") || name.contains("spline")) {
+            continue;
+        }
+        let out = dir.path().join(name);
+        let run = support::volcomp()
+            .args(["compensate", "machines/ref-trt.toml"])
+            .arg(&case.path)
+            .arg("--var")
+            .arg(&var_mm)
+            .args(["--no-limits", "-o"])
+            .arg(&out)
+            .current_dir(support::root())
+            .output()
+            .unwrap();
+        support::assert_success(&run);
+        let text = std::fs::read_to_string(&out).unwrap();
+        // The words, without the comments.
+        let words: String = text
+            .lines()
+            .map(|l| {
+                let mut depth = 0;
+                l.chars()
+                    .filter(|c| {
+                        match c {
+                            '(' => depth += 1,
+                            ')' => depth -= 1,
+                            _ => return depth == 0,
+                        }
+                        false
+                    })
+                    .collect::<String>()
+                    + "\n"
+            })
+            .collect();
+        assert!(
+            !words.contains('@') && !words.contains('^'),
+            "{name}: polar words left\n{text}"
+        );
+        assert!(
+            !words
+                .split_whitespace()
+                .any(|t| t.eq_ignore_ascii_case("G5") || t.to_ascii_uppercase().starts_with("G5.")),
+            "{name}: spline words left\n{text}"
+        );
+        let written = Case {
+            name: format!("{name} compensated"),
+            path: out,
+            subroutine_path: case.subroutine_path.clone(),
+        };
+        let c = compare(&written, &var_mm_text, &var_mm);
+        assert!(
+            c.difference.is_none() && c.compared > 5,
+            "{name}: {:?} ({} motions compared)",
+            c.difference,
+            c.compared
+        );
+        checked += 1;
+    }
+    assert_eq!(checked, 6);
 }
