@@ -29,11 +29,10 @@
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
-use std::f64::consts::PI;
 use volcomp::axes::Axes;
 use volcomp::kinematics::{ErrorValues, Kinematics};
 use volcomp::machine::Machine;
+use volcomp::machine::synthetic::{AxisSpec, machine_tables};
 use volcomp::nurbs::smem::{FitOptions, KnotMethod, ParameterKind, Selection, fit_parameter};
 
 /// A function of one position: a truth or a model of it.
@@ -58,96 +57,36 @@ const MODELS: [&str; 6] = [
 ];
 const M: usize = MODELS.len();
 
-fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
-    let n = ((hi - lo) / step).round() as usize;
-    (0..=n).map(|i| lo + step * i as f64).collect()
-}
-
-/// A smooth truth like a real error parameter on `[lo, hi]`, amplitude `amp`.
-fn truth(rng: &mut ChaCha8Rng, lo: f64, hi: f64, step: f64, amp: f64, periodic: bool) -> Model {
-    if periodic {
-        let h: Vec<(f64, f64)> = (1..=3)
-            .map(|k| {
-                (
-                    amp * rng.random_range(-1.0..1.0) / k as f64,
-                    rng.random_range(0.0..2.0 * PI),
-                )
-            })
-            .collect();
-        let offset = amp * rng.random_range(-0.5..0.5);
-        return Box::new(move |c: f64| {
-            let t = c.to_radians();
-            offset
-                + h.iter()
-                    .enumerate()
-                    .map(|(k, (a, ph))| a * ((k + 1) as f64 * t + ph).sin())
-                    .sum::<f64>()
-        });
-    }
-    let (c1, c2, c3) = (
-        amp * rng.random_range(-1.0..1.0),
-        amp * rng.random_range(-0.6..0.6),
-        amp * rng.random_range(-0.4..0.4),
-    );
-    let ripple_a = amp * rng.random_range(0.05..0.3);
-    let ripple_w = rng.random_range(1.5..4.0) * 2.0 * PI / (hi - lo);
-    let ripple_ph = rng.random_range(0.0..2.0 * PI);
-    let bump_a = amp * rng.random_range(-0.4..0.4);
-    let bump_c = rng.random_range(lo + 0.2 * (hi - lo)..hi - 0.2 * (hi - lo));
-    let bump_w = step * rng.random_range(1.0..2.5);
-    Box::new(move |x: f64| {
-        let t = 2.0 * (x - lo) / (hi - lo) - 1.0;
-        c1 * t
-            + c2 * t * t
-            + c3 * t * t * t
-            + ripple_a * (ripple_w * x + ripple_ph).sin()
-            + bump_a * (-((x - bump_c) / bump_w).powi(2)).exp()
-    })
-}
-
-/// The 30 tables of one synthetic machine.
+/// The 30 tables of one synthetic machine (`volcomp::machine::synthetic`).
 fn machine(seed: u64) -> Vec<Parameter> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut out = Vec::new();
     // (range, step, periodic) per axis X Y Z A C.
     let axes = [
-        (-200.0, 200.0, 10.0, false),
-        (-200.0, 200.0, 10.0, false),
-        (-200.0, 200.0, 10.0, false),
-        (-110.0, 110.0, 5.0, false),
-        (0.0, 360.0, 10.0, true),
-    ];
-    for (lo, hi, step, periodic) in axes {
-        for k in 0..6 {
-            let kind = if k < 3 {
-                ParameterKind::Length
-            } else {
-                ParameterKind::Angle
-            };
-            let amp = if k < 3 {
-                rng.random_range(2.0..15.0)
-            } else {
-                rng.random_range(5.0..30.0)
-            };
-            let truth = truth(&mut rng, lo, hi, step, amp, periodic);
-            let sigma = rng.random_range(0.1..0.5);
-            let noise = Normal::new(0.0, sigma).expect("sigma > 0");
-            let positions = grid(lo, hi, step);
-            let mut noisy: Vec<f64> = positions
-                .iter()
-                .map(|&x| truth(x) + noise.sample(&mut rng))
-                .collect();
-            if periodic {
-                // 0° and 360° are one point: measured once.
-                let last = noisy.len() - 1;
-                noisy[last] = noisy[0];
-            }
+        ('X', -200.0, 200.0, 10.0, false),
+        ('Y', -200.0, 200.0, 10.0, false),
+        ('Z', -200.0, 200.0, 10.0, false),
+        ('A', -110.0, 110.0, 5.0, false),
+        ('C', 0.0, 360.0, 10.0, true),
+    ]
+    .map(|(letter, lo, hi, step, periodic)| AxisSpec {
+        letter,
+        lo,
+        hi,
+        step,
+        periodic,
+    });
+    let mut out = Vec::new();
+    for table in machine_tables(seed, &axes) {
+        for p in table.parameters {
             out.push(Parameter {
-                kind,
-                periodic,
-                positions,
-                noisy,
-                truth,
+                kind: if p.is_angle {
+                    ParameterKind::Angle
+                } else {
+                    ParameterKind::Length
+                },
+                periodic: table.spec.periodic,
+                positions: table.positions.clone(),
+                noisy: p.noisy,
+                truth: p.truth,
             });
         }
     }

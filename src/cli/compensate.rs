@@ -99,6 +99,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ),
     ])?;
     let (machine, model) = args.machine.load()?;
+    // Where the outer rotary axis cannot steer the tool axis (A = 0 on an A/C table).
+    let pole_axis = model.kinematics().outer_rotary().letter().to_ascii_uppercase();
     let options = CompensateOptions {
         tolerance_um: args.tol,
         interpret: args
@@ -229,7 +231,7 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
     };
     let msg = match &report.orientation {
         Some(o) => format!(
-            "{msg}\ntool axis (modelled, {}): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the A = 0 pole{}",
+            "{msg}\ntool axis (modelled, {}): error before max {:.3} RMS {:.3} µrad, after max {:.4} RMS {:.4} µrad; {} position-only near the pole (the tool axis along {pole_axis}, which cannot steer it){}",
             super::common::count(o.moves as u64, "move end", "move ends"),
             o.axis_error_before_max_urad,
             o.axis_error_before_rms_urad,

@@ -8,6 +8,7 @@ pub mod error_map;
 pub mod error_model;
 pub mod model_cache;
 pub mod resampled;
+pub mod synthetic;
 pub mod table;
 pub mod tool_models;
 

@@ -362,9 +362,10 @@ pub fn generate(
             feed: r.feed,
             raster: raster_of(options, r.stepover, r.point_spacing, r.tool_radius, r.stock),
         })
+        .map(|pass| (pass, options.roughing.map_or(0.0, |r| r.tool_length)))
         .into_iter()
-        .chain([finishing]);
-    for (k, pass) in passes.enumerate() {
+        .chain([(finishing, kinematics.tool_length)]);
+    for (k, (pass, tool_length)) in passes.enumerate() {
         if k > 0 {
             // Tool-tip control off for the tool change.
             w.block("M5", "G49 M5");
@@ -385,7 +386,10 @@ pub fn generate(
             previous: start,
             limits,
         };
-        w.pass(kinematics, &pass, inverse, options.clearance)?;
+        // The pass's own tool: with a rotary axis on the tool side its length
+        // moves the joints that put the tip on the cutter location.
+        let tool_kinematics = kinematics.with_tool_length(tool_length);
+        w.pass(&tool_kinematics, &pass, inverse, options.clearance)?;
     }
     w.block("M5", "G49 M5");
     w.block("M30", "M30");

@@ -153,15 +153,23 @@ impl<'k> PathWalker<'k> {
         visit: &mut impl FnMut(&PathPoint),
     ) {
         let frame = effective_frame(motion);
-        let start_joints = joints_of(self.kinematics, frame, &motion.start);
-        let end_joints = joints_of(self.kinematics, frame, &motion.end);
+        // The tool in the spindle: on a machine with a rotary axis on the
+        // tool side its length moves the nominal tip (and the joints of a
+        // tool-tip target).
+        let kin = if tool.number == 0 {
+            *self.kinematics
+        } else {
+            self.kinematics.with_tool_length(tool.length_mm)
+        };
+        let start_joints = joints_of(&kin, frame, &motion.start);
+        let end_joints = joints_of(&kin, frame, &motion.end);
         if !self.started {
             // Time starts at the first block's target: the first motion only positions.
             self.started = true;
             self.last_endpoint = Some(start_joints.xyz());
             self.previous_distinct = Some(start_joints.xyz());
         }
-        self.sample(motion, &start_joints, &end_joints);
+        self.sample(&kin, motion, &start_joints, &end_joints);
 
         // Machine XYZ length and rotary sweep of the block.
         let mut machine_len = 0.0;
@@ -214,8 +222,8 @@ impl<'k> PathWalker<'k> {
             };
             let point = PathPoint {
                 joints,
-                tip: self.kinematics.nominal_tip(&joints),
-                axis: self.kinematics.nominal_tool_axis(&joints),
+                tip: kin.nominal_tip(&joints),
+                axis: kin.nominal_tool_axis(&joints),
                 block,
                 line,
                 tool,
@@ -286,7 +294,7 @@ impl<'k> PathWalker<'k> {
 
     /// Fill `self.samples` with the joints of the points along `motion`, excluding
     /// its start, at most `step_mm` apart in part coordinates.
-    fn sample(&mut self, motion: &Motion, start_joints: &Axes, end_joints: &Axes) {
+    fn sample(&mut self, kin: &Kinematics, motion: &Motion, start_joints: &Axes, end_joints: &Axes) {
         self.samples.clear();
         let step = self.options.step_mm;
         match effective_frame(motion) {
@@ -295,14 +303,14 @@ impl<'k> PathWalker<'k> {
                 let mut part = Vec::new();
                 motion.interpolate_into(step, &mut part);
                 for p in &part {
-                    self.samples.push(self.kinematics.joints_from_part(p));
+                    self.samples.push(kin.joints_from_part(p));
                 }
             }
             Frame::Joint => {
                 // Joint interpolation: bound the part-coordinate chord by the XYZ
                 // length plus the rotary sweep times the lever arm.
-                let tip0 = self.kinematics.nominal_tip(start_joints);
-                let tip1 = self.kinematics.nominal_tip(end_joints);
+                let tip0 = kin.nominal_tip(start_joints);
+                let tip1 = kin.nominal_tip(end_joints);
                 let lever = norm(tip0).max(norm(tip1)) + motion.start.xyz_distance(&motion.end);
                 let sweep = ((end_joints.a - start_joints.a).abs()
                     + (end_joints.b - start_joints.b).abs()

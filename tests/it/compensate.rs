@@ -25,10 +25,19 @@ pub fn ref_trt() -> &'static (Machine, ErrorModel) {
     })
 }
 
+/// A machine and its fitted model (ref-trt, or a bundled machine).
+pub type Rig = (Machine, ErrorModel);
+
 pub fn interpret_options(frame: Frame) -> InterpretOptions {
+    interpret_options_on(&ref_trt().0, frame)
+}
+
+/// How `machine` reads a program: its rapid rate, its axis letters.
+pub fn interpret_options_on(machine: &Machine, frame: Frame) -> InterpretOptions {
     InterpretOptions {
         initial_frame: frame,
-        rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+        rapid_mm_per_min: machine.rapid_mm_per_min,
+        axes: machine.letters(),
         ..InterpretOptions::default()
     }
 }
@@ -40,11 +49,16 @@ pub fn compensate_text(text: &str, frame: Frame) -> (String, CompensateReport) {
 
 /// `text` run on ref-trt: its tool table (`[[tools]]`) selects each block's tool.
 pub fn ref_program(text: &str, name: &str) -> volcomp::gcode::Program {
+    program_on(&ref_trt().0, text, name)
+}
+
+/// `text` run on `machine`, with its tool table.
+pub fn program_on(machine: &Machine, text: &str, name: &str) -> volcomp::gcode::Program {
     volcomp::gcode::Program::new(
         Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
         std::path::Path::new(name),
         volcomp::gcode::ProgramSetup {
-            tools: ref_trt().0.tools.clone(),
+            tools: machine.tools.clone(),
             ..Default::default()
         },
     )
@@ -66,17 +80,28 @@ pub fn compensate_with(
     tolerance_um: f64,
     orientation: bool,
 ) -> (String, CompensateReport) {
-    let (machine, model) = ref_trt();
+    compensate_on(ref_trt(), text, frame, tolerance_um, orientation)
+}
+
+/// [`compensate_with`] on any machine.
+pub fn compensate_on(
+    rig: &Rig,
+    text: &str,
+    frame: Frame,
+    tolerance_um: f64,
+    orientation: bool,
+) -> (String, CompensateReport) {
+    let (machine, model) = rig;
     let options = CompensateOptions {
         tolerance_um,
-        interpret: interpret_options(frame),
+        interpret: interpret_options_on(machine, frame),
         limits: Some(machine.limits.clone()),
         orientation,
         ..CompensateOptions::default()
     };
     let mut out = Vec::new();
     let report = compensate(
-        ref_program(text, "program.nc"),
+        program_on(machine, text, "program.nc"),
         &mut out,
         model,
         &options,
@@ -115,17 +140,22 @@ fn distance_to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
 impl NominalPath {
     /// Walk `text` at `step_mm` and keep the nominal tips of consecutive cutting samples.
     pub fn of_program(text: &str, frame: Frame, step_mm: f64) -> NominalPath {
-        let (_, model) = ref_trt();
+        Self::of_program_on(ref_trt(), text, frame, step_mm)
+    }
+
+    /// [`NominalPath::of_program`] on any machine.
+    pub fn of_program_on(rig: &Rig, text: &str, frame: Frame, step_mm: f64) -> NominalPath {
+        let (machine, model) = rig;
         let mut points = Vec::new();
         let mut segments = Vec::new();
         let mut previous_cutting = false;
         walk_program(
-            ref_program(text, "original.nc"),
+            program_on(machine, text, "original.nc"),
             model.kinematics(),
-            interpret_options(frame),
+            interpret_options_on(machine, frame),
             WalkOptions {
                 step_mm,
-                rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+                rapid_mm_per_min: machine.rapid_mm_per_min,
             },
             |p| {
                 // A segment joins a cutting sample to the sample before it.
@@ -197,16 +227,27 @@ pub fn actual_path_error(
     nominal: &NominalPath,
     step_mm: f64,
 ) -> PathError {
-    let (_, model) = ref_trt();
+    actual_path_error_on(ref_trt(), text, frame, nominal, step_mm)
+}
+
+/// [`actual_path_error`] on any machine.
+pub fn actual_path_error_on(
+    rig: &Rig,
+    text: &str,
+    frame: Frame,
+    nominal: &NominalPath,
+    step_mm: f64,
+) -> PathError {
+    let (machine, model) = rig;
     let kin = model.kinematics();
     let (mut max, mut sum_sq, mut n, mut worst_line) = (0.0f64, 0.0, 0usize, 0);
     walk_program(
-        ref_program(text, "replayed.nc"),
+        program_on(machine, text, "replayed.nc"),
         kin,
-        interpret_options(frame),
+        interpret_options_on(machine, frame),
         WalkOptions {
             step_mm,
-            rapid_mm_per_min: ref_trt().0.rapid_mm_per_min,
+            rapid_mm_per_min: machine.rapid_mm_per_min,
         },
         |p| {
             if !p.cutting {
@@ -236,13 +277,23 @@ pub fn actual_path_error(
 
 /// Replay both programs through the model; returns (uncompensated, compensated).
 pub fn closed_loop(original: &str, compensated: &str, frame: Frame) -> (PathError, PathError) {
-    let nominal = NominalPath::of_program(original, frame, 0.1);
-    let before = actual_path_error(original, frame, &nominal, 0.5);
-    let after = actual_path_error(compensated, frame, &nominal, 0.25);
+    closed_loop_on(ref_trt(), original, compensated, frame)
+}
+
+/// [`closed_loop`] on any machine.
+pub fn closed_loop_on(
+    rig: &Rig,
+    original: &str,
+    compensated: &str,
+    frame: Frame,
+) -> (PathError, PathError) {
+    let nominal = NominalPath::of_program_on(rig, original, frame, 0.1);
+    let before = actual_path_error_on(rig, original, frame, &nominal, 0.5);
+    let after = actual_path_error_on(rig, compensated, frame, &nominal, 0.25);
     (before, after)
 }
 
-fn assert_closed_loop(name: &str, before: PathError, after: PathError) {
+pub fn assert_closed_loop(name: &str, before: PathError, after: PathError) {
     eprintln!(
         "{name}: uncompensated max {:.3} µm (line {}) RMS {:.3} µm ({} samples); compensated max {:.4} µm (line {}) RMS {:.4} µm ({} samples); ratio max {:.3}% RMS {:.3}%",
         before.max_um,
@@ -623,21 +674,39 @@ fn the_report_gives_the_expected_residual_from_the_model_noise() {
 /// The modelled actual tool axis at every cutting block end of `text`, against
 /// the nominal axis of the same line of `original`: (max, RMS) angle, µrad.
 fn replayed_axis_error(original: &str, text: &str, frame: Frame) -> (f64, f64, usize) {
-    let (machine, model) = ref_trt();
+    replayed_axis_error_on(ref_trt(), original, text, frame)
+}
+
+/// [`replayed_axis_error`] on any machine.
+pub fn replayed_axis_error_on(
+    rig: &Rig,
+    original: &str,
+    text: &str,
+    frame: Frame,
+) -> (f64, f64, usize) {
+    let (machine, model) = rig;
+    // Blocks pair by their N number (a split move's extra pieces have none,
+    // and the stamp moves every line), else by line.
     let ends = |t: &str| {
-        let mut out: HashMap<usize, (volcomp::axes::Axes, volcomp::gcode::ToolInUse)> =
+        let labels: Vec<Option<&str>> = t
+            .lines()
+            .map(|l| l.split_whitespace().next().filter(|w| w.starts_with('N')))
+            .collect();
+        let mut out: HashMap<String, (volcomp::axes::Axes, volcomp::gcode::ToolInUse)> =
             HashMap::new();
         walk_program(
-            ref_program(t, "replayed.nc"),
+            program_on(machine, t, "replayed.nc"),
             model.kinematics(),
-            interpret_options(frame),
+            interpret_options_on(machine, frame),
             WalkOptions {
                 step_mm: 1e6,
                 rapid_mm_per_min: machine.rapid_mm_per_min,
             },
             |p| {
                 if p.cutting && p.block_end {
-                    out.insert(p.line, (p.joints, p.tool));
+                    let key = labels[p.line - 1]
+                        .map_or_else(|| format!("line {}", p.line), str::to_string);
+                    out.insert(key, (p.joints, p.tool));
                 }
             },
         )

@@ -10,6 +10,7 @@ mod gcode;
 mod inspection;
 mod kinematics;
 mod machine;
+mod machines;
 mod nurbs;
 mod predict;
 mod programs;
