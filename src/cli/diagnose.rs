@@ -106,6 +106,10 @@ pub(crate) struct CutPart {
     pub matches: Vec<Option<crate::toolpath::PlanMatch>>,
     /// The program's machining time, minutes (its end).
     pub end_min: f64,
+    /// The program carries volcomp's stamp: its path is offset from the
+    /// nominal surface by the correction, so the part is that offset plus the
+    /// machine's error (as `predict` shows a compensated program).
+    pub compensated: bool,
     /// The warnings of reading the program (and of the model's lookups:
     /// [`CutPart::warnings`]).
     warnings: crate::warnings::Warnings,
@@ -122,7 +126,7 @@ impl CutPart {
     ) -> anyhow::Result<CutPart> {
         let (machine_def, model) = machine.load()?;
         let options = read.cut_options(&machine_def);
-        let program = read.program(program, Some(&machine_def))?;
+        let (program, stamp) = read.program_and_stamp(program, Some(&machine_def))?;
         let warnings = program.warnings();
         let held_before = model.held_lookups();
         let (matches, summary) =
@@ -133,6 +137,7 @@ impl CutPart {
             plan,
             matches,
             end_min: summary.time_min,
+            compensated: stamp.is_some(),
             warnings,
             held_before,
         })
@@ -154,11 +159,16 @@ impl CutPart {
 
     /// The context of every plan point.
     pub(crate) fn contexts(&self) -> anyhow::Result<Vec<PointContext>> {
-        Ok(crate::toolpath::cut::contexts(
-            &self.model,
-            &self.plan.points,
-            &self.matches,
-        )?)
+        let mut contexts =
+            crate::toolpath::cut::contexts(&self.model, &self.plan.points, &self.matches)?;
+        if self.compensated {
+            for (c, e) in contexts.iter_mut().zip(self.truth_um()?) {
+                if c.cut {
+                    c.predicted_um = crate::vec3::dot(c.normal, e);
+                }
+            }
+        }
+        Ok(contexts)
     }
 
     /// The probe of the follow-up options (its length defaults to the machine
@@ -217,14 +227,26 @@ impl CutPart {
     }
 
     /// The volumetric error (µm, part frame) of the machine's own tables at every
-    /// plan point: `simulate`'s truth (zero where not cut).
+    /// plan point (`predict`'s deviation), or for a compensated program the
+    /// error at the contact plus the path's offset along the normal (what the
+    /// part measures, `predict`'s headline): `simulate`'s truth (zero where not cut).
     pub(crate) fn truth_um(&self) -> anyhow::Result<Vec<[f64; 3]>> {
-        Ok(
-            crate::toolpath::cut::volumetric_errors(&self.model, &self.plan.points, &self.matches)?
-                .into_iter()
-                .map(|e| e.unwrap_or([0.0; 3]))
-                .collect(),
-        )
+        let errors =
+            crate::toolpath::cut::match_errors(&self.model, &self.plan.points, &self.matches)?;
+        Ok(errors
+            .into_iter()
+            .zip(self.plan.points.iter().zip(&self.matches))
+            .map(|(e, (p, m))| match (e, m) {
+                // As `predict` shows a compensated program: the error where
+                // the tool touches, plus the path's own offset.
+                (Some(e), Some(m)) if self.compensated => {
+                    let o = m.path_offset_um(p.point, p.normal);
+                    [0, 1, 2].map(|k| e.contact[k] + o * p.normal[k])
+                }
+                (Some(e), _) => e.deviation,
+                (None, _) => [0.0; 3],
+            })
+            .collect())
     }
 }
 

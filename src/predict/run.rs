@@ -48,14 +48,7 @@ pub fn predict_plan(
         // What the part measures: the error where the tool touches.
         let at_contact = e.map(|e| dot(n, e.contact));
         // Nominal contact point of the cutting path point, relative to the plan point.
-        let offset = m.map(|m| {
-            let t = m.point.tip;
-            let c = m.contact_offset;
-            (0..3)
-                .map(|k| (t[k] + c[k] - p.point[k]) * n[k])
-                .sum::<f64>()
-                * 1e3
-        });
+        let offset = m.map(|m| m.path_offset_um(p.point, n));
         let deviation_with_path = match (at_contact, offset) {
             (Some(d), Some(o)) => {
                 max_offset = max_offset.max(o.abs());

@@ -29,6 +29,21 @@ pub struct PlanMatch {
     pub contact_offset: [f64; 3],
 }
 
+impl PlanMatch {
+    /// How far the path's own nominal contact point lies from the plan point
+    /// `point` along its unit normal `normal`, µm (`n·(t + c − p)`): about zero
+    /// for the program the CAM system wrote, minus the correction for a
+    /// compensated one. The part measures the machine's error at the contact
+    /// plus this.
+    pub fn path_offset_um(&self, point: [f64; 3], normal: [f64; 3]) -> f64 {
+        let (t, c) = (self.point.tip, self.contact_offset);
+        (0..3)
+            .map(|k| (t[k] + c[k] - point[k]) * normal[k])
+            .sum::<f64>()
+            * 1e3
+    }
+}
+
 /// The plan side of the query for one tool radius and shape: `p + r·n` per plan
 /// point (r: the corner radius, the ball's radius when no shape is named),
 /// gridded with cells as wide as the match distance plus the contact's reach.

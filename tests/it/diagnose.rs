@@ -1254,3 +1254,70 @@ fn a_followup_tells_rotary_location_from_setup_error() {
         assert!((v - expected).abs() < 1e-12);
     }
 }
+
+/// Issue 26 (close the loop): `simulate` of a compensated (stamped) program
+/// cuts what that program cuts — the compensated path through the machine —
+/// so without noise it measures what `predict` headlines for it (0.23 µm on
+/// the saddle, against 32.42 µm for the program as written), and `diagnose`
+/// of that part compares it with the same prediction.
+#[test]
+fn simulate_of_a_compensated_program_cuts_the_compensated_part() {
+    use crate::support::{assert_success, root, volcomp};
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name);
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = volcomp().args(args).current_dir(root()).output().unwrap();
+        assert_success(&out);
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr)
+    };
+    let os = |s: &str| std::ffi::OsString::from(s);
+    let machine = os("machines/ref-trt.toml");
+    let plan = os("samples/saddle-plan.csv");
+    run(&[
+        &os("compensate"),
+        &machine,
+        &os("samples/saddle.nc"),
+        &os("-o"),
+        d("comp.nc").as_os_str(),
+    ]);
+    let profile = |program: &std::ffi::OsStr, name: &str| {
+        let text = run(&[
+            &os("simulate"),
+            &machine,
+            program,
+            &plan,
+            &os("--noise-um"),
+            &os("0"),
+            &os("-o"),
+            d(name).as_os_str(),
+        ]);
+        let at = text.find("measured profile ").expect("profile") + "measured profile ".len();
+        text[at..].split_whitespace().next().unwrap().parse::<f64>().unwrap()
+    };
+    let before = profile(&os("samples/saddle.nc"), "m1.csv");
+    let after = profile(d("comp.nc").as_os_str(), "m2.csv");
+    assert!((before - 32.42).abs() < 0.01, "{before}");
+    assert!((after - 0.23).abs() < 0.01, "{after}");
+    let predicted = run(&[
+        &os("predict"),
+        &machine,
+        d("comp.nc").as_os_str(),
+        &os("--plan"),
+        &plan,
+        &os("--report"),
+        d("p.json").as_os_str(),
+    ]);
+    assert!(predicted.contains("the part will measure profile 0.23 µm"), "{predicted}");
+    // Diagnosing the compensated part against its own prediction: nothing left.
+    let diagnosis = run(&[
+        &os("diagnose"),
+        &machine,
+        d("comp.nc").as_os_str(),
+        d("m2.csv").as_os_str(),
+        &os("--noise-um"),
+        &os("0.1"),
+        &os("--report"),
+        d("d.json").as_os_str(),
+    ]);
+    assert!(diagnosis.contains("selected: none"), "{diagnosis}");
+}
