@@ -306,6 +306,7 @@ fn check_linuxcnc() {
             "the `linuxcnc` script (Debian package linuxcnc-uspace)",
         ),
         ("halrun", "`halrun` (linuxcnc-uspace)"),
+        ("haltcl", "`haltcl` (linuxcnc-uspace; runs headless.tcl)"),
         ("rtapi_app", "`rtapi_app` (linuxcnc-uspace)"),
         ("unshare", "`unshare` (util-linux)"),
     ] {
@@ -339,7 +340,7 @@ fn check_linuxcnc() {
     assert!(
         missing.is_empty(),
         "LinuxCNC's kinematics modules cannot run headless here (.ci/run installs what is \
-         needed; see ../shared/design/linuxcnc-headless.md). Missing:\n  {}",
+         needed; see docs/linuxcnc-kinematics.md). Missing:\n  {}",
         missing.join("\n  ")
     );
 }

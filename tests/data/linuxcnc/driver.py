@@ -28,12 +28,13 @@ def fail(out, message):
     sys.exit(1)
 
 
-def wait_for(out, what, predicate, stat, timeout=TIMEOUT):
+def wait_for(out, what, predicate, stat, errors, timeout=TIMEOUT):
     end = time.monotonic() + timeout
     while True:
         stat.poll()
         if predicate(stat):
             return
+        check_errors(out, errors)
         if time.monotonic() > end:
             fail(out, "timed out waiting for %s" % what)
         time.sleep(0.0005)
@@ -71,15 +72,15 @@ def main():
 
     command.state(linuxcnc.STATE_ESTOP_RESET)
     command.state(linuxcnc.STATE_ON)
-    wait_for(out, "machine on", lambda s: s.task_state == linuxcnc.STATE_ON, stat)
+    wait_for(out, "machine on", lambda s: s.task_state == linuxcnc.STATE_ON, stat, errors)
     command.mode(linuxcnc.MODE_MANUAL)
     command.wait_complete()
     command.home(-1)
-    wait_for(out, "homing", lambda s: all(s.homed[j] for j in range(joints)), stat)
+    wait_for(out, "homing", lambda s: all(s.homed[j] for j in range(joints)), stat, errors)
     check_errors(out, errors)
     command.mode(linuxcnc.MODE_MDI)
     command.wait_complete()
-    wait_for(out, "MDI mode", lambda s: s.task_mode == linuxcnc.MODE_MDI, stat)
+    wait_for(out, "MDI mode", lambda s: s.task_mode == linuxcnc.MODE_MDI, stat, errors)
 
     index = 0
     for kind, rest in commands:
@@ -88,14 +89,11 @@ def main():
             if command.wait_complete(TIMEOUT) == -1:
                 fail(out, "setup command timed out: %s" % rest.strip())
             check_errors(out, errors)
-            wait_for(out, "setup", lambda s: s.interp_state == linuxcnc.INTERP_IDLE and s.queue == 0, stat)
+            wait_for(out, "setup", lambda s: s.interp_state == linuxcnc.INTERP_IDLE and s.queue == 0, stat, errors)
             continue
         target = [float(v) for v in rest.split()]
         words = " ".join("%s%.10f" % (LETTERS[k], target[k]) for k in used)
         command.mdi("G53 G0 " + words)
-        if command.wait_complete(TIMEOUT) == -1:
-            fail(out, "move timed out: %s" % words)
-        check_errors(out, errors)
         # Task can report done before motion has taken the move: wait until the
         # commanded position is the target and the joint feedback has settled.
         previous = [None]
@@ -108,7 +106,8 @@ def main():
             return reached and s.inpos and s.queue == 0 and still and \
                 s.joint_actual_position[:joints] == s.joint_position[:joints]
 
-        wait_for(out, "move to %s" % words, settled, stat)
+        wait_for(out, "move to %s" % words, settled, stat, errors)
+        check_errors(out, errors)
         out.write("pose %d world %s joints %s actual %s\n" % (
             index,
             " ".join(repr(v) for v in stat.position),
