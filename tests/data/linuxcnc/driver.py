@@ -19,10 +19,15 @@ import time
 import linuxcnc
 
 LETTERS = "XYZABCUVW"
-TIMEOUT = 10.0
+TIMEOUT = 30.0
+
+
+MESSAGES = []
 
 
 def fail(out, message):
+    if MESSAGES:
+        message += " (LinuxCNC said: %s)" % "; ".join(MESSAGES[-3:])
     out.write("error %s\n" % message)
     out.flush()
     sys.exit(1)
@@ -41,11 +46,28 @@ def wait_for(out, what, predicate, stat, errors, timeout=TIMEOUT):
 
 
 def check_errors(out, errors):
-    e = errors.poll()
-    if e:
+    while True:
+        e = errors.poll()
+        if not e:
+            return
         kind, text = e
+        text = text.strip().replace("\n", " ")
+        MESSAGES.append(text)
         if kind in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR):
-            fail(out, "LinuxCNC: %s" % text.strip().replace("\n", " "))
+            fail(out, "LinuxCNC: %s" % text)
+
+
+def issue(out, command, errors, what, send):
+    """Sends one command and waits until task has taken it: NML's command channel
+    holds one message, so a command sent before task read the previous one would
+    replace it."""
+    send()
+    result = command.wait_complete(TIMEOUT)
+    check_errors(out, errors)
+    if result == -1:
+        fail(out, "%s: no answer from task" % what)
+    if result == linuxcnc.RCS_ERROR:
+        fail(out, "%s: refused by task" % what)
 
 
 def main():
@@ -70,40 +92,42 @@ def main():
                 fail(out, "no status from LinuxCNC")
             time.sleep(0.01)
 
-    command.state(linuxcnc.STATE_ESTOP_RESET)
-    command.state(linuxcnc.STATE_ON)
+    issue(out, command, errors, "estop reset", lambda: command.state(linuxcnc.STATE_ESTOP_RESET))
+    issue(out, command, errors, "machine on", lambda: command.state(linuxcnc.STATE_ON))
     wait_for(out, "machine on", lambda s: s.task_state == linuxcnc.STATE_ON, stat, errors)
-    command.mode(linuxcnc.MODE_MANUAL)
-    command.wait_complete()
-    command.home(-1)
+    issue(out, command, errors, "manual mode", lambda: command.mode(linuxcnc.MODE_MANUAL))
+    issue(out, command, errors, "homing", lambda: command.home(-1))
     wait_for(out, "homing", lambda s: all(s.homed[j] for j in range(joints)), stat, errors)
-    check_errors(out, errors)
-    command.mode(linuxcnc.MODE_MDI)
-    command.wait_complete()
+    issue(out, command, errors, "MDI mode", lambda: command.mode(linuxcnc.MODE_MDI))
     wait_for(out, "MDI mode", lambda s: s.task_mode == linuxcnc.MODE_MDI, stat, errors)
 
     index = 0
     for kind, rest in commands:
         if kind == "setup":
-            command.mdi(rest.strip())
-            if command.wait_complete(TIMEOUT) == -1:
-                fail(out, "setup command timed out: %s" % rest.strip())
-            check_errors(out, errors)
+            issue(out, command, errors, rest.strip(), lambda: command.mdi(rest.strip()))
             wait_for(out, "setup", lambda s: s.interp_state == linuxcnc.INTERP_IDLE and s.queue == 0, stat, errors)
             continue
         target = [float(v) for v in rest.split()]
         words = " ".join("%s%.10f" % (LETTERS[k], target[k]) for k in used)
-        command.mdi("G53 G0 " + words)
-        # Task can report done before motion has taken the move: wait until the
+        issue(out, command, errors, "G53 G0 " + words, lambda: command.mdi("G53 G0 " + words))
+        serial = command.serial
+        # Task can report done before motion has taken the move: wait until task
+        # has finished this command (the next one would be refused otherwise), the
         # commanded position is the target and the joint feedback has settled.
         previous = [None]
 
         def settled(s):
+            if s.echo_serial_number >= serial and s.state == linuxcnc.RCS_ERROR:
+                check_errors(out, errors)
+                fail(out, "move refused: %s (task state %d, mode %d, interp %d, motion %d)" % (
+                    words, s.task_state, s.task_mode, s.interp_state, s.motion_mode))
+            done = s.echo_serial_number >= serial and s.state == linuxcnc.RCS_DONE and \
+                s.interp_state == linuxcnc.INTERP_IDLE
             reached = all(abs(s.position[k] - target[k]) < 1e-6 for k in used)
             snapshot = (s.joint_actual_position[:joints], s.actual_position)
             still = snapshot == previous[0]
             previous[0] = snapshot
-            return reached and s.inpos and s.queue == 0 and still and \
+            return done and reached and s.inpos and s.queue == 0 and still and \
                 s.joint_actual_position[:joints] == s.joint_position[:joints]
 
         wait_for(out, "move to %s" % words, settled, stat, errors)
