@@ -9,6 +9,7 @@ mod fit;
 mod gcode;
 mod inspection;
 mod kinematics;
+mod linuxcnc;
 mod machine;
 mod machines;
 mod nurbs;
