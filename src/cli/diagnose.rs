@@ -285,17 +285,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ),
     ])?;
     let measurement = Measurement::read(&args.measured)?;
-    let followup_measured = args
-        .followup
-        .as_ref()
-        .map(|p| Followup::read_measurement(p))
-        .transpose()?;
     let part = CutPart::new(
         &args.machine,
         &args.program,
         args.read.clone(),
         measurement.plan(),
     )?;
+    let followup_measured = args
+        .followup
+        .as_ref()
+        .map(|p| Followup::read_measurement(p, part.machine.chain.rotary()))
+        .transpose()?;
     let contexts = part.contexts()?;
     // Held-out judging (a 3 × 3 grid of regions and time bands) needs points
     // in every fold and more points than the largest effect has parameters.
@@ -412,6 +412,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                             measured: None,
                         })
                         .collect(),
+                    rotary: part.machine.chain.rotary(),
                 };
                 plan.write(&plan_path)?;
                 crate::io::write_file_atomic(out, text.as_bytes())?;

@@ -82,14 +82,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ),
     ])?;
     let plan = Plan::read(&args.plan)?;
-    let followup_plan = args
-        .followup
-        .as_ref()
-        .map(|p| Followup::read_plan(p))
-        .transpose()?;
     let part =
         super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
     let rotary = part.machine.chain.rotary();
+    let followup_plan = args
+        .followup
+        .as_ref()
+        .map(|p| Followup::read_plan(p, rotary))
+        .transpose()?;
     let effects = check_syntax(rotary)?;
     let contexts = part.contexts()?;
     if let Some(path) = &args.dump_contexts {

@@ -575,8 +575,11 @@ pub fn design(
         })
         .collect();
     let same_pose = probes.iter().filter(|p| p.pose == CUTTING_POSE).count();
+    let rotary_names = contexts
+        .first()
+        .map_or(['A', 'C'], |c| c.rotary.map(|a| a.letter().to_ascii_uppercase()));
     let mut explanation = vec![format!(
-        "To tell {} from {}: probe {} plan points again on the machine right after the program ({} in the cutting pose, {} at other A/C angles); expected separation {:.1} σ (now {:.1} σ).",
+        "To tell {} from {}: probe {} plan points again on the machine right after the program ({} in the cutting pose, {} at other {}/{} angles); expected separation {:.1} σ (now {:.1} σ).",
         h[0].label(),
         h[1..]
             .iter()
@@ -586,6 +589,8 @@ pub fn design(
         probes.len(),
         same_pose,
         probes.len() - same_pose,
+        rotary_names[0],
+        rotary_names[1],
         expected,
         separations
             .iter()

@@ -269,7 +269,7 @@ pub fn machinist_sentence(
         EffectKind::RotaryLocation => {
             let list: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v:.1}")).collect();
             format!(
-                "Rotary-axis location errors beyond the machine file ({}; µm and µrad): re-run the A/C location test (ISO 230-7) and update [location].",
+                "Rotary-axis location errors beyond the machine file ({}; µm and µrad): re-run the rotary axes' location test (ISO 230-7) and update [location].",
                 list.join(", ")
             )
         }

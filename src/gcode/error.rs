@@ -60,8 +60,6 @@ pub enum ErrorKind {
     RepeatedWord(char),
     #[error("Two {0} codes used from same modal group")]
     ModalGroupConflict(char),
-    #[error("this machine has no {0} axis (an A/C machine: X Y Z A C)")]
-    NoSuchAxis(char),
     #[error("Cannot use two G codes that both use axis values")]
     TwoAxisUsers,
     #[error("G92 needs at least one axis word")]
@@ -233,7 +231,6 @@ impl ErrorKind {
                 "flatten the program first (`volcomp check --targets` shows its executed moves), or pass --lenient to pass the line through untouched"
             }
             ErrorKind::NoProgramEnd => "end the program with M2 or M30 (or enclose it in % lines)",
-            ErrorKind::NoSuchAxis(_) => "post-process the program for an A/C machine",
             ErrorKind::G92WithoutAxes
             | ErrorKind::G52WithoutAxes
             | ErrorKind::G10Pnumber

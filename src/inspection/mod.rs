@@ -290,29 +290,52 @@ impl FollowupPoint {
 }
 
 /// A follow-up plan (`id,x,y,z,i,j,k,a,c,t_min`) or measurement (with
-/// `mx,my,mz`): an extension of formats.md (docs/extensions.md).
-#[derive(Clone, Debug, Default, PartialEq)]
+/// `mx,my,mz`): an extension of formats.md (docs/extensions.md). The two
+/// angle columns are named by the machine's rotary letters (`a,c` on an A/C
+/// machine, `b,c` on a B/C one); `a_deg`/`c_deg` hold the first and the
+/// second of them in letter order.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Followup {
     pub points: Vec<FollowupPoint>,
+    /// The machine's rotary axes, in letter order: the angle columns' names.
+    pub rotary: [crate::axes::Axis; 2],
+}
+
+impl Default for Followup {
+    fn default() -> Self {
+        Followup {
+            points: Vec::new(),
+            rotary: [crate::axes::Axis::A, crate::axes::Axis::C],
+        }
+    }
 }
 
 /// Farthest a follow-up's probed point may lie from its plan point, mm: a
 /// reading is the machine's error there (µm), not a different point.
 pub const MAX_PROBE_OFFSET_MM: f64 = 1.0;
 
-const FOLLOWUP_PLAN_COLUMNS: [&str; 9] = ["x", "y", "z", "i", "j", "k", "a", "c", "t_min"];
-const FOLLOWUP_MEASUREMENT_COLUMNS: [&str; 12] = [
-    "x", "y", "z", "i", "j", "k", "a", "c", "t_min", "mx", "my", "mz",
-];
+/// The columns of a follow-up plan or measurement after `id`, the angle
+/// columns named by `rotary`.
+fn followup_columns(rotary: [crate::axes::Axis; 2], measured: bool) -> Vec<String> {
+    let mut columns: Vec<String> = ["x", "y", "z", "i", "j", "k"].map(String::from).to_vec();
+    columns.extend(rotary.map(|a| a.letter().to_ascii_lowercase().to_string()));
+    columns.push("t_min".into());
+    if measured {
+        columns.extend(["mx", "my", "mz"].map(String::from));
+    }
+    columns
+}
 
 impl Followup {
-    fn parse_with(path: &Path, text: &str, measured: bool) -> Result<Followup, InspectionError> {
-        let columns: &[&str] = if measured {
-            &FOLLOWUP_MEASUREMENT_COLUMNS
-        } else {
-            &FOLLOWUP_PLAN_COLUMNS
-        };
-        let points = parse_points(path, text, columns, |r, plan| {
+    fn parse_with(
+        path: &Path,
+        text: &str,
+        measured: bool,
+        rotary: [crate::axes::Axis; 2],
+    ) -> Result<Followup, InspectionError> {
+        let names = followup_columns(rotary, measured);
+        let columns: Vec<&str> = names.iter().map(String::as_str).collect();
+        let points = parse_points(path, text, &columns, |r, plan| {
             let f = FollowupPoint {
                 plan,
                 a_deg: r.values[6],
@@ -351,25 +374,37 @@ impl Followup {
             }
             Ok(f)
         })?;
-        Ok(Followup { points })
+        Ok(Followup { points, rotary })
     }
 
-    /// Parse a follow-up plan CSV (`id,x,y,z,i,j,k,a,c,t_min`).
-    pub fn parse_plan(path: &Path, text: &str) -> Result<Followup, InspectionError> {
-        Followup::parse_with(path, text, false)
+    /// Parse a follow-up plan CSV (`id,x,y,z,i,j,k,a,c,t_min`; the angle
+    /// columns named by the machine's `rotary` letters).
+    pub fn parse_plan(
+        path: &Path,
+        text: &str,
+        rotary: [crate::axes::Axis; 2],
+    ) -> Result<Followup, InspectionError> {
+        Followup::parse_with(path, text, false, rotary)
     }
 
     /// Parse a follow-up measurement CSV (the plan's columns and `mx,my,mz`).
-    pub fn parse_measurement(path: &Path, text: &str) -> Result<Followup, InspectionError> {
-        Followup::parse_with(path, text, true)
+    pub fn parse_measurement(
+        path: &Path,
+        text: &str,
+        rotary: [crate::axes::Axis; 2],
+    ) -> Result<Followup, InspectionError> {
+        Followup::parse_with(path, text, true, rotary)
     }
 
-    pub fn read_plan(path: &Path) -> Result<Followup, InspectionError> {
-        Followup::parse_plan(path, &read_to_string(path)?)
+    pub fn read_plan(path: &Path, rotary: [crate::axes::Axis; 2]) -> Result<Followup, InspectionError> {
+        Followup::parse_plan(path, &read_to_string(path)?, rotary)
     }
 
-    pub fn read_measurement(path: &Path) -> Result<Followup, InspectionError> {
-        Followup::parse_measurement(path, &read_to_string(path)?)
+    pub fn read_measurement(
+        path: &Path,
+        rotary: [crate::axes::Axis; 2],
+    ) -> Result<Followup, InspectionError> {
+        Followup::parse_measurement(path, &read_to_string(path)?, rotary)
     }
 
     /// Write the plan, or the measurement when every point has its measured
@@ -385,12 +420,8 @@ impl Followup {
             }
             (p.id.as_str(), v)
         });
-        let header = if measured {
-            "id,x,y,z,i,j,k,a,c,t_min,mx,my,mz"
-        } else {
-            "id,x,y,z,i,j,k,a,c,t_min"
-        };
-        write_rows(path, header, rows)
+        let header = format!("id,{}", followup_columns(self.rotary, measured).join(","));
+        write_rows(path, &header, rows)
     }
 }
 
