@@ -865,3 +865,75 @@ mod tests {
         assert!(default.cache().is_none());
     }
 }
+
+/// The files a command reads and the files it writes. [`CommandFiles::check`]
+/// runs before anything is computed: an output that is an input or another
+/// output is a usage error (exit 2) naming both; an output that cannot be
+/// replaced (read-only, a dangling link, a missing folder) is an error.
+#[derive(Debug, Default)]
+pub struct CommandFiles {
+    inputs: Vec<crate::io::NamedPath>,
+    outputs: Vec<crate::io::NamedPath>,
+    /// Outputs written into a folder the command creates (not checked for
+    /// writability before it exists).
+    derived: Vec<crate::io::NamedPath>,
+}
+
+impl CommandFiles {
+    pub fn new() -> CommandFiles {
+        CommandFiles::default()
+    }
+
+    pub fn input(mut self, role: &str, path: Option<&Path>) -> CommandFiles {
+        if let Some(path) = path {
+            self.inputs.push(crate::io::NamedPath::new(role, path));
+        }
+        self
+    }
+
+    pub fn output(mut self, role: &str, path: Option<&Path>) -> CommandFiles {
+        if let Some(path) = path {
+            self.outputs.push(crate::io::NamedPath::new(role, path));
+        }
+        self
+    }
+
+    /// An output in a folder that the command creates when it is missing.
+    pub fn output_in_new_folder(mut self, role: &str, path: &Path) -> CommandFiles {
+        self.derived.push(crate::io::NamedPath::new(role, path));
+        self
+    }
+
+    /// The machine file and its error tables.
+    pub fn machine(mut self, machine: &Machine) -> CommandFiles {
+        self = self.input("the machine file", Some(&machine.source));
+        for table in machine.tables.iter().flatten() {
+            self = self.input("the error table", Some(&table.path));
+        }
+        self
+    }
+
+    /// `--model`.
+    pub fn model(self, args: &ModelArgs) -> CommandFiles {
+        self.input("the model (--model)", args.model.as_deref())
+    }
+
+    /// `--var` and `--tools`.
+    pub fn program_args(self, args: &ProgramArgs) -> CommandFiles {
+        self.input("the parameter file (--var)", args.var.as_deref())
+            .input("the tool table (--tools)", args.tools.as_deref())
+    }
+
+    pub fn check(&self) -> anyhow::Result<()> {
+        let outputs: Vec<crate::io::NamedPath> =
+            self.outputs.iter().chain(&self.derived).cloned().collect();
+        crate::io::check_outputs(&self.inputs, &outputs)
+            .map_err(|e| super::UsageError(e.to_string()))?;
+        for output in &self.outputs {
+            if !crate::io::is_stdio(&output.path) {
+                crate::io::check_writable(&output.path)?;
+            }
+        }
+        Ok(())
+    }
+}

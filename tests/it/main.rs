@@ -11,6 +11,7 @@ mod inspection;
 mod kinematics;
 mod machine;
 mod nurbs;
+mod outputs;
 mod predict;
 mod programs;
 mod rs274;
