@@ -262,6 +262,15 @@ pub struct ProgramArgs {
     /// first tool change use the machine file's [tool].
     #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
+    /// Most lines read inside loop bodies and subroutine calls before the run
+    /// stops as an endless or runaway loop (the program's own lines, read
+    /// once, do not count).
+    #[arg(long, value_name = "N", default_value_t = crate::gcode::language::DEFAULT_MAX_LOOP_LINES)]
+    pub max_loop_lines: u64,
+    /// Most moves the program generates beyond its own lines (moves in loops
+    /// and calls, canned-cycle and spline expansions) before the run stops.
+    #[arg(long, value_name = "N", default_value_t = crate::gcode::language::DEFAULT_MAX_GENERATED_MOVES)]
+    pub max_moves: u64,
 }
 
 /// A LinuxCNC tool table file.
@@ -441,6 +450,8 @@ impl ProgramArgs {
             }
         }
         setup.language.subroutine_path = self.subroutine_path.clone();
+        setup.language.max_loop_lines = Some(self.max_loop_lines);
+        setup.language.max_generated_moves = Some(self.max_moves);
         Ok(setup)
     }
 

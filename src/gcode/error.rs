@@ -124,6 +124,25 @@ pub enum ErrorKind {
     NonFinite,
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
+    /// volcomp's limit on repeated work ([`super::LanguageOptions::max_loop_lines`],
+    /// [`super::LanguageOptions::max_generated_moves`]).
+    #[error("more than {limit} {what}{}: an endless or runaway loop? ({option} N raises the limit)", if within.is_empty() { String::new() } else { format!(", in {within}") })]
+    LoopLimit {
+        limit: u64,
+        what: &'static str,
+        option: &'static str,
+        within: String,
+    },
+    /// The up-front estimate of a canned cycle in `repeat` loops.
+    #[error("this block would generate about {estimate:.3e} moves ({per_block} per execution × {trips:.0} executions{}), more than the limit of {limit} ({option} N raises it)", if within.is_empty() { String::new() } else { format!(" of {within}") })]
+    MovesEstimate {
+        estimate: f64,
+        per_block: usize,
+        trips: f64,
+        limit: u64,
+        option: &'static str,
+        within: String,
+    },
     #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
     BareCarriageReturn,
     #[error("Bad character '\\357' used: the file starts with a UTF-8 byte order mark (EF BB BF)")]
@@ -201,6 +220,9 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::LoopLimit { .. } | ErrorKind::MovesEstimate { .. } => {
+                "check the loop's condition and counts (the line shown is where it stopped); the limits are far above what a real program's loops run"
+            }
             ErrorKind::EndlessProgram(_) => {
                 "check the loop's condition (the line shown is where it stopped): volcomp stops a program after a billion executed lines"
             }
