@@ -19,6 +19,72 @@ use super::block::{Block, LineEnding};
 use super::error::{ErrorKind, GcodeError};
 use super::parser::parse_line;
 
+/// The longest line read, bytes (its line end not counted). LinuxCNC reads
+/// at most 254 characters ("Command too long"); volcomp reads longer lines
+/// (long comments) but not without bound: a longer line is an error, and
+/// reading it keeps at most this much of it in memory.
+pub const MAX_LINE_BYTES: usize = 65_536;
+
+/// Read one line through its `\n` into `buf` (appended), keeping at most
+/// [`MAX_LINE_BYTES`] + 2 bytes of it. Returns the bytes consumed (the whole
+/// line, 0 at the end of the input) and whether the line was longer than
+/// the limit (then `buf` holds its beginning).
+pub fn read_line_bounded(
+    input: &mut (impl BufRead + ?Sized),
+    buf: &mut Vec<u8>,
+) -> std::io::Result<(usize, bool)> {
+    let keep = MAX_LINE_BYTES + 2; // the line, and CR LF
+    let mut consumed = 0;
+    loop {
+        let available = match input.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if available.is_empty() {
+            break;
+        }
+        let (take, done) = match available.iter().position(|b| *b == b'\n') {
+            Some(k) => (k + 1, true),
+            None => (available.len(), false),
+        };
+        let room = keep.saturating_sub(buf.len());
+        buf.extend_from_slice(&available[..take.min(room)]);
+        input.consume(take);
+        consumed += take;
+        if done {
+            break;
+        }
+    }
+    let mut length = consumed;
+    for end in [b'\n', b'\r'] {
+        if length > 0 && buf.get(length - 1) == Some(&end) && length <= buf.len() {
+            length -= 1;
+        }
+    }
+    let too_long = if consumed > buf.len() {
+        true
+    } else {
+        length > MAX_LINE_BYTES
+    };
+    Ok((consumed, too_long))
+}
+
+/// The error of a line longer than [`MAX_LINE_BYTES`]: located at the
+/// first byte past the limit, showing the line's beginning.
+pub fn line_too_long(line: usize, kept: &[u8], consumed: usize) -> GcodeError {
+    GcodeError::at(
+        ErrorKind::LineTooLong {
+            bytes: consumed,
+            limit: MAX_LINE_BYTES,
+        },
+        line,
+        &kept[..kept.len().min(MAX_LINE_BYTES)],
+        0,
+        1,
+    )
+}
+
 /// How to read.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ReadOptions {
@@ -58,8 +124,12 @@ impl<R: BufRead> BlockReader<R> {
         }
         self.line += 1;
         self.block.reset(self.line, self.offset);
-        let n = match self.input.read_until(b'\n', &mut self.block.raw) {
-            Ok(n) => n,
+        let n = match read_line_bounded(&mut self.input, &mut self.block.raw) {
+            Ok((n, true)) => {
+                self.offset += n as u64;
+                return Some(Err(line_too_long(self.line, &self.block.raw, n)));
+            }
+            Ok((n, false)) => n,
             Err(e) => {
                 self.done = true;
                 return Some(Err(GcodeError::at(
