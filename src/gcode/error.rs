@@ -125,7 +125,9 @@ pub enum ErrorKind {
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
     /// volcomp's limit on a line's length ([`super::reader::MAX_LINE_BYTES`]).
-    #[error("line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")")]
+    #[error(
+        "line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")"
+    )]
     LineTooLong { bytes: usize, limit: usize },
     /// volcomp's limit on repeated work ([`super::LanguageOptions::max_loop_lines`],
     /// [`super::LanguageOptions::max_generated_moves`]).

@@ -355,7 +355,9 @@ pub enum SyntaxErrorKind {
     ExistsArgument,
     /// volcomp's limit (LinuxCNC's 255-character lines hold about 120
     /// levels and answer "Command too long" beyond).
-    #[error("expression nested more than {MAX_NESTING} levels deep (brackets, functions, # references, signs)")]
+    #[error(
+        "expression nested more than {MAX_NESTING} levels deep (brackets, functions, # references, signs)"
+    )]
     TooDeep,
     /// volcomp's limit on one expression's size.
     #[error("expression of more than {MAX_TERMS} terms and operations")]

@@ -732,8 +732,12 @@ impl Executor {
         self.source.reset(file.line, file.offset);
         let (n, too_long) = super::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
             .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
-        if too_long {
-            return Err(super::reader::line_too_long(file.line, &self.source.raw, n));
+        if let Some(length) = too_long {
+            return Err(super::reader::line_too_long(
+                file.line,
+                &self.source.raw,
+                length,
+            ));
         }
         if n == 0 {
             file.line -= 1;

@@ -25,16 +25,17 @@ use super::parser::parse_line;
 /// reading it keeps at most this much of it in memory.
 pub const MAX_LINE_BYTES: usize = 65_536;
 
-/// Read one line through its `\n` into `buf` (appended), keeping at most
-/// [`MAX_LINE_BYTES`] + 2 bytes of it. Returns the bytes consumed (the whole
-/// line, 0 at the end of the input) and whether the line was longer than
-/// the limit (then `buf` holds its beginning).
+/// Read one line through its `\n` into `buf` (empty on entry), keeping at
+/// most [`MAX_LINE_BYTES`] + 2 bytes of it. Returns the bytes consumed (the
+/// whole line, 0 at the end of the input) and, for a line longer than the
+/// limit, its length without the `\n` (then `buf` holds its beginning).
 pub fn read_line_bounded(
     input: &mut (impl BufRead + ?Sized),
     buf: &mut Vec<u8>,
-) -> std::io::Result<(usize, bool)> {
+) -> std::io::Result<(usize, Option<usize>)> {
     let keep = MAX_LINE_BYTES + 2; // the line, and CR LF
     let mut consumed = 0;
+    let mut newline = false;
     loop {
         let available = match input.fill_buf() {
             Ok(b) => b,
@@ -53,29 +54,26 @@ pub fn read_line_bounded(
         input.consume(take);
         consumed += take;
         if done {
+            newline = true;
             break;
         }
     }
-    let mut length = consumed;
-    for end in [b'\n', b'\r'] {
-        if length > 0 && buf.get(length - 1) == Some(&end) && length <= buf.len() {
-            length -= 1;
-        }
-    }
-    let too_long = if consumed > buf.len() {
-        true
+    let length = consumed - usize::from(newline);
+    let whole = consumed == buf.len();
+    let content = if whole && buf[..length].ends_with(b"\r") {
+        length - 1
     } else {
-        length > MAX_LINE_BYTES
+        length
     };
-    Ok((consumed, too_long))
+    Ok((consumed, (content > MAX_LINE_BYTES).then_some(length)))
 }
 
 /// The error of a line longer than [`MAX_LINE_BYTES`]: located at the
 /// first byte past the limit, showing the line's beginning.
-pub fn line_too_long(line: usize, kept: &[u8], consumed: usize) -> GcodeError {
+pub fn line_too_long(line: usize, kept: &[u8], length: usize) -> GcodeError {
     GcodeError::at(
         ErrorKind::LineTooLong {
-            bytes: consumed,
+            bytes: length,
             limit: MAX_LINE_BYTES,
         },
         line,
@@ -125,11 +123,11 @@ impl<R: BufRead> BlockReader<R> {
         self.line += 1;
         self.block.reset(self.line, self.offset);
         let n = match read_line_bounded(&mut self.input, &mut self.block.raw) {
-            Ok((n, true)) => {
+            Ok((n, Some(length))) => {
                 self.offset += n as u64;
-                return Some(Err(line_too_long(self.line, &self.block.raw, n)));
+                return Some(Err(line_too_long(self.line, &self.block.raw, length)));
             }
-            Ok((n, false)) => n,
+            Ok((n, None)) => n,
             Err(e) => {
                 self.done = true;
                 return Some(Err(GcodeError::at(
