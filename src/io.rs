@@ -563,6 +563,60 @@ mod tests {
     }
 
     #[test]
+    fn an_output_set_writes_all_or_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.txt"), dir.path().join("b.txt"));
+        std::fs::write(&a, "old a").unwrap();
+        {
+            let set = OutputSet::begin();
+            write_file_atomic(&a, b"new a").unwrap();
+            // Staged, not yet in place.
+            assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+            let r: Result<(), OutputError> = write_atomic(&b, |_| {
+                Err(OutputError::Write {
+                    path: b.clone(),
+                    source: io::Error::other("boom"),
+                })
+            });
+            assert!(r.is_err());
+            drop(set);
+        }
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert!(!b.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        let set = OutputSet::begin();
+        write_file_atomic(&a, b"new a").unwrap();
+        write_file_atomic(&b, b"new b").unwrap();
+        set.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn clashing_paths_are_found_through_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.nc");
+        std::fs::write(&input, "x").unwrap();
+        let hard = dir.path().join("hard.nc");
+        std::fs::hard_link(&input, &hard).unwrap();
+        let inputs = [NamedPath::new("the program", &input)];
+        let out = |p: &Path| [NamedPath::new("-o", p)];
+        assert!(check_outputs(&inputs, &out(&hard)).is_err());
+        assert!(check_outputs(&inputs, &out(&dir.path().join("new.nc"))).is_ok());
+        assert!(check_outputs(&inputs, &out(Path::new("-"))).is_ok());
+        // Two outputs still to be created, named differently.
+        let twice = [
+            NamedPath::new("-o", dir.path().join("new.nc")),
+            NamedPath::new("--report", dir.path().join(".").join("new.nc")),
+        ];
+        assert!(matches!(
+            check_outputs(&inputs, &twice),
+            Err(PathClash::TwoOutputs { .. })
+        ));
+    }
+
+    #[test]
     fn successful_writer_replaces_file() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out.txt");
