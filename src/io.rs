@@ -3,6 +3,20 @@
 //! Every file volcomp writes goes through [`write_atomic`]: the content is written
 //! to a temporary file in the destination's directory, flushed, and renamed over
 //! the destination only when the writer succeeded. `-` means standard output.
+//!
+//! A command with several outputs opens an [`OutputSet`] first: while it is
+//! open, [`write_atomic`] leaves each finished temporary file staged, and
+//! [`OutputSet::commit`] renames them all at the end, so a failure anywhere
+//! (a second output that cannot be written, an error after the first) replaces
+//! none of them. [`check_outputs`] refuses, before anything is computed, an
+//! output that is one of the inputs or another output (same device and inode).
+//!
+//! A destination that is a symbolic link is written through: its target is
+//! replaced and the link stays (a link to nothing is refused, as `cp` does). A
+//! read-only destination (no write bit, or a file the user may not write) is
+//! refused, as `cp` does; for every user, root included: the mode bits are the
+//! user's statement that the file is not to be replaced.
+use std::cell::RefCell;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -15,6 +29,18 @@ pub enum OutputError {
     Write { path: PathBuf, source: io::Error },
     #[error("cannot move the finished output into place at {path}: {source}")]
     Persist { path: PathBuf, source: io::Error },
+    #[error(
+        "{path} is read-only (mode {mode:04o}); volcomp does not replace a write-protected file (make it writable, or name another output)"
+    )]
+    ReadOnly { path: PathBuf, mode: u32 },
+    #[error("{path} cannot be replaced: {source} (name another output)")]
+    NotWritable { path: PathBuf, source: io::Error },
+    #[error(
+        "{path} is a symbolic link to {target}, which does not exist; volcomp does not write through a dangling link (name the file itself)"
+    )]
+    DanglingLink { path: PathBuf, target: PathBuf },
+    #[error("cannot write {path}: its folder {folder} does not exist")]
+    NoFolder { path: PathBuf, folder: PathBuf },
 }
 
 /// Is this path the conventional "standard stream" marker `-`?
@@ -45,13 +71,13 @@ impl Drop for Registration {
     }
 }
 
-/// On SIGINT, SIGTERM or SIGHUP: remove every temporary output file being
-/// written, then exit with 128 + the signal number (130, 143, 129). Call once,
-/// early in `main`.
+/// On SIGINT, SIGTERM, SIGHUP or SIGXFSZ (a file grew past `ulimit -f`):
+/// remove every temporary output file being written, then exit with 128 + the
+/// signal number (130, 143, 129, 153). Call once, early in `main`.
 #[cfg(unix)]
 pub fn install_signal_cleanup() -> io::Result<()> {
-    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])?;
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM, SIGXFSZ};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP, SIGXFSZ])?;
     std::thread::Builder::new()
         .name("volcomp-signals".into())
         .spawn(move || {
@@ -92,7 +118,11 @@ pub fn display_name(path: &Path) -> String {
 /// `-` is standard output. A destination that exists and is not a regular file
 /// (a device such as `/dev/null` or `/dev/full`, a named pipe) is written
 /// directly: it cannot be replaced by a rename. Every write, the flush and the
-/// close are checked.
+/// close are checked. A symbolic link is written through (its target is
+/// replaced); a read-only destination is refused ([`check_writable`]).
+///
+/// While an [`OutputSet`] is open on this thread, the finished temporary file
+/// is staged in it and renamed only by [`OutputSet::commit`].
 pub fn write_atomic<E>(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> Result<(), E>,
@@ -125,7 +155,9 @@ where
         writer.flush().map_err(write_error)?;
         return Ok(());
     }
-    let dir = match path.parent() {
+    // Through a symbolic link: the target is what is replaced.
+    let destination = check_writable(path)?;
+    let dir = match destination.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
@@ -153,7 +185,7 @@ where
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        let mode = std::fs::metadata(path)
+        let mode = std::fs::metadata(&destination)
             .map(|m| m.permissions().mode() & 0o7777)
             .unwrap_or(0o644);
         file.set_permissions(std::fs::Permissions::from_mode(mode))
@@ -161,23 +193,290 @@ where
     }
     file.sync_all().map_err(write_error)?;
     drop(file);
-    // The rename and the unregistration happen under the registry's lock, so a
-    // signal handler either removes the temporary file or finds it renamed.
-    let LiveTemp {
-        path: tmp_path,
-        _registration: registration,
-    } = temp;
-    let persisted = {
-        let mut live = live_temps();
-        let r = tmp_path.persist(path).map_err(|e| e.error);
-        live.retain(|p| p != &registration.0);
-        r
+    let staged = Staged {
+        temp,
+        destination,
+        named: path.to_path_buf(),
     };
-    drop(registration);
-    persisted.map_err(|source| OutputError::Persist {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let unstaged = STAGED.with(|set| match set.borrow_mut().as_mut() {
+        Some(list) => {
+            list.push(staged);
+            None
+        }
+        None => Some(staged),
+    });
+    match unstaged {
+        Some(staged) => persist_all(vec![staged])?,
+        None => {}
+    }
+    Ok(())
+}
+
+/// A finished temporary file waiting to be renamed over its destination.
+struct Staged {
+    temp: LiveTemp,
+    /// The file replaced (a symbolic link's target).
+    destination: PathBuf,
+    /// The output as the user named it (for messages).
+    named: PathBuf,
+}
+
+thread_local! {
+    /// The outputs staged by [`write_atomic`] while an [`OutputSet`] is open.
+    static STAGED: RefCell<Option<Vec<Staged>>> = const { RefCell::new(None) };
+}
+
+/// Rename every staged file over its destination, under the registry's lock:
+/// a signal handler either removes all the temporary files or finds them all
+/// renamed. The destinations' folders were checked when each temporary file was
+/// created beside them, so a rename fails only when the file system changes
+/// meanwhile; then the outputs renamed before it stay, the rest are removed.
+fn persist_all(staged: Vec<Staged>) -> Result<(), OutputError> {
+    let mut live = live_temps();
+    let mut failure = None;
+    for Staged {
+        temp,
+        destination,
+        named,
+    } in staged
+    {
+        let LiveTemp {
+            path: tmp_path,
+            _registration: registration,
+        } = temp;
+        if failure.is_some() {
+            // Dropped: removed (the registry is cleaned below, lock held).
+            live.retain(|p| p != &registration.0);
+            std::mem::forget(registration);
+            drop(tmp_path);
+            continue;
+        }
+        let r = tmp_path.persist(&destination).map_err(|e| e.error);
+        live.retain(|p| p != &registration.0);
+        std::mem::forget(registration);
+        if let Err(source) = r {
+            failure = Some(OutputError::Persist {
+                path: named,
+                source,
+            });
+        }
+    }
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// All the outputs of one command, or none: while it is open, every
+/// [`write_atomic`] on this thread stages its finished temporary file, and
+/// [`OutputSet::commit`] renames them all. Dropped without a commit (an error
+/// on the way), it removes the staged files: no destination is touched.
+/// Standard output and devices are written at once (they cannot be staged).
+#[must_use = "an output set writes nothing until it is committed"]
+pub struct OutputSet {
+    /// An inner set (opened while another was open) leaves the staging, and
+    /// the commit, to the outer one.
+    outer: bool,
+}
+
+impl OutputSet {
+    /// Open the set: outputs written from now on are staged.
+    pub fn begin() -> OutputSet {
+        let outer = STAGED.with(|set| {
+            let mut set = set.borrow_mut();
+            if set.is_none() {
+                *set = Some(Vec::new());
+                true
+            } else {
+                false
+            }
+        });
+        OutputSet { outer }
+    }
+
+    /// Rename every staged output into place.
+    pub fn commit(self) -> Result<(), OutputError> {
+        if !self.outer {
+            return Ok(());
+        }
+        let staged = STAGED
+            .with(|set| set.borrow_mut().take())
+            .unwrap_or_default();
+        persist_all(staged)
+    }
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        if self.outer {
+            // Not committed: the staged temporary files are removed.
+            let staged = STAGED.with(|set| set.borrow_mut().take());
+            drop(staged);
+        }
+    }
+}
+
+/// Can `path` be replaced? Returns the file that would be: `path` itself, or
+/// the target of a symbolic link. Refused: a link to nothing, a read-only file
+/// (no write bit, for every user; or one the user may not open for writing),
+/// a file in a folder that does not exist.
+pub fn check_writable(path: &Path) -> Result<PathBuf, OutputError> {
+    let link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    let destination = if link {
+        std::fs::canonicalize(path).map_err(|_| OutputError::DanglingLink {
+            path: path.to_path_buf(),
+            target: std::fs::read_link(path).unwrap_or_default(),
+        })?
+    } else {
+        path.to_path_buf()
+    };
+    match std::fs::metadata(&destination) {
+        Ok(m) if m.is_file() => {
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                let mode = m.permissions().mode() & 0o7777;
+                if mode & 0o222 == 0 {
+                    return Err(OutputError::ReadOnly {
+                        path: path.to_path_buf(),
+                        mode,
+                    });
+                }
+            }
+            // Opened for writing, not truncated: the permission check of the
+            // user (as `cp`), with nothing changed.
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&destination)
+                .map_err(|source| OutputError::NotWritable {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+        }
+        Ok(_) => {}
+        Err(_) => {
+            let folder = match destination.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p,
+                _ => Path::new("."),
+            };
+            if !folder.is_dir() {
+                return Err(OutputError::NoFolder {
+                    path: path.to_path_buf(),
+                    folder: folder.to_path_buf(),
+                });
+            }
+        }
+    }
+    Ok(destination)
+}
+
+/// Which file a path names, for telling whether two paths are one file: the
+/// device and inode of an existing file (so also through a symbolic or hard
+/// link), else the real path of a file still to be created. `None` for
+/// standard input/output and for what is not a regular file (a device such
+/// as `/dev/null` may be named twice).
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Identity {
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+fn identity(path: &Path) -> Option<Identity> {
+    if is_stdio(path) {
+        return None;
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => {
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                Some(Identity::Inode(m.dev(), m.ino()))
+            }
+            #[cfg(not(unix))]
+            {
+                std::fs::canonicalize(path).ok().map(Identity::Path)
+            }
+        }
+        Ok(_) => None,
+        Err(_) => {
+            let folder = match path.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p,
+                _ => Path::new("."),
+            };
+            let folder = std::fs::canonicalize(folder).ok()?;
+            Some(Identity::Path(folder.join(path.file_name()?)))
+        }
+    }
+}
+
+/// A file of a command, named by its role (`-o`, `--report`, `the program`)
+/// for messages.
+#[derive(Debug, Clone)]
+pub struct NamedPath {
+    pub role: String,
+    pub path: PathBuf,
+}
+
+impl NamedPath {
+    pub fn new(role: impl Into<String>, path: impl Into<PathBuf>) -> NamedPath {
+        NamedPath {
+            role: role.into(),
+            path: path.into(),
+        }
+    }
+}
+
+/// An output that is an input or another output.
+#[derive(Debug, thiserror::Error)]
+pub enum PathClash {
+    #[error(
+        "{output_role} {output} is {input_role} {input} (the same file): writing it would destroy the input. Name another output"
+    )]
+    OutputIsInput {
+        output_role: String,
+        output: String,
+        input_role: String,
+        input: String,
+    },
+    #[error(
+        "{first_role} {first} and {second_role} {second} are the same file: one output would overwrite the other. Name two different files"
+    )]
+    TwoOutputs {
+        first_role: String,
+        first: String,
+        second_role: String,
+        second: String,
+    },
+}
+
+/// Refuse an output that is one of the inputs, or another output: the same
+/// file by device and inode (through links), or the same path to be created.
+/// Standard streams and devices are never a clash.
+pub fn check_outputs(inputs: &[NamedPath], outputs: &[NamedPath]) -> Result<(), PathClash> {
+    let ids: Vec<Option<Identity>> = outputs.iter().map(|o| identity(&o.path)).collect();
+    for (k, (out, id)) in outputs.iter().zip(&ids).enumerate() {
+        let Some(id) = id else { continue };
+        for input in inputs {
+            if identity(&input.path).as_ref() == Some(id) {
+                return Err(PathClash::OutputIsInput {
+                    output_role: out.role.clone(),
+                    output: out.path.display().to_string(),
+                    input_role: input.role.clone(),
+                    input: input.path.display().to_string(),
+                });
+            }
+        }
+        for (first, first_id) in outputs[..k].iter().zip(&ids) {
+            if first_id.as_ref() == Some(id) {
+                return Err(PathClash::TwoOutputs {
+                    first_role: first.role.clone(),
+                    first: first.path.display().to_string(),
+                    second_role: out.role.clone(),
+                    second: out.path.display().to_string(),
+                });
+            }
+        }
+    }
     Ok(())
 }
 
@@ -261,6 +560,60 @@ mod tests {
         write_file_atomic(&out, b"x").unwrap();
         let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o644);
+    }
+
+    #[test]
+    fn an_output_set_writes_all_or_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.txt"), dir.path().join("b.txt"));
+        std::fs::write(&a, "old a").unwrap();
+        {
+            let set = OutputSet::begin();
+            write_file_atomic(&a, b"new a").unwrap();
+            // Staged, not yet in place.
+            assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+            let r: Result<(), OutputError> = write_atomic(&b, |_| {
+                Err(OutputError::Write {
+                    path: b.clone(),
+                    source: io::Error::other("boom"),
+                })
+            });
+            assert!(r.is_err());
+            drop(set);
+        }
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert!(!b.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        let set = OutputSet::begin();
+        write_file_atomic(&a, b"new a").unwrap();
+        write_file_atomic(&b, b"new b").unwrap();
+        set.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn clashing_paths_are_found_through_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.nc");
+        std::fs::write(&input, "x").unwrap();
+        let hard = dir.path().join("hard.nc");
+        std::fs::hard_link(&input, &hard).unwrap();
+        let inputs = [NamedPath::new("the program", &input)];
+        let out = |p: &Path| [NamedPath::new("-o", p)];
+        assert!(check_outputs(&inputs, &out(&hard)).is_err());
+        assert!(check_outputs(&inputs, &out(&dir.path().join("new.nc"))).is_ok());
+        assert!(check_outputs(&inputs, &out(Path::new("-"))).is_ok());
+        // Two outputs still to be created, named differently.
+        let twice = [
+            NamedPath::new("-o", dir.path().join("new.nc")),
+            NamedPath::new("--report", dir.path().join(".").join("new.nc")),
+        ];
+        assert!(matches!(
+            check_outputs(&inputs, &twice),
+            Err(PathClash::TwoOutputs { .. })
+        ));
     }
 
     #[test]

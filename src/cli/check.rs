@@ -105,6 +105,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         skip_deleted_blocks: args.skip_deleted,
         ..args.read.interpret_options(rapid, letters)
     };
+    let files = super::common::CommandFiles::new()
+        .input("the program", Some(&args.program))
+        .input("the machine file", args.machine.as_deref());
+    let files = match &machine {
+        Some(m) => files.machine(m),
+        None => files,
+    };
+    files
+        .program_args(&args.read)
+        .output("--targets", args.targets.as_deref())
+        .output("-o", args.output.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let setup = args.read.setup(machine.as_ref())?;
     let warnings = setup.warnings.clone();
     let name = if crate::io::is_stdio(&args.program) {
@@ -135,6 +148,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 crate::io::display_name(output)
             )
         })?;
+        outputs.commit()?;
         let stats = stats.expect("written");
         let groups = warnings.groups();
         if args.json {
@@ -200,6 +214,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             summary.expect("written")
         }
     };
+    outputs.commit()?;
     let groups = warnings.groups();
     if args.json {
         let report = CheckReport {

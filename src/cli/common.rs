@@ -262,6 +262,15 @@ pub struct ProgramArgs {
     /// first tool change use the machine file's [tool].
     #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
+    /// Most lines read inside loop bodies and subroutine calls before the run
+    /// stops as an endless or runaway loop (the program's own lines, read
+    /// once, do not count).
+    #[arg(long, value_name = "N", default_value_t = crate::gcode::language::DEFAULT_MAX_LOOP_LINES)]
+    pub max_loop_lines: u64,
+    /// Most moves the program generates beyond its own lines (moves in loops
+    /// and calls, canned-cycle and spline expansions) before the run stops.
+    #[arg(long, value_name = "N", default_value_t = crate::gcode::language::DEFAULT_MAX_GENERATED_MOVES)]
+    pub max_moves: u64,
 }
 
 /// A LinuxCNC tool table file.
@@ -441,6 +450,8 @@ impl ProgramArgs {
             }
         }
         setup.language.subroutine_path = self.subroutine_path.clone();
+        setup.language.max_loop_lines = Some(self.max_loop_lines);
+        setup.language.max_generated_moves = Some(self.max_moves);
         Ok(setup)
     }
 
@@ -863,5 +874,77 @@ mod tests {
         // The one difference: library callers fit without the user's cache.
         assert!(!parsed.no_model_cache && default.no_model_cache);
         assert!(default.cache().is_none());
+    }
+}
+
+/// The files a command reads and the files it writes. [`CommandFiles::check`]
+/// runs before anything is computed: an output that is an input or another
+/// output is a usage error (exit 2) naming both; an output that cannot be
+/// replaced (read-only, a dangling link, a missing folder) is an error.
+#[derive(Debug, Default)]
+pub struct CommandFiles {
+    inputs: Vec<crate::io::NamedPath>,
+    outputs: Vec<crate::io::NamedPath>,
+    /// Outputs written into a folder the command creates (not checked for
+    /// writability before it exists).
+    derived: Vec<crate::io::NamedPath>,
+}
+
+impl CommandFiles {
+    pub fn new() -> CommandFiles {
+        CommandFiles::default()
+    }
+
+    pub fn input(mut self, role: &str, path: Option<&Path>) -> CommandFiles {
+        if let Some(path) = path {
+            self.inputs.push(crate::io::NamedPath::new(role, path));
+        }
+        self
+    }
+
+    pub fn output(mut self, role: &str, path: Option<&Path>) -> CommandFiles {
+        if let Some(path) = path {
+            self.outputs.push(crate::io::NamedPath::new(role, path));
+        }
+        self
+    }
+
+    /// An output in a folder that the command creates when it is missing.
+    pub fn output_in_new_folder(mut self, role: &str, path: &Path) -> CommandFiles {
+        self.derived.push(crate::io::NamedPath::new(role, path));
+        self
+    }
+
+    /// The machine file and its error tables.
+    pub fn machine(mut self, machine: &Machine) -> CommandFiles {
+        self = self.input("the machine file", Some(&machine.source));
+        for table in machine.tables.iter().flatten() {
+            self = self.input("the error table", Some(&table.path));
+        }
+        self
+    }
+
+    /// `--model`.
+    pub fn model(self, args: &ModelArgs) -> CommandFiles {
+        self.input("the model (--model)", args.model.as_deref())
+    }
+
+    /// `--var` and `--tools`.
+    pub fn program_args(self, args: &ProgramArgs) -> CommandFiles {
+        self.input("the parameter file (--var)", args.var.as_deref())
+            .input("the tool table (--tools)", args.tools.as_deref())
+    }
+
+    pub fn check(&self) -> anyhow::Result<()> {
+        let outputs: Vec<crate::io::NamedPath> =
+            self.outputs.iter().chain(&self.derived).cloned().collect();
+        crate::io::check_outputs(&self.inputs, &outputs)
+            .map_err(|e| super::UsageError(e.to_string()))?;
+        for output in &self.outputs {
+            if !crate::io::is_stdio(&output.path) {
+                crate::io::check_writable(&output.path)?;
+            }
+        }
+        Ok(())
     }
 }

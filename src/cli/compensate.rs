@@ -101,6 +101,26 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (machine, model) = args.machine.load()?;
     // Where the outer rotary axis cannot steer the tool axis (A = 0 on an A/C table).
     let pole_axis = model.kinematics().outer_rotary().letter().to_ascii_uppercase();
+    // With --in-place the program is the output (-o), not an input.
+    super::common::CommandFiles::new()
+        .input(
+            "the program",
+            (!args.in_place).then_some(args.program.as_path()),
+        )
+        .machine(&machine)
+        .model(&args.machine.model)
+        .program_args(&args.read)
+        .output(
+            if args.in_place {
+                "the program (--in-place)"
+            } else {
+                "-o"
+            },
+            Some(output),
+        )
+        .output("--report", args.report.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let options = CompensateOptions {
         tolerance_um: args.tol,
         interpret: args
@@ -201,6 +221,7 @@ Give the original program, or --force to compensate it anyway"
     if let Some(path) = &args.report {
         write_json_atomic(path, &report).map_err(|e: OutputError| anyhow::anyhow!(e))?;
     }
+    outputs.commit()?;
     super::common::print_warnings(&report.warnings);
     let msg = format!(
         "{} read, {} motion, {} changed, {} split (+{}){}\n\

@@ -291,6 +291,30 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.read.clone(),
         measurement.plan(),
     )?;
+    let followup_plan = args
+        .followup_program
+        .as_ref()
+        .map(|out| out.with_extension("csv"));
+    super::common::CommandFiles::new()
+        .input("the program", Some(&args.program))
+        .input("the measurement", Some(&args.measured))
+        .input(
+            "the follow-up measurement (--followup)",
+            args.followup.as_deref(),
+        )
+        .machine(&part.machine)
+        .model(&args.machine.model)
+        .program_args(&args.read)
+        .output("--report", Some(&args.report))
+        .output("--html", args.html.as_deref())
+        .output("--dump-contexts", args.dump_contexts.as_deref())
+        .output("--followup-program", args.followup_program.as_deref())
+        .output(
+            "the follow-up plan (--followup-program, .csv)",
+            followup_plan.as_deref(),
+        )
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let followup_measured = args
         .followup
         .as_ref()
@@ -427,6 +451,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.html {
         crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
     }
+    outputs.commit()?;
     super::common::print_warnings(&report.warnings);
     let mut text = summary_text(&report);
     if let Some((program, plan)) = program_written {

@@ -89,6 +89,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ),
         top: args.top,
     };
+    super::common::CommandFiles::new()
+        .input("program A", Some(&args.a))
+        .input("program B", Some(&args.b))
+        .program_args(&args.read)
+        .output("--report", args.report.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let (a, stamp_a) = args.read.program_and_stamp(&args.a, None)?;
     let (b, stamp_b) = args.read.program_and_stamp(&args.b, None)?;
     let (warnings_a, warnings_b) = (a.warnings(), b.warnings());
@@ -98,6 +105,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;
     }
+    outputs.commit()?;
     if args.json {
         super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
     }

@@ -176,6 +176,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })
         })
         .collect();
+    let mut files = super::common::CommandFiles::new()
+        .input("the input", Some(&args.input))
+        .output("--report", args.report.as_deref());
+    for table in &tables {
+        files = files.input("the error table", Some(&table.path));
+    }
+    if let Some(dir) = &args.plot {
+        for job in &jobs {
+            let name = format!("{}.svg", job.table.columns[job.column].name);
+            files = files.output_in_new_folder("the plot (--plot)", &dir.join(name));
+        }
+    }
+    files.check()?;
+    let outputs = crate::io::OutputSet::begin();
     let hashes: Vec<u64> = tables
         .iter()
         .map(|t| {
@@ -310,6 +324,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_plots(dir, &jobs, &fits)?;
         crate::humanln!(data_on_stdout, "plots: {}", dir.display());
     }
+    outputs.commit()?;
     if !missed.is_empty() {
         anyhow::bail!(
             "{} parameter(s) miss their tolerance: {} (raise --tol or the control-point cap)",

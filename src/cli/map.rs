@@ -170,6 +170,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let ranges = args.range.as_deref().map(parse_ranges).transpose()?;
     let (machine, model) = load_model(&args.machine, &args.model)?;
+    super::common::CommandFiles::new()
+        .machine(&machine)
+        .model(&args.model)
+        .output("--out", Some(&args.out))
+        .output("--report", args.report.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let mut rotaries = crate::axes::Axes::default();
     for (axis, value) in [(Axis::A, args.a), (Axis::B, args.b), (Axis::C, args.c)] {
         if value != 0.0 && !machine.letters().contains(axis) {
@@ -228,6 +235,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         crate::io::write_json_atomic(path, &report)?;
     }
+    outputs.commit()?;
     crate::humanln!(
         data_on_stdout,
         "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, {rotary_text}",

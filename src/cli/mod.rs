@@ -8,7 +8,8 @@
 //! Exit codes (gcode.md): 0 success, 1 bad input, 2 usage error (clap's own
 //! errors and [`UsageError`]). Beyond the contract: 141 when standard output is
 //! a pipe closed early (EPIPE: a quiet stop, no message, as a process killed by
-//! SIGPIPE), 130/143/129 on SIGINT/SIGTERM/SIGHUP (temporary files removed).
+//! SIGPIPE), 130/143/129/153 on SIGINT/SIGTERM/SIGHUP/SIGXFSZ (temporary files
+//! removed).
 //!
 //! Standard output is written through [`outln!`] / [`stdout_line`], never
 //! `println!` (which panics on a closed pipe): a failed write is an error.

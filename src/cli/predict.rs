@@ -49,6 +49,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("note: no --report or --html given; printing the summary only");
     }
     let (machine, model) = args.machine.load()?;
+    super::common::CommandFiles::new()
+        .input("the program", Some(&args.program))
+        .input("the plan", args.plan.as_deref())
+        .machine(&machine)
+        .model(&args.machine.model)
+        .program_args(&args.read)
+        .output("--report", args.report.as_deref())
+        .output("--html", args.html.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let options = args.read.cut_options(&machine);
     let (program, stamp) = args.read.program_and_stamp(&args.program, Some(&machine))?;
     let warnings = program.warnings();
@@ -118,6 +128,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         write_file_atomic(path, html::render(&report, &title).as_bytes())?;
     }
+    outputs.commit()?;
     super::common::print_warnings(&report.warnings);
     let note = super::common::result_note(&report.warnings);
     let text = if args.plan.is_some() {

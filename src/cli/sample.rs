@@ -115,9 +115,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ]
         }
     };
+    let mut command_files = super::common::CommandFiles::new().machine(&machine);
+    for (name, _) in &files {
+        command_files = command_files.output("the sample file", Some(&args.out_dir.join(name)));
+    }
+    command_files.check()?;
+    let outputs = crate::io::OutputSet::begin();
+    for (name, text) in &files {
+        write_file_atomic(&args.out_dir.join(name), text.as_bytes())?;
+    }
+    outputs.commit()?;
     for (name, text) in &files {
         let path = args.out_dir.join(name);
-        write_file_atomic(&path, text.as_bytes())?;
         crate::outln!("wrote {} ({} lines)", path.display(), text.lines().count());
     }
     Ok(())

@@ -84,6 +84,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let plan = Plan::read(&args.plan)?;
     let part =
         super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
+    super::common::CommandFiles::new()
+        .input("the program", Some(&args.program))
+        .input("the plan", Some(&args.plan))
+        .input("the follow-up plan (--followup)", args.followup.as_deref())
+        .machine(&part.machine)
+        .model(&args.machine.model)
+        .program_args(&args.read)
+        .output("-o", Some(&args.output))
+        .output("--dump-contexts", args.dump_contexts.as_deref())
+        .check()?;
+    let outputs = crate::io::OutputSet::begin();
     let rotary = part.machine.chain.rotary();
     let followup_plan = args
         .followup
@@ -113,6 +124,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             f.measured = Some([0, 1, 2].map(|k| p[k] + r * n[k] / 1000.0));
         }
         followup.write(&args.output)?;
+        outputs.commit()?;
         let warnings = part.warnings();
         super::common::print_warnings(&warnings);
         crate::humanln!(
@@ -131,6 +143,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let measurement = simulate(&contexts, &part.truth_um()?, &effects, &options)
         .context("simulating the measurement")?;
     measurement.write(&args.output)?;
+    outputs.commit()?;
     let cut = contexts.iter().filter(|c| c.cut).count();
     let deviations = measurement.deviations_um();
     let p = profile(&deviations);

@@ -122,6 +122,30 @@ pub enum ErrorKind {
     NonFinite,
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
+    /// volcomp's limit on a line's length ([`super::reader::MAX_LINE_BYTES`]).
+    #[error(
+        "line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")"
+    )]
+    LineTooLong { bytes: usize, limit: usize },
+    /// volcomp's limit on repeated work ([`super::LanguageOptions::max_loop_lines`],
+    /// [`super::LanguageOptions::max_generated_moves`]).
+    #[error("more than {limit} {what}{}: an endless or runaway loop? ({option} N raises the limit)", if within.is_empty() { String::new() } else { format!(", in {within}") })]
+    LoopLimit {
+        limit: u64,
+        what: &'static str,
+        option: &'static str,
+        within: String,
+    },
+    /// The up-front estimate of a canned cycle in `repeat` loops.
+    #[error("this block would generate about {estimate:.3e} moves ({per_block} per execution × {trips:.0} executions{}), more than the limit of {limit} ({option} N raises it)", if within.is_empty() { String::new() } else { format!(" of {within}") })]
+    MovesEstimate {
+        estimate: f64,
+        per_block: usize,
+        trips: f64,
+        limit: u64,
+        option: &'static str,
+        within: String,
+    },
     #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
     BareCarriageReturn,
     #[error("Bad character '\\357' used: the file starts with a UTF-8 byte order mark (EF BB BF)")]
@@ -199,6 +223,12 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::LineTooLong { .. } => {
+                "split the line (a long comment into several comment lines); is this a G-code program?"
+            }
+            ErrorKind::LoopLimit { .. } | ErrorKind::MovesEstimate { .. } => {
+                "check the loop's condition and counts (the line shown is where it stopped); the limits are far above what a real program's loops run"
+            }
             ErrorKind::EndlessProgram(_) => {
                 "check the loop's condition (the line shown is where it stopped): volcomp stops a program after a billion executed lines"
             }
@@ -275,9 +305,18 @@ pub struct GcodeError {
     pub column: usize,
     /// Number of bytes the caret underlines (at least 1).
     pub width: usize,
-    /// The line's text (lossily decoded).
+    /// The line's text (lossily decoded); of a long line, an excerpt of at
+    /// most [`EXCERPT_BYTES`] around the column.
     pub source_line: String,
+    /// Where the excerpt starts in the line (bytes; 0: at its start).
+    pub excerpt_from: usize,
+    /// The excerpt stops before the end of the line.
+    pub excerpt_cut: bool,
 }
+
+/// The most bytes of a line an error keeps and shows: a message stays short
+/// however long the line.
+pub const EXCERPT_BYTES: usize = 160;
 
 impl std::error::Error for GcodeError {}
 
@@ -286,13 +325,22 @@ impl GcodeError {
     pub fn at(kind: ErrorKind, line: usize, raw: &[u8], start: usize, end: usize) -> Self {
         let start = start.min(raw.len());
         let end = end.clamp(start, raw.len());
+        // A window of the line around the column (60 bytes before it).
+        let from = if raw.len() <= EXCERPT_BYTES {
+            0
+        } else {
+            start.saturating_sub(60).min(raw.len() - EXCERPT_BYTES)
+        };
+        let to = (from + EXCERPT_BYTES).min(raw.len());
         GcodeError {
             kind,
             path: None,
             line,
             column: start + 1,
             width: (end - start).max(1),
-            source_line: String::from_utf8_lossy(raw).into_owned(),
+            source_line: String::from_utf8_lossy(&raw[from..to]).into_owned(),
+            excerpt_from: from,
+            excerpt_cut: to < raw.len(),
         }
     }
 
@@ -325,10 +373,13 @@ impl fmt::Display for GcodeError {
         writeln!(f, "{}", self.kind)?;
         writeln!(f, "{pad}--> {file}:{}:{}", self.line, self.column)?;
         writeln!(f, "{pad} |")?;
-        // Show the line up to a sane length, with control characters made visible.
-        let shown: String = self
-            .source_line
+        // Show the line (its excerpt) up to a sane length, with control
+        // characters made visible; `…` where the excerpt cuts the line.
+        let lead = if self.excerpt_from > 0 { "…" } else { "" };
+        let shown: String = lead
             .chars()
+            .chain(self.source_line.chars())
+            .chain(if self.excerpt_cut { "…" } else { "" }.chars())
             .take(200)
             .map(|c| {
                 if c.is_control() && c != '\t' {
@@ -340,19 +391,28 @@ impl fmt::Display for GcodeError {
             .collect();
         writeln!(f, "{num} | {shown}")?;
         // The caret goes under the byte column; tabs in the prefix stay tabs.
+        let before = self
+            .column
+            .saturating_sub(1)
+            .saturating_sub(self.excerpt_from);
         let prefix: String = self
             .source_line
             .bytes()
-            .take(self.column.saturating_sub(1))
+            .take(before)
             .map(|b| if b == b'\t' { '\t' } else { ' ' })
             .collect();
         // Count characters, not bytes, for the prefix when the line is UTF-8.
-        let prefix = match self.source_line.get(..self.column.saturating_sub(1)) {
+        let prefix = match self.source_line.get(..before) {
             Some(p) => p
                 .chars()
                 .map(|c| if c == '\t' { '\t' } else { ' ' })
                 .collect(),
             None => prefix,
+        };
+        let prefix = if self.excerpt_from > 0 {
+            format!(" {prefix}")
+        } else {
+            prefix
         };
         let carets = "^".repeat(self.width.min(80));
         writeln!(f, "{pad} | {prefix}{carets}")?;

@@ -134,6 +134,10 @@ pub struct Execution {
     /// The program has ended; the rest of the main file is passed over.
     tail: bool,
     warnings: crate::warnings::Warnings,
+    /// Moves no line of the main program spells out (loops, calls, canned
+    /// cycles, splines), and their limit.
+    generated_moves: u64,
+    max_generated_moves: u64,
 }
 
 impl Execution {
@@ -165,7 +169,61 @@ impl Execution {
             done: false,
             tail: false,
             warnings: setup.warnings.clone(),
+            generated_moves: 0,
+            max_generated_moves: setup
+                .language
+                .max_generated_moves
+                .unwrap_or(super::language::DEFAULT_MAX_GENERATED_MOVES),
         }
+    }
+
+    /// Count the moves of the block just interpreted that no line of the main
+    /// program spells out; an error past the limit, or when a block that
+    /// expands (a canned cycle, a spline) inside `repeat` loops would pass
+    /// it on its own (its moves × the loops' counts).
+    fn count_generated_moves(&mut self) -> Result<(), GcodeError> {
+        let executed = self.executor.executed();
+        let own = usize::from(executed.literal && self.event.motion.is_some());
+        let generated = self.event.motions().count().saturating_sub(own);
+        if generated == 0 {
+            return Ok(());
+        }
+        let limit = self.max_generated_moves;
+        let expanded = self.event.expanded.len();
+        let trips = self.executor.repeat_trips();
+        self.generated_moves += generated as u64;
+        let kind = if expanded > 0 && trips > 1.0 && expanded as f64 * trips > limit as f64 {
+            ErrorKind::MovesEstimate {
+                estimate: expanded as f64 * trips,
+                per_block: expanded,
+                trips,
+                limit,
+                option: "--max-moves",
+                within: self.executor.innermost_loop().unwrap_or_default(),
+            }
+        } else if self.generated_moves > limit {
+            ErrorKind::LoopLimit {
+                limit,
+                what: "generated moves (loops, calls, canned cycles, splines)",
+                option: "--max-moves",
+                within: self.executor.innermost_loop().unwrap_or_default(),
+            }
+        } else {
+            return Ok(());
+        };
+        let executed = self.executor.executed();
+        let raw = &self.executor.block().raw;
+        // The source line, without the `(volcomp: line N)` of a flat block.
+        let raw = match raw.windows(10).rposition(|w| w == b" (volcomp:") {
+            Some(k) if !executed.literal => &raw[..k],
+            _ => &raw[..],
+        };
+        let e = GcodeError::at(kind, executed.line, raw, 0, raw.len());
+        Err(if executed.file == 0 {
+            e.with_path(&self.path)
+        } else {
+            e.with_path(self.executor.file_name(executed.file))
+        })
     }
 
     /// Add the event's warnings to the run's collection.
@@ -302,10 +360,18 @@ impl Execution {
                     };
                     return Some(Err(e));
                 }
+                if let Err(e) = self.count_generated_moves() {
+                    self.done = true;
+                    return Some(Err(e));
+                }
                 self.event.index = self.blocks;
                 self.blocks += 1;
                 self.collect_warnings();
-                Some(Ok((block, &self.event, self.executor.executed())))
+                Some(Ok((
+                    self.executor.block(),
+                    &self.event,
+                    self.executor.executed(),
+                )))
             }
         }
     }

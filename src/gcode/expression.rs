@@ -353,6 +353,43 @@ pub enum SyntaxErrorKind {
     NameNotTerminated,
     #[error("Expected #<name> in EXISTS")]
     ExistsArgument,
+    /// volcomp's limit (LinuxCNC's 255-character lines hold about 120
+    /// levels and answer "Command too long" beyond).
+    #[error(
+        "expression nested more than {MAX_NESTING} levels deep (brackets, functions, # references, signs)"
+    )]
+    TooDeep,
+    /// volcomp's limit on one expression's size.
+    #[error("expression of more than {MAX_TERMS} terms and operations")]
+    TooLarge,
+}
+
+/// Deepest nesting of one value: `[`, a function, a `#` reference, a sign.
+pub const MAX_NESTING: usize = 256;
+
+/// Most terms and operations in one value (a line of LinuxCNC holds at most
+/// about 128): bounds the depth of its tree, so that evaluating and dropping
+/// it never exhausts the stack.
+pub const MAX_TERMS: usize = 4096;
+
+/// What parsing one value has used of [`MAX_NESTING`] and [`MAX_TERMS`].
+#[derive(Default)]
+struct Budget {
+    depth: usize,
+    terms: usize,
+}
+
+impl Budget {
+    fn term(&mut self, at: usize) -> Result<(), SyntaxError> {
+        self.terms += 1;
+        if self.terms > MAX_TERMS {
+            return Err(SyntaxError {
+                kind: SyntaxErrorKind::TooLarge,
+                at,
+            });
+        }
+        Ok(())
+    }
 }
 
 /// A syntax error at byte `at` of the line.
@@ -493,7 +530,25 @@ fn number_at(line: &[u8], p: usize) -> Result<(f64, usize), SyntaxError> {
 
 /// Read a real value (LinuxCNC's `read_real_value`) starting at `p`.
 pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
+    parse_value_in(line, p, &mut Budget::default())
+}
+
+fn parse_value_in(line: &[u8], p: usize, budget: &mut Budget) -> Result<Expr, SyntaxError> {
     let p = skip_space(line, p);
+    if budget.depth >= MAX_NESTING {
+        return Err(SyntaxError {
+            kind: SyntaxErrorKind::TooDeep,
+            at: p,
+        });
+    }
+    budget.term(p)?;
+    budget.depth += 1;
+    let value = parse_value_at(line, p, budget);
+    budget.depth -= 1;
+    value
+}
+
+fn parse_value_at(line: &[u8], p: usize, budget: &mut Budget) -> Result<Expr, SyntaxError> {
     let Some(&c) = line.get(p) else {
         return Err(SyntaxError {
             kind: SyntaxErrorKind::NoValue,
@@ -501,9 +556,9 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
         });
     };
     match c {
-        b'[' => parse_bracketed(line, p),
+        b'[' => parse_bracketed(line, p, budget),
         b'#' => {
-            let (r, end) = parse_param_ref(line, p)?;
+            let (r, end) = parse_param_ref_in(line, p, budget)?;
             Ok(Expr {
                 kind: ExprKind::Param(r),
                 start: p,
@@ -514,7 +569,7 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
             let q = skip_space(line, p + 1);
             let next = line.get(q).copied().unwrap_or(0);
             if next != 0 && !next.is_ascii_digit() && next != b'.' {
-                let inner = parse_value(line, q)?;
+                let inner = parse_value_in(line, q, budget)?;
                 let end = inner.end;
                 if c == b'+' {
                     Ok(Expr { start: p, ..inner })
@@ -551,7 +606,7 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
             let open = skip_space(line, name_end);
             match f {
                 FunctionName::Unary(f) => {
-                    let arg = parse_bracketed(line, open)?;
+                    let arg = parse_bracketed(line, open, budget)?;
                     let end = arg.end;
                     Ok(Expr {
                         kind: ExprKind::Unary(f, Box::new(arg)),
@@ -560,7 +615,7 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
                     })
                 }
                 FunctionName::Atan => {
-                    let y = parse_bracketed(line, open)?;
+                    let y = parse_bracketed(line, open, budget)?;
                     let slash = skip_space(line, y.end);
                     if line.get(slash) != Some(&b'/') {
                         return Err(SyntaxError {
@@ -575,7 +630,7 @@ pub fn parse_value(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
                             at: open2,
                         });
                     }
-                    let x = parse_bracketed(line, open2)?;
+                    let x = parse_bracketed(line, open2, budget)?;
                     let end = x.end;
                     Ok(Expr {
                         kind: ExprKind::Atan(Box::new(y), Box::new(x)),
@@ -646,18 +701,26 @@ pub fn parse_name(line: &[u8], p: usize) -> Result<(String, usize), SyntaxError>
 
 /// `#…` at `p` (which holds `#`): the reference and its end.
 pub fn parse_param_ref(line: &[u8], p: usize) -> Result<(ParamRef, usize), SyntaxError> {
+    parse_param_ref_in(line, p, &mut Budget::default())
+}
+
+fn parse_param_ref_in(
+    line: &[u8],
+    p: usize,
+    budget: &mut Budget,
+) -> Result<(ParamRef, usize), SyntaxError> {
     let q = skip_space(line, p + 1);
     if line.get(q) == Some(&b'<') {
         let (name, end) = parse_name(line, q)?;
         return Ok((ParamRef::Named(name), end));
     }
-    let index = parse_value(line, q)?;
+    let index = parse_value_in(line, q, budget)?;
     let end = index.end;
     Ok((ParamRef::Numbered(Box::new(index)), end))
 }
 
 /// `[ … ]` at `p` (which holds `[`).
-fn parse_bracketed(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
+fn parse_bracketed(line: &[u8], p: usize, budget: &mut Budget) -> Result<Expr, SyntaxError> {
     if line.get(p) != Some(&b'[') {
         return Err(SyntaxError {
             kind: SyntaxErrorKind::BracketAfterFunction,
@@ -665,7 +728,7 @@ fn parse_bracketed(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
         });
     }
     // Operands and operators, reduced by precedence (left-associative).
-    let mut values: Vec<Expr> = vec![parse_value(line, p + 1)?];
+    let mut values: Vec<Expr> = vec![parse_value_in(line, p + 1, budget)?];
     let mut ops: Vec<BinaryOp> = Vec::new();
     let mut q = values[0].end;
     loop {
@@ -694,8 +757,9 @@ fn parse_bracketed(line: &[u8], p: usize) -> Result<Expr, SyntaxError> {
             let top = ops.pop().expect("checked");
             reduce(&mut values, top);
         }
+        budget.term(q)?;
         ops.push(op);
-        let v = parse_value(line, after)?;
+        let v = parse_value_in(line, after, budget)?;
         q = v.end;
         values.push(v);
     }

@@ -68,6 +68,18 @@ pub struct LanguageOptions {
     /// included) before it is refused as an endless loop (`None`:
     /// [`DEFAULT_MAX_EXECUTED_LINES`]).
     pub max_executed_lines: Option<u64>,
+    /// Most lines read inside loop bodies and subroutine calls (the lines a
+    /// program reads more than once, or from another file), checked as they
+    /// are read: an endless or runaway loop stops with an error naming it
+    /// (`None`: [`DEFAULT_MAX_LOOP_LINES`]). The program's own lines read once
+    /// in sequence do not count: a flat program of any length runs.
+    pub max_loop_lines: Option<u64>,
+    /// Most moves that no line of the main program spells out one by one:
+    /// moves of blocks executed in loops and calls, canned-cycle and spline
+    /// expansions (`None`: [`DEFAULT_MAX_GENERATED_MOVES`]). Checked by
+    /// [`super::Execution`] as they grow, and up front for a canned cycle in
+    /// `repeat` loops (its moves × the loops' counts).
+    pub max_generated_moves: Option<u64>,
     /// Drop the subroutine definitions the main program passes over
     /// (`check --flatten`: a program with no O-words). By default they are
     /// handed on as written, not executed ([`Executed::passed`]), so that
@@ -79,6 +91,28 @@ pub struct LanguageOptions {
 /// programs (about 25 GB written flat). LinuxCNC would run an endless loop
 /// for ever, and a writer would fill the disk.
 pub const DEFAULT_MAX_EXECUTED_LINES: u64 = 1_000_000_000;
+
+/// Lines a run may read inside loops and calls: 10 million (`while [1]` with
+/// two moves in its body is stopped after about 6 s of `check`); a real
+/// program's loops (a pattern repeated, a probing macro) stay far below.
+pub const DEFAULT_MAX_LOOP_LINES: u64 = 10_000_000;
+
+/// Moves a run may generate (loops, calls, canned cycles, splines): 50 million.
+pub const DEFAULT_MAX_GENERATED_MOVES: u64 = 50_000_000;
+
+/// A loop being run, for messages and for the estimate of a `repeat`.
+#[derive(Clone, Debug)]
+struct OpenLoop {
+    label: String,
+    kind: LabelKind,
+    file: usize,
+    line: usize,
+    /// Calls in progress when it was entered (a return drops the loops of
+    /// the call it leaves).
+    depth: usize,
+    /// A `repeat`'s count.
+    count: Option<f64>,
+}
 
 /// Where an executed block comes from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -171,6 +205,11 @@ pub struct Executor {
     passed_definitions: std::collections::HashSet<u64>,
     /// Loops entered in the main program (not inside a call).
     main_loops: usize,
+    /// The loops being run, innermost last.
+    open_loops: Vec<OpenLoop>,
+    /// Lines read inside loops and calls (the budget of
+    /// `options.max_loop_lines`).
+    loop_lines: u64,
     cache: HashMap<(usize, u64), CachedLine>,
     /// The source line being read (reused), and the executed block handed out.
     source: Block,
@@ -220,6 +259,8 @@ impl Executor {
             passing_definition: false,
             passed_definitions: std::collections::HashSet::new(),
             main_loops: 0,
+            open_loops: Vec::new(),
+            loop_lines: 0,
             cache: HashMap::new(),
             source: Block::default(),
             out: Block::default(),
@@ -342,6 +383,27 @@ impl Executor {
                     0,
                     block.raw.len(),
                 ));
+            }
+            if !self.frames.is_empty() || self.main_loops > 0 {
+                self.loop_lines += 1;
+                let limit = self
+                    .options
+                    .max_loop_lines
+                    .unwrap_or(DEFAULT_MAX_LOOP_LINES);
+                if self.loop_lines > limit {
+                    return Err(GcodeError::at(
+                        ErrorKind::LoopLimit {
+                            limit,
+                            what: "lines in loops and calls",
+                            option: "--max-loop-lines",
+                            within: self.innermost_loop().unwrap_or_default(),
+                        },
+                        block.line,
+                        &block.raw,
+                        0,
+                        block.raw.len(),
+                    ));
+                }
             }
             if self.passing_definition {
                 // A subroutine definition the main program passes over: its
@@ -668,10 +730,15 @@ impl Executor {
         }
         file.line += 1;
         self.source.reset(file.line, file.offset);
-        let n = file
-            .input
-            .read_until(b'\n', &mut self.source.raw)
+        let (n, too_long) = super::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
             .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
+        if let Some(length) = too_long {
+            return Err(super::reader::line_too_long(
+                file.line,
+                &self.source.raw,
+                length,
+            ));
+        }
         if n == 0 {
             file.line -= 1;
             return Ok(None);
@@ -892,6 +959,8 @@ impl Executor {
                 };
                 params.returned = value;
                 let frame = self.frames.pop().expect("checked");
+                let depth = self.frames.len();
+                self.open_loops.retain(|l| l.depth <= depth);
                 params.leave(&frame.saved);
                 self.skipping = None;
                 self.current = frame.return_file;
@@ -961,7 +1030,7 @@ impl Executor {
                 self.skipping = None;
                 if !self.labels.contains_key(&label) {
                     self.record(&label, block, LabelKind::Do)?;
-                    self.enter_loop();
+                    self.enter_loop(&label, block, LabelKind::Do, None);
                 }
             }
             OKeyword::Repeat => {
@@ -973,7 +1042,12 @@ impl Executor {
                 if entry.repeat_left.is_none() {
                     // LinuxCNC's `round_to_int`: to the nearest, ties to even.
                     entry.repeat_left = Some(count.round_ties_even() as i64);
-                    self.enter_loop();
+                    self.enter_loop(
+                        &label,
+                        block,
+                        LabelKind::Repeat,
+                        Some(count.round_ties_even()),
+                    );
                 }
                 let entry = self.labels.get_mut(&label).expect("recorded");
                 if entry.repeat_left.unwrap_or(0) > 0 {
@@ -1009,7 +1083,7 @@ impl Executor {
                     _ => {
                         if existing.is_none() {
                             self.record(&label, block, LabelKind::While)?;
-                            self.enter_loop();
+                            self.enter_loop(&label, block, LabelKind::While, None);
                         }
                         if test == 0.0 {
                             self.skipping = Some(label);
@@ -1156,14 +1230,65 @@ impl Executor {
         }
     }
 
-    fn enter_loop(&mut self) {
+    fn enter_loop(&mut self, label: &str, block: &Block, kind: LabelKind, count: Option<f64>) {
+        self.open_loops.push(OpenLoop {
+            label: label.to_string(),
+            kind,
+            file: self.current,
+            line: block.line,
+            depth: self.frames.len(),
+            count,
+        });
         match self.frames.last_mut() {
             Some(f) => f.loops += 1,
             None => self.main_loops += 1,
         }
     }
 
-    fn leave_loop(&mut self, _label: &str) {
+    /// The innermost loop being run, as messages name it:
+    /// `` `o1 while` (line 3) `` (and the file when it is a subroutine file).
+    pub fn innermost_loop(&self) -> Option<String> {
+        let l = self.open_loops.last()?;
+        let keyword = match l.kind {
+            LabelKind::Do => "do",
+            LabelKind::While => "while",
+            LabelKind::Repeat => "repeat",
+            LabelKind::If => "if",
+            LabelKind::Sub => "sub",
+        };
+        // Stored as `scope#label` (the label inside a subroutine is its own).
+        let base = l.label.rsplit('#').next().unwrap_or(&l.label);
+        let label = if base.parse::<u64>().is_ok() {
+            base.to_string()
+        } else {
+            format!("<{base}>")
+        };
+        Some(if l.file == 0 {
+            format!("`o{label} {keyword}` (line {})", l.line)
+        } else {
+            format!(
+                "`o{label} {keyword}` ({} line {})",
+                self.file_name(l.file),
+                l.line
+            )
+        })
+    }
+
+    /// How many times the `repeat` loops being run execute their bodies in
+    /// all (the product of their counts; 1 outside them, `while` and `do`
+    /// loops left out: their counts are not known).
+    pub fn repeat_trips(&self) -> f64 {
+        self.open_loops
+            .iter()
+            .filter_map(|l| l.count)
+            .map(|c| c.max(1.0))
+            .product()
+    }
+
+    fn leave_loop(&mut self, label: &str) {
+        if let Some(k) = self.open_loops.iter().rposition(|l| l.label == label) {
+            self.open_loops.truncate(k);
+        }
         match self.frames.last_mut() {
             Some(f) => f.loops = f.loops.saturating_sub(1),
             None => {

@@ -19,6 +19,70 @@ use super::block::{Block, LineEnding};
 use super::error::{ErrorKind, GcodeError};
 use super::parser::parse_line;
 
+/// The longest line read, bytes (its line end not counted). LinuxCNC reads
+/// at most 254 characters ("Command too long"); volcomp reads longer lines
+/// (long comments) but not without bound: a longer line is an error, and
+/// reading it keeps at most this much of it in memory.
+pub const MAX_LINE_BYTES: usize = 65_536;
+
+/// Read one line through its `\n` into `buf` (empty on entry), keeping at
+/// most [`MAX_LINE_BYTES`] + 2 bytes of it. Returns the bytes consumed (the
+/// whole line, 0 at the end of the input) and, for a line longer than the
+/// limit, its length without the `\n` (then `buf` holds its beginning).
+pub fn read_line_bounded(
+    input: &mut (impl BufRead + ?Sized),
+    buf: &mut Vec<u8>,
+) -> std::io::Result<(usize, Option<usize>)> {
+    let keep = MAX_LINE_BYTES + 2; // the line, and CR LF
+    let mut consumed = 0;
+    let mut newline = false;
+    loop {
+        let available = match input.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if available.is_empty() {
+            break;
+        }
+        let (take, done) = match available.iter().position(|b| *b == b'\n') {
+            Some(k) => (k + 1, true),
+            None => (available.len(), false),
+        };
+        let room = keep.saturating_sub(buf.len());
+        buf.extend_from_slice(&available[..take.min(room)]);
+        input.consume(take);
+        consumed += take;
+        if done {
+            newline = true;
+            break;
+        }
+    }
+    let length = consumed - usize::from(newline);
+    let whole = consumed == buf.len();
+    let content = if whole && buf[..length].ends_with(b"\r") {
+        length - 1
+    } else {
+        length
+    };
+    Ok((consumed, (content > MAX_LINE_BYTES).then_some(length)))
+}
+
+/// The error of a line longer than [`MAX_LINE_BYTES`]: located at the
+/// first byte past the limit, showing the line's beginning.
+pub fn line_too_long(line: usize, kept: &[u8], length: usize) -> GcodeError {
+    GcodeError::at(
+        ErrorKind::LineTooLong {
+            bytes: length,
+            limit: MAX_LINE_BYTES,
+        },
+        line,
+        &kept[..kept.len().min(MAX_LINE_BYTES)],
+        0,
+        1,
+    )
+}
+
 /// How to read.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ReadOptions {
@@ -58,8 +122,12 @@ impl<R: BufRead> BlockReader<R> {
         }
         self.line += 1;
         self.block.reset(self.line, self.offset);
-        let n = match self.input.read_until(b'\n', &mut self.block.raw) {
-            Ok(n) => n,
+        let n = match read_line_bounded(&mut self.input, &mut self.block.raw) {
+            Ok((n, Some(length))) => {
+                self.offset += n as u64;
+                return Some(Err(line_too_long(self.line, &self.block.raw, length)));
+            }
+            Ok((n, None)) => n,
             Err(e) => {
                 self.done = true;
                 return Some(Err(GcodeError::at(

@@ -104,6 +104,18 @@ impl fmt::Display for ToolInUse {
     }
 }
 
+/// Most tools a tool table may list (LinuxCNC's `CANON_POCKETS_MAX` 1001,
+/// pocket 0 being the spindle).
+pub const MAX_TOOLS: usize = 1000;
+
+/// A token as messages quote it: at most 40 characters.
+fn short_token(token: &str) -> std::borrow::Cow<'_, str> {
+    match token.char_indices().nth(40) {
+        Some((k, _)) => format!("{}…", &token[..k]).into(),
+        None => token.into(),
+    }
+}
+
 /// A bad tool table line (or `[[tools]]` entry).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{source_name}:{line}:{column}: {message}")]
@@ -156,6 +168,14 @@ impl ToolTable {
             if body.trim().is_empty() {
                 continue;
             }
+            if table.entries.len() >= MAX_TOOLS {
+                return Err(fail(
+                    1,
+                    format!(
+                        "more than {MAX_TOOLS} tools: LinuxCNC's tool table holds at most {MAX_TOOLS} (CANON_POCKETS_MAX 1001, pocket 0 being the spindle); is this a tool table?"
+                    ),
+                ));
+            }
             let mut number = None;
             let mut pocket = None;
             let mut length = 0.0;
@@ -178,6 +198,8 @@ impl ToolTable {
                     0
                 };
                 let value = &token[first.len_utf8()..];
+                // Messages quote the token, shortened.
+                let token = &*short_token(token);
                 if letter.is_ascii_uppercase() {
                     let slot = &mut seen[(letter - b'A') as usize];
                     if let Some(at) = *slot {

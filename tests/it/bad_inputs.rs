@@ -56,6 +56,11 @@ const TOOLS: &str =
 const OFFSETS: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G54=0,0,0 --offset G54=1,0,0";
 const FOLLOWUP: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --followup {d}/bad.csv";
 const SIMULATE: &str = "simulate {d}/ok.toml {d}/saddle.nc {d}/plan.csv -o {d}/out.csv --model {d}/fit.json --effect tool_wear:w=1e308";
+const LOOP: &str =
+    "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --max-loop-lines 100000";
+const LENIENT_LOOP: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --lenient --max-loop-lines 100000";
+const MOVES: &str =
+    "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --max-moves 1000";
 const VAR: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --var {d}/bad.var";
 
@@ -134,7 +139,30 @@ fn cases() -> Vec<Case> {
     let p = |s: &str| vec![("bad.nc", text(s))];
     let mut long_comment = b"%\nG21 G90\n(".to_vec();
     long_comment.extend(std::iter::repeat_n(b'x', 50 << 20));
-    long_comment.extend(b")\nG1 X1 Y1 Z1 A10 C0 F100\nM30\n%\n");
+    long_comment.extend(b") \x01\nG1 X1 Y1 Z1 A10 C0 F100\nM30\n%\n");
+    let mut fair_comment = b"%\nG21 G90\n(".to_vec();
+    fair_comment.extend(std::iter::repeat_n(b'x', 60_000));
+    fair_comment.extend(b")\nG1 X1 Y1 Z1 A10 C0 F100\nM30\n%\n");
+    let nested = |n: usize, open: &str, inner: &str, close: &str| {
+        let mut s = String::from("%\nG21 G90 F100\n#1 = 1\nG1 X");
+        for _ in 0..n {
+            s.push_str(open);
+        }
+        s.push_str(inner);
+        for _ in 0..n {
+            s.push_str(close);
+        }
+        s.push_str(" Y1 Z1 A10 C0\nM30\n%\n");
+        vec![("bad.nc", s.into_bytes())]
+    };
+    let terms = {
+        let sum = vec!["1"; 20_000].join("+");
+        vec![(
+            "bad.nc",
+            format!("%\nG21 G90 F100\nG1 X[{sum}] Y1 Z1 A10 C0\nM30\n%\n").into_bytes(),
+        )]
+    };
+    let many_tools: String = (1..=2000).map(|t| format!("T{t} P{t} Z50 D6\n")).collect();
     let mut long_number = b"%\nG21 G90\nG1 X".to_vec();
     long_number.extend(std::iter::repeat_n(b'1', 50 << 20));
     long_number.extend(b" F100\nM30\n%\n");
@@ -188,11 +216,118 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "program",
-            "a 50 MB comment line (accepted)",
+            "a 50 MB comment line, a bad character at its end",
             vec![("bad.nc", long_comment)],
+            COMPENSATE,
+            1,
+            &[
+                "line of 52428804 bytes, longer than volcomp's limit of 65536 bytes",
+                "{d}/bad.nc:3:1",
+            ],
+        ),
+        case(
+            "program",
+            "a 60 000-byte comment line (accepted)",
+            vec![("bad.nc", fair_comment)],
             COMPENSATE,
             0,
             &["blocks read"],
+        ),
+        case(
+            "program",
+            "20 000 nested brackets `[[[…1…]]]`",
+            nested(20_000, "[", "1", "]"),
+            COMPENSATE,
+            1,
+            &[
+                "expression nested more than 256 levels deep",
+                "{d}/bad.nc:4:",
+            ],
+        ),
+        case(
+            "program",
+            "10 000 nested functions `abs[abs[…]]`",
+            nested(10_000, "abs[", "1", "]"),
+            COMPENSATE,
+            1,
+            &[
+                "expression nested more than 256 levels deep",
+                "{d}/bad.nc:4:",
+            ],
+        ),
+        case(
+            "program",
+            "20 000 nested references `##…#1`",
+            nested(20_000, "#", "1", ""),
+            COMPENSATE,
+            1,
+            &[
+                "expression nested more than 256 levels deep",
+                "{d}/bad.nc:4:",
+            ],
+        ),
+        case(
+            "program",
+            "an expression of 20 000 terms",
+            terms,
+            COMPENSATE,
+            1,
+            &[
+                "expression of more than 4096 terms and operations",
+                "{d}/bad.nc:3:",
+            ],
+        ),
+        case(
+            "program",
+            "an endless `while [1]` (--max-loop-lines 100000)",
+            p(
+                "%\nG21 G90 G94 F500\no1 while [1]\nG1 X1 Y1 Z1 A10 C0\nG1 X2 Y1 Z1 A10 C0\no1 endwhile\nM30\n%\n",
+            ),
+            LOOP,
+            1,
+            &[
+                "more than 100000 lines in loops and calls, in `o1 while` (line 3)",
+                "{d}/bad.nc:",
+            ],
+        ),
+        case(
+            "program",
+            "an error inside a loop under --lenient (the counter never grows)",
+            p(
+                "%\nG21 G90 G94 F500\n#1 = 0\no1 while [#1 LT 10]\nG1 X#1 Y1 Z1 A10 C0\n#1 = [#1 + 1)\no1 endwhile\nM30\n%\n",
+            ),
+            LENIENT_LOOP,
+            1,
+            &[
+                "more than 100000 lines in loops and calls, in `o1 while` (line 4)",
+                "{d}/bad.nc:",
+            ],
+        ),
+        case(
+            "program",
+            "a canned cycle of 62 000 holes in a `repeat [1000000]` (1.9e11 moves)",
+            p(
+                "%\nG21 G90 G94 F500\nG0 X0 Y0 Z10 A10 C0\no1 repeat [1000000]\nG91 G81 X1 Y0 Z-1 R1 L62000\nG90\no1 endrepeat\nM30\n%\n",
+            ),
+            COMPENSATE,
+            1,
+            &[
+                "this block would generate about 1.860e11 moves (186001 per execution × 1000000 executions of `o1 repeat` (line 4))",
+                "{d}/bad.nc:5:1",
+            ],
+        ),
+        case(
+            "program",
+            "a loop generating moves past --max-moves 1000",
+            p(
+                "%\nG21 G90 G94 F500\n#1 = 0\no1 while [#1 LT 100000]\nG1 X[#1 / 1000] Y1 Z1 A10 C0\n#1 = [#1 + 1]\no1 endwhile\nM30\n%\n",
+            ),
+            MOVES,
+            1,
+            &[
+                "more than 1000 generated moves (loops, calls, canned cycles, splines), in `o1 while` (line 4)",
+                "{d}/bad.nc:5:1",
+            ],
         ),
         case(
             "program",
@@ -200,7 +335,10 @@ fn cases() -> Vec<Case> {
             vec![("bad.nc", long_number)],
             COMPENSATE,
             1,
-            &["number out of range in word `X`", "{d}/bad.nc:3:4"],
+            &[
+                "longer than volcomp's limit of 65536 bytes",
+                "{d}/bad.nc:3:1",
+            ],
         ),
         case(
             "program",
@@ -623,6 +761,14 @@ fn cases() -> Vec<Case> {
             TOOLS,
             1,
             &["{d}/bad.tbl:1:1: `garbage`: not a tool table word"],
+        ),
+        case(
+            "tool table",
+            "2000 tools (LinuxCNC holds 1000)",
+            vec![("bad.tbl", many_tools.into_bytes())],
+            TOOLS,
+            1,
+            &["{d}/bad.tbl:1001:1: more than 1000 tools"],
         ),
         case(
             "tool table",

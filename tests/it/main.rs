@@ -13,6 +13,7 @@ mod linuxcnc;
 mod machine;
 mod machines;
 mod nurbs;
+mod outputs;
 mod predict;
 mod programs;
 mod rs274;

@@ -1,0 +1,580 @@
+//! Issue 25 items 1–3: no output overwrites an input or another output, all
+//! the outputs of a command or none, symbolic links written through, read-only
+//! outputs refused, a file size limit (SIGXFSZ) handled like SIGTERM.
+use crate::support::{assert_success, root, volcomp};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+/// A folder holding a copy of the reference machine (`m.toml`, `ref-trt/`),
+/// the saddle program (`part.nc`, and `part2.nc`), its plan (`plan.csv`), a
+/// tool table (`tools.tbl`), a fitted model (`model.json`) and a simulated
+/// measurement (`meas.csv`): the inputs every command's outputs are tried
+/// against.
+struct Workshop {
+    dir: tempfile::TempDir,
+}
+
+impl Workshop {
+    fn new() -> Workshop {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::copy(root().join("machines/ref-trt.toml"), d.join("m.toml")).unwrap();
+        std::fs::create_dir(d.join("ref-trt")).unwrap();
+        for axis in ["x", "y", "z", "a", "c"] {
+            let name = format!("ref-trt/{axis}.csv");
+            std::fs::copy(root().join("machines").join(&name), d.join(&name)).unwrap();
+        }
+        std::fs::copy(root().join("samples/saddle.nc"), d.join("part.nc")).unwrap();
+        std::fs::copy(root().join("samples/saddle.nc"), d.join("part2.nc")).unwrap();
+        std::fs::copy(root().join("samples/saddle-plan.csv"), d.join("plan.csv")).unwrap();
+        std::fs::copy(root().join("samples/saddle.tbl"), d.join("tools.tbl")).unwrap();
+        std::fs::hard_link(d.join("part.nc"), d.join("hard.nc")).unwrap();
+        std::fs::copy(d.join("m.toml"), d.join("saddle.tbl")).unwrap();
+        std::fs::create_dir(d.join("plots")).unwrap();
+        let w = Workshop { dir };
+        assert_success(&w.run(&["fit", "m.toml", "--report", "model.json"]));
+        assert_success(&w.run(&[
+            "simulate", "m.toml", "part.nc", "plan.csv", "-o", "meas.csv",
+        ]));
+        w
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    fn run(&self, args: &[&str]) -> Output {
+        volcomp()
+            .args(args)
+            .current_dir(self.path())
+            .output()
+            .unwrap()
+    }
+
+    /// Every file below the folder and its bytes.
+    fn files(&self) -> BTreeMap<PathBuf, Vec<u8>> {
+        fn walk(dir: &Path, into: &mut BTreeMap<PathBuf, Vec<u8>>) {
+            for entry in std::fs::read_dir(dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    walk(&path, into);
+                } else {
+                    into.insert(path.clone(), std::fs::read(&path).unwrap_or_default());
+                }
+            }
+        }
+        let mut files = BTreeMap::new();
+        walk(self.path(), &mut files);
+        files
+    }
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Every command's output options, against its inputs and against each
+/// other: each run is a usage error (exit 2) naming both files, and nothing in
+/// the folder changes (no file written, replaced or left behind).
+#[test]
+fn every_output_option_is_checked_against_inputs_and_other_outputs() {
+    let w = Workshop::new();
+    // (command line, the two names the message must give)
+    let cases: &[(&[&str], [&str; 2])] = &[
+        // compensate
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "-o",
+                "out.nc",
+                "--report",
+                "out.nc",
+            ],
+            ["-o out.nc", "--report out.nc"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "-o",
+                "out.nc",
+                "--report",
+                "part.nc",
+            ],
+            ["--report part.nc", "the program part.nc"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "-o",
+                "out.nc",
+                "--report",
+                "hard.nc",
+            ],
+            ["--report hard.nc", "the program part.nc"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "--in-place",
+                "--report",
+                "part.nc",
+            ],
+            ["(--in-place)", "--report part.nc"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "-o",
+                "out.nc",
+                "--report",
+                "ref-trt/x.csv",
+            ],
+            ["--report ref-trt/x.csv", "the error table ref-trt/x.csv"],
+        ),
+        (
+            &["compensate", "m.toml", "part.nc", "-o", "m.toml"],
+            ["-o m.toml", "the machine file m.toml"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "-o",
+                "tools.tbl",
+                "--tools",
+                "tools.tbl",
+            ],
+            ["-o tools.tbl", "the tool table (--tools) tools.tbl"],
+        ),
+        (
+            &[
+                "compensate",
+                "m.toml",
+                "part.nc",
+                "--model",
+                "model.json",
+                "-o",
+                "out.nc",
+                "--report",
+                "model.json",
+            ],
+            ["--report model.json", "the model (--model) model.json"],
+        ),
+        // check
+        (
+            &["check", "part.nc", "--targets", "part.nc"],
+            ["--targets part.nc", "the program part.nc"],
+        ),
+        (
+            &["check", "part.nc", "--flatten", "-o", "part.nc"],
+            ["-o part.nc", "the program part.nc"],
+        ),
+        (
+            &[
+                "check",
+                "part.nc",
+                "--machine",
+                "m.toml",
+                "--targets",
+                "ref-trt/z.csv",
+            ],
+            ["--targets ref-trt/z.csv", "the error table ref-trt/z.csv"],
+        ),
+        // predict
+        (
+            &[
+                "predict", "m.toml", "part.nc", "--plan", "plan.csv", "--report", "plan.csv",
+            ],
+            ["--report plan.csv", "the plan plan.csv"],
+        ),
+        (
+            &[
+                "predict", "m.toml", "part.nc", "--report", "p.json", "--html", "p.json",
+            ],
+            ["--report p.json", "--html p.json"],
+        ),
+        (
+            &["predict", "m.toml", "part.nc", "--html", "part.nc"],
+            ["--html part.nc", "the program part.nc"],
+        ),
+        // simulate
+        (
+            &["simulate", "m.toml", "part.nc", "plan.csv", "-o", "part.nc"],
+            ["-o part.nc", "the program part.nc"],
+        ),
+        (
+            &[
+                "simulate", "m.toml", "part.nc", "plan.csv", "-o", "plan.csv",
+            ],
+            ["-o plan.csv", "the plan plan.csv"],
+        ),
+        (
+            &[
+                "simulate",
+                "m.toml",
+                "part.nc",
+                "plan.csv",
+                "-o",
+                "m2.csv",
+                "--dump-contexts",
+                "m2.csv",
+            ],
+            ["-o m2.csv", "--dump-contexts m2.csv"],
+        ),
+        // diagnose
+        (
+            &[
+                "diagnose", "m.toml", "part.nc", "meas.csv", "--report", "meas.csv",
+            ],
+            ["--report meas.csv", "the measurement meas.csv"],
+        ),
+        (
+            &[
+                "diagnose",
+                "m.toml",
+                "part.nc",
+                "meas.csv",
+                "--report",
+                "d.json",
+                "--followup-program",
+                "meas.nc",
+            ],
+            [
+                "(--followup-program, .csv) meas.csv",
+                "the measurement meas.csv",
+            ],
+        ),
+        (
+            &[
+                "diagnose",
+                "m.toml",
+                "part.nc",
+                "meas.csv",
+                "--report",
+                "d.json",
+                "--followup-program",
+                "part.nc",
+            ],
+            ["--followup-program part.nc", "the program part.nc"],
+        ),
+        (
+            &[
+                "diagnose",
+                "m.toml",
+                "part.nc",
+                "meas.csv",
+                "--report",
+                "d.json",
+                "--followup-program",
+                "f.nc",
+                "--html",
+                "f.csv",
+            ],
+            ["--html f.csv", "(--followup-program, .csv) f.csv"],
+        ),
+        (
+            &[
+                "diagnose", "m.toml", "part.nc", "meas.csv", "--report", "d.json", "--html",
+                "d.json",
+            ],
+            ["--report d.json", "--html d.json"],
+        ),
+        (
+            &[
+                "diagnose",
+                "m.toml",
+                "part.nc",
+                "meas.csv",
+                "--report",
+                "d.json",
+                "--dump-contexts",
+                "meas.csv",
+            ],
+            ["--dump-contexts meas.csv", "the measurement meas.csv"],
+        ),
+        // fit
+        (
+            &["fit", "m.toml", "--report", "ref-trt/y.csv"],
+            ["--report ref-trt/y.csv", "the error table ref-trt/y.csv"],
+        ),
+        (
+            &[
+                "fit",
+                "ref-trt/x.csv",
+                "--axis",
+                "X",
+                "--report",
+                "ref-trt/x.csv",
+            ],
+            ["--report ref-trt/x.csv", "the input ref-trt/x.csv"],
+        ),
+        (
+            &[
+                "fit",
+                "m.toml",
+                "--plot",
+                "plots",
+                "--report",
+                "plots/EXX.svg",
+            ],
+            ["--report plots/EXX.svg", "(--plot) plots/EXX.svg"],
+        ),
+        // map
+        (
+            &["map", "m.toml", "--out", "r.svg", "--report", "r.svg"],
+            ["--out r.svg", "--report r.svg"],
+        ),
+        (
+            &["map", "m.toml", "--out", "ref-trt/c.csv"],
+            ["--out ref-trt/c.csv", "the error table ref-trt/c.csv"],
+        ),
+        // diff
+        (
+            &["diff", "part.nc", "part2.nc", "--report", "part2.nc"],
+            ["--report part2.nc", "program B part2.nc"],
+        ),
+        (
+            &[
+                "diff",
+                "part.nc",
+                "part2.nc",
+                "--report",
+                "tools.tbl",
+                "--tools",
+                "tools.tbl",
+            ],
+            ["--report tools.tbl", "(--tools) tools.tbl"],
+        ),
+        // sample: a machine file that has a sample's name, in the out folder
+        (
+            &[
+                "sample",
+                "saddle",
+                "--machine",
+                "saddle.tbl",
+                "--out-dir",
+                ".",
+            ],
+            [
+                "the sample file ./saddle.tbl",
+                "the machine file saddle.tbl",
+            ],
+        ),
+    ];
+    let before = w.files();
+    let mut failures = Vec::new();
+    for (args, [first, second]) in cases {
+        let out = w.run(args);
+        let err = stderr(&out);
+        let named = err.contains(first) && err.contains(second);
+        if out.status.code() != Some(2) || !named {
+            failures.push(format!(
+                "volcomp {}: exit {:?}, expected 2 naming `{first}` and `{second}`: {err}",
+                args.join(" "),
+                out.status.code()
+            ));
+        }
+        let after = w.files();
+        if after != before {
+            let changed: Vec<_> = after
+                .iter()
+                .filter(|(p, b)| before.get(*p) != Some(b))
+                .map(|(p, _)| p.display().to_string())
+                .collect();
+            failures.push(format!(
+                "volcomp {}: the folder changed: {changed:?}",
+                args.join(" ")
+            ));
+            return assert!(failures.is_empty(), "{}", failures.join("\n"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Files in `dir` whose name looks like a temporary output.
+fn temp_files(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with(".volcomp-"))
+        })
+        .collect()
+}
+
+/// A second output that fails (a folder that is missing; a device that is
+/// full, found only while writing, after the program was written to its
+/// temporary file) leaves the first output as it was: all outputs or none.
+#[cfg(unix)]
+#[test]
+fn outputs_are_written_all_or_none() {
+    let w = Workshop::new();
+    std::fs::write(w.path().join("out.nc"), "old program\n").unwrap();
+    for report in ["missing/comp.json", "/dev/full"] {
+        let out = w.run(&[
+            "compensate",
+            "m.toml",
+            "part.nc",
+            "-o",
+            "out.nc",
+            "--report",
+            report,
+        ]);
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        assert!(stderr(&out).contains(report), "{}", stderr(&out));
+        assert_eq!(
+            std::fs::read_to_string(w.path().join("out.nc")).unwrap(),
+            "old program\n",
+            "--report {report}"
+        );
+        assert!(temp_files(w.path()).is_empty());
+    }
+    // diagnose: the follow-up program, its plan and the report; the HTML
+    // report fails last (a full device).
+    let out = w.run(&[
+        "diagnose",
+        "m.toml",
+        "part.nc",
+        "meas.csv",
+        "--report",
+        "d.json",
+        "--followup-program",
+        "f.nc",
+        "--html",
+        "/dev/full",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    for name in ["d.json", "f.nc", "f.csv"] {
+        assert!(!w.path().join(name).exists(), "{name} was written");
+    }
+    assert!(temp_files(w.path()).is_empty());
+    // And when everything can be written, everything is.
+    let out = w.run(&[
+        "compensate",
+        "m.toml",
+        "part.nc",
+        "-o",
+        "out.nc",
+        "--report",
+        "comp.json",
+    ]);
+    assert_success(&out);
+    assert!(
+        std::fs::read_to_string(w.path().join("out.nc"))
+            .unwrap()
+            .contains("volcomp-stamp")
+    );
+    assert!(w.path().join("comp.json").exists());
+}
+
+/// `-o link` writes through the link: its target is replaced, the link stays
+/// a link. A link to nothing is refused (as `cp` does).
+#[cfg(unix)]
+#[test]
+fn a_symbolic_link_output_is_written_through() {
+    let w = Workshop::new();
+    std::fs::create_dir(w.path().join("real")).unwrap();
+    std::fs::write(w.path().join("real/out.nc"), "old\n").unwrap();
+    std::os::unix::fs::symlink("real/out.nc", w.path().join("link.nc")).unwrap();
+    let out = w.run(&["compensate", "m.toml", "part.nc", "-o", "link.nc"]);
+    assert_success(&out);
+    let link = w.path().join("link.nc");
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let written = std::fs::read_to_string(w.path().join("real/out.nc")).unwrap();
+    assert!(written.contains("volcomp-stamp"), "{written}");
+    assert!(temp_files(w.path()).is_empty());
+    assert!(temp_files(&w.path().join("real")).is_empty());
+    // A dangling link.
+    std::os::unix::fs::symlink("nowhere/x.nc", w.path().join("dangling.nc")).unwrap();
+    let out = w.run(&["check", "part.nc", "--targets", "dangling.nc"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out)
+            .contains("dangling.nc is a symbolic link to nowhere/x.nc, which does not exist"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!w.path().join("nowhere").exists());
+}
+
+/// A read-only output (mode 0444) is refused before anything is computed,
+/// by its mode bits: also when the tests run as root (who could write it).
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_is_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let w = Workshop::new();
+    let protected = w.path().join("protected.json");
+    std::fs::write(&protected, "keep\n").unwrap();
+    std::fs::set_permissions(&protected, std::fs::Permissions::from_mode(0o444)).unwrap();
+    for args in [
+        &[
+            "compensate",
+            "m.toml",
+            "part.nc",
+            "-o",
+            "out.nc",
+            "--report",
+            "protected.json",
+        ][..],
+        &["fit", "m.toml", "--report", "protected.json"][..],
+        &["check", "part.nc", "--targets", "protected.json"][..],
+    ] {
+        let out = w.run(args);
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        assert!(
+            stderr(&out).contains("protected.json is read-only (mode 0444)"),
+            "{}",
+            stderr(&out)
+        );
+        assert_eq!(std::fs::read_to_string(&protected).unwrap(), "keep\n");
+        assert!(!w.path().join("out.nc").exists());
+    }
+}
+
+/// A file size limit (`ulimit -f`): the write is stopped by SIGXFSZ, handled
+/// like SIGTERM: the temporary file is removed, the exit is not 0, the old
+/// output stays.
+#[cfg(unix)]
+#[test]
+fn a_file_size_limit_leaves_no_temporary_file() {
+    let w = Workshop::new();
+    std::fs::write(w.path().join("out.nc"), "old\n").unwrap();
+    // 64 blocks of 512 bytes: far less than the 210 kB program.
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 64 && exec \"$0\" compensate m.toml part.nc -o out.nc")
+        .arg(env!("CARGO_BIN_EXE_volcomp"))
+        .env("VOLCOMP_MODEL_CACHE", crate::support::model_cache())
+        .current_dir(w.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", stderr(&out));
+    assert!(
+        temp_files(w.path()).is_empty(),
+        "{:?}",
+        temp_files(w.path())
+    );
+    assert_eq!(
+        std::fs::read_to_string(w.path().join("out.nc")).unwrap(),
+        "old\n"
+    );
+}
