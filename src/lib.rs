@@ -12,6 +12,7 @@ pub mod gcode;
 pub mod inspection;
 pub mod io;
 pub mod kinematics;
+pub mod laser;
 pub mod machine;
 pub mod nurbs;
 pub mod predict;

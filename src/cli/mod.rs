@@ -21,6 +21,7 @@ pub mod diagnose;
 pub mod diff;
 pub mod error;
 pub mod fit;
+pub mod import_laser;
 pub mod map;
 pub mod predict;
 pub mod sample;
@@ -72,6 +73,8 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Explain the gap between measured and predicted deviations.
     Diagnose(diagnose::Args),
+    /// Laser positioning runs (ISO 230-2, bidirectional) to an axis's error table and report.
+    ImportLaser(import_laser::Args),
     /// Write the bundled samples: the saddle (program, plan, tool table) or the flank (program, plan).
     Sample(sample::Args),
 }
@@ -195,6 +198,7 @@ pub fn error_text(err: &anyhow::Error) -> String {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Fit(args) => fit::run(&args),
+        Command::ImportLaser(args) => import_laser::run(&args),
         Command::Error(args) => error::run(&args),
         Command::Map(args) => map::run(&args),
         Command::Check(args) => check::run(&args),

@@ -9,6 +9,7 @@ mod fit;
 mod gcode;
 mod inspection;
 mod kinematics;
+mod laser;
 mod machine;
 mod nurbs;
 mod predict;
