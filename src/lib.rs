@@ -8,6 +8,7 @@ pub mod cli;
 pub mod compensate;
 pub mod diagnose;
 pub mod diff;
+pub mod export;
 pub mod gcode;
 pub mod inspection;
 pub mod io;

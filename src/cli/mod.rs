@@ -20,6 +20,7 @@ pub mod compensate;
 pub mod diagnose;
 pub mod diff;
 pub mod error;
+pub mod export;
 pub mod fit;
 pub mod import_laser;
 pub mod map;
@@ -75,6 +76,8 @@ pub enum Command {
     Diagnose(diagnose::Args),
     /// Laser positioning runs (ISO 230-2, bidirectional) to an axis's error table and report.
     ImportLaser(import_laser::Args),
+    /// Controller files out: LinuxCNC COMP_FILEs and kinematics parameters, fitted tables as CSV.
+    Export(export::Args),
     /// Write the bundled samples: the saddle (program, plan, tool table) or the flank (program, plan).
     Sample(sample::Args),
 }
@@ -199,6 +202,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Fit(args) => fit::run(&args),
         Command::ImportLaser(args) => import_laser::run(&args),
+        Command::Export(args) => export::run(&args),
         Command::Error(args) => error::run(&args),
         Command::Map(args) => map::run(&args),
         Command::Check(args) => check::run(&args),

@@ -5,6 +5,7 @@ mod cli;
 mod compensate;
 mod diagnose;
 mod diff;
+mod export;
 mod fit;
 mod gcode;
 mod inspection;
