@@ -24,6 +24,7 @@ pub mod export;
 pub mod fit;
 pub mod import_laser;
 pub mod map;
+pub mod plan_frame;
 pub mod predict;
 pub mod sample;
 pub mod simulate;

@@ -203,23 +203,21 @@ pub fn comp_file(
             CompType::Trim => "the trim LinuxCNC adds (nominal - actual)",
         }
     );
-    let _ = writeln!(
-        text,
-        "# actual = nominal + ({} {})/1000 from the fitted {} curve of {}{}.",
-        pos.parameter,
-        if reversal {
-            "± REVERSAL/2"
-        } else {
-            "(no REVERSAL: both directions alike)"
-        },
-        pos.parameter,
-        pos.positions().len(),
-        if reversal {
-            " positions and its REVERSAL, linear between them"
-        } else {
-            " positions"
-        },
-    );
+    let _ = if reversal {
+        writeln!(
+            text,
+            "# actual = nominal + ({p} ± REVERSAL/2)/1000: {p} the fitted curve of the table's {n} positions, REVERSAL linear between them.",
+            p = pos.parameter,
+            n = pos.positions().len()
+        )
+    } else {
+        writeln!(
+            text,
+            "# actual = nominal + {p}/1000, both directions alike (the table has no REVERSAL): {p} the fitted curve of its {n} positions.",
+            p = pos.parameter,
+            n = pos.positions().len()
+        )
+    };
     let _ = writeln!(
         text,
         "# Read back as LinuxCNC interpolates it, within {:.4} µm of those curves (tolerance {} µm).",

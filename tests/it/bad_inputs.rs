@@ -651,6 +651,70 @@ fn cases() -> Vec<Case> {
             1,
             &["{d}/bad.var:1:", "expected `NUMBER VALUE`"],
         ),
+        // Plans in work coordinates (--plan-frame work).
+        case(
+            "plan (work coordinates)",
+            "a program cutting in two work offsets (G54, then G55)",
+            vec![
+                (
+                    "bad.nc",
+                    text(
+                        "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 Y5 Z2 A12 C30 F500\nG55\nG1 X10 Y2 Z1 A15 C60\nM30\n%\n",
+                    ),
+                ),
+                ("plan.csv", plan_rows(&["1,5,5,2,0,0,1"])),
+            ],
+            "predict {d}/ok.toml {d}/bad.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G55=1,0,0",
+            1,
+            &[
+                "{d}/bad.nc: --plan-frame work is ambiguous: the program cuts in 2 work frames: line 4",
+                "line 6",
+            ],
+        ),
+        case(
+            "plan (work coordinates)",
+            "a joint-frame program cutting with A turned under a work offset",
+            vec![("plan.csv", plan_rows(&["1,5,5,2,0,0,1"]))],
+            "predict {d}/ok.toml {d}/ok.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G54=1,0,0",
+            1,
+            &[
+                "{d}/ok.nc: --plan-frame work: the program cuts in joint coordinates (no tool-tip control) with a rotary axis turned (first at line 4, 2 moves)",
+            ],
+        ),
+        case(
+            "plan (work coordinates)",
+            "a work offset that turns C",
+            vec![
+                ("ok2.nc", text(PROGRAM)),
+                ("plan.csv", plan_rows(&["1,5,5,2,0,0,1"])),
+            ],
+            "predict {d}/ok.toml {d}/ok2.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G54=0,0,0,0,15",
+            1,
+            &["{d}/ok2.nc: --plan-frame work: the program's work offset turns C (15°)"],
+        ),
+        // Controller export.
+        case(
+            "machine file (export linuxcnc)",
+            "no linear axis has a positioning table",
+            vec![(
+                "bad.toml",
+                machine(
+                    "x = \"ref-trt/x.csv\"\ny = \"ref-trt/y.csv\"\nz = \"ref-trt/z.csv\"\n",
+                    "",
+                ),
+            )],
+            "export linuxcnc {d}/bad.toml -o {d}/out.dir",
+            1,
+            &["{d}/bad.toml: no linear axis has a positioning table (EXX, EYY, EZZ)"],
+        ),
+        case(
+            "command line (export linuxcnc)",
+            "`--max-lines 300` (LinuxCNC takes 256)",
+            vec![],
+            "export linuxcnc {d}/ok.toml -o {d}/out.dir --max-lines 300",
+            2,
+            &["--max-lines 300: LinuxCNC takes 2 to 256 lines a joint"],
+        ),
         // Laser positioning runs (import-laser).
         case(
             "laser runs (CSV)",

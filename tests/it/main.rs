@@ -21,3 +21,4 @@ mod sample;
 mod support;
 mod toolpath;
 mod tools;
+mod work_frame;
