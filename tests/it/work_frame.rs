@@ -104,17 +104,16 @@ fn simulate_writes_a_work_plan_back_in_work_coordinates() {
             cmd.args(["--plan-frame", "work"]);
         }
         assert_success(&cmd.output().unwrap());
-        let m = volcomp::inspection::Measurement::read(&dir.path().join(out)).unwrap();
-        m
+        volcomp::inspection::Measurement::read(&dir.path().join(out)).unwrap()
     };
     let work = run(&root().join("samples/saddle-plan.csv"), true, "work.csv");
     let part = run(&shifted_plan(dir.path()), false, "part.csv");
     let plan = volcomp::inspection::Plan::read(&root().join("samples/saddle-plan.csv")).unwrap();
     for ((w, p), given) in work.points.iter().zip(&part.points).zip(&plan.points) {
         assert!((w.deviation_um() - p.deviation_um()).abs() < 1e-6);
-        for k in 0..3 {
+        for (k, offset) in OFFSET.iter().enumerate() {
             assert!((w.plan.point[k] - given.point[k]).abs() < 1e-9);
-            assert!((w.measured[k] + OFFSET[k] - p.measured[k]).abs() < 1e-9);
+            assert!((w.measured[k] + offset - p.measured[k]).abs() < 1e-9);
         }
     }
     // diagnose reads the work-frame measurement back.
