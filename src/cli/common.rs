@@ -200,6 +200,13 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         );
     }
     for table in machine.tables.iter().flatten() {
+        if table.reversal.is_some() {
+            eprintln!(
+                "note: {}: {} has a REVERSAL column: the error model does not use it (positioning error without direction; `volcomp export linuxcnc` exports it)",
+                machine.name,
+                table.path.display()
+            );
+        }
         if !table.missing.is_empty() {
             eprintln!(
                 "note: {}: {} does not measure {} (taken as zero)",

@@ -37,6 +37,10 @@ pub struct Args {
     pub read: super::common::ProgramArgs,
     /// Measurement (CSV: id,x,y,z,i,j,k,mx,my,mz).
     pub measured: PathBuf,
+    /// Frame of the measurement's points: part (the rotary plate's) or work
+    /// (the program's coordinates: the work offset, G92 and rotation it cuts in applied).
+    #[arg(long, value_enum, default_value = "part", value_name = "part|work")]
+    pub plan_frame: super::plan_frame::PlanFrame,
     /// Report file (JSON; `-` for stdout).
     #[arg(long)]
     pub report: PathBuf,
@@ -285,6 +289,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ),
     ])?;
     let measurement = Measurement::read(&args.measured)?;
+    let measurement = match work_frame_of(args)? {
+        Some(frame) => frame.measurement_to_part(&measurement),
+        None => measurement,
+    };
     let part = CutPart::new(
         &args.machine,
         &args.program,
@@ -542,4 +550,25 @@ pub fn summary_text(report: &DiagnoseReport) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The work frame of `--plan-frame work` (None for part coordinates).
+fn work_frame_of(args: &Args) -> anyhow::Result<Option<crate::inspection::WorkFrame>> {
+    if args.plan_frame == super::plan_frame::PlanFrame::Part {
+        return Ok(None);
+    }
+    if args.followup.is_some() {
+        return Err(UsageError(
+            "--plan-frame work with --followup: a follow-up measurement is in part coordinates"
+                .into(),
+        )
+        .into());
+    }
+    let machine = crate::machine::Machine::load_with(
+        &args.machine.machine_file,
+        &crate::machine::LoadOptions {
+            extrapolation: args.machine.model.extrapolate.into(),
+        },
+    )?;
+    super::plan_frame::work_frame(args.plan_frame, &args.read, &args.program, &machine)
 }

@@ -283,6 +283,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         report.parameters.push(entry);
     }
     for t in &tables {
+        if t.reversal.is_some() {
+            crate::humanln!(
+                data_on_stdout,
+                "{:<4}  REVERSAL   read, not fitted: the error model has no direction (`volcomp export linuxcnc` exports it)",
+                t.axis.letter()
+            );
+        }
         for m in &t.missing {
             crate::humanln!(
                 data_on_stdout,

@@ -21,8 +21,11 @@ pub mod compensate;
 pub mod diagnose;
 pub mod diff;
 pub mod error;
+pub mod export;
 pub mod fit;
+pub mod import_laser;
 pub mod map;
+pub mod plan_frame;
 pub mod predict;
 pub mod sample;
 pub mod simulate;
@@ -73,6 +76,10 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Explain the gap between measured and predicted deviations.
     Diagnose(diagnose::Args),
+    /// Laser positioning runs (ISO 230-2, bidirectional) to an axis's error table and report.
+    ImportLaser(import_laser::Args),
+    /// Controller files out: LinuxCNC COMP_FILEs and kinematics parameters, fitted tables as CSV.
+    Export(export::Args),
     /// Write the bundled samples: the saddle (program, plan, tool table) or the flank (program, plan).
     Sample(sample::Args),
 }
@@ -196,6 +203,8 @@ pub fn error_text(err: &anyhow::Error) -> String {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Fit(args) => fit::run(&args),
+        Command::ImportLaser(args) => import_laser::run(&args),
+        Command::Export(args) => export::run(&args),
         Command::Error(args) => error::run(&args),
         Command::Map(args) => map::run(&args),
         Command::Check(args) => check::run(&args),

@@ -24,9 +24,17 @@ pub struct Args {
     pub machine: MachineArgs,
     /// Program (`-` for standard input).
     pub program: PathBuf,
-    /// Inspection plan (CSV `id,x,y,z,i,j,k`, part coordinates).
+    /// Inspection plan (CSV `id,x,y,z,i,j,k`, part coordinates unless --plan-frame work).
     #[arg(long, value_name = "PLAN.csv")]
     pub plan: Option<PathBuf>,
+    /// Frame of the plan's points: part (the rotary plate's) or work (the program's
+    /// coordinates: the work offset, G92 and rotation it cuts in are applied).
+    #[arg(long, value_enum, default_value = "part", value_name = "part|work")]
+    pub plan_frame: super::plan_frame::PlanFrame,
+    /// Every plan point's prediction as CSV for inspection software:
+    /// id,x,y,z,i,j,k,deviation_um,u_um,line,tool (points in the plan's frame).
+    #[arg(long, value_name = "FILE.csv")]
+    pub csv: Option<PathBuf>,
     /// Report (JSON).
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
@@ -44,11 +52,26 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             super::common::is_stdout(args.report.as_deref()),
         ),
         ("--html -", super::common::is_stdout(args.html.as_deref())),
+        ("--csv -", super::common::is_stdout(args.csv.as_deref())),
     ])?;
-    if args.report.is_none() && args.html.is_none() {
+    if args.plan.is_none() {
+        for (given, what) in [
+            (args.csv.is_some(), "--csv"),
+            (
+                args.plan_frame != super::plan_frame::PlanFrame::Part,
+                "--plan-frame work",
+            ),
+        ] {
+            if given {
+                return Err(super::UsageError(format!("{what} needs --plan")).into());
+            }
+        }
+    }
+    if args.report.is_none() && args.html.is_none() && args.csv.is_none() {
         eprintln!("note: no --report or --html given; printing the summary only");
     }
     let (machine, model) = args.machine.load()?;
+    let work = super::plan_frame::work_frame(args.plan_frame, &args.read, &args.program, &machine)?;
     super::common::CommandFiles::new()
         .input("the program", Some(&args.program))
         .input("the plan", args.plan.as_deref())
@@ -73,7 +96,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let (mut report, summary) = match &args.plan {
         Some(plan_path) => {
-            let plan = Plan::read(plan_path)?;
+            let given = Plan::read(plan_path)?;
+            let plan = match &work {
+                Some(frame) => frame.plan_to_part(&given),
+                None => given.clone(),
+            };
             let mut report = predict_plan(program, &model, &plan, &options)?;
             if report.points_cut == 0 {
                 super::common::print_warnings(&warnings.groups());
@@ -90,6 +117,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             report.stamp = stamp;
             if let Some(path) = &args.report {
                 write_json_atomic(path, &report)?;
+            }
+            if let Some(path) = &args.csv {
+                write_file_atomic(path, prediction_csv(&given, &report).as_bytes())?;
             }
             (report, PathSummary::default())
         }
@@ -238,4 +268,41 @@ plan points cut per tool: {}",
     };
     super::common::say(data_on_stdout, &text)?;
     Ok(())
+}
+
+/// `id,x,y,z,i,j,k,deviation_um,u_um,line,tool`: each plan point as given (its
+/// own frame and digits) with its prediction; a point not cut has the last four
+/// cells empty, as has `u_um` when the model carries no uncertainty.
+fn prediction_csv(plan: &Plan, report: &crate::predict::PredictReport) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::from("id,x,y,z,i,j,k,deviation_um,u_um,line,tool\n");
+    for (p, r) in plan.points.iter().zip(&report.points) {
+        debug_assert_eq!(p.id, r.id);
+        let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{:.4}", v + 0.0));
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            csv_field(&p.id),
+            p.point[0],
+            p.point[1],
+            p.point[2],
+            p.normal[0],
+            p.normal[1],
+            p.normal[2],
+            opt(r.deviation_um),
+            opt(r.deviation_u_um),
+            r.line.map_or(String::new(), |l| l.to_string()),
+            r.tool.map_or(String::new(), |t| t.to_string()),
+        );
+    }
+    out
+}
+
+/// An id as a CSV field (quoted when it holds a comma or a quote).
+fn csv_field(id: &str) -> String {
+    if id.contains([',', '"', '\n']) {
+        format!("\"{}\"", id.replace('"', "\"\""))
+    } else {
+        id.to_string()
+    }
 }

@@ -30,6 +30,10 @@ pub struct Args {
     pub read: super::common::ProgramArgs,
     /// Inspection plan (CSV: id,x,y,z,i,j,k).
     pub plan: PathBuf,
+    /// Frame of the plan's (measurement's) points: part (the rotary plate's) or work
+    /// (the program's coordinates: the work offset, G92 and rotation it cuts in applied).
+    #[arg(long, value_enum, default_value = "part", value_name = "part|work")]
+    pub plan_frame: super::plan_frame::PlanFrame,
     /// Output measurement (CSV: id,x,y,z,i,j,k,mx,my,mz; `-` for stdout).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -81,7 +85,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             super::common::is_stdout(args.dump_contexts.as_deref()),
         ),
     ])?;
-    let plan = Plan::read(&args.plan)?;
+    let given = Plan::read(&args.plan)?;
+    let work = work_frame_of(args)?;
+    let plan = match &work {
+        Some(frame) => frame.plan_to_part(&given),
+        None => given,
+    };
     let part =
         super::diagnose::CutPart::new(&args.machine, &args.program, args.read.clone(), plan)?;
     super::common::CommandFiles::new()
@@ -142,6 +151,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let measurement = simulate(&contexts, &part.truth_um()?, &effects, &options)
         .context("simulating the measurement")?;
+    let measurement = match &work {
+        // Written in the frame the plan came in.
+        Some(frame) => frame.measurement_to_work(&measurement),
+        None => measurement,
+    };
     measurement.write(&args.output)?;
     outputs.commit()?;
     let cut = contexts.iter().filter(|c| c.cut).count();
@@ -185,4 +199,24 @@ fn effects_text(effects: &[Effect], rotary: [crate::axes::Axis; 2]) -> String {
             .collect::<Vec<_>>()
             .join(" + ")
     }
+}
+
+/// The work frame of `--plan-frame work` (None for part coordinates).
+fn work_frame_of(args: &Args) -> anyhow::Result<Option<crate::inspection::WorkFrame>> {
+    if args.plan_frame == super::plan_frame::PlanFrame::Part {
+        return Ok(None);
+    }
+    if args.followup.is_some() {
+        return Err(UsageError(
+            "--plan-frame work with --followup: a follow-up plan is in part coordinates; simulate it separately".into(),
+        )
+        .into());
+    }
+    let machine = crate::machine::Machine::load_with(
+        &args.machine.machine_file,
+        &crate::machine::LoadOptions {
+            extrapolation: args.machine.model.extrapolate.into(),
+        },
+    )?;
+    super::plan_frame::work_frame(args.plan_frame, &args.read, &args.program, &machine)
 }

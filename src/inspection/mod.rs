@@ -11,6 +11,9 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 pub mod reader;
+pub mod work_frame;
+
+pub use work_frame::WorkFrame;
 
 #[derive(Debug, thiserror::Error)]
 pub enum InspectionError {

@@ -1,6 +1,8 @@
 //! Measured component-error tables (formats.md "Error table"), one CSV per axis:
 //! a header `position,EXX,EYX,…` (columns in any order), then one row per measured
 //! position, positions strictly increasing; `#` lines and blank lines are ignored.
+//! A `REVERSAL` column (formats.md "Laser positioning runs and reversal", written by
+//! `volcomp import-laser`) is kept in [`ErrorTable::reversal`].
 //!
 //! Invariants of a read [`ErrorTable`]: at least [`MIN_ROWS`] rows, positions
 //! finite and strictly increasing, every value finite; each column is one of the six
@@ -45,6 +47,10 @@ pub struct ErrorTable {
     pub missing: Vec<String>,
     /// A rotary table covering 0..360 degrees: lookups wrap (c mod 360).
     pub one_revolution: bool,
+    /// `REVERSAL` (formats.md "Laser positioning runs and reversal"): the
+    /// positioning error approaching from below minus from above, µm or µrad,
+    /// one value per position; `None` when the file has no such column.
+    pub reversal: Option<Vec<f64>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -121,8 +127,20 @@ impl ErrorTable {
         // The axis: given, or the last letter shared by every parameter column.
         let mut inferred: Option<Axis> = axis;
         let mut params: Vec<(usize, String)> = Vec::new();
+        let mut reversal_col: Option<usize> = None;
         for (i, name) in names.iter().enumerate() {
             if i == pos_col {
+                continue;
+            }
+            if name == "REVERSAL" {
+                if reversal_col.is_some() {
+                    return Err(err(
+                        header_line,
+                        Some(col_label(i, &names)),
+                        "column `REVERSAL` appears twice".into(),
+                    ));
+                }
+                reversal_col = Some(i);
                 continue;
             }
             let b = name.as_bytes();
@@ -135,7 +153,7 @@ impl ErrorTable {
                     header_line,
                     Some(col_label(i, &names)),
                     format!(
-                        "unknown column `{name}`: expected `position` or E<direction><axis> such as EXX, EAC"
+                        "unknown column `{name}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL"
                     ),
                 ));
             }
@@ -169,6 +187,7 @@ impl ErrorTable {
         };
         let mut positions: Vec<f64> = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); params.len()];
+        let mut reversal: Vec<f64> = Vec::new();
         let mut last_line = header_line;
         for (line, row) in lines {
             last_line = line;
@@ -210,6 +229,9 @@ impl ErrorTable {
             for (slot, (i, _)) in params.iter().enumerate() {
                 values[slot].push(number(*i)?);
             }
+            if let Some(i) = reversal_col {
+                reversal.push(number(i)?);
+            }
         }
         if positions.len() < MIN_ROWS {
             return Err(err(
@@ -242,6 +264,7 @@ impl ErrorTable {
             columns,
             missing,
             one_revolution,
+            reversal: reversal_col.map(|_| reversal),
         })
     }
 

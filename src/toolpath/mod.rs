@@ -9,6 +9,7 @@ pub mod cut;
 pub mod plan_match;
 pub mod program;
 pub mod walk;
+pub mod work_origin;
 
 pub use context::PointContext;
 pub use cut::{CutError, CutOptions};

@@ -61,6 +61,7 @@ const LOOP: &str =
 const LENIENT_LOOP: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --lenient --max-loop-lines 100000";
 const MOVES: &str =
     "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --max-moves 1000";
+const LASER: &str = "import-laser {d}/bad.csv --axis X -o {d}/out.csv --report {d}/out.json";
 const VAR: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --var {d}/bad.var";
 
@@ -796,7 +797,254 @@ fn cases() -> Vec<Case> {
             1,
             &["{d}/bad.var:1:", "expected `NUMBER VALUE`"],
         ),
+        // Plans in work coordinates (--plan-frame work).
+        case(
+            "plan (work coordinates)",
+            "a program cutting in two work offsets (G54, then G55)",
+            vec![
+                (
+                    "bad.nc",
+                    text(
+                        "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 Y5 Z2 A12 C30 F500\nG55\nG1 X10 Y2 Z1 A15 C60\nM30\n%\n",
+                    ),
+                ),
+                ("plan.csv", plan_rows(&["1,5,5,2,0,0,1"])),
+            ],
+            "predict {d}/ok.toml {d}/bad.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G55=1,0,0",
+            1,
+            &[
+                "{d}/bad.nc: --plan-frame work is ambiguous: the program cuts in 2 work frames: line 4",
+                "line 6",
+            ],
+        ),
+        case(
+            "plan (work coordinates)",
+            "a joint-frame program cutting with A turned under a work offset",
+            vec![("plan.csv", plan_rows(&["1,5,5,2,0,0,1"]))],
+            "predict {d}/ok.toml {d}/ok.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G54=1,0,0",
+            1,
+            &[
+                "{d}/ok.nc: --plan-frame work: the program cuts in joint coordinates (no tool-tip control) with a rotary axis turned (first at line 4, 2 moves)",
+            ],
+        ),
+        case(
+            "plan (work coordinates)",
+            "a work offset that turns C",
+            vec![
+                ("ok2.nc", text(PROGRAM)),
+                ("plan.csv", plan_rows(&["1,5,5,2,0,0,1"])),
+            ],
+            "predict {d}/ok.toml {d}/ok2.nc --plan {d}/plan.csv --plan-frame work --report {d}/out.json --model {d}/fit.json --offset G54=0,0,0,0,15",
+            1,
+            &["{d}/ok2.nc: --plan-frame work: the program's work offset turns C (15°)"],
+        ),
+        // Controller export.
+        case(
+            "machine file (export linuxcnc)",
+            "no linear axis has a positioning table",
+            vec![(
+                "bad.toml",
+                machine(
+                    "x = \"ref-trt/x.csv\"\ny = \"ref-trt/y.csv\"\nz = \"ref-trt/z.csv\"\n",
+                    "",
+                ),
+            )],
+            "export linuxcnc {d}/bad.toml -o {d}/out.dir",
+            1,
+            &["{d}/bad.toml: no linear axis has a positioning table (EXX, EYY, EZZ)"],
+        ),
+        case(
+            "command line (export linuxcnc)",
+            "`--max-lines 300` (LinuxCNC takes 256)",
+            vec![],
+            "export linuxcnc {d}/ok.toml -o {d}/out.dir --max-lines 300",
+            2,
+            &["--max-lines 300: LinuxCNC takes 2 to 256 lines a joint"],
+        ),
+        // Laser positioning runs (import-laser).
+        case(
+            "laser runs (CSV)",
+            "empty file",
+            vec![("bad.csv", text(""))],
+            LASER,
+            1,
+            &["{d}/bad.csv:1:1: empty file"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "binary file",
+            vec![("bad.csv", binary())],
+            LASER,
+            1,
+            &["{d}/bad.csv", "not UTF-8 text"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "an unknown column",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation,temperature", &[]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:1:32: unknown column `temperature`"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a header mixing layouts",
+            vec![("bad.csv", laser_rows("target,run,direction,+,-", &[]))],
+            LASER,
+            1,
+            &["{d}/bad.csv:1:1: cannot tell the layout"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "an empty cell",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-,"]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:18:8: empty cell in column `deviation`"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a row with a cell missing",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-"]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:7: 3 fields, but the header (line 1) has 4 columns; the cell of `deviation` is missing",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`nan` deviation",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-,nan"]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:18:8: `nan` in column `deviation` is not a finite number"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a quoted decimal comma with `,` separators (accepted)",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-,\"1,5\""]),
+            )],
+            "import-laser {d}/bad.csv --axis X -o {d}/out.csv",
+            0,
+            &["axis X: 1 file (long)"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "an unknown direction",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,left,1"]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:18:6: direction `left`"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "run 0",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,0,-,1"]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:18:4: run `0` is not a whole number from 1"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "an angle unit on a length",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation [arcsec]", &[]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:1:22: deviation unit `arcsec`: EXX is a length"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "an unknown target unit",
+            vec![(
+                "bad.csv",
+                laser_rows("target [inch],run,direction,deviation", &[]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:1:1: target unit `inch`: axis X takes mm"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "the same run and approach twice",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,1,+,1"]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: run 1 approaches target 30 from below (+) a second time (first at {d}/bad.csv:8:8)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a target approached from one side only",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["95,1,+,1"]),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv:18:1: EXX at target 95 has no reading approached from above (-)"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "fewer than 8 targets",
+            vec![(
+                "bad.csv",
+                text("target,run,direction,deviation\n0,1,+,1\n0,1,-,1\n"),
+            )],
+            LASER,
+            1,
+            &["{d}/bad.csv: EXX has 1 targets, but an error table needs at least 8"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a parameter of another axis (`EYY=` with --axis X)",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser EYY={d}/bad.csv --axis X -o {d}/out.csv",
+            2,
+            &["EYY is not an error parameter of axis X"],
+        ),
     ]
+}
+
+/// A laser file: `header`, then targets 0, 10, … 70 with run 1 up and down
+/// (lines 2-17), then `extra` rows.
+fn laser_rows(header: &str, extra: &[&str]) -> Vec<u8> {
+    let mut s = format!("{header}\n");
+    for t in 0..8 {
+        s.push_str(&format!("{},1,+,1.5\n{},1,-,-1.5\n", t * 10, t * 10));
+    }
+    for r in extra {
+        s.push_str(r);
+        s.push('\n');
+    }
+    s.into_bytes()
 }
 
 /// The scratch folder every case runs in: the reference machine, its tables,

@@ -1,0 +1,171 @@
+//! `volcomp import-laser`: laser positioning runs in, the axis's error table and
+//! the ISO 230-2 report out (formats.md "Laser positioning runs and reversal").
+use crate::axes::Axis;
+use crate::laser::{ReadSettings, evaluate, is_parameter_of, positioning_parameter, read_file};
+use std::path::{Path, PathBuf};
+
+const AFTER_HELP: &str = "\
+Examples:
+  volcomp import-laser tests/data/laser/x-long.csv --axis X -o x.csv --report x-iso230.json
+  volcomp import-laser run1.csv run2.csv run3.csv --axis X -o x.csv
+  volcomp import-laser x-pos.csv EYX=x-straightness.csv EBX=x-pitch.csv --axis X -o x.csv
+
+Each FILE holds bidirectional runs in one of three layouts (docs/extensions.md):
+  long    target,run,direction,deviation      one reading a row (direction + - up down fwd rev)
+  paired  target,run,+,-                      a target and run a row, both approaches
+  wide    target,run 1 +,run 1 -,run 2 +,...  a target a row, a column per run and direction
+Separators , ; or tab; with ; or tab a decimal comma (1,25); # comments. Header cells may
+carry a unit: target [mm] or [deg]; deviations [µm] [um] [nm] [mm] for lengths,
+[µrad] [urad] [mrad] [arcsec] [mm/m] [µm/m] for angles (default µm, µrad).
+Rows may come in any order (runs measured from the far end).
+
+A FILE measures the axis's positioning error (EXX for X, EAA for A) unless it is
+given as PARAM=FILE (EYX=..., EBX=...) or its deviation column is named after the
+parameter (target,run,direction,EYX [µm]). Several files of one parameter are
+pooled (their runs kept apart). The table has position, each parameter's mean
+bidirectional deviation (ISO 230-2 x̄_i) and, after the positioning parameter,
+REVERSAL (B_i = x̄_i↑ − x̄_i↓). The report gives A, B, E, M, R per parameter and the
+statistics of every target.";
+
+#[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
+pub struct Args {
+    /// Laser files: FILE, or PARAM=FILE for a straightness or angular run (EYX=x-straight.csv).
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<String>,
+    /// The axis measured (X Y Z A B C U V W).
+    #[arg(long, value_parser = parse_axis)]
+    pub axis: Axis,
+    /// The error table to write (`-`: standard output).
+    #[arg(short, long, value_name = "TABLE.csv")]
+    pub output: PathBuf,
+    /// The ISO 230-2 report (JSON; `-`: standard output).
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+}
+
+fn parse_axis(text: &str) -> Result<Axis, String> {
+    let mut chars = text.trim().chars();
+    match (chars.next().and_then(Axis::from_letter), chars.next()) {
+        (Some(a), None) => Ok(a),
+        _ => Err(format!(
+            "`{text}` is not an axis letter (X Y Z A B C U V W)"
+        )),
+    }
+}
+
+/// `PARAM=FILE` → (Some(PARAM), FILE); anything else is a path.
+fn split_source(arg: &str) -> (Option<String>, PathBuf) {
+    if let Some((p, f)) = arg.split_once('=') {
+        let upper = p.trim().to_ascii_uppercase();
+        let b = upper.as_bytes();
+        if b.len() == 3 && b[0] == b'E' && !f.is_empty() {
+            return (Some(upper), PathBuf::from(f));
+        }
+    }
+    (None, PathBuf::from(arg))
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let to_stdout = super::common::stdout_output(&[
+        ("-o", super::common::is_stdout(Some(&args.output))),
+        ("--report", super::common::is_stdout(args.report.as_deref())),
+    ])?;
+    let mut files = Vec::new();
+    for arg in &args.files {
+        let (parameter, path) = split_source(arg);
+        if let Some(p) = &parameter {
+            if !is_parameter_of(p, args.axis) {
+                return Err(super::UsageError(format!(
+                    "`{arg}`: {p} is not an error parameter of axis {} (E<direction>{}, e.g. {})",
+                    args.axis.letter(),
+                    args.axis.letter(),
+                    positioning_parameter(args.axis)
+                ))
+                .into());
+            }
+        }
+        let settings = ReadSettings {
+            axis: args.axis,
+            parameter,
+        };
+        files.push(read_file(&path, &settings)?);
+    }
+    let import = evaluate(args.axis, files)?;
+    let table = import.table_csv();
+    // Both outputs are made before either is written: a failure leaves neither.
+    let report = args
+        .report
+        .as_ref()
+        .map(|_| {
+            serde_json::to_string_pretty(&import).map(|mut s| {
+                s.push('\n');
+                s
+            })
+        })
+        .transpose()?;
+    crate::io::write_file_atomic(&args.output, table.as_bytes())?;
+    if let (Some(path), Some(text)) = (&args.report, &report) {
+        crate::io::write_file_atomic(path, text.as_bytes())?;
+    }
+    let layouts: Vec<&str> = import.files.iter().map(|f| f.layout.name()).collect();
+    let first = &import.parameters[0];
+    crate::humanln!(
+        to_stdout,
+        "axis {}: {} ({}), {} targets from {} to {} {}",
+        args.axis.letter(),
+        super::common::count(import.files.len() as u64, "file", "files"),
+        layouts.join(", "),
+        first.targets.len(),
+        first.targets[0].target,
+        first.targets[first.targets.len() - 1].target,
+        args.axis.unit()
+    );
+    for p in &import.parameters {
+        let f = &p.figures;
+        let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+        crate::humanln!(
+            to_stdout,
+            "{} ({}, {} runs +, {} runs -): A {}  B {:.2} (mean {:.2})  E {:.2}  M {:.2}  R {}",
+            p.parameter,
+            p.unit,
+            p.runs_up,
+            p.runs_down,
+            opt(f.accuracy),
+            f.reversal,
+            f.mean_reversal,
+            f.systematic,
+            f.mean_range,
+            opt(f.repeatability)
+        );
+        if f.accuracy.is_none() {
+            crate::humanln!(
+                to_stdout,
+                "note: {}: A and R need at least two runs in each direction at every target",
+                p.parameter
+            );
+        }
+    }
+    let columns: Vec<&str> = table
+        .lines()
+        .find(|l| !l.starts_with('#'))
+        .map(|h| h.split(',').skip(1).collect())
+        .unwrap_or_default();
+    if !super::common::is_stdout(Some(&args.output)) {
+        crate::humanln!(
+            to_stdout,
+            "wrote {} ({} positions: {})",
+            display(&args.output),
+            first.targets.len(),
+            columns.join(", ")
+        );
+    }
+    if let Some(path) = args.report.as_deref().filter(|p| !crate::io::is_stdio(p)) {
+        crate::humanln!(to_stdout, "wrote {}", display(path));
+    }
+    Ok(())
+}
+
+fn display(path: &Path) -> String {
+    path.display().to_string()
+}

@@ -1,0 +1,209 @@
+//! Controller files out (`volcomp export`): a LinuxCNC COMP_FILE read back as
+//! LinuxCNC reads and interpolates it reproduces the fitted positioning curves
+//! (forward and reverse) within the stated tolerance; the trt pivot parameters;
+//! the fitted tables on a grid.
+use crate::support::{assert_success, root, volcomp};
+use std::path::{Path, PathBuf};
+use volcomp::axes::Axis;
+use volcomp::export::Positioning;
+use volcomp::machine::table::ErrorTable;
+use volcomp::machine::{ErrorModel, Machine, ModelOptions};
+
+/// ref-trt with its X table replaced by the import of tests/data/laser/x-long.csv
+/// (EXX and a REVERSAL of 5 to 7 µm); the machine file's path.
+fn machine_with_reversal(dir: &Path) -> PathBuf {
+    let table = dir.join("x-laser.csv");
+    let out = volcomp()
+        .arg("import-laser")
+        .arg(root().join("tests/data/laser/x-long.csv"))
+        .args(["--axis", "X", "-o"])
+        .arg(&table)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(root().join("machines/ref-trt.toml"))
+        .unwrap()
+        .replace("\"ref-trt/x.csv\"", &format!("\"{}\"", table.display()))
+        .replace(
+            "\"ref-trt/",
+            &format!("\"{}/machines/ref-trt/", root().display()),
+        );
+    let path = dir.join("m.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A COMP_FILE as LinuxCNC's `usrmotLoadComp` reads it: `%lf %lf %lf` a line,
+/// stopping at the first line that is not three numbers; type 0 turns actual
+/// positions into trims (nominal − actual). (nominal, forward trim, reverse trim).
+fn linuxcnc_load(text: &str, comp_type: u8) -> Vec<(f64, f64, f64)> {
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .take(3)
+            .map_while(|w| w.parse().ok())
+            .collect();
+        if v.len() != 3 {
+            break;
+        }
+        out.push(if comp_type == 0 {
+            (v[0], v[0] - v[1], v[0] - v[2])
+        } else {
+            (v[0], v[1], v[2])
+        });
+    }
+    out
+}
+
+/// `compute_screw_comp`: the trim at commanded `p` moving up (or down), linear
+/// between entries, the end entries' trims held beyond them.
+fn linuxcnc_trim(table: &[(f64, f64, f64)], p: f64, up: bool) -> f64 {
+    let pick = |e: &(f64, f64, f64)| if up { e.1 } else { e.2 };
+    if p < table[0].0 {
+        return pick(&table[0]);
+    }
+    let k = table.iter().rposition(|e| e.0 <= p).unwrap();
+    if k + 1 == table.len() {
+        return pick(&table[k]);
+    }
+    let t = (p - table[k].0) / (table[k + 1].0 - table[k].0);
+    pick(&table[k]) + t * (pick(&table[k + 1]) - pick(&table[k]))
+}
+
+#[test]
+fn a_comp_file_read_back_as_linuxcnc_does_reproduces_the_fitted_curves() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine_path = machine_with_reversal(dir.path());
+    let machine = Machine::load(&machine_path).unwrap();
+    let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).unwrap();
+    let tol_um = 0.1;
+    for comp_type in [0u8, 1] {
+        let out_dir = dir.path().join(format!("lcnc{comp_type}"));
+        let out = volcomp()
+            .args(["export", "linuxcnc"])
+            .arg(&machine_path)
+            .arg("-o")
+            .arg(&out_dir)
+            .args(["--comp-type", &comp_type.to_string()])
+            .output()
+            .unwrap();
+        assert_success(&out);
+        for axis in [Axis::X, Axis::Y, Axis::Z] {
+            let text =
+                std::fs::read_to_string(out_dir.join(format!("{}.comp", axis.lower()))).unwrap();
+            // Nothing before the triplets: the first line is three numbers.
+            let first: Vec<&str> = text.lines().next().unwrap().split_whitespace().collect();
+            assert_eq!(first.len(), 3, "{text}");
+            assert!(first.iter().all(|w| w.parse::<f64>().is_ok()), "{text}");
+            let table = linuxcnc_load(&text, comp_type);
+            assert!(table.len() <= 256 && table.len() >= 8, "{}", table.len());
+            assert!(table.windows(2).all(|w| w[0].0 < w[1].0), "nominals ascend");
+            // The provenance follows the triplets.
+            assert!(text.contains("# volcomp export linuxcnc: machine ref-trt"));
+            let pos = Positioning::of(&machine, &model, axis).unwrap();
+            assert_eq!(pos.has_reversal(), axis == Axis::X);
+            let [lo, hi] = pos.range;
+            assert_eq!((table[0].0, table[table.len() - 1].0), (lo, hi));
+            let mut worst: f64 = 0.0;
+            for k in 0..=4000 {
+                let p = lo + (hi - lo) * k as f64 / 4000.0;
+                for up in [true, false] {
+                    let trim_um = linuxcnc_trim(&table, p, up) * 1e3;
+                    let fitted = if up { pos.forward(p) } else { pos.reverse(p) };
+                    worst = worst.max((trim_um + fitted).abs());
+                    // The joint lands where it was commanded: motor at p + trim,
+                    // the machine there off by its error for that approach.
+                    let motor = p + trim_um * 1e-3;
+                    if (lo..=hi).contains(&motor) {
+                        let err = if up {
+                            pos.forward(motor)
+                        } else {
+                            pos.reverse(motor)
+                        };
+                        let landed_um = (motor - p) * 1e3 + err;
+                        assert!(
+                            landed_um.abs() < tol_um + 0.02,
+                            "{axis:?} {p} up={up}: {landed_um} µm"
+                        );
+                    }
+                }
+            }
+            assert!(
+                worst <= tol_um + 1e-3,
+                "{axis:?} type {comp_type}: {worst} µm"
+            );
+        }
+        // X moving up and down differ by the reversal (5 to 7 µm).
+        let x = linuxcnc_load(
+            &std::fs::read_to_string(out_dir.join("x.comp")).unwrap(),
+            comp_type,
+        );
+        let gap_um = (linuxcnc_trim(&x, 0.0, false) - linuxcnc_trim(&x, 0.0, true)) * 1e3;
+        assert!((gap_um - 6.0).abs() < 1.0, "{gap_um}");
+        let readme = std::fs::read_to_string(out_dir.join("README.txt")).unwrap();
+        assert!(readme.contains("[JOINT_0]\nCOMP_FILE = "), "{readme}");
+        assert!(readme.contains(&format!("COMP_FILE_TYPE = {comp_type}")));
+        assert!(readme.contains("A: no COMP_FILE (rotary"), "{readme}");
+    }
+}
+
+#[test]
+fn the_trt_pivot_parameters_carry_the_location_offsets() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = volcomp()
+        .args(["export", "linuxcnc"])
+        .arg(root().join("machines/ref-trt.toml"))
+        .arg("-o")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let ini = std::fs::read_to_string(dir.path().join("kinematics.ini")).unwrap();
+    // ref-trt: pivots at 0; EX0C 5.6, EY0C 7.9, EY0A 12.7, EZ0A −3.0 µm.
+    for line in [
+        "HALCMD = setp xyzac-trt-kins.x-rot-point 0.0056\n",
+        "HALCMD = setp xyzac-trt-kins.y-rot-point 0.0079\n",
+        "HALCMD = setp xyzac-trt-kins.z-rot-point 0\n",
+        "HALCMD = setp xyzac-trt-kins.y-offset 0.0048\n",
+        "HALCMD = setp xyzac-trt-kins.z-offset -0.003\n",
+    ] {
+        assert!(ini.contains(line), "{line}{ini}");
+    }
+    assert!(ini.contains("EB0A = 22.7"), "{ini}");
+    // No REVERSAL in ref-trt's tables: both directions alike.
+    let x = std::fs::read_to_string(dir.path().join("x.comp")).unwrap();
+    let t = linuxcnc_load(&x, 0);
+    assert!(t.iter().all(|e| e.1 == e.2));
+}
+
+#[test]
+fn fitted_tables_come_out_on_the_chosen_grid_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = volcomp()
+        .args(["export", "tables"])
+        .arg(root().join("machines/ref-trt.toml"))
+        .arg("-o")
+        .arg(dir.path())
+        .args(["--step", "5", "--step-deg", "7"])
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let (machine, model) = crate::compensate::ref_trt();
+    let x = ErrorTable::read(&dir.path().join("x.csv"), None).unwrap();
+    assert_eq!(x.positions.len(), 81);
+    assert_eq!(x.columns.len(), 6);
+    for c in &x.columns {
+        let curve = model.curve(&c.name).unwrap();
+        for (p, v) in x.positions.iter().zip(&c.values) {
+            assert!((curve.value_at(*p) - v).abs() <= 5e-5, "{} at {p}", c.name);
+        }
+    }
+    // A: -110..110 every 7 degrees, and the end.
+    let a = ErrorTable::read(&dir.path().join("a.csv"), None).unwrap();
+    assert_eq!(a.positions.first(), Some(&-110.0));
+    assert_eq!(a.positions.last(), Some(&110.0));
+    assert_eq!(a.positions.len(), 33);
+    assert!(machine.table(Axis::C).is_some());
+    assert!(dir.path().join("c.csv").exists());
+}

@@ -1,0 +1,229 @@
+//! Laser positioning runs in (`volcomp import-laser`): the fixtures of
+//! tests/data/laser/ (made by its make.py from the reference tables, with seeded
+//! noise and a known reversal) come back as the reference table and that
+//! reversal; the ISO 230-2 figures against a hand-computed example; an imported
+//! table is fitted and compensated with.
+use crate::support::{assert_success, root, volcomp};
+use volcomp::laser::iso230::{axis_figures, target_stats};
+use volcomp::machine::table::ErrorTable;
+
+/// Import `files` for `axis` into a table in `dir`; the table read back.
+fn import(dir: &std::path::Path, files: &[&str], axis: &str) -> ErrorTable {
+    let out_path = dir.join(format!("{axis}-imported.csv"));
+    let mut cmd = volcomp();
+    cmd.arg("import-laser");
+    for f in files {
+        match f.split_once('=') {
+            Some((p, f)) => cmd.arg(format!(
+                "{p}={}",
+                root().join("tests/data/laser").join(f).display()
+            )),
+            None => cmd.arg(root().join("tests/data/laser").join(f)),
+        };
+    }
+    let out = cmd
+        .args(["--axis", axis, "-o"])
+        .arg(&out_path)
+        .args(["--report"])
+        .arg(dir.join(format!("{axis}-report.json")))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    ErrorTable::read(&out_path, None).unwrap()
+}
+
+/// The largest |imported − reference| of `column`.
+fn max_gap(table: &ErrorTable, reference: &str, column: &str) -> f64 {
+    let r = ErrorTable::read(&root().join(reference), None).unwrap();
+    assert_eq!(table.positions, r.positions);
+    let a = &table.column(column).unwrap().values;
+    let b = &r.column(column).unwrap().values;
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn every_fixture_gives_the_reference_table_and_its_reversal() {
+    let dir = tempfile::tempdir().unwrap();
+    // X: 5 runs each way, σ = 0.3 µm, B_i = 6 + t/200 µm; three layouts.
+    for file in ["x-long.csv", "x-semicolon.csv", "x-paired.csv"] {
+        let t = import(dir.path(), &[file], "X");
+        let gap = max_gap(&t, "machines/ref-trt/x.csv", "EXX");
+        assert!(gap < 0.5, "{file}: EXX off by {gap} µm");
+        let rev = t.reversal.as_ref().expect("REVERSAL");
+        for (p, b) in t.positions.iter().zip(rev) {
+            let known = 6.0 + p / 200.0;
+            assert!(
+                (b - known).abs() < 0.8,
+                "{file}: B at {p} = {b}, made {known}"
+            );
+        }
+    }
+    // Y, wide tab export, descending targets, 3 runs, B = 4 µm.
+    let t = import(dir.path(), &["y-wide.tsv"], "Y");
+    assert!(max_gap(&t, "machines/ref-trt/y.csv", "EYY") < 0.5);
+    assert!(t.reversal.unwrap().iter().all(|b| (b - 4.0).abs() < 0.8));
+    // A in arcsec, B = 10 µrad.
+    let t = import(dir.path(), &["a-long.csv"], "A");
+    assert!(max_gap(&t, "machines/ref-trt/a.csv", "EAA") < 1.5);
+    assert!(t.reversal.unwrap().iter().all(|b| (b - 10.0).abs() < 2.5));
+    // Positioning, straightness (µm) and pitch (arcsec, decimal comma) in one table.
+    let t = import(
+        dir.path(),
+        &[
+            "x-long.csv",
+            "EYX=x-straightness-eyx.csv",
+            "EBX=x-pitch-ebx.csv",
+        ],
+        "X",
+    );
+    let names: Vec<&str> = t.columns.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["EXX", "EYX", "EBX"]);
+    assert!(max_gap(&t, "machines/ref-trt/x.csv", "EYX") < 0.4);
+    assert!(max_gap(&t, "machines/ref-trt/x.csv", "EBX") < 1.0);
+    // The header names the parameter: no EYX= needed.
+    let t = import(dir.path(), &["x-straightness-eyx.csv"], "X");
+    assert_eq!(t.columns[0].name, "EYX");
+    assert!(t.reversal.is_none());
+}
+
+/// ISO 230-2 by hand, two targets, three runs each way (µm):
+/// target 0: up 1 2 3 (x̄↑ 2, s↑ 1), down −1 −1 −4 (x̄↓ −2, s↓ √3), B 4;
+/// target 10: up 5 5 5 (x̄↑ 5, s↑ 0), down 4 6 5 (x̄↓ 5, s↓ 1), B 0.
+/// R_0 = max(2 + 2√3 + 4, 4, 4√3) = 6 + 2√3; R_10 = max(0 + 2 + 0, 0, 4) = 4.
+/// E = 5 − (−2) = 7; M = 5 − 0 = 5; B = 4, B̄ = 2; R = 6 + 2√3;
+/// A = max(2+2, −2+2√3, 5+0, 5+2) − min(2−2, −2−2√3, 5−0, 5−2) = 7 − (−2 − 2√3) = 9 + 2√3;
+/// A↑ = max(4, 5) − min(0, 5) = 5; A↓ = 9 + 2√3; E↑ = 3; E↓ = 7; R↑ = 4; R↓ = 4√3.
+#[test]
+fn iso_230_2_figures_match_a_hand_computed_example() {
+    let r3 = 3f64.sqrt();
+    let t0 = target_stats(0.0, &[1.0, 2.0, 3.0], &[-1.0, -1.0, -4.0]);
+    let t1 = target_stats(10.0, &[5.0, 5.0, 5.0], &[4.0, 6.0, 5.0]);
+    let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+    close(t0.mean_up, 2.0);
+    close(t0.mean_down, -2.0);
+    close(t0.mean, 0.0);
+    close(t0.reversal, 4.0);
+    close(t0.s_up.unwrap(), 1.0);
+    close(t0.s_down.unwrap(), r3);
+    close(t0.repeatability.unwrap(), 6.0 + 2.0 * r3);
+    close(t1.repeatability.unwrap(), 4.0);
+    let f = axis_figures(&[t0, t1]);
+    close(f.systematic, 7.0);
+    close(f.mean_range, 5.0);
+    close(f.reversal, 4.0);
+    close(f.mean_reversal, 2.0);
+    close(f.repeatability.unwrap(), 6.0 + 2.0 * r3);
+    close(f.accuracy.unwrap(), 9.0 + 2.0 * r3);
+    close(f.accuracy_up.unwrap(), 5.0);
+    close(f.accuracy_down.unwrap(), 9.0 + 2.0 * r3);
+    close(f.systematic_up, 3.0);
+    close(f.systematic_down, 7.0);
+    close(f.repeatability_up.unwrap(), 4.0);
+    close(f.repeatability_down.unwrap(), 4.0 * r3);
+}
+
+/// The same example through the command: a long file with six more targets of
+/// zero deviation (a table needs eight), the report's figures as above.
+#[test]
+fn the_report_carries_the_hand_computed_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("target;run;direction;deviation [mm]\n");
+    let rows: [(f64, [f64; 3], [f64; 3]); 2] = [
+        (0.0, [1.0, 2.0, 3.0], [-1.0, -1.0, -4.0]),
+        (10.0, [5.0, 5.0, 5.0], [4.0, 6.0, 5.0]),
+    ];
+    for (t, up, down) in rows {
+        for j in 0..3 {
+            text.push_str(&format!(
+                "{t};{};+;{}\n",
+                j + 1,
+                (up[j] / 1000.0).to_string().replace('.', ",")
+            ));
+            text.push_str(&format!(
+                "{t};{};-;{}\n",
+                j + 1,
+                (down[j] / 1000.0).to_string().replace('.', ",")
+            ));
+        }
+    }
+    for t in 2..8 {
+        for j in 1..=3 {
+            text.push_str(&format!(
+                "{};{j};+;2,5E-3\n{};{j};-;2,5E-3\n",
+                t * 10,
+                t * 10
+            ));
+        }
+    }
+    std::fs::write(dir.path().join("hand.csv"), text).unwrap();
+    let out = volcomp()
+        .arg("import-laser")
+        .arg(dir.path().join("hand.csv"))
+        .args(["--axis", "Z", "-o"])
+        .arg(dir.path().join("z.csv"))
+        .arg("--report")
+        .arg(dir.path().join("z.json"))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("z.json")).unwrap()).unwrap();
+    let f = &report["parameters"][0]["figures"];
+    let r3 = 3f64.sqrt();
+    let close = |key: &str, v: f64| {
+        let got = f[key].as_f64().unwrap();
+        assert!((got - v).abs() < 1e-9, "{key}: {got} vs {v}");
+    };
+    close("A", 9.0 + 2.0 * r3);
+    close("B", 4.0);
+    close("E", 7.0);
+    close("M", 5.0);
+    close("R", 6.0 + 2.0 * r3);
+    assert_eq!(report["parameters"][0]["parameter"], "EZZ");
+    let table = std::fs::read_to_string(dir.path().join("z.csv")).unwrap();
+    assert!(
+        table.contains("\nposition,EZZ,REVERSAL\n0,0.0000,4.0000\n10,5.0000,0.0000\n"),
+        "{table}"
+    );
+}
+
+#[test]
+fn an_imported_table_is_fitted_and_compensated_with() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = import(dir.path(), &["x-long.csv"], "X");
+    assert!(t.reversal.is_some());
+    let machine = std::fs::read_to_string(root().join("machines/ref-trt.toml"))
+        .unwrap()
+        .replace(
+            "\"ref-trt/x.csv\"",
+            &format!("\"{}\"", dir.path().join("X-imported.csv").display()),
+        )
+        .replace(
+            "\"ref-trt/",
+            &format!("\"{}/machines/ref-trt/", root().display()),
+        );
+    std::fs::write(dir.path().join("m.toml"), machine).unwrap();
+    std::fs::write(
+        dir.path().join("p.nc"),
+        "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X50 Y5 Z2 A12 C30 F500\nG1 X-50 Y2 Z1 A15 C60\nM30\n%\n",
+    )
+    .unwrap();
+    let out = volcomp()
+        .arg("compensate")
+        .arg(dir.path().join("m.toml"))
+        .arg(dir.path().join("p.nc"))
+        .arg("-o")
+        .arg(dir.path().join("out.nc"))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("has a REVERSAL column: the error model does not use it"),
+        "{stderr}"
+    );
+    assert!(dir.path().join("out.nc").exists());
+}
