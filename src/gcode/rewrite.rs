@@ -630,8 +630,8 @@ impl Rewriter {
                     w.code10().map(classify_g),
                     Some(GCode::Motion(MotionMode::Spline(_)) | GCode::NurbsEnd)
                 ),
-                b'X' | b'Y' | b'Z' | b'A' | b'C' | b'I' | b'J' | b'P' | b'Q' | b'L' | b'@'
-                | b'^' => true,
+                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'I' | b'J'
+                | b'P' | b'Q' | b'L' | b'@' | b'^' => true,
                 _ => false,
             };
             if spline_word {
@@ -779,8 +779,8 @@ impl Rewriter {
                     w.code10().map(classify_g),
                     Some(GCode::Motion(MotionMode::Cycle(_)))
                 ),
-                b'X' | b'Y' | b'Z' | b'A' | b'C' | b'R' | b'Q' | b'P' | b'L' | b'I' | b'J'
-                | b'K' | b'@' | b'^' => true,
+                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'R' | b'Q'
+                | b'P' | b'L' | b'I' | b'J' | b'K' | b'@' | b'^' => true,
                 _ => false,
             };
             if cycle_word {
@@ -1032,7 +1032,17 @@ impl Rewriter {
                 .filter(|w| {
                     matches!(
                         w.letter,
-                        b'X' | b'Y' | b'Z' | b'A' | b'C' | b'I' | b'J' | b'K'
+                        b'X' | b'Y'
+                            | b'Z'
+                            | b'A'
+                            | b'B'
+                            | b'C'
+                            | b'U'
+                            | b'V'
+                            | b'W'
+                            | b'I'
+                            | b'J'
+                            | b'K'
                     )
                 })
                 .map(|w| w.end)

@@ -394,6 +394,22 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "program",
+            "a rotary word in a canned cycle (named by its own letter)",
+            p("%\nG21 G90 G17 G98\nG0 X0 Y0 Z20 A0 C0\nG81 X10 Y10 Z-5 R2 C10 F100\nM30\n%\n"),
+            COMPENSATE,
+            1,
+            &["Cannot put a c in canned cycle", "{d}/bad.nc:4:"],
+        ),
+        case(
+            "program",
+            "a B word in a canned cycle (`check`, X Y Z A B C as rs274 reads)",
+            p("%\nG21 G90 G17 G98\nG0 X0 Y0 Z20\nG81 X10 Y10 Z-5 R2 B10 F100\nM30\n%\n"),
+            "check {d}/bad.nc",
+            1,
+            &["Cannot put a b in canned cycle", "{d}/bad.nc:4:"],
+        ),
+        case(
+            "program",
             "an arc `P` beyond an int (LinuxCNC: not an integer)",
             p("%\nG21 G90 G17\nG0 X10 Y0 Z0 A10 C0\nG2 X10 Y0 I-10 J0 P2147483648 F500\nM30\n%\n"),
             COMPENSATE,
