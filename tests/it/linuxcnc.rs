@@ -18,7 +18,11 @@
 //! (not for `maxkins`, whose forward kinematics is not the inverse of its inverse),
 //! within 1e-6 mm / 1e-6 deg, after the documented convention mapping.
 //!
-//! The test fails (never skips) when LinuxCNC cannot run. With
+//! A second test (issue 27 item 3) runs `trivkins` with the `COMP_FILE`s of
+//! `volcomp export linuxcnc` and checks the screw compensation LinuxCNC applies
+//! (`joint.N.motor-pos-cmd`, read through HAL) from each side of each target.
+//!
+//! The tests fail (never skip) when LinuxCNC cannot run. With
 //! `VOLCOMP_WRITE_LINUXCNC_TABLE=1` it writes docs/linuxcnc-kinematics.md; otherwise
 //! it fails when that page is stale.
 use std::fmt::Write as _;
