@@ -11,7 +11,7 @@ use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 
 /// ref-trt with its X table replaced by the import of tests/data/laser/x-long.csv
 /// (EXX and a REVERSAL of 5 to 7 µm); the machine file's path.
-fn machine_with_reversal(dir: &Path) -> PathBuf {
+pub(crate) fn machine_with_reversal(dir: &Path) -> PathBuf {
     let table = dir.join("x-laser.csv");
     let out = volcomp()
         .arg("import-laser")
@@ -36,7 +36,7 @@ fn machine_with_reversal(dir: &Path) -> PathBuf {
 /// A COMP_FILE as LinuxCNC's `usrmotLoadComp` reads it: `%lf %lf %lf` a line,
 /// stopping at the first line that is not three numbers; type 0 turns actual
 /// positions into trims (nominal − actual). (nominal, forward trim, reverse trim).
-fn linuxcnc_load(text: &str, comp_type: u8) -> Vec<(f64, f64, f64)> {
+pub(crate) fn linuxcnc_load(text: &str, comp_type: u8) -> Vec<(f64, f64, f64)> {
     let mut out = Vec::new();
     for line in text.lines() {
         let v: Vec<f64> = line
@@ -58,7 +58,7 @@ fn linuxcnc_load(text: &str, comp_type: u8) -> Vec<(f64, f64, f64)> {
 
 /// `compute_screw_comp`: the trim at commanded `p` moving up (or down), linear
 /// between entries, the end entries' trims held beyond them.
-fn linuxcnc_trim(table: &[(f64, f64, f64)], p: f64, up: bool) -> f64 {
+pub(crate) fn linuxcnc_trim(table: &[(f64, f64, f64)], p: f64, up: bool) -> f64 {
     let pick = |e: &(f64, f64, f64)| if up { e.1 } else { e.2 };
     if p < table[0].0 {
         return pick(&table[0]);

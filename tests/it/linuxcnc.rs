@@ -18,7 +18,11 @@
 //! (not for `maxkins`, whose forward kinematics is not the inverse of its inverse),
 //! within 1e-6 mm / 1e-6 deg, after the documented convention mapping.
 //!
-//! The test fails (never skips) when LinuxCNC cannot run. With
+//! A second test (issue 27 item 3) runs `trivkins` with the `COMP_FILE`s of
+//! `volcomp export linuxcnc` and checks the screw compensation LinuxCNC applies
+//! (`joint.N.motor-pos-cmd`, read through HAL) from each side of each target.
+//!
+//! The tests fail (never skip) when LinuxCNC cannot run. With
 //! `VOLCOMP_WRITE_LINUXCNC_TABLE=1` it writes docs/linuxcnc-kinematics.md; otherwise
 //! it fails when that page is stale.
 use std::fmt::Write as _;
@@ -284,6 +288,19 @@ struct Record {
     world: [f64; 9],
     joints: Vec<f64>,
     actual: [f64; 9],
+    /// `joint.N.motor-pos-cmd` of [`Instance::comp`]'s joints, in that order.
+    motor: Vec<f64>,
+}
+
+/// What an instance has besides its module.
+#[derive(Default)]
+struct Instance {
+    /// (joint, `COMP_FILE`, `COMP_FILE_TYPE`): screw compensation of those joints,
+    /// whose `motor-pos-cmd` the driver reports.
+    comp: Vec<(usize, PathBuf, u8)>,
+    /// Per pose: a feed (mm/min) for a G53 G1 move there, or 0 for G53 G0; empty:
+    /// all G0.
+    feeds: Vec<f64>,
 }
 
 fn is_root() -> bool {
@@ -424,7 +441,7 @@ fn nine(words: &[&str]) -> [f64; 9] {
 }
 
 /// Runs `module` headless on `poses` and returns what LinuxCNC reported.
-fn run_instance(module: &Module, poses: &[[f64; 9]]) -> Vec<Record> {
+fn run_instance(module: &Module, poses: &[[f64; 9]], instance: &Instance) -> Vec<Record> {
     let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
     std::fs::create_dir_all(&base).unwrap();
     // Not under /tmp: the instance's own /tmp is bind-mounted over it.
@@ -440,14 +457,31 @@ fn run_instance(module: &Module, poses: &[[f64; 9]]) -> Vec<Record> {
     std::fs::set_permissions(&private_tmp, std::fs::Permissions::from_mode(0o1777)).unwrap();
     std::fs::write(dir_path.join("tool.tbl"), "").unwrap();
     let ini_path = dir_path.join("machine.ini");
-    std::fs::write(&ini_path, ini(module, dir_path)).unwrap();
+    let mut ini_text = ini(module, dir_path);
+    for (joint, file, kind) in &instance.comp {
+        let section = format!("[JOINT_{joint}]\n");
+        assert!(ini_text.contains(&section), "no {section}");
+        ini_text = ini_text.replace(
+            &section,
+            &format!(
+                "{section}COMP_FILE = {}\nCOMP_FILE_TYPE = {kind}\n",
+                file.display()
+            ),
+        );
+    }
+    std::fs::write(&ini_path, ini_text).unwrap();
+    let motor_joints: Vec<String> = instance.comp.iter().map(|c| c.0.to_string()).collect();
     let mut commands = String::new();
     for s in module.setup {
         writeln!(commands, "setup {s}").unwrap();
     }
-    for p in poses {
+    for (k, p) in poses.iter().enumerate() {
         let words: Vec<String> = p.iter().map(|v| format!("{v:?}")).collect();
-        writeln!(commands, "pose {}", words.join(" ")).unwrap();
+        match instance.feeds.get(k) {
+            Some(&f) if f > 0.0 => writeln!(commands, "feed {f:?} {}", words.join(" ")),
+            _ => writeln!(commands, "pose {}", words.join(" ")),
+        }
+        .unwrap();
     }
     let poses_path = dir_path.join("poses.txt");
     std::fs::write(&poses_path, commands).unwrap();
@@ -475,6 +509,7 @@ fn run_instance(module: &Module, poses: &[[f64; 9]]) -> Vec<Record> {
         .env("RTAPI_FIFO_PATH", "/tmp/rtapi_fifo")
         .env("VOLCOMP_LINUXCNC_POSES", &poses_path)
         .env("VOLCOMP_LINUXCNC_OUT", &out_path)
+        .env("VOLCOMP_LINUXCNC_MOTOR", motor_joints.join(" "))
         .stdin(Stdio::null())
         .stdout(console.try_clone().unwrap())
         .stderr(console)
@@ -523,10 +558,18 @@ fn run_instance(module: &Module, poses: &[[f64; 9]]) -> Vec<Record> {
         assert_eq!(w[2], "world");
         assert_eq!(w[12], "joints");
         assert_eq!(w[13 + joints], "actual");
+        let motor = if instance.comp.is_empty() {
+            Vec::new()
+        } else {
+            assert_eq!(w.get(23 + joints), Some(&"motor"), "{line}");
+            numbers(&w[24 + joints..])
+        };
+        assert_eq!(motor.len(), instance.comp.len(), "{line}");
         records.push(Record {
             world: nine(&w[3..12]),
             joints: numbers(&w[13..13 + joints]),
             actual: nine(&w[14 + joints..23 + joints]),
+            motor,
         });
     }
     assert!(
@@ -669,7 +712,7 @@ fn linuxcnc_kinematics_modules_agree_with_the_chain() {
                         break;
                     };
                     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        run_instance(&modules[i], &all_poses[i])
+                        run_instance(&modules[i], &all_poses[i], &Instance::default())
                     }))
                     .map_err(|e| {
                         e.downcast_ref::<String>()
@@ -813,4 +856,163 @@ fn split_generated(doc: &str) -> (&str, &str) {
         (Some(b), Some(e)) if b < e => (&doc[..b], &doc[e + END.len()..]),
         _ => (doc, "\n"),
     }
+}
+
+/// Feed (mm/min) of the last 0.05 mm to each target of the screw-comp instance.
+/// Motion takes the trim at the commanded position of the last servo period in
+/// which the joint moved (`compute_screw_comp` keeps it while `vel_cmd` is 0). With
+/// the template's near-unlimited acceleration a G0 ends in a period or two, the last
+/// moving one millimetres short of the target (trims off by up to 6e-5 mm,
+/// measured); at F6 (0.1 mm/s, 1 ms period) it is at most 1e-4 mm short, the trim off
+/// by the file's slope (≤ 2e-3) times that.
+const FINAL_FEED: f64 = 6.0;
+
+/// `volcomp export linuxcnc` into `dir` with `--comp-type`; the written directory.
+fn export_comp(machine: &Path, dir: &Path, comp_type: u8) -> PathBuf {
+    let out = dir.join(format!("type{comp_type}"));
+    let run = support::volcomp()
+        .args(["export", "linuxcnc"])
+        .arg(machine)
+        .arg("-o")
+        .arg(&out)
+        .args(["--comp-type", &comp_type.to_string()])
+        .output()
+        .unwrap();
+    support::assert_success(&run);
+    out
+}
+
+/// Issue 27 item 3: LinuxCNC itself (trivkins, joints looped back) with the
+/// `COMP_FILE`s of `volcomp export linuxcnc` puts the joint where the file says.
+/// X: type 0 (actual positions) of ref-trt with the laser import of
+/// tests/data/laser/x-long.csv (REVERSAL 5 to 7 µm, so up and down differ); Y: type
+/// 1 (trims). Each target is approached from below (5 mm under it, then it) and from
+/// above; `joint.N.motor-pos-cmd` − commanded must equal the trim LinuxCNC's
+/// `compute_screw_comp` interpolates from the file for that direction (the last
+/// direction of motion), within 1e-6 mm.
+#[test]
+fn linuxcnc_screw_comp_applies_the_exported_comp_files() {
+    check_linuxcnc();
+    let so = Path::new(MODULE_DIR).join("trivkins.so");
+    assert!(
+        so.is_file(),
+        "{} (linuxcnc-uspace) is missing",
+        so.display()
+    );
+    let started = Instant::now();
+    // Not under /tmp: the instance's own /tmp is bind-mounted over it.
+    let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    std::fs::create_dir_all(&base).unwrap();
+    let dir = tempfile::tempdir_in(&base).unwrap();
+    let machine = crate::export::machine_with_reversal(dir.path());
+    let type0 = export_comp(&machine, dir.path(), 0);
+    let type1 = export_comp(&machine, dir.path(), 1);
+    let files = [
+        (0usize, type0.join("x.comp"), 0u8),
+        (1, type1.join("y.comp"), 1),
+    ];
+    let tables: Vec<Vec<(f64, f64, f64)>> = files
+        .iter()
+        .map(|(_, f, t)| crate::export::linuxcnc_load(&std::fs::read_to_string(f).unwrap(), *t))
+        .collect();
+    for t in &tables {
+        assert!(t.len() > 2, "a comp file with {} triplets", t.len());
+    }
+    let module = Module {
+        name: "trivkins",
+        kinematics: "trivkins",
+        coordinates: "XYZ",
+        parameters: vec![],
+        setup: &[],
+        z_shift: 0.0,
+        rotary: [(Axis::A, 0.0, 0.0), (Axis::C, 0.0, 0.0)],
+        forward: true,
+        machines: vec![],
+        mapping: "",
+    };
+    // (X, Y) targets: inside the tables, on a nominal, and beyond the ends.
+    let targets = [
+        (-187.654321, -143.21),
+        (-40.0, -3.333333),
+        (12.345678, 57.77),
+        (133.3, 110.0),
+        (205.0, 160.5),
+    ];
+    let mut poses = Vec::new();
+    let mut feeds = Vec::new();
+    for &(x, y) in &targets {
+        for side in [-1.0, 1.0] {
+            for (d, f) in [(5.0, 0.0), (0.05, 0.0), (0.0, FINAL_FEED)] {
+                poses.push([
+                    x + side * d,
+                    y + side * d,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                ]);
+                feeds.push(f);
+            }
+        }
+    }
+    let records = run_instance(
+        &module,
+        &poses,
+        &Instance {
+            comp: files.to_vec(),
+            feeds,
+        },
+    );
+    let mut worst: f64 = 0.0;
+    let mut failures = Vec::new();
+    let mut table = String::from(
+        "| joint | COMP_FILE_TYPE | target mm | approach | expected trim mm | LinuxCNC motor − commanded mm | difference mm |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    let mut up_down: f64 = 0.0;
+    for (k, r) in records.iter().enumerate().filter(|(k, _)| k % 3 == 2) {
+        let up = (k / 3) % 2 == 0;
+        let mut trims = Vec::new();
+        for (c, (joint, _, kind)) in files.iter().enumerate() {
+            let commanded = r.joints[*joint];
+            let target = poses[k][*joint];
+            assert!(
+                (commanded - target).abs() < 1e-9,
+                "joint {joint} at {commanded}, not {target}"
+            );
+            let expected = crate::export::linuxcnc_trim(&tables[c], target, up);
+            let other = crate::export::linuxcnc_trim(&tables[c], target, !up);
+            trims.push((expected - other).abs());
+            let got = r.motor[c] - commanded;
+            let d = (got - expected).abs();
+            worst = worst.max(d);
+            if d > TOLERANCE {
+                failures.push(format!(
+                    "joint {joint} at {target} from {}: motor − commanded {got}, the file says {expected}",
+                    if up { "below" } else { "above" }
+                ));
+            }
+            writeln!(
+                table,
+                "| {joint} | {kind} | {target} | {} | {expected:.9} | {got:.9} | {d:.1e} |",
+                if up { "from below" } else { "from above" }
+            )
+            .unwrap();
+        }
+        up_down = up_down.max(trims[0]);
+    }
+    println!(
+        "{table}\nlargest difference {worst:e} mm ({:.1} s)",
+        started.elapsed().as_secs_f64()
+    );
+    // X's REVERSAL makes the two directions differ by micrometres: the test sees
+    // which column LinuxCNC used.
+    assert!(
+        up_down > 1e-3,
+        "X's forward and reverse trims differ by only {up_down} mm at the targets"
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -6,9 +6,15 @@ Reads the commands from $VOLCOMP_LINUXCNC_POSES, one per line:
   pose <x> <y> <z> <a> <b> <c> <u> <v> <w>
                                  a G53 G0 move to that world position (only the letters
                                  of [TRAJ]COORDINATES are sent)
+  feed <F> <x> <y> <z> <a> <b> <c> <u> <v> <w>
+                                 the same as a G53 G1 move at feed F
 and writes to $VOLCOMP_LINUXCNC_OUT, per pose, one line
   pose <i> world <9 commanded> joints <N joint feedback> actual <9 world feedback>
 (feedback = LinuxCNC's forward kinematics of the joint feedback), then "done".
+With $VOLCOMP_LINUXCNC_MOTOR (joint numbers, e.g. "0 1") each pose line ends with
+  motor <the HAL pin joint.N.motor-pos-cmd of each, once the screw comp has settled>
+(the commanded joint position plus LinuxCNC's screw compensation, read through HAL
+in full precision; the joints are looped back, so the feedback equals the command).
 Any failure is written as "error <message>" and the exit status is 1. When this
 program exits, the linuxcnc script shuts the instance down.
 """
@@ -101,6 +107,28 @@ def main():
     issue(out, command, errors, "MDI mode", lambda: command.mode(linuxcnc.MODE_MDI))
     wait_for(out, "MDI mode", lambda s: s.task_mode == linuxcnc.MODE_MDI, stat, errors)
 
+    motor_joints = [int(j) for j in os.environ.get("VOLCOMP_LINUXCNC_MOTOR", "").split()]
+    if motor_joints:
+        import hal
+        component = hal.component("volcomp-driver")
+        component.ready()
+
+    def motor(words):
+        """motor-pos-cmd of motor_joints once backlash-filt has reached backlash-corr
+        and two reads agree."""
+        end = time.monotonic() + TIMEOUT
+        previous = None
+        while True:
+            values = [hal.get_value("joint.%d.motor-pos-cmd" % j) for j in motor_joints]
+            filt = [(hal.get_value("joint.%d.backlash-filt" % j),
+                     hal.get_value("joint.%d.backlash-corr" % j)) for j in motor_joints]
+            if values == previous and all(f == c for f, c in filt):
+                return values
+            previous = values
+            if time.monotonic() > end:
+                fail(out, "screw compensation did not settle after %s" % words)
+            time.sleep(0.005)
+
     index = 0
     for kind, rest in commands:
         if kind == "setup":
@@ -108,8 +136,11 @@ def main():
             wait_for(out, "setup", lambda s: s.interp_state == linuxcnc.INTERP_IDLE and s.queue == 0, stat, errors)
             continue
         target = [float(v) for v in rest.split()]
+        move = "G53 G0 "
+        if kind == "feed":
+            move = "G53 G1 F%.6f " % target.pop(0)
         words = " ".join("%s%.10f" % (LETTERS[k], target[k]) for k in used)
-        issue(out, command, errors, "G53 G0 " + words, lambda: command.mdi("G53 G0 " + words))
+        issue(out, command, errors, move + words, lambda: command.mdi(move + words))
         serial = command.serial
         # Task can report done before motion has taken the move: wait until task
         # has finished this command (the next one would be refused otherwise), the
@@ -132,11 +163,15 @@ def main():
 
         wait_for(out, "move to %s" % words, settled, stat, errors)
         check_errors(out, errors)
-        out.write("pose %d world %s joints %s actual %s\n" % (
+        extra = ""
+        if motor_joints:
+            extra = " motor " + " ".join(repr(v) for v in motor(words))
+        out.write("pose %d world %s joints %s actual %s%s\n" % (
             index,
             " ".join(repr(v) for v in stat.position),
             " ".join(repr(v) for v in stat.joint_actual_position[:joints]),
-            " ".join(repr(v) for v in stat.actual_position)))
+            " ".join(repr(v) for v in stat.actual_position),
+            extra))
         index += 1
     check_errors(out, errors)
     out.write("done\n")
