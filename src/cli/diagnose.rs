@@ -554,21 +554,11 @@ pub fn summary_text(report: &DiagnoseReport) -> String {
 
 /// The work frame of `--plan-frame work` (None for part coordinates).
 fn work_frame_of(args: &Args) -> anyhow::Result<Option<crate::inspection::WorkFrame>> {
-    if args.plan_frame == super::plan_frame::PlanFrame::Part {
-        return Ok(None);
-    }
-    if args.followup.is_some() {
-        return Err(UsageError(
-            "--plan-frame work with --followup: a follow-up measurement is in part coordinates"
-                .into(),
-        )
-        .into());
-    }
-    let machine = crate::machine::Machine::load_with(
-        &args.machine.machine_file,
-        &crate::machine::LoadOptions {
-            extrapolation: args.machine.model.extrapolate.into(),
-        },
-    )?;
-    super::plan_frame::work_frame(args.plan_frame, &args.read, &args.program, &machine)
+    super::plan_frame::work_frame_of_command(
+        args.plan_frame,
+        &args.machine,
+        &args.read,
+        &args.program,
+        args.followup.is_some().then_some("a follow-up measurement is in part coordinates"),
+    )
 }

@@ -16,6 +16,34 @@ pub enum PlanFrame {
     Work,
 }
 
+/// [`work_frame`] for a command that loads `machine` itself later: the
+/// machine file is read (no fit) for the program's run. `followup`: the
+/// message refusing a follow-up file with `--plan-frame work`, when one is
+/// given (follow-ups are in part coordinates).
+pub fn work_frame_of_command(
+    frame: PlanFrame,
+    machine: &super::common::MachineArgs,
+    read: &ProgramArgs,
+    program: &Path,
+    followup: Option<&str>,
+) -> anyhow::Result<Option<WorkFrame>> {
+    if frame == PlanFrame::Part {
+        return Ok(None);
+    }
+    if let Some(message) = followup {
+        return Err(
+            super::UsageError(format!("--plan-frame work with --followup: {message}")).into(),
+        );
+    }
+    let machine = Machine::load_with(
+        &machine.machine_file,
+        &crate::machine::LoadOptions {
+            extrapolation: machine.model.extrapolate.into(),
+        },
+    )?;
+    work_frame(frame, read, program, &machine)
+}
+
 /// The work frame of `program` in part coordinates, when `frame` is `work`:
 /// the one origin its cutting moves use (several, none, or one with a rotary
 /// offset is an error: never a guess).
