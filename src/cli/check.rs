@@ -79,11 +79,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )
         })
         .transpose()?;
-    let rapid = args.rapid.unwrap_or(
-        machine
-            .as_ref()
-            .map_or(10_000.0, |m| m.rapid_mm_per_min),
-    );
+    let rapid = args
+        .rapid
+        .unwrap_or(machine.as_ref().map_or(10_000.0, |m| m.rapid_mm_per_min));
     if !(rapid.is_finite() && rapid > 0.0) {
         return Err(super::UsageError(format!(
             "--rapid must be a positive number of mm/min, got {rapid}"

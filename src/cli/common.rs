@@ -326,11 +326,7 @@ pub fn parse_offset(
     const SYSTEMS: [&str; 9] = [
         "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
     ];
-    let plain = format!(
-        "X,Y,Z[,{},{}]",
-        rotary[0].letter(),
-        rotary[1].letter()
-    );
+    let plain = format!("X,Y,Z[,{},{}]", rotary[0].letter(), rotary[1].letter());
     let Some((name, values)) = text.split_once('=') else {
         return Err(format!(
             "--offset `{text}`: expected G54={plain} (e.g. G54=100,50,-200) or G54=X100,Y50,Z-200"
@@ -352,7 +348,12 @@ pub fn parse_offset(
         for field in &fields {
             let mut chars = field.chars();
             let axis = chars.next().and_then(Axis::from_letter);
-            let value = chars.as_str().trim().parse::<f64>().ok().filter(|v| v.is_finite());
+            let value = chars
+                .as_str()
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite());
             match (axis, value) {
                 (Some(axis), Some(v)) if !seen.contains(axis) && letters.contains(axis) => {
                     seen = seen.with(axis);

@@ -100,7 +100,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     ])?;
     let (machine, model) = args.machine.load()?;
     // Where the outer rotary axis cannot steer the tool axis (A = 0 on an A/C table).
-    let pole_axis = model.kinematics().outer_rotary().letter().to_ascii_uppercase();
+    let pole_axis = model
+        .kinematics()
+        .outer_rotary()
+        .letter()
+        .to_ascii_uppercase();
     // With --in-place the program is the output (-o), not an input.
     super::common::CommandFiles::new()
         .input(

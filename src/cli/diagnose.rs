@@ -559,6 +559,8 @@ fn work_frame_of(args: &Args) -> anyhow::Result<Option<crate::inspection::WorkFr
         &args.machine,
         &args.read,
         &args.program,
-        args.followup.is_some().then_some("a follow-up measurement is in part coordinates"),
+        args.followup
+            .is_some()
+            .then_some("a follow-up measurement is in part coordinates"),
     )
 }

@@ -81,12 +81,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ..AlignOptions::default()
         },
         // Durations do not matter to a diff: the default rapid rate will do.
-        interpret: args
-            .read
-            .interpret_options(
-                InterpretOptions::default().rapid_mm_per_min,
-                crate::axes::AxisSet::ALL,
-            ),
+        interpret: args.read.interpret_options(
+            InterpretOptions::default().rapid_mm_per_min,
+            crate::axes::AxisSet::ALL,
+        ),
         top: args.top,
     };
     super::common::CommandFiles::new()

@@ -128,7 +128,10 @@ pub(crate) fn read_poses(
     if let Some(extra) = names.iter().find(|n| {
         !wanted.contains(n)
             && n.len() == 1
-            && n.chars().next().and_then(crate::axes::Axis::from_letter).is_some()
+            && n.chars()
+                .next()
+                .and_then(crate::axes::Axis::from_letter)
+                .is_some()
     }) {
         return Err(anyhow!(
             "{}:{header_line}: column `{extra}` is an axis this machine lacks (its joints: {expected})",

@@ -67,7 +67,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 tool_radius: machine.tool.radius,
                 ..SaddleOptions::default()
             };
-            let files = generate(&machine.kinematics_model(), rotary_limits(&machine), &options)
+            let files = generate(
+                &machine.kinematics_model(),
+                rotary_limits(&machine),
+                &options,
+            )
             .with_context(|| format!("generating the saddle for {}", args.machine.display()))?;
             vec![
                 ("saddle.nc", files.joint_program),

@@ -208,6 +208,8 @@ fn work_frame_of(args: &Args) -> anyhow::Result<Option<crate::inspection::WorkFr
         &args.machine,
         &args.read,
         &args.program,
-        args.followup.is_some().then_some("a follow-up plan is in part coordinates; simulate it separately"),
+        args.followup
+            .is_some()
+            .then_some("a follow-up plan is in part coordinates; simulate it separately"),
     )
 }

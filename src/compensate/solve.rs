@@ -311,8 +311,7 @@ impl PoseTarget {
         let j = kin.joints(q);
         let next: [f64; 5] = std::array::from_fn(|i| j[i] - step[i]);
         let (outer, slot) = self.outer;
-        (next.iter().all(|v| v.is_finite())
-            && (next[slot] - outer).abs() <= MAX_C_CORRECTION_DEG)
+        (next.iter().all(|v| v.is_finite()) && (next[slot] - outer).abs() <= MAX_C_CORRECTION_DEG)
             .then(|| kin.with_joints(q, next))
     }
 }

@@ -575,9 +575,9 @@ pub fn design(
         })
         .collect();
     let same_pose = probes.iter().filter(|p| p.pose == CUTTING_POSE).count();
-    let rotary_names = contexts
-        .first()
-        .map_or(['A', 'C'], |c| c.rotary.map(|a| a.letter().to_ascii_uppercase()));
+    let rotary_names = contexts.first().map_or(['A', 'C'], |c| {
+        c.rotary.map(|a| a.letter().to_ascii_uppercase())
+    });
     let mut explanation = vec![format!(
         "To tell {} from {}: probe {} plan points again on the machine right after the program ({} in the cutting pose, {} at other {}/{} angles); expected separation {:.1} σ (now {:.1} σ).",
         h[0].label(),

@@ -94,7 +94,10 @@ pub fn probing_program(design: &FollowupDesign, options: &ProbingOptions) -> Str
         let ctx = &p.probe.context;
         let j = ctx.joints;
         let along = |d: f64| {
-            let off = part_to_machine(ctx, [ctx.normal[0] * d, ctx.normal[1] * d, ctx.normal[2] * d]);
+            let off = part_to_machine(
+                ctx,
+                [ctx.normal[0] * d, ctx.normal[1] * d, ctx.normal[2] * d],
+            );
             [j.x + off[0], j.y + off[1], j.z + off[2]]
         };
         let start = along(options.clearance_mm);

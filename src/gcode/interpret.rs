@@ -402,7 +402,6 @@ impl Words {
     }
 }
 
-
 impl Interpreter {
     pub fn new(options: InterpretOptions) -> Self {
         Interpreter::with_parameters(options, Parameters::new())

@@ -399,7 +399,10 @@ impl Followup {
         Followup::parse_with(path, text, true, rotary)
     }
 
-    pub fn read_plan(path: &Path, rotary: [crate::axes::Axis; 2]) -> Result<Followup, InspectionError> {
+    pub fn read_plan(
+        path: &Path,
+        rotary: [crate::axes::Axis; 2],
+    ) -> Result<Followup, InspectionError> {
         Followup::parse_plan(path, &read_to_string(path)?, rotary)
     }
 

@@ -12,7 +12,9 @@
 //! Invariants: no I/O, no allocation (fixed arrays); every inverse is the exact
 //! inverse of the matrix as written.
 use super::error_values::{ErrorValues, ParameterLayout};
-use super::transform::{Affine, IDENTITY3, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub};
+use super::transform::{
+    Affine, IDENTITY3, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub,
+};
 use crate::axes::{Axes, Axis, AxisSet};
 
 /// µm → mm.
@@ -391,14 +393,20 @@ impl RotaryParts {
     #[inline]
     fn point_derivative(&self, x: [f64; 3]) -> [f64; 3] {
         let y = mat_vec(&self.rotation, self.inner.apply_point(x));
-        scale(mat_vec(&self.location, cross(self.direction, y)), self.per_degree)
+        scale(
+            mat_vec(&self.location, cross(self.direction, y)),
+            self.per_degree,
+        )
     }
 
     /// `∂(rotation of T)/∂q · v` for a direction `v`.
     #[inline]
     fn vector_derivative(&self, v: [f64; 3]) -> [f64; 3] {
         let y = mat_vec(&self.rotation, self.inner.apply_vector(v));
-        scale(mat_vec(&self.location, cross(self.direction, y)), self.per_degree)
+        scale(
+            mat_vec(&self.location, cross(self.direction, y)),
+            self.per_degree,
+        )
     }
 }
 
@@ -473,7 +481,11 @@ impl<'a> Evaluation<'a> {
         trig: [(f64, f64); 2],
     ) -> Evaluation<'a> {
         let s = &errors.squareness;
-        let (dx, dy, dz) = (chain.directions[0], chain.directions[1], chain.directions[2]);
+        let (dx, dy, dz) = (
+            chain.directions[0],
+            chain.directions[1],
+            chain.directions[2],
+        );
         let (d_y, d_z) = if nominal {
             (dy, dz)
         } else {
@@ -718,7 +730,11 @@ pub fn nominal_axis_derivatives(chain: &MachineChain, q: &Axes) -> [[f64; 3]; 2]
     let per = std::f64::consts::PI / 180.0;
     let d1 = scale(cross(a1.direction, u), k1 * per);
     let d2 = scale(mat_vec(&r1, cross(a2.direction, v)), k2 * per);
-    if o1 == chain.rotary[0] { [d1, d2] } else { [d2, d1] }
+    if o1 == chain.rotary[0] {
+        [d1, d2]
+    } else {
+        [d2, d1]
+    }
 }
 
 /// The actual and the nominal tool tip and axis (part coordinates) at `q` in one
@@ -834,12 +850,22 @@ impl<'a> ChainPose<'a> {
             Side::Tool => &self.tool_factors[k + 1..self.tool_len],
         };
         factors.iter().rev().fold(x, |p, f| {
-            if vector { f.apply_vector(p) } else { f.apply_point(p) }
+            if vector {
+                f.apply_vector(p)
+            } else {
+                f.apply_point(p)
+            }
         })
     }
 
     /// `∂(factor k of side)·x` (a vector) for a linear or rotary axis `a`.
-    fn factor_derivative(&self, a: &ChainAxis, side_sign: f64, x: [f64; 3], vector: bool) -> [f64; 3] {
+    fn factor_derivative(
+        &self,
+        a: &ChainAxis,
+        side_sign: f64,
+        x: [f64; 3],
+        vector: bool,
+    ) -> [f64; 3] {
         if a.is_rotary() {
             let parts = self.eval.rotary_parts(a);
             if vector {
@@ -869,7 +895,10 @@ impl<'a> ChainPose<'a> {
             // ∂(W⁻¹·p) = −W⁻¹·∂W·W⁻¹·p
             let x = self.suffix_point(Side::Workpiece, k, self.tip(), false);
             let d = self.factor_derivative(chain.axis(axis), -1.0, x, false);
-            scale(self.work_inv.apply_vector(self.work[k].apply_vector(d)), -1.0)
+            scale(
+                self.work_inv.apply_vector(self.work[k].apply_vector(d)),
+                -1.0,
+            )
         } else {
             [0.0; 3]
         }
@@ -888,7 +917,10 @@ impl<'a> ChainPose<'a> {
         } else if let Some(k) = chain.workpiece_side().iter().position(|a| a.axis == axis) {
             let v = self.suffix_point(Side::Workpiece, k, self.axis(), true);
             let d = self.factor_derivative(chain.axis(axis), -1.0, v, true);
-            scale(self.work_inv.apply_vector(self.work[k].apply_vector(d)), -1.0)
+            scale(
+                self.work_inv.apply_vector(self.work[k].apply_vector(d)),
+                -1.0,
+            )
         } else {
             [0.0; 3]
         }

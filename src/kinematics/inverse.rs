@@ -52,11 +52,11 @@ pub enum InverseError {
     BadAxis { axis: [f64; 3] },
     #[error("the tool tip target is not finite: {tip:?}")]
     BadTip { tip: [f64; 3] },
-    #[error("the machine's rotary axes cannot turn the tool to {axis:?} (outside its cone of reach)")]
-    Unreachable { axis: [f64; 3] },
     #[error(
-        "tool axis {axis:?} needs {first} or {second}, outside the travel of the rotary axes"
+        "the machine's rotary axes cannot turn the tool to {axis:?} (outside its cone of reach)"
     )]
+    Unreachable { axis: [f64; 3] },
+    #[error("tool axis {axis:?} needs {first} or {second}, outside the travel of the rotary axes")]
     OutsideLimits {
         axis: [f64; 3],
         first: String,
@@ -216,9 +216,8 @@ impl Kinematics {
             }
         }
         let Some((_, rotaries)) = best else {
-            let describe = |(q1, q2): (f64, f64)| {
-                format!("{}{q1:.6}° {}{q2:.6}°", o1.letter(), o2.letter())
-            };
+            let describe =
+                |(q1, q2): (f64, f64)| format!("{}{q1:.6}° {}{q2:.6}°", o1.letter(), o2.letter());
             return Err(InverseError::OutsideLimits {
                 axis,
                 first: describe(found.joints[0]),

@@ -336,19 +336,38 @@ impl Kinematics {
     /// The nominal chain at `joints`, ready for derivatives.
     #[inline]
     pub fn nominal_pose<'a>(&'a self, joints: &'a Axes) -> chain::ChainPose<'a> {
-        chain::ChainPose::new(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true)
+        chain::ChainPose::new(
+            &self.chain,
+            self.tool_length,
+            joints,
+            &ErrorValues::ZERO,
+            true,
+        )
     }
 
     /// Nominal tool tip in part coordinates (mm) for joint position `joints`.
     #[inline]
     pub fn nominal_tip(&self, joints: &Axes) -> [f64; 3] {
-        chain::tip_and_axis(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true).0
+        chain::tip_and_axis(
+            &self.chain,
+            self.tool_length,
+            joints,
+            &ErrorValues::ZERO,
+            true,
+        )
+        .0
     }
 
     /// Nominal tool tip (mm) and unit tool axis in part coordinates, one pass.
     #[inline]
     pub fn nominal_tip_and_axis(&self, joints: &Axes) -> ([f64; 3], [f64; 3]) {
-        chain::tip_and_axis(&self.chain, self.tool_length, joints, &ErrorValues::ZERO, true)
+        chain::tip_and_axis(
+            &self.chain,
+            self.tool_length,
+            joints,
+            &ErrorValues::ZERO,
+            true,
+        )
     }
 
     /// Nominal unit tool axis (tip → spindle) in part coordinates.

@@ -429,7 +429,10 @@ fn preset_chain(
     kind: KinematicsType,
 ) -> Result<MachineChain, MachineError> {
     for (present, key) in [
-        (raw.workpiece_side.as_ref().map(|s| s.span()), "workpiece_side"),
+        (
+            raw.workpiece_side.as_ref().map(|s| s.span()),
+            "workpiece_side",
+        ),
         (raw.tool_side.as_ref().map(|s| s.span()), "tool_side"),
         (raw.tool_axis.as_ref().map(|s| s.span()), "tool_axis"),
         (raw.axes.as_ref().map(|s| s.span()), "axes"),
@@ -458,7 +461,10 @@ fn preset_chain(
         return Err(src.invalid(
             raw.kinematics.span(),
             "geometry",
-            format!("a {} machine needs its [geometry] (rotary points and offsets, mm)", kind.name()),
+            format!(
+                "a {} machine needs its [geometry] (rotary points and offsets, mm)",
+                kind.name()
+            ),
         ));
     };
     let g = geometry.get_ref();
@@ -624,7 +630,10 @@ fn described_chain(src: &Source<'_>, raw: &RawMachine) -> Result<MachineChain, M
                 return Err(src.invalid(
                     span,
                     &format!("{key}.point"),
-                    format!("linear axis {} takes a direction only, not a point", axis.letter()),
+                    format!(
+                        "linear axis {} takes a direction only, not a point",
+                        axis.letter()
+                    ),
                 ));
             }
             Ok(ChainAxis::linear(axis, direction))
@@ -878,7 +887,11 @@ impl Machine {
                         "U, V and W carry no error tables (volcomp models their position only)"
                             .to_string()
                     } else {
-                        format!("the machine has no axis {} (its axes: {})", axis.letter(), letters.letters())
+                        format!(
+                            "the machine has no axis {} (its axes: {})",
+                            axis.letter(),
+                            letters.letters()
+                        )
                     };
                     return Err(src.invalid(entry.span(), &key, why));
                 };

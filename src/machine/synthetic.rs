@@ -292,7 +292,10 @@ mod tests {
             assert_eq!(p.noisy[0], p.noisy[36]);
             assert!(((p.truth)(0.0) - (p.truth)(360.0)).abs() < 1e-9);
         }
-        assert!(a[0].to_csv("").starts_with("position,EXX,EYX,EZX,EAX,EBX,ECX\n-100.000,"));
+        assert!(
+            a[0].to_csv("")
+                .starts_with("position,EXX,EYX,EZX,EAX,EBX,ECX\n-100.000,")
+        );
         assert_ne!(machine_tables(8, &axes)[0].to_csv(""), a[0].to_csv(""));
     }
 }

@@ -294,7 +294,13 @@ impl<'k> PathWalker<'k> {
 
     /// Fill `self.samples` with the joints of the points along `motion`, excluding
     /// its start, at most `step_mm` apart in part coordinates.
-    fn sample(&mut self, kin: &Kinematics, motion: &Motion, start_joints: &Axes, end_joints: &Axes) {
+    fn sample(
+        &mut self,
+        kin: &Kinematics,
+        motion: &Motion,
+        start_joints: &Axes,
+        end_joints: &Axes,
+    ) {
         self.samples.clear();
         let step = self.options.step_mm;
         match effective_frame(motion) {

@@ -169,12 +169,18 @@ fn presets_equal_their_chains() {
     let described = Kinematics::from_chain(chain, 87.0);
     let mut runner = proptest::test_runner::TestRunner::deterministic();
     for _ in 0..200 {
-        let (j, e) = (joints_ac(), errors()).new_tree(&mut runner).unwrap().current();
+        let (j, e) = (joints_ac(), errors())
+            .new_tree(&mut runner)
+            .unwrap()
+            .current();
         let a = preset.volumetric_error(&j, &e);
         let b = described.volumetric_error(&j, &e);
         for k in 0..3 {
             assert!((a.e_um[k] - b.e_um[k]).abs() < 1e-9, "{a:?} {b:?}");
-            assert!((a.axis_urad[k] - b.axis_urad[k]).abs() < 1e-9, "{a:?} {b:?}");
+            assert!(
+                (a.axis_urad[k] - b.axis_urad[k]).abs() < 1e-9,
+                "{a:?} {b:?}"
+            );
         }
     }
 }
@@ -323,7 +329,10 @@ fn parameter_names_follow_the_rotary_letters() {
     assert_eq!(bc.rotary(), [Axis::B, Axis::C]);
     let layout = bc.layout();
     assert_eq!(layout.component_names(3)[0], "EXB");
-    assert_eq!(layout.location_effect_names()[..4], ["EX0B", "EZ0B", "EA0B", "EC0B"]);
+    assert_eq!(
+        layout.location_effect_names()[..4],
+        ["EX0B", "EZ0B", "EA0B", "EC0B"]
+    );
     assert!(layout.index_of("EXA").is_none());
     assert_eq!(ParameterLayout::AC.index_of("EXA"), Some(18));
 }

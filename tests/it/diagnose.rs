@@ -1292,7 +1292,12 @@ fn simulate_of_a_compensated_program_cuts_the_compensated_part() {
             d(name).as_os_str(),
         ]);
         let at = text.find("measured profile ").expect("profile") + "measured profile ".len();
-        text[at..].split_whitespace().next().unwrap().parse::<f64>().unwrap()
+        text[at..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse::<f64>()
+            .unwrap()
     };
     let before = profile(&os("samples/saddle.nc"), "m1.csv");
     let after = profile(d("comp.nc").as_os_str(), "m2.csv");
@@ -1307,7 +1312,10 @@ fn simulate_of_a_compensated_program_cuts_the_compensated_part() {
         &os("--report"),
         d("p.json").as_os_str(),
     ]);
-    assert!(predicted.contains("the part will measure profile 0.23 µm"), "{predicted}");
+    assert!(
+        predicted.contains("the part will measure profile 0.23 µm"),
+        "{predicted}"
+    );
     // Diagnosing the compensated part against its own prediction: nothing left.
     let diagnosis = run(&[
         &os("diagnose"),

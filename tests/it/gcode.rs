@@ -984,8 +984,14 @@ mod interpreting {
         };
         let err = interpret_program("G0 X0\nG1 X1 B6 F100\n".as_bytes(), ac).unwrap_err();
         assert_eq!((err.line, err.column), (2, 7));
-        assert!(err.to_string().contains("no B axis (its axes: XYZAC)"), "{err}");
-        let lenient = InterpretOptions { lenient: true, ..ac };
+        assert!(
+            err.to_string().contains("no B axis (its axes: XYZAC)"),
+            "{err}"
+        );
+        let lenient = InterpretOptions {
+            lenient: true,
+            ..ac
+        };
         let ev = motions("G0 X0\nG1 X1 B6 F100\n", lenient);
         assert_eq!(ev[1].motion.unwrap().end.b, 0.0);
         assert!(matches!(

@@ -16,7 +16,10 @@ const NAMES: [&str; 3] = ["bc-trt", "head-table", "head-head"];
 /// A bundled machine and its fitted model, loaded once for the test binary.
 fn rig(name: &str) -> &'static Rig {
     static RIGS: [OnceLock<Rig>; 3] = [OnceLock::new(), OnceLock::new(), OnceLock::new()];
-    let i = NAMES.iter().position(|n| *n == name).expect("a bundled machine");
+    let i = NAMES
+        .iter()
+        .position(|n| *n == name)
+        .expect("a bundled machine");
     RIGS[i].get_or_init(|| {
         let machine = Machine::load(&root().join(format!("machines/{name}.toml")))
             .unwrap_or_else(|e| panic!("{name} loads: {e}"));
@@ -65,7 +68,12 @@ fn each_machine_has_its_saddle() {
             .output()
             .unwrap();
         crate::support::assert_success(&out);
-        for file in ["saddle.nc", "saddle-tcp.nc", "saddle-plan.csv", "saddle.tbl"] {
+        for file in [
+            "saddle.nc",
+            "saddle-tcp.nc",
+            "saddle-plan.csv",
+            "saddle.tbl",
+        ] {
             let made = std::fs::read(dir.path().join(file)).unwrap();
             let committed = std::fs::read(root().join("samples").join(name).join(file)).unwrap();
             assert!(
@@ -114,10 +122,14 @@ fn closed_loop_on_each_machine() {
             assert_closed_loop(&label, before, after);
             let (axis_before_max, axis_before_rms, n) =
                 replayed_axis_error_on(rig, &original, &original, Frame::Joint);
-            let (axis_max, axis_rms, m) = replayed_axis_error_on(rig, &original, &text, Frame::Joint);
+            let (axis_max, axis_rms, m) =
+                replayed_axis_error_on(rig, &original, &text, Frame::Joint);
             assert!(n > 3000 && m > 3000, "{label}: {n} {m}");
             assert!(axis_before_rms > 20.0, "{label}: {axis_before_rms}");
-            assert!(axis_rms <= 1.0 && axis_max < 3.0, "{label}: {axis_max} {axis_rms}");
+            assert!(
+                axis_rms <= 1.0 && axis_max < 3.0,
+                "{label}: {axis_max} {axis_rms}"
+            );
             summary += &format!(
                 "{label}: blocks changed {}, tip max {:.2} -> {:.3} µm ({:.2} %), rms {:.2} -> {:.3} µm; axis max {:.1} -> {:.2} µrad, rms {:.1} -> {:.2} µrad\n",
                 report.blocks_changed,
