@@ -266,12 +266,7 @@ impl Rewriter {
             block.write_raw(out)?;
             return Ok(Emitted::default());
         }
-        for w in &block.words {
-            if let Some(axis) = Axis::from_letter(w.letter as char) {
-                let i = axis as usize;
-                self.decimals[i] = self.decimals[i].max(w.decimals);
-            }
-        }
+        self.note_decimals(block);
         if (!event.cycle_steps.is_empty() || event.spline.is_some()) && target == Target::Same {
             // Canned cycles and splines are always written flat (see
             // `emit_flat`).
@@ -610,34 +605,18 @@ impl Rewriter {
                 what: "a G5.3 block whose axis words start another NURBS",
             });
         }
-        for w in &block.words {
-            if let Some(axis) = Axis::from_letter(w.letter as char) {
-                let i = axis as usize;
-                self.decimals[i] = self.decimals[i].max(w.decimals);
-            }
-        }
+        self.note_decimals(block);
         let ctx = Context::new(block, event);
-        let ending: &[u8] = match block.ending {
-            super::block::LineEnding::CrLf => b"\r\n",
-            _ => b"\n",
-        };
+        let ending = line_ending(block);
         // 1. The block without its spline words.
-        self.edits.clear();
-        self.text.clear();
-        for w in &block.words {
-            let spline_word = match w.letter {
-                b'G' => matches!(
-                    w.code10().map(classify_g),
-                    Some(GCode::Motion(MotionMode::Spline(_)) | GCode::NurbsEnd)
-                ),
-                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'I' | b'J'
-                | b'P' | b'Q' | b'L' | b'@' | b'^' => true,
-                _ => false,
-            };
-            if spline_word {
-                self.remove_word(block, w);
-            }
-        }
+        self.strip_words(block, |w| match w.letter {
+            b'G' => matches!(
+                w.code10().map(classify_g),
+                Some(GCode::Motion(MotionMode::Spline(_)) | GCode::NurbsEnd)
+            ),
+            b'I' | b'J' | b'P' | b'Q' | b'L' | b'@' | b'^' => true,
+            letter => Axis::from_letter(letter as char).is_some(),
+        });
         let from = self.text.len();
         {
             use std::fmt::Write as _;
@@ -759,34 +738,18 @@ impl Rewriter {
                 what,
             });
         }
-        for w in &block.words {
-            if let Some(axis) = Axis::from_letter(w.letter as char) {
-                let i = axis as usize;
-                self.decimals[i] = self.decimals[i].max(w.decimals);
-            }
-        }
+        self.note_decimals(block);
         let ctx = Context::new(block, event);
-        let ending: &[u8] = match block.ending {
-            super::block::LineEnding::CrLf => b"\r\n",
-            _ => b"\n",
-        };
+        let ending = line_ending(block);
         // 1. The block without the cycle's words.
-        self.edits.clear();
-        self.text.clear();
-        for w in &block.words {
-            let cycle_word = match w.letter {
-                b'G' => matches!(
-                    w.code10().map(classify_g),
-                    Some(GCode::Motion(MotionMode::Cycle(_)))
-                ),
-                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'R' | b'Q'
-                | b'P' | b'L' | b'I' | b'J' | b'K' | b'@' | b'^' => true,
-                _ => false,
-            };
-            if cycle_word {
-                self.remove_word(block, w);
-            }
-        }
+        self.strip_words(block, |w| match w.letter {
+            b'G' => matches!(
+                w.code10().map(classify_g),
+                Some(GCode::Motion(MotionMode::Cycle(_)))
+            ),
+            b'R' | b'Q' | b'P' | b'L' | b'I' | b'J' | b'K' | b'@' | b'^' => true,
+            letter => Axis::from_letter(letter as char).is_some(),
+        });
         let name = match event.modal.motion {
             MotionMode::Cycle(c) => {
                 super::cycles::CycleCode::from_code10(c as i32).map_or("canned cycle", |c| c.name())
@@ -903,6 +866,27 @@ impl Rewriter {
     }
 
     /// Remove a word and the white space before it.
+    /// Every axis letter's largest number of decimals written so far.
+    fn note_decimals(&mut self, block: &Block) {
+        for w in &block.words {
+            if let Some(axis) = Axis::from_letter(w.letter as char) {
+                let i = axis as usize;
+                self.decimals[i] = self.decimals[i].max(w.decimals);
+            }
+        }
+    }
+
+    /// Start a new edit of `block` with the words `strip` selects removed.
+    fn strip_words(&mut self, block: &Block, strip: impl Fn(&Word) -> bool) {
+        self.edits.clear();
+        self.text.clear();
+        for w in &block.words {
+            if strip(w) {
+                self.remove_word(block, w);
+            }
+        }
+    }
+
     fn remove_word(&mut self, block: &Block, w: &Word) {
         let mut start = w.start;
         while start > 0 && matches!(block.raw[start - 1], b' ' | b'\t') {
@@ -1030,20 +1014,8 @@ impl Rewriter {
                 .words
                 .iter()
                 .filter(|w| {
-                    matches!(
-                        w.letter,
-                        b'X' | b'Y'
-                            | b'Z'
-                            | b'A'
-                            | b'B'
-                            | b'C'
-                            | b'U'
-                            | b'V'
-                            | b'W'
-                            | b'I'
-                            | b'J'
-                            | b'K'
-                    )
+                    matches!(w.letter, b'I' | b'J' | b'K')
+                        || Axis::from_letter(w.letter as char).is_some()
                 })
                 .map(|w| w.end)
                 .max()
@@ -1246,6 +1218,14 @@ impl Context {
 }
 
 /// Whether two points print the same at the rewriter's resolution (mm/deg).
+/// The line ending `block` was written with.
+fn line_ending(block: &Block) -> &'static [u8] {
+    match block.ending {
+        super::block::LineEnding::CrLf => b"\r\n",
+        _ => b"\n",
+    }
+}
+
 fn same_point(a: &Axes, b: &Axes, ctx: &Context) -> bool {
     let tol = if ctx.inch { 0.5e-5 * 25.4 } else { 0.5e-4 };
     Axis::ALL

@@ -82,9 +82,17 @@ impl<'m> ToolModels<'m> {
 
 /// The kinematics of `model` with `tool` in the spindle (tool 0: the model's own).
 pub fn kinematics_with(model: &ErrorModel, tool: &ToolInUse) -> crate::kinematics::Kinematics {
+    kinematics_for_tool(model.kinematics(), tool)
+}
+
+/// `kinematics` with `tool` in the spindle (tool 0: `kinematics` as it is).
+pub fn kinematics_for_tool(
+    kinematics: &crate::kinematics::Kinematics,
+    tool: &ToolInUse,
+) -> crate::kinematics::Kinematics {
     if tool.number == 0 {
-        *model.kinematics()
+        *kinematics
     } else {
-        model.kinematics().with_tool_length(tool.length_mm)
+        kinematics.with_tool_length(tool.length_mm)
     }
 }

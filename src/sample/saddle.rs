@@ -355,14 +355,16 @@ pub fn generate(
     };
     let passes = options
         .roughing
-        .map(|r| Pass {
-            tool: 2,
-            label: format!("BALL END R{} ROUGHING, {} MM STOCK", r.tool_radius, r.stock),
-            spindle: "S9000 M3",
-            feed: r.feed,
-            raster: raster_of(options, r.stepover, r.point_spacing, r.tool_radius, r.stock),
+        .map(|r| {
+            let pass = Pass {
+                tool: 2,
+                label: format!("BALL END R{} ROUGHING, {} MM STOCK", r.tool_radius, r.stock),
+                spindle: "S9000 M3",
+                feed: r.feed,
+                raster: raster_of(options, r.stepover, r.point_spacing, r.tool_radius, r.stock),
+            };
+            (pass, r.tool_length)
         })
-        .map(|pass| (pass, options.roughing.map_or(0.0, |r| r.tool_length)))
         .into_iter()
         .chain([(finishing, kinematics.tool_length)]);
     for (k, (pass, tool_length)) in passes.enumerate() {

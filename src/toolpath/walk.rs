@@ -156,11 +156,7 @@ impl<'k> PathWalker<'k> {
         // The tool in the spindle: on a machine with a rotary axis on the
         // tool side its length moves the nominal tip (and the joints of a
         // tool-tip target).
-        let kin = if tool.number == 0 {
-            *self.kinematics
-        } else {
-            self.kinematics.with_tool_length(tool.length_mm)
-        };
+        let kin = crate::machine::tool_models::kinematics_for_tool(self.kinematics, &tool);
         let start_joints = joints_of(&kin, frame, &motion.start);
         let end_joints = joints_of(&kin, frame, &motion.end);
         if !self.started {
