@@ -444,7 +444,6 @@ fn nine(words: &[&str]) -> [f64; 9] {
 fn run_instance(module: &Module, poses: &[[f64; 9]], instance: &Instance) -> Vec<Record> {
     let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
     std::fs::create_dir_all(&base).unwrap();
-    // Not under /tmp: the instance's own /tmp is bind-mounted over it.
     let dir = tempfile::Builder::new()
         .prefix(&format!("linuxcnc-{}-", module.name))
         .tempdir_in(&base)
@@ -487,10 +486,29 @@ fn run_instance(module: &Module, poses: &[[f64; 9]], instance: &Instance) -> Vec
     std::fs::write(&poses_path, commands).unwrap();
     let out_path = dir_path.join("joints.txt");
     let console = std::fs::File::create(dir_path.join("console.txt")).unwrap();
+    // The instance's /tmp is its own folder, mounted over /tmp. What the run
+    // reads from the checkout (the HAL file, the INI, comp files) is mounted
+    // back at its own path on top when it lives under /tmp (the original
+    // /tmp staged at /mnt, in this namespace only).
+    let mut back = String::new();
+    for needed in [Path::new(env!("CARGO_MANIFEST_DIR")), base.as_path()] {
+        if let Ok(rest) = needed.strip_prefix("/tmp")
+            && let Some(top) = rest.components().next()
+        {
+            let top = Path::new(top.as_os_str());
+            write!(
+                back,
+                " && mkdir -p '/tmp/{t}' && mount --bind '/mnt/{t}' '/tmp/{t}'",
+                t = top.display()
+            )
+            .unwrap();
+        }
+    }
     let script = format!(
-        "mount --bind '{}' /tmp && mount -t tmpfs tmpfs /dev/shm && exec linuxcnc '{}'",
-        private_tmp.display(),
-        ini_path.display()
+        "mount --bind /tmp /mnt && mount --bind '{tmp}' /tmp{back} \
+         && mount -t tmpfs tmpfs /dev/shm && exec linuxcnc '{ini}'",
+        tmp = private_tmp.display(),
+        ini = ini_path.display()
     );
     let mut child = Command::new("unshare")
         .args([
@@ -900,7 +918,7 @@ fn linuxcnc_screw_comp_applies_the_exported_comp_files() {
         so.display()
     );
     let started = Instant::now();
-    // Not under /tmp: the instance's own /tmp is bind-mounted over it.
+    // Under the test's folder, which every instance sees at its own path.
     let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
     std::fs::create_dir_all(&base).unwrap();
     let dir = tempfile::tempdir_in(&base).unwrap();
