@@ -202,7 +202,7 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
     for table in machine.tables.iter().flatten() {
         if table.reversal.is_some() {
             eprintln!(
-                "note: {}: {} has a REVERSAL column: the error model does not use it (positioning error without direction; `volcomp export linuxcnc` exports it)",
+                "note: {}: {} has a REVERSAL column: the error model adds ±REVERSAL/2 by the direction of the axis's last motion (unknown before the axis first moves: the mean)",
                 machine.name,
                 table.path.display()
             );

@@ -286,7 +286,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         if t.reversal.is_some() {
             crate::humanln!(
                 data_on_stdout,
-                "{:<4}  REVERSAL   read, not fitted: the error model has no direction (`volcomp export linuxcnc` exports it)",
+                "{:<4}  REVERSAL   read, not fitted: linear between the positions, ±REVERSAL/2 by the direction of motion",
                 t.axis.letter()
             );
         }

@@ -27,34 +27,19 @@ pub enum ExportError {
     Setting(String),
 }
 
-/// Linear interpolation of `values` over `positions` at `p` (ends held).
-pub fn interpolate(positions: &[f64], values: &[f64], p: f64) -> f64 {
-    let n = positions.len();
-    if n == 0 {
-        return 0.0;
-    }
-    if p <= positions[0] {
-        return values[0];
-    }
-    if p >= positions[n - 1] {
-        return values[n - 1];
-    }
-    let k = positions.partition_point(|x| *x <= p).clamp(1, n - 1);
-    let (x0, x1) = (positions[k - 1], positions[k]);
-    let t = (p - x0) / (x1 - x0);
-    values[k - 1] + t * (values[k] - values[k - 1])
-}
+pub use crate::machine::reversal::interpolate;
 
 /// The positioning error of one axis as fitted: the axis's positioning
-/// parameter's SMEM curve and, where the table has one, its `REVERSAL`
-/// (linear between the table's positions: a reversal is a per-position
-/// measurement, not smoothed).
+/// parameter's SMEM curve and, where the machine has one, its reversal (the
+/// error model's: the table's `REVERSAL`, linear between the table's positions,
+/// a per-position measurement, not smoothed; or the `[reversal]` constant).
 pub struct Positioning<'a> {
     pub axis: Axis,
     /// `EXX`, `EYY`, …
     pub parameter: String,
     curve: &'a SmemCurve,
     table: &'a ErrorTable,
+    model: &'a ErrorModel,
     /// The table's first and last position.
     pub range: [f64; 2],
 }
@@ -71,13 +56,14 @@ impl<'a> Positioning<'a> {
             parameter,
             curve,
             table,
+            model,
             range,
         })
     }
 
-    /// Whether the table carries `REVERSAL`.
+    /// Whether the axis has a reversal (the table's `REVERSAL` or `[reversal]`).
     pub fn has_reversal(&self) -> bool {
-        self.table.reversal.is_some()
+        self.model.reversal_at(self.axis, self.range[0]).is_some()
     }
 
     /// The table's positions.
@@ -90,12 +76,9 @@ impl<'a> Positioning<'a> {
         self.curve.value_at(p)
     }
 
-    /// REVERSAL(p) (0 without one).
+    /// REVERSAL(p) (0 without one), as the error model applies it.
     pub fn reversal(&self, p: f64) -> f64 {
-        self.table
-            .reversal
-            .as_ref()
-            .map_or(0.0, |r| interpolate(&self.table.positions, r, p))
+        self.model.reversal_at(self.axis, p).unwrap_or(0.0)
     }
 
     /// The error approaching `p` moving in the positive direction: E + REVERSAL/2.

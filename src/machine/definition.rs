@@ -198,6 +198,9 @@ pub struct Machine {
     pub squareness: [f64; 3],
     /// Rotary location errors in `ParameterLayout::location_names` order (µm, µrad).
     pub location: [f64; 10],
+    /// `[reversal]`: a constant reversal per joint slot (µm linear, µrad rotary;
+    /// docs/extensions.md); `None` = none given (a table's `REVERSAL` may give one).
+    pub reversal: [Option<f64>; 5],
     /// The machine file this was read from.
     pub source: PathBuf,
 }
@@ -254,6 +257,7 @@ struct RawMachine {
     errors: Option<Spanned<BTreeMap<String, Spanned<String>>>>,
     squareness: Option<Spanned<RawSquareness>>,
     location: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+    reversal: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
 }
 
 /// `[geometry]` of the two presets (which keys each takes is checked in
@@ -920,6 +924,8 @@ impl Machine {
             }
         }
 
+        let reversal = reversal_constants(&src, &raw, &chain, &tables)?;
+
         Ok(Machine {
             name: raw.name,
             kinematics,
@@ -932,6 +938,7 @@ impl Machine {
             tables,
             squareness,
             location,
+            reversal,
             source: path.to_path_buf(),
         })
     }
@@ -969,6 +976,23 @@ impl Machine {
         self.chain.slot(axis).and_then(|s| self.tables[s].as_ref())
     }
 
+    /// The reversal of `axis`: its table's `REVERSAL` column or the `[reversal]`
+    /// constant (never both: refused on load); `None` without either.
+    pub fn reversal(&self, axis: Axis) -> Option<super::AxisReversal> {
+        let slot = self.chain.slot(axis)?;
+        if let Some(v) = self.reversal[slot] {
+            return Some(super::AxisReversal::Constant(v));
+        }
+        let table = self.tables[slot].as_ref()?;
+        table
+            .reversal
+            .as_ref()
+            .map(|values| super::AxisReversal::Table {
+                positions: table.positions.clone(),
+                values: values.clone(),
+            })
+    }
+
     /// The position-independent parameters (squareness, location) with every
     /// component error zero.
     pub fn scalar_errors(&self) -> ErrorValues {
@@ -978,6 +1002,64 @@ impl Machine {
         debug_assert_eq!(SQUARENESS_NAMES.len(), 3);
         values
     }
+}
+
+/// `[reversal]` (docs/extensions.md): `X = 8.0` (µm; µrad for a rotary axis)
+/// per axis of the machine with error tables (X Y Z and its two rotary axes),
+/// finite, each axis once, and not for an axis whose table has a `REVERSAL`
+/// column (which of the two would hold is ambiguous).
+fn reversal_constants(
+    src: &Source<'_>,
+    raw: &RawMachine,
+    chain: &MachineChain,
+    tables: &[Option<ErrorTable>; 5],
+) -> Result<[Option<f64>; 5], MachineError> {
+    let mut out = [None; 5];
+    let Some(section) = &raw.reversal else {
+        return Ok(out);
+    };
+    let letters = chain.letters();
+    for (name, value) in section.get_ref() {
+        let key = format!("reversal.{name}");
+        let axis = src.letter(value.span(), &key, name)?;
+        let Some(slot) = chain.slot(axis) else {
+            let why = if letters.contains(axis) {
+                "U, V and W carry no error model (volcomp models their position only)".to_string()
+            } else {
+                format!(
+                    "the machine has no axis {} (its axes: {})",
+                    axis.letter(),
+                    letters.letters()
+                )
+            };
+            return Err(src.invalid(value.span(), &key, why));
+        };
+        if out[slot].is_some() {
+            return Err(src.invalid(
+                value.span(),
+                &key,
+                format!("the reversal of {} is given twice", axis.letter()),
+            ));
+        }
+        let v = *value.get_ref();
+        src.finite(value.span(), &key, &[v])?;
+        if let Some(table) = &tables[slot]
+            && table.reversal.is_some()
+        {
+            return Err(src.invalid(
+                value.span(),
+                &key,
+                format!(
+                    "{} already has a REVERSAL column in {}: give the reversal of {} in one place only",
+                    axis.letter(),
+                    table.path.display(),
+                    axis.letter()
+                ),
+            ));
+        }
+        out[slot] = Some(v);
+    }
+    Ok(out)
 }
 
 /// The travel of `axis` must lie inside the table's positions (a rotary table over

@@ -14,6 +14,7 @@
 //! the lookup allocates nothing; every returned value is finite (inputs are checked).
 use super::definition::{ExtrapolationPolicy, Machine};
 use super::resampled::ResampledAxis;
+use super::reversal::{Approach, AxisPlay, DirectionTracker};
 use super::table::ErrorTable;
 use crate::axes::{Axes, Axis};
 use crate::kinematics::error_values::PARAMETER_COUNT;
@@ -102,6 +103,14 @@ struct AxisCurves {
     resampled: Option<ResampledAxis>,
 }
 
+/// The reversal of one joint slot: its axis, the component it adds to (the
+/// axis's positioning parameter: δx of X, εz of C, …) and its values.
+#[derive(Clone, Debug)]
+struct SlotReversal {
+    component: usize,
+    play: AxisPlay,
+}
+
 /// The effect of one parameter alone at a pose (first order).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Contribution {
@@ -166,6 +175,9 @@ pub struct ErrorModel {
     kinematics: Kinematics,
     axes: [Option<AxisCurves>; 5],
     scalars: ErrorValues,
+    /// Per joint slot, its reversal ([`super::reversal`]); all `None` on a
+    /// machine without one, whose lookups are then exactly the direction-free ones.
+    reversal: [Option<SlotReversal>; 5],
     policy: ExtrapolationPolicy,
     /// Lookups that held an end value; shared with the models of other tool
     /// lengths made from this one ([`ErrorModel::with_tool_length`]).
@@ -181,6 +193,7 @@ impl Clone for ErrorModel {
             kinematics: self.kinematics,
             axes: self.axes.clone(),
             scalars: self.scalars,
+            reversal: self.reversal.clone(),
             policy: self.policy,
             held: Arc::new(AtomicU64::new(self.held.load(Ordering::Relaxed))),
             holding: OnceLock::new(),
@@ -403,14 +416,83 @@ impl ErrorModel {
                 ac.resampled = ResampledAxis::build(&ac.curves, ac.range[0], ac.range[1]);
             });
         }
+        let reversal = Self::reversals(machine);
         ErrorModel {
             kinematics: machine.kinematics_model(),
             axes,
             scalars: machine.scalar_errors(),
+            reversal,
             policy: options.extrapolation,
             held: Arc::new(AtomicU64::new(0)),
             holding: OnceLock::new(),
         }
+    }
+
+    /// The reversal of every slot of `machine` that has one.
+    fn reversals(machine: &Machine) -> [Option<SlotReversal>; 5] {
+        let layout = machine.layout();
+        let mut out: [Option<SlotReversal>; 5] = Default::default();
+        for (slot, axis) in layout.slot_axes().into_iter().enumerate() {
+            let Some(reversal) = machine.reversal(axis) else {
+                continue;
+            };
+            let parameter = crate::laser::positioning_parameter(axis);
+            let Some(component) = layout
+                .component_names(slot)
+                .iter()
+                .position(|n| *n == parameter)
+            else {
+                continue;
+            };
+            let (range, wrap) = match machine.table(axis) {
+                Some(t) => (
+                    [
+                        t.positions.first().copied().unwrap_or(0.0),
+                        t.positions.last().copied().unwrap_or(0.0),
+                    ],
+                    t.one_revolution,
+                ),
+                None => ([f64::NEG_INFINITY, f64::INFINITY], false),
+            };
+            out[slot] = Some(SlotReversal {
+                component,
+                play: AxisPlay {
+                    axis,
+                    reversal,
+                    range,
+                    wrap,
+                },
+            });
+        }
+        out
+    }
+
+    /// Whether any axis has a reversal (a table's `REVERSAL` or `[reversal]`).
+    pub fn has_reversal(&self) -> bool {
+        self.reversal.iter().any(Option::is_some)
+    }
+
+    /// The axes with a reversal, in slot order, with where each comes from.
+    pub fn reversal_axes(&self) -> Vec<(Axis, &'static str)> {
+        self.reversal
+            .iter()
+            .flatten()
+            .map(|r| (r.play.axis, r.play.reversal.source()))
+            .collect()
+    }
+
+    /// A tracker of the directions of the axes with a reversal
+    /// ([`DirectionTracker`]; empty on a machine without one).
+    pub fn direction_tracker(&self) -> DirectionTracker {
+        DirectionTracker::new(self.reversal.iter().flatten().map(|r| r.play.clone()).collect())
+    }
+
+    /// REVERSAL of `axis` at joint value `joint` (µm or µrad; the table's
+    /// position wrapped and clamped as the curves' lookups are, no count);
+    /// `None` when the axis has none.
+    pub fn reversal_at(&self, axis: Axis, joint: f64) -> Option<f64> {
+        let r = self.reversal[self.kinematics.chain.slot(axis)?].as_ref()?;
+        Some(r.play.at_joint(joint))
     }
 
     /// Per measured axis: intervals of the resampled lookup and its largest deviation
@@ -461,6 +543,7 @@ impl ErrorModel {
             kinematics,
             axes: Default::default(),
             scalars: values,
+            reversal: Default::default(),
             policy: ExtrapolationPolicy::Error,
             held: Arc::new(AtomicU64::new(0)),
             holding: OnceLock::new(),
@@ -623,6 +706,47 @@ impl ErrorModel {
             }
         }
         Ok(values)
+    }
+
+    /// [`Self::errors_at`] for a pose approached as `approach` says: each axis
+    /// with a reversal and a known direction adds ±REVERSAL/2 to its
+    /// positioning parameter (formats.md "Laser positioning runs and
+    /// reversal"); an unknown direction adds nothing (the mean error).
+    pub fn errors_toward(
+        &self,
+        joints: &Axes,
+        approach: &Approach,
+    ) -> Result<ErrorValues, LookupError> {
+        let mut values = self.errors_at(joints)?;
+        self.add_reversal(&mut values, joints, approach);
+        Ok(values)
+    }
+
+    /// Add the reversal terms of `approach` at `joints` to `values`.
+    #[inline]
+    pub fn add_reversal(&self, values: &mut ErrorValues, joints: &Axes, approach: &Approach) {
+        if approach.is_none() {
+            return;
+        }
+        for (slot, r) in self.reversal.iter().enumerate() {
+            let Some(r) = r else { continue };
+            let sign = approach.get(r.play.axis).sign();
+            if sign != 0.0 {
+                values.component[slot][r.component] +=
+                    0.5 * sign * r.play.at_joint(joints.get(r.play.axis));
+            }
+        }
+    }
+
+    /// [`Self::volumetric_error`] for a pose approached as `approach` says.
+    #[inline]
+    pub fn volumetric_error_toward(
+        &self,
+        joints: &Axes,
+        approach: &Approach,
+    ) -> Result<VolumetricError, LookupError> {
+        let errors = self.errors_toward(joints, approach)?;
+        Ok(self.kinematics.volumetric_error(joints, &errors))
     }
 
     /// Volumetric and tool-axis error at `joints`: the lookup plus the chain.

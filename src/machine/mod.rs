@@ -8,6 +8,7 @@ pub mod error_map;
 pub mod error_model;
 pub mod model_cache;
 pub mod resampled;
+pub mod reversal;
 pub mod synthetic;
 pub mod table;
 pub mod tool_models;
@@ -19,5 +20,6 @@ pub use definition::{
 pub use error_model::{
     Contribution, ErrorModel, LookupError, ModelError, ModelOptions, ModelUncertainty,
 };
+pub use reversal::{Approach, AxisReversal, Direction, DirectionTracker};
 pub use model_cache::{CacheOutcome, CacheReport, ModelCache};
 pub use tool_models::ToolModels;

@@ -222,7 +222,7 @@ fn an_imported_table_is_fitted_and_compensated_with() {
     assert_success(&out);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("has a REVERSAL column: the error model does not use it"),
+        stderr.contains("has a REVERSAL column: the error model adds ±REVERSAL/2"),
         "{stderr}"
     );
     assert!(dir.path().join("out.nc").exists());
