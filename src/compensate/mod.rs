@@ -22,13 +22,15 @@ use crate::gcode::{
     Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
-use crate::machine::{ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels};
+use crate::machine::{
+    Approach, DirectionTracker, ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels,
+};
 use crate::toolpath::{effective_frame, joints_of, target_of};
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
-    SolveError, WarmStart, first_order_joints, first_order_joints_at, solve_joints_from,
-    solve_pose_from,
+    SolveError, WarmStart, first_order_joints, first_order_joints_at, solve_joints_toward,
+    solve_pose_toward,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -439,10 +441,15 @@ struct AxisCorrection {
 
 /// Angle between the modelled actual tool axis at `joints` and the nominal one
 /// at `nominal`, µrad.
-fn axis_error_urad(model: &ErrorModel, joints: &Axes, nominal: &Axes) -> Result<f64, PointError> {
+fn axis_error_urad(
+    model: &ErrorModel,
+    joints: &Axes,
+    nominal: &Axes,
+    approach: &Approach,
+) -> Result<f64, PointError> {
     let kin = model.kinematics();
     let errors = model
-        .errors_at(joints)
+        .errors_toward(joints, approach)
         .map_err(|e| PointError::Solve(SolveError::Lookup(e)))?;
     let actual = crate::vec3::normalise(kin.actual_tip_and_axis(joints, &errors).axis);
     let programmed = kin.nominal_tool_axis(nominal);
@@ -450,7 +457,8 @@ fn axis_error_urad(model: &ErrorModel, joints: &Axes, nominal: &Axes) -> Result<
 }
 
 /// The compensated target of `target` (in `frame`), the solve starting from
-/// `warm` (updated when it succeeds); A and C corrected too when `orientation`.
+/// `warm` (updated when it succeeds); A and C corrected too when `orientation`;
+/// the pose approached as `approach` says (the reversal terms).
 fn compensate_target(
     model: &ErrorModel,
     frame: Frame,
@@ -458,11 +466,17 @@ fn compensate_target(
     limits: Option<&Limits>,
     warm: &mut WarmStart,
     orientation: bool,
+    approach: &Approach,
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
-    let (joints, residual_mm, axis, beyond) = match solve_target(model, &nominal, warm, orientation)
-    {
+    let (joints, residual_mm, axis, beyond) = match solve_target(
+        model,
+        &nominal,
+        warm,
+        orientation,
+        approach,
+    ) {
         Err(PointError::Solve(SolveError::Lookup(e @ LookupError::OutOfRange { .. })))
             if model.policy() == ExtrapolationPolicy::Error
                 && model.errors_at(&nominal).is_ok() =>
@@ -472,7 +486,8 @@ fn compensate_target(
             // shorter than the correction itself (issue 23), else the
             // lookup error stands.
             let held = model.holding_ends();
-            let (joints, residual_mm, axis) = solve_target(held, &nominal, warm, orientation)?;
+            let (joints, residual_mm, axis) =
+                solve_target(held, &nominal, warm, orientation, approach)?;
             let beyond = model.beyond_tables(&joints);
             let within = crate::axes::Axis::ALL.into_iter().all(|a| {
                 let b = beyond.get(a);
@@ -513,11 +528,12 @@ fn solve_target(
     nominal: &Axes,
     warm: &mut WarmStart,
     orientation: bool,
+    approach: &Approach,
 ) -> Result<(Axes, f64, Option<AxisCorrection>), PointError> {
     let nominal = *nominal;
     let guess = warm.correction;
     let (joints, residual_mm, axis) = if orientation {
-        match solve_pose_from(model, &nominal, warm).map_err(PointError::Solve)? {
+        match solve_pose_toward(model, &nominal, approach, warm).map_err(PointError::Solve)? {
             Some(pose) => (
                 pose.joints,
                 pose.residual_mm,
@@ -528,10 +544,11 @@ fn solve_target(
                 }),
             ),
             None => {
-                let before = axis_error_urad(model, &nominal, &nominal)?;
+                let before = axis_error_urad(model, &nominal, &nominal, approach)?;
                 let xyz = [guess[0], guess[1], guess[2]];
-                let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
-                let after = axis_error_urad(model, &solved.joints, &nominal)?;
+                let solved = solve_joints_toward(model, &nominal, approach, xyz)
+                    .map_err(PointError::Solve)?;
+                let after = axis_error_urad(model, &solved.joints, &nominal, approach)?;
                 (
                     solved.joints,
                     solved.residual_mm,
@@ -545,7 +562,8 @@ fn solve_target(
         }
     } else {
         let xyz = [guess[0], guess[1], guess[2]];
-        let solved = solve_joints_from(model, &nominal, xyz).map_err(PointError::Solve)?;
+        let solved =
+            solve_joints_toward(model, &nominal, approach, xyz).map_err(PointError::Solve)?;
         (solved.joints, solved.residual_mm, None)
     };
     Ok((joints, residual_mm, axis))
@@ -560,12 +578,13 @@ fn estimate_target(
     frame: Frame,
     target: &Axes,
     rotary: Option<[f64; 2]>,
+    approach: &Approach,
 ) -> Result<Axes, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
     let estimate = |model: &ErrorModel| match rotary {
-        Some(r) => first_order_joints_at(model, &nominal, r),
-        None => first_order_joints(model, &nominal),
+        Some(r) => first_order_joints_at(model, &nominal, r, approach),
+        None => first_order_joints(model, &nominal, approach),
     };
     let q = match estimate(model) {
         // Corrected angles just beyond a table's end: held over the sliver,
@@ -635,6 +654,35 @@ fn sample_fractions(turns: f64, t0: f64, t1: f64) -> impl Iterator<Item = f64> {
     (1..=k).map(move |j| j as f64 / (k + 1) as f64)
 }
 
+/// The directions of the axes with a reversal at fraction `t` of `motion`,
+/// from `incoming` (before the move; `None`: the machine has no reversal): a
+/// straight joint move's are its end's (`end`) past its start.
+fn approach_at(
+    model: &ErrorModel,
+    motion: &Motion,
+    incoming: Option<&DirectionTracker>,
+    end: &Approach,
+    t: f64,
+) -> Approach {
+    let Some(incoming) = incoming else {
+        return Approach::NONE;
+    };
+    if effective_frame(motion) == Frame::Joint && motion.arc_geometry().is_none() {
+        return *end;
+    }
+    let mut tracker = incoming.clone();
+    crate::toolpath::walk::advance_directions(&mut tracker, model.kinematics(), motion, 0.0, t);
+    tracker.approach()
+}
+
+/// How a motion was approached: the directions before it (`None`: the machine
+/// has no reversal) and at its end.
+#[derive(Clone, Copy)]
+struct Directions<'a> {
+    incoming: Option<&'a DirectionTracker>,
+    end: &'a Approach,
+}
+
 /// Plan one motion block: its compensated end (already solved), and split points.
 fn plan_motion(
     model: &ErrorModel,
@@ -642,13 +690,34 @@ fn plan_motion(
     start_comp: Option<Axes>,
     end_comp: Axes,
     options: &CompensateOptions,
+    directions: Directions<'_>,
 ) -> Result<Split, PointError> {
     let splittable = !matches!(motion.kind, MotionKind::Rapid);
-    let Some(start_comp) = start_comp.filter(|_| splittable) else {
+    let Some(mut start_comp) = start_comp.filter(|_| splittable) else {
         return Ok(Split::default());
     };
     let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
+    let at = |t: f64| approach_at(model, motion, directions.incoming, directions.end, t);
+    // A move that reverses an axis with a reversal: the written start was
+    // compensated for the old direction; the split test measures the
+    // correction's departure from a straight move in the new one (the jump
+    // between the two is the reversal taken up over the move:
+    // docs/extensions.md "Reversal errors").
+    if let Some(incoming) = directions.incoming
+        && incoming.approach() != *directions.end
+    {
+        start_comp = compensate_target(
+            model,
+            frame,
+            &motion.point_at(arc.as_ref(), 0.0),
+            None,
+            &mut WarmStart::default(),
+            options.orientation,
+            directions.end,
+        )?
+        .target;
+    }
     let turns = turns_swept(motion, arc.as_ref());
     let tol_mm = options.tolerance_um * 1e-3;
     let limits = options.limits.as_ref();
@@ -676,7 +745,8 @@ fn plan_motion(
             let rotary = options
                 .orientation
                 .then_some([straight.get(r1), straight.get(r2)]);
-            let estimate = estimate_target(model, frame, &nominal, rotary)?;
+            let approach = at(t0 + f * (t1 - t0));
+            let estimate = estimate_target(model, frame, &nominal, rotary, &approach)?;
             gap = gap.max(xyz_gap(&estimate, &straight));
             if gap > tol_mm && depth < options.max_split_depth {
                 break;
@@ -685,7 +755,14 @@ fn plan_motion(
         if gap > tol_mm && arc.is_some() {
             // A split arc becomes straight pieces on the compensated arc.
             return Ok(Split {
-                via: densify_arc(model, motion, arc.as_ref().expect("arc"), frame, options)?,
+                via: densify_arc(
+                    model,
+                    motion,
+                    arc.as_ref().expect("arc"),
+                    frame,
+                    options,
+                    directions.incoming,
+                )?,
                 capped_gap_um: None,
             });
         }
@@ -698,6 +775,7 @@ fn plan_motion(
                 limits,
                 &mut WarmStart::default(),
                 options.orientation,
+                &at(tm),
             )?
             .target;
             // Right half first on the stack so the left half is processed first.
@@ -724,6 +802,7 @@ fn densify_arc(
     arc: &ArcGeometry,
     frame: Frame,
     options: &CompensateOptions,
+    incoming: Option<&DirectionTracker>,
 ) -> Result<Vec<Axes>, PointError> {
     let n = arc_chords(arc, options.tolerance_um * 1e-4);
     if n > options.max_arc_chords as f64 {
@@ -735,8 +814,24 @@ fn densify_arc(
     let n = n as usize;
     let mut via = Vec::with_capacity(n - 1);
     let mut warm = WarmStart::default();
+    // The directions along the arc, advanced chord by chord.
+    let mut tracker = incoming.cloned();
     for i in 1..n {
-        let p = motion.point_at(Some(arc), i as f64 / n as f64);
+        let t = i as f64 / n as f64;
+        let p = motion.point_at(Some(arc), t);
+        let approach = match tracker.as_mut() {
+            Some(tr) => {
+                crate::toolpath::walk::advance_directions(
+                    tr,
+                    model.kinematics(),
+                    motion,
+                    (i - 1) as f64 / n as f64,
+                    t,
+                );
+                tr.approach()
+            }
+            None => Approach::NONE,
+        };
         via.push(
             compensate_target(
                 model,
@@ -745,6 +840,7 @@ fn densify_arc(
                 options.limits.as_ref(),
                 &mut warm,
                 options.orientation,
+                &approach,
             )?
             .target,
         );
@@ -917,6 +1013,9 @@ fn solve_chunks(
     let mut axes = CompensateReport::default();
     // Compensated end of the previous motion (the numbers written).
     let mut previous: Option<Axes> = None;
+    // The directions of the axes with a reversal (empty without one).
+    let mut directions = models.get(&ToolInUse::DEFAULT).direction_tracker();
+    let tracking = !directions.is_empty();
     for chunk in chunks {
         let chunk = match chunk {
             Ok(chunk) => chunk,
@@ -929,13 +1028,40 @@ fn solve_chunks(
         let models = &*models;
         let uncertain =
             options.expected_residual && models.get(&ToolInUse::DEFAULT).has_uncertainty();
+        // 0. The direction of each axis with a reversal at the end of every
+        //    compensated move: the last motion of the axis in the programmed
+        //    (nominal) joints, every move of the program in order (G28/G30 legs
+        //    too); before a move, the directions it starts with.
+        let mut approaches: Vec<Approach> = Vec::new();
+        let mut offsets: Vec<usize> = Vec::with_capacity(chunk.len() + 1);
+        let mut incoming: Vec<Option<DirectionTracker>> = Vec::with_capacity(chunk.len());
+        for (_, event) in chunk.iter() {
+            offsets.push(approaches.len());
+            if event.skipped {
+                incoming.push(None);
+                continue;
+            }
+            incoming.push((tracking && event.motion.is_some()).then(|| directions.clone()));
+            let kin = models.get(&event.tool).kinematics();
+            let compensated = compensated_moves(event);
+            for m in event.motions() {
+                crate::toolpath::walk::advance_directions(&mut directions, kin, m, 0.0, 1.0);
+                if compensated.iter().any(|c| std::ptr::eq(c, m)) {
+                    approaches.push(directions.approach());
+                }
+            }
+        }
+        offsets.push(approaches.len());
         // 1. Compensated end of every motion, in parallel over pieces of the chunk;
         //    within a piece each solve starts from the previous correction.
         //    Flat over the chunk's moves, in order.
         let ends: Vec<Result<Compensated, PointError>> = chunk
             .par_chunks(WARM_START_RUN)
-            .flat_map_iter(|piece| {
+            .enumerate()
+            .flat_map_iter(|(index, piece)| {
                 let mut warm = WarmStart::default();
+                let mut k = offsets[index * WARM_START_RUN];
+                let approaches = &approaches;
                 piece
                     .iter()
                     .flat_map(|(_, event)| {
@@ -943,6 +1069,8 @@ fn solve_chunks(
                         compensated_moves(event).iter().map(move |m| (model, m))
                     })
                     .map(|(model, m)| {
+                        let approach = approaches[k];
+                        k += 1;
                         compensate_target(
                             model,
                             effective_frame(m),
@@ -950,6 +1078,7 @@ fn solve_chunks(
                             options.limits.as_ref(),
                             &mut warm,
                             options.orientation,
+                            &approach,
                         )
                     })
                     .collect::<Vec<_>>()
@@ -1023,12 +1152,19 @@ fn solve_chunks(
             .par_iter()
             .zip(resolved.par_iter())
             .zip(starts.par_iter())
-            .map(|(((_, event), end), start)| {
+            .zip(incoming.par_iter())
+            .enumerate()
+            .map(|(i, ((((_, event), end), start), before))| {
                 let (Some(m), Some((end, _))) = (&event.motion, end) else {
                     return Ok(Plan::default());
                 };
                 let model = models.get(&event.tool);
-                let split = plan_motion(model, m, *start, *end, options)?;
+                let end_approach = approaches.get(offsets[i]).copied().unwrap_or_default();
+                let directions = Directions {
+                    incoming: before.as_ref(),
+                    end: &end_approach,
+                };
+                let split = plan_motion(model, m, *start, *end, options, directions)?;
                 let uncertainty_um = if uncertain {
                     let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
                     Some(

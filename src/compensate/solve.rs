@@ -30,7 +30,7 @@
 //! with the machine's rotary letters in letter order.
 use crate::axes::Axes;
 use crate::kinematics::Kinematics;
-use crate::machine::{ErrorModel, LookupError};
+use crate::machine::{Approach, ErrorModel, LookupError};
 
 /// Residual at which the solve stops, mm (1 nm).
 pub const RESIDUAL_MM: f64 = 1e-6;
@@ -148,6 +148,17 @@ pub fn solve_pose_from(
     nominal: &Axes,
     warm: &mut WarmStart,
 ) -> Result<Option<SolvedPose>, SolveError> {
+    solve_pose_toward(model, nominal, &Approach::NONE, warm)
+}
+
+/// [`solve_pose_from`] for a pose approached as `approach` says (the reversal
+/// terms of the axes with a known direction: `ErrorModel::errors_toward`).
+pub fn solve_pose_toward(
+    model: &ErrorModel,
+    nominal: &Axes,
+    approach: &Approach,
+    warm: &mut WarmStart,
+) -> Result<Option<SolvedPose>, SolveError> {
     let target = PoseTarget::of(model, nominal)?;
     let kin = model.kinematics();
     let mut q = *nominal;
@@ -167,7 +178,7 @@ pub fn solve_pose_from(
     let mut steps = 0;
     let mut before_urad = f64::NAN;
     for iteration in 0..=MAX_ITERATIONS {
-        let (r, errors) = target.residual(model, &q)?;
+        let (r, errors) = target.residual(model, approach, &q)?;
         let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
         let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
         let kept = match warm.jacobian.take() {
@@ -250,9 +261,10 @@ impl PoseTarget {
     fn residual(
         &self,
         model: &ErrorModel,
+        approach: &Approach,
         q: &Axes,
     ) -> Result<([f64; 5], crate::kinematics::ErrorValues), SolveError> {
-        let errors = model.errors_at(q)?;
+        let errors = model.errors_toward(q, approach)?;
         let actual = model.kinematics().actual_tip_and_axis(q, &errors);
         let du = crate::vec3::sub(crate::vec3::normalise(actual.axis), self.axis);
         let [e1, e2] = self.normals;
@@ -352,6 +364,16 @@ pub fn solve_joints_from(
     nominal: &Axes,
     guess: [f64; 3],
 ) -> Result<Solved, SolveError> {
+    solve_joints_toward(model, nominal, &Approach::NONE, guess)
+}
+
+/// [`solve_joints_from`] for a pose approached as `approach` says.
+pub fn solve_joints_toward(
+    model: &ErrorModel,
+    nominal: &Axes,
+    approach: &Approach,
+    guess: [f64; 3],
+) -> Result<Solved, SolveError> {
     let target = Target::of(model, nominal)?;
     let mut q = *nominal;
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
@@ -361,7 +383,7 @@ pub fn solve_joints_from(
     }
     let mut residual = f64::INFINITY;
     for iteration in 0..=MAX_ITERATIONS {
-        let (next, r) = target.newton_step(model, &q)?;
+        let (next, r) = target.newton_step(model, approach, &q)?;
         residual = r;
         if residual < RESIDUAL_MM {
             return Ok(Solved {
@@ -386,8 +408,14 @@ pub fn solve_joints_from(
 /// rotary joints as given (the first step of [`solve_joints`]). Its departure from the exact
 /// solve is the error's slope times the correction (≈ 1e-4 × tens of µm, a few
 /// nm), so it serves to decide whether a move must be split, never as output.
-pub fn first_order_joints(model: &ErrorModel, nominal: &Axes) -> Result<Axes, SolveError> {
-    Ok(Target::of(model, nominal)?.newton_step(model, nominal)?.0)
+pub fn first_order_joints(
+    model: &ErrorModel,
+    nominal: &Axes,
+    approach: &Approach,
+) -> Result<Axes, SolveError> {
+    Ok(Target::of(model, nominal)?
+        .newton_step(model, approach, nominal)?
+        .0)
 }
 
 /// First-order X Y Z at the rotary joints `rotary` (degrees, slot order) such that
@@ -398,6 +426,7 @@ pub fn first_order_joints_at(
     model: &ErrorModel,
     nominal: &Axes,
     rotary: [f64; 2],
+    approach: &Approach,
 ) -> Result<Axes, SolveError> {
     if !nominal.is_finite() {
         return Err(SolveError::NotFinite(*nominal));
@@ -415,7 +444,7 @@ pub fn first_order_joints_at(
         map,
     };
     let start = target.map.joints(target.tip);
-    Ok(target.newton_step(model, &start)?.0)
+    Ok(target.newton_step(model, approach, &start)?.0)
 }
 
 /// The nominal tool tip to land on, and its machine point at the programmed
@@ -443,9 +472,14 @@ impl Target {
     }
 
     /// One step from `q`: the next joints and the current residual |r_act(q) − tip| (mm).
-    fn newton_step(&self, model: &ErrorModel, q: &Axes) -> Result<(Axes, f64), SolveError> {
+    fn newton_step(
+        &self,
+        model: &ErrorModel,
+        approach: &Approach,
+        q: &Axes,
+    ) -> Result<(Axes, f64), SolveError> {
         let kinematics = model.kinematics();
-        let errors = model.errors_at(q)?;
+        let errors = model.errors_toward(q, approach)?;
         let actual = kinematics.actual_tip_and_axis(q, &errors).tip;
         let residual = crate::vec3::dist(actual, self.tip);
         let m_actual = self.map.linear_joints(actual);

@@ -161,6 +161,8 @@ pub struct PathErrors<'m> {
     started: Instant,
     /// An error was returned: no more rows.
     failed: bool,
+    /// The direction of each axis with a reversal, as the program moves it.
+    directions: crate::machine::DirectionTracker,
 }
 
 /// What the rows handed out so far add up to.
@@ -205,6 +207,7 @@ impl<'m> PathErrors<'m> {
             match_distance_mm: options.max_distance_mm,
             started: Instant::now(),
             failed: false,
+            directions: model.direction_tracker(),
         }
     }
 
@@ -240,7 +243,14 @@ impl<'m> PathErrors<'m> {
         let model = self.models.get_or_make(&event.tool);
         for m in event.motions() {
             let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
-            let v = match model.volumetric_error(&joints) {
+            crate::toolpath::walk::advance_directions(
+                &mut self.directions,
+                model.kinematics(),
+                m,
+                0.0,
+                1.0,
+            );
+            let v = match model.volumetric_error_toward(&joints, &self.directions.approach()) {
                 Ok(v) => v,
                 Err(source) => {
                     return Some(Err(PredictError::Lookup {

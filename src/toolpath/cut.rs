@@ -3,7 +3,7 @@
 //! all start here.
 use super::context::PointContext;
 use super::plan_match::{PlanMatch, PlanMatcher};
-use super::program::{WalkSummary, walk_program};
+use super::program::WalkSummary;
 use super::walk::WalkOptions;
 use crate::gcode::{GcodeError, InterpretOptions, Program};
 use crate::inspection::PlanPoint;
@@ -70,11 +70,13 @@ pub fn match_plan(
     let points: Vec<([f64; 3], [f64; 3])> = plan.iter().map(|p| (p.point, p.normal)).collect();
     let mut matcher = PlanMatcher::new(&points, options.tool_radius, options.max_distance_mm)
         .with_default_shape(options.tool_shape);
-    let summary = walk_program(
+    // The direction of each axis with a reversal, as the program moves it.
+    let summary = super::program::walk_program_tracking(
         program,
         model.kinematics(),
         options.interpret,
         options.walk,
+        Some(model.direction_tracker()),
         |p| matcher.offer(p),
     )?;
     Ok((matcher.into_matches(), summary))
@@ -97,7 +99,7 @@ pub fn contexts(
             // The chain with the tool that cut the point.
             let kin = kinematics_with(model, &pp.tool);
             let errors = model
-                .errors_at(&pp.joints)
+                .errors_toward(&pp.joints, &pp.approach)
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),
                     source,
@@ -173,7 +175,7 @@ pub fn match_errors(
         .map(|(p, m)| match m {
             None => Ok(None),
             Some(m) => model
-                .errors_at(&m.point.joints)
+                .errors_toward(&m.point.joints, &m.point.approach)
                 .map(|errors| Some(errors_at_match(model, m, p.normal, &errors)))
                 .map_err(|source| CutError::Lookup {
                     id: p.id.clone(),

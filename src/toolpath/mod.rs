@@ -14,5 +14,5 @@ pub mod work_origin;
 pub use context::PointContext;
 pub use cut::{CutError, CutOptions};
 pub use plan_match::{PlanMatch, PlanMatcher};
-pub use program::{WalkSummary, walk_program};
+pub use program::{WalkSummary, walk_program, walk_program_tracking};
 pub use walk::{PathPoint, PathWalker, WalkOptions, effective_frame, joints_of, target_of};

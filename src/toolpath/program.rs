@@ -20,10 +20,26 @@ pub fn walk_program(
     kinematics: &Kinematics,
     interpret: InterpretOptions,
     walk: WalkOptions,
+    visit: impl FnMut(&PathPoint),
+) -> Result<WalkSummary, GcodeError> {
+    walk_program_tracking(program, kinematics, interpret, walk, None, visit)
+}
+
+/// [`walk_program`], each point with the directions `directions` tracks
+/// (the axes with a reversal; `PathPoint::approach`).
+pub fn walk_program_tracking(
+    program: Program,
+    kinematics: &Kinematics,
+    interpret: InterpretOptions,
+    walk: WalkOptions,
+    directions: Option<crate::machine::DirectionTracker>,
     mut visit: impl FnMut(&PathPoint),
 ) -> Result<WalkSummary, GcodeError> {
     let mut run = program.run(interpret);
     let mut walker = PathWalker::new(kinematics, walk);
+    if let Some(t) = directions {
+        walker.track_directions(t);
+    }
     let mut summary = WalkSummary::default();
     let mut count = |p: &PathPoint| {
         summary.path_points += 1;

@@ -62,6 +62,9 @@ pub struct PathPoint {
     pub curvature_per_mm: f64,
     /// Unit principal normal towards the centre of curvature (machine frame), or zero.
     pub principal_normal: [f64; 3],
+    /// The direction of each axis's last motion, for the axes with a reversal
+    /// when the walk tracks them ([`PathWalker::track_directions`]; else none).
+    pub approach: crate::machine::Approach,
 }
 
 /// The frame a motion's targets are really in: G53 targets are machine
@@ -117,6 +120,8 @@ pub struct PathWalker<'k> {
     pending: VecDeque<Pending>,
     /// Reused sample buffer.
     samples: Vec<Axes>,
+    /// Directions of the axes with a reversal (`None`: not tracked).
+    directions: Option<crate::machine::DirectionTracker>,
 }
 
 /// Endpoints closer than this (mm) are the same point for the curvature rule.
@@ -135,7 +140,14 @@ impl<'k> PathWalker<'k> {
             previous_distinct: None,
             pending: VecDeque::new(),
             samples: Vec::new(),
+            directions: None,
         }
+    }
+
+    /// Track the directions of the axes `tracker` follows (the error model's
+    /// axes with a reversal) along the path: every point gets its approach.
+    pub fn track_directions(&mut self, tracker: crate::machine::DirectionTracker) {
+        self.directions = (!tracker.is_empty()).then_some(tracker);
     }
 
     /// Total time so far, minutes.
@@ -164,6 +176,9 @@ impl<'k> PathWalker<'k> {
             self.started = true;
             self.last_endpoint = Some(start_joints.xyz());
             self.previous_distinct = Some(start_joints.xyz());
+        }
+        if let Some(t) = self.directions.as_mut() {
+            t.update(&start_joints);
         }
         self.sample(&kin, motion, &start_joints, &end_joints);
 
@@ -210,6 +225,13 @@ impl<'k> PathWalker<'k> {
             }
             along += prev.xyz_distance(&joints);
             prev = joints;
+            let approach = match self.directions.as_mut() {
+                Some(t) => {
+                    t.update(&joints);
+                    t.approach()
+                }
+                None => crate::machine::Approach::NONE,
+            };
             let block_end = i + 1 == n;
             let cut_mm = if cutting {
                 self.cut_length_mm + along
@@ -231,6 +253,7 @@ impl<'k> PathWalker<'k> {
                 cut_length_m: cut_mm * 1e-3,
                 curvature_per_mm: 0.0,
                 principal_normal: [0.0; 3],
+                approach,
             };
             let (previous, next) = if block_end {
                 (prev_for_end, None)
@@ -380,5 +403,41 @@ mod tests {
         let (k, n) = circle_curvature([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]);
         assert_eq!(k, 0.0);
         assert_eq!(n, [0.0; 3]);
+    }
+}
+
+/// Advance `tracker` (the directions of the axes with a reversal) along
+/// `motion` from its fraction `t0` to `t1`, in the joints of `kinematics`: a
+/// straight joint move at its end alone (its joints move monotonically),
+/// anything else (arcs, tool-tip moves, whose joints need not be monotone)
+/// at samples ≤ 0.5 mm and ≤ 1/16 turn apart, as the walk samples a path.
+pub fn advance_directions(
+    tracker: &mut crate::machine::DirectionTracker,
+    kinematics: &Kinematics,
+    motion: &Motion,
+    t0: f64,
+    t1: f64,
+) {
+    if tracker.is_empty() {
+        return;
+    }
+    let frame = effective_frame(motion);
+    let arc = motion.arc_geometry();
+    // The start (the last end: no change, but it places the first move).
+    tracker.update(&joints_of(kinematics, frame, &motion.point_at(arc.as_ref(), t0)));
+    if frame == Frame::Joint && arc.is_none() {
+        tracker.update(&motion.point_at(None, t1));
+        return;
+    }
+    let len = arc
+        .as_ref()
+        .map_or_else(|| motion.start.xyz_distance(&motion.end), |g| g.length());
+    let turns = arc.as_ref().map_or(0.0, |g| g.sweep().abs() / std::f64::consts::TAU)
+        + motion.start.rotary_max_step(&motion.end) / 360.0;
+    let n = ((t1 - t0) * (len / 0.5).max(16.0 * turns)).ceil();
+    let n = if n.is_finite() { n.clamp(1.0, 10_000.0) as usize } else { 1 };
+    for j in 1..=n {
+        let t = t0 + (t1 - t0) * j as f64 / n as f64;
+        tracker.update(&joints_of(kinematics, frame, &motion.point_at(arc.as_ref(), t)));
     }
 }
