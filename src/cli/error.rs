@@ -18,12 +18,18 @@ Examples:
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
+  volcomp error machine.toml --at 50,20,-30,15,45 --direction X+,Y-
 
 The pose is X,Y,Z (mm) and the machine's two rotary axes in letter order (degrees):
 X,Y,Z,A,C on an A/C machine, X,Y,Z,B,C on a B/C machine. With --frame joint (default) X Y Z are the
 machine coordinates of the tool tip; with --frame part they are the tool tip in part
 coordinates (converted with the nominal kinematics). e is actual minus nominal tool
-tip in part coordinates (µm); the tool-axis error is in µrad.";
+tip in part coordinates (µm); the tool-axis error is in µrad.
+
+--direction says how the pose was approached: each axis's last motion, + or -
+(`X+,Y-,C+`). An axis with a reversal (its table's REVERSAL column or the machine
+file's [reversal]) then has positioning error E + REVERSAL/2 moving +, E - REVERSAL/2
+moving -; an axis not named (and every axis without --direction) has the mean E.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -44,6 +50,11 @@ pub struct Args {
     /// Print JSON (`{"e_um": [..], "axis_urad": [..]}`, a list of them with --poses).
     #[arg(long)]
     pub json: bool,
+    /// How the pose was approached: the direction of each axis's last motion,
+    /// e.g. `X+,Y-` (axes not named: unknown, the mean error). Adds ±REVERSAL/2
+    /// on the axes with a reversal.
+    #[arg(long, value_name = "X+,Y-,…", alias = "approach", allow_hyphen_values = true)]
+    pub direction: Option<String>,
     /// Also print each parameter's contribution to e, largest first (single pose).
     #[arg(long, short)]
     pub verbose: bool,
@@ -64,6 +75,32 @@ fn joint_letters(kin: &crate::kinematics::Kinematics) -> [crate::axes::Axis; 5] 
     use crate::axes::Axis;
     let [r1, r2] = kin.rotary();
     [Axis::X, Axis::Y, Axis::Z, r1, r2]
+}
+
+/// Parse `--direction X+,Y-`: every letter one of the machine's joints (X Y Z
+/// and its rotary axes); an error names the column.
+pub(crate) fn parse_direction(
+    text: &str,
+    kin: &crate::kinematics::Kinematics,
+) -> anyhow::Result<crate::machine::Approach> {
+    let approach = crate::machine::Approach::parse(text).map_err(|e| {
+        crate::cli::UsageError(format!("--direction \"{text}\": {e}"))
+    })?;
+    let letters = joint_letters(kin);
+    for (column, c) in text.chars().enumerate() {
+        if let Some(axis) = crate::axes::Axis::from_letter(c)
+            && !letters.contains(&axis)
+        {
+            return Err(crate::cli::UsageError(format!(
+                "--direction \"{text}\": column {}: the machine has no joint {} (its joints: {})",
+                column + 1,
+                axis.letter(),
+                letters.map(|a| a.letter().to_string()).join(" ")
+            ))
+            .into());
+        }
+    }
+    Ok(approach)
 }
 
 /// Parse `X,Y,Z,R1,R2` (the machine's rotary letters in letter order).
@@ -206,6 +243,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .as_deref()
         .map(|p| read_poses(p, model.kinematics()))
         .transpose()?;
+    let approach = match args.direction.as_deref() {
+        Some(text) => parse_direction(text, model.kinematics())?,
+        None => crate::machine::Approach::NONE,
+    };
     let tool = super::common::select_tool(&machine, args.tool, args.tools.as_deref())?;
     let model = model.with_tool_length(tool.length_mm);
     let kin = model.kinematics();
@@ -222,10 +263,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
     if let Some(pose) = single {
         let joints = to_joints(&pose);
-        let v = model.volumetric_error(&joints)?;
+        let v = model.volumetric_error_toward(&joints, &approach)?;
         let u = uncertainty(&joints)?;
         let contributions = if args.verbose {
-            Some(model.contributions(&joints)?)
+            Some(model.contributions_toward(&joints, &approach)?)
         } else {
             None
         };
@@ -252,6 +293,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 r2.letter(),
                 j[4]
             );
+            if args.direction.is_some() || model.has_reversal() {
+                let reversal: Vec<String> = model
+                    .reversal_axes()
+                    .iter()
+                    .map(|(axis, source)| {
+                        format!(
+                            "{} {:.4} {} ({source})",
+                            axis.letter(),
+                            model.reversal_at(*axis, joints.get(*axis)).unwrap_or(0.0),
+                            if axis.is_rotary() { "µrad" } else { "µm" }
+                        )
+                    })
+                    .collect();
+                crate::outln!(
+                    "approach  {}   reversal: {}",
+                    if approach.is_none() {
+                        "unknown (mean error)".to_string()
+                    } else {
+                        approach.describe()
+                    },
+                    if reversal.is_empty() {
+                        "none on this machine".to_string()
+                    } else {
+                        reversal.join(", ")
+                    }
+                );
+            }
             let tip = kin.nominal_tip(&joints);
             crate::outln!("tip (part) {} mm", fmt3(tip, 4));
             crate::outln!(
@@ -301,7 +369,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .map(|(line, pose)| {
                 let joints = to_joints(pose);
                 let at = || format!("{}:{line}", path.display());
-                let v = model.volumetric_error(&joints).with_context(at)?;
+                let v = model
+                    .volumetric_error_toward(&joints, &approach)
+                    .with_context(at)?;
                 Ok((v, uncertainty(&joints).with_context(at)?))
             })
             .collect::<anyhow::Result<_>>()?;

@@ -806,7 +806,17 @@ impl ErrorModel {
     /// The e of each parameter alone at `joints` (first order: every other parameter
     /// zero), largest |e| first; parameters that are zero there are left out.
     pub fn contributions(&self, joints: &Axes) -> Result<Vec<Contribution>, LookupError> {
-        let errors = self.errors_at(joints)?;
+        self.contributions_toward(joints, &Approach::NONE)
+    }
+
+    /// [`Self::contributions`] for a pose approached as `approach` says (the
+    /// positioning parameters carry their ±REVERSAL/2).
+    pub fn contributions_toward(
+        &self,
+        joints: &Axes,
+        approach: &Approach,
+    ) -> Result<Vec<Contribution>, LookupError> {
+        let errors = self.errors_toward(joints, approach)?;
         let names = self.kinematics.layout().names();
         let mut out: Vec<Contribution> = (0..PARAMETER_COUNT)
             .filter_map(|i| {
