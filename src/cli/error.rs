@@ -53,7 +53,12 @@ pub struct Args {
     /// How the pose was approached: the direction of each axis's last motion,
     /// e.g. `X+,Y-` (axes not named: unknown, the mean error). Adds ±REVERSAL/2
     /// on the axes with a reversal.
-    #[arg(long, value_name = "X+,Y-,…", alias = "approach", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "X+,Y-,…",
+        alias = "approach",
+        allow_hyphen_values = true
+    )]
     pub direction: Option<String>,
     /// Also print each parameter's contribution to e, largest first (single pose).
     #[arg(long, short)]
@@ -83,9 +88,8 @@ pub(crate) fn parse_direction(
     text: &str,
     kin: &crate::kinematics::Kinematics,
 ) -> anyhow::Result<crate::machine::Approach> {
-    let approach = crate::machine::Approach::parse(text).map_err(|e| {
-        crate::cli::UsageError(format!("--direction \"{text}\": {e}"))
-    })?;
+    let approach = crate::machine::Approach::parse(text)
+        .map_err(|e| crate::cli::UsageError(format!("--direction \"{text}\": {e}")))?;
     let letters = joint_letters(kin);
     for (column, c) in text.chars().enumerate() {
         if let Some(axis) = crate::axes::Axis::from_letter(c)

@@ -23,7 +23,8 @@ use crate::gcode::{
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{
-    Approach, DirectionTracker, ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels,
+    Approach, Direction, DirectionTracker, ErrorModel, ExtrapolationPolicy, Limits, LookupError,
+    ToolModels,
 };
 use crate::toolpath::{effective_frame, joints_of, target_of};
 use rayon::prelude::*;
@@ -470,39 +471,34 @@ fn compensate_target(
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
     let nominal = joints_of(kin, frame, target);
-    let (joints, residual_mm, axis, beyond) = match solve_target(
-        model,
-        &nominal,
-        warm,
-        orientation,
-        approach,
-    ) {
-        Err(PointError::Solve(SolveError::Lookup(e @ LookupError::OutOfRange { .. })))
-            if model.policy() == ExtrapolationPolicy::Error
-                && model.errors_at(&nominal).is_ok() =>
-        {
-            // The target is inside every table but its correction crosses a
-            // table's end: hold the end value over that sliver when it is
-            // shorter than the correction itself (issue 23), else the
-            // lookup error stands.
-            let held = model.holding_ends();
-            let (joints, residual_mm, axis) =
-                solve_target(held, &nominal, warm, orientation, approach)?;
-            let beyond = model.beyond_tables(&joints);
-            let within = crate::axes::Axis::ALL.into_iter().all(|a| {
-                let b = beyond.get(a);
-                b == 0.0 || b <= (joints.get(a) - nominal.get(a)).abs()
-            });
-            if !within {
-                return Err(PointError::Solve(SolveError::Lookup(e)));
+    let (joints, residual_mm, axis, beyond) =
+        match solve_target(model, &nominal, warm, orientation, approach) {
+            Err(PointError::Solve(SolveError::Lookup(e @ LookupError::OutOfRange { .. })))
+                if model.policy() == ExtrapolationPolicy::Error
+                    && model.errors_at(&nominal).is_ok() =>
+            {
+                // The target is inside every table but its correction crosses a
+                // table's end: hold the end value over that sliver when it is
+                // shorter than the correction itself (issue 23), else the
+                // lookup error stands.
+                let held = model.holding_ends();
+                let (joints, residual_mm, axis) =
+                    solve_target(held, &nominal, warm, orientation, approach)?;
+                let beyond = model.beyond_tables(&joints);
+                let within = crate::axes::Axis::ALL.into_iter().all(|a| {
+                    let b = beyond.get(a);
+                    b == 0.0 || b <= (joints.get(a) - nominal.get(a)).abs()
+                });
+                if !within {
+                    return Err(PointError::Solve(SolveError::Lookup(e)));
+                }
+                (joints, residual_mm, axis, Some(beyond))
             }
-            (joints, residual_mm, axis, Some(beyond))
-        }
-        other => {
-            let (joints, residual_mm, axis) = other?;
-            (joints, residual_mm, axis, None)
-        }
-    };
+            other => {
+                let (joints, residual_mm, axis) = other?;
+                (joints, residual_mm, axis, None)
+            }
+        };
     if let Some(l) = limits
         && let Some((axis, value, range)) = l.violated(&joints)
     {
@@ -699,31 +695,75 @@ fn plan_motion(
     let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
     let at = |t: f64| approach_at(model, motion, directions.incoming, directions.end, t);
-    // A move that reverses an axis with a reversal: the written start was
-    // compensated for the old direction; the split test measures the
-    // correction's departure from a straight move in the new one (the jump
-    // between the two is the reversal taken up over the move:
-    // docs/extensions.md "Reversal errors").
+    // A move that reverses an axis with a reversal (its direction before the
+    // move is not its direction at the end): the written start was compensated
+    // for the old direction. A straight move gets a take-up piece: its first
+    // point, where the programmed motion of each reversing axis has gone far
+    // enough to reverse it (below), is compensated in the new direction, so the
+    // reversal is taken up within that piece, and the split test runs from
+    // there. An arc, or a move too short for it, takes the reversal up over
+    // its length (docs/extensions.md "Reversal errors").
+    let mut t_start = 0.0;
+    let mut take_up = None;
     if let Some(incoming) = directions.incoming
         && incoming.approach() != *directions.end
     {
-        start_comp = compensate_target(
-            model,
-            frame,
-            &motion.point_at(arc.as_ref(), 0.0),
-            None,
-            &mut WarmStart::default(),
-            options.orientation,
-            directions.end,
-        )?
-        .target;
+        let before = incoming.approach();
+        let kin = model.kinematics();
+        let (q0, q1) = (
+            joints_of(kin, frame, &motion.start),
+            joints_of(kin, frame, &motion.end),
+        );
+        let mut t_s = 0.0f64;
+        for axis in crate::axes::Axis::ALL {
+            let (b, e) = (before.get(axis), directions.end.get(axis));
+            if b == e || e == Direction::Unknown {
+                continue;
+            }
+            let Some(r) = model.reversal_at(axis, q0.get(axis)) else {
+                continue;
+            };
+            let play = if axis.is_rotary() {
+                (r.abs() * 1e-6).to_degrees()
+            } else {
+                r.abs() * 1e-3
+            };
+            // The piece's compensated motion along the axis is the programmed
+            // δ minus REVERSAL (in the new direction): it must exceed the play
+            // for the axis to have reversed at its end (δ > 2·REVERSAL when
+            // REVERSAL > 0; any δ when it is negative, a lost motion).
+            let k = if r > 0.0 { 2.5 } else { 0.5 };
+            let d = (q1.get(axis) - q0.get(axis)).abs();
+            t_s = t_s.max(if d > 0.0 { k * play / d } else { f64::INFINITY });
+        }
+        let at_new = |t: f64| {
+            compensate_target(
+                model,
+                frame,
+                &motion.point_at(arc.as_ref(), t),
+                options.limits.as_ref(),
+                &mut WarmStart::default(),
+                options.orientation,
+                directions.end,
+            )
+            .map(|c| c.target)
+        };
+        if arc.is_none() && t_s > 0.0 && t_s < 0.9 {
+            let c = at_new(t_s)?;
+            take_up = Some(c);
+            t_start = t_s;
+            start_comp = c;
+        } else {
+            start_comp = at_new(0.0)?;
+        }
     }
     let turns = turns_swept(motion, arc.as_ref());
     let tol_mm = options.tolerance_um * 1e-3;
     let limits = options.limits.as_ref();
     // Recursive halving on [t0, t1] with compensated ends c0, c1.
     let mut split = Split::default();
-    let mut stack = vec![(0.0f64, 1.0f64, start_comp, end_comp, 0u32)];
+    split.via.extend(take_up);
+    let mut stack = vec![(t_start, 1.0f64, start_comp, end_comp, 0u32)];
     // Depth-first, left first, so `via` comes out in order.
     while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
         let n0 = motion.point_at(arc.as_ref(), t0);

@@ -484,7 +484,13 @@ impl ErrorModel {
     /// A tracker of the directions of the axes with a reversal
     /// ([`DirectionTracker`]; empty on a machine without one).
     pub fn direction_tracker(&self) -> DirectionTracker {
-        DirectionTracker::new(self.reversal.iter().flatten().map(|r| r.play.clone()).collect())
+        DirectionTracker::new(
+            self.reversal
+                .iter()
+                .flatten()
+                .map(|r| r.play.clone())
+                .collect(),
+        )
     }
 
     /// REVERSAL of `axis` at joint value `joint` (µm or µrad; the table's

@@ -153,7 +153,10 @@ impl Approach {
                 None => {
                     return Err(err(
                         col + 1,
-                        format!("`{}` must be followed by + or - (its direction)", axis.letter()),
+                        format!(
+                            "`{}` must be followed by + or - (its direction)",
+                            axis.letter()
+                        ),
                     ));
                 }
             };

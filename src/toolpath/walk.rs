@@ -424,7 +424,11 @@ pub fn advance_directions(
     let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
     // The start (the last end: no change, but it places the first move).
-    tracker.update(&joints_of(kinematics, frame, &motion.point_at(arc.as_ref(), t0)));
+    tracker.update(&joints_of(
+        kinematics,
+        frame,
+        &motion.point_at(arc.as_ref(), t0),
+    ));
     if frame == Frame::Joint && arc.is_none() {
         tracker.update(&motion.point_at(None, t1));
         return;
@@ -432,12 +436,22 @@ pub fn advance_directions(
     let len = arc
         .as_ref()
         .map_or_else(|| motion.start.xyz_distance(&motion.end), |g| g.length());
-    let turns = arc.as_ref().map_or(0.0, |g| g.sweep().abs() / std::f64::consts::TAU)
+    let turns = arc
+        .as_ref()
+        .map_or(0.0, |g| g.sweep().abs() / std::f64::consts::TAU)
         + motion.start.rotary_max_step(&motion.end) / 360.0;
     let n = ((t1 - t0) * (len / 0.5).max(16.0 * turns)).ceil();
-    let n = if n.is_finite() { n.clamp(1.0, 10_000.0) as usize } else { 1 };
+    let n = if n.is_finite() {
+        n.clamp(1.0, 10_000.0) as usize
+    } else {
+        1
+    };
     for j in 1..=n {
         let t = t0 + (t1 - t0) * j as f64 / n as f64;
-        tracker.update(&joints_of(kinematics, frame, &motion.point_at(arc.as_ref(), t)));
+        tracker.update(&joints_of(
+            kinematics,
+            frame,
+            &motion.point_at(arc.as_ref(), t),
+        ));
     }
 }

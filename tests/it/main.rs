@@ -18,6 +18,7 @@ mod nurbs;
 mod outputs;
 mod predict;
 mod programs;
+mod reversal;
 mod rs274;
 mod safety;
 mod sample;
