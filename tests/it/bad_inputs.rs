@@ -83,6 +83,12 @@ fn machine(from: &str, to: &str) -> Vec<u8> {
     text.replacen(from, to, 1).into_bytes()
 }
 
+/// The reference machine text with `[reversal]` and `entries` appended.
+fn with_reversal(entries: &str) -> Vec<u8> {
+    let text = std::fs::read_to_string(root().join("machines/ref-trt.toml")).unwrap();
+    format!("{text}\n[reversal]\n{entries}\n").into_bytes()
+}
+
 /// The X table with line `line` (1-based) replaced (`None`: removed from
 /// there on), and a machine file `table.toml` reading it.
 fn table(edit: impl Fn(&mut Vec<String>)) -> Vec<(&'static str, Vec<u8>)> {
@@ -504,6 +510,53 @@ fn cases() -> Vec<Case> {
             &[
                 "{d}/bad.toml:",
                 "tool 1 is listed twice (first at {d}/bad.toml:",
+            ],
+        ),
+        case(
+            "machine file",
+            "[reversal] of an axis the machine lacks",
+            vec![("bad.toml", with_reversal("B = 8.0"))],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:73:5: `reversal.B`: the machine has no axis B (its axes: XYZAC)"],
+        ),
+        case(
+            "machine file",
+            "[reversal] not a finite number",
+            vec![("bad.toml", with_reversal("X = nan"))],
+            MACHINE,
+            1,
+            &["{d}/bad.toml:73:5: `reversal.X`: must be a finite number"],
+        ),
+        case(
+            "machine file",
+            "[reversal] of one axis twice",
+            vec![("bad.toml", with_reversal("X = 8.0\nx = 6.0"))],
+            MACHINE,
+            1,
+            &[
+                "{d}/bad.toml:",
+                "`reversal.",
+                "the reversal of X is given twice",
+            ],
+        ),
+        case(
+            "machine file",
+            "[reversal] and a REVERSAL column for the same axis",
+            {
+                let mut files = table(|l| {
+                    for (i, line) in l.iter_mut().enumerate() {
+                        line.push_str(if i == 0 { ",REVERSAL" } else { ",6.0" });
+                    }
+                });
+                let text = String::from_utf8(files[0].1.clone()).unwrap();
+                files[0].1 = format!("{text}\n[reversal]\nX = 8.0\n").into_bytes();
+                files
+            },
+            TABLE,
+            1,
+            &[
+                "{d}/table.toml:73:5: `reversal.X`: X already has a REVERSAL column in {d}/bad-x.csv: give the reversal of X in one place only",
             ],
         ),
         // Error tables.
