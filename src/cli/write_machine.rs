@@ -18,10 +18,7 @@ pub(crate) fn table_copy(out: &Path, axis: Axis) -> PathBuf {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "machine".into());
-    out.with_file_name(format!(
-        "{stem}.{}.csv",
-        axis.letter().to_ascii_lowercase()
-    ))
+    out.with_file_name(format!("{stem}.{}.csv", axis.letter().to_ascii_lowercase()))
 }
 
 /// Every file `--write-machine OUT` may write (checked before anything is

@@ -151,9 +151,17 @@ pub fn machine_update(
             EffectKind::RotaryLocation | EffectKind::Squareness => {
                 let (section, keys, own): (&str, Vec<&str>, Vec<f64>) =
                     if *kind == EffectKind::Squareness {
-                        ("squareness", SQUARENESS_NAMES.to_vec(), machine.squareness.to_vec())
+                        (
+                            "squareness",
+                            SQUARENESS_NAMES.to_vec(),
+                            machine.squareness.to_vec(),
+                        )
                     } else {
-                        ("location", location_names.to_vec(), machine.location.to_vec())
+                        (
+                            "location",
+                            location_names.to_vec(),
+                            machine.location.to_vec(),
+                        )
                     };
                 let units: BTreeMap<&str, &str> = kind
                     .parameters_for(machine.chain.rotary())
@@ -181,7 +189,11 @@ pub fn machine_update(
                         "was {:.2}; {name} {}{}",
                         own[k],
                         pm(*delta, std, unit),
-                        if weak { " (not significant on this part)" } else { "" }
+                        if weak {
+                            " (not significant on this part)"
+                        } else {
+                            ""
+                        }
                     );
                     header.push(format!(
                         "  [{section}] {param}: {:.2} -> {:.2} {unit} ({name} {}){}",
@@ -227,12 +239,16 @@ pub fn machine_update(
                         Some(Side::Workpiece) => -1.0,
                         _ => 1.0,
                     };
-                    let carries = if sign < 0.0 { "the workpiece" } else { "the tool" };
+                    let carries = if sign < 0.0 {
+                        "the workpiece"
+                    } else {
+                        "the tool"
+                    };
                     let why = format!(
-                        "backlash {param} = {} ({} carries {carries}: REVERSAL {} {param})",
+                        "backlash {param} = {} ({} carries {carries}: REVERSAL = {}{param})",
                         pm(b, std, "µm"),
                         axis.letter(),
-                        if sign < 0.0 { "= −" } else { "=" }
+                        if sign < 0.0 { "−" } else { "" }
                     );
                     if machine.table(axis).is_some() {
                         header.push(format!(
@@ -318,3 +334,97 @@ pub fn machine_update(
     update
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::synthetic::{SyntheticOptions, saddle_raster};
+    use crate::diagnose::{DiagnoseOptions, Effect, SimulateOptions, diagnose, simulate};
+
+    /// A report of `effects` on the synthetic saddle raster.
+    fn report(effects: &[&str]) -> DiagnoseReport {
+        let part = saddle_raster(&SyntheticOptions::default());
+        let effects: Vec<Effect> = effects.iter().map(|s| Effect::parse(s).unwrap()).collect();
+        let m = simulate(
+            &part.contexts,
+            &part.truth_um,
+            &effects,
+            &SimulateOptions::default(),
+        )
+        .unwrap();
+        diagnose(
+            &part.contexts,
+            &m.deviations_um(),
+            &DiagnoseOptions::default(),
+        )
+        .unwrap()
+    }
+
+    /// A machine whose X carries the workpiece (under the rotary table), with
+    /// ref-trt's X table.
+    fn workpiece_x_machine() -> Machine {
+        let table = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("machines/ref-trt/x.csv");
+        let text = format!(
+            "name = \"wx\"\nkinematics = \"chain\"\nworkpiece_side = [\"X\", \"A\", \"C\"]\ntool_side = [\"Y\", \"Z\"]\n\
+             [axes.A]\ndirection = [1.0, 0.0, 0.0]\npoint = [0.0, 0.0, 0.0]\n\
+             [axes.C]\ndirection = [0.0, 0.0, 1.0]\npoint = [0.0, 0.0, 0.0]\n\
+             [tool]\nlength = 100.0\nradius = 3.0\n\
+             [limits]\nx = [-200.0, 200.0]\ny = [-150.0, 150.0]\nz = [-200.0, 100.0]\na = [-110.0, 110.0]\n\
+             [errors]\nx = {:?}\n",
+            table.display().to_string()
+        );
+        Machine::parse(
+            &text,
+            std::path::Path::new("wx.toml"),
+            &crate::machine::LoadOptions::default(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn backlash_becomes_a_reversal_of_the_sign_of_the_side_the_axis_carries() {
+        let r = report(&["backlash:bx=8,by=5,bz=3"]);
+        assert_eq!(r.selected, ["backlash"]);
+        let bx = r.after.params["backlash"]["bx"];
+        let machine = workpiece_x_machine();
+        let update = machine_update(&r, &machine, &["test".into()]);
+        // X carries the workpiece: REVERSAL = −bx; Y and Z have no table.
+        assert_eq!(update.reversal.len(), 1, "{update:?}");
+        assert_eq!(update.reversal[0].axis, Axis::X);
+        assert_eq!(update.reversal[0].add_um, rounded(-bx));
+        assert!((bx - 8.0).abs() < 1.0, "{bx}");
+        let header = update.edits.header.join("\n");
+        assert!(
+            header.contains("X carries the workpiece: REVERSAL = −bx"),
+            "{header}"
+        );
+        assert!(header.contains("Y: not written"), "{header}");
+    }
+
+    #[test]
+    fn location_and_squareness_add_to_the_file_and_setup_is_advice() {
+        let machine = workpiece_x_machine();
+        let r = report(&["squareness:s_xy=40,s_xz=-20"]);
+        assert_eq!(r.selected, ["squareness"]);
+        let update = machine_update(&r, &machine, &[]);
+        let s_xy = update
+            .edits
+            .squareness
+            .iter()
+            .find(|e| e.key == "s_xy")
+            .unwrap();
+        assert!((s_xy.value - 40.0).abs() < 3.0, "{s_xy:?}");
+        assert!(update.edits.location.is_empty());
+        let r = report(&["setup_error:tx=10,ty=-5"]);
+        assert_eq!(r.selected, ["setup_error"]);
+        let update = machine_update(&r, &machine, &[]);
+        assert_eq!(
+            update.edits.squareness.len() + update.edits.location.len(),
+            0
+        );
+        let header = update.edits.header.join("\n");
+        assert!(header.contains("Set-up (not written"), "{header}");
+        let r = report(&[]);
+        let update = machine_update(&r, &machine, &[]);
+        assert!(update.edits.header.join("\n").contains("Nothing changed"));
+    }
+}

@@ -279,7 +279,10 @@ mod tests {
         assert!(out.contains("EY0A = 32.6  # was 12.7\n"), "{out}");
         assert!(out.contains("EZ0A = -3.0\n"), "{out}");
         assert!(out.contains("x = \"../t/x.csv\"\n"), "{out}");
-        assert!(out.contains("[squareness]\ns_xy = 40.12  # diagnosed\n"), "{out}");
+        assert!(
+            out.contains("[squareness]\ns_xy = 40.12  # diagnosed\n"),
+            "{out}"
+        );
         let v: toml::Value = toml::from_str(&out).unwrap();
         assert_eq!(v["location"]["EY0A"].as_float(), Some(32.6));
     }
@@ -306,6 +309,9 @@ mod tests {
         assert_eq!(r, Some(PathBuf::from("../../machines/t/x.csv")));
         let r = relative_path(Path::new("/w/machines"), Path::new("/w/machines/t/x.csv"));
         assert_eq!(r, Some(PathBuf::from("t/x.csv")));
-        assert_eq!(relative_path(Path::new("/tmp/o"), Path::new("/w/t/x.csv")), None);
+        assert_eq!(
+            relative_path(Path::new("/tmp/o"), Path::new("/w/t/x.csv")),
+            None
+        );
     }
 }

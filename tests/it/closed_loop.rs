@@ -174,7 +174,11 @@ fn a_written_machine_cancels_a_diagnosed_location_and_squareness_error() {
         "{}",
         t.diagnosis
     );
-    assert!(t.diagnosis.contains("machine file written:"), "{}", t.diagnosis);
+    assert!(
+        t.diagnosis.contains("machine file written:"),
+        "{}",
+        t.diagnosis
+    );
     // The comment block says what changed and why; the rest is the input's.
     assert!(
         t.written
@@ -182,7 +186,11 @@ fn a_written_machine_cancels_a_diagnosed_location_and_squareness_error() {
         "{}",
         t.written
     );
-    assert!(t.written.contains("[location] EY0A: 12.70 -> "), "{}", t.written);
+    assert!(
+        t.written.contains("[location] EY0A: 12.70 -> "),
+        "{}",
+        t.written
+    );
     assert!(t.written.contains("comment = \"ball end R3 finishing\""));
     let v: toml::Value = toml::from_str(&t.written).unwrap();
     let ey0a = v["location"]["EY0A"].as_float().unwrap();
