@@ -20,11 +20,20 @@ When the selected effect has aliases on the part, --followup-program writes a pr
 program (G38.2) that separates them and its plan (.csv); measure it (or simulate it)
 and give the result with --followup to re-rank the effects on both measurements.
 
+--write-machine OUT.toml writes the machine file with the diagnosed machine errors
+applied: rotary location and squareness added to [location] and [squareness], a
+backlash as a REVERSAL column in copies of the axis tables (OUT.x.csv …, next to
+OUT.toml), the set-up as a work-offset suggestion in the comment block that says
+what changed and why. The rest of the file is kept; table paths are re-written to
+resolve from OUT's folder. Compensate with it to cut the next part.
+
 Examples:
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv";
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --write-machine ref-trt-diag.toml
+  volcomp compensate ref-trt-diag.toml samples/saddle.nc -o saddle-comp.nc";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -68,6 +77,11 @@ pub struct Args {
     pub followup: Option<PathBuf>,
     #[command(flatten)]
     pub probe: ProbeArgs,
+    /// Write the machine file with the diagnosed machine errors applied
+    /// (location, squareness, backlash as REVERSAL; a comment block says what
+    /// changed and why), for `compensate`.
+    #[arg(long, value_name = "OUT.toml")]
+    pub write_machine: Option<PathBuf>,
 }
 
 /// The probe of a follow-up (give the same values to design it, to simulate
@@ -280,6 +294,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .into());
         }
     }
+    if let Some(out) = &args.write_machine {
+        if crate::io::is_stdio(out) {
+            return Err(UsageError(
+                "--write-machine -: give a file name (its error tables are found from its folder)"
+                    .into(),
+            )
+            .into());
+        }
+    }
     let data_on_stdout = super::common::stdout_output(&[
         ("--report -", crate::io::is_stdio(&args.report)),
         ("--html -", super::common::is_stdout(args.html.as_deref())),
@@ -303,7 +326,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .followup_program
         .as_ref()
         .map(|out| out.with_extension("csv"));
-    super::common::CommandFiles::new()
+    let machine_outputs = args
+        .write_machine
+        .as_deref()
+        .map(|out| super::write_machine::planned_outputs(out, &part.machine))
+        .unwrap_or_default();
+    let mut files = super::common::CommandFiles::new();
+    for (role, path) in &machine_outputs {
+        files = files.output(role, Some(path));
+    }
+    files
         .input("the program", Some(&args.program))
         .input("the measurement", Some(&args.measured))
         .input(
@@ -455,6 +487,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     report.warnings = part.warnings();
+    let machine_written = match &args.write_machine {
+        Some(out) => Some(super::write_machine::write(
+            out,
+            &part.machine,
+            &report,
+            &[
+                format!("machine file: {}", part.machine.source.display()),
+                format!("program: {}", args.program.display()),
+                format!(
+                    "measurement: {} ({} points, {} used)",
+                    args.measured.display(),
+                    report.points,
+                    report.points_used
+                ),
+            ],
+        )?),
+        None => None,
+    };
     crate::io::write_json_atomic(&args.report, &report)?;
     if let Some(path) = &args.html {
         crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
@@ -468,6 +518,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             program.display(),
             plan.display()
         ));
+    }
+    if let Some(w) = machine_written {
+        text.push_str(&format!("machine file written: {}", w.machine.display()));
+        if !w.tables.is_empty() {
+            let names: Vec<String> = w.tables.iter().map(|t| t.display().to_string()).collect();
+            text.push_str(&format!(" (with {})", names.join(", ")));
+        }
+        text.push('\n');
+        for c in &w.changes {
+            text.push_str(&format!("  {c}\n"));
+        }
     }
     super::common::say(data_on_stdout, text.trim_end())
 }

@@ -29,6 +29,7 @@ pub mod plan_frame;
 pub mod predict;
 pub mod sample;
 pub mod simulate;
+pub mod write_machine;
 
 const AFTER_HELP: &str = "\
 Examples:

@@ -20,6 +20,7 @@ mod fit;
 pub mod followup;
 pub mod html;
 pub mod localization;
+pub mod machine_file;
 pub mod noise;
 pub mod probing_program;
 pub mod report;

@@ -12,6 +12,7 @@ pub mod reversal;
 pub mod synthetic;
 pub mod table;
 pub mod tool_models;
+pub mod update;
 
 pub use definition::{
     DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,

@@ -55,6 +55,10 @@ const TOOLS: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --tools {d}/bad.tbl";
 const OFFSETS: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G54=0,0,0 --offset G54=1,0,0";
 const FOLLOWUP: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --followup {d}/bad.csv";
+const WRITE_MACHINE_INPUT: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --write-machine {d}/ok.toml";
+const WRITE_MACHINE_MEASUREMENT: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --write-machine {d}/ok.csv";
+const WRITE_MACHINE_NO_FOLDER: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --write-machine {d}/ok.nc/out.toml";
+const WRITE_MACHINE_STDOUT: &str = "diagnose {d}/ok.toml {d}/ok.nc {d}/ok.csv --report {d}/out.json --model {d}/fit.json --write-machine -";
 const SIMULATE: &str = "simulate {d}/ok.toml {d}/saddle.nc {d}/plan.csv -o {d}/out.csv --model {d}/fit.json --effect tool_wear:w=1e308";
 const LOOP: &str =
     "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --max-loop-lines 100000";
@@ -741,6 +745,39 @@ fn cases() -> Vec<Case> {
             FOLLOWUP,
             1,
             &["{d}/bad.csv:2: column `mx,my,mz`", "from the plan point"],
+        ),
+        // `diagnose --write-machine` (issue 26): checked before anything is computed.
+        case(
+            "`diagnose --write-machine` output",
+            "the machine file itself (`--write-machine ok.toml`)",
+            vec![("ok.csv", measured(&[], 30))],
+            WRITE_MACHINE_INPUT,
+            2,
+            &["--write-machine {d}/ok.toml is the machine file {d}/ok.toml (the same file)"],
+        ),
+        case(
+            "`diagnose --write-machine` output",
+            "the measurement (`--write-machine ok.csv`)",
+            vec![("ok.csv", measured(&[], 30))],
+            WRITE_MACHINE_MEASUREMENT,
+            2,
+            &["--write-machine {d}/ok.csv is the measurement {d}/ok.csv (the same file)"],
+        ),
+        case(
+            "`diagnose --write-machine` output",
+            "in a folder that is a file (`--write-machine ok.nc/out.toml`)",
+            vec![("ok.csv", measured(&[], 30))],
+            WRITE_MACHINE_NO_FOLDER,
+            1,
+            &["cannot write {d}/ok.nc/out.toml: its folder {d}/ok.nc does not exist"],
+        ),
+        case(
+            "`diagnose --write-machine` output",
+            "standard output (`--write-machine -`)",
+            vec![("ok.csv", measured(&[], 30))],
+            WRITE_MACHINE_STDOUT,
+            2,
+            &["--write-machine -: give a file name"],
         ),
         // Effects.
         case(

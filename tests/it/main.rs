@@ -2,6 +2,7 @@
 mod bad_inputs;
 mod chain;
 mod cli;
+mod closed_loop;
 mod compensate;
 mod diagnose;
 mod diff;
