@@ -398,6 +398,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         )
         .context("designing the follow-up")?;
         match design {
+            None if report.model_check.mismatch => report.summary.push(format!(
+                "No follow-up is designed: the error model itself does not match this machine, so the effects cannot be told apart from its error; fix the model first ({} not written).",
+                out.display()
+            )),
             None => report.summary.push(format!(
                 "No follow-up is needed: {} (no alias on this part); {} not written.",
                 if report.selected.is_empty() {
