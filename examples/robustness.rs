@@ -19,12 +19,19 @@ fn main() {
         .fold(0.0f64, f64::max);
     let options = RobustnessOptions::default();
     let all = cases(&part, &options);
-    let mut rows: Vec<(CaseClass, f64, volcomp::diagnose::robustness::Score, Vec<String>, Vec<&'static str>)> = Vec::new();
+    let mut rows: Vec<(
+        CaseClass,
+        f64,
+        volcomp::diagnose::robustness::Score,
+        Vec<String>,
+        Vec<&'static str>,
+    )> = Vec::new();
     let mut worst = 0.0f64;
     let mut total = 0.0;
     for c in &all {
         let started = Instant::now();
-        let r = diagnose(&c.contexts, &c.measured_um, &DiagnoseOptions::default()).expect("diagnose");
+        let r =
+            diagnose(&c.contexts, &c.measured_um, &DiagnoseOptions::default()).expect("diagnose");
         let t = started.elapsed().as_secs_f64();
         worst = worst.max(t);
         total += t;
@@ -42,11 +49,23 @@ fn main() {
                 r.after.significance
             );
         }
-        rows.push((c.class, c.noise_um, s, r.selected.clone(), c.injected.iter().map(|k| k.name()).collect()));
+        rows.push((
+            c.class,
+            c.noise_um,
+            s,
+            r.selected.clone(),
+            c.injected.iter().map(|k| k.name()).collect(),
+        ));
     }
-    let count = |f: &dyn Fn(&(CaseClass, f64, volcomp::diagnose::robustness::Score, Vec<String>, Vec<&'static str>)) -> bool| {
-        rows.iter().filter(|r| f(r)).count()
-    };
+    let count = |f: &dyn Fn(
+        &(
+            CaseClass,
+            f64,
+            volcomp::diagnose::robustness::Score,
+            Vec<String>,
+            Vec<&'static str>,
+        ),
+    ) -> bool| { rows.iter().filter(|r| f(r)).count() };
     println!("| row | result | target |");
     println!("|---|---|---|");
     for &noise in options.noise_levels {
@@ -55,35 +74,87 @@ fn main() {
         let misses: Vec<String> = rows
             .iter()
             .filter(|r| r.0 == CaseClass::Single && r.1 == noise && !r.2.top1)
-            .map(|r| format!("{} → {}", r.4[0], r.3.first().map_or("none", String::as_str)))
+            .map(|r| {
+                format!(
+                    "{} → {}",
+                    r.4[0],
+                    r.3.first().map_or("none", String::as_str)
+                )
+            })
             .collect();
-        println!("| top-1, noise {noise} µm | {ok}/{n} {} | ≥ 35/36 |", if misses.is_empty() { String::new() } else { format!("(misses: {})", misses.join(", ")) });
+        println!(
+            "| top-1, noise {noise} µm | {ok}/{n} {} | ≥ 35/36 |",
+            if misses.is_empty() {
+                String::new()
+            } else {
+                format!("(misses: {})", misses.join(", "))
+            }
+        );
     }
     for &noise in options.noise_levels.iter().filter(|n| **n >= 0.3) {
         let n = count(&|r| r.0 == CaseClass::LocalisedServoLag && r.1 == noise);
         let ok = count(&|r| r.0 == CaseClass::LocalisedServoLag && r.1 == noise && r.2.all_found);
-        println!("| localised servo lag (RMS 1.0–1.9 × noise), noise {noise} µm | {ok}/{n} | ≥ 90 % |");
+        println!(
+            "| localised servo lag (RMS 1.0–1.9 × noise), noise {noise} µm | {ok}/{n} | ≥ 90 % |"
+        );
     }
     let n = count(&|r| r.0 == CaseClass::Pair);
     let ok = count(&|r| r.0 == CaseClass::Pair && r.2.all_found);
     let misses: Vec<String> = rows
         .iter()
         .filter(|r| r.0 == CaseClass::Pair && !r.2.all_found)
-        .map(|r| format!("{}+{} → {}", r.4[0], r.4[1], if r.3.is_empty() { "none".into() } else { r.3.join("+") }))
+        .map(|r| {
+            format!(
+                "{}+{} → {}",
+                r.4[0],
+                r.4[1],
+                if r.3.is_empty() {
+                    "none".into()
+                } else {
+                    r.3.join("+")
+                }
+            )
+        })
         .collect();
-    println!("| pairs, both found (noise 0.3 µm) | {ok}/{n} (misses: {}) | ≥ 15/20 |", misses.join(", "));
+    println!(
+        "| pairs, both found (noise 0.3 µm) | {ok}/{n} (misses: {}) | ≥ 15/20 |",
+        misses.join(", ")
+    );
     let n = count(&|r| r.0.wrong_model());
     let ok = count(&|r| r.0.wrong_model() && r.2.model_named);
-    let per: Vec<String> = [CaseClass::ScaledTables, CaseClass::NoisyTables, CaseClass::StaleTable]
-        .iter()
-        .map(|k| format!("{:?} {}/{}", k, count(&|r| r.0 == *k && r.2.model_named), count(&|r| r.0 == *k)))
-        .collect();
+    let per: Vec<String> = [
+        CaseClass::ScaledTables,
+        CaseClass::NoisyTables,
+        CaseClass::StaleTable,
+    ]
+    .iter()
+    .map(|k| {
+        format!(
+            "{:?} {}/{}",
+            k,
+            count(&|r| r.0 == *k && r.2.model_named),
+            count(&|r| r.0 == *k)
+        )
+    })
+    .collect();
     let thermal = count(&|r| r.0 == CaseClass::ScaledTables && r.2.all_found);
-    println!("| wrong model named | {ok}/{n} ({}; the thermal drift with scaled tables found {thermal}/{}) | ≥ 11/13 |", per.join(", "), count(&|r| r.0 == CaseClass::ScaledTables));
-    let none_classes = |r: &(CaseClass, f64, volcomp::diagnose::robustness::Score, Vec<String>, Vec<&'static str>)| r.4.is_empty();
+    println!(
+        "| wrong model named | {ok}/{n} ({}; the thermal drift with scaled tables found {thermal}/{}) | ≥ 11/13 |",
+        per.join(", "),
+        count(&|r| r.0 == CaseClass::ScaledTables)
+    );
+    let none_classes = |r: &(
+        CaseClass,
+        f64,
+        volcomp::diagnose::robustness::Score,
+        Vec<String>,
+        Vec<&'static str>,
+    )| r.4.is_empty();
     let n = count(&|r| none_classes(r));
     let fp = count(&|r| none_classes(r) && r.2.false_positive);
-    println!("| false positives in no-effect runs (none, decoys, noisy and stale tables) | {fp}/{n} | 0 |");
+    println!(
+        "| false positives in no-effect runs (none, decoys, noisy and stale tables) | {fp}/{n} | 0 |"
+    );
     let false_model = count(&|r| !r.0.wrong_model() && r.0 != CaseClass::Decoy && r.2.model_named);
     let right = count(&|r| !r.0.wrong_model() && r.0 != CaseClass::Decoy);
     println!("| model named on a right model (false alarms) | {false_model}/{right} | — |");

@@ -305,8 +305,7 @@ pub(crate) fn fit_terms(
             linear: least_squares(&sig.design_with(kinds, model, 1.0), rows, y),
         };
     }
-    let eval =
-        |log_tau: f64| least_squares(&sig.design_with(kinds, model, log_tau.exp()), rows, y);
+    let eval = |log_tau: f64| least_squares(&sig.design_with(kinds, model, log_tau.exp()), rows, y);
     let (lo, hi) = (sig.tau_range.0.ln(), sig.tau_range.1.ln());
     const GRID: usize = 16;
     let grid: Vec<f64> = (0..GRID)

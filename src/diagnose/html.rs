@@ -165,8 +165,16 @@ pub fn render(report: &DiagnoseReport) -> String {
                             format!("{:.3} ± {:.3}", c.value, c.std)
                         },
                         c.unit.clone(),
-                        if c.identifiable { "yes".into() } else { "no".to_string() },
-                        if c.plausible { "yes".into() } else { "no".to_string() },
+                        if c.identifiable {
+                            "yes".into()
+                        } else {
+                            "no".to_string()
+                        },
+                        if c.plausible {
+                            "yes".into()
+                        } else {
+                            "no".to_string()
+                        },
                         c.notes.join("; "),
                     ]
                 })

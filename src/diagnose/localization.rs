@@ -269,7 +269,8 @@ pub fn local_anomalies(
             members.sort_by(|&a, &b| r[b].abs().total_cmp(&r[a].abs()).then(a.cmp(&b)));
             let sigma = members.iter().map(|&i| z[i].abs()).fold(0.0f64, f64::max);
             let k = members.len() as f64;
-            let centre = [0, 1, 2].map(|c| members.iter().map(|&i| contexts[i].point[c]).sum::<f64>() / k);
+            let centre =
+                [0, 1, 2].map(|c| members.iter().map(|&i| contexts[i].point[c]).sum::<f64>() / k);
             let extent = members
                 .iter()
                 .map(|&i| {
@@ -289,7 +290,11 @@ pub fn local_anomalies(
                 sigma,
                 super::report::LocalAnomaly {
                     points: members.len(),
-                    ids: members.iter().take(20).map(|&i| contexts[i].id.clone()).collect(),
+                    ids: members
+                        .iter()
+                        .take(20)
+                        .map(|&i| contexts[i].id.clone())
+                        .collect(),
                     centre,
                     radius_mm: extent,
                     lines,
@@ -297,8 +302,14 @@ pub fn local_anomalies(
                     mean_um: mean(&vals),
                     sigma,
                     time_min: [
-                        members.iter().map(|&i| contexts[i].time_min).fold(f64::INFINITY, f64::min),
-                        members.iter().map(|&i| contexts[i].time_min).fold(0.0f64, f64::max),
+                        members
+                            .iter()
+                            .map(|&i| contexts[i].time_min)
+                            .fold(f64::INFINITY, f64::min),
+                        members
+                            .iter()
+                            .map(|&i| contexts[i].time_min)
+                            .fold(0.0f64, f64::max),
                     ],
                 },
             )

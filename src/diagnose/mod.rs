@@ -339,7 +339,12 @@ pub fn diagnose_with_followup(
         if ra < floor || rb < floor {
             return false;
         }
-        let dot: f64 = a.contribution.iter().zip(&b.contribution).map(|(x, y)| x * y).sum();
+        let dot: f64 = a
+            .contribution
+            .iter()
+            .zip(&b.contribution)
+            .map(|(x, y)| x * y)
+            .sum();
         let cos = dot / (ra * rb * n as f64);
         let diff: Vec<f64> = a
             .contribution
@@ -515,10 +520,7 @@ pub fn diagnose_with_followup(
             heldout_rms_after_um: model_only_mse.sqrt(),
             explained_um: (mse_before - model_only_mse).max(0.0).sqrt(),
             factors,
-            bic: bic(
-                model_only_mse,
-                named_cols.len(),
-            ),
+            bic: bic(model_only_mse, named_cols.len()),
             follows_model: with_model,
             unexplained,
             mismatch: with_model || unexplained,
@@ -720,7 +722,11 @@ fn remaining_outside(
         .filter(|(c, _)| !inside(c))
         .map(|(_, v)| *v)
         .collect();
-    if rest.len() >= 10 { rms(&rest) } else { rms(r_after) }
+    if rest.len() >= 10 {
+        rms(&rest)
+    } else {
+        rms(r_after)
+    }
 }
 
 /// The summary sentence of a local anomaly.

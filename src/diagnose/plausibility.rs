@@ -33,7 +33,10 @@ impl ParameterCheck {
     pub fn display(&self) -> String {
         let d = if self.unit == "s²" { 2 } else { 1 };
         if self.unit == "s²" {
-            format!("{} = {:.2e} ± {:.1e} {}", self.name, self.value, self.std, self.unit)
+            format!(
+                "{} = {:.2e} ± {:.1e} {}",
+                self.name, self.value, self.std, self.unit
+            )
         } else {
             format!(
                 "{} = {:.*} ± {:.*} {}",

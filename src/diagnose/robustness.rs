@@ -142,12 +142,7 @@ pub fn case(
         c.predicted_um = predicted + field[i];
         c.model_u_um = MODEL_U_UM;
     }
-    let bump = with_bump.then(|| {
-        [
-            rng.random_range(-30.0..30.0),
-            rng.random_range(-22.0..22.0),
-        ]
-    });
+    let bump = with_bump.then(|| [rng.random_range(-30.0..30.0), rng.random_range(-22.0..22.0)]);
     let normal = Normal::new(0.0, noise_um.max(0.0)).unwrap_or(Normal::new(0.0, 0.0).unwrap());
     let width = 20.0 / 2.355; // FWHM 20 mm
     let measured_um = contexts
@@ -318,9 +313,10 @@ pub fn score(case: &Case, report: &DiagnoseReport, duration_min: f64) -> Score {
         false_positive: injected.is_empty() && !selected.is_empty(),
         model_named: report.model_check.mismatch,
         anomaly: match case.bump {
-            Some([x, y]) => report.local_anomalies.iter().any(|a| {
-                ((a.centre[0] - x).powi(2) + (a.centre[1] - y).powi(2)).sqrt() < 15.0
-            }),
+            Some([x, y]) => report
+                .local_anomalies
+                .iter()
+                .any(|a| ((a.centre[0] - x).powi(2) + (a.centre[1] - y).powi(2)).sqrt() < 15.0),
             None => !report.local_anomalies.is_empty(),
         },
         ..Score::default()

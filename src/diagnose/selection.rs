@@ -198,7 +198,11 @@ impl Scorer<'_> {
             t.len() < 2 || self.mse(&t.without(m)) - self.mse(t) >= MEMBER_RATIO * MEMBER_RATIO * s2
         };
         self.members(t).iter().enumerate().all(|(m, (_, z))| {
-            let factor = if m >= t.kinds.len() { MODEL_THRESHOLD_FACTOR } else { 1.0 };
+            let factor = if m >= t.kinds.len() {
+                MODEL_THRESHOLD_FACTOR
+            } else {
+                1.0
+            };
             *z >= factor * self.settings.threshold && size_ok(m)
         }) && (!t.model || (self.model_plausible)(t))
     }

@@ -805,12 +805,21 @@ mod cli {
         let args = ["--seed", "3", "-o", measured.to_str().unwrap()];
         ok(&command("simulate", &[&other, &program, &plan], &args));
         let report = dir.path().join("diag.json");
+        let followup = dir.path().join("followup.nc");
         let stdout = ok(&command(
             "diagnose",
             &[&data("machines/ref-trt.toml"), &program, &measured],
-            &["--report", report.to_str().unwrap()],
+            &[
+                "--report",
+                report.to_str().unwrap(),
+                "--followup-program",
+                followup.to_str().unwrap(),
+            ],
         ));
         assert!(stdout.contains("selected: none"), "{stdout}");
+        // Issue 26: a wrong model never ends in "no follow-up is needed".
+        assert!(!stdout.contains("No follow-up is needed"), "{stdout}");
+        assert!(stdout.contains("No follow-up is designed"), "{stdout}");
         assert!(
             stdout.contains("The error model itself does not match this machine"),
             "{stdout}"
@@ -1356,14 +1365,20 @@ fn robustness_subset_meets_the_issue_targets() {
     for c in cases(&part, &options) {
         let r = diagnose(&c.contexts, &c.measured_um, &DiagnoseOptions::default()).unwrap();
         let s = score(&c, &r, duration);
-        let what = format!("{:?} seed {}: {:?} {:?}", c.class, c.seed, r.selection_notes, r.summary);
+        let what = format!(
+            "{:?} seed {}: {:?} {:?}",
+            c.class, c.seed, r.selection_notes, r.summary
+        );
         match c.class {
             CaseClass::LocalisedServoLag => assert!(s.all_found, "{what}"),
             CaseClass::Decoy => {
                 assert!(s.anomaly, "{what}");
                 assert!(!s.false_positive, "{what}");
                 assert!(!r.model_check.mismatch, "{what}");
-                assert!(r.summary.iter().any(|l| l.contains("local anomaly")), "{what}");
+                assert!(
+                    r.summary.iter().any(|l| l.contains("local anomaly")),
+                    "{what}"
+                );
             }
             CaseClass::Clean => assert!(!s.anomaly && !s.false_positive, "{what}"),
             CaseClass::ScaledTables => {
@@ -1396,7 +1411,12 @@ fn a_rotation_about_the_axis_of_a_surface_of_revolution_is_not_identifiable() {
         },
     )
     .unwrap();
-    let r = diagnose(&part.contexts, &m.deviations_um(), &DiagnoseOptions::default()).unwrap();
+    let r = diagnose(
+        &part.contexts,
+        &m.deviations_um(),
+        &DiagnoseOptions::default(),
+    )
+    .unwrap();
     assert_eq!(r.selected, ["setup_error"], "{:?}", r.selection_notes);
     let checks = &r.after.checks["setup_error"];
     let rz = checks.iter().find(|c| c.name == "rz").unwrap();
@@ -1410,5 +1430,8 @@ fn a_rotation_about_the_axis_of_a_surface_of_revolution_is_not_identifiable() {
         .iter()
         .find(|s| s.starts_with("Workpiece set-up error"))
         .unwrap();
-    assert!(advice.contains("n/a") && advice.contains("left out of this advice"), "{advice}");
+    assert!(
+        advice.contains("n/a") && advice.contains("left out of this advice"),
+        "{advice}"
+    );
 }
