@@ -430,6 +430,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         )
         .context("designing the follow-up")?;
         match design {
+            None if report.model_check.mismatch => report.summary.push(format!(
+                "No follow-up is designed: the error model itself does not match this machine, so the effects cannot be told apart from its error; fix the model first ({} not written).",
+                out.display()
+            )),
             None => report.summary.push(format!(
                 "No follow-up is needed: {} (no alias on this part); {} not written.",
                 if report.selected.is_empty() {
@@ -602,10 +606,46 @@ pub fn summary_text(report: &DiagnoseReport) -> String {
             e.name, e.heldout_rms_before_um, e.heldout_rms_after_um, -e.shrink_pct
         ));
     }
+    for (effect, checks) in &report.after.checks {
+        let z = report
+            .after
+            .significance
+            .get(effect)
+            .copied()
+            .unwrap_or(0.0);
+        let params: Vec<String> = checks
+            .iter()
+            .map(|c| {
+                let flag = match (c.identifiable, c.plausible) {
+                    (true, true) => "",
+                    (false, _) => " (not identifiable)",
+                    (true, false) => " (implausible)",
+                };
+                format!("{}{flag}", c.display())
+            })
+            .collect();
+        out.push_str(&format!("  {effect} (z = {z:.0}): {}\n", params.join(", ")));
+    }
     out.push_str(&format!(
         "after: predicted profile {:.2} µm, residual RMS {:.2} µm\n",
         report.after.predicted_profile_um, report.after.residual_rms_um
     ));
+    for a in &report.local_anomalies {
+        out.push_str(&format!(
+            "local anomaly: {} points around ({:.1}, {:.1}, {:.1}) mm, peak {:+.2} µm, {:.0} σ, lines {}\n",
+            a.points,
+            a.centre[0],
+            a.centre[1],
+            a.centre[2],
+            a.peak_um,
+            a.sigma,
+            a.lines
+                .iter()
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     for s in &report.summary {
         out.push_str(s);
         out.push('\n');

@@ -57,6 +57,10 @@ pub(crate) struct Signatures {
     probe_time: Vec<Option<f64>>,
     /// Range searched for `tau`, minutes.
     pub tau_range: (f64, f64),
+    /// The error model's own columns (one per measured axis's tables, and the
+    /// machine file's position-independent errors): the "model" term of the
+    /// selection (a table `k` that is `(1 + β_k)` × the machine's).
+    pub model: Vec<Vec<f64>>,
 }
 
 impl Signatures {
@@ -108,6 +112,7 @@ impl Signatures {
             probe_direction,
             probe_time,
             tau_range: ((t_max / 200.0).max(1e-3), 20.0 * t_max),
+            model: Vec::new(),
         }
     }
 
@@ -145,6 +150,15 @@ impl Signatures {
 
     fn design(&self, kinds: &[EffectKind], tau: f64) -> Vec<Vec<f64>> {
         kinds.iter().flat_map(|k| self.columns(*k, tau)).collect()
+    }
+
+    /// The design of `kinds`, followed by the model's columns when `model`.
+    pub fn design_with(&self, kinds: &[EffectKind], model: bool, tau: f64) -> Vec<Vec<f64>> {
+        let mut cols = self.design(kinds, tau);
+        if model {
+            cols.extend(self.model.iter().cloned());
+        }
+        cols
     }
 }
 
@@ -241,6 +255,9 @@ pub(crate) fn least_squares(cols: &[Vec<f64>], rows: &[usize], y: &[f64]) -> Lin
 #[derive(Clone, Debug)]
 pub(crate) struct SetFit {
     pub kinds: Vec<EffectKind>,
+    /// The model's columns are fitted too (their factors follow the effects'
+    /// coefficients in `linear`).
+    pub model: bool,
     /// `tau` when the set holds `thermal_drift`.
     pub tau: Option<f64>,
     pub linear: LinearFit,
@@ -249,7 +266,7 @@ pub(crate) struct SetFit {
 impl SetFit {
     /// Contribution (µm) of the whole set at every used point.
     pub fn contribution(&self, sig: &Signatures) -> Vec<f64> {
-        let cols = sig.design(&self.kinds, self.tau.unwrap_or(1.0));
+        let cols = sig.design_with(&self.kinds, self.model, self.tau.unwrap_or(1.0));
         (0..sig.len())
             .map(|i| {
                 cols.iter()
@@ -268,15 +285,27 @@ impl SetFit {
 
 /// Fit a set of effects on `rows` (profiling `tau` when needed).
 pub(crate) fn fit_set(sig: &Signatures, kinds: &[EffectKind], rows: &[usize], y: &[f64]) -> SetFit {
+    fit_terms(sig, kinds, false, rows, y)
+}
+
+/// Fit a set of effects, and the model's columns when `model`, on `rows`.
+pub(crate) fn fit_terms(
+    sig: &Signatures,
+    kinds: &[EffectKind],
+    model: bool,
+    rows: &[usize],
+    y: &[f64],
+) -> SetFit {
     let has_tau = kinds.iter().any(|k| k.is_nonlinear());
     if !has_tau {
         return SetFit {
             kinds: kinds.to_vec(),
+            model,
             tau: None,
-            linear: least_squares(&sig.design(kinds, 1.0), rows, y),
+            linear: least_squares(&sig.design_with(kinds, model, 1.0), rows, y),
         };
     }
-    let eval = |log_tau: f64| least_squares(&sig.design(kinds, log_tau.exp()), rows, y);
+    let eval = |log_tau: f64| least_squares(&sig.design_with(kinds, model, log_tau.exp()), rows, y);
     let (lo, hi) = (sig.tau_range.0.ln(), sig.tau_range.1.ln());
     const GRID: usize = 16;
     let grid: Vec<f64> = (0..GRID)
@@ -315,6 +344,7 @@ pub(crate) fn fit_set(sig: &Signatures, kinds: &[EffectKind], rows: &[usize], y:
     }
     SetFit {
         kinds: kinds.to_vec(),
+        model,
         tau: Some(log_tau.exp()),
         linear,
     }
@@ -414,9 +444,20 @@ pub(crate) fn cross_validate(
     kinds: &[EffectKind],
     y: &[f64],
 ) -> f64 {
+    cross_validate_terms(sig, folds, kinds, false, y)
+}
+
+/// [`cross_validate`] of a set of effects and, when `model`, the model's columns.
+pub(crate) fn cross_validate_terms(
+    sig: &Signatures,
+    folds: &Folds,
+    kinds: &[EffectKind],
+    model: bool,
+    y: &[f64],
+) -> f64 {
     heldout_mse(folds, sig.len(), y, |train| {
-        let fit = fit_set(sig, kinds, train, y);
-        let cols = sig.design(kinds, fit.tau.unwrap_or(1.0));
+        let fit = fit_terms(sig, kinds, model, train, y);
+        let cols = sig.design_with(kinds, model, fit.tau.unwrap_or(1.0));
         move |i| {
             cols.iter()
                 .zip(&fit.linear.coefs)
@@ -426,21 +467,30 @@ pub(crate) fn cross_validate(
     })
 }
 
-/// Held-out mean squared error of a linear fit on arbitrary `cols`.
-pub(crate) fn cross_validate_columns(cols: &[Vec<f64>], folds: &Folds, y: &[f64]) -> f64 {
-    heldout_mse(folds, y.len(), y, |train| {
-        let fit = least_squares(cols, train, y);
-        move |i| cols.iter().zip(&fit.coefs).map(|(c, b)| c[i] * b).sum()
-    })
-}
-
-/// Cosine between `v` and its projection on the span of `cols` (1 when `v` lies in it).
-pub(crate) fn span_cosine(cols: &[Vec<f64>], v: &[f64]) -> f64 {
-    let rows: Vec<usize> = (0..v.len()).collect();
-    let fit = least_squares(cols, &rows, v);
-    let vv: f64 = v.iter().map(|a| a * a).sum();
-    if vv <= 0.0 {
-        return 0.0;
-    }
-    ((vv - fit.sse).max(0.0) / vv).sqrt()
+/// How much of each column stands apart from the others: the RMS of column
+/// `j` outside the span of the other columns, over its own RMS (0: a
+/// rank-deficient direction, one that the rows cannot identify).
+pub(crate) fn column_independence(cols: &[Vec<f64>]) -> Vec<f64> {
+    let n = cols.first().map_or(0, |c| c.len());
+    let rows: Vec<usize> = (0..n).collect();
+    (0..cols.len())
+        .map(|j| {
+            let own: f64 = cols[j].iter().map(|v| v * v).sum();
+            // A column that vanishes on the rows (as least_squares drops it).
+            if (own / n.max(1) as f64).sqrt() <= 1e-12 {
+                return 0.0;
+            }
+            let others: Vec<Vec<f64>> = cols
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k != j)
+                .map(|(_, c)| c.clone())
+                .collect();
+            if others.is_empty() {
+                return 1.0;
+            }
+            let fit = least_squares(&others, &rows, &cols[j]);
+            (fit.sse.max(0.0) / own).sqrt()
+        })
+        .collect()
 }

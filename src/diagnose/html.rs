@@ -70,6 +70,19 @@ fn scatter(
     chart.finish()
 }
 
+/// The unit of parameter `name` of `kind` (rotary-location names of any
+/// machine: `E` + X/Y/Z is an offset in µm, + A/B/C a tilt in µrad).
+fn unit_of(kind: super::EffectKind, name: &str) -> &'static str {
+    if let Some(i) = kind.parameters().iter().position(|p| *p == name) {
+        return kind.units().get(i).copied().unwrap_or("");
+    }
+    match name.chars().nth(1) {
+        Some('X' | 'Y' | 'Z') => "µm",
+        Some('A' | 'B' | 'C') => "µrad",
+        _ => "",
+    }
+}
+
 /// The HTML page of a report.
 pub fn render(report: &DiagnoseReport) -> String {
     let mut page = HtmlPage::new("volcomp diagnose: the sim-to-real gap");
@@ -100,15 +113,141 @@ pub fn render(report: &DiagnoseReport) -> String {
             format!("{:.3}", report.after.residual_rms_um),
         ]],
     );
+    let m = &report.model_check;
+    page.heading("The error model");
+    page.table(
+        &[
+            "verdict",
+            "axis factors (machine ÷ model)",
+            "remaining RMS µm",
+            "noise + model uncertainty µm",
+            "model uncertainty µm",
+            "uncertainty would be ×",
+        ],
+        &[vec![
+            if m.mismatch {
+                if m.follows_model {
+                    "does not match: tables scaled or stale".into()
+                } else {
+                    "does not match: the gap stays unexplained".into()
+                }
+            } else {
+                "consistent with the measurement".to_string()
+            },
+            m.factors
+                .iter()
+                .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
+                .collect::<Vec<_>>()
+                .join(", "),
+            format!("{:.3}", m.remaining_rms_um),
+            format!("{:.3}", m.expected_rms_um),
+            format!("{:.3}", m.model_uncertainty_um),
+            m.uncertainty_factor
+                .map_or(String::new(), |f| format!("{f:.1}")),
+        ]],
+    );
+    if !report.after.checks.is_empty() {
+        page.heading("Selected effects: parameters (joint fit, ± one standard uncertainty)");
+        let rows: Vec<Vec<String>> = report
+            .after
+            .checks
+            .iter()
+            .flat_map(|(effect, list)| {
+                let z = report.after.significance.get(effect).copied();
+                list.iter().map(move |c| {
+                    vec![
+                        effect.clone(),
+                        z.map_or(String::new(), |z| format!("{z:.0}")),
+                        c.name.clone(),
+                        if c.unit == "s²" {
+                            format!("{:.3e} ± {:.1e}", c.value, c.std)
+                        } else {
+                            format!("{:.3} ± {:.3}", c.value, c.std)
+                        },
+                        c.unit.clone(),
+                        if c.identifiable {
+                            "yes".into()
+                        } else {
+                            "no".to_string()
+                        },
+                        if c.plausible {
+                            "yes".into()
+                        } else {
+                            "no".to_string()
+                        },
+                        c.notes.join("; "),
+                    ]
+                })
+            })
+            .collect();
+        page.table(
+            &[
+                "effect",
+                "z",
+                "parameter",
+                "value ± σ",
+                "unit",
+                "identifiable",
+                "plausible",
+                "notes",
+            ],
+            &rows,
+        );
+    }
+    if !report.local_anomalies.is_empty() {
+        page.heading("Local anomalies (no catalogue effect explains them)");
+        let rows: Vec<Vec<String>> = report
+            .local_anomalies
+            .iter()
+            .map(|a| {
+                vec![
+                    format!(
+                        "({:.1}, {:.1}, {:.1}) within {:.0} mm",
+                        a.centre[0], a.centre[1], a.centre[2], a.radius_mm
+                    ),
+                    a.points.to_string(),
+                    a.ids.join(", "),
+                    a.lines
+                        .iter()
+                        .map(|l| l.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    format!("{:+.2}", a.peak_um),
+                    format!("{:+.2}", a.mean_um),
+                    format!("{:.0}", a.sigma),
+                ]
+            })
+            .collect();
+        page.table(
+            &[
+                "where (part, mm)",
+                "points",
+                "plan ids",
+                "program lines",
+                "peak µm",
+                "mean µm",
+                "σ",
+            ],
+            &rows,
+        );
+    }
     page.heading("Effects (best first, cross-validated by region and by time)");
     let rows: Vec<Vec<String>> = report
         .effects
         .iter()
         .map(|e| {
+            let kind = super::EffectKind::from_name(&e.name);
             let params: Vec<String> = e
                 .params
                 .iter()
-                .map(|(k, v)| format!("{k}={v:.3}"))
+                .map(|(k, v)| {
+                    let unit = kind.map_or("", |kind| unit_of(kind, k));
+                    match e.params_std.get(k) {
+                        Some(s) if unit == "s²" => format!("{k} = {v:.3e} ± {s:.1e} {unit}"),
+                        Some(s) => format!("{k} = {v:.3} ± {s:.3} {unit}"),
+                        None => format!("{k} = {v:.3} {unit}"),
+                    }
+                })
                 .collect();
             vec![
                 e.name.clone(),

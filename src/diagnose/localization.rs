@@ -171,3 +171,150 @@ pub fn localize(contexts: &[&PointContext], r: &[f64]) -> Localization {
         by_direction,
     }
 }
+
+/// Neighbourhood radius of the local-anomaly scan, mm.
+pub const ANOMALY_RADIUS_MM: f64 = 10.0;
+/// A neighbourhood mean at least this many standard deviations from zero is
+/// anomalous.
+pub const ANOMALY_SIGMA: f64 = 6.0;
+/// Fewest points in a neighbourhood for its mean to count.
+const ANOMALY_MIN_POINTS: usize = 4;
+
+/// Significant local clusters of the residual `r` (µm, after the selected
+/// effects) at `contexts` (docs/diagnose.md "Local anomalies"). Each point's
+/// neighbourhood (points within [`ANOMALY_RADIUS_MM`]) has a mean residual
+/// `m`; against white noise σ and a smooth model error of standard
+/// uncertainty u (the same at neighbouring points), its standard deviation is
+/// `√(σ²/k + u²)`. Points whose `|z| = |m|/√(σ²/k + u²)` reaches
+/// [`ANOMALY_SIGMA`] are joined (neighbours, same sign) into clusters, largest
+/// `|z|` first (at most three).
+pub fn local_anomalies(
+    contexts: &[&PointContext],
+    r: &[f64],
+    noise_um: f64,
+    model_u_um: f64,
+) -> Vec<super::report::LocalAnomaly> {
+    let n = contexts.len().min(r.len());
+    let r2 = ANOMALY_RADIUS_MM * ANOMALY_RADIUS_MM;
+    let dist2 = |a: usize, b: usize| -> f64 {
+        (0..3)
+            .map(|k| (contexts[a].point[k] - contexts[b].point[k]).powi(2))
+            .sum()
+    };
+    // Neighbours by a grid of cells of the radius (plan x, y).
+    let mut cells: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
+    let cell = |i: usize| {
+        (
+            (contexts[i].point[0] / ANOMALY_RADIUS_MM).floor() as i64,
+            (contexts[i].point[1] / ANOMALY_RADIUS_MM).floor() as i64,
+        )
+    };
+    for i in 0..n {
+        cells.entry(cell(i)).or_default().push(i);
+    }
+    let neighbours: Vec<Vec<usize>> = (0..n)
+        .map(|i| {
+            let (cx, cy) = cell(i);
+            let mut v = Vec::new();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    if let Some(list) = cells.get(&(cx + dx, cy + dy)) {
+                        v.extend(list.iter().copied().filter(|&j| dist2(i, j) <= r2));
+                    }
+                }
+            }
+            v
+        })
+        .collect();
+    let s2 = noise_um.max(1e-6).powi(2);
+    let u2 = model_u_um.powi(2);
+    let z: Vec<f64> = (0..n)
+        .map(|i| {
+            let k = neighbours[i].len();
+            if k < ANOMALY_MIN_POINTS {
+                return 0.0;
+            }
+            let m = neighbours[i].iter().map(|&j| r[j]).sum::<f64>() / k as f64;
+            m / (s2 / k as f64 + u2).sqrt()
+        })
+        .collect();
+    let mut label = vec![usize::MAX; n];
+    let mut clusters: Vec<Vec<usize>> = Vec::new();
+    for i in 0..n {
+        if z[i].abs() < ANOMALY_SIGMA || label[i] != usize::MAX {
+            continue;
+        }
+        let id = clusters.len();
+        let mut members = vec![i];
+        label[i] = id;
+        let mut at = 0;
+        while at < members.len() {
+            let a = members[at];
+            at += 1;
+            for &b in &neighbours[a] {
+                if label[b] == usize::MAX
+                    && z[b].abs() >= ANOMALY_SIGMA
+                    && z[b].signum() == z[i].signum()
+                {
+                    label[b] = id;
+                    members.push(b);
+                }
+            }
+        }
+        clusters.push(members);
+    }
+    let mut out: Vec<(f64, super::report::LocalAnomaly)> = clusters
+        .into_iter()
+        .map(|mut members| {
+            members.sort_by(|&a, &b| r[b].abs().total_cmp(&r[a].abs()).then(a.cmp(&b)));
+            let sigma = members.iter().map(|&i| z[i].abs()).fold(0.0f64, f64::max);
+            let k = members.len() as f64;
+            let centre =
+                [0, 1, 2].map(|c| members.iter().map(|&i| contexts[i].point[c]).sum::<f64>() / k);
+            let extent = members
+                .iter()
+                .map(|&i| {
+                    (0..3)
+                        .map(|c| (contexts[i].point[c] - centre[c]).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                })
+                .fold(0.0f64, f64::max)
+                + ANOMALY_RADIUS_MM;
+            let mut lines: Vec<usize> = members.iter().map(|&i| contexts[i].line).collect();
+            lines.sort_unstable();
+            lines.dedup();
+            lines.truncate(12);
+            let vals: Vec<f64> = members.iter().map(|&i| r[i]).collect();
+            (
+                sigma,
+                super::report::LocalAnomaly {
+                    points: members.len(),
+                    ids: members
+                        .iter()
+                        .take(20)
+                        .map(|&i| contexts[i].id.clone())
+                        .collect(),
+                    centre,
+                    radius_mm: extent,
+                    lines,
+                    peak_um: vals.first().copied().unwrap_or(0.0),
+                    mean_um: mean(&vals),
+                    sigma,
+                    time_min: [
+                        members
+                            .iter()
+                            .map(|&i| contexts[i].time_min)
+                            .fold(f64::INFINITY, f64::min),
+                        members
+                            .iter()
+                            .map(|&i| contexts[i].time_min)
+                            .fold(0.0f64, f64::max),
+                    ],
+                },
+            )
+        })
+        .collect();
+    out.sort_by(|a, b| b.0.total_cmp(&a.0));
+    out.into_iter().take(3).map(|(_, a)| a).collect()
+}

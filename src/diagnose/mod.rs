@@ -8,10 +8,13 @@
 //! along the cut, [`noise`]) unless given; every effect fitted by least squares
 //! on its signature columns (no intercept; `tau` profiled), judged by its
 //! cross-validated error (folds by region and by time) with a BIC penalty for
-//! parameters; aliases by the cosine of an effect's contribution with another
-//! effect's span; forward selection of up to two effects, each kept only when
-//! its penalised held-out error improves and it explains more than
-//! `min_explained_ratio` × the noise floor (RMS).
+//! parameters; symmetric aliases (two effects whose fitted contributions
+//! coincide to within the noise floor); selection on evidence ([`selection`]:
+//! up to three effects and the error model's own axis factors, each member
+//! significant by a penalised held-out likelihood ratio against the noise and
+//! the model's own uncertainty); the model verdict; local anomalies of the
+//! residual; units, ± and plausibility of every selected parameter
+//! ([`plausibility`]).
 //!
 //! Invariants: inputs are checked (equal lengths, finite values) before any
 //! arithmetic; the result is deterministic; no I/O.
@@ -22,18 +25,18 @@ pub mod html;
 pub mod localization;
 pub mod machine_file;
 pub mod noise;
+pub mod plausibility;
 pub mod probing_program;
 pub mod report;
+pub mod robustness;
+mod selection;
 pub mod simulate;
 pub mod synthetic;
 
 use crate::inspection::profile;
 use crate::toolpath::PointContext;
 pub use effects::{Effect, EffectError, EffectKind};
-use fit::{
-    Folds, SetFit, Signatures, cross_validate, cross_validate_columns, fit_set, least_squares,
-    span_cosine,
-};
+use fit::{Folds, SetFit, Signatures, cross_validate, fit_set};
 use noise::rms;
 pub use report::DiagnoseReport;
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
@@ -61,11 +64,11 @@ pub enum DiagnoseError {
 pub struct DiagnoseOptions {
     /// Probing noise (µm, one σ) when known; estimated from the data otherwise.
     pub noise_um: Option<f64>,
-    /// At most this many effects are selected (0–2).
+    /// At most this many effects are selected (0–3).
     pub max_selected: usize,
-    /// An effect is kept only if the RMS it explains on held-out points,
-    /// √(MSE_before − MSE_after), is at least this × the noise floor.
-    pub min_explained_ratio: f64,
+    /// Each selected term's penalised held-out likelihood ratio must reach
+    /// this (docs/diagnose.md "Selection").
+    pub significance: f64,
     /// Cosine above which another effect's span reproduces an effect's
     /// contribution (an alias, when the part it misses is also below the
     /// noise floor, RMS).
@@ -78,8 +81,8 @@ impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
             noise_um: None,
-            max_selected: 2,
-            min_explained_ratio: 2.0,
+            max_selected: 3,
+            significance: SIGNIFICANCE,
             alias_cosine: 0.98,
             time_folds: 6,
         }
@@ -179,9 +182,9 @@ pub fn diagnose_with_followup(
             )));
         }
     }
-    if options.max_selected > 2 {
+    if options.max_selected > 3 {
         return Err(DiagnoseError::BadOption(format!(
-            "at most two effects can be selected, asked for {}",
+            "at most three effects can be selected, asked for {}",
             options.max_selected
         )));
     }
@@ -231,7 +234,6 @@ pub fn diagnose_with_followup(
     let mse_before = r.iter().map(|v| v * v).sum::<f64>() / n as f64;
     let ln_n = (n as f64).ln();
     let bic = |mse: f64, p: usize| n as f64 * mse.max(1e-300).ln() + p as f64 * ln_n;
-    let bic_before = bic(mse_before, 0);
 
     struct Candidate {
         kind: EffectKind,
@@ -257,180 +259,102 @@ pub fn diagnose_with_followup(
         .collect();
     candidates.sort_by(|a, b| a.bic.total_cmp(&b.bic).then(a.kind.cmp(&b.kind)));
 
-    // Forward selection.
-    let mut notes = Vec::new();
-    let mut selected: Vec<EffectKind> = Vec::new();
-    let mut selected_mse = mse_before;
-    let mut selected_params = 0usize;
-    let mut selected_bic = bic_before;
-    if options.max_selected >= 1 {
-        let best = &candidates[0];
-        let explained = (mse_before - best.mse).max(0.0).sqrt();
-        if best.bic < bic_before && explained >= options.min_explained_ratio * floor {
-            notes.push(format!(
-                "{}: held-out RMS {:.3} → {:.3} µm, explains {:.3} µm RMS ≥ {:.1} × noise floor {:.3} µm: selected",
-                best.kind.name(), mse_before.sqrt(), best.mse.sqrt(), explained, options.min_explained_ratio, noise_floor
-            ));
-            selected.push(best.kind);
-            selected_params = best.kind.parameters().len();
-            selected_mse = best.mse;
-            selected_bic = best.bic;
-        } else {
-            notes.push(format!(
-                "best single effect {} explains {:.3} µm RMS on held-out points (needs ≥ {:.1} × noise floor {:.3} µm and a lower BIC: {:.1} vs {:.1}): none selected",
-                best.kind.name(), explained, options.min_explained_ratio, noise_floor, best.bic, bic_before
-            ));
-        }
-    }
-    if options.max_selected >= 2 && selected.len() == 1 {
-        // The best pair overall by BIC among pairs where each member explains a
-        // significant part on its own (beyond the other member alone); its
-        // members need not include the best single effect.
-        let single_mse = |k: EffectKind| {
-            candidates
-                .iter()
-                .find(|c| c.kind == k)
-                .map_or(mse_before, |c| c.mse)
-        };
-        let pairs: Vec<(EffectKind, EffectKind)> = EffectKind::ALL
-            .iter()
-            .enumerate()
-            .flat_map(|(i, a)| EffectKind::ALL[i + 1..].iter().map(move |b| (*a, *b)))
-            .collect();
-        use rayon::prelude::*;
-        let scored: Vec<(Vec<EffectKind>, f64, f64, f64)> = pairs
-            .par_iter()
-            .map(|&(a, b)| {
-                let kinds = vec![a, b];
-                let mse = cross_validate(&sig, &folds, &kinds, &r);
-                let p = a.parameters().len() + b.parameters().len();
-                // The smaller of the two members' added held-out RMS.
-                let added = (single_mse(a) - mse)
-                    .min(single_mse(b) - mse)
-                    .max(0.0)
-                    .sqrt();
-                (kinds, mse, bic(mse, p), added)
-            })
-            .collect();
-        let best_pair = scored
-            .into_iter()
-            .filter(|(_, _, _, added)| *added >= options.min_explained_ratio * floor)
-            .min_by(|x, y| x.2.total_cmp(&y.2));
-        match best_pair {
-            // A pair with more parameters than the single effect must also
-            // explain significantly more (≥ the ratio × noise floor) on held-out
-            // points; one with fewer or as many needs only the lower BIC.
-            Some((kinds, mse, score, added))
-                if score < selected_bic
-                    && (kinds.iter().map(|k| k.parameters().len()).sum::<usize>()
-                        <= selected_params
-                        || (selected_mse - mse).max(0.0).sqrt()
-                            >= options.min_explained_ratio * floor) =>
-            {
-                let names = format!("{} + {}", kinds[0].name(), kinds[1].name());
-                notes.push(format!(
-                    "{names}: held-out RMS {:.3} → {:.3} µm (BIC {:.1} < {:.1}); each member adds ≥ {:.3} µm RMS ≥ {:.1} × noise floor: two effects selected",
-                    selected_mse.sqrt(), mse.sqrt(), score, selected_bic, added, options.min_explained_ratio
-                ));
-                // Order the pair by their single-effect ranking.
-                let rank = |k: EffectKind| candidates.iter().position(|c| c.kind == k).unwrap_or(usize::MAX);
-                let mut kinds = kinds;
-                kinds.sort_by_key(|k| rank(*k));
-                selected = kinds;
-                selected_mse = mse;
-                selected_bic = score;
-            }
-            Some((kinds, mse, score, _)) => notes.push(format!(
-                "best pair {} + {} (BIC {:.1} vs {:.1}, held-out RMS {:.3} vs {:.3} µm) does not improve significantly on the single effect: one effect kept",
-                kinds[0].name(), kinds[1].name(), score, selected_bic, mse.sqrt(), selected_mse.sqrt()
-            )),
-            None => notes.push(format!(
-                "no pair whose members each add ≥ {:.1} × noise floor on held-out points: one effect kept",
-                options.min_explained_ratio
-            )),
-        }
-    }
+    // The error model's own columns: one per measured axis (what the model
+    // attributes to its tables), and one for the rest of the prediction (the
+    // machine file's position-independent errors: squareness, rotary location).
+    let named_cols = model_columns(&rows, &slot_letters);
+    let mut sig = sig;
+    sig.model = named_cols.iter().map(|(_, c)| c.clone()).collect();
+    let sig = sig;
+    // The model's own standard uncertainty (RMS over the rows).
+    let model_u2 = rows
+        .iter()
+        .map(|row| row.cut.model_u_um.powi(2) + row.probe.map_or(0.0, |p| p.model_u_um.powi(2)))
+        .sum::<f64>()
+        / n as f64;
 
-    // Does the gap follow the error model itself?
-    let model_check = {
-        // One column per measured axis (what the model attributes to its
-        // tables), and one for the rest of the prediction: the machine file's
-        // position-independent errors (squareness, rotary location).
-        let mut named_cols: Vec<(String, Vec<f64>)> = (0..5)
-            .map(|k| {
+    // Selection on evidence (selection.rs).
+    let max_factor = |t: &selection::Terms| -> bool {
+        let fit = fit::fit_terms(&sig, &t.kinds, true, &all_rows, &r);
+        let offset: usize = t.kinds.iter().map(|k| k.linear_count()).sum();
+        fit.linear.coefs[offset..]
+            .iter()
+            .any(|b| b.abs() >= MODEL_FACTOR_MIN)
+    };
+    let mut scorer = selection::Scorer {
+        sig: &sig,
+        folds: &folds,
+        r: &r,
+        mse_before,
+        settings: selection::SelectionSettings {
+            noise_um: floor,
+            model_u2,
+            max_effects: options.max_selected,
+            threshold: options.significance,
+            model_available: !named_cols.is_empty(),
+        },
+        model_plausible: &max_factor,
+        cache: candidates
+            .iter()
+            .map(|c| {
                 (
-                    slot_letters[k].letter().to_string(),
-                    rows.iter()
-                        .map(|row| row.axis_deviation_um(k))
-                        .collect::<Vec<f64>>(),
+                    selection::Terms {
+                        kinds: vec![c.kind],
+                        model: false,
+                    },
+                    c.mse,
                 )
             })
-            .filter(|(_, c)| c.iter().any(|v| *v != 0.0))
-            .collect();
-        if !named_cols.is_empty() {
-            let rest: Vec<f64> = rows
-                .iter()
-                .map(|row| {
-                    row.predicted_um() - (0..5).map(|k| row.axis_deviation_um(k)).sum::<f64>()
-                })
-                .collect();
-            if rms(&rest) > 1e-3 {
-                named_cols.push((POSITION_INDEPENDENT.to_string(), rest));
-            }
-        }
-        let cols: Vec<Vec<f64>> = named_cols.iter().map(|(_, c)| c.clone()).collect();
-        let (mse, factors) = if cols.is_empty() {
-            (mse_before, BTreeMap::new())
-        } else {
-            let fit = least_squares(&cols, &all_rows, &r);
-            let factors = named_cols
-                .iter()
-                .zip(&fit.coefs)
-                .map(|((name, _), b)| (name.clone(), *b))
-                .collect();
-            (cross_validate_columns(&cols, &folds, &r), factors)
+            .collect(),
+    };
+    let chosen = selection::select(&mut scorer, &EffectKind::ALL);
+    let model_only_mse = {
+        let t = selection::Terms {
+            kinds: Vec::new(),
+            model: true,
         };
-        let model_bic = bic(mse, cols.len());
-        let explained = (mse_before - mse).max(0.0).sqrt();
-        let largest = factors
-            .values()
-            .fold(0.0f64, |m: f64, b: &f64| m.max(b.abs()));
-        let follows_model = explained >= options.min_explained_ratio * floor
-            && largest >= MODEL_FACTOR_MIN
-            && model_bic < bic_before;
-        let unexplained = selected_mse.sqrt() >= UNEXPLAINED_RATIO * floor;
-        // The model is blamed only when it explains the gap better than the
-        // selection and than every single catalogue effect: small effects
-        // that no one selects are not a model error.
-        let best_catalogue = candidates[0].bic.min(selected_bic);
-        let mismatch = (follows_model && model_bic < best_catalogue) || unexplained;
-        ModelCheck {
-            heldout_rms_before_um: mse_before.sqrt(),
-            heldout_rms_after_um: mse.sqrt(),
-            explained_um: explained,
-            factors,
-            bic: model_bic,
-            follows_model,
-            unexplained,
-            mismatch,
+        if named_cols.is_empty() {
+            mse_before
+        } else {
+            scorer.mse(&t)
         }
     };
-    if model_check.mismatch && model_check.follows_model && !selected.is_empty() {
-        notes.push(format!(
-            "the error model's own axis factors explain the gap better (BIC {:.1} < {:.1}): {} not selected",
-            model_check.bic,
-            selected_bic,
-            selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
-        ));
-        selected.clear();
-        selected_mse = mse_before;
-    }
+    let mut notes = chosen.notes.clone();
+    // Order the selected effects by their single-effect ranking.
+    let rank = |k: EffectKind| {
+        candidates
+            .iter()
+            .position(|c| c.kind == k)
+            .unwrap_or(usize::MAX)
+    };
+    let mut selected: Vec<EffectKind> = chosen.terms.kinds.clone();
+    selected.sort_by_key(|k| rank(*k));
+    let with_model = chosen.terms.model;
+    let selected_mse = chosen.mse;
 
-    // Aliases: another effect whose span reproduces this effect's contribution.
-    let spans: Vec<(EffectKind, Vec<Vec<f64>>)> = candidates
-        .iter()
-        .map(|c| (c.kind, sig.columns(c.kind, c.fit.tau.unwrap_or(1.0))))
-        .collect();
+    // Aliases (symmetric): two effects whose fitted contributions coincide to
+    // within the probing noise (cosine ≥ alias_cosine and the RMS of their
+    // difference below the noise floor), both being larger than it.
+    let alias_of = |a: &Candidate, b: &Candidate| -> bool {
+        let (ra, rb) = (rms(&a.contribution), rms(&b.contribution));
+        if ra < floor || rb < floor {
+            return false;
+        }
+        let dot: f64 = a
+            .contribution
+            .iter()
+            .zip(&b.contribution)
+            .map(|(x, y)| x * y)
+            .sum();
+        let cos = dot / (ra * rb * n as f64);
+        let diff: Vec<f64> = a
+            .contribution
+            .iter()
+            .zip(&b.contribution)
+            .map(|(x, y)| x - y)
+            .collect();
+        cos >= options.alias_cosine && rms(&diff) < floor
+    };
     let effects: Vec<EffectFit> = candidates
         .iter()
         .map(|c| {
@@ -439,22 +363,11 @@ pub fn diagnose_with_followup(
             let s2 = c.fit.linear.sse / dof;
             let params_std = var.into_iter().map(|(k, v)| (k, (v * s2).sqrt())).collect();
             let contribution_rms = rms(&c.contribution);
-            let aliases = if contribution_rms >= floor {
-                spans
-                    .iter()
-                    .filter(|(k, _)| *k != c.kind)
-                    .filter(|(_, cols)| {
-                        // B reproduces this contribution (cosine) and what it
-                        // misses is below the noise floor (RMS).
-                        let cos = span_cosine(cols, &c.contribution);
-                        let missed = contribution_rms * (1.0 - cos * cos).max(0.0).sqrt();
-                        cos >= options.alias_cosine && missed < floor
-                    })
-                    .map(|(k, _)| k.name().to_string())
-                    .collect()
-            } else {
-                Vec::new()
-            };
+            let aliases = candidates
+                .iter()
+                .filter(|b| b.kind != c.kind && alias_of(c, b))
+                .map(|b| b.kind.name().to_string())
+                .collect();
             let before = mse_before.sqrt();
             let after = c.mse.sqrt();
             EffectFit {
@@ -477,20 +390,111 @@ pub fn diagnose_with_followup(
         })
         .collect();
 
-    // After: the selected set fitted jointly on all used points.
-    let (after_contribution, after_params) = if selected.is_empty() {
-        (vec![0.0; n], BTreeMap::new())
+    // What remains after a selection (the measurement's residual, its local
+    // anomalies, and its RMS outside them).
+    let model_u = (used.iter().map(|c| c.model_u_um.powi(2)).sum::<f64>() / n0 as f64).sqrt();
+    let expected = (floor * floor + model_u * model_u).sqrt();
+    let remains = |kinds: &[EffectKind], model: bool| {
+        let contribution = if kinds.is_empty() && !model {
+            vec![0.0; n]
+        } else {
+            fit::fit_terms(&sig, kinds, model, &all_rows, &r).contribution(&sig)
+        };
+        let r_after: Vec<f64> = r0.iter().zip(&contribution).map(|(a, c)| a - c).collect();
+        let anomalies = localization::local_anomalies(&used, &r_after, floor, model_u);
+        let remaining = remaining_outside(&used, &r_after, &anomalies);
+        (anomalies, remaining)
+    };
+    // Effects are named only when, with them, the gap is explained: when
+    // what remains stays well above what the noise and the model's
+    // uncertainty allow, the model is off in a way its factors do not
+    // describe, and catalogue effects fitted to part of its error would be
+    // guesses.
+    let mut not_named: Vec<EffectKind> = Vec::new();
+    if !selected.is_empty() {
+        let (_, remaining) = remains(&selected, with_model);
+        if remaining >= UNEXPLAINED_RATIO * expected {
+            notes.push(format!(
+                "with {} the residual stays at {:.3} µm RMS ≥ {:.1} × √(σ² + u²) = {:.3} µm: the model is off beyond its factors; {} not named",
+                chosen.terms.label(),
+                remaining,
+                UNEXPLAINED_RATIO,
+                expected,
+                selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
+            ));
+            not_named = std::mem::take(&mut selected);
+        }
+    }
+    let selected_mse = if not_named.is_empty() {
+        selected_mse
+    } else if with_model {
+        model_only_mse
     } else {
-        let fit = fit_set(&sig, &selected, &all_rows, &r);
-        let params = (0..selected.len())
-            .map(|m| {
-                (
-                    selected[m].name().to_string(),
-                    named_params(&fit, m, rotary).0,
-                )
-            })
-            .collect();
-        (fit.contribution(&sig), params)
+        mse_before
+    };
+
+    // After: the selection fitted jointly on all used points.
+    let duration = used.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let joint = (!selected.is_empty() || with_model)
+        .then(|| fit::fit_terms(&sig, &selected, with_model, &all_rows, &r));
+    let (after_contribution, after_params, checks) = match &joint {
+        None => (vec![0.0; n], BTreeMap::new(), BTreeMap::new()),
+        Some(fit) => {
+            let dof = (n as f64 - fit.linear.rank as f64).max(1.0);
+            let s2 = fit.linear.sse / dof;
+            let design = sig.design_with(&fit.kinds, fit.model, fit.tau.unwrap_or(1.0));
+            let independence = fit::column_independence(&design);
+            let mut params = BTreeMap::new();
+            let mut checks = BTreeMap::new();
+            let mut offset = 0;
+            for (m, kind) in fit.kinds.iter().enumerate() {
+                let names = kind.parameters_for(rotary);
+                let lc = kind.linear_count();
+                let mut values: Vec<f64> = fit.linear.coefs[offset..offset + lc].to_vec();
+                let mut stds: Vec<f64> = fit.linear.inverse_diagonal[offset..offset + lc]
+                    .iter()
+                    .map(|v| (v * s2).sqrt())
+                    .collect();
+                if let (true, Some(tau)) = (kind.is_nonlinear(), fit.tau) {
+                    values.push(tau);
+                    stds.push(0.0);
+                }
+                let ind = &independence[offset..offset + lc];
+                let list =
+                    plausibility::check(*kind, names, &values, &stds, ind, duration.max(1e-6));
+                let _ = m;
+                params.insert(kind.name().to_string(), {
+                    let mut p = BTreeMap::new();
+                    for c in &list {
+                        p.insert(c.name.clone(), c.value);
+                    }
+                    p
+                });
+                checks.insert(kind.name().to_string(), list);
+                offset += lc;
+            }
+            (fit.contribution(&sig), params, checks)
+        }
+    };
+    // The model factors of the joint fit (or of the model alone).
+    let factors: BTreeMap<String, f64> = match &joint {
+        Some(fit) if fit.model => {
+            let offset: usize = fit.kinds.iter().map(|k| k.linear_count()).sum();
+            named_cols
+                .iter()
+                .zip(&fit.linear.coefs[offset..])
+                .map(|((name, _), b)| (name.clone(), *b))
+                .collect()
+        }
+        _ if !named_cols.is_empty() => {
+            let fit = fit::fit_terms(&sig, &[], true, &all_rows, &r);
+            named_cols
+                .iter()
+                .zip(&fit.linear.coefs)
+                .map(|((name, _), b)| (name.clone(), *b))
+                .collect()
+        }
+        _ => BTreeMap::new(),
     };
     let predicted_after: Vec<f64> = predicted
         .iter()
@@ -503,30 +507,94 @@ pub fn diagnose_with_followup(
         .zip(&after_contribution)
         .map(|(a, c)| a - c)
         .collect();
+    let local_anomalies = localization::local_anomalies(&used, &r_after, floor, model_u);
+
+    // Is the machine's error model itself off? Either its own factors are in
+    // the selection, or what remains (local anomalies left out) is well above
+    // what the noise and the model's uncertainty allow.
+    let model_check = {
+        let remaining = remaining_outside(&used, &r_after, &local_anomalies);
+        let unexplained = remaining >= UNEXPLAINED_RATIO * expected;
+        let excess = (remaining * remaining - floor * floor).max(0.0).sqrt();
+        ModelCheck {
+            heldout_rms_before_um: mse_before.sqrt(),
+            heldout_rms_after_um: model_only_mse.sqrt(),
+            explained_um: (mse_before - model_only_mse).max(0.0).sqrt(),
+            factors,
+            bic: bic(model_only_mse, named_cols.len()),
+            follows_model: with_model,
+            unexplained,
+            mismatch: with_model || unexplained,
+            model_uncertainty_um: model_u,
+            expected_rms_um: expected,
+            remaining_rms_um: remaining,
+            uncertainty_factor: (model_u > 1e-9 && excess > 0.0).then(|| excess / model_u),
+        }
+    };
     let max_cut = used.iter().map(|c| c.cut_length_m).fold(0.0f64, f64::max);
     let mut summary = Vec::new();
     if model_check.mismatch {
-        summary.push(model_sentence(
-            &model_check,
-            rms(&r0),
-            selected_mse.sqrt(),
-            noise_floor,
+        summary.push(model_sentence(&model_check, rms(&r0), noise_floor));
+    }
+    for kind in &selected {
+        let list = checks.get(kind.name()).cloned().unwrap_or_default();
+        let advised: BTreeMap<String, f64> = list
+            .iter()
+            .filter(|c| c.identifiable || (kind.is_nonlinear() && c.name == "tau" && c.plausible))
+            .map(|c| (c.name.clone(), c.value))
+            .collect();
+        let mut sentence = report::machinist_sentence(*kind, &advised, max_cut);
+        let left_out: Vec<String> = list
+            .iter()
+            .filter(|c| !advised.contains_key(&c.name))
+            .map(|c| c.display())
+            .collect();
+        if !left_out.is_empty() {
+            sentence.push_str(&format!(
+                " Not determined by this part, left out of this advice: {}.",
+                left_out.join(", ")
+            ));
+        }
+        let implausible: Vec<String> = list
+            .iter()
+            .filter(|c| !c.plausible)
+            .map(|c| format!("{} ({})", c.display(), c.notes.join("; ")))
+            .collect();
+        if !implausible.is_empty() {
+            sentence.push_str(&format!(
+                " Implausible, check before acting: {}.",
+                implausible.join(", ")
+            ));
+        }
+        summary.push(sentence);
+    }
+    if !selected.is_empty() {
+        summary.push(format!(
+            "With {} added, the residual RMS falls from {:.2} to {:.2} µm (held-out {:.2} µm; noise floor {:.2} µm).",
+            chosen.terms.label().replace(" + ", " and "),
+            rms(&r0), rms(&r_after), selected_mse.sqrt(), noise_floor
         ));
-    } else if selected.is_empty() {
+    }
+    if !not_named.is_empty() {
+        summary.push(format!(
+            "{} would explain part of what remains, but with the model this far off {} cannot be told from its error: not named. Fix the model first, then measure again.",
+            not_named.iter().map(|k| k.name()).collect::<Vec<_>>().join(" and "),
+            if not_named.len() == 1 { "it" } else { "they" }
+        ));
+    }
+    for a in &local_anomalies {
+        summary.push(anomaly_sentence(a));
+    }
+    if selected.is_empty() && !model_check.mismatch && local_anomalies.is_empty() {
         summary.push(format!(
             "The gap between measured and predicted deviations (residual RMS {:.2} µm) is within what the noise floor ({:.2} µm) and the model explain: no unmodelled effect is supported by the data.",
             rms(&r0), noise_floor
         ));
-    }
-    if !selected.is_empty() {
-        for kind in &selected {
-            let params = after_params.get(kind.name()).cloned().unwrap_or_default();
-            summary.push(report::machinist_sentence(*kind, &params, max_cut));
-        }
+    } else if selected.is_empty() && !model_check.mismatch {
         summary.push(format!(
-            "With {} added, the residual RMS falls from {:.2} to {:.2} µm (held-out {:.2} µm; noise floor {:.2} µm).",
-            selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" and "),
-            rms(&r0), rms(&r_after), selected_mse.sqrt(), noise_floor
+            "No catalogue effect is supported by the data beyond the local anomal{} above (residual RMS {:.2} µm, noise floor {:.2} µm).",
+            if local_anomalies.len() == 1 { "y" } else { "ies" },
+            rms(&r0), noise_floor
         ));
     }
     for e in effects
@@ -540,6 +608,17 @@ pub fn diagnose_with_followup(
                 e.aliases.join(", ")
             ));
         }
+    }
+    if with_model {
+        notes.push(format!(
+            "the error model's own factors are in the selection: {}",
+            model_check
+                .factors
+                .iter()
+                .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
     let measured_profile = profile(&measured);
     let predicted_profile = profile(&predicted);
@@ -577,33 +656,118 @@ pub fn diagnose_with_followup(
             residual_rms_um: rms(&r_after),
             heldout_rms_um: selected_mse.sqrt(),
             params: after_params,
+            checks,
+            significance: chosen.significance.iter().cloned().collect(),
         },
         summary,
         selection_notes: notes,
         residuals,
         model_check,
+        local_anomalies,
         followup_design: None,
         followup: None,
         warnings: Vec::new(),
     })
 }
 
+/// The error model's own columns over `rows`: one per measured axis, and one
+/// for the machine file's position-independent errors (the rest of the
+/// prediction), each with its name; columns that are zero everywhere are
+/// left out.
+fn model_columns(
+    rows: &[fit::Row],
+    slot_letters: &[crate::axes::Axis; 5],
+) -> Vec<(String, Vec<f64>)> {
+    let mut named_cols: Vec<(String, Vec<f64>)> = (0..5)
+        .map(|k| {
+            (
+                slot_letters[k].letter().to_string(),
+                rows.iter()
+                    .map(|row| row.axis_deviation_um(k))
+                    .collect::<Vec<f64>>(),
+            )
+        })
+        .filter(|(_, c)| c.iter().any(|v| *v != 0.0))
+        .collect();
+    if !named_cols.is_empty() {
+        let rest: Vec<f64> = rows
+            .iter()
+            .map(|row| row.predicted_um() - (0..5).map(|k| row.axis_deviation_um(k)).sum::<f64>())
+            .collect();
+        if rms(&rest) > 1e-3 {
+            named_cols.push((POSITION_INDEPENDENT.to_string(), rest));
+        }
+    }
+    named_cols
+}
+
+/// RMS of `r_after` outside the local `anomalies` (all of it when fewer than
+/// ten points would remain).
+fn remaining_outside(
+    used: &[&PointContext],
+    r_after: &[f64],
+    anomalies: &[report::LocalAnomaly],
+) -> f64 {
+    let inside = |c: &PointContext| {
+        anomalies.iter().any(|a| {
+            (0..3)
+                .map(|k| (c.point[k] - a.centre[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                <= a.radius_mm
+        })
+    };
+    let rest: Vec<f64> = used
+        .iter()
+        .zip(r_after)
+        .filter(|(c, _)| !inside(c))
+        .map(|(_, v)| *v)
+        .collect();
+    if rest.len() >= 10 {
+        rms(&rest)
+    } else {
+        rms(r_after)
+    }
+}
+
+/// The summary sentence of a local anomaly.
+fn anomaly_sentence(a: &report::LocalAnomaly) -> String {
+    format!(
+        "A local anomaly no catalogue effect explains: {} points around ({:.1}, {:.1}, {:.1}) mm (within {:.0} mm; plan ids {}; program lines {}), peak {:+.2} µm, mean {:+.2} µm, {:.0} σ: inspect the part and the cut there (a local defect, a fixture or a clamp, or an error the model does not describe).",
+        a.points,
+        a.centre[0],
+        a.centre[1],
+        a.centre[2],
+        a.radius_mm,
+        a.ids.iter().take(8).cloned().collect::<Vec<_>>().join(", "),
+        a.lines
+            .iter()
+            .take(6)
+            .map(|l| l.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        a.peak_um,
+        a.mean_um,
+        a.sigma
+    )
+}
+
 /// The model-check factor of the machine file's position-independent errors.
 pub const POSITION_INDEPENDENT: &str = "squareness and location";
 
+/// The default threshold of the selection's significance (calibrated on the
+/// robustness generator, docs/diagnose.md "Robustness").
+pub const SIGNIFICANCE: f64 = 25.0;
+
 /// A table is named as off when its factor is at least this (10 %).
 pub const MODEL_FACTOR_MIN: f64 = 0.1;
-/// The gap is unexplained when the held-out RMS after the selection is at
-/// least this × the noise floor.
-pub const UNEXPLAINED_RATIO: f64 = 3.0;
+/// The gap is unexplained when what remains after the selection (local
+/// anomalies left out) is at least this × √(σ² + u²), what the noise and the
+/// model's own uncertainty allow.
+pub const UNEXPLAINED_RATIO: f64 = 1.5;
 
 /// The sentence for a model that does not match the machine.
-fn model_sentence(
-    check: &ModelCheck,
-    residual_rms: f64,
-    remaining: f64,
-    noise_floor: f64,
-) -> String {
+fn model_sentence(check: &ModelCheck, residual_rms: f64, noise_floor: f64) -> String {
     let mut named: Vec<(&String, &f64)> = check
         .factors
         .iter()
@@ -616,19 +780,37 @@ fn model_sentence(
         .collect::<Vec<_>>()
         .join(", ");
     let plausible = named.iter().all(|(_, b)| (0.0..3.0).contains(&(1.0 + **b)));
+    let remaining = check.remaining_rms_um;
+    let tail = if check.unexplained {
+        format!(
+            " What remains ({remaining:.2} µm RMS, local anomalies left out) stays unexplained: {:.1} × what the noise floor ({noise_floor:.2} µm) and the model's own uncertainty ({:.2} µm) allow{}.",
+            remaining / check.expected_rms_um.max(1e-9),
+            check.model_uncertainty_um,
+            match check.uncertainty_factor {
+                Some(f) => format!(" (as if the tables' uncertainty were ×{f:.1})"),
+                None => String::new(),
+            }
+        )
+    } else {
+        String::new()
+    };
     if check.follows_model && !axes.is_empty() && !plausible {
         format!(
-            "The error model does not match this machine: the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, but as no plausible scale of any axis ({axes}): the tables do not describe this machine (another machine's, or stale). Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model."
+            "The error model itself does not match this machine (tables scaled or stale?): the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, but as no plausible scale of any axis ({axes}): the tables do not describe this machine (another machine's, or stale).{tail} Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model."
         )
     } else if check.follows_model && !axes.is_empty() {
         format!(
-            "The error model does not match this machine: the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, as if the machine's were {axes} the modelled ones (explains {:.2} µm RMS on held-out points). Re-measure those axes' error tables (or check that the machine file is this machine's) before compensating with this model.",
-            check.explained_um
+            "The error model itself does not match this machine (tables scaled or stale?): the gap (residual RMS {residual_rms:.2} µm, noise floor {noise_floor:.2} µm) follows the model's own errors, as if the machine's were {axes} the modelled ones.{tail} Re-measure those axes' error tables (or check that the machine file is this machine's) before compensating with this model."
         )
     } else {
         format!(
-            "The error model does not match this machine: of the gap (residual RMS {residual_rms:.2} µm), {remaining:.2} µm RMS stays unexplained on held-out points by the catalogue effects ({:.1} × the noise floor of {noise_floor:.2} µm). Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model.",
-            remaining / noise_floor.max(1e-6)
+            "The error model itself does not match this machine (tables scaled or stale?): of the gap (residual RMS {residual_rms:.2} µm), {remaining:.2} µm RMS stays unexplained by the catalogue effects, {:.1} × what the noise floor ({noise_floor:.2} µm) and the model's own uncertainty ({:.2} µm) allow{}. Re-measure the axes' error tables (or check that the machine file is this machine's) before compensating with this model.",
+            remaining / check.expected_rms_um.max(1e-9),
+            check.model_uncertainty_um,
+            match check.uncertainty_factor {
+                Some(f) => format!(", as if the tables' uncertainty were ×{f:.1}"),
+                None => String::new(),
+            }
         )
     }
 }

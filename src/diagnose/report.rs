@@ -33,6 +33,10 @@ pub struct DiagnoseReport {
     /// aliases (`--followup-program`; extension, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
     pub followup_design: Option<super::followup::FollowupDesign>,
+    /// Significant local clusters of the residual after the selection that no
+    /// catalogue effect explains (extension; largest first).
+    #[serde(default)]
+    pub local_anomalies: Vec<LocalAnomaly>,
     /// What a measured follow-up showed (`--followup`; extension, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
     pub followup: Option<super::followup::FollowupOutcome>,
@@ -69,6 +73,20 @@ pub struct ModelCheck {
     /// explains the gap at least as well as the catalogue, or the gap stays
     /// unexplained).
     pub mismatch: bool,
+    /// RMS over the points of the model's own standard uncertainty along n, µm
+    /// (0 when the model carries none).
+    #[serde(default)]
+    pub model_uncertainty_um: f64,
+    /// What noise and the model's uncertainty allow: √(σ² + u²), µm.
+    #[serde(default)]
+    pub expected_rms_um: f64,
+    /// RMS of the residual after the selection, local anomalies left out, µm.
+    #[serde(default)]
+    pub remaining_rms_um: f64,
+    /// By how much the model's uncertainty would have to grow to explain what
+    /// remains (√(remaining² − σ²)/u; absent when u is 0 or nothing remains).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty_factor: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -181,6 +199,13 @@ pub struct After {
     pub heldout_rms_um: f64,
     /// Parameters of the selected effects fitted jointly on all used points.
     pub params: BTreeMap<String, BTreeMap<String, f64>>,
+    /// The same parameters with unit, ± and checks (identifiable, plausible).
+    #[serde(default)]
+    pub checks: BTreeMap<String, Vec<super::plausibility::ParameterCheck>>,
+    /// Each selected term's significance, the penalised held-out likelihood
+    /// ratio `z` (docs/diagnose.md "Selection").
+    #[serde(default)]
+    pub significance: BTreeMap<String, f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -200,7 +225,17 @@ fn p(params: &BTreeMap<String, f64>, name: &str) -> f64 {
     params.get(name).copied().unwrap_or(0.0)
 }
 
-/// One sentence a machinist can act on, for a selected effect.
+/// A parameter with `decimals`, or "n/a" when it was left out of the advice
+/// (not identifiable on the part).
+fn f(params: &BTreeMap<String, f64>, name: &str, decimals: usize) -> String {
+    match params.get(name) {
+        Some(v) => format!("{v:.decimals$}"),
+        None => "n/a".into(),
+    }
+}
+
+/// One sentence a machinist can act on, for a selected effect. Parameters
+/// missing from `params` were left out (not identifiable) and read "n/a".
 pub fn machinist_sentence(
     kind: EffectKind,
     params: &BTreeMap<String, f64>,
@@ -210,7 +245,7 @@ pub fn machinist_sentence(
         EffectKind::Backlash => {
             let axes: Vec<String> = [("X", "bx"), ("Y", "by"), ("Z", "bz")]
                 .iter()
-                .filter(|(_, k)| p(params, k).abs() >= 1.0)
+                .filter(|(_, k)| params.get(*k).is_some_and(|v| v.abs() >= 1.0))
                 .map(|(a, k)| format!("{:.1} µm on {a}", p(params, k)))
                 .collect();
             let list = if axes.is_empty() {
@@ -219,28 +254,35 @@ pub fn machinist_sentence(
                 axes.join(", ")
             };
             format!(
-                "Backlash of about {list} (bx={:.1}, by={:.1}, bz={:.1} µm): check the reversal (backlash) compensation of those axes and the ball-screw/nut preload.",
-                p(params, "bx"),
-                p(params, "by"),
-                p(params, "bz")
+                "Backlash of about {list} (bx={}, by={}, bz={} µm): check the reversal (backlash) compensation of those axes and the ball-screw/nut preload.",
+                f(params, "bx", 1),
+                f(params, "by", 1),
+                f(params, "bz", 1)
             )
         }
-        EffectKind::ThermalDrift => format!(
-            "Thermal drift of about ({:.1}, {:.1}, {:.1}) µm in machine X/Y/Z, settling with a time constant of {:.1} min: warm the machine up for at least {:.0} min before cutting, or enable/tune the thermal compensation.",
-            p(params, "dx"),
-            p(params, "dy"),
-            p(params, "dz"),
-            p(params, "tau"),
-            3.0 * p(params, "tau")
-        ),
+        EffectKind::ThermalDrift => {
+            let warm = match params.get("tau") {
+                Some(tau) => format!(
+                    "settling with a time constant of {tau:.1} min: warm the machine up for at least {:.0} min before cutting, or enable/tune the thermal compensation",
+                    3.0 * tau
+                ),
+                None => "with a time constant this part does not determine: warm the machine up before cutting, or enable/tune the thermal compensation".into(),
+            };
+            format!(
+                "Thermal drift of about ({}, {}, {}) µm in machine X/Y/Z, {warm}.",
+                f(params, "dx", 1),
+                f(params, "dy", 1),
+                f(params, "dz", 1),
+            )
+        }
         EffectKind::ServoLag => format!(
             "Servo lag (contour error ∝ v²κ) with k = {:.2e} s², i.e. about {:.1} µm at 1 mm/s² of centripetal acceleration: raise the position-loop gain or feed-forward, or slow down in tight curvature.",
             p(params, "k"),
             p(params, "k") * 1000.0
         ),
         EffectKind::ToolDeflection => format!(
-            "Tool deflection of about {:.1} µm across the tool axis: reduce the step-over or feed, use a shorter or stiffer tool, or add a finishing pass.",
-            p(params, "c")
+            "Tool deflection of about {} µm across the tool axis: reduce the step-over or feed, use a shorter or stiffer tool, or add a finishing pass.",
+            f(params, "c", 1)
         ),
         EffectKind::ToolWear => format!(
             "Tool wear of about {:.2} µm per metre of cut ({:.1} µm by the end of this program): change the tool earlier or enable wear compensation.",
@@ -248,23 +290,23 @@ pub fn machinist_sentence(
             p(params, "w") * max_cut_m
         ),
         EffectKind::RadiusOffset => format!(
-            "A constant offset of {:.1} µm along the surface normal: check the tool radius / length offset entered in the controller (re-measure the tool).",
-            p(params, "r")
+            "A constant offset of {} µm along the surface normal: check the tool radius / length offset entered in the controller (re-measure the tool).",
+            f(params, "r", 1)
         ),
         EffectKind::SetupError => format!(
-            "Workpiece set-up error: shift ({:.1}, {:.1}, {:.1}) µm and rotation ({:.0}, {:.0}, {:.0}) µrad: re-probe the part zero and alignment before cutting.",
-            p(params, "tx"),
-            p(params, "ty"),
-            p(params, "tz"),
-            p(params, "rx"),
-            p(params, "ry"),
-            p(params, "rz")
+            "Workpiece set-up error: shift ({}, {}, {}) µm and rotation ({}, {}, {}) µrad: re-probe the part zero and alignment before cutting.",
+            f(params, "tx", 1),
+            f(params, "ty", 1),
+            f(params, "tz", 1),
+            f(params, "rx", 0),
+            f(params, "ry", 0),
+            f(params, "rz", 0)
         ),
         EffectKind::Squareness => format!(
-            "Squareness errors beyond the machine file: s_xy={:.0}, s_xz={:.0}, s_yz={:.0} µrad: re-measure the axis squareness and update [squareness] in the machine file.",
-            p(params, "s_xy"),
-            p(params, "s_xz"),
-            p(params, "s_yz")
+            "Squareness errors beyond the machine file: s_xy={}, s_xz={}, s_yz={} µrad: re-measure the axis squareness and update [squareness] in the machine file.",
+            f(params, "s_xy", 0),
+            f(params, "s_xz", 0),
+            f(params, "s_yz", 0)
         ),
         EffectKind::RotaryLocation => {
             let list: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v:.1}")).collect();
@@ -274,4 +316,27 @@ pub fn machinist_sentence(
             )
         }
     }
+}
+
+/// A significant local cluster of the residual that no selected effect
+/// explains (docs/diagnose.md "Local anomalies").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LocalAnomaly {
+    /// Points in the cluster.
+    pub points: usize,
+    /// Plan ids, largest |residual| first (at most 20).
+    pub ids: Vec<String>,
+    /// Mean position of its points, part coordinates, mm.
+    pub centre: [f64; 3],
+    /// Distance from the centre to its farthest point plus the scan radius, mm.
+    pub radius_mm: f64,
+    /// Program lines that cut it (at most 12, increasing).
+    pub lines: Vec<usize>,
+    /// Largest residual in it (signed) and the mean, µm.
+    pub peak_um: f64,
+    pub mean_um: f64,
+    /// Largest |neighbourhood mean| / its standard deviation.
+    pub sigma: f64,
+    /// When it was cut: first and last time, min.
+    pub time_min: [f64; 2],
 }

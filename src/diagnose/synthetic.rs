@@ -288,6 +288,8 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
             squareness_jacobian,
             location_jacobian,
             axis_deviation_um,
+            // The model error's RMS over the part (the field's amplitude / 2).
+            model_u_um: options.model_error_um / 2.0,
             rotary: [crate::axes::Axis::A, crate::axes::Axis::C],
             machine_to_part_rotation: None,
         });

@@ -51,6 +51,11 @@ pub struct PointContext {
     /// at this point. Zero in contexts written before this field.
     #[serde(default)]
     pub axis_deviation_um: [f64; 5],
+    /// Standard uncertainty of `predicted_um` from the model's own fit (table
+    /// noise and fit error, along `n`), µm; 0 when the model carries none and
+    /// in contexts written before this field.
+    #[serde(default)]
+    pub model_u_um: f64,
     /// The machine's two rotary letters in letter order (slots 3 and 4; A and C
     /// in contexts written before this field).
     #[serde(default = "ac")]

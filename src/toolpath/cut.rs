@@ -89,6 +89,7 @@ pub fn contexts(
     plan: &[PlanPoint],
     matches: &[Option<PlanMatch>],
 ) -> Result<Vec<PointContext>, CutError> {
+    let uncertain = model.has_uncertainty();
     plan.iter()
         .zip(matches)
         .map(|(p, m)| {
@@ -110,6 +111,18 @@ pub fn contexts(
                 only.component[slot] = errors.component[slot];
                 dot(p.normal, kin.volumetric_error(&pp.joints, &only).e_um)
             });
+            // The model's own standard uncertainty along n (0 without one).
+            let model_u_um = if uncertain {
+                model
+                    .uncertainty_with(&kin, &pp.joints)
+                    .map_err(|source| CutError::Lookup {
+                        id: p.id.clone(),
+                        source,
+                    })?
+                    .along_um(p.normal)
+            } else {
+                0.0
+            };
             Ok(PointContext {
                 id: p.id.clone(),
                 point: p.point,
@@ -129,6 +142,7 @@ pub fn contexts(
                 squareness_jacobian: kin.squareness_jacobian(&pp.joints, &errors),
                 location_jacobian: kin.location_jacobian(&pp.joints, &errors),
                 axis_deviation_um,
+                model_u_um,
                 rotary: kin.rotary(),
                 machine_to_part_rotation: Some(kin.machine_to_part_rotation(&pp.joints)),
             })
@@ -240,6 +254,7 @@ fn not_cut(p: &PlanPoint, rotary: [crate::axes::Axis; 2]) -> PointContext {
         squareness_jacobian: [[0.0; 3]; 3],
         location_jacobian: [[0.0; 3]; 8],
         axis_deviation_um: [0.0; 5],
+        model_u_um: 0.0,
         rotary,
         machine_to_part_rotation: None,
     }
@@ -323,6 +338,7 @@ pub fn probe_context(
         squareness_jacobian: kin.squareness_jacobian(&joints, &errors),
         location_jacobian: kin.location_jacobian(&joints, &errors),
         axis_deviation_um,
+        model_u_um: 0.0,
         rotary: kin.rotary(),
         machine_to_part_rotation: Some(to_part),
     }))

@@ -1,0 +1,362 @@
+//! The robustness generator of docs/diagnose.md "Robustness": seeded cases on
+//! the synthetic saddle raster whose machine model is NOT the fitted one (the
+//! model's prediction carries a smooth table-fit error of the RMS that its
+//! declared uncertainty says), with single effects, localised servo lag,
+//! pairs, wrong models (scaled tables with a thermal drift, tables noisier than
+//! their uncertainty, a stale table), no effect, and local decoys; and the
+//! scores of their diagnoses against the targets.
+//!
+//! Invariant: deterministic for given seeds; no I/O.
+use super::effects::{Effect, EffectKind};
+use super::report::DiagnoseReport;
+use super::synthetic::{SyntheticOptions, SyntheticPart, random_effect, saddle_raster};
+use crate::toolpath::PointContext;
+use crate::vec3::dot;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+/// RMS of the model's table-fit error, and its declared standard uncertainty, µm.
+pub const MODEL_U_UM: f64 = 0.15;
+
+/// What a case is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CaseClass {
+    /// One effect (RMS 2–6 µm over the part).
+    Single,
+    /// Servo lag whose RMS over the part is 1.0–1.9 × the noise (a few large
+    /// deviations at the raster's reversals).
+    LocalisedServoLag,
+    /// Two effects (RMS 2–6 µm each).
+    Pair,
+    /// The model's tables are 1.5 × the machine's, with a thermal drift.
+    ScaledTables,
+    /// The table-fit error is 4 × what the model's uncertainty says; no effect.
+    NoisyTables,
+    /// The Y table is another machine's (stale); no effect.
+    StaleTable,
+    /// No effect.
+    NoEffect,
+    /// A 4 µm bump 20 mm wide (FWHM) somewhere on the part, with or without
+    /// one effect.
+    Decoy,
+    /// The decoy's case without the bump.
+    Clean,
+}
+
+impl CaseClass {
+    pub fn wrong_model(self) -> bool {
+        matches!(
+            self,
+            CaseClass::ScaledTables | CaseClass::NoisyTables | CaseClass::StaleTable
+        )
+    }
+}
+
+/// One generated case.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub class: CaseClass,
+    pub noise_um: f64,
+    pub seed: u64,
+    pub injected: Vec<EffectKind>,
+    /// The bump's centre (part x, y, mm) when there is one.
+    pub bump: Option<[f64; 2]>,
+    /// Contexts with the (wrong) model's prediction.
+    pub contexts: Vec<PointContext>,
+    pub measured_um: Vec<f64>,
+}
+
+/// The part every case is cut on.
+pub fn part() -> SyntheticPart {
+    saddle_raster(&SyntheticOptions {
+        model_error_um: 0.0,
+        ..SyntheticOptions::default()
+    })
+}
+
+/// A smooth random field over the part with RMS `rms_um` at its points.
+fn smooth_field(contexts: &[PointContext], rms_um: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let waves: Vec<[f64; 4]> = (0..4)
+        .map(|_| {
+            [
+                rng.random_range(0.02..0.12),
+                rng.random_range(0.0..6.3),
+                rng.random_range(0.02..0.12),
+                rng.random_range(0.0..6.3),
+            ]
+        })
+        .collect();
+    let raw: Vec<f64> = contexts
+        .iter()
+        .map(|c| {
+            waves
+                .iter()
+                .map(|w| (w[0] * c.point[0] + w[1]).sin() * (w[2] * c.point[1] + w[3]).cos())
+                .sum()
+        })
+        .collect();
+    let r = super::noise::rms(&raw).max(1e-12);
+    raw.iter().map(|v| v * rms_um / r).collect()
+}
+
+/// Build one case: `effects` injected on `part`, probing noise `noise_um`.
+pub fn case(
+    part: &SyntheticPart,
+    class: CaseClass,
+    effects: &[Effect],
+    noise_um: f64,
+    seed: u64,
+    with_bump: bool,
+) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0026);
+    let table_error = if class == CaseClass::NoisyTables {
+        4.0 * MODEL_U_UM
+    } else {
+        MODEL_U_UM
+    };
+    let field = smooth_field(&part.contexts, table_error, &mut rng);
+    let stale = smooth_field(&part.contexts, 1.5, &mut rng);
+    let mut contexts = part.contexts.clone();
+    let mut truth = Vec::with_capacity(contexts.len());
+    for (i, c) in contexts.iter_mut().enumerate() {
+        let machine = dot(c.normal, part.truth_um[i]);
+        truth.push(machine);
+        let mut axis = c.axis_deviation_um;
+        let mut predicted = machine;
+        match class {
+            CaseClass::ScaledTables => {
+                for a in axis.iter_mut() {
+                    *a *= 1.5;
+                }
+                predicted *= 1.5;
+            }
+            CaseClass::StaleTable => {
+                // The Y table of another machine.
+                predicted += stale[i] - axis[1];
+                axis[1] = stale[i];
+            }
+            _ => {}
+        }
+        c.axis_deviation_um = axis;
+        c.predicted_um = predicted + field[i];
+        c.model_u_um = MODEL_U_UM;
+    }
+    let bump = with_bump.then(|| [rng.random_range(-30.0..30.0), rng.random_range(-22.0..22.0)]);
+    let normal = Normal::new(0.0, noise_um.max(0.0)).unwrap_or(Normal::new(0.0, 0.0).unwrap());
+    let width = 20.0 / 2.355; // FWHM 20 mm
+    let measured_um = contexts
+        .iter()
+        .zip(&truth)
+        .map(|(c, t)| {
+            let mut d = *t + effects.iter().map(|e| e.deviation_um(c)).sum::<f64>();
+            if let Some([x, y]) = bump {
+                let r2 = (c.point[0] - x).powi(2) + (c.point[1] - y).powi(2);
+                d += 4.0 * (-r2 / (2.0 * width * width)).exp();
+            }
+            d + normal.sample(&mut rng)
+        })
+        .collect();
+    Case {
+        class,
+        noise_um,
+        seed,
+        injected: effects.iter().map(|e| e.kind).collect(),
+        bump,
+        contexts,
+        measured_um,
+    }
+}
+
+/// How many cases of each kind [`cases`] makes.
+#[derive(Clone, Copy, Debug)]
+pub struct RobustnessOptions {
+    /// Seeds per effect and noise level for the single effects (4: 36 runs per level).
+    pub seeds_per_effect: u64,
+    pub noise_levels: &'static [f64],
+    /// Localised servo-lag runs per noise level.
+    pub servo_runs: u64,
+    pub pair_runs: u64,
+    /// Wrong-model runs: scaled tables, noisy tables, stale table.
+    pub wrong_model_runs: [u64; 3],
+    /// No-effect runs per noise level.
+    pub none_runs: u64,
+    /// Decoy runs (and as many clean ones).
+    pub decoy_runs: u64,
+}
+
+impl Default for RobustnessOptions {
+    fn default() -> Self {
+        RobustnessOptions {
+            seeds_per_effect: 4,
+            noise_levels: &[0.1, 0.3, 0.6, 1.0],
+            servo_runs: 10,
+            pair_runs: 20,
+            wrong_model_runs: [5, 4, 4],
+            none_runs: 3,
+            decoy_runs: 12,
+        }
+    }
+}
+
+/// Every case of the table, in a fixed order.
+pub fn cases(part: &SyntheticPart, options: &RobustnessOptions) -> Vec<Case> {
+    let ctx = &part.contexts;
+    let mut out = Vec::new();
+    let effect_rng = |seed: u64| ChaCha8Rng::seed_from_u64(seed.wrapping_mul(7919) + 13);
+    for (li, &noise) in options.noise_levels.iter().enumerate() {
+        for (ki, kind) in EffectKind::ALL.iter().enumerate() {
+            for s in 0..options.seeds_per_effect {
+                let seed = 1000 * li as u64 + 10 * ki as u64 + s;
+                let e = random_effect(*kind, ctx, (2.0, 6.0), &mut effect_rng(seed));
+                out.push(case(part, CaseClass::Single, &[e], noise, seed, false));
+            }
+        }
+        if noise >= 0.3 {
+            for s in 0..options.servo_runs {
+                let seed = 50_000 + 100 * li as u64 + s;
+                let e = random_effect(
+                    EffectKind::ServoLag,
+                    ctx,
+                    (1.0 * noise, 1.9 * noise),
+                    &mut effect_rng(seed),
+                );
+                out.push(case(
+                    part,
+                    CaseClass::LocalisedServoLag,
+                    &[e],
+                    noise,
+                    seed,
+                    false,
+                ));
+            }
+        }
+        for s in 0..options.none_runs {
+            let seed = 60_000 + 100 * li as u64 + s;
+            out.push(case(part, CaseClass::NoEffect, &[], noise, seed, false));
+        }
+    }
+    let kinds = EffectKind::ALL;
+    let pairs: Vec<(EffectKind, EffectKind)> = (0..kinds.len())
+        .flat_map(|i| (i + 1..kinds.len()).map(move |j| (kinds[i], kinds[j])))
+        .collect();
+    for s in 0..options.pair_runs {
+        let seed = 70_000 + s;
+        let (a, b) = pairs[(s as usize * 11) % pairs.len()];
+        let mut rng = effect_rng(seed);
+        let ea = random_effect(a, ctx, (2.0, 6.0), &mut rng);
+        let eb = random_effect(b, ctx, (2.0, 6.0), &mut rng);
+        out.push(case(part, CaseClass::Pair, &[ea, eb], 0.3, seed, false));
+    }
+    let [scaled, noisy, stale] = options.wrong_model_runs;
+    for s in 0..scaled {
+        let seed = 80_000 + s;
+        let e = random_effect(
+            EffectKind::ThermalDrift,
+            ctx,
+            (2.0, 6.0),
+            &mut effect_rng(seed),
+        );
+        out.push(case(part, CaseClass::ScaledTables, &[e], 0.3, seed, false));
+    }
+    for s in 0..noisy {
+        let seed = 81_000 + s;
+        out.push(case(part, CaseClass::NoisyTables, &[], 0.3, seed, false));
+    }
+    for s in 0..stale {
+        let seed = 82_000 + s;
+        out.push(case(part, CaseClass::StaleTable, &[], 0.3, seed, false));
+    }
+    for s in 0..options.decoy_runs {
+        let seed = 90_000 + s;
+        // Half with no effect, half with one.
+        let effects: Vec<Effect> = if s % 2 == 0 {
+            Vec::new()
+        } else {
+            let kind = kinds[(s as usize / 2) % kinds.len()];
+            vec![random_effect(kind, ctx, (2.0, 6.0), &mut effect_rng(seed))]
+        };
+        out.push(case(part, CaseClass::Decoy, &effects, 0.3, seed, true));
+        out.push(case(part, CaseClass::Clean, &effects, 0.3, seed, false));
+    }
+    out
+}
+
+/// The verdicts of one diagnosis of a case.
+#[derive(Clone, Debug, Default)]
+pub struct Score {
+    /// `selected[0]` is the injected effect (single effects).
+    pub top1: bool,
+    /// Every injected effect is selected.
+    pub all_found: bool,
+    /// Some effect is selected although none was injected.
+    pub false_positive: bool,
+    pub model_named: bool,
+    /// A local anomaly within 15 mm of the bump (decoys), or any (others).
+    pub anomaly: bool,
+    /// Selected parameters outside their physical range or undetermined
+    /// (independent of the report's own flags), and of those, the unflagged.
+    pub implausible: usize,
+    pub unflagged: usize,
+    /// Alias relations (A lists B) and those listed both ways.
+    pub alias_relations: usize,
+    pub alias_two_way: usize,
+}
+
+/// Score a diagnosis of `case` (duration of the program `duration_min`).
+pub fn score(case: &Case, report: &DiagnoseReport, duration_min: f64) -> Score {
+    let injected: Vec<&str> = case.injected.iter().map(|k| k.name()).collect();
+    let selected: Vec<&str> = report.selected.iter().map(String::as_str).collect();
+    let mut s = Score {
+        top1: injected.len() == 1 && selected.first() == injected.first(),
+        all_found: !injected.is_empty() && injected.iter().all(|k| selected.contains(k)),
+        false_positive: injected.is_empty() && !selected.is_empty(),
+        model_named: report.model_check.mismatch,
+        anomaly: match case.bump {
+            Some([x, y]) => report
+                .local_anomalies
+                .iter()
+                .any(|a| ((a.centre[0] - x).powi(2) + (a.centre[1] - y).powi(2)).sqrt() < 15.0),
+            None => !report.local_anomalies.is_empty(),
+        },
+        ..Score::default()
+    };
+    for (effect, checks) in &report.after.checks {
+        for c in checks {
+            let tau = effect == "thermal_drift" && c.name == "tau";
+            let bad = if tau {
+                !(duration_min / 50.0..=2.0 * duration_min).contains(&c.value)
+            } else {
+                let negative = matches!(
+                    effect.as_str(),
+                    "tool_wear" | "tool_deflection" | "servo_lag" | "backlash"
+                ) && c.value < 0.0;
+                let size = match c.unit.as_str() {
+                    "µrad" => c.value.abs() > 5000.0,
+                    "µm" => c.value.abs() > 500.0,
+                    _ => false,
+                };
+                negative || size || c.std > c.value.abs()
+            };
+            if bad {
+                s.implausible += 1;
+                if c.plausible && c.identifiable {
+                    s.unflagged += 1;
+                }
+            }
+        }
+    }
+    for e in &report.effects {
+        for a in &e.aliases {
+            s.alias_relations += 1;
+            if report
+                .effects
+                .iter()
+                .any(|b| &b.name == a && b.aliases.contains(&e.name))
+            {
+                s.alias_two_way += 1;
+            }
+        }
+    }
+    s
+}
