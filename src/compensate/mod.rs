@@ -19,7 +19,7 @@ pub mod stamp;
 use crate::axes::Axes;
 use crate::gcode::ToolInUse;
 use crate::gcode::{
-    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
+    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Moves, Program,
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{ErrorModel, ExtrapolationPolicy, Limits, LookupError, ToolModels};
@@ -869,10 +869,11 @@ fn compensated_moves(event: &BlockEvent) -> &[Motion] {
     if event.skipped {
         return &[];
     }
-    match &event.motion {
-        Some(m) => std::slice::from_ref(m),
-        None if !event.cycle_steps.is_empty() || event.spline.is_some() => &event.expanded,
-        None => &[],
+    match &event.moves {
+        Moves::Move(m) => std::slice::from_ref(m),
+        Moves::Cycle { moves, .. } | Moves::Spline(moves) => moves,
+        Moves::Home(moves) if event.spline.is_some() => moves,
+        Moves::Home(_) | Moves::None => &[],
     }
 }
 
@@ -981,7 +982,7 @@ fn solve_chunks(
                     None => unreachable!("one end per move"),
                 }
             }
-            if event.motion.is_some() {
+            if event.motion().is_some() {
                 resolved.push(mine.first().copied());
                 cycles.push(None);
             } else {
@@ -1002,7 +1003,7 @@ fn solve_chunks(
         // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
         for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycles) {
-            match (&event.motion, end) {
+            match (event.motion(), end) {
                 (Some(_), Some((e, _))) if !event.skipped => {
                     // Across a frame switch too: the interpreter (and so the
                     // control model of `toolpath`) starts the move from the last
@@ -1024,7 +1025,7 @@ fn solve_chunks(
             .zip(resolved.par_iter())
             .zip(starts.par_iter())
             .map(|(((_, event), end), start)| {
-                let (Some(m), Some((end, _))) = (&event.motion, end) else {
+                let (Some(m), Some((end, _))) = (event.motion(), end) else {
                     return Ok(Plan::default());
                 };
                 let model = models.get(&event.tool);
