@@ -97,7 +97,7 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
                 input.run(interpret),
                 &mut out,
                 RewriteOptions::default(),
-                |_, event, _| event.motion.as_ref().map(|m| m.end),
+                |_, event, _| event.motion().map(|m| m.end),
             )
             .unwrap();
             out.flush().unwrap();

@@ -43,7 +43,7 @@ fuzz_target!(|data: &[u8]| {
     // Flattened: reads back.
     let mut flat = Vec::new();
     if rewrite_stream(program(data).run(InterpretOptions::default()), &mut flat, RewriteOptions::default(), |_, e, _| {
-        e.motion.as_ref().map(|m| m.end)
+        e.motion().map(|m| m.end)
     })
     .is_ok()
     {

@@ -335,7 +335,7 @@ fn motion_code(m: &crate::gcode::Motion, event: &BlockEvent) -> &'static str {
             clockwise: true, ..
         } => "G2",
         MotionKind::Arc { .. } => "G3",
-        MotionKind::Linear => match (event.motion.is_some(), event.modal.motion, event.spline) {
+        MotionKind::Linear => match (event.motion().is_some(), event.modal.motion, event.spline) {
             (true, MotionMode::Probe(_), _) => event.modal.motion.word(),
             // The straight pieces of a spline: named by its code.
             (false, _, Some(crate::gcode::interpret::SplineStep::Curve { code, .. })) => match code

@@ -19,7 +19,7 @@ pub mod stamp;
 use crate::axes::Axes;
 use crate::gcode::ToolInUse;
 use crate::gcode::{
-    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Program,
+    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Moves, Program,
     RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{
@@ -1005,10 +1005,11 @@ fn compensated_moves(event: &BlockEvent) -> &[Motion] {
     if event.skipped {
         return &[];
     }
-    match &event.motion {
-        Some(m) => std::slice::from_ref(m),
-        None if !event.cycle_steps.is_empty() || event.spline.is_some() => &event.expanded,
-        None => &[],
+    match &event.moves {
+        Moves::Move(m) => std::slice::from_ref(m),
+        Moves::Cycle { moves, .. } | Moves::Spline(moves) => moves,
+        Moves::Home(moves) if event.spline.is_some() => moves,
+        Moves::Home(_) | Moves::None => &[],
     }
 }
 
@@ -1081,7 +1082,7 @@ fn solve_chunks(
                 incoming.push(None);
                 continue;
             }
-            incoming.push((tracking && event.motion.is_some()).then(|| directions.clone()));
+            incoming.push((tracking && event.motion().is_some()).then(|| directions.clone()));
             let kin = models.get(&event.tool).kinematics();
             let compensated = compensated_moves(event);
             for m in event.motions() {
@@ -1150,7 +1151,7 @@ fn solve_chunks(
                     None => unreachable!("one end per move"),
                 }
             }
-            if event.motion.is_some() {
+            if event.motion().is_some() {
                 resolved.push(mine.first().copied());
                 cycles.push(None);
             } else {
@@ -1171,7 +1172,7 @@ fn solve_chunks(
         // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
         for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycles) {
-            match (&event.motion, end) {
+            match (event.motion(), end) {
                 (Some(_), Some((e, _))) if !event.skipped => {
                     // Across a frame switch too: the interpreter (and so the
                     // control model of `toolpath`) starts the move from the last
@@ -1195,7 +1196,7 @@ fn solve_chunks(
             .zip(incoming.par_iter())
             .enumerate()
             .map(|(i, ((((_, event), end), start), before))| {
-                let (Some(m), Some((end, _))) = (&event.motion, end) else {
+                let (Some(m), Some((end, _))) = (event.motion(), end) else {
                     return Ok(Plan::default());
                 };
                 let model = models.get(&event.tool);

@@ -20,9 +20,9 @@ pub enum ErrorKind {
     #[error("number out of range in word `{0}`")]
     NumberOutOfRange(char),
     #[error("{0}")]
-    Syntax(crate::gcode::expression::SyntaxErrorKind),
+    Syntax(crate::gcode::syntax::expression::SyntaxErrorKind),
     #[error("{0}")]
-    Eval(crate::gcode::expression::EvalErrorKind),
+    Eval(crate::gcode::syntax::expression::EvalErrorKind),
     #[error("{0}")]
     OWord(String),
     #[error("EOF seeking {0}")]
@@ -122,7 +122,7 @@ pub enum ErrorKind {
     NonFinite,
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
-    /// volcomp's limit on a line's length ([`super::reader::MAX_LINE_BYTES`]).
+    /// volcomp's limit on a line's length ([`crate::gcode::syntax::reader::MAX_LINE_BYTES`]).
     #[error(
         "line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")"
     )]

@@ -20,13 +20,12 @@
 //! ```
 use std::path::{Path, PathBuf};
 
-use super::block::Block;
-use super::error::{ErrorKind, GcodeError};
-use super::interpret::{BlockEvent, InterpretOptions, Interpreter};
-use super::language::{Executed, Executor, LanguageOptions, ProgramInput};
-use super::motion::Motion;
-use super::parameters::{Parameters, numbers};
 use crate::axes::Axes;
+use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::language::parameters::{Parameters, numbers};
+use crate::gcode::language::{Executed, Executor, LanguageOptions, ProgramInput};
+use crate::gcode::machine::interpret::{BlockEvent, InterpretOptions, Interpreter};
+use crate::gcode::syntax::block::Block;
 
 /// What a real setup holds before the program starts: parameters (work
 /// origins, stored positions: a LinuxCNC `.var` file, `--offset`) and where
@@ -36,7 +35,7 @@ pub struct ProgramSetup {
     pub parameters: Parameters,
     /// The tool table (`--tools`, the machine file's `[[tools]]`; empty: any
     /// tool may be selected and the default tool is used throughout).
-    pub tools: super::tools::ToolTable,
+    pub tools: crate::gcode::machine::tools::ToolTable,
     pub language: LanguageOptions,
     /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
     /// ended with no percent sign or program end"); off for fragments.
@@ -113,13 +112,6 @@ impl Program {
     }
 }
 
-impl BlockEvent {
-    /// Every move of the block, in order (the ordinary move, or the expanded ones).
-    pub fn motions(&self) -> impl Iterator<Item = &Motion> {
-        self.motion.iter().chain(self.expanded.iter())
-    }
-}
-
 /// A program being run. Call [`Execution::next`] until it returns `None`.
 pub struct Execution {
     executor: Executor,
@@ -173,7 +165,7 @@ impl Execution {
             max_generated_moves: setup
                 .language
                 .max_generated_moves
-                .unwrap_or(super::language::DEFAULT_MAX_GENERATED_MOVES),
+                .unwrap_or(crate::gcode::language::DEFAULT_MAX_GENERATED_MOVES),
         }
     }
 
@@ -183,13 +175,13 @@ impl Execution {
     /// it on its own (its moves × the loops' counts).
     fn count_generated_moves(&mut self) -> Result<(), GcodeError> {
         let executed = self.executor.executed();
-        let own = usize::from(executed.literal && self.event.motion.is_some());
+        let own = usize::from(executed.literal && self.event.motion().is_some());
         let generated = self.event.motions().count().saturating_sub(own);
         if generated == 0 {
             return Ok(());
         }
         let limit = self.max_generated_moves;
-        let expanded = self.event.expanded.len();
+        let expanded = self.event.expanded().len();
         let trips = self.executor.repeat_trips();
         self.generated_moves += generated as u64;
         let kind = if expanded > 0 && trips > 1.0 && expanded as f64 * trips > limit as f64 {

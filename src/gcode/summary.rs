@@ -5,10 +5,12 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::block::Block;
-use super::interpret::BlockEvent;
-use super::modal::{GCode, MCode, classify_g, classify_m, code_text, is_known_letter};
-use super::motion::{Feed, Frame, MotionKind};
+use crate::gcode::machine::interpret::BlockEvent;
+use crate::gcode::machine::modal::{
+    GCode, MCode, classify_g, classify_m, code_text, is_known_letter,
+};
+use crate::gcode::machine::motion::{Feed, Frame, MotionKind};
+use crate::gcode::syntax::block::Block;
 
 /// How many tool runs a summary keeps (all are counted).
 pub const KEPT_TOOL_RUNS: usize = 256;
@@ -16,7 +18,7 @@ pub const KEPT_TOOL_RUNS: usize = 256;
 /// A run of moves cut with one tool.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ToolRun {
-    pub tool: super::tools::ToolInUse,
+    pub tool: crate::gcode::machine::tools::ToolInUse,
     pub first_line: usize,
     pub last_line: usize,
     pub moves: usize,
@@ -111,7 +113,7 @@ impl ProgramSummary {
         if event.frame_switch.is_some() {
             self.frame_switches += 1;
         }
-        if event.home {
+        if event.is_home() {
             self.home_blocks += 1;
         }
         self.time_min = event.time_min;

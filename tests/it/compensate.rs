@@ -387,7 +387,7 @@ fn inverse_time_minutes(text: &str) -> f64 {
         let event = interpreter
             .interpret(block.expect("reads"))
             .expect("interprets");
-        if let Some(m) = &event.motion
+        if let Some(m) = event.motion()
             && let Feed::InverseTime(f) = m.feed
         {
             total += 1.0 / f;
@@ -484,7 +484,7 @@ fn long_move_is_split_and_every_piece_is_within_tolerance() {
     let mut worst = 0.0f64;
     while let Some(block) = reader.next_block() {
         let event = interpreter.interpret(block.unwrap()).unwrap();
-        let Some(m) = event.motion else { continue };
+        let Some(&m) = event.motion() else { continue };
         if !matches!(m.kind, volcomp::gcode::MotionKind::Linear) {
             continue;
         }
@@ -1041,7 +1041,7 @@ fn arcs_of_many_turns_are_read_whole_or_refused() {
         interpret_options(Frame::Joint),
     )
     .expect("reads");
-    let m = events[3].1.motion.expect("the arc");
+    let m = events[3].1.motion().copied().expect("the arc");
     let turns = m.arc_geometry().unwrap().sweep().abs() / std::f64::consts::TAU;
     assert!((turns - 1_000_001.0).abs() < 1e-6, "{turns}");
     let (machine, model) = ref_trt();

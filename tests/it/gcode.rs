@@ -249,7 +249,7 @@ fn render_events(bytes: &[u8], options: volcomp::gcode::InterpretOptions) -> Str
         if let Some(f) = ev.frame_switch {
             notes.push(format!("frame->{f:?}"));
         }
-        if ev.home {
+        if ev.is_home() {
             notes.push("home".into());
         }
         if ev.program_end {
@@ -261,7 +261,7 @@ fn render_events(bytes: &[u8], options: volcomp::gcode::InterpretOptions) -> Str
         for w in &ev.warnings {
             notes.push(format!("warn: {w}"));
         }
-        if let Some(m) = &ev.motion {
+        if let Some(m) = ev.motion() {
             let kind = match m.kind {
                 MotionKind::Rapid => "G0".to_string(),
                 MotionKind::Linear => "G1".to_string(),
@@ -342,7 +342,7 @@ mod rewriting {
         while let Some(block) = reader.next_block() {
             let block = block.unwrap();
             let event = interpreter.interpret(block).unwrap();
-            let planned = event.motion.as_ref().and_then(|m| plan(block.line, m));
+            let planned = event.motion().and_then(|m| plan(block.line, m));
             let target = match &planned {
                 None => Target::Same,
                 Some((via, end)) if via.is_empty() => Target::Move(*end),
@@ -357,7 +357,7 @@ mod rewriting {
         interpret_program(bytes, InterpretOptions::default())
             .unwrap_or_else(|e| panic!("{e}\n{}", String::from_utf8_lossy(bytes)))
             .into_iter()
-            .filter_map(|(b, e)| e.motion.map(|m| (b.line, m)))
+            .filter_map(|(b, e)| e.motion().copied().map(|m| (b.line, m)))
             .collect()
     }
 
@@ -409,7 +409,7 @@ mod rewriting {
         for path in super::fixtures() {
             let bytes = std::fs::read(&path).unwrap();
             let (out, stats) = stream(&bytes, |block, event, via| {
-                let (v, end) = plan(block.line, event.motion.as_ref()?)?;
+                let (v, end) = plan(block.line, event.motion()?)?;
                 via.extend(v);
                 Some(end)
             });
@@ -422,7 +422,7 @@ mod rewriting {
         ))
         .unwrap();
         let (_, stats) = stream(&bytes, |block, event, via| {
-            let m = event.motion.as_ref()?;
+            let m = event.motion()?;
             (block.line == 10 || block.line == 20).then(|| {
                 if block.line == 20 {
                     via.push(m.start.lerp(&m.end, 0.5));
@@ -743,7 +743,7 @@ mod robustness {
                 continue;
             };
             let via;
-            let target = match (&event.motion, moves.get(k)) {
+            let target = match (event.motion(), moves.get(k)) {
                 (Some(m), Some(&(dx, dc))) => {
                     k += 1;
                     let end = Axes {
@@ -933,13 +933,13 @@ mod rewrite_property {
             // (target, is an intermediate piece: dropped when it has zero length)
             let mut want = Vec::new();
             for (b, e) in &before {
-                if let Some(m) = &e.motion {
+                if let Some(m) = e.motion() {
                     let (via, end) = plan(b.line, m).unwrap();
                     want.extend(via.into_iter().map(|v| (v, true)));
                     want.push((end, false));
                 }
             }
-            let got: Vec<Axes> = after.iter().filter_map(|(_, e)| e.motion.map(|m| m.end)).collect();
+            let got: Vec<Axes> = after.iter().filter_map(|(_, e)| e.motion().copied().map(|m| m.end)).collect();
             let mut k = 0;
             for (w, piece) in &want {
                 if k < got.len() && super::rewriting::close(&got[k], w, 1.3e-4) {
@@ -971,7 +971,7 @@ mod interpreting {
         use volcomp::axes::{Axis, AxisSet};
         // Without a machine, rs274's X Y Z A B C: B is an axis, U is not.
         let ev = motions("G0 X0 B5\nG1 X1 B6 F100\n", Default::default());
-        assert_eq!(ev[1].motion.unwrap().end.b, 6.0);
+        assert_eq!(ev[1].motion().copied().unwrap().end.b, 6.0);
         let err = interpret_program("G0 X0 U1\n".as_bytes(), Default::default()).unwrap_err();
         assert_eq!(err.line, 1);
         assert_eq!(err.column, 7);
@@ -993,7 +993,7 @@ mod interpreting {
             ..ac
         };
         let ev = motions("G0 X0\nG1 X1 B6 F100\n", lenient);
-        assert_eq!(ev[1].motion.unwrap().end.b, 0.0);
+        assert_eq!(ev[1].motion().copied().unwrap().end.b, 0.0);
         assert!(matches!(
             &ev[1].warnings[0].kind,
             WarningKind::Lenient(volcomp::gcode::ErrorKind::AxisNotOnMachine { letter: 'B', .. })
@@ -1008,13 +1008,13 @@ mod interpreting {
             ..Default::default()
         };
         let ev = motions("G0 X10\nG53 G0 Z-100\nG91 G0 Z100\n", options);
-        let m0 = ev[0].motion.unwrap();
+        let m0 = ev[0].motion().copied().unwrap();
         assert_eq!(m0.frame, Frame::Part);
-        let m1 = ev[1].motion.unwrap();
+        let m1 = ev[1].motion().copied().unwrap();
         assert!(m1.machine_coordinates);
         assert_eq!(m1.end.z, -100.0);
         approx::assert_relative_eq!(m1.duration_min, (100.0f64.powi(2) * 1.0).sqrt() / 5000.0);
-        let m2 = ev[2].motion.unwrap();
+        let m2 = ev[2].motion().copied().unwrap();
         assert!(!m2.machine_coordinates);
         assert_eq!(m2.end.z, 0.0);
         assert_eq!(m2.feed, Feed::Rapid);
@@ -1032,8 +1032,8 @@ mod interpreting {
     fn time_starts_at_the_first_target_and_rotary_moves_use_degrees() {
         let ev = motions("G0 X100\nG1 C90 F45\nG93 G1 A10 F4\n", Default::default());
         assert_eq!(ev[0].time_min, 0.0);
-        approx::assert_relative_eq!(ev[1].motion.unwrap().duration_min, 2.0);
-        approx::assert_relative_eq!(ev[2].motion.unwrap().duration_min, 0.25);
+        approx::assert_relative_eq!(ev[1].motion().copied().unwrap().duration_min, 2.0);
+        approx::assert_relative_eq!(ev[2].motion().copied().unwrap().duration_min, 0.25);
         approx::assert_relative_eq!(ev[2].time_min, 2.25);
     }
 
@@ -1043,12 +1043,12 @@ mod interpreting {
             "G20 G17 G0 X1 Y0\nG3 X0 Y1 R1 F10\nG3 X1 Y0 R-1\n",
             Default::default(),
         );
-        let MotionKind::Arc { centre, .. } = ev[1].motion.unwrap().kind else {
+        let MotionKind::Arc { centre, .. } = ev[1].motion().copied().unwrap().kind else {
             panic!()
         };
         approx::assert_abs_diff_eq!(centre[0], 0.0, epsilon = 1e-9);
         approx::assert_abs_diff_eq!(centre[1], 0.0, epsilon = 1e-9);
-        let m = ev[2].motion.unwrap();
+        let m = ev[2].motion().copied().unwrap();
         approx::assert_relative_eq!(
             m.xyz_length(),
             1.5 * std::f64::consts::PI * 25.4,

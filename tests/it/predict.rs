@@ -129,7 +129,7 @@ fn prediction_without_plan_lists_every_motion_block() {
     let mut lines = Vec::new();
     while let Some(block) = reader.next_block() {
         let event = interpreter.interpret(block.unwrap()).unwrap();
-        if event.motion.is_some() {
+        if event.motion().is_some() {
             lines.push(event.line);
         }
     }

@@ -17,10 +17,10 @@ use nom::sequence::tuple;
 use super::block::{
     AssignTarget, Assignment, Block, Keyword, KeywordWord, OKeyword, OLabel, OWord, Word,
 };
-use super::error::{ErrorKind, GcodeError};
 use super::expression::{
     ParamRef, SyntaxError, parse_name, parse_param_ref, parse_value, starts_computed_value,
 };
+use crate::gcode::error::{ErrorKind, GcodeError};
 
 fn is_space(b: u8) -> bool {
     b == b' ' || b == b'\t' || b == b'\r'
@@ -363,7 +363,7 @@ enum OError {
 fn parse_o_word(
     line: &[u8],
     pos: usize,
-    exprs: &mut Vec<crate::gcode::expression::Expr>,
+    exprs: &mut Vec<crate::gcode::syntax::expression::Expr>,
     comments: &mut Vec<std::ops::Range<usize>>,
 ) -> Result<Option<ParsedOWord>, OError> {
     let q = skip_space(line, pos + 1);

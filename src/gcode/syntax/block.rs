@@ -9,7 +9,7 @@
 //! that is the interpreter's job (`interpret.rs`).
 use std::ops::Range;
 
-use super::error::GcodeError;
+use crate::gcode::error::GcodeError;
 
 /// The line ending that followed a line in the input.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -206,7 +206,7 @@ pub struct Block {
     /// but comments).
     pub o_word: Option<OWord>,
     /// The syntax trees of computed values (words, assignments, O-word arguments).
-    pub exprs: Vec<crate::gcode::expression::Expr>,
+    pub exprs: Vec<crate::gcode::syntax::expression::Expr>,
     /// Byte ranges of the comments, `( … )` and `; …`, delimiters included.
     pub comments: Vec<Range<usize>>,
     /// Lenient reading only: the line could not be parsed; it is kept verbatim,

@@ -13,12 +13,16 @@
 //!   its own block, before that block's move. Unwritten axes keep their last
 //!   programmed *numbers* across a switch (the interpreter knows no
 //!   kinematics); [`BlockEvent::frame_switch`] tells the layers that do.
-//! - G28/G30 are reported (a warning, [`BlockEvent::home`]) and not
-//!   interpolated: their axis words are intermediate points, and the tracked
-//!   position is left unchanged, so the next move starts from the last
-//!   programmed position.
-//! - G53 moves are reported with `machine_coordinates` set; work offsets
-//!   (G54–G59) are unknown, so the values are taken as they are, absolute.
+//! - G28/G30 move at rapid rate to the intermediate point their axis words
+//!   give, then to the stored position (#5161…, #5181…) of the given axes
+//!   (of all when none is given); both legs are in [`BlockEvent::expanded`]
+//!   (the second in machine coordinates) and [`BlockEvent::home`] is set.
+//! - Axis words are read in the active origin: the work origin of the
+//!   selected system (G54–G59.3, from the parameters: a `.var` file,
+//!   `--offset`, G10 L2/L20), the G92/G52 offset and the XY rotation
+//!   ([`Origin`]: machine = rot(program + G92) + work origin). G53 moves are
+//!   reported with `machine_coordinates` set: their words are machine
+//!   coordinates, absolute.
 //! - Under G93 a move without F reuses the last F with a warning; a move at zero
 //!   feed lasts 0 min with a warning.
 //! - After M2/M30 the remaining lines are not interpreted (events are `skipped`).
@@ -34,20 +38,20 @@ use std::fmt;
 
 use crate::axes::{Axes, Axis};
 
-use super::block::Block;
 use super::cycles::{
     CycleBlock, CycleCode, CycleMemory, CycleStep, RetractMode, SpindleDirection, expand,
 };
-use super::error::{ErrorKind, GcodeError};
-use super::expression::to_integer;
 use super::modal::{
     CutterComp, Distance, GCode, MCode, ModalState, MotionMode, Units, classify_g, classify_m,
     code_text, g_group, is_known_letter, m_group,
 };
 use super::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
 use super::origin::Origin;
-use super::parameters::{Parameters, numbers};
 use super::tools::{ToolInUse, ToolTable};
+use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::language::parameters::{Parameters, numbers};
+use crate::gcode::syntax::block::Block;
+use crate::gcode::syntax::expression::to_integer;
 
 /// Interpreter settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -224,15 +228,8 @@ pub struct BlockEvent {
     pub index: usize,
     /// 1-based line.
     pub line: usize,
-    /// The move, if the block is one ordinary move (G0–G3, G38).
-    pub motion: Option<Motion>,
-    /// The moves of a block that expands into several (G28/G30 through their
-    /// intermediate point, canned cycles), in order; `motion` is then `None`.
-    pub expanded: Vec<Motion>,
-    /// The steps of a canned-cycle block (program coordinates, mm), in
-    /// order: each `Rapid`/`Feed` is the next motion of `expanded`; empty for
-    /// other blocks. Flat writers emit the dwells and spindle steps too.
-    pub cycle_steps: Vec<CycleStep>,
+    /// What the block moves.
+    pub moves: Moves,
     /// The origin the block's axis words were read in (identity under G53).
     pub origin: Origin,
     /// Modal state after the block.
@@ -248,8 +245,6 @@ pub struct BlockEvent {
     pub time_min: f64,
     /// The frame changed in this block (to this frame).
     pub frame_switch: Option<Frame>,
-    /// G28/G30 in this block.
-    pub home: bool,
     /// M2/M30 in this block.
     pub program_end: bool,
     /// Not interpreted: deleted (when skipping), unparsed (lenient) or after the end.
@@ -258,6 +253,135 @@ pub struct BlockEvent {
     /// curve's straight pieces are `expanded`), or a G5.2 control-point block.
     pub spline: Option<SplineStep>,
     pub warnings: Vec<Warning>,
+}
+
+/// What a block moves.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Moves {
+    /// Nothing.
+    #[default]
+    None,
+    /// One ordinary move (G0–G3, G38, G53).
+    Move(Motion),
+    /// G28/G30: at rapid rate to the intermediate point, then to the stored
+    /// position (machine coordinates).
+    Home(Vec<Motion>),
+    /// A canned cycle: its moves, and its steps (program coordinates, mm) in
+    /// order, each `Rapid`/`Feed` step the next of `moves`. Flat writers emit
+    /// the dwells and spindle steps too.
+    Cycle {
+        moves: Vec<Motion>,
+        steps: Vec<CycleStep>,
+    },
+    /// The straight pieces of a spline (G5, G5.1, the G5.3 that runs a G5.2
+    /// NURBS; [`BlockEvent::spline`] says which).
+    Spline(Vec<Motion>),
+}
+
+/// Which kind of [`Moves`] a block expands into (see [`Moves::expanded_mut`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Expansion {
+    Home,
+    Spline,
+}
+
+impl Moves {
+    /// Every move, in order (the one move, or the expanded ones).
+    pub fn all(&self) -> &[Motion] {
+        match self {
+            Moves::None => &[],
+            Moves::Move(m) => std::slice::from_ref(m),
+            Moves::Home(moves) | Moves::Cycle { moves, .. } | Moves::Spline(moves) => moves,
+        }
+    }
+
+    /// The one ordinary move.
+    pub fn motion(&self) -> Option<&Motion> {
+        match self {
+            Moves::Move(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// The moves of a block that expands into several (G28/G30, a canned
+    /// cycle, a spline); empty for others.
+    pub fn expanded(&self) -> &[Motion] {
+        match self {
+            Moves::None | Moves::Move(_) => &[],
+            Moves::Home(moves) | Moves::Cycle { moves, .. } | Moves::Spline(moves) => moves,
+        }
+    }
+
+    /// The steps of a canned cycle; empty for other blocks.
+    pub fn cycle_steps(&self) -> &[CycleStep] {
+        match self {
+            Moves::Cycle { steps, .. } => steps,
+            _ => &[],
+        }
+    }
+
+    /// The list the block's expanded moves go to: a block that moves nothing
+    /// yet becomes `kind`; one that expands already keeps its kind (under
+    /// `lenient` a G28 and a G5.3 may share a block).
+    fn expanded_mut(&mut self, kind: Expansion) -> &mut Vec<Motion> {
+        if matches!(self, Moves::None | Moves::Move(_)) {
+            *self = match kind {
+                Expansion::Home => Moves::Home(Vec::new()),
+                Expansion::Spline => Moves::Spline(Vec::new()),
+            };
+        }
+        match self {
+            Moves::Home(moves) | Moves::Cycle { moves, .. } | Moves::Spline(moves) => moves,
+            Moves::None | Moves::Move(_) => unreachable!("made a list above"),
+        }
+    }
+
+    /// A canned cycle's moves and steps (the block's earlier expanded moves
+    /// kept in front).
+    fn cycle_mut(&mut self) -> (&mut Vec<Motion>, &mut Vec<CycleStep>) {
+        if !matches!(self, Moves::Cycle { .. }) {
+            let moves = match std::mem::take(self) {
+                Moves::Home(moves) | Moves::Spline(moves) => moves,
+                _ => Vec::new(),
+            };
+            *self = Moves::Cycle {
+                moves,
+                steps: Vec::new(),
+            };
+        }
+        match self {
+            Moves::Cycle { moves, steps } => (moves, steps),
+            _ => unreachable!("made a cycle above"),
+        }
+    }
+}
+
+impl BlockEvent {
+    /// The move, if the block is one ordinary move (G0–G3, G38, G53).
+    pub fn motion(&self) -> Option<&Motion> {
+        self.moves.motion()
+    }
+
+    /// The moves of a block that expands into several (G28/G30 through their
+    /// intermediate point, canned cycles, splines), in order.
+    pub fn expanded(&self) -> &[Motion] {
+        self.moves.expanded()
+    }
+
+    /// The steps of a canned-cycle block (empty for other blocks).
+    pub fn cycle_steps(&self) -> &[CycleStep] {
+        self.moves.cycle_steps()
+    }
+
+    /// G28/G30 in this block.
+    pub fn is_home(&self) -> bool {
+        matches!(self.moves, Moves::Home(_))
+    }
+
+    /// Every move of the block, in order (the ordinary move, or the expanded ones).
+    pub fn motions(&self) -> impl Iterator<Item = &Motion> {
+        self.moves.all().iter()
+    }
 }
 
 /// What a spline block does.
@@ -283,9 +407,7 @@ impl Default for BlockEvent {
         BlockEvent {
             index: 0,
             line: 0,
-            motion: None,
-            expanded: Vec::new(),
-            cycle_steps: Vec::new(),
+            moves: Moves::None,
             origin: Origin::MACHINE,
             modal: ModalState::new(Frame::Joint),
             tool: ToolInUse::default(),
@@ -293,7 +415,6 @@ impl Default for BlockEvent {
             position: Axes::default(),
             time_min: 0.0,
             frame_switch: None,
-            home: false,
             program_end: false,
             skipped: false,
             spline: None,
@@ -522,13 +643,10 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         event.index = block.line.saturating_sub(1);
         event.line = block.line;
-        event.motion = None;
-        event.expanded.clear();
-        event.cycle_steps.clear();
+        event.moves = Moves::None;
         event.start = self.position;
         event.origin = self.origin;
         event.frame_switch = None;
-        event.home = false;
         event.program_end = false;
         event.skipped = false;
         event.spline = None;
@@ -552,9 +670,7 @@ impl Interpreter {
     pub fn pass_over(&self, block: &Block, event: &mut BlockEvent) {
         event.index = block.line.saturating_sub(1);
         event.line = block.line;
-        event.motion = None;
-        event.expanded.clear();
-        event.cycle_steps.clear();
+        event.moves = Moves::None;
         event.start = self.position;
         event.position = self.position;
         event.origin = self.origin;
@@ -562,7 +678,6 @@ impl Interpreter {
         event.tool = self.tool_in_use();
         event.time_min = self.time_min;
         event.frame_switch = None;
-        event.home = false;
         event.program_end = false;
         event.skipped = true;
         event.spline = None;
@@ -725,8 +840,8 @@ impl Interpreter {
 
         for kw in &block.keywords {
             modal.frame = match kw.keyword {
-                super::block::Keyword::TraOri => Frame::Part,
-                super::block::Keyword::TraFoof => Frame::Joint,
+                crate::gcode::syntax::block::Keyword::TraOri => Frame::Part,
+                crate::gcode::syntax::block::Keyword::TraFoof => Frame::Joint,
             };
         }
         // Repeated words and modal-group conflicts (LinuxCNC refuses both).
@@ -1117,7 +1232,6 @@ impl Interpreter {
                 }
             }
             Some((GCode::Home(n), s, _)) => {
-                event.home = true;
                 // To the intermediate point (program coordinates), then to the
                 // stored position of the given axes (all when none is given).
                 let mut mid = program_now;
@@ -1168,7 +1282,7 @@ impl Interpreter {
                         duration_min: 0.0,
                     };
                     m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
-                    event.expanded.push(m);
+                    event.moves.expanded_mut(Expansion::Home).push(m);
                 }
                 new_position = home;
             }
@@ -1391,7 +1505,15 @@ impl Interpreter {
             }
             self.params.set(numbers::PROBE_TRIPPED, 0.0);
         }
-        for m in motion.iter().chain(event.expanded.iter()) {
+        if let Some(m) = motion {
+            // (Under `lenient`, a G5.3 and a move may share a block: the
+            // move follows the curve's pieces.)
+            match &mut event.moves {
+                Moves::None => event.moves = Moves::Move(m),
+                moves => moves.expanded_mut(Expansion::Spline).push(m),
+            }
+        }
+        for m in event.moves.all() {
             if self.moved {
                 self.time_min += m.duration_min;
             }
@@ -1400,7 +1522,6 @@ impl Interpreter {
         if self.moved {
             self.time_min += self.pending_dwell_min;
         }
-        event.motion = motion;
         self.mist = mist;
         self.flood = flood;
         if let Some(s) = words.s {
@@ -1562,9 +1683,7 @@ impl Interpreter {
             });
         }
         let cuts = event
-            .motion
-            .iter()
-            .chain(event.expanded.iter())
+            .motions()
             .any(|m| m.kind != MotionKind::Rapid && !m.machine_coordinates);
         if cuts
             && tool.number != 0
@@ -1973,7 +2092,7 @@ impl Interpreter {
                 duration_min: 0.0,
             };
             m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
-            event.expanded.push(m);
+            event.moves.expanded_mut(Expansion::Spline).push(m);
             event.spline = Some(SplineStep::Curve {
                 code,
                 control_points: 0,
@@ -2125,7 +2244,7 @@ impl Interpreter {
     }
 
     /// The straight pieces of `curve` (program coordinates) from `now`
-    /// (machine coordinates; Z, A and C stay) into `event.expanded`.
+    /// (machine coordinates; Z, A and C stay) into the block's [`Moves::Spline`].
     /// Returns the position after the curve.
     #[allow(clippy::too_many_arguments)]
     fn run_curve(
@@ -2189,7 +2308,7 @@ impl Interpreter {
                 duration_min: 0.0,
             };
             m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
-            event.expanded.push(m);
+            event.moves.expanded_mut(Expansion::Spline).push(m);
             at = end;
             from = to;
         }
@@ -2252,8 +2371,8 @@ impl Interpreter {
             spindle: self.spindle,
             inch: modal.units == Units::Inch,
         };
-        event.cycle_steps.clear();
-        if let Err(e) = expand(&input, &mut self.cycle_memory, &mut event.cycle_steps) {
+        let mut steps = Vec::new();
+        if let Err(e) = expand(&input, &mut self.cycle_memory, &mut steps) {
             let at = e
                 .word()
                 .and_then(|c| block.words.iter().find(|w| w.letter == c as u8))
@@ -2262,8 +2381,13 @@ impl Interpreter {
             self.fail(block, event, ErrorKind::Cycle(e.to_string()), at.0, at.1)?;
             return Ok(self.position);
         }
+        if steps.is_empty() {
+            return Ok(self.position);
+        }
+        let (moves, cycle_steps) = event.moves.cycle_mut();
+        *cycle_steps = steps;
         let mut at = self.position;
-        for step in &event.cycle_steps {
+        for step in cycle_steps.iter() {
             let (xyz, kind) = match *step {
                 CycleStep::Rapid(p) => (p, Some(MotionKind::Rapid)),
                 CycleStep::Feed(p) => (p, Some(MotionKind::Linear)),
@@ -2310,7 +2434,7 @@ impl Interpreter {
                     duration_min: 0.0,
                 };
                 m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
-                event.expanded.push(m);
+                moves.push(m);
             }
             at = end;
         }
@@ -2635,10 +2759,10 @@ pub fn duration_from_lengths(
 pub fn interpret_program(
     text: &[u8],
     options: InterpretOptions,
-) -> Result<Vec<(super::block::Block, BlockEvent)>, GcodeError> {
-    let mut reader = super::reader::BlockReader::new(
+) -> Result<Vec<(crate::gcode::syntax::block::Block, BlockEvent)>, GcodeError> {
+    let mut reader = crate::gcode::syntax::reader::BlockReader::new(
         text,
-        super::reader::ReadOptions {
+        crate::gcode::syntax::reader::ReadOptions {
             lenient: options.lenient,
         },
     );

@@ -34,11 +34,11 @@ use std::io::{BufRead, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::block::{AssignTarget, Block, LineEnding, OKeyword, OLabel, OWord};
-use super::error::{ErrorKind, GcodeError};
-use super::expression::{EvalError, EvalErrorKind, Expr, ParamSource, to_integer};
 use super::parameters::Parameters;
-use super::parser::parse_line;
+use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::syntax::block::{AssignTarget, Block, LineEnding, OKeyword, OLabel, OWord};
+use crate::gcode::syntax::expression::{EvalError, EvalErrorKind, Expr, ParamSource, to_integer};
+use crate::gcode::syntax::parser::parse_line;
 
 /// Lines of loop and subroutine bodies kept parsed (then re-read from the file).
 pub const LINE_CACHE_LIMIT: usize = 1 << 20;
@@ -77,7 +77,7 @@ pub struct LanguageOptions {
     /// Most moves that no line of the main program spells out one by one:
     /// moves of blocks executed in loops and calls, canned-cycle and spline
     /// expansions (`None`: [`DEFAULT_MAX_GENERATED_MOVES`]). Checked by
-    /// [`super::Execution`] as they grow, and up front for a canned cycle in
+    /// [`crate::gcode::Execution`] as they grow, and up front for a canned cycle in
     /// `repeat` loops (its moves × the loops' counts).
     pub max_generated_moves: Option<u64>,
     /// Drop the subroutine definitions the main program passes over
@@ -730,10 +730,11 @@ impl Executor {
         }
         file.line += 1;
         self.source.reset(file.line, file.offset);
-        let (n, too_long) = super::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
-            .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
+        let (n, too_long) =
+            crate::gcode::syntax::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
+                .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
         if let Some(length) = too_long {
-            return Err(super::reader::line_too_long(
+            return Err(crate::gcode::syntax::reader::line_too_long(
                 file.line,
                 &self.source.raw,
                 length,

@@ -16,8 +16,8 @@
 use std::io::BufRead;
 
 use super::block::{Block, LineEnding};
-use super::error::{ErrorKind, GcodeError};
 use super::parser::parse_line;
+use crate::gcode::error::{ErrorKind, GcodeError};
 
 /// The longest line read, bytes (its line end not counted). LinuxCNC reads
 /// at most 254 characters ("Command too long"); volcomp reads longer lines

@@ -15,7 +15,7 @@
 //! evaluator; `.var` values by their reader).
 use std::collections::HashMap;
 
-use super::expression::{EvalErrorKind, ParamSource};
+use crate::gcode::syntax::expression::{EvalErrorKind, ParamSource};
 
 /// LinuxCNC's `RS274NGC_MAX_PARAMETERS`: numbers run from 1 to this − 1.
 pub const MAX_PARAMETERS: usize = 5602;

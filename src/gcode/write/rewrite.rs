@@ -14,7 +14,7 @@
 //! while let Some(block) = reader.next_block() {
 //!     let block = block.unwrap();
 //!     let event = interpreter.interpret(block).unwrap();
-//!     let target = match &event.motion {
+//!     let target = match event.motion() {
 //!         // compute the compensated absolute end (same frame as `motion.end`)
 //!         Some(m) if block.line == 3 => Target::Move(volcomp::axes::Axes { x: m.end.x + 0.0123, ..m.end }),
 //!         _ => Target::Same,
@@ -34,7 +34,7 @@
 //! [`Target`]: [`Target::Same`] (keep the programmed target), [`Target::Move`]
 //! (a new absolute end) or [`Target::Split`] (intermediate absolute targets,
 //! then the end). Targets are absolute, in mm and degrees, in the block's own
-//! frame (the frame of `event.motion`), exactly like the interpreter's output.
+//! frame (the frame of `event.motion()`), exactly like the interpreter's output.
 //!
 //! # Contract
 //! - A block is written byte for byte (raw text + its own line ending) when
@@ -77,11 +77,14 @@ use std::io::Write;
 
 use crate::axes::{Axes, Axis};
 
-use super::block::{Block, Word};
-use super::interpret::BlockEvent;
-use super::modal::{Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m};
-use super::motion::{Feed, Motion, MotionKind};
-use super::motion::{from_plane, to_plane};
+use super::format::{half_ulp, push_number, round_to};
+use crate::gcode::machine::interpret::{BlockEvent, Moves};
+use crate::gcode::machine::modal::{
+    Distance, GCode, MCode, MotionMode, Units, classify_g, classify_m,
+};
+use crate::gcode::machine::motion::{Feed, Motion, MotionKind};
+use crate::gcode::machine::motion::{from_plane, to_plane};
+use crate::gcode::syntax::block::{Block, Word};
 
 /// Rewriter settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,7 +142,7 @@ pub enum RewriteError {
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
     #[error(transparent)]
-    Input(#[from] super::error::GcodeError),
+    Input(#[from] crate::gcode::error::GcodeError),
 }
 
 /// Totals of a [`rewrite_stream`] run.
@@ -166,7 +169,7 @@ pub struct RewriteStats {
 /// cycles as their moves ([`Rewriter::emit_cycle`], at their programmed
 /// targets). Input errors are located (file, line, column).
 pub fn rewrite_stream(
-    run: super::execution::Execution,
+    run: crate::gcode::execution::Execution,
     out: &mut dyn Write,
     options: RewriteOptions,
     mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
@@ -178,13 +181,11 @@ pub fn rewrite_stream(
     while let Some(step) = run.next() {
         let (block, event, executed) = step?;
         stats.blocks += 1;
-        if !executed.literal
-            || ((!event.cycle_steps.is_empty() || event.spline.is_some()) && !event.skipped)
-        {
+        if !executed.literal || (written_flat(event) && !event.skipped) {
             stats.flat += 1;
         }
         via.clear();
-        let target = match event.motion.as_ref().filter(|_| !event.skipped) {
+        let target = match event.motion().filter(|_| !event.skipped) {
             Some(_) => {
                 stats.motions += 1;
                 match plan(block, event, &mut via) {
@@ -200,6 +201,11 @@ pub fn rewrite_stream(
         stats.pieces += emitted.pieces;
     }
     Ok(stats)
+}
+
+/// Canned cycles and splines are written flat, move by move.
+fn written_flat(event: &BlockEvent) -> bool {
+    matches!(event.moves, Moves::Cycle { .. }) || event.spline.is_some()
 }
 
 /// One replacement in the raw line: `raw[start..end]` → `text[from..to]`.
@@ -267,13 +273,13 @@ impl Rewriter {
             return Ok(Emitted::default());
         }
         self.note_decimals(block);
-        if (!event.cycle_steps.is_empty() || event.spline.is_some()) && target == Target::Same {
+        if written_flat(event) && target == Target::Same {
             // Canned cycles and splines are always written flat (see
             // `emit_flat`).
-            let ends: Vec<Axes> = event.expanded.iter().map(|m| m.end).collect();
+            let ends: Vec<Axes> = event.expanded().iter().map(|m| m.end).collect();
             return self.emit_flat(block, event, &ends, out);
         }
-        let Some(motion) = event.motion.as_ref().filter(|_| !event.skipped) else {
+        let Some(motion) = event.motion().filter(|_| !event.skipped) else {
             if target != Target::Same {
                 return Err(RewriteError::NotAMotion { line: block.line });
             }
@@ -282,7 +288,7 @@ impl Rewriter {
             }
             // G28/G30 (written unchanged) end at stored positions: the axes
             // they moved stand where the original program's stand.
-            if !event.expanded.is_empty() {
+            if let Moves::Home(_) = event.moves {
                 let named: Vec<Axis> = Axis::ALL
                     .into_iter()
                     .filter(|a| block.word(a.letter() as u8).is_some())
@@ -588,8 +594,8 @@ impl Rewriter {
         ends: &[Axes],
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
-        use super::interpret::SplineStep;
-        if ends.len() != event.expanded.len() {
+        use crate::gcode::machine::interpret::SplineStep;
+        if ends.len() != event.expanded().len() {
             return Err(RewriteError::NotAMotion { line: block.line });
         }
         if !ends.iter().all(Axes::is_finite) {
@@ -655,7 +661,7 @@ impl Rewriter {
         if ctx.incremental {
             written.push("G90".to_string());
         }
-        for (end, motion) in ends.iter().zip(&event.expanded) {
+        for (end, motion) in ends.iter().zip(event.expanded()) {
             let program = event.origin.to_program(end);
             let mut line = String::from("G1");
             for axis in Axis::ALL {
@@ -692,7 +698,7 @@ impl Rewriter {
             out.write_all(l.as_bytes())?;
             out.write_all(ending)?;
         }
-        if !event.expanded.is_empty() {
+        if !event.expanded().is_empty() {
             self.emitted_motion = MotionMode::Linear;
         }
         self.original_motion = event.modal.motion;
@@ -718,14 +724,14 @@ impl Rewriter {
         ends: &[Axes],
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
-        use super::cycles::CycleStep;
-        if ends.len() != event.expanded.len() {
+        use crate::gcode::machine::cycles::CycleStep;
+        if ends.len() != event.expanded().len() {
             return Err(RewriteError::NotAMotion { line: block.line });
         }
         if !ends.iter().all(Axes::is_finite) {
             return Err(RewriteError::NonFinite { line: block.line });
         }
-        for step in &event.cycle_steps {
+        for step in event.cycle_steps() {
             let what = match step {
                 CycleStep::SpindleOrient { .. } => "the spindle orientation of G87",
                 CycleStep::AssumePosition(_) => {
@@ -751,9 +757,8 @@ impl Rewriter {
             letter => Axis::from_letter(letter as char).is_some(),
         });
         let name = match event.modal.motion {
-            MotionMode::Cycle(c) => {
-                super::cycles::CycleCode::from_code10(c as i32).map_or("canned cycle", |c| c.name())
-            }
+            MotionMode::Cycle(c) => crate::gcode::machine::cycles::CycleCode::from_code10(c as i32)
+                .map_or("canned cycle", |c| c.name()),
             _ => "canned cycle",
         };
         let from = self.text.len();
@@ -773,12 +778,12 @@ impl Rewriter {
         // 2. The steps.
         let mut line = String::new();
         let mut written = Vec::new();
-        let mut moves = ends.iter().zip(&event.expanded);
+        let mut moves = ends.iter().zip(event.expanded());
         if ctx.incremental {
             line.push_str("G90");
             written.push(std::mem::take(&mut line));
         }
-        for step in &event.cycle_steps {
+        for step in event.cycle_steps() {
             match *step {
                 CycleStep::Rapid(_) | CycleStep::Feed(_) => {
                     let Some((end, motion)) = moves.next() else {
@@ -832,7 +837,7 @@ impl Rewriter {
             out.write_all(l.as_bytes())?;
             out.write_all(ending)?;
         }
-        self.emitted_motion = match event.expanded.last().map(|m| m.kind) {
+        self.emitted_motion = match event.expanded().last().map(|m| m.kind) {
             Some(MotionKind::Rapid) => MotionMode::Rapid,
             Some(_) => MotionMode::Linear,
             None => self.emitted_motion,
@@ -942,7 +947,7 @@ impl Rewriter {
         ctx: &Context,
         new_end: Axes,
         centre: [f64; 3],
-        plane: super::motion::Plane,
+        plane: crate::gcode::machine::motion::Plane,
     ) {
         let s = to_plane(plane, self.emitted.xyz());
         let e = to_plane(plane, new_end.xyz());
@@ -977,9 +982,9 @@ impl Rewriter {
         let abs_c = from_plane(plane, new_c);
         let start = self.emitted.xyz();
         let letters: [(u8, usize); 2] = match plane {
-            super::motion::Plane::XY => [(b'I', 0), (b'J', 1)],
-            super::motion::Plane::ZX => [(b'I', 0), (b'K', 2)],
-            super::motion::Plane::YZ => [(b'J', 1), (b'K', 2)],
+            crate::gcode::machine::motion::Plane::XY => [(b'I', 0), (b'J', 1)],
+            crate::gcode::machine::motion::Plane::ZX => [(b'I', 0), (b'K', 2)],
+            crate::gcode::machine::motion::Plane::YZ => [(b'J', 1), (b'K', 2)],
         };
         let mut missing = String::new();
         for (letter, n) in letters {
@@ -1101,7 +1106,7 @@ impl Rewriter {
         }
         out.write_all(line.as_bytes())?;
         out.write_all(match block.ending {
-            super::block::LineEnding::CrLf => b"\r\n",
+            crate::gcode::syntax::block::LineEnding::CrLf => b"\r\n",
             _ => b"\n",
         })?;
         self.emitted = new_emitted;
@@ -1162,7 +1167,7 @@ struct Context {
 
 impl Context {
     fn new(block: &Block, event: &BlockEvent) -> Self {
-        let motion = event.motion.as_ref();
+        let motion = event.motion();
         let g53 = motion.is_some_and(|m| m.machine_coordinates);
         let (rapid, inverse_time, feed) = match motion.map(|m| m.feed) {
             Some(Feed::Rapid) => (true, false, None),
@@ -1221,7 +1226,7 @@ impl Context {
 /// The line ending `block` was written with.
 fn line_ending(block: &Block) -> &'static [u8] {
     match block.ending {
-        super::block::LineEnding::CrLf => b"\r\n",
+        crate::gcode::syntax::block::LineEnding::CrLf => b"\r\n",
         _ => b"\n",
     }
 }
@@ -1344,139 +1349,4 @@ fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
         .max(o.min_decimals_feed)
         .max(for_significance)
         .min(12)
-}
-
-/// The fast path of [`push_number`]: integer arithmetic on `value·10^decimals`,
-/// taken only where it prints exactly what `format!("{:.*}")` prints. That is when
-/// the scaled value is below 1e8 (so its rounding error, under 1.5e-8, cannot move
-/// it across a half) and not within 1e-6 of a half (where the exact decimal
-/// expansion of the double decides, which `format!` does and this does not).
-/// The printed value `n / 10^d` is the correctly rounded double of the printed
-/// decimal, as parsing it would give.
-fn push_fixed(out: &mut String, value: f64, decimals: u8) -> Option<f64> {
-    const POW10: [u64; 10] = [
-        1,
-        10,
-        100,
-        1_000,
-        10_000,
-        100_000,
-        1_000_000,
-        10_000_000,
-        100_000_000,
-        1_000_000_000,
-    ];
-    let p = *POW10.get(decimals as usize)?;
-    let scaled = value.abs() * p as f64;
-    if !(scaled < 1e8) {
-        return None;
-    }
-    let floor = scaled.floor();
-    let frac = scaled - floor;
-    if (frac - 0.5).abs() < 1e-6 {
-        return None;
-    }
-    let n = floor as u64 + u64::from(frac > 0.5);
-    let negative = value < 0.0 && n != 0;
-    if negative {
-        out.push('-');
-    }
-    let (int, fraction) = (n / p, n % p);
-    let mut digits = [0u8; 20];
-    let mut i = digits.len();
-    let mut v = int;
-    loop {
-        i -= 1;
-        digits[i] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            break;
-        }
-    }
-    out.push_str(std::str::from_utf8(&digits[i..]).ok()?);
-    if decimals > 0 {
-        out.push('.');
-        let mut f = [b'0'; 10];
-        let mut v = fraction;
-        for k in (0..decimals as usize).rev() {
-            f[k] = b'0' + (v % 10) as u8;
-            v /= 10;
-        }
-        out.push_str(std::str::from_utf8(&f[..decimals as usize]).ok()?);
-    }
-    let printed = n as f64 / p as f64;
-    Some(if negative { -printed } else { printed })
-}
-
-fn half_ulp(decimals: u8) -> f64 {
-    0.5 * 10f64.powi(-(decimals as i32)) * (1.0 - 1e-9)
-}
-
-fn round_to(v: f64, decimals: u8) -> f64 {
-    let p = 10f64.powi(decimals as i32);
-    let r = (v * p).round() / p;
-    if r == 0.0 { 0.0 } else { r }
-}
-
-/// Append `value` with `decimals` decimals (no `-0`); returns the printed value.
-fn push_number(out: &mut String, value: f64, decimals: u8) -> f64 {
-    use std::fmt::Write as _;
-    if let Some(printed) = push_fixed(out, value, decimals) {
-        return printed;
-    }
-    let start = out.len();
-    let _ = write!(out, "{:.*}", decimals as usize, value);
-    if out[start..].starts_with('-') && out[start + 1..].bytes().all(|b| b == b'0' || b == b'.') {
-        out.remove(start);
-    }
-    out[start..].parse::<f64>().unwrap_or(value)
-}
-
-#[cfg(test)]
-mod fixed_tests {
-    use super::{push_fixed, push_number};
-    use proptest::prelude::*;
-
-    fn std_number(value: f64, decimals: u8) -> String {
-        let mut s = format!("{:.*}", decimals as usize, value);
-        if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
-            s.remove(0);
-        }
-        s
-    }
-
-    proptest! {
-        #[test]
-        fn fast_path_prints_what_format_prints(
-            value in -20_000.0f64..20_000.0,
-            decimals in 0u8..8,
-        ) {
-            let mut fast = String::new();
-            let printed = push_number(&mut fast, value, decimals);
-            let expected = std_number(value, decimals);
-            prop_assert_eq!(&fast, &expected);
-            prop_assert_eq!(printed, expected.parse::<f64>().unwrap());
-        }
-    }
-
-    #[test]
-    fn ties_and_signs() {
-        for (v, d) in [
-            (0.125, 2),
-            (-0.00004, 4),
-            (2.5, 0),
-            (1.00005, 4),
-            (-3.14159, 3),
-            (0.0, 4),
-        ] {
-            let mut fast = String::new();
-            push_number(&mut fast, v, d);
-            assert_eq!(fast, std_number(v, d), "{v} with {d} decimals");
-        }
-        let mut s = String::new();
-        assert!(
-            push_fixed(&mut s, 0.125, 2).is_none(),
-            "an exact tie goes to format!"
-        );
-    }
 }

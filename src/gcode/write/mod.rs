@@ -1,0 +1,13 @@
+//! The writers: program text from blocks and their events.
+//!
+//! - [`rewrite`]: the [`Rewriter`](rewrite::Rewriter) and
+//!   [`rewrite_stream`](rewrite::rewrite_stream): unchanged blocks byte for
+//!   byte, changed blocks word by word, splits, and canned cycles and splines
+//!   written flat.
+//!
+//! - [`format`]: numbers with fixed decimals, as printed.
+//!
+//! Invariant: a block is written byte for byte unless something it must say
+//! changes.
+pub mod format;
+pub mod rewrite;
