@@ -15,15 +15,16 @@
 //!
 //! Invariants: inputs are checked (equal lengths, finite values) before any
 //! arithmetic; the result is deterministic; no I/O.
-pub mod effects;
+pub(crate) mod effects;
 mod fit;
 pub mod followup;
-pub mod html;
-pub mod localization;
-pub mod noise;
-pub mod probing_program;
-pub mod report;
-pub mod simulate;
+pub(crate) mod html;
+pub(crate) mod localization;
+pub(crate) mod noise;
+pub(crate) mod probing_program;
+pub(crate) mod report;
+pub(crate) mod simulate;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synthetic;
 
 use crate::inspection::profile;
@@ -33,6 +34,7 @@ use fit::{
     Folds, SetFit, Signatures, cross_validate, cross_validate_columns, fit_set, least_squares,
     span_cosine,
 };
+pub use html::render as render_html;
 use noise::rms;
 pub use report::DiagnoseReport;
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};

@@ -5,14 +5,13 @@
 //! counts of added, removed, changed and unchanged blocks, and the largest changes
 //! with their line numbers. Streaming: memory is bounded by the alignment window
 //! and the number of largest changes kept.
-pub mod align;
-pub mod program;
+pub(crate) mod align;
+pub(crate) mod program;
 
-pub use align::{AlignOptions, Aligner};
+pub use align::{AlignOptions, Aligned, Aligner, BlockSummary};
 pub use program::{BlockSummaries, DiffOptions, diff_programs};
 
 use crate::axes::{AXIS_COUNT, Axis, AxisSet};
-use align::{Aligned, BlockSummary};
 use serde::Serialize;
 
 /// Statistics of the change of one axis over paired motion blocks (B − A), in mm

@@ -2,10 +2,10 @@
 //! diffing two programs end to end.
 use super::align::{AlignOptions, Aligner, BlockSummary};
 use super::{DiffAccumulator, DiffReport};
-use crate::compensate::stamp::PREFIX as STAMP_PREFIX;
 use crate::gcode::{
     Block, BlockEvent, Execution, GcodeError, InterpretOptions, MotionKind, Program,
 };
+use crate::stamp::PREFIX as STAMP_PREFIX;
 use std::cell::RefCell;
 use std::rc::Rc;
 

@@ -8,8 +8,8 @@
 //!
 //! Invariants: pure text building from a loaded machine and its model; no I/O,
 //! nothing printed.
-pub mod linuxcnc;
-pub mod tables;
+pub(crate) mod linuxcnc;
+pub(crate) mod tables;
 
 use crate::axes::Axis;
 use crate::machine::table::ErrorTable;

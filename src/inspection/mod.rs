@@ -10,8 +10,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-pub mod reader;
-pub mod work_frame;
+pub(crate) mod reader;
+pub(crate) mod work_frame;
 
 pub use work_frame::WorkFrame;
 

@@ -46,6 +46,14 @@ pub struct InverseSolution {
     pub jump_deg: f64,
 }
 
+impl InverseSolution {
+    /// Whether reaching this solution from the previous joints is a flip (a
+    /// rotary jump of more than [`FLIP_DEG`]; kinematics.md).
+    pub fn is_flip(&self) -> bool {
+        self.jump_deg > FLIP_DEG
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum InverseError {
     #[error("the tool-axis target is not finite or has zero length: {axis:?}")]

@@ -11,11 +11,11 @@
 //! in part coordinates. Joint vectors are `(x, y, z, r₁, r₂)` with the machine's two
 //! rotary letters in letter order (`a, c` on xyzac-trt). Finite input gives finite
 //! output; callers check inputs for NaN at their boundary.
-pub mod chain;
-pub mod error_values;
-pub mod inverse;
-pub mod jacobian;
-pub mod transform;
+pub(crate) mod chain;
+pub(crate) mod error_values;
+pub(crate) mod inverse;
+pub(crate) mod jacobian;
+pub(crate) mod transform;
 
 use crate::axes::{Axes, Axis};
 pub use chain::{ChainAxis, ChainError, MachineChain, Side};
@@ -23,7 +23,7 @@ pub use error_values::{
     COMPONENT_NAMES, ErrorValues, LOCATION_NAMES, PARAMETER_COUNT, PARAMETER_NAMES,
     ParameterLayout, SQUARENESS_NAMES, UnknownParameter,
 };
-pub use inverse::{InverseError, InverseOptions};
+pub use inverse::{InverseError, InverseOptions, POLE_SIN};
 use serde::{Deserialize, Serialize};
 use transform::{Mat3, sub};
 

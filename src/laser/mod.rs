@@ -11,15 +11,15 @@
 //!
 //! Invariants: no I/O beyond reading the named files; nothing printed; every
 //! error names a file, line and column.
-pub mod iso230;
-pub mod read;
+pub(crate) mod iso230;
+pub(crate) mod read;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use crate::axes::Axis;
-pub use iso230::{AxisFigures, TargetStats};
+pub use iso230::{AxisFigures, TargetStats, axis_figures, target_stats};
 pub use read::{
     FileReadings, LaserError, Layout, ReadSettings, Reading, is_angular, is_parameter_of,
     positioning_parameter, read_file,

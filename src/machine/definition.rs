@@ -949,11 +949,6 @@ impl Machine {
         }
     }
 
-    /// The kinematic model of this machine with `tool` in the spindle.
-    pub fn kinematics_for(&self, tool: &crate::gcode::ToolInUse) -> Kinematics {
-        self.kinematics_model().with_tool_length(tool.length_mm)
-    }
-
     /// The machine's axis letters.
     pub fn letters(&self) -> AxisSet {
         self.chain.letters()

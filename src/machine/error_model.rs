@@ -543,13 +543,6 @@ impl ErrorModel {
         self.axes[index / 6].as_ref()?.curves[index % 6].as_ref()
     }
 
-    /// Table range `[first, last]` of a measured axis, and whether it wraps.
-    pub fn table_range(&self, axis: Axis) -> Option<([f64; 2], bool)> {
-        self.axes[self.kinematics.chain.slot(axis)?]
-            .as_ref()
-            .map(|ac| (ac.range, ac.wrap))
-    }
-
     /// Names of the fitted parameters, in kinematics.md order.
     pub fn fitted_parameters(&self) -> Vec<&'static str> {
         (0..30)

@@ -3,14 +3,15 @@
 //!
 //! Invariants: `machine` reads files but never prints; every error names the file
 //! and the key or line.
-pub mod definition;
-pub mod error_map;
-pub mod error_model;
-pub mod model_cache;
-pub mod resampled;
+pub(crate) mod definition;
+pub(crate) mod error_map;
+pub(crate) mod error_model;
+pub(crate) mod model_cache;
+pub(crate) mod resampled;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synthetic;
-pub mod table;
-pub mod tool_models;
+pub(crate) mod table;
+pub(crate) mod tool_models;
 
 pub use definition::{
     DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,
@@ -20,4 +21,5 @@ pub use error_model::{
     Contribution, ErrorModel, LookupError, ModelError, ModelOptions, ModelUncertainty,
 };
 pub use model_cache::{CacheOutcome, CacheReport, ModelCache};
-pub use tool_models::ToolModels;
+pub use table::ErrorTable;
+pub use tool_models::{ToolModels, kinematics_with};

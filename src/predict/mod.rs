@@ -1,8 +1,8 @@
 //! `predict`: the predicted deviation of every plan point (formats.md: `n · e` at
 //! the path point that cut it) and the profile error of the part, or, without a
 //! plan, the volumetric error along the path block by block.
-pub mod html;
-pub mod run;
+pub(crate) mod html;
+pub(crate) mod run;
 
 pub use run::{
     PathErrors, PathReportStream, PathSummary, PredictError, predict_path, predict_plan,
@@ -84,7 +84,7 @@ pub struct PredictReport {
     pub compensated: bool,
     /// That stamp, when there is one.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub stamp: Option<crate::compensate::stamp::Stamp>,
+    pub stamp: Option<crate::stamp::Stamp>,
     /// The warnings of the run (`crate::warnings`; the command fills it).
     pub warnings: Vec<crate::warnings::WarningGroup>,
 }

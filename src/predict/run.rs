@@ -1,10 +1,10 @@
 //! Running a prediction: program + error model (+ plan) → [`PredictReport`].
 use super::{BlockError, PredictReport, PredictedPoint};
-use crate::compensate::stamp::Stamp;
 use crate::gcode::{Execution, GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError, ToolModels};
+use crate::stamp::Stamp;
 use crate::toolpath::cut::{CutError, CutOptions, match_errors, match_plan};
 use crate::toolpath::{effective_frame, joints_of};
 use crate::vec3::dot;

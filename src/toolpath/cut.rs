@@ -134,19 +134,6 @@ pub fn contexts(
         .collect()
 }
 
-/// Volumetric error (µm, part coordinates) at every matched point (`None`: not
-/// cut), as the predicted deviation takes it ([`MatchErrors::deviation`]).
-pub fn volumetric_errors(
-    model: &ErrorModel,
-    plan: &[PlanPoint],
-    matches: &[Option<PlanMatch>],
-) -> Result<Vec<Option<[f64; 3]>>, CutError> {
-    Ok(match_errors(model, plan, matches)?
-        .into_iter()
-        .map(|e| e.map(|e| e.deviation))
-        .collect())
-}
-
 /// The volumetric error (µm, part coordinates) of a matched plan point, taken
 /// two ways from one lookup.
 #[derive(Clone, Copy, Debug, PartialEq)]
