@@ -24,6 +24,7 @@
 //!
 //! See `ARCHITECTURE.md` for the pipeline and the invariants of each module.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod axes;
 mod cli;
