@@ -27,6 +27,7 @@ use super::knot_grid::{GridResult, random_indices};
 use super::knot_placement::grid_knots;
 use super::problem::FitProblem;
 
+/// Settings of the genetic knot search (population, crossover, mutation, generations).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaSettings {
     /// Population size N.
