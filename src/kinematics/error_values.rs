@@ -209,6 +209,7 @@ pub struct ErrorValues {
 }
 
 impl ErrorValues {
+    /// Every error zero (the nominal machine).
     pub const ZERO: ErrorValues = ErrorValues {
         component: [[0.0; 6]; 5],
         squareness: [0.0; 3],
