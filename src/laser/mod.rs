@@ -28,25 +28,36 @@ pub use read::{
 /// What one file contributed.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct FileSummary {
+    /// The file.
     pub path: PathBuf,
+    /// The parameter its deviations measure (`EXX`, …).
     pub parameter: String,
+    /// Its header layout.
     pub layout: Layout,
+    /// Its field separator (`,`, `;` or `tab`).
     pub separator: String,
+    /// Whether it writes a decimal comma.
     pub decimal_comma: bool,
+    /// The unit of its targets as the file gave it (empty: volcomp's default).
     pub target_unit: String,
+    /// The unit of its deviations as the file gave it (empty: volcomp's default).
     pub deviation_unit: String,
+    /// Number of readings read from it.
     pub readings: usize,
 }
 
 /// One measured parameter over all its files.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ParameterResult {
+    /// The parameter (`EXX`, `EYX`, `EAA`, …).
     pub parameter: String,
     /// `µm` or `µrad`.
     pub unit: &'static str,
     /// Distinct runs approaching in each direction (over all files).
     pub runs_up: usize,
+    /// Distinct runs approaching in the negative direction.
     pub runs_down: usize,
+    /// The ISO 230-2 figures of the axis.
     pub figures: AxisFigures,
     /// Ascending targets.
     pub targets: Vec<TargetStats>,
@@ -55,7 +66,9 @@ pub struct ParameterResult {
 /// The evaluated import: what the table and the report are written from.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct LaserImport {
+    /// The measured axis.
     pub axis: Axis,
+    /// What each file contributed, in the order given.
     pub files: Vec<FileSummary>,
     /// The axis's positioning parameter first (when measured), then file order.
     pub parameters: Vec<ParameterResult>,
