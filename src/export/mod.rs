@@ -50,6 +50,7 @@ pub fn interpolate(positions: &[f64], values: &[f64], p: f64) -> f64 {
 /// (linear between the table's positions: a reversal is a per-position
 /// measurement, not smoothed).
 pub struct Positioning<'a> {
+    /// The axis.
     pub axis: Axis,
     /// `EXX`, `EYY`, …
     pub parameter: String,
