@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 /// `kinematics`, which computes them).
 pub use crate::kinematics::jacobian::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
 
+/// Everything about the tool-path point that cut one plan point (effects.md "Context of a plan point").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PointContext {
     /// Plan point id (as in the CSV).
