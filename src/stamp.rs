@@ -134,7 +134,7 @@ pub fn is_stamp_line(line: &[u8]) -> bool {
 }
 
 /// Looks for stamp lines in a program fed in pieces (`compensate` feeds it
-/// every byte it hashes): [`StampScan::found`] is the first line that holds one.
+/// every byte it hashes): [`StampScan::finish`] returns the first line that holds one.
 #[derive(Debug, Default)]
 pub struct StampScan {
     partial: Vec<u8>,

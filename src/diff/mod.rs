@@ -1,6 +1,6 @@
 //! `diff`: block-by-block comparison of two programs.
 //!
-//! Alignment ([`align`]) pairs the blocks of A and B; this module accumulates what
+//! Alignment (`align`) pairs the blocks of A and B; this module accumulates what
 //! changed: per-axis statistics of the end-target changes of paired motion blocks,
 //! counts of added, removed, changed and unchanged blocks, and the largest changes
 //! with their line numbers. Streaming: memory is bounded by the alignment window

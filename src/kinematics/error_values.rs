@@ -199,7 +199,9 @@ impl ParameterLayout {
 /// Values of every error parameter at one pose (µm and µrad). Zero is "no error".
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ErrorValues {
-    /// `component[axis][k]`, axis in [`COMPONENT_AXES`] order, `k` = δx δy δz (µm),
+    /// `component[axis][k]`, axis by its slot
+    /// ([`MachineChain::slot`](crate::kinematics::MachineChain::slot): X Y Z,
+    /// then the two rotaries in letter order), `k` = δx δy δz (µm),
     /// εx εy εz (µrad).
     pub component: [[f64; 6]; 5],
     /// `s_xy, s_xz, s_yz`, µrad.

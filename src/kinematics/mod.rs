@@ -5,7 +5,7 @@
 //! a chain ([`Kinematics::xyzac_trt`], [`Kinematics::xyzbc_trt`]).
 //!
 //! Invariants: no I/O, no allocation on the hot path (the chain is evaluated on
-//! fixed-size [`transform::Affine`] values); every inverse is the exact inverse of
+//! fixed-size `transform::Affine` values); every inverse is the exact inverse of
 //! the matrix as written (never a first-order `L(−δ, −ε)`); angles in degrees at the
 //! API, radians inside; errors in µm/µrad at the API, mm/rad inside; results are
 //! in part coordinates. Joint vectors are `(x, y, z, r₁, r₂)` with the machine's two

@@ -35,7 +35,7 @@ pub struct ModelOptions {
     /// What a lookup outside a table's range does.
     pub extrapolation: ExtrapolationPolicy,
     /// Look every value up on the NURBS itself (Newton inversion per call) instead of
-    /// the verified resampling of [`super::resampled`] (within 1e-6 µm/µrad of it,
+    /// the verified resampling of `machine::resampled` (within 1e-6 µm/µrad of it,
     /// several times faster).
     pub exact_lookups: bool,
 }

@@ -157,7 +157,7 @@ impl FitProblem {
     }
 
     /// The same problem for a search over knots and weights: candidates whose
-    /// control polygon advances by less than [`MIN_CONTROL_ADVANCE`] of the uniform
+    /// control polygon advances by less than `MIN_CONTROL_ADVANCE` of the uniform
     /// spacing are infeasible. A search minimising Emax otherwise finds near-cusps
     /// that pass the data points and jump between them; a fixed knot placement
     /// cannot aim for them, so it only needs a polygon that advances at all.

@@ -126,7 +126,7 @@ impl ParameterKind {
 pub enum Selection {
     /// Noise-aware (the default): a penalised cubic B-spline whose control
     /// points and smoothness minimise generalised cross-validation
-    /// ([`super::smoothing`]); periodic over a full C turn.
+    /// (`nurbs::smoothing`); periodic over a full C turn.
     #[default]
     Cv,
     /// The paper's: the fewest control points whose largest error at the data
@@ -209,8 +209,8 @@ pub struct FitOptions {
 }
 
 /// The work limit of an Emax search with this tolerance on a table with this
-/// noise (difference-based, [`smoothing::estimate_noise`]):
-/// [`WORK_LIMIT_BELOW_NOISE`] when the tolerance is below [`BELOW_NOISE`] of
+/// noise (difference-based, `smoothing::estimate_noise`):
+/// [`WORK_LIMIT_BELOW_NOISE`] when the tolerance is below `BELOW_NOISE` (0.5) of
 /// the noise, else [`WORK_LIMIT`].
 ///
 /// A tolerance below half the noise asks the curve to pass nearer every point

@@ -45,7 +45,7 @@ pub struct PointContext {
     /// ∂(tool tip, part coordinates, µm)/∂(s_xy, s_xz, s_yz in µrad): one row per parameter.
     pub squareness_jacobian: [[f64; 3]; 3],
     /// ∂(tool tip, part coordinates, µm)/∂(location parameter, µm or µrad), rows in
-    /// the order of [`LOCATION_PARAMETERS`].
+    /// the order of `LOCATION_PARAMETERS`.
     pub location_jacobian: [[f64; 3]; 8],
     /// `n·e` of each joint slot's measured errors alone (X Y Z and the two
     /// rotary tables, first order), µm: what the model attributes to each table
