@@ -24,7 +24,7 @@ use volcomp::gcode::{InterpretOptions, Program, ProgramSetup, RewriteOptions, re
 use volcomp::inspection::Plan;
 use volcomp::machine::{ErrorModel, Machine};
 use volcomp::predict::predict_plan;
-use volcomp::toolpath::cut::CutOptions;
+use volcomp::toolpath::CutOptions;
 
 /// Blocks of the program measured inside criterion.
 const CRITERION_BLOCKS: usize = 100_000;
@@ -64,11 +64,10 @@ fn write_program(path: &Path, blocks: usize) -> std::io::Result<()> {
 }
 
 fn load() -> (Machine, ErrorModel) {
-    volcomp::cli::common::load_model(
-        &root().join("machines/ref-trt.toml"),
-        &volcomp::cli::common::ModelArgs::default(),
-    )
-    .expect("ref-trt loads")
+    let machine = Machine::load(&root().join("machines/ref-trt.toml")).expect("ref-trt loads");
+    let model = ErrorModel::from_machine(&machine, &volcomp::machine::ModelOptions::default())
+        .expect("ref-trt's tables fit");
+    (machine, model)
 }
 
 fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
@@ -182,7 +181,7 @@ fn bench_pose(c: &mut Criterion, model: &ErrorModel) {
             poses
                 .iter()
                 .map(|p| {
-                    volcomp::compensate::solve::solve_joints(model, p)
+                    volcomp::compensate::solve_joints(model, p)
                         .unwrap()
                         .residual_mm
                 })

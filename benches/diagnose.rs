@@ -39,8 +39,8 @@ fn bench(c: &mut Criterion) {
 /// cases of the effects that go back into the machine file, each diagnosed
 /// and turned into the machine file's edits (the text included).
 fn bench_write_machine(c: &mut Criterion, part: &volcomp::diagnose::synthetic::SyntheticPart) {
-    use volcomp::diagnose::machine_file::machine_update;
-    use volcomp::machine::update::edit_machine_text;
+    use volcomp::diagnose::machine_update;
+    use volcomp::machine::edit_machine_text;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let machine_path = root.join("machines/ref-trt.toml");
     let machine = volcomp::machine::Machine::load(&machine_path).expect("ref-trt");

@@ -16,7 +16,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput};
-use volcomp::nurbs::knot_grid::combinations;
+use volcomp::nurbs::combinations;
 use volcomp::nurbs::synthetic::paper_like_curve;
 use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, Selection, SmemCurve, fit_parameter};
 
@@ -220,13 +220,9 @@ fn criterion_benches(c: &mut Criterion) {
     });
     group.finish();
     let (x, y) = paper_like_curve(SEED);
-    let problem = volcomp::nurbs::problem::FitProblem::new(
-        &x,
-        &y,
-        3,
-        volcomp::nurbs::Parameterization::Centripetal,
-    );
-    let interior = volcomp::nurbs::knot_placement::uniform(9, 3);
+    let problem =
+        volcomp::nurbs::FitProblem::new(&x, &y, 3, volcomp::nurbs::Parameterization::Centripetal);
+    let interior = volcomp::nurbs::uniform(9, 3);
     c.bench_function("evaluate one knot vector (LS + lookup + errors)", |b| {
         b.iter(|| problem.emax(black_box(&interior), &[1.0; 10]))
     });

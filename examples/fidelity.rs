@@ -33,7 +33,7 @@ use volcomp::axes::Axes;
 use volcomp::kinematics::{ErrorValues, Kinematics};
 use volcomp::machine::Machine;
 use volcomp::machine::synthetic::{AxisSpec, machine_tables};
-use volcomp::nurbs::smem::{FitOptions, KnotMethod, ParameterKind, Selection, fit_parameter};
+use volcomp::nurbs::{FitOptions, KnotMethod, ParameterKind, Selection, fit_parameter};
 
 /// A function of one position: a truth or a model of it.
 type Model = Box<dyn Fn(f64) -> f64 + Send + Sync>;

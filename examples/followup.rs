@@ -18,7 +18,7 @@ use volcomp::diagnose::{
     simulate_followup,
 };
 use volcomp::machine::{ErrorModel, Machine, ModelOptions};
-use volcomp::toolpath::cut::{ProbeTool, probe_context};
+use volcomp::toolpath::{ProbeTool, probe_context};
 
 fn arg_value(args: &[String], name: &str) -> Option<f64> {
     args.iter()

@@ -16,10 +16,10 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use volcomp::nurbs::optimise;
-use volcomp::nurbs::parameterization::Parameterization;
-use volcomp::nurbs::problem::FitProblem;
+use volcomp::nurbs::FitProblem;
+use volcomp::nurbs::Parameterization;
 use volcomp::nurbs::synthetic::paper_like_curve;
+use volcomp::nurbs::{best_knots, default_segments, minimax_knots};
 
 fn main() {
     let args: Vec<usize> = std::env::args()
@@ -63,13 +63,13 @@ fn main() {
             let problem = FitProblem::new(&x, &y, p, Parameterization::Centripetal).regular();
             let ones = vec![1.0; n + 1];
             let t = Instant::now();
-            let d = optimise::best_knots(&problem, n, optimise::default_segments(k), seed);
+            let d = best_knots(&problem, n, default_segments(k), seed);
             default_ms += t.elapsed().as_secs_f64() * 1e3;
             default_sum += d.emax;
             let mut reference = d.emax;
             let mut all_grids = f64::INFINITY;
             for (g, sum) in grids.iter().zip(grid_sums.iter_mut()) {
-                let r = optimise::best_knots(&problem, n, *g, seed);
+                let r = best_knots(&problem, n, *g, seed);
                 *sum += r.emax;
                 all_grids = all_grids.min(r.emax);
                 reference = reference.min(r.emax);
@@ -79,7 +79,7 @@ fn main() {
             for _ in 0..randoms {
                 let mut s: Vec<f64> = (0..k).map(|_| rng.random_range(0.01..0.99)).collect();
                 s.sort_by(f64::total_cmp);
-                reference = reference.min(optimise::minimax_knots(&problem, &s, &ones).emax);
+                reference = reference.min(minimax_knots(&problem, &s, &ones).emax);
             }
             reference_sum += reference;
             if d.emax <= 1.01 * reference {

@@ -13,17 +13,26 @@ use serde::{Deserialize, Serialize};
 /// A position of all nine axes. Letters a machine lacks stay 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Axes {
+    /// X, mm.
     pub x: f64,
+    /// Y, mm.
     pub y: f64,
+    /// Z, mm.
     pub z: f64,
+    /// A (rotary about X), degrees.
     pub a: f64,
+    /// B (rotary about Y), degrees.
     #[serde(default)]
     pub b: f64,
+    /// C (rotary about Z), degrees.
     pub c: f64,
+    /// U (linear, parallel to X), mm.
     #[serde(default)]
     pub u: f64,
+    /// V (linear, parallel to Y), mm.
     #[serde(default)]
     pub v: f64,
+    /// W (linear, parallel to Z), mm.
     #[serde(default)]
     pub w: f64,
 }
@@ -31,14 +40,23 @@ pub struct Axes {
 /// One of the nine axis letters, in RS274NGC order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Axis {
+    /// Linear, mm.
     X,
+    /// Linear, mm.
     Y,
+    /// Linear, mm.
     Z,
+    /// Rotary about X, degrees.
     A,
+    /// Rotary about Y, degrees.
     B,
+    /// Rotary about Z, degrees.
     C,
+    /// Linear, parallel to X, mm.
     U,
+    /// Linear, parallel to Y, mm.
     V,
+    /// Linear, parallel to Z, mm.
     W,
 }
 
@@ -59,6 +77,7 @@ impl Axis {
         Axis::W,
     ];
 
+    /// The upper-case letter, as a G-code word writes it.
     pub fn letter(self) -> char {
         match self {
             Axis::X => 'X',
@@ -83,6 +102,7 @@ impl Axis {
         matches!(self, Axis::A | Axis::B | Axis::C)
     }
 
+    /// The axis of a letter, either case; `None` for a letter that is not an axis.
     pub fn from_letter(c: char) -> Option<Axis> {
         match c.to_ascii_uppercase() {
             'X' => Some(Axis::X),
@@ -116,23 +136,29 @@ impl Default for AxisSet {
 }
 
 impl AxisSet {
+    /// All nine letters.
     pub const ALL: AxisSet = AxisSet((1 << AXIS_COUNT) - 1);
     /// X Y Z A B C: what LinuxCNC's `rs274` reads without an INI file.
     pub const RS274: AxisSet = AxisSet(0b111111);
+    /// No letter.
     pub const EMPTY: AxisSet = AxisSet(0);
 
+    /// The set of `axes`.
     pub fn of(axes: &[Axis]) -> AxisSet {
         axes.iter().fold(AxisSet::EMPTY, |s, a| s.with(*a))
     }
 
+    /// This set with `axis` added.
     pub fn with(self, axis: Axis) -> AxisSet {
         AxisSet(self.0 | (1 << axis as u16))
     }
 
+    /// Whether `axis` is in the set.
     pub fn contains(self, axis: Axis) -> bool {
         self.0 & (1 << axis as u16) != 0
     }
 
+    /// The letters of the set, in RS274NGC order.
     pub fn iter(self) -> impl Iterator<Item = Axis> {
         Axis::ALL.into_iter().filter(move |a| self.contains(*a))
     }
@@ -173,6 +199,7 @@ impl Axes {
         out
     }
 
+    /// The value of one letter (mm or degrees).
     pub fn get(&self, axis: Axis) -> f64 {
         match axis {
             Axis::X => self.x,
@@ -187,6 +214,7 @@ impl Axes {
         }
     }
 
+    /// Sets the value of one letter (mm or degrees).
     pub fn set(&mut self, axis: Axis, value: f64) {
         match axis {
             Axis::X => self.x = value,
@@ -201,6 +229,7 @@ impl Axes {
         }
     }
 
+    /// `[x, y, z]`, mm.
     pub fn xyz(&self) -> [f64; 3] {
         [self.x, self.y, self.z]
     }
@@ -266,6 +295,7 @@ impl Axes {
         (du * du + dv * dv + dw * dw).sqrt()
     }
 
+    /// Whether every one of the nine values is finite (no NaN, no infinity).
     pub fn is_finite(&self) -> bool {
         self.to_array().iter().all(|v| v.is_finite())
     }

@@ -98,11 +98,6 @@ pub fn install_signal_cleanup() -> io::Result<()> {
     Ok(())
 }
 
-/// The temporary output files alive now (for tests of the signal cleanup).
-pub fn live_temp_files() -> Vec<PathBuf> {
-    live_temps().clone()
-}
-
 /// How an output is named in messages: `standard output` for `-`.
 pub fn display_name(path: &Path) -> String {
     if is_stdio(path) {

@@ -1,4 +1,4 @@
-//! `volcomp` binary: a thin shell around [`volcomp::cli`].
+//! `volcomp` binary: a thin shell around [`volcomp::run_command_line`].
 fn main() {
-    std::process::exit(volcomp::cli::main());
+    std::process::exit(volcomp::run_command_line());
 }

@@ -167,7 +167,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         if let Some(stamp) = &stamp {
             eprintln!("note: {}: {}", args.program.display(), stamp.summary());
         }
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "{}: {} executed ({}), {} written flat (+{} for canned cycles), flat program written to {}{}",
             args.program.display(),
@@ -256,7 +256,7 @@ struct CheckReport<'a> {
     targets: Option<String>,
     compensated: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
-    stamp: Option<&'a crate::compensate::stamp::Stamp>,
+    stamp: Option<&'a crate::stamp::Stamp>,
     warnings: &'a [crate::warnings::WarningGroup],
 }
 
@@ -271,7 +271,7 @@ struct FlattenReport<'a> {
     output: String,
     compensated: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
-    stamp: Option<&'a crate::compensate::stamp::Stamp>,
+    stamp: Option<&'a crate::stamp::Stamp>,
     warnings: &'a [crate::warnings::WarningGroup],
 }
 

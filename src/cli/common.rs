@@ -468,10 +468,7 @@ impl ProgramArgs {
         &self,
         path: &Path,
         machine: Option<&crate::machine::Machine>,
-    ) -> anyhow::Result<(
-        crate::gcode::Program,
-        Option<crate::compensate::stamp::Stamp>,
-    )> {
+    ) -> anyhow::Result<(crate::gcode::Program, Option<crate::stamp::Stamp>)> {
         let (input, stamp) = open_program_with_stamp(path)?;
         Ok((
             crate::gcode::Program::new(input, path, self.setup(machine)?),
@@ -536,7 +533,7 @@ pub fn open_program(path: &Path) -> anyhow::Result<Box<dyn crate::gcode::Program
 /// How much of a program's head is searched for its stamp.
 const HEAD_BYTES: u64 = 256 * 1024;
 
-/// The first bytes of a program (what [`crate::compensate::stamp::Stamp::find`]
+/// The first bytes of a program (what [`crate::stamp::Stamp::find`]
 /// reads); the input is rewound.
 pub fn program_head(input: &mut dyn crate::gcode::ProgramInput) -> anyhow::Result<String> {
     use std::io::Read;
@@ -553,9 +550,9 @@ pub fn program_head(input: &mut dyn crate::gcode::ProgramInput) -> anyhow::Resul
 /// anywhere in it; the input is rewound.
 pub fn program_hash(
     input: &mut dyn crate::gcode::ProgramInput,
-) -> anyhow::Result<(crate::compensate::stamp::Fnv1a64, Option<usize>)> {
-    let mut hash = crate::compensate::stamp::Fnv1a64::default();
-    let mut scan = crate::compensate::stamp::StampScan::default();
+) -> anyhow::Result<(crate::stamp::Fnv1a64, Option<usize>)> {
+    let mut hash = crate::stamp::Fnv1a64::default();
+    let mut scan = crate::stamp::StampScan::default();
     loop {
         let buf = input.fill_buf().context("cannot read the program")?;
         if buf.is_empty() {
@@ -576,12 +573,12 @@ pub fn open_program_with_stamp(
     path: &Path,
 ) -> anyhow::Result<(
     Box<dyn crate::gcode::ProgramInput>,
-    Option<crate::compensate::stamp::Stamp>,
+    Option<crate::stamp::Stamp>,
 )> {
     let mut input = open_program(path)?;
     let head = program_head(input.as_mut())
         .with_context(|| format!("reading {}", crate::io::display_name(path)))?;
-    Ok((input, crate::compensate::stamp::Stamp::find(&head)))
+    Ok((input, crate::stamp::Stamp::find(&head)))
 }
 
 /// A progress bar on stderr for long runs (none when stderr is not a
@@ -822,7 +819,7 @@ pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
     if stdout_is_output {
         eprintln!("{text}");
     } else {
-        crate::outln!("{text}");
+        crate::cli::outln!("{text}");
     }
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! `volcomp compensate`: the compensated program.
 use super::common::{MachineArgs, ProgramArgs, Progress};
-use crate::compensate::stamp::{Fnv1a64, Stamp, StampWriter};
 use crate::compensate::{CompensateOptions, CompensateReport, compensate};
 use crate::io::{OutputError, write_atomic, write_json_atomic};
+use crate::stamp::{Fnv1a64, Stamp, StampWriter};
 use anyhow::Context;
 use std::path::PathBuf;
 

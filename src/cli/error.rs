@@ -281,13 +281,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 u_um: u,
                 contributions: contributions.as_deref(),
             };
-            crate::outln!("{}", serde_json::to_string_pretty(&obj)?);
+            crate::cli::outln!("{}", serde_json::to_string_pretty(&obj)?);
         } else {
-            crate::outln!("machine {} ({})", machine.name, machine.source.display());
-            crate::outln!("tool    {tool}");
+            crate::cli::outln!("machine {} ({})", machine.name, machine.source.display());
+            crate::cli::outln!("tool    {tool}");
             let j = kin.joints(&joints);
             let [r1, r2] = kin.rotary();
-            crate::outln!(
+            crate::cli::outln!(
                 "joints  X {:.4} Y {:.4} Z {:.4} mm  {} {:.4} {} {:.4} deg",
                 j[0],
                 j[1],
@@ -310,7 +310,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                         )
                     })
                     .collect();
-                crate::outln!(
+                crate::cli::outln!(
                     "approach  {}   reversal: {}",
                     if approach.is_none() {
                         "unknown (mean error)".to_string()
@@ -325,25 +325,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 );
             }
             let tip = kin.nominal_tip(&joints);
-            crate::outln!("tip (part) {} mm", fmt3(tip, 4));
-            crate::outln!(
+            crate::cli::outln!("tip (part) {} mm", fmt3(tip, 4));
+            crate::cli::outln!(
                 "e         {} µm   |e| = {:.4} µm",
                 fmt3(v.e_um, 4),
                 v.magnitude_um()
             );
             match u {
-                Some(u) => crate::outln!(
+                Some(u) => crate::cli::outln!(
                     "u(e)      {} µm   (1 sigma: table noise and fit; unmodelled effects not included)",
                     fmt3(u, 4)
                 ),
-                None => crate::outln!(
+                None => crate::cli::outln!(
                     "u(e)      unknown (the model file carries no uncertainties; refit)"
                 ),
             }
-            crate::outln!("tool axis {} µrad", fmt3(v.axis_urad, 4));
+            crate::cli::outln!("tool axis {} µrad", fmt3(v.axis_urad, 4));
             if let Some(list) = &contributions {
-                crate::outln!("contributions (each parameter alone, largest |e| first):");
-                crate::outln!(
+                crate::cli::outln!("contributions (each parameter alone, largest |e| first):");
+                crate::cli::outln!(
                     "  {:<6} {:>12}  {:>34}  {:>9}",
                     "param",
                     "value",
@@ -356,7 +356,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     } else {
                         "µrad"
                     };
-                    crate::outln!(
+                    crate::cli::outln!(
                         "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
                         c.parameter,
                         c.value,
@@ -389,16 +389,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     contributions: None,
                 })
                 .collect();
-            crate::outln!("{}", serde_json::to_string(&list)?);
+            crate::cli::outln!("{}", serde_json::to_string(&list)?);
         } else {
-            crate::outln!(
+            crate::cli::outln!(
                 "machine {} ({}), {} from {}",
                 machine.name,
                 machine.source.display(),
                 super::common::count(results.len() as u64, "pose", "poses"),
                 path.display()
             );
-            crate::outln!(
+            crate::cli::outln!(
                 "{:>6}  {:>34}  {:>9}  {:>9}",
                 "line",
                 "e (µm)",
@@ -409,7 +409,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 let u = u.map_or("unknown".to_string(), |u| {
                     format!("{:.4}", (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
                 });
-                crate::outln!(
+                crate::cli::outln!(
                     "{line:>6}  {}  {:>9.4}  {u:>9}",
                     fmt3(v.e_um, 4),
                     v.magnitude_um()
@@ -422,7 +422,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             } else {
                 (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
             };
-            crate::outln!("max |e| = {max:.4} µm, RMS |e| = {rms:.4} µm");
+            crate::cli::outln!("max |e| = {max:.4} µm, RMS |e| = {rms:.4} µm");
         }
     }
     let held = model.held_lookups();

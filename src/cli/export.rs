@@ -141,7 +141,7 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
     for f in &export.comp_files {
         let path = args.output.join(format!("{}.comp", f.axis.lower()));
         crate::io::write_file_atomic(&path, f.text.as_bytes())?;
-        crate::outln!(
+        crate::cli::outln!(
             "{} (joint {}): {} lines, within {:.4} µm of the fitted {}{} -> {}",
             f.axis.letter(),
             f.joint,
@@ -166,23 +166,23 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         }
     }
     for (axis, why) in &export.skipped {
-        crate::outln!("{}: no COMP_FILE ({why})", axis.letter());
+        crate::cli::outln!("{}: no COMP_FILE ({why})", axis.letter());
     }
     match &export.kinematics_ini {
         Some(text) => {
             let path = args.output.join("kinematics.ini");
             crate::io::write_file_atomic(&path, text.as_bytes())?;
-            crate::outln!(
+            crate::cli::outln!(
                 "{} pivot parameters corrected by the location errors -> {}",
                 machine.kinematics.name(),
                 path.display()
             );
         }
-        None => crate::outln!("{}", export.kinematics_note.as_deref().unwrap_or_default()),
+        None => crate::cli::outln!("{}", export.kinematics_note.as_deref().unwrap_or_default()),
     }
     let path = args.output.join("README.txt");
     crate::io::write_file_atomic(&path, export.readme.as_bytes())?;
-    crate::outln!("[JOINT_n] lines to paste -> {}", path.display());
+    crate::cli::outln!("[JOINT_n] lines to paste -> {}", path.display());
     Ok(())
 }
 
@@ -197,7 +197,7 @@ fn tables(args: &TablesArgs) -> anyhow::Result<()> {
     for t in &tables {
         let path = args.output.join(format!("{}.csv", t.axis.lower()));
         crate::io::write_file_atomic(&path, t.text.as_bytes())?;
-        crate::outln!(
+        crate::cli::outln!(
             "{}: {} rows ({}) -> {}",
             t.axis.letter(),
             t.rows,

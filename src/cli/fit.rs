@@ -222,12 +222,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let cv = args.select == Selection::Cv;
     if cv {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "axis  parameter  samples  ctrl  dof    noise     cv        emax      unit  periodic  seconds"
         );
     } else {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
         );
@@ -248,7 +248,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         if cv {
             let s = &entry.stats;
-            crate::humanln!(
+            crate::cli::humanln!(
                 data_on_stdout,
                 "{:<4}  {:<9}  {:>7}  {:>4}  {:>5.1}  {:>8.4}  {:>8.4}  {:>8.4}  {:<4}  {:<8}  {:>7.3}",
                 entry.axis,
@@ -266,7 +266,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             report.parameters.push(entry);
             continue;
         }
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
@@ -284,14 +284,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     for t in &tables {
         if t.reversal.is_some() {
-            crate::humanln!(
+            crate::cli::humanln!(
                 data_on_stdout,
                 "{:<4}  REVERSAL   read, not fitted: linear between the positions, ±REVERSAL/2 by the direction of motion",
                 t.axis.letter()
             );
         }
         for m in &t.missing {
-            crate::humanln!(
+            crate::cli::humanln!(
                 data_on_stdout,
                 "{:<4}  {:<9}  not measured (taken as zero)",
                 t.axis.letter(),
@@ -307,14 +307,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|p| p.parameter.as_str())
         .collect();
     if cv {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "{} parameters fitted by cross-validation in {:.2} s",
             report.parameters.len(),
             started.elapsed().as_secs_f64(),
         );
     } else {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
             report.parameters.len(),
@@ -325,11 +325,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.report {
         crate::io::write_json_atomic(path, &report)?;
-        crate::humanln!(data_on_stdout, "report: {}", path.display());
+        crate::cli::humanln!(data_on_stdout, "report: {}", path.display());
     }
     if let Some(dir) = &args.plot {
         write_plots(dir, &jobs, &fits)?;
-        crate::humanln!(data_on_stdout, "plots: {}", dir.display());
+        crate::cli::humanln!(data_on_stdout, "plots: {}", dir.display());
     }
     outputs.commit()?;
     if !missed.is_empty() {

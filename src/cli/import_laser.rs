@@ -110,7 +110,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let layouts: Vec<&str> = import.files.iter().map(|f| f.layout.name()).collect();
     let first = &import.parameters[0];
-    crate::humanln!(
+    crate::cli::humanln!(
         to_stdout,
         "axis {}: {} ({}), {} targets from {} to {} {}",
         args.axis.letter(),
@@ -124,7 +124,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     for p in &import.parameters {
         let f = &p.figures;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
-        crate::humanln!(
+        crate::cli::humanln!(
             to_stdout,
             "{} ({}, {} runs +, {} runs -): A {}  B {:.2} (mean {:.2})  E {:.2}  M {:.2}  R {}",
             p.parameter,
@@ -139,7 +139,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             opt(f.repeatability)
         );
         if f.accuracy.is_none() {
-            crate::humanln!(
+            crate::cli::humanln!(
                 to_stdout,
                 "note: {}: A and R need at least two runs in each direction at every target",
                 p.parameter
@@ -152,7 +152,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|h| h.split(',').skip(1).collect())
         .unwrap_or_default();
     if !super::common::is_stdout(Some(&args.output)) {
-        crate::humanln!(
+        crate::cli::humanln!(
             to_stdout,
             "wrote {} ({} positions: {})",
             display(&args.output),
@@ -161,7 +161,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = args.report.as_deref().filter(|p| !crate::io::is_stdio(p)) {
-        crate::humanln!(to_stdout, "wrote {}", display(path));
+        crate::cli::humanln!(to_stdout, "wrote {}", display(path));
     }
     Ok(())
 }

@@ -236,7 +236,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::io::write_json_atomic(path, &report)?;
     }
     outputs.commit()?;
-    crate::humanln!(
+    crate::cli::humanln!(
         data_on_stdout,
         "{}: {}×{} grid over {} {:?} × {} {:?} mm at {}={level}, {rotary_text}",
         machine.name,
@@ -248,13 +248,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         v_range,
         na.letter(),
     );
-    crate::humanln!(
+    crate::cli::humanln!(
         data_on_stdout,
         "|e|: max {:.3} µm, RMS {rms:.3} µm",
         map.max_magnitude()
     );
     for fit in &surfaces.fits {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "NURBS surface of {:<3} (degree {}, {}×{} control points): fit error max {} µm, RMS {} µm",
             fit.quantity,
@@ -265,13 +265,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             small_um(fit.erms_um)
         );
     }
-    crate::humanln!(
+    crate::cli::humanln!(
         data_on_stdout,
         "wrote {}",
         crate::io::display_name(&args.out)
     );
     if let Some(path) = &args.report {
-        crate::humanln!(data_on_stdout, "wrote {}", crate::io::display_name(path));
+        crate::cli::humanln!(data_on_stdout, "wrote {}", crate::io::display_name(path));
     }
     let held = model.held_lookups();
     if held > 0 {

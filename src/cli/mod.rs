@@ -15,21 +15,21 @@
 //! `println!` (which panics on a closed pipe): a failed write is an error.
 use clap::{Parser, Subcommand};
 
-pub mod check;
-pub mod common;
-pub mod compensate;
-pub mod diagnose;
-pub mod diff;
-pub mod error;
-pub mod export;
-pub mod fit;
-pub mod import_laser;
-pub mod map;
-pub mod plan_frame;
-pub mod predict;
-pub mod sample;
-pub mod simulate;
-pub mod write_machine;
+mod check;
+mod common;
+mod compensate;
+mod diagnose;
+mod diff;
+mod error;
+mod export;
+mod fit;
+mod import_laser;
+mod map;
+mod plan_frame;
+mod predict;
+mod sample;
+mod simulate;
+mod write_machine;
 
 const AFTER_HELP: &str = "\
 Examples:
@@ -118,7 +118,6 @@ pub fn stdout_text(text: &str) -> Result<(), crate::io::OutputError> {
 }
 
 /// `println!` that returns the failure (`?` in the caller) instead of panicking.
-#[macro_export]
 macro_rules! outln {
     ($($arg:tt)*) => {
         $crate::cli::stdout_line(format_args!($($arg)*))?
@@ -128,7 +127,6 @@ macro_rules! outln {
 /// A line of the human summary: to standard output, or to standard error
 /// when standard output carries the command's data (`--report -`, `-o -`,
 /// `--json`), so that the data parses.
-#[macro_export]
 macro_rules! humanln {
     ($data_on_stdout:expr, $($arg:tt)*) => {
         if $data_on_stdout {
@@ -138,6 +136,8 @@ macro_rules! humanln {
         }
     };
 }
+pub(crate) use humanln;
+pub(crate) use outln;
 
 /// Is `err` (or a cause) a write into a closed pipe?
 pub fn is_broken_pipe(err: &anyhow::Error) -> bool {

@@ -131,7 +131,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     outputs.commit()?;
     for (name, text) in &files {
         let path = args.out_dir.join(name);
-        crate::outln!("wrote {} ({} lines)", path.display(), text.lines().count());
+        crate::cli::outln!("wrote {} ({} lines)", path.display(), text.lines().count());
     }
     Ok(())
 }

@@ -136,7 +136,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         outputs.commit()?;
         let warnings = part.warnings();
         super::common::print_warnings(&warnings);
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "simulated {} with {}; noise {} µm, seed {}; readings {:.2} µm RMS -> {}{}",
             super::common::count(readings.len() as u64, "follow-up probe", "follow-up probes"),
@@ -163,7 +163,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let p = profile(&deviations);
     let warnings = part.warnings();
     super::common::print_warnings(&warnings);
-    crate::humanln!(
+    crate::cli::humanln!(
         data_on_stdout,
         "simulated {} ({cut} cut by the program) with {}; noise {} µm, seed {}{}",
         super::common::count(deviations.len() as u64, "point", "points"),
@@ -173,13 +173,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         super::common::result_note(&warnings)
     );
     if cut < deviations.len() {
-        crate::humanln!(
+        crate::cli::humanln!(
             data_on_stdout,
             "{} of the plan not cut by the program: measured as the part's nominal surface moved by the error there",
             super::common::count((deviations.len() - cut) as u64, "point", "points")
         );
     }
-    crate::humanln!(
+    crate::cli::humanln!(
         data_on_stdout,
         "measured profile {:.2} µm (range {:.2} µm) -> {}",
         p.profile_um,

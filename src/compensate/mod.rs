@@ -13,8 +13,8 @@
 //! (bounded channels, so memory does not grow with the program): reading and
 //! interpreting; solving and planning, in parallel within a chunk (rayon); and
 //! writing in order through `gcode::rewrite`. Nothing is printed here.
-pub mod solve;
-pub mod stamp;
+pub(crate) mod solve;
+pub use solve::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_joints, solve_pose_from};
 
 use crate::axes::Axes;
 use crate::gcode::ToolInUse;
@@ -30,7 +30,7 @@ use crate::toolpath::{effective_frame, joints_of, target_of};
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
-    SolveError, WarmStart, first_order_joints, first_order_joints_at, solve_joints_toward,
+    SolveError, first_order_joints, first_order_joints_at, solve_joints_toward,
     solve_pose_toward,
 };
 use std::io::Write;

@@ -18,25 +18,29 @@
 //!
 //! Invariants: inputs are checked (equal lengths, finite values) before any
 //! arithmetic; the result is deterministic; no I/O.
-pub mod effects;
+pub(crate) mod effects;
 mod fit;
 pub mod followup;
-pub mod html;
-pub mod localization;
-pub mod machine_file;
-pub mod noise;
-pub mod plausibility;
-pub mod probing_program;
-pub mod report;
+pub(crate) mod html;
+pub(crate) mod localization;
+pub(crate) mod machine_file;
+pub(crate) mod noise;
+pub(crate) mod plausibility;
+pub(crate) mod probing_program;
+pub(crate) mod report;
+#[cfg(any(test, feature = "testkit"))]
 pub mod robustness;
 mod selection;
-pub mod simulate;
+pub(crate) mod simulate;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synthetic;
 
 use crate::inspection::profile;
 use crate::toolpath::PointContext;
 pub use effects::{Effect, EffectError, EffectKind};
 use fit::{Folds, SetFit, Signatures, cross_validate, fit_set};
+pub use html::render as render_html;
+pub use machine_file::machine_update;
 use noise::rms;
 pub use report::DiagnoseReport;
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};

@@ -155,6 +155,7 @@ where
     A: Iterator<Item = BlockSummary>,
     B: Iterator<Item = BlockSummary>,
 {
+    /// Pairs the blocks of `a` with those of `b`.
     pub fn new(a: A, b: B, options: AlignOptions) -> Self {
         Aligner {
             a,

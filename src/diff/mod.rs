@@ -1,27 +1,30 @@
 //! `diff`: block-by-block comparison of two programs.
 //!
-//! Alignment ([`align`]) pairs the blocks of A and B; this module accumulates what
+//! Alignment (`align`) pairs the blocks of A and B; this module accumulates what
 //! changed: per-axis statistics of the end-target changes of paired motion blocks,
 //! counts of added, removed, changed and unchanged blocks, and the largest changes
 //! with their line numbers. Streaming: memory is bounded by the alignment window
 //! and the number of largest changes kept.
-pub mod align;
-pub mod program;
+pub(crate) mod align;
+pub(crate) mod program;
 
-pub use align::{AlignOptions, Aligner};
+pub use align::{AlignOptions, Aligned, Aligner, BlockSummary};
 pub use program::{BlockSummaries, DiffOptions, diff_programs};
 
 use crate::axes::{AXIS_COUNT, Axis, AxisSet};
-use align::{Aligned, BlockSummary};
 use serde::Serialize;
 
 /// Statistics of the change of one axis over paired motion blocks (B − A), in mm
 /// (X Y Z U V W) or degrees (A B C).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct AxisChange {
+    /// The axis letter.
     pub axis: char,
+    /// Largest `|Δ|`.
     pub max_abs: f64,
+    /// Mean `|Δ|` over the paired motion blocks.
     pub mean_abs: f64,
+    /// RMS of `Δ` over the paired motion blocks.
     pub rms: f64,
     /// Signed change at `max_abs`.
     pub max_signed: f64,
@@ -30,7 +33,9 @@ pub struct AxisChange {
 /// One of the largest changes.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LargeChange {
+    /// Line of the block in A.
     pub line_a: usize,
+    /// Line of the (last) block in B.
     pub line_b: usize,
     /// |Δ(X, Y, Z)|, µm.
     pub xyz_change_um: f64,
@@ -46,22 +51,32 @@ pub struct LargeChange {
 /// cycle written flat): the last of them is paired with it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SplitBlock {
+    /// Line of the block in A.
     pub line_a: usize,
     /// Lines of B's first and last piece.
     pub first_line_b: usize,
+    /// Line of B's last piece (the one paired with the block of A).
     pub last_line_b: usize,
+    /// Number of blocks of B it became.
     pub pieces: usize,
 }
 
 /// The diff report (`--report` JSON).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct DiffReport {
+    /// Blocks read from A.
     pub blocks_a: usize,
+    /// Blocks read from B.
     pub blocks_b: usize,
+    /// Blocks of A paired with a block of B.
     pub paired: usize,
+    /// Paired blocks that are the same.
     pub unchanged: usize,
+    /// Paired blocks that differ.
     pub changed: usize,
+    /// Blocks only in B.
     pub added: usize,
+    /// Blocks only in A.
     pub removed: usize,
     /// Paired motion blocks whose targets were compared.
     pub motion_pairs: usize,
@@ -69,10 +84,13 @@ pub struct DiffReport {
     pub axes: Vec<AxisChange>,
     /// |Δ(X, Y, Z)| over paired motion blocks, µm.
     pub max_xyz_change_um: f64,
+    /// RMS of `|Δ(X, Y, Z)|` over paired motion blocks, µm.
     pub rms_xyz_change_um: f64,
+    /// The largest changes by `|Δ(X, Y, Z)|`, largest first.
     pub largest: Vec<LargeChange>,
-    /// Lines of the first added and removed blocks (up to `largest` many).
+    /// Lines of the first added blocks (up to `largest` many).
     pub added_lines: Vec<usize>,
+    /// Lines of the first removed blocks (up to `largest` many).
     pub removed_lines: Vec<usize>,
     /// The warnings of reading A, then B (`crate::warnings`; each names its
     /// file; the command fills it).
@@ -81,12 +99,14 @@ pub struct DiffReport {
     /// they became in all (the pieces are counted in `added` too, but the
     /// last, which is paired).
     pub split_blocks: usize,
+    /// Blocks of B those became in all.
     pub split_pieces: usize,
     /// The first of them (up to `largest` many).
     pub splits: Vec<SplitBlock>,
 }
 
 impl DiffReport {
+    /// Whether A and B have the same blocks (nothing changed, added or removed).
     pub fn is_identical(&self) -> bool {
         self.changed == 0 && self.added == 0 && self.removed == 0
     }
@@ -131,6 +151,7 @@ impl DiffAccumulator {
         }
     }
 
+    /// Counts one aligned item (a pair, an added or a removed block).
     pub fn push(&mut self, item: &Aligned) {
         let r = &mut self.report;
         match item {
@@ -217,6 +238,7 @@ impl DiffAccumulator {
         }
     }
 
+    /// The report of everything pushed.
     pub fn finish(mut self) -> DiffReport {
         let n = self.report.motion_pairs.max(1) as f64;
         let used: Vec<usize> = self.used.iter().map(|a| a as usize).collect();

@@ -2,16 +2,17 @@
 //! diffing two programs end to end.
 use super::align::{AlignOptions, Aligner, BlockSummary};
 use super::{DiffAccumulator, DiffReport};
-use crate::compensate::stamp::PREFIX as STAMP_PREFIX;
 use crate::gcode::{
     Block, BlockEvent, Execution, GcodeError, InterpretOptions, MotionKind, Program,
 };
+use crate::stamp::PREFIX as STAMP_PREFIX;
 use std::cell::RefCell;
 use std::rc::Rc;
 
 /// Settings of a diff.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffOptions {
+    /// How the blocks of A and B are paired.
     pub align: AlignOptions,
     /// Interpreter settings used for both programs.
     pub interpret: InterpretOptions,
@@ -104,6 +105,7 @@ pub struct BlockSummaries {
 }
 
 impl BlockSummaries {
+    /// The blocks of `program` run with `interpret`.
     pub fn new(program: Program, interpret: InterpretOptions) -> Self {
         BlockSummaries {
             run: program.run(interpret),

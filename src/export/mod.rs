@@ -8,8 +8,8 @@
 //!
 //! Invariants: pure text building from a loaded machine and its model; no I/O,
 //! nothing printed.
-pub mod linuxcnc;
-pub mod tables;
+pub(crate) mod linuxcnc;
+pub(crate) mod tables;
 
 use crate::axes::Axis;
 use crate::machine::table::ErrorTable;
@@ -34,6 +34,7 @@ pub use crate::machine::reversal::interpolate;
 /// error model's: the table's `REVERSAL`, linear between the table's positions,
 /// a per-position measurement, not smoothed; or the `[reversal]` constant).
 pub struct Positioning<'a> {
+    /// The axis.
     pub axis: Axis,
     /// `EXX`, `EYY`, …
     pub parameter: String,

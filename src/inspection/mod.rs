@@ -10,38 +10,56 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-pub mod reader;
-pub mod work_frame;
+pub(crate) mod reader;
+pub(crate) mod work_frame;
 
 pub use work_frame::WorkFrame;
 
+/// Why an inspection plan or measurement could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum InspectionError {
+    /// The file could not be read.
     #[error(transparent)]
     Read(#[from] crate::io::InputError),
+    /// The file could not be written.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// The header lacks a required column.
     #[error("{}:{line}: header lacks column `{missing}` (expected columns {expected}, any order)", path.display())]
     Header {
+        /// The file.
         path: PathBuf,
+        /// 1-based line of the header.
         line: usize,
+        /// The missing column.
         missing: String,
+        /// The expected columns, comma-separated.
         expected: String,
     },
+    /// A field is not acceptable (not a number, not finite, a zero normal, a repeated id, …).
     #[error("{}:{line}: column `{column}`: {message}", path.display())]
     Field {
+        /// The file.
         path: PathBuf,
+        /// 1-based line.
         line: usize,
+        /// The column of the field.
         column: String,
+        /// What is wrong.
         message: String,
     },
+    /// The file has no data rows.
     #[error("{}: no data rows (expected at least one point after the header)", path.display())]
-    Empty { path: PathBuf },
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
 }
 
 /// One point of an inspection plan.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlanPoint {
+    /// The point's id, unique within a plan.
     pub id: String,
     /// Nominal point, part coordinates, mm.
     pub point: [f64; 3],
@@ -52,12 +70,14 @@ pub struct PlanPoint {
 /// An inspection plan: the points in file order.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Plan {
+    /// The points, in file order.
     pub points: Vec<PlanPoint>,
 }
 
 /// A plan point with the measured point.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MeasuredPoint {
+    /// The plan point.
     pub plan: PlanPoint,
     /// Measured point, part coordinates, mm.
     pub measured: [f64; 3],
@@ -77,6 +97,7 @@ impl MeasuredPoint {
 /// A measurement: the plan with measured points, in file order.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Measurement {
+    /// The measured points, in file order.
     pub points: Vec<MeasuredPoint>,
 }
 
@@ -225,6 +246,7 @@ impl Plan {
         Ok(Plan { points })
     }
 
+    /// Read a plan CSV file (`id,x,y,z,i,j,k`).
     pub fn read(path: &Path) -> Result<Plan, InspectionError> {
         Plan::parse(path, &read_to_string(path)?)
     }
@@ -251,6 +273,7 @@ impl Measurement {
         Ok(Measurement { points })
     }
 
+    /// Read a measurement CSV file (`id,x,y,z,i,j,k,mx,my,mz`).
     pub fn read(path: &Path) -> Result<Measurement, InspectionError> {
         Measurement::parse(path, &read_to_string(path)?)
     }
@@ -271,9 +294,13 @@ impl Measurement {
 /// point and normal are the plan point's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FollowupPoint {
+    /// The plan point (id, point, normal).
     pub plan: PlanPoint,
+    /// First rotary angle (in letter order, e.g. A on an A/C machine), degrees.
     pub a_deg: f64,
+    /// Second rotary angle (e.g. C), degrees.
     pub c_deg: f64,
+    /// When it is probed: minutes since the program's start.
     pub time_min: f64,
     /// The probed point (part coordinates, mm), in a follow-up measurement.
     pub measured: Option<[f64; 3]>,
@@ -299,6 +326,7 @@ impl FollowupPoint {
 /// second of them in letter order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Followup {
+    /// The points, in file order.
     pub points: Vec<FollowupPoint>,
     /// The machine's rotary axes, in letter order: the angle columns' names.
     pub rotary: [crate::axes::Axis; 2],
@@ -399,6 +427,7 @@ impl Followup {
         Followup::parse_with(path, text, true, rotary)
     }
 
+    /// Read a follow-up plan file (`id,x,y,z,i,j,k,<r1>,<r2>,t_min`, angle columns named by `rotary`).
     pub fn read_plan(
         path: &Path,
         rotary: [crate::axes::Axis; 2],
@@ -406,6 +435,7 @@ impl Followup {
         Followup::parse_plan(path, &read_to_string(path)?, rotary)
     }
 
+    /// Read a follow-up measurement file (a follow-up plan with `mx,my,mz`).
     pub fn read_measurement(
         path: &Path,
         rotary: [crate::axes::Axis; 2],

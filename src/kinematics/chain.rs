@@ -37,6 +37,7 @@ pub enum Side {
 /// One axis of the chain at the home pose.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ChainAxis {
+    /// The axis letter.
     pub axis: Axis,
     /// Nominal unit direction (machine coordinates at home).
     pub direction: [f64; 3],
@@ -49,6 +50,7 @@ pub struct ChainAxis {
 }
 
 impl ChainAxis {
+    /// A linear axis moving along unit `direction` (machine coordinates).
     pub fn linear(axis: Axis, direction: [f64; 3]) -> ChainAxis {
         ChainAxis {
             axis,
@@ -58,6 +60,7 @@ impl ChainAxis {
         }
     }
 
+    /// A rotary axis turning about unit `direction` through `point`.
     pub fn rotary(axis: Axis, direction: [f64; 3], point: [f64; 3]) -> ChainAxis {
         ChainAxis {
             axis,
@@ -67,6 +70,7 @@ impl ChainAxis {
         }
     }
 
+    /// Whether the axis is A, B or C.
     pub fn is_rotary(&self) -> bool {
         self.axis.is_rotary()
     }
@@ -75,26 +79,40 @@ impl ChainAxis {
 /// Why a chain description is not a five-axis machine.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ChainError {
+    /// An axis letter appears twice.
     #[error("axis {0} appears twice")]
     Repeated(char),
+    /// One of X, Y and Z is missing.
     #[error("the machine needs the linear axes X, Y and Z: {0} is missing")]
     MissingLinear(char),
+    /// Not exactly two rotary axes (the count given).
     #[error("the machine needs exactly two rotary axes (of A, B, C), it has {0}")]
     RotaryCount(usize),
+    /// A tool-side rotary axis is listed before a linear one (a head must be carried by the carriages).
     #[error(
         "on the tool side rotary axes come after the linear ones (a head is carried by the carriages): {rotary} comes before {linear}"
     )]
-    HeadBeforeCarriage { rotary: char, linear: char },
+    HeadBeforeCarriage {
+        /// The rotary axis.
+        rotary: char,
+        /// The linear axis listed after it.
+        linear: char,
+    },
+    /// An axis direction is the zero vector or not finite.
     #[error("axis {0}: the direction is the zero vector or not finite")]
     BadDirection(char),
+    /// A rotary axis point is not finite.
     #[error("axis {0}: the point is not finite")]
     BadPoint(char),
+    /// The tool axis is the zero vector or not finite.
     #[error("tool_axis is the zero vector or not finite")]
     BadToolAxis,
+    /// The two rotary axes are parallel.
     #[error(
         "the rotary axes {0} and {1} are parallel: the machine cannot orient the tool (two rotary axes must not be parallel)"
     )]
     ParallelRotaries(char, char),
+    /// The tool axis is parallel to the rotary axis nearest the tool.
     #[error(
         "the tool axis is parallel to rotary axis {0}, the one nearest the tool: that axis cannot orient the tool"
     )]

@@ -18,9 +18,6 @@ pub const COMPONENT_COUNT: usize = 30;
 /// Number of parameters in total (30 + 3 squareness + 10 location).
 pub const PARAMETER_COUNT: usize = 43;
 
-/// Axes that carry component-error tables on an A/C machine, in slot order.
-pub const COMPONENT_AXES: [Axis; 5] = [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::C];
-
 /// ISO 230-1 names of the component errors of every letter that can carry a table,
 /// `[letter X Y Z A B C][k]`, `k` = δx δy δz εx εy εz.
 const NAMES_BY_LETTER: [[&str; 6]; 6] = [
@@ -56,20 +53,6 @@ pub const SQUARENESS_NAMES: [&str; 3] = ["s_xy", "s_xz", "s_yz"];
 pub const LOCATION_NAMES: [&str; 10] = [
     "EY0A", "EZ0A", "EB0A", "EC0A", "EA0A", "EX0C", "EY0C", "EA0C", "EB0C", "EC0C",
 ];
-
-/// Indices into [`ErrorValues::location`] of an A/C machine.
-pub mod location {
-    pub const EY0A: usize = 0;
-    pub const EZ0A: usize = 1;
-    pub const EB0A: usize = 2;
-    pub const EC0A: usize = 3;
-    pub const EA0A: usize = 4;
-    pub const EX0C: usize = 5;
-    pub const EY0C: usize = 6;
-    pub const EA0C: usize = 7;
-    pub const EB0C: usize = 8;
-    pub const EC0C: usize = 9;
-}
 
 /// All 43 names of an A/C machine in flat index order.
 pub const PARAMETER_NAMES: [&str; PARAMETER_COUNT] = ParameterLayout::AC.names();
@@ -216,7 +199,9 @@ impl ParameterLayout {
 /// Values of every error parameter at one pose (µm and µrad). Zero is "no error".
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ErrorValues {
-    /// `component[axis][k]`, axis in [`COMPONENT_AXES`] order, `k` = δx δy δz (µm),
+    /// `component[axis][k]`, axis by its slot
+    /// ([`MachineChain::slot`](crate::kinematics::MachineChain::slot): X Y Z,
+    /// then the two rotaries in letter order), `k` = δx δy δz (µm),
     /// εx εy εz (µrad).
     pub component: [[f64; 6]; 5],
     /// `s_xy, s_xz, s_yz`, µrad.
@@ -226,6 +211,7 @@ pub struct ErrorValues {
 }
 
 impl ErrorValues {
+    /// Every error zero (the nominal machine).
     pub const ZERO: ErrorValues = ErrorValues {
         component: [[0.0; 6]; 5],
         squareness: [0.0; 3],
@@ -312,7 +298,10 @@ mod tests {
         assert_eq!(v.get(&ac, "EXX"), Some(1.0));
         assert_eq!(v.component[3][4], v.get(&ac, "EBA").unwrap());
         assert_eq!(v.squareness[2], v.get(&ac, "s_yz").unwrap());
-        assert_eq!(v.location[location::EA0C], v.get(&ac, "EA0C").unwrap());
+        assert_eq!(
+            v.location[LOCATION_NAMES.iter().position(|n| *n == "EA0C").unwrap()],
+            v.get(&ac, "EA0C").unwrap()
+        );
         assert_eq!(v.get(&ac, "ECC"), Some(30.0));
         assert!(v.set(&ac, "EQX", 1.0).is_err());
         assert!(v.set(&ac, "EXB", 1.0).is_err());

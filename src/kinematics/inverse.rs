@@ -46,20 +46,45 @@ pub struct InverseSolution {
     pub jump_deg: f64,
 }
 
+impl InverseSolution {
+    /// Whether reaching this solution from the previous joints is a flip (a
+    /// rotary jump of more than [`FLIP_DEG`]; kinematics.md).
+    pub fn is_flip(&self) -> bool {
+        self.jump_deg > FLIP_DEG
+    }
+}
+
+/// Why no joints reach a tool tip and tool axis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum InverseError {
+    /// The tool-axis target is not finite or has zero length.
     #[error("the tool-axis target is not finite or has zero length: {axis:?}")]
-    BadAxis { axis: [f64; 3] },
+    BadAxis {
+        /// The tool-axis target (part frame).
+        axis: [f64; 3],
+    },
+    /// The tool-tip target is not finite.
     #[error("the tool tip target is not finite: {tip:?}")]
-    BadTip { tip: [f64; 3] },
+    BadTip {
+        /// The tool-tip target, part frame, mm.
+        tip: [f64; 3],
+    },
+    /// No rotary joints turn the tool to this axis (outside the machine's cone of reach).
     #[error(
         "the machine's rotary axes cannot turn the tool to {axis:?} (outside its cone of reach)"
     )]
-    Unreachable { axis: [f64; 3] },
+    Unreachable {
+        /// The tool-axis target (part frame).
+        axis: [f64; 3],
+    },
+    /// Every rotary solution for this axis is outside the travel of the rotary axes.
     #[error("tool axis {axis:?} needs {first} or {second}, outside the travel of the rotary axes")]
     OutsideLimits {
+        /// The tool-axis target (part frame).
         axis: [f64; 3],
+        /// The first rotary solution, e.g. `A30.000000° C90.000000°`.
         first: String,
+        /// The second rotary solution, or `nothing else`.
         second: String,
     },
 }

@@ -5,17 +5,17 @@
 //! a chain ([`Kinematics::xyzac_trt`], [`Kinematics::xyzbc_trt`]).
 //!
 //! Invariants: no I/O, no allocation on the hot path (the chain is evaluated on
-//! fixed-size [`transform::Affine`] values); every inverse is the exact inverse of
+//! fixed-size `transform::Affine` values); every inverse is the exact inverse of
 //! the matrix as written (never a first-order `L(−δ, −ε)`); angles in degrees at the
 //! API, radians inside; errors in µm/µrad at the API, mm/rad inside; results are
 //! in part coordinates. Joint vectors are `(x, y, z, r₁, r₂)` with the machine's two
 //! rotary letters in letter order (`a, c` on xyzac-trt). Finite input gives finite
 //! output; callers check inputs for NaN at their boundary.
-pub mod chain;
-pub mod error_values;
-pub mod inverse;
-pub mod jacobian;
-pub mod transform;
+pub(crate) mod chain;
+pub(crate) mod error_values;
+pub(crate) mod inverse;
+pub(crate) mod jacobian;
+pub(crate) mod transform;
 
 use crate::axes::{Axes, Axis};
 pub use chain::{ChainAxis, ChainError, MachineChain, Side};
@@ -23,7 +23,7 @@ pub use error_values::{
     COMPONENT_NAMES, ErrorValues, LOCATION_NAMES, PARAMETER_COUNT, PARAMETER_NAMES,
     ParameterLayout, SQUARENESS_NAMES, UnknownParameter,
 };
-pub use inverse::{InverseError, InverseOptions};
+pub use inverse::{InverseError, InverseOptions, POLE_SIN};
 use serde::{Deserialize, Serialize};
 use transform::{Mat3, sub};
 
@@ -32,10 +32,15 @@ use transform::{Mat3, sub};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Geometry {
+    /// X of `P_C`, machine coordinates, mm.
     pub x_rot_point: f64,
+    /// Y of `P_C`, mm.
     pub y_rot_point: f64,
+    /// Z of `P_C`, mm.
     pub z_rot_point: f64,
+    /// Y of `P_A − P_C`, mm.
     pub y_offset: f64,
+    /// Z of `P_A − P_C`, mm.
     pub z_offset: f64,
 }
 
@@ -54,6 +59,7 @@ impl Geometry {
         ]
     }
 
+    /// Whether every number is finite.
     pub fn is_finite(&self) -> bool {
         self.c_point().iter().all(|v| v.is_finite())
             && self.y_offset.is_finite()
@@ -77,8 +83,10 @@ impl Default for ToolChain {
 }
 
 impl ToolChain {
+    /// Bed → spindle X, Y, Z.
     pub const XYZ: ToolChain = ToolChain([Axis::X, Axis::Y, Axis::Z]);
 
+    /// The order `order`, refused unless it is a permutation of X, Y, Z.
     pub fn new(order: [Axis; 3]) -> Result<ToolChain, BadToolChain> {
         let mut seen = [false; 3];
         for axis in order {
@@ -114,6 +122,7 @@ impl ToolChain {
         ToolChain::new(order).map_err(|_| BadToolChain(describe()))
     }
 
+    /// The three linear axes, bed → spindle.
     pub fn order(&self) -> [Axis; 3] {
         self.0
     }
@@ -134,10 +143,15 @@ pub(crate) fn linear_index(axis: Axis) -> usize {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BcGeometry {
+    /// X of `P_C`, machine coordinates, mm.
     pub x_rot_point: f64,
+    /// Y of `P_C`, mm.
     pub y_rot_point: f64,
+    /// Z of `P_C`, mm.
     pub z_rot_point: f64,
+    /// X of `P_B − P_C`, mm.
     pub x_offset: f64,
+    /// Z of `P_B − P_C`, mm.
     pub z_offset: f64,
 }
 
@@ -156,6 +170,7 @@ impl BcGeometry {
         ]
     }
 
+    /// Whether every number is finite.
     pub fn is_finite(&self) -> bool {
         self.c_point().iter().all(|v| v.is_finite())
             && self.x_offset.is_finite()
@@ -203,6 +218,7 @@ impl TipToJoints {
 /// The kinematic model of one machine with one tool: its chain and the tool length.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Kinematics {
+    /// The nominal chain.
     pub chain: MachineChain,
     /// Tool length `L`, mm (gauge point to tip).
     pub tool_length: f64,
@@ -211,7 +227,9 @@ pub struct Kinematics {
 /// Volumetric error `e` (µm) and tool-axis error (µrad), part coordinates.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct VolumetricError {
+    /// `e = r_act − r_nom`, µm, part coordinates.
     pub e_um: [f64; 3],
+    /// Actual minus nominal tool axis, µrad (×1e-6 of a unit vector), part coordinates.
     pub axis_urad: [f64; 3],
 }
 
@@ -225,7 +243,9 @@ impl VolumetricError {
 /// Tool tip (mm) and tool axis (not re-normalised), part coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TipAndAxis {
+    /// Tool tip, mm, part coordinates.
     pub tip: [f64; 3],
+    /// Tool axis (tip → spindle), part coordinates, not re-normalised.
     pub axis: [f64; 3],
 }
 

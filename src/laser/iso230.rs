@@ -11,10 +11,13 @@
 pub struct TargetStats {
     /// mm or degrees.
     pub target: f64,
+    /// Number of readings approaching in the positive direction.
     pub n_up: usize,
+    /// Number of readings approaching in the negative direction.
     pub n_down: usize,
     /// x̄_i↑, x̄_i↓: mean unidirectional positional deviations.
     pub mean_up: f64,
+    /// x̄_i↓ (see `mean_up`).
     pub mean_down: f64,
     /// x̄_i = (x̄_i↑ + x̄_i↓)/2: mean bidirectional positional deviation (the table's value).
     pub mean: f64,
@@ -22,10 +25,12 @@ pub struct TargetStats {
     pub reversal: f64,
     /// s_i↑, s_i↓ (n − 1 in the denominator).
     pub s_up: Option<f64>,
+    /// s_i↓ (see `s_up`).
     pub s_down: Option<f64>,
     /// R_i↑ = 4 s_i↑, R_i↓ = 4 s_i↓.
     #[serde(rename = "R_up")]
     pub repeatability_up: Option<f64>,
+    /// R_i↓ (see `repeatability_up`).
     #[serde(rename = "R_down")]
     pub repeatability_down: Option<f64>,
     /// R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓).
@@ -54,16 +59,22 @@ pub struct AxisFigures {
     /// R: bidirectional repeatability (max R_i).
     #[serde(rename = "R")]
     pub repeatability: Option<f64>,
+    /// A↑: unidirectional accuracy, positive direction.
     #[serde(rename = "A_up")]
     pub accuracy_up: Option<f64>,
+    /// A↓: unidirectional accuracy, negative direction.
     #[serde(rename = "A_down")]
     pub accuracy_down: Option<f64>,
+    /// E↑: unidirectional systematic positional deviation, positive direction.
     #[serde(rename = "E_up")]
     pub systematic_up: f64,
+    /// E↓: unidirectional systematic positional deviation, negative direction.
     #[serde(rename = "E_down")]
     pub systematic_down: f64,
+    /// R↑: unidirectional repeatability, positive direction (max R_i↑).
     #[serde(rename = "R_up")]
     pub repeatability_up: Option<f64>,
+    /// R↓: unidirectional repeatability, negative direction (max R_i↓).
     #[serde(rename = "R_down")]
     pub repeatability_down: Option<f64>,
 }

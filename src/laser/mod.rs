@@ -11,15 +11,15 @@
 //!
 //! Invariants: no I/O beyond reading the named files; nothing printed; every
 //! error names a file, line and column.
-pub mod iso230;
-pub mod read;
+pub(crate) mod iso230;
+pub(crate) mod read;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use crate::axes::Axis;
-pub use iso230::{AxisFigures, TargetStats};
+pub use iso230::{AxisFigures, TargetStats, axis_figures, target_stats};
 pub use read::{
     FileReadings, LaserError, Layout, ReadSettings, Reading, is_angular, is_parameter_of,
     positioning_parameter, read_file,
@@ -28,25 +28,36 @@ pub use read::{
 /// What one file contributed.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct FileSummary {
+    /// The file.
     pub path: PathBuf,
+    /// The parameter its deviations measure (`EXX`, …).
     pub parameter: String,
+    /// Its header layout.
     pub layout: Layout,
+    /// Its field separator (`,`, `;` or `tab`).
     pub separator: String,
+    /// Whether it writes a decimal comma.
     pub decimal_comma: bool,
+    /// The unit of its targets as the file gave it (empty: volcomp's default).
     pub target_unit: String,
+    /// The unit of its deviations as the file gave it (empty: volcomp's default).
     pub deviation_unit: String,
+    /// Number of readings read from it.
     pub readings: usize,
 }
 
 /// One measured parameter over all its files.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ParameterResult {
+    /// The parameter (`EXX`, `EYX`, `EAA`, …).
     pub parameter: String,
     /// `µm` or `µrad`.
     pub unit: &'static str,
     /// Distinct runs approaching in each direction (over all files).
     pub runs_up: usize,
+    /// Distinct runs approaching in the negative direction.
     pub runs_down: usize,
+    /// The ISO 230-2 figures of the axis.
     pub figures: AxisFigures,
     /// Ascending targets.
     pub targets: Vec<TargetStats>,
@@ -55,7 +66,9 @@ pub struct ParameterResult {
 /// The evaluated import: what the table and the report are written from.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct LaserImport {
+    /// The measured axis.
     pub axis: Axis,
+    /// What each file contributed, in the order given.
     pub files: Vec<FileSummary>,
     /// The axis's positioning parameter first (when measured), then file order.
     pub parameters: Vec<ParameterResult>,

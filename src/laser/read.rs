@@ -23,14 +23,19 @@ use crate::axes::Axis;
 /// A malformed laser file.
 #[derive(Debug, thiserror::Error)]
 pub enum LaserError {
+    /// The file could not be read.
     #[error(transparent)]
     Read(#[from] crate::io::InputError),
     /// A cell, a header or a row that cannot be read: file:line:column.
     #[error("{}:{line}:{column}: {message}", path.display())]
     Invalid {
+        /// The file.
         path: PathBuf,
+        /// 1-based line.
         line: usize,
+        /// 1-based column (characters) of the cell.
         column: usize,
+        /// What is wrong.
         message: String,
     },
     /// Inconsistent data across rows or files (no location of its own).
@@ -42,12 +47,16 @@ pub enum LaserError {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Layout {
+    /// `target,run,direction,deviation`: one reading a row.
     Long,
+    /// `target,run,+,-`: one target and run a row, both approaches.
     Paired,
+    /// `target,run 1 +,run 1 -,…`: one target a row, a column per run and direction.
     Wide,
 }
 
 impl Layout {
+    /// The name reports write (`"long"`, `"paired"`, `"wide"`).
     pub fn name(self) -> &'static str {
         match self {
             Layout::Long => "long",
@@ -63,33 +72,43 @@ impl Layout {
 pub struct Reading {
     /// mm (linear axis) or degrees (rotary).
     pub target: f64,
+    /// The run number.
     pub run: u32,
+    /// Whether the target was approached in the positive direction.
     pub up: bool,
     /// Actual − target: µm (a length parameter) or µrad (an angle).
     pub deviation: f64,
     /// Where it was read (1-based).
     pub line: u32,
+    /// 1-based column (characters) of the deviation.
     pub column: u32,
 }
 
 /// The readings of one file, in volcomp's units.
 #[derive(Clone, Debug)]
 pub struct FileReadings {
+    /// The file.
     pub path: PathBuf,
     /// The error parameter the deviations measure (`EXX`, `EYX`, `EAA`…).
     pub parameter: String,
+    /// Its header layout.
     pub layout: Layout,
+    /// Its field separator (`,`, `;` or tab).
     pub separator: char,
+    /// Whether it writes a decimal comma.
     pub decimal_comma: bool,
     /// The units the file gave (empty: volcomp's default).
     pub target_unit: String,
+    /// The unit of its deviations as the file gave it (empty: volcomp's default).
     pub deviation_unit: String,
+    /// The readings, in file order.
     pub readings: Vec<Reading>,
 }
 
 /// What a file is read as.
 #[derive(Clone, Debug)]
 pub struct ReadSettings {
+    /// The axis measured.
     pub axis: Axis,
     /// The parameter its deviations measure when the header does not name one
     /// (`None`: the axis's positioning parameter).

@@ -41,6 +41,7 @@ pub enum KinematicsType {
 }
 
 impl KinematicsType {
+    /// The name a machine file writes (`kinematics = "xyzac-trt"`, …).
     pub fn name(self) -> &'static str {
         match self {
             KinematicsType::XyzacTrt => "xyzac-trt",
@@ -84,10 +85,12 @@ impl Limits {
         out
     }
 
+    /// The `[min, max]` travel of `axis` (mm or degrees); `None` when endless or absent.
     pub fn get(&self, axis: Axis) -> Option<[f64; 2]> {
         self.ranges[axis as usize]
     }
 
+    /// Sets the travel of `axis` (`None`: endless or absent).
     pub fn set(&mut self, axis: Axis, range: Option<[f64; 2]>) {
         self.ranges[axis as usize] = range;
     }
@@ -112,8 +115,11 @@ impl Limits {
 /// when the file names one (`shape`, docs/extensions.md).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Tool {
+    /// Gauge point to tip, mm.
     pub length: f64,
+    /// Radius, mm.
     pub radius: f64,
+    /// The cutting shape (`None`: deviations taken at the tool tip).
     pub shape: Option<crate::gcode::CutterShape>,
 }
 
@@ -179,13 +185,17 @@ fn cutter_shape(
 /// A validated machine file.
 #[derive(Clone, Debug)]
 pub struct Machine {
+    /// The machine's `name`.
     pub name: String,
+    /// Its kinematic type.
     pub kinematics: KinematicsType,
     /// The nominal chain (presets built from their `[geometry]`).
     pub chain: MachineChain,
+    /// The `[tool]` used when a program names none.
     pub tool: Tool,
     /// `[[tools]]`: the machine's tool table (empty when the file has none).
     pub tools: crate::gcode::ToolTable,
+    /// Travel limits per letter (joint coordinates).
     pub limits: Limits,
     /// G0 rate, mm/min ([`DEFAULT_RAPID_MM_PER_MIN`] when the file has none).
     pub rapid_mm_per_min: f64,
@@ -205,34 +215,50 @@ pub struct Machine {
     pub source: PathBuf,
 }
 
+/// Why a machine file could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
+    /// The file could not be read.
     #[error(transparent)]
     Read(#[from] crate::io::InputError),
     /// Syntax, type, missing or unknown key (what serde and toml report).
     #[error("{}:{line}:{column}: {message}", path.display())]
     Parse {
+        /// The machine file.
         path: PathBuf,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// What is wrong.
         message: String,
     },
     /// A value that parses but is not acceptable.
     #[error("{}:{line}:{column}: `{key}`: {message}", path.display())]
     Invalid {
+        /// The machine file.
         path: PathBuf,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// The key whose value is refused.
         key: String,
+        /// Why it is refused.
         message: String,
     },
     /// An error table named by the machine file could not be read.
     #[error("{}:{line}:{column}: `{key}`: {source}", path.display())]
     Table {
+        /// The machine file.
         path: PathBuf,
+        /// 1-based line of the key naming the table.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// The key naming the table.
         key: String,
+        /// Why the table could not be read.
         source: Box<TableError>,
     },
 }
@@ -954,11 +980,6 @@ impl Machine {
             shape: self.tool.shape,
             ..crate::gcode::ToolInUse::default_tool(self.tool.length, self.tool.radius)
         }
-    }
-
-    /// The kinematic model of this machine with `tool` in the spindle.
-    pub fn kinematics_for(&self, tool: &crate::gcode::ToolInUse) -> Kinematics {
-        self.kinematics_model().with_tool_length(tool.length_mm)
     }
 
     /// The machine's axis letters.

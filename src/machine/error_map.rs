@@ -84,11 +84,11 @@ pub struct SurfaceFit {
     pub erms_um: f64,
 }
 
-/// The fitted surfaces of a map: |e| (drawn) and the three components of e.
+/// The fitted surface of a map, |e| (drawn), and the fits of |e| and of the
+/// three components of e.
 #[derive(Clone, Debug)]
 pub struct MapSurfaces {
     pub magnitude: NurbsSurface,
-    pub components: [NurbsSurface; 3],
     /// Fit errors, in the order |e|, e_x, e_y, e_z.
     pub fits: Vec<SurfaceFit>,
 }
@@ -224,14 +224,9 @@ impl ErrorMap {
             });
             surfaces.push(surface);
         }
-        let mut it = surfaces.into_iter();
-        match (it.next(), it.next(), it.next(), it.next()) {
-            (Some(magnitude), Some(x), Some(y), Some(z)) => Ok(MapSurfaces {
-                magnitude,
-                components: [x, y, z],
-                fits,
-            }),
-            _ => Err(MapError::Surface("internal: four surfaces expected".into())),
+        match surfaces.into_iter().next() {
+            Some(magnitude) => Ok(MapSurfaces { magnitude, fits }),
+            None => Err(MapError::Surface("internal: four surfaces expected".into())),
         }
     }
 

@@ -31,51 +31,76 @@ use std::sync::{Arc, OnceLock};
 /// How the model is built.
 #[derive(Clone, Debug, Default)]
 pub struct ModelOptions {
+    /// How each table column is fitted.
     pub fit: FitOptions,
+    /// What a lookup outside a table's range does.
     pub extrapolation: ExtrapolationPolicy,
     /// Look every value up on the NURBS itself (Newton inversion per call) instead of
-    /// the verified resampling of [`super::resampled`] (within 1e-6 µm/µrad of it,
+    /// the verified resampling of `machine::resampled` (within 1e-6 µm/µrad of it,
     /// several times faster).
     pub exact_lookups: bool,
 }
 
+/// Why an error model could not be built or read.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
+    /// Fitting a table column failed.
     #[error("{}: cannot fit {parameter}: {source}", table.display())]
     Fit {
+        /// The error table file.
         table: PathBuf,
+        /// The parameter (column), e.g. `EXX`.
         parameter: String,
+        /// Why the fit failed.
         source: FitError,
     },
+    /// A file could not be read.
     #[error(transparent)]
     Read(#[from] crate::io::InputError),
+    /// A fitted-model file is not valid JSON of the `volcomp fit --report` format.
     #[error("{}:{line}:{column}: not a fitted-model file (volcomp fit --report): {message}", path.display())]
     Parse {
+        /// The fitted-model file.
         path: PathBuf,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// What the JSON reader reports.
         message: String,
     },
+    /// A fitted-model file does not match the machine: a measured parameter is
+    /// missing, was fitted to other table data, its curve was changed after the
+    /// fit or does not reproduce its recorded fit, or the curve is invalid.
     #[error("{}: {parameter}: {message}", path.display())]
     Model {
+        /// The fitted-model file.
         path: PathBuf,
+        /// The parameter of the entry.
         parameter: String,
+        /// What is wrong.
         message: String,
     },
 }
 
+/// Why the model could not be evaluated at a pose.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LookupError {
+    /// A joint position is NaN or infinite.
     #[error("joint position is not finite: {0:?}")]
     NotFinite(Axes),
+    /// A joint position lies outside its axis's error table (with the `Error` extrapolation policy).
     #[error(
         "{axis:?} = {position} is outside the {axis:?} error table ({} to {}); \
 the model is not defined there (use --extrapolate hold to hold the end values)",
         range[0], range[1]
     )]
     OutOfRange {
+        /// The axis.
         axis: Axis,
+        /// Its position, mm or degrees.
         position: f64,
+        /// The table's first and last positions.
         range: [f64; 2],
     },
 }
@@ -125,6 +150,7 @@ pub struct Contribution {
 }
 
 impl Contribution {
+    /// Length of `e_um`, µm.
     pub fn magnitude_um(&self) -> f64 {
         crate::kinematics::transform::norm(self.e_um)
     }
@@ -556,6 +582,7 @@ impl ErrorModel {
         }
     }
 
+    /// The kinematics (nominal chain and tool) the model evaluates.
     pub fn kinematics(&self) -> &Kinematics {
         &self.kinematics
     }
@@ -604,6 +631,7 @@ impl ErrorModel {
         beyond
     }
 
+    /// What a lookup outside a table's range does.
     pub fn policy(&self) -> ExtrapolationPolicy {
         self.policy
     }
@@ -619,6 +647,7 @@ impl ErrorModel {
         self.held.load(Ordering::Relaxed)
     }
 
+    /// Sets the count of [`ErrorModel::held_lookups`] back to 0.
     pub fn reset_held_lookups(&self) {
         self.held.store(0, Ordering::Relaxed);
     }
@@ -630,13 +659,6 @@ impl ErrorModel {
             return None;
         }
         self.axes[index / 6].as_ref()?.curves[index % 6].as_ref()
-    }
-
-    /// Table range `[first, last]` of a measured axis, and whether it wraps.
-    pub fn table_range(&self, axis: Axis) -> Option<([f64; 2], bool)> {
-        self.axes[self.kinematics.chain.slot(axis)?]
-            .as_ref()
-            .map(|ac| (ac.range, ac.wrap))
     }
 
     /// Names of the fitted parameters, in kinematics.md order.

@@ -3,16 +3,17 @@
 //!
 //! Invariants: `machine` reads files but never prints; every error names the file
 //! and the key or line.
-pub mod definition;
-pub mod error_map;
-pub mod error_model;
-pub mod model_cache;
-pub mod resampled;
-pub mod reversal;
+pub(crate) mod definition;
+pub(crate) mod error_map;
+pub(crate) mod error_model;
+pub(crate) mod model_cache;
+pub(crate) mod resampled;
+pub(crate) mod reversal;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synthetic;
-pub mod table;
-pub mod tool_models;
-pub mod update;
+pub(crate) mod table;
+pub(crate) mod tool_models;
+pub(crate) mod update;
 
 pub use definition::{
     DEFAULT_RAPID_MM_PER_MIN, ExtrapolationPolicy, KinematicsType, Limits, LoadOptions, Machine,
@@ -23,4 +24,6 @@ pub use error_model::{
 };
 pub use reversal::{Approach, AxisReversal, Direction, DirectionTracker};
 pub use model_cache::{CacheOutcome, CacheReport, ModelCache};
-pub use tool_models::ToolModels;
+pub use update::edit_machine_text;
+pub use table::ErrorTable;
+pub use tool_models::{ToolModels, kinematics_with};

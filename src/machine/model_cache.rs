@@ -47,6 +47,7 @@ pub enum CacheOutcome {
 /// The outcome of [`ModelCache::load_or_fit`].
 #[derive(Clone, Debug)]
 pub struct CacheReport {
+    /// Whether the model came from the cache or was fitted (and why).
     pub outcome: CacheOutcome,
     /// The cache file.
     pub file: PathBuf,
@@ -80,10 +81,12 @@ struct CachedTable {
 }
 
 impl ModelCache {
+    /// The cache in folder `dir` (created when a model is first stored).
     pub fn new(dir: impl Into<PathBuf>) -> ModelCache {
         ModelCache { dir: dir.into() }
     }
 
+    /// The cache folder.
     pub fn dir(&self) -> &Path {
         &self.dir
     }

@@ -76,8 +76,11 @@ pub fn truth(rng: &mut ChaCha8Rng, lo: f64, hi: f64, step: f64, amp: f64, period
 pub struct AxisSpec {
     /// The axis letter (upper case).
     pub letter: char,
+    /// First measured position, mm or degrees.
     pub lo: f64,
+    /// Last measured position, mm or degrees.
     pub hi: f64,
+    /// Spacing of the measured positions, mm or degrees.
     pub step: f64,
     /// An endless rotary axis measured over one turn (0…360°): the truths
     /// close, and 0° and 360° are one point, measured once.
@@ -90,15 +93,21 @@ pub struct Parameter {
     pub name: String,
     /// Lengths (µm) for the first three, angles (µrad) for the last three.
     pub is_angle: bool,
+    /// Standard deviation σ of the measurement noise, µm or µrad.
     pub noise_sigma: f64,
+    /// The table column: the truth at each position plus noise.
     pub noisy: Vec<f64>,
+    /// The error function the column was drawn from.
     pub truth: Truth,
 }
 
 /// The six parameters of one axis, tabulated.
 pub struct AxisTable {
+    /// How the axis is measured.
     pub spec: AxisSpec,
+    /// The measured positions, `lo` to `hi` by `step`.
     pub positions: Vec<f64>,
+    /// The six parameters, `EX?`, `EY?`, `EZ?`, `EA?`, `EB?`, `EC?` in that order.
     pub parameters: Vec<Parameter>,
 }
 
@@ -176,8 +185,11 @@ pub fn machine_tables(seed: u64, axes: &[AxisSpec]) -> Vec<AxisTable> {
 /// its seed and how each axis is measured (the machine file's limits; an
 /// endless C over one turn).
 pub struct BundledMachine {
+    /// Its folder under `machines/`.
     pub name: &'static str,
+    /// The seed of its tables.
     pub seed: u64,
+    /// How its five axes are measured (X, Y, Z, then its two rotaries).
     pub axes: [AxisSpec; 5],
 }
 

@@ -35,9 +35,12 @@ impl TableColumn {
     }
 }
 
+/// A measured error table of one axis (a CSV file named by the machine file).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ErrorTable {
+    /// The CSV file.
     pub path: PathBuf,
+    /// The axis it measures.
     pub axis: Axis,
     /// mm (linear axes) or degrees (rotary), strictly increasing.
     pub positions: Vec<f64>,

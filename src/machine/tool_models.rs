@@ -9,6 +9,7 @@
 use super::ErrorModel;
 use crate::gcode::ToolInUse;
 
+/// The error model per tool length: the base model and a copy for each other length seen.
 #[derive(Debug)]
 pub struct ToolModels<'m> {
     base: &'m ErrorModel,
@@ -17,6 +18,7 @@ pub struct ToolModels<'m> {
 }
 
 impl<'m> ToolModels<'m> {
+    /// Only the base model (the machine file's `[tool]`); others are added by [`ToolModels::prepare`].
     pub fn new(base: &'m ErrorModel) -> Self {
         ToolModels {
             base,

@@ -51,10 +51,6 @@ impl BandBorder {
         BandBorder::zeros(self.n, self.main, self.w)
     }
 
-    pub fn size(&self) -> usize {
-        self.n
-    }
-
     /// `A[i][j]` (either order; zero outside the pattern).
     #[inline]
     pub fn get(&self, i: usize, j: usize) -> f64 {
@@ -92,6 +88,7 @@ impl BandBorder {
     }
 
     /// `self + s · other` (same shape).
+    #[cfg(test)]
     pub fn plus_scaled(&self, other: &BandBorder, s: f64) -> BandBorder {
         let mut out = self.clone();
         out.add_scaled(other, s);
@@ -99,6 +96,7 @@ impl BandBorder {
     }
 
     /// `self += s · other` (same shape).
+    #[cfg(test)]
     pub fn add_scaled(&mut self, other: &BandBorder, s: f64) {
         debug_assert!(self.n == other.n && self.main == other.main && self.w == other.w);
         for (a, b) in self.band.iter_mut().zip(&other.band) {
@@ -435,6 +433,7 @@ impl Ldl {
     }
 
     /// The elements of `A⁻¹` on `A`'s pattern.
+    #[cfg(test)]
     pub fn inverse_on_pattern(&self) -> BandBorder {
         let mut out = self.m.zeros_like();
         self.inverse_on_pattern_into(&mut out);

@@ -166,6 +166,7 @@ pub fn ders_basis_funs_into(
 
 /// One basis function `N_{i,p}(u)` by the plain Cox–de Boor recursion (eq. 2), with
 /// the right-end convention of [`find_span`]. Slow; the reference for tests.
+#[cfg(test)]
 pub fn basis_function(i: usize, p: usize, u: f64, knots: &[f64]) -> f64 {
     let last = knots.len() - 1;
     if p == 0 {

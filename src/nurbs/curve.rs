@@ -9,11 +9,16 @@ use serde::{Deserialize, Serialize};
 use super::basis::{MAX_DEGREE, basis_funs, ders_basis_funs, find_span};
 use super::knot_vector;
 
+/// A planar NURBS curve `u ↦ (x, y)`, `u` in the knot range (for SMEM curves x is the axis position, y the error value).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NurbsCurve {
+    /// Polynomial degree p (1..=`MAX_DEGREE`).
     pub degree: usize,
+    /// Clamped knot vector, non-decreasing, `points.len() + degree + 1` knots.
     pub knots: Vec<f64>,
+    /// Weight of each control point, finite and positive.
     pub weights: Vec<f64>,
+    /// Control points `[x, y]`.
     pub points: Vec<[f64; 2]>,
 }
 

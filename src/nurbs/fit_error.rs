@@ -2,37 +2,69 @@
 //! the knot search strategies (`exhaustive`, `genetic`, `optimise`), in its own
 //! file so that neither imports the other for it.
 
+/// Why fitting a curve to an error table failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FitError {
+    /// The positions and values have different lengths.
     #[error("{positions} positions but {values} values")]
-    LengthMismatch { positions: usize, values: usize },
+    LengthMismatch {
+        /// Number of positions.
+        positions: usize,
+        /// Number of values.
+        values: usize,
+    },
+    /// Fewer samples than a curve of this degree needs.
     #[error("{samples} samples cannot be fitted with degree {degree} (at least {need} needed)")]
     TooFewSamples {
+        /// Number of samples given.
         samples: usize,
+        /// Degree of the curve.
         degree: usize,
+        /// Least number of samples for that degree.
         need: usize,
     },
+    /// A position or value is NaN or infinite.
     #[error("sample {index}: {what} is not a finite number")]
-    NotFinite { index: usize, what: &'static str },
+    NotFinite {
+        /// Index of the sample (0-based).
+        index: usize,
+        /// Which number: "position" or "value".
+        what: &'static str,
+    },
+    /// Positions are not strictly increasing.
     #[error("sample {index}: position {position} does not increase")]
-    NotIncreasing { index: usize, position: f64 },
+    NotIncreasing {
+        /// Index of the sample (0-based).
+        index: usize,
+        /// Its position, not greater than the one before.
+        position: f64,
+    },
+    /// The fit options are invalid (the message says which).
     #[error("invalid fit options: {0}")]
     Options(String),
+    /// The exhaustive knot search would try more knot sets than its limit allows.
     #[error(
         "the exhaustive search over C({candidates}, {choose}) = {count} knot sets exceeds the limit {limit}"
     )]
     TooManyCombinations {
+        /// Number of candidate knot positions.
         candidates: usize,
+        /// Number of interior knots chosen from them.
         choose: usize,
+        /// Number of knot sets, C(candidates, choose).
         count: u64,
+        /// The limit on that number.
         limit: u64,
     },
+    /// No candidate knot vector gave a usable curve (spans without data, or a curve whose position x(u) folds back).
     #[error(
         "no feasible fit: every candidate knot vector left spans without data or made x(u) fold back"
     )]
     NoFeasibleFit,
+    /// The tolerance was not met within the search's work limit.
     #[error("{}", work_limit_message(*tolerance, *noise, *below_noise, *limit, *best))]
     WorkLimit {
+        /// The tolerance asked for, table units (µm or µrad).
         tolerance: f64,
         /// The table's noise, estimated from the data.
         noise: f64,

@@ -27,6 +27,7 @@ use super::knot_grid::{GridResult, random_indices};
 use super::knot_placement::grid_knots;
 use super::problem::FitProblem;
 
+/// Settings of the genetic knot search (population, crossover, mutation, generations).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaSettings {
     /// Population size N.
@@ -72,9 +73,7 @@ impl Default for GaSettings {
 #[derive(Clone, Debug)]
 pub struct WeightResult {
     pub weights: Vec<f64>,
-    pub emax: f64,
     pub evaluations: u64,
-    pub generations: usize,
 }
 
 /// Eq. 20 with the penalty of the module doc.
@@ -338,12 +337,10 @@ pub fn optimise_weights(
     while population.len() < settings.population.max(2) {
         population.push((0..count * bits).map(|_| rng.random::<bool>()).collect());
     }
-    let (best, emax, generations) = evolve(&mut rng, settings, population, &mut score, |_, _| {});
+    let (best, _, _) = evolve(&mut rng, settings, population, &mut score, |_, _| {});
     WeightResult {
         weights: decode_weights(&best, bits, range),
-        emax,
         evaluations,
-        generations,
     }
 }
 

@@ -6,7 +6,7 @@
 //! control points.
 
 /// A clamped knot vector on `[a, b]` from its interior knots (sorted, strictly
-/// inside `(a, b)`; not checked here, see [`is_valid_clamped`]).
+/// inside `(a, b)`; not checked here, see `is_valid_clamped`).
 pub fn clamped(p: usize, interior: &[f64], a: f64, b: f64) -> Vec<f64> {
     let mut knots = Vec::with_capacity(interior.len() + 2 * (p + 1));
     knots.extend(std::iter::repeat_n(a, p + 1));

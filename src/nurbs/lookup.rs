@@ -231,21 +231,6 @@ impl CurveLookup {
         horner(&sp.y, self.degree, s) / horner(&sp.w, self.degree, s)
     }
 
-    /// The point `(x(u), y(u))` at the curve parameter `u` (clamped to the domain).
-    pub fn point_at_parameter(&self, u: f64) -> [f64; 2] {
-        let i = self
-            .spans
-            .partition_point(|sp| sp.u0 + sp.h <= u)
-            .min(self.spans.len() - 1);
-        let sp = &self.spans[i];
-        let s = ((u - sp.u0) / sp.h).clamp(0.0, 1.0);
-        let w = horner(&sp.w, self.degree, s);
-        [
-            horner(&sp.x, self.degree, s) / w,
-            horner(&sp.y, self.degree, s) / w,
-        ]
-    }
-
     /// Span index and local parameter `s` solving `x = position` to round-off.
     #[inline]
     fn solve(&self, position: f64) -> (usize, f64) {

@@ -7,33 +7,41 @@
 //! (eq. 13–15), `knot_grid` (the candidate grid the searches share), `genetic`
 //! (§3.2), `exhaustive` (Table 4's combination search), `optimise` (method `best`), `problem` (the shared objective), `lookup` (the
 //! inversion `position → value`), `smem` (the adaptive loop, Fig. 8).
-pub mod banded;
-pub mod basis;
-pub mod curve;
-pub mod exhaustive;
-pub mod fit_error;
-pub mod genetic;
-pub mod knot_grid;
-pub mod knot_placement;
-pub mod knot_vector;
-pub mod least_squares;
-pub mod lookup;
-pub mod model_file;
-pub mod optimise;
-pub mod parameterization;
-pub mod plot;
-pub mod problem;
-pub mod smem;
-pub mod smoothing;
-pub mod surface;
+pub(crate) mod banded;
+pub(crate) mod basis;
+pub(crate) mod curve;
+pub(crate) mod exhaustive;
+pub(crate) mod fit_error;
+pub(crate) mod genetic;
+pub(crate) mod knot_grid;
+pub(crate) mod knot_placement;
+pub(crate) mod knot_vector;
+pub(crate) mod least_squares;
+pub(crate) mod lookup;
+pub(crate) mod model_file;
+pub(crate) mod optimise;
+pub(crate) mod parameterization;
+pub(crate) mod plot;
+pub(crate) mod problem;
+pub(crate) mod smem;
+pub(crate) mod smoothing;
+pub(crate) mod surface;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synthetic;
 
+pub use basis::{basis_funs, find_span};
 pub use curve::NurbsCurve;
 pub use genetic::GaSettings;
+pub use knot_grid::combinations;
+pub use knot_placement::uniform;
+pub use knot_vector::{clamped, greville};
+pub use least_squares::fit_control_points;
 pub use model_file::{ParameterFit, SmemModelFile, fnv1a64};
+pub use optimise::{best_knots, default_segments, minimax_knots};
 pub use parameterization::Parameterization;
+pub use problem::FitProblem;
 pub use smem::{
     FitError, FitOptions, FitStats, KnotMethod, ParameterKind, Selection, SmemCurve, SmemCurveData,
-    fit_parameter,
+    WORK_LIMIT, WORK_LIMIT_BELOW_NOISE, default_work_limit, fit_parameter,
 };
 pub use surface::{NurbsSurface, SurfaceError, SurfaceFitOptions, fit_surface};

@@ -8,8 +8,10 @@ use serde::{Deserialize, Serialize};
 use super::curve::NurbsCurve;
 use super::smem::{FitStats, SmemCurve};
 
+/// The `volcomp fit --report` file: every fitted error parameter of a machine.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SmemModelFile {
+    /// One entry per fitted parameter (table column).
     pub parameters: Vec<ParameterFit>,
     /// Parameters of the tables that were not measured (taken as zero).
     #[serde(default)]
@@ -27,15 +29,20 @@ pub struct ParameterFit {
     pub parameter: String,
     /// "um" or "urad" (the unit of `emax`, `erms`, `tolerance`).
     pub unit: String,
+    /// The fit statistics (Emax, Erms, method, control points, …), flattened into this object.
     #[serde(flatten)]
     pub stats: FitStats,
+    /// Degree of the curve.
     pub degree: usize,
+    /// Clamped knot vector of the curve.
     pub knots: Vec<f64>,
+    /// Weight of each control point.
     pub weights: Vec<f64>,
     /// Control points `(position, value)` in table units.
     pub points: Vec<[f64; 2]>,
     /// The table file and the FNV-1a 64 hash of its bytes (16 hex digits).
     pub table: String,
+    /// The FNV-1a 64 hash of the table file's bytes, 16 hex digits.
     pub table_hash: String,
     /// `(position, standard uncertainty)` of the curve at the table's positions
     /// (extension; absent in files written before it).
@@ -50,6 +57,7 @@ pub struct ParameterFit {
 }
 
 impl ParameterFit {
+    /// The entry for `curve`, fitted to column `parameter` of the table of axis `axis` (file `table`, whose bytes hash to `table_hash`).
     pub fn new(
         axis: char,
         parameter: &str,

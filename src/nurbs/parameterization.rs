@@ -15,17 +15,23 @@
 //! points are pairwise distinct.
 use serde::{Deserialize, Serialize};
 
+/// How the data points get their curve parameters `ū_k` (the paper's eq. 11–12).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Parameterization {
+    /// Equally spaced parameters (λ = 1, k = 0).
     Uniform,
+    /// Proportional to chord length (λ = 1, k = 1).
     ChordLength,
+    /// Proportional to the square root of chord length (λ = 1, k = 1/2); the default.
     #[default]
     Centripetal,
+    /// Centripetal with the angle correction of Fang, Wang & Hung (2013).
     CorrectedCentripetal,
 }
 
 impl Parameterization {
+    /// The name as the command line and files write it (`"chord-length"`, …).
     pub fn name(self) -> &'static str {
         match self {
             Parameterization::Uniform => "uniform",

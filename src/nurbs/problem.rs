@@ -28,14 +28,18 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// machine's error function does.
 pub const MIN_CONTROL_ADVANCE: f64 = 0.2;
 
+/// One table column prepared for fitting: the data, normalised to the unit square, and its parameters.
 #[derive(Clone, Debug)]
 pub struct FitProblem {
+    /// Degree of the curves to fit.
     pub degree: usize,
     /// Raw data, table units.
     pub positions: Vec<f64>,
+    /// Values at `positions`, table units (µm or µrad).
     pub values: Vec<f64>,
     /// Normalised points (row-major pairs) and their parameters.
     normalised: Vec<f64>,
+    /// Parameter `ū_k` of each data point (in [0, 1], from the normalised points).
     pub params: Vec<f64>,
     origin: [f64; 2],
     scale: [f64; 2],
@@ -153,7 +157,7 @@ impl FitProblem {
     }
 
     /// The same problem for a search over knots and weights: candidates whose
-    /// control polygon advances by less than [`MIN_CONTROL_ADVANCE`] of the uniform
+    /// control polygon advances by less than `MIN_CONTROL_ADVANCE` of the uniform
     /// spacing are infeasible. A search minimising Emax otherwise finds near-cusps
     /// that pass the data points and jump between them; a fixed knot placement
     /// cannot aim for them, so it only needs a polygon that advances at all.
@@ -162,6 +166,7 @@ impl FitProblem {
         self
     }
 
+    /// Number of data points.
     pub fn samples(&self) -> usize {
         self.positions.len()
     }

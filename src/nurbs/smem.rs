@@ -49,6 +49,7 @@ pub enum KnotMethod {
 }
 
 impl KnotMethod {
+    /// Every method, in the order of their names.
     pub const ALL: [KnotMethod; 6] = [
         KnotMethod::Ukm,
         KnotMethod::Epm,
@@ -58,6 +59,7 @@ impl KnotMethod {
         KnotMethod::Best,
     ];
 
+    /// The name as the command line and files write it (`"ukm"`, …).
     pub fn name(self) -> &'static str {
         match self {
             KnotMethod::Ukm => "ukm",
@@ -109,6 +111,7 @@ impl ParameterKind {
         }
     }
 
+    /// `"um"` for lengths, `"urad"` for angles (the table units).
     pub fn unit(self) -> &'static str {
         match self {
             ParameterKind::Length => "um",
@@ -123,7 +126,7 @@ impl ParameterKind {
 pub enum Selection {
     /// Noise-aware (the default): a penalised cubic B-spline whose control
     /// points and smoothness minimise generalised cross-validation
-    /// ([`super::smoothing`]); periodic over a full C turn.
+    /// (`nurbs::smoothing`); periodic over a full C turn.
     #[default]
     Cv,
     /// The paper's: the fewest control points whose largest error at the data
@@ -132,6 +135,7 @@ pub enum Selection {
 }
 
 impl Selection {
+    /// The name as the command line and files write it (`"cv"`, `"emax"`).
     pub fn name(self) -> &'static str {
         match self {
             Selection::Cv => "cv",
@@ -165,7 +169,9 @@ pub struct FitOptions {
     /// Largest allowed error at the data points (table units); `None` = the default
     /// of the parameter kind.
     pub tolerance: Option<f64>,
+    /// How knots are placed (Emax selection).
     pub method: KnotMethod,
+    /// How the data points get their curve parameters.
     pub parameterization: Parameterization,
     /// Fixed number of control points (no adaptive loop).
     pub control_points: Option<usize>,
@@ -182,6 +188,7 @@ pub struct FitOptions {
     pub exhaustive_limit: u64,
     /// Seed of every random choice (GA, local-search restarts): fits are reproducible.
     pub seed: u64,
+    /// Settings of the genetic search (`method = ga`).
     pub ga: GaSettings,
     /// How the complexity is chosen (cross-validation, or the paper's Emax).
     #[serde(default)]
@@ -202,8 +209,8 @@ pub struct FitOptions {
 }
 
 /// The work limit of an Emax search with this tolerance on a table with this
-/// noise (difference-based, [`smoothing::estimate_noise`]):
-/// [`WORK_LIMIT_BELOW_NOISE`] when the tolerance is below [`BELOW_NOISE`] of
+/// noise (difference-based, `smoothing::estimate_noise`):
+/// [`WORK_LIMIT_BELOW_NOISE`] when the tolerance is below `BELOW_NOISE` (0.5) of
 /// the noise, else [`WORK_LIMIT`].
 ///
 /// A tolerance below half the noise asks the curve to pass nearer every point
@@ -254,11 +261,17 @@ impl Default for FitOptions {
 /// Statistics of a fit (errors at the data points, table units).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitStats {
+    /// Number of data points fitted.
     pub samples: usize,
+    /// Number of control points of the curve.
     pub control_points: usize,
+    /// Knot method used.
     pub method: KnotMethod,
+    /// Largest absolute error at the data points, table units.
     pub emax: f64,
+    /// Root-mean-square error at the data points, table units.
     pub erms: f64,
+    /// The tolerance asked for (or the default of the parameter kind), table units.
     pub tolerance: f64,
     /// `emax <= tolerance`.
     pub met: bool,
@@ -266,6 +279,7 @@ pub struct FitStats {
     pub grid_segments: Option<usize>,
     /// Least-squares fits evaluated.
     pub evaluations: u64,
+    /// Wall-clock time of the fit, seconds.
     pub seconds: f64,
     /// How the complexity was chosen.
     #[serde(default = "emax_selection")]
@@ -307,10 +321,15 @@ pub struct SmemCurve {
 /// re-validated) when read back.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SmemCurveData {
+    /// Degree of the curve.
     pub degree: usize,
+    /// Clamped knot vector.
     pub knots: Vec<f64>,
+    /// Weight of each control point.
     pub weights: Vec<f64>,
+    /// Control points `(position, value)`, table units.
     pub control_points: Vec<[f64; 2]>,
+    /// The fit statistics.
     pub stats: FitStats,
     /// `(position, standard uncertainty)` of the curve at the fitted samples
     /// (empty in files written before uncertainties were reported).
@@ -409,26 +428,32 @@ impl SmemCurve {
         self.lookup.domain()
     }
 
+    /// The fit statistics.
     pub fn stats(&self) -> &FitStats {
         &self.stats
     }
 
+    /// The clamped knot vector.
     pub fn knots(&self) -> &[f64] {
         &self.curve.knots
     }
 
+    /// Weight of each control point.
     pub fn weights(&self) -> &[f64] {
         &self.curve.weights
     }
 
+    /// Control points `(position, value)`, table units.
     pub fn control_points(&self) -> &[[f64; 2]] {
         &self.curve.points
     }
 
+    /// Degree of the curve.
     pub fn degree(&self) -> usize {
         self.curve.degree
     }
 
+    /// The underlying NURBS curve.
     pub fn curve(&self) -> &NurbsCurve {
         &self.curve
     }

@@ -105,13 +105,8 @@ pub struct SmoothFit {
     pub curve: NurbsCurve,
     /// Noise of the table estimated from the data alone (difference-based).
     pub noise: f64,
-    /// The fit's residual level `√(RSS / (N − tr H))`.
-    pub residual_sigma: f64,
     /// Effective number of parameters `tr H`.
     pub dof: f64,
-    /// Smoothing weight (normalised positions in `[0, 1]`).
-    pub lambda: f64,
-    pub penalty_order: usize,
     /// `√GCV`: the estimated RMS error at a new measurement of the table.
     pub cv_error: f64,
     /// Fitted minus measured at each sample.
@@ -991,10 +986,7 @@ pub fn fit_smoothing(
     let fit = SmoothFit {
         curve,
         noise,
-        residual_sigma,
         dof,
-        lambda,
-        penalty_order: q,
         cv_error: score.sqrt(),
         residuals,
         uncertainty,

@@ -20,29 +20,41 @@ use super::knot_placement;
 use super::knot_vector;
 use super::least_squares::{LeastSquaresError, fit_control_points};
 
+/// A tensor-product NURBS height field: a scalar value over a rectangle of grid coordinates (e.g. an error map in µm over mm).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NurbsSurface {
+    /// Degree along `u`.
     pub degree_u: usize,
+    /// Degree along `v`.
     pub degree_v: usize,
+    /// Clamped knot vector along `u`.
     pub knots_u: Vec<f64>,
+    /// Clamped knot vector along `v`.
     pub knots_v: Vec<f64>,
+    /// Number of control values along `u`.
     pub count_u: usize,
+    /// Number of control values along `v`.
     pub count_v: usize,
+    /// Weight of each control value, `i * count_v + j`, positive.
     pub weights: Vec<f64>,
     /// Control values, `i * count_v + j`.
     pub values: Vec<f64>,
-    /// Grid coordinates mapped to `u ∈ [0, 1]` and `v ∈ [0, 1]`.
+    /// First and last grid coordinates along `u`, mapped to `u ∈ [0, 1]`.
     pub range_u: (f64, f64),
+    /// First and last grid coordinates along `v`, mapped to `v ∈ [0, 1]`.
     pub range_v: (f64, f64),
 }
 
 /// Settings of [`fit_surface`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SurfaceFitOptions {
+    /// Degree along `u` (3).
     pub degree_u: usize,
+    /// Degree along `v` (3).
     pub degree_v: usize,
     /// Control points along each direction; `None` = `min(grid points, 12)`.
     pub control_u: Option<usize>,
+    /// Control points along `v`; `None` = `min(grid points, 12)`.
     pub control_v: Option<usize>,
 }
 
@@ -57,33 +69,55 @@ impl Default for SurfaceFitOptions {
     }
 }
 
+/// Why a surface fit failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SurfaceError {
+    /// Fewer grid coordinates along a direction than degree + 1.
     #[error("the grid needs at least {need} coordinates along {direction} (degree + 1), got {got}")]
     TooFewGrid {
+        /// `'u'` or `'v'`.
         direction: char,
+        /// Number of coordinates given.
         got: usize,
+        /// Least number needed (degree + 1).
         need: usize,
     },
+    /// Grid coordinates along a direction are not finite or not strictly increasing.
     #[error(
         "grid coordinates along {direction} must be finite and strictly increasing (index {index})"
     )]
-    Grid { direction: char, index: usize },
+    Grid {
+        /// `'u'` or `'v'`.
+        direction: char,
+        /// Index of the first offending coordinate.
+        index: usize,
+    },
+    /// The values are not `rows` rows of `cols` finite numbers.
     #[error("values must be {rows} rows of {cols} finite numbers (row {row})")]
     Values {
+        /// Number of rows expected (grid coordinates along `u`).
         rows: usize,
+        /// Number of columns expected (grid coordinates along `v`).
         cols: usize,
+        /// The first row that is missing, of the wrong length or not finite.
         row: usize,
     },
+    /// The number of control points asked for along a direction is outside degree + 1 ..= grid points.
     #[error("{count} control points along {direction}: need between degree + 1 = {min} and {max}")]
     ControlCount {
+        /// `'u'` or `'v'`.
         direction: char,
+        /// Number asked for.
         count: usize,
+        /// Least allowed (degree + 1).
         min: usize,
+        /// Most allowed (grid coordinates along that direction).
         max: usize,
     },
+    /// A degree is outside 1..=`MAX_DEGREE`.
     #[error("degree {0} is outside 1..={MAX_DEGREE}")]
     Degree(usize),
+    /// A least-squares curve fit of one pass failed.
     #[error(transparent)]
     LeastSquares(#[from] LeastSquaresError),
 }

@@ -1,10 +1,10 @@
 //! Running a prediction: program + error model (+ plan) → [`PredictReport`].
 use super::{BlockError, PredictReport, PredictedPoint};
-use crate::compensate::stamp::Stamp;
 use crate::gcode::{Execution, GcodeError, Program};
 use crate::inspection::{Plan, profile, rms};
 use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError, ToolModels};
+use crate::stamp::Stamp;
 use crate::toolpath::cut::{CutError, CutOptions, match_errors, match_plan};
 use crate::toolpath::{effective_frame, joints_of};
 use crate::vec3::dot;
@@ -13,16 +13,23 @@ use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 use std::time::Instant;
 
+/// Why a prediction failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PredictError {
+    /// The program could not be read.
     #[error(transparent)]
     Gcode(#[from] GcodeError),
+    /// Cutting the plan failed (the program, or the model at a plan point's path point).
     #[error(transparent)]
     Cut(#[from] CutError),
+    /// The error model cannot be evaluated at a block's joints (e.g. outside a table).
     #[error("{path}:{line}: {source}")]
     Lookup {
+        /// The program.
         path: String,
+        /// 1-based line of the block.
         line: usize,
+        /// Why the lookup failed.
         source: LookupError,
     },
 }
@@ -168,6 +175,7 @@ pub struct PathErrors<'m> {
 /// What the rows handed out so far add up to.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathSummary {
+    /// Number of rows handed out.
     pub rows: usize,
     /// Largest `|e|`, µm (0 without rows).
     pub max_error_um: f64,
@@ -197,6 +205,7 @@ impl PathSummary {
 }
 
 impl<'m> PathErrors<'m> {
+    /// The errors along `program` run with `options`, looked up in `model` (a copy per tool length).
     pub fn new(program: Program, model: &'m ErrorModel, options: &CutOptions) -> PathErrors<'m> {
         PathErrors {
             path: program.path().display().to_string(),

@@ -1,2 +1,2 @@
 //! Reports: SVG charts and self-contained HTML pages (no I/O here).
-pub mod svg;
+pub(crate) mod svg;

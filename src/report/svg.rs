@@ -37,10 +37,6 @@ impl Svg {
         self.width
     }
 
-    pub fn height(&self) -> f64 {
-        self.height
-    }
-
     pub fn rect(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, stroke: Option<&str>) {
         if !ok(&[x, y, w, h]) {
             return;

@@ -79,6 +79,10 @@ pub struct FlankFiles {
 pub enum FlankError {
     #[error("the flank tool path needs an orientation the machine cannot reach: {0}")]
     Inverse(#[from] crate::kinematics::InverseError),
+    #[error(
+        "the flank tool path would flip the rotary axes by {jump_deg:.1}° at azimuth {azimuth_deg}° (kinematics.md: more than 90°)"
+    )]
+    Flip { azimuth_deg: f64, jump_deg: f64 },
 }
 
 impl FlankOptions {
@@ -188,9 +192,14 @@ pub fn generate(
     let mut last = Axes::default();
     for i in 0..=steps {
         let phi = i as f64 * options.step_degrees;
-        let joints = kin
-            .inverse_tool_axis(options.tip(phi), options.ruling(phi), &inverse)?
-            .joints;
+        let solution = kin.inverse_tool_axis(options.tip(phi), options.ruling(phi), &inverse)?;
+        if i > 0 && solution.is_flip() {
+            return Err(FlankError::Flip {
+                azimuth_deg: phi,
+                jump_deg: solution.jump_deg,
+            });
+        }
+        let joints = solution.joints;
         inverse.previous = joints;
         if i == 0 {
             let above = lifted(&joints, options.clearance);

@@ -1,6 +1,6 @@
 //! Bundled sample parts: deterministic generators of programs and inspection plans.
-pub mod flank;
-pub mod saddle;
+pub(crate) mod flank;
+pub(crate) mod saddle;
 
 /// A plan CSV (`id,x,y,z,i,j,k`, ids from 1, six decimals) of (point, normal) pairs.
 pub fn plan_csv(points: &[([f64; 3], [f64; 3])]) -> String {

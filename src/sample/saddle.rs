@@ -129,10 +129,6 @@ pub struct CutterLocation {
     pub axis: [f64; 3],
 }
 
-pub fn cutter_location(x: f64, y: f64, radius: f64) -> CutterLocation {
-    cutter_location_with_stock(x, y, radius, 0.0)
-}
-
 /// [`cutter_location`] on the surface offset by `stock` mm along its normal.
 pub fn cutter_location_with_stock(x: f64, y: f64, radius: f64, stock: f64) -> CutterLocation {
     let n = normal(x, y);
@@ -256,7 +252,7 @@ mod tests {
 
     #[test]
     fn contact_point_of_cutter_location_is_the_surface_point() {
-        let cl = cutter_location(12.0, -7.5, 3.0);
+        let cl = cutter_location_with_stock(12.0, -7.5, 3.0, 0.0);
         for i in 0..3 {
             let contact = cl.tip[i] + 3.0 * cl.axis[i] - 3.0 * cl.normal[i];
             assert!((contact - cl.surface[i]).abs() < 1e-12);
@@ -282,6 +278,15 @@ pub struct SaddleFiles {
 pub enum SampleError {
     #[error("the saddle tool path needs an orientation the machine cannot reach: {0}")]
     Inverse(#[from] crate::kinematics::InverseError),
+    #[error(
+        "the saddle tool path would flip the rotary axes by {jump_deg:.1}° within a cut (the {pass} pass, row {row}, point {point}; kinematics.md: more than 90°)"
+    )]
+    Flip {
+        pass: String,
+        row: usize,
+        point: usize,
+        jump_deg: f64,
+    },
 }
 
 /// The joints every pass starts its orientations from: the solution for the
@@ -478,9 +483,16 @@ impl Writer {
         let mut last = Axes::default();
         for (i, line) in pass.raster.iter().enumerate() {
             for (k, cl) in line.iter().enumerate() {
-                let joints = kinematics
-                    .inverse_tool_axis(cl.tip, cl.axis, &inverse)?
-                    .joints;
+                let solution = kinematics.inverse_tool_axis(cl.tip, cl.axis, &inverse)?;
+                if !first && solution.is_flip() {
+                    return Err(SampleError::Flip {
+                        pass: pass.label.clone(),
+                        row: i,
+                        point: k,
+                        jump_deg: solution.jump_deg,
+                    });
+                }
+                let joints = solution.joints;
                 inverse.previous = joints;
                 if first {
                     // Approach: rapid above the first point, then plunge.

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 /// `kinematics`, which computes them).
 pub use crate::kinematics::jacobian::{LOCATION_PARAMETERS, SQUARENESS_PARAMETERS};
 
+/// Everything about the tool-path point that cut one plan point (effects.md "Context of a plan point").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PointContext {
     /// Plan point id (as in the CSV).
@@ -44,7 +45,7 @@ pub struct PointContext {
     /// ∂(tool tip, part coordinates, µm)/∂(s_xy, s_xz, s_yz in µrad): one row per parameter.
     pub squareness_jacobian: [[f64; 3]; 3],
     /// ∂(tool tip, part coordinates, µm)/∂(location parameter, µm or µrad), rows in
-    /// the order of [`LOCATION_PARAMETERS`].
+    /// the order of `LOCATION_PARAMETERS`.
     pub location_jacobian: [[f64; 3]; 8],
     /// `n·e` of each joint slot's measured errors alone (X Y Z and the two
     /// rotary tables, first order), µm: what the model attributes to each table

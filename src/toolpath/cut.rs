@@ -14,7 +14,9 @@ use crate::vec3::dot;
 /// Settings of the cut analysis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CutOptions {
+    /// How the program is interpreted.
     pub interpret: InterpretOptions,
+    /// How the path is sampled.
     pub walk: WalkOptions,
     /// Ball-end radius of the default tool (tool 0: the machine file's
     /// `[tool]`), mm; other tools bring their own.
@@ -27,12 +29,20 @@ pub struct CutOptions {
     pub max_distance_mm: f64,
 }
 
+/// Why cutting a plan failed.
 #[derive(Debug, thiserror::Error)]
 pub enum CutError {
+    /// The program could not be read.
     #[error(transparent)]
     Gcode(#[from] GcodeError),
+    /// The error model cannot be evaluated at a plan point's path point.
     #[error("plan point {id}: {source}")]
-    Lookup { id: String, source: LookupError },
+    Lookup {
+        /// The plan point's id.
+        id: String,
+        /// Why the lookup failed.
+        source: LookupError,
+    },
 }
 
 impl CutOptions {
@@ -148,19 +158,6 @@ pub fn contexts(
             })
         })
         .collect()
-}
-
-/// Volumetric error (µm, part coordinates) at every matched point (`None`: not
-/// cut), as the predicted deviation takes it ([`MatchErrors::deviation`]).
-pub fn volumetric_errors(
-    model: &ErrorModel,
-    plan: &[PlanPoint],
-    matches: &[Option<PlanMatch>],
-) -> Result<Vec<Option<[f64; 3]>>, CutError> {
-    Ok(match_errors(model, plan, matches)?
-        .into_iter()
-        .map(|e| e.map(|e| e.deviation))
-        .collect())
 }
 
 /// The volumetric error (µm, part coordinates) of a matched plan point, taken

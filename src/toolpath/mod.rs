@@ -3,16 +3,16 @@
 //! context (time, direction, speed, curvature, …) that effects depend on.
 //!
 //! Invariant: this is where programs meet kinematics for reading; it writes nothing.
-pub mod contact;
-pub mod context;
-pub mod cut;
-pub mod plan_match;
-pub mod program;
-pub mod walk;
-pub mod work_origin;
+pub(crate) mod contact;
+pub(crate) mod context;
+pub(crate) mod cut;
+pub(crate) mod plan_match;
+pub(crate) mod program;
+pub(crate) mod walk;
+pub(crate) mod work_origin;
 
 pub use context::PointContext;
-pub use cut::{CutError, CutOptions};
+pub use cut::{CutError, CutOptions, ProbeTool, probe_context};
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use program::{WalkSummary, walk_program, walk_program_tracking};
 pub use walk::{PathPoint, PathWalker, WalkOptions, effective_frame, joints_of, target_of};

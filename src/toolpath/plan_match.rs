@@ -21,7 +21,9 @@ use std::collections::HashMap;
 /// The path point that cut a plan point, and how far its contact point is from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlanMatch {
+    /// The path point.
     pub point: PathPoint,
+    /// Distance of its contact point from the plan point, mm.
     pub distance_mm: f64,
     /// The tool that cut it, tool 0 resolved to the machine file's `[tool]`.
     pub tool: ToolInUse,
@@ -57,6 +59,7 @@ struct RadiusGrid {
     grid: HashMap<[i64; 3], Vec<u32>>,
 }
 
+/// Finds, for every plan point, the path point whose contact point is nearest it (within the match distance), fed path point by path point.
 #[derive(Debug)]
 pub struct PlanMatcher {
     /// Radius and shape of tool 0 (the default tool).

@@ -6,8 +6,11 @@ use crate::kinematics::Kinematics;
 /// What a walk saw.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WalkSummary {
+    /// Blocks read (skipped ones included).
     pub blocks: usize,
+    /// Blocks that moved the tool.
     pub motion_blocks: usize,
+    /// Path points visited.
     pub path_points: usize,
     /// Total machining time, minutes.
     pub time_min: f64,

@@ -128,6 +128,7 @@ pub struct PathWalker<'k> {
 const SAME_POINT_MM: f64 = 1e-9;
 
 impl<'k> PathWalker<'k> {
+    /// A walker at the start of a program, sampling as `options` says.
     pub fn new(kinematics: &'k Kinematics, options: WalkOptions) -> Self {
         PathWalker {
             kinematics,

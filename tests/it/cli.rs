@@ -3,7 +3,7 @@
 use crate::support::{assert_success, root, volcomp};
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use volcomp::compensate::stamp::{PREFIX, Stamp};
+use volcomp::stamp::{PREFIX, Stamp};
 
 #[test]
 fn help_lists_commands_and_examples() {

@@ -6,8 +6,8 @@ use crate::support::root;
 use std::collections::HashMap;
 use std::sync::OnceLock;
 use volcomp::compensate::{CompensateOptions, CompensateReport, compensate};
-use volcomp::diff::align::{Aligned, BlockSummary};
 use volcomp::diff::{AlignOptions, Aligner, BlockSummaries};
+use volcomp::diff::{Aligned, BlockSummary};
 use volcomp::gcode::{
     BlockReader, Feed, Frame, InterpretOptions, Interpreter, ReadOptions, parse_block,
 };
@@ -255,7 +255,7 @@ pub fn actual_path_error_on(
             }
             let errors = model.errors_at(&p.joints).expect("inside the tables");
             // The tool that cuts: its length is the lever of the angular errors.
-            let kin = volcomp::machine::tool_models::kinematics_with(model, &p.tool);
+            let kin = volcomp::machine::kinematics_with(model, &p.tool);
             let actual = kin.actual_tip_and_axis(&p.joints, &errors).tip;
             let d = nominal.distance(actual) * 1e3;
             if d > max {
@@ -586,11 +586,11 @@ fn cli_writes_the_program_to_stdout_and_the_summary_to_stderr() {
         stdout.starts_with("(volcomp-stamp compensated-by: volcomp "),
         "{stdout}"
     );
-    let stamp = volcomp::compensate::stamp::Stamp::find(&stdout).expect("stamped");
+    let stamp = volcomp::stamp::Stamp::find(&stdout).expect("stamped");
     assert_eq!(stamp.machine, "ref-trt");
     let stdout: String = stdout
         .split_inclusive('\n')
-        .skip_while(|l| l.starts_with(volcomp::compensate::stamp::PREFIX))
+        .skip_while(|l| l.starts_with(volcomp::stamp::PREFIX))
         .collect();
     assert!(stdout.starts_with("( xyzac-trt demo"), "{stdout}");
     assert!(stdout.contains("\nM429\n"));
@@ -719,7 +719,7 @@ pub fn replayed_axis_error_on(
         let Some((q, tool)) = actual.get(line) else {
             continue;
         };
-        let kin = volcomp::machine::tool_models::kinematics_with(model, tool);
+        let kin = volcomp::machine::kinematics_with(model, tool);
         let errors = model.errors_at(q).expect("inside the tables");
         let a = kin.actual_tip_and_axis(q, &errors).axis;
         let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
@@ -798,7 +798,7 @@ fn orientation_falls_back_to_position_only_at_the_pole() {
 #[test]
 fn a_kept_jacobian_solves_as_a_fresh_one() {
     use volcomp::axes::Axes;
-    use volcomp::compensate::solve::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_pose_from};
+    use volcomp::compensate::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_pose_from};
     let (_, model) = ref_trt();
     let mut warm = WarmStart::default();
     let (mut kept_fallbacks, mut poses) = (0, 0);
@@ -893,7 +893,7 @@ fn flank_milling_needs_the_tool_axis_corrected() {
 /// The program without volcomp's stamp lines.
 fn unstamped(text: &str) -> String {
     text.split_inclusive('\n')
-        .filter(|l| !l.starts_with(volcomp::compensate::stamp::PREFIX))
+        .filter(|l| !l.starts_with(volcomp::stamp::PREFIX))
         .collect()
 }
 

@@ -420,7 +420,7 @@ fn report_has_the_contract_fields() {
     };
     let (got, want) = (dir("+") - dir("-"), expect(1.0) - expect(-1.0));
     assert!((got - want).abs() < 0.3, "{got} vs {want}");
-    let html = volcomp::diagnose::html::render(&r);
+    let html = volcomp::diagnose::render_html(&r);
     assert!(
         html.starts_with("<!DOCTYPE html>") && html.contains("<svg") && html.contains("backlash")
     );
@@ -1156,7 +1156,7 @@ fn a_followup_tells_rotary_location_from_setup_error() {
     use volcomp::diagnose::followup::{self, FollowupOptions, ProbeReading};
     use volcomp::diagnose::{diagnose_with_followup, simulate_followup};
     use volcomp::machine::{ErrorModel, Machine, ModelOptions};
-    use volcomp::toolpath::cut::{ProbeTool, probe_context};
+    use volcomp::toolpath::{ProbeTool, probe_context};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let machine = Machine::load(&root.join("machines/ref-trt.toml")).unwrap();
     let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).unwrap();

@@ -170,8 +170,19 @@ fn a_split_arc_pairs_with_its_last_piece() {
     );
     let split = r.largest.iter().find(|c| c.line_a == 4).expect("listed");
     assert_eq!(split.pieces, r.splits[0].pieces);
-    // The summary says it too.
-    let text = volcomp::cli::diff::summary_text(&r);
+    // The command's summary says it too.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (a, b) = (dir.path().join("a.nc"), dir.path().join("b.nc"));
+    std::fs::write(&a, original).expect("written");
+    std::fs::write(&b, &compensated).expect("written");
+    let out = volcomp()
+        .arg("diff")
+        .arg(&a)
+        .arg(&b)
+        .output()
+        .expect("runs");
+    assert_success(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains(&format!(
             "2 blocks of A became {} blocks of B",

@@ -6,7 +6,7 @@ use crate::support::{assert_success, root, volcomp};
 use std::path::{Path, PathBuf};
 use volcomp::axes::Axis;
 use volcomp::export::Positioning;
-use volcomp::machine::table::ErrorTable;
+use volcomp::machine::ErrorTable;
 use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 
 /// ref-trt with its X table replaced by the import of tests/data/laser/x-long.csv

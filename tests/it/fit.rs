@@ -3,7 +3,7 @@ use crate::support::root;
 use std::path::Path;
 
 use volcomp::axes::Axis;
-use volcomp::machine::table::ErrorTable;
+use volcomp::machine::ErrorTable;
 
 use crate::support::volcomp;
 

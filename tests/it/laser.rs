@@ -4,8 +4,8 @@
 //! reversal; the ISO 230-2 figures against a hand-computed example; an imported
 //! table is fitted and compensated with.
 use crate::support::{assert_success, root, volcomp};
-use volcomp::laser::iso230::{axis_figures, target_stats};
-use volcomp::machine::table::ErrorTable;
+use volcomp::laser::{axis_figures, target_stats};
+use volcomp::machine::ErrorTable;
 
 /// Import `files` for `axis` into a table in `dir`; the table read back.
 fn import(dir: &std::path::Path, files: &[&str], axis: &str) -> ErrorTable {

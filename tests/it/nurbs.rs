@@ -1,14 +1,14 @@
 //! The SMEM's NURBS layer: basis identities, exact reproduction, knot methods,
 //! GA reproducibility and quality, optimiser vs exhaustive search, lookup.
 use proptest::prelude::*;
-use volcomp::nurbs::basis::{basis_funs, find_span};
-use volcomp::nurbs::knot_vector::{clamped, greville};
-use volcomp::nurbs::least_squares::fit_control_points;
+use volcomp::nurbs::fit_control_points;
 use volcomp::nurbs::synthetic::{paper_like_curve, paper_like_truth};
 use volcomp::nurbs::{
     FitError, FitOptions, KnotMethod, NurbsCurve, ParameterKind, Selection, SmemCurve,
     SurfaceFitOptions, fit_parameter, fit_surface,
 };
+use volcomp::nurbs::{basis_funs, find_span};
+use volcomp::nurbs::{clamped, greville};
 
 fn sorted_interior(raw: Vec<f64>) -> Vec<f64> {
     let mut v: Vec<f64> = raw.into_iter().map(|x| 0.02 + 0.96 * x).collect();
@@ -168,9 +168,9 @@ fn ga_beats_the_classic_knot_methods() {
 #[test]
 fn best_does_not_depend_on_its_grid() {
     use rand::{Rng, SeedableRng};
-    use volcomp::nurbs::optimise::{best_knots, default_segments, minimax_knots};
-    use volcomp::nurbs::parameterization::Parameterization;
-    use volcomp::nurbs::problem::FitProblem;
+    use volcomp::nurbs::FitProblem;
+    use volcomp::nurbs::Parameterization;
+    use volcomp::nurbs::{best_knots, default_segments, minimax_knots};
     let (n, p) = (9, 3);
     let (mut default_sum, mut reference_sum) = (0.0, 0.0);
     for seed in 3..9u64 {
@@ -379,7 +379,7 @@ fn an_unreachable_emax_tolerance_stops_at_the_work_limit() {
     // Without the limit this search runs for minutes; with it, well under.
     assert!(seconds < 20.0, "took {seconds} s");
     // The default: short below half the noise, long (but bounded) above it.
-    use volcomp::nurbs::smem::{WORK_LIMIT, WORK_LIMIT_BELOW_NOISE, default_work_limit};
+    use volcomp::nurbs::{WORK_LIMIT, WORK_LIMIT_BELOW_NOISE, default_work_limit};
     assert_eq!(default_work_limit(1e-6, 0.5), WORK_LIMIT_BELOW_NOISE);
     assert_eq!(default_work_limit(0.3, 0.5), WORK_LIMIT);
     assert!(WORK_LIMIT_BELOW_NOISE < WORK_LIMIT);

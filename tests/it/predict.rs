@@ -5,7 +5,7 @@ use crate::support::root;
 use volcomp::gcode::Frame;
 use volcomp::inspection::Plan;
 use volcomp::predict::{PredictReport, predict_path, predict_plan};
-use volcomp::toolpath::cut::CutOptions;
+use volcomp::toolpath::CutOptions;
 
 /// Round every float of a JSON value to 3 decimals and drop the timing, so the
 /// snapshot is deterministic.
@@ -166,7 +166,7 @@ fn the_streamed_path_report_is_the_collected_one() {
     let demo = read("tests/data/compensate/linuxcnc-demo.ngc");
     let (compensated, _) = compensate_text(&demo, Frame::Joint);
     // What `volcomp compensate` would have stamped it with.
-    let stamp = Some(volcomp::compensate::stamp::Stamp {
+    let stamp = Some(volcomp::stamp::Stamp {
         compensated_by: "volcomp 0.1.0".into(),
         machine: "ref-trt".into(),
         model_fnv1a64: "0123456789abcdef".into(),

@@ -75,7 +75,7 @@ fn replay(rig: &Rig, text: &str) -> Vec<(PathPoint, [f64; 3])> {
             let errors = model
                 .errors_toward(&p.joints, &p.approach)
                 .expect("inside the tables");
-            let kin = volcomp::machine::tool_models::kinematics_with(model, &p.tool);
+            let kin = volcomp::machine::kinematics_with(model, &p.tool);
             out.push((*p, kin.actual_tip_and_axis(&p.joints, &errors).tip));
         },
     )
@@ -138,7 +138,7 @@ fn both_approaches_land_on_the_programmed_point() {
     assert_eq!(visits[0].0, Direction::Positive);
     assert_eq!(visits[1].0, Direction::Negative);
     for (direction, tip) in &visits {
-        let miss = volcomp::vec3::dist(*tip, nominal_tip) * 1e3;
+        let miss = dist(*tip, nominal_tip) * 1e3;
         eprintln!("with the reversal model: X50 approached {direction:?}: {miss:.4} µm off");
         assert!(miss < 0.15, "{direction:?}: {miss} µm\n{with}");
     }
@@ -154,7 +154,7 @@ fn both_approaches_land_on_the_programmed_point() {
     );
     let visits = visits_of_x50(rig(), &without);
     assert_eq!(visits.len(), 2);
-    let apart = volcomp::vec3::dist(visits[0].1, visits[1].1) * 1e3;
+    let apart = dist(visits[0].1, visits[1].1) * 1e3;
     eprintln!("without the reversal model: the two X50 visits {apart:.4} µm apart");
     assert!((apart - REVERSAL_UM).abs() < 0.2, "{apart}");
     for (_, tip) in &visits {
@@ -326,4 +326,9 @@ fn the_model_adds_half_the_reversal_by_direction() {
         Some(REVERSAL_UM)
     );
     assert_eq!(model.reversal_at(volcomp::axes::Axis::Z, 12.0), None);
+}
+
+/// Distance between two points, mm.
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

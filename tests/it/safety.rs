@@ -5,7 +5,7 @@ use crate::support::{assert_success, root, volcomp};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use volcomp::compensate::stamp::{PREFIX, Stamp};
+use volcomp::stamp::{PREFIX, Stamp};
 
 const MACHINE: &str = "machines/ref-trt.toml";
 

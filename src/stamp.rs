@@ -41,6 +41,7 @@ pub const LISTED_TOOLS: usize = 16;
 pub struct Stamp {
     /// `volcomp X.Y.Z`.
     pub compensated_by: String,
+    /// The machine file's `name`.
     pub machine: String,
     /// FNV-1a 64 of the error-table files' bytes, in axis order (16 hex digits).
     pub model_fnv1a64: String,
@@ -52,6 +53,7 @@ pub struct Stamp {
     /// The tool table the program was compensated with, as written
     /// (`T1=100 T2=60`; empty: none, every block used the default tool).
     pub tools_mm: String,
+    /// The split tolerance of the compensation (`--tol`), µm: largest departure of a move from the compensated path.
     pub tolerance_um: Option<f64>,
     /// The input program's name (`<stdin>` for standard input).
     pub input: String,
@@ -132,7 +134,7 @@ pub fn is_stamp_line(line: &[u8]) -> bool {
 }
 
 /// Looks for stamp lines in a program fed in pieces (`compensate` feeds it
-/// every byte it hashes): [`StampScan::found`] is the first line that holds one.
+/// every byte it hashes): [`StampScan::finish`] returns the first line that holds one.
 #[derive(Debug, Default)]
 pub struct StampScan {
     partial: Vec<u8>,
@@ -141,6 +143,7 @@ pub struct StampScan {
 }
 
 impl StampScan {
+    /// Feeds the next bytes of the program.
     pub fn update(&mut self, mut bytes: &[u8]) {
         while let Some(end) = bytes.iter().position(|&b| b == b'\n') {
             self.line += 1;
@@ -339,6 +342,7 @@ impl Default for Fnv1a64 {
 }
 
 impl Fnv1a64 {
+    /// Feeds the next bytes.
     pub fn update(&mut self, bytes: &[u8]) {
         let mut h = self.0;
         for &b in bytes {
@@ -347,6 +351,7 @@ impl Fnv1a64 {
         }
         self.0 = h;
     }
+    /// The hash of the bytes fed so far.
     pub fn finish(&self) -> u64 {
         self.0
     }
@@ -396,6 +401,7 @@ pub struct StampWriter<'a> {
 }
 
 impl<'a> StampWriter<'a> {
+    /// A writer passing everything to `inner`, with `stamp` inserted after the program's header lines.
     pub fn new(inner: &'a mut dyn Write, stamp: Stamp) -> Self {
         StampWriter {
             inner,
