@@ -960,7 +960,7 @@ fn expand_inner(
             bottom: cc,
             middle,
         };
-        cycle_function(&mut emit, block, aa, bb, levels, p, q, &peck, offset)?;
+        cycle_function(&mut emit, block, [aa, bb], levels, (p, q), &peck, offset)?;
     }
 
     let end = plane_point(plane, aa, bb, clear);
@@ -977,16 +977,14 @@ fn expand_inner(
 }
 
 /// One repeat of the cycle proper, from the hole at R (`convert_cycle_g73` …
-/// `convert_cycle_g89`).
-#[allow(clippy::too_many_arguments)]
+/// `convert_cycle_g89`), at the hole `[aa, bb]` (plane coordinates), with
+/// the block's dwell `p` and peck `q`.
 fn cycle_function(
     emit: &mut Emitter<'_>,
     block: &CycleBlock,
-    aa: f64,
-    bb: f64,
+    [aa, bb]: [f64; 2],
     levels: Levels,
-    p: f64,
-    q: f64,
+    (p, q): (f64, f64),
     peck: &Peck,
     offset: [f64; 2],
 ) -> Result<(), CycleError> {

@@ -457,8 +457,6 @@ pub struct Interpreter {
     no_table_warned: bool,
     /// What LinuxCNC remembers between canned-cycle blocks.
     cycle_memory: CycleMemory,
-    /// Dwell time of the block being interpreted (G4, cycles), min.
-    pending_dwell_min: f64,
     /// LinuxCNC's one list of spline control points (program coordinates,
     /// mm): filled by G5.2 blocks until G5.3 runs them, and by G5/G5.1 for
     /// their own curve (LinuxCNC shares it: points a G5.2 block left pending
@@ -523,6 +521,153 @@ impl Words {
     }
 }
 
+/// A byte range of the block's text (a word's, for error carets).
+type Span = (usize, usize);
+
+/// A block read into LinuxCNC's block structure ([`Interpreter::read`]): its
+/// words' values and the codes it holds, each with its word's span. Nothing
+/// is converted yet.
+#[derive(Default)]
+struct Decoded {
+    words: Words,
+    units: Option<Units>,
+    /// The motion code (G80 too, unless the block holds another).
+    motion: Option<MotionMode>,
+    motion_word: Option<Span>,
+    cancel_motion: bool,
+    plane: Option<Plane>,
+    distance: Option<Distance>,
+    arc_distance: Option<Distance>,
+    inverse_time: Option<bool>,
+    /// G94/G95: the feed rate is set to 0.
+    feed_reset: bool,
+    cutter_comp: Option<CutterComp>,
+    tool_length: Option<bool>,
+    /// TRAORI/TRAFOOF, M428/M429, G43.4/G234/G49: the last one's frame.
+    frame: Option<Frame>,
+    retract_r_plane: Option<bool>,
+    /// G43/G43.1/G43.2/G49 (code × 10) and its span.
+    offset_code: Option<(i32, usize, usize)>,
+    /// G53's span.
+    g53: Option<Span>,
+    coord_select: Option<u8>,
+    /// The group-0 code that takes the axis words: (code, start, end).
+    axis_user: Option<(GCode, usize, usize)>,
+    store_home: Option<u8>,
+    axis_offset: Option<u16>,
+    dwell: bool,
+    /// G5.3's span.
+    nurbs_end: Option<Span>,
+    /// A G code volcomp does not know (under `lenient`).
+    unsupported: bool,
+    /// M2/M30.
+    end: bool,
+    spindle: Option<SpindleDirection>,
+    /// M6.
+    tool_change: bool,
+    /// M61's span.
+    m61: Option<Span>,
+    mist: Option<bool>,
+    flood: Option<bool>,
+    /// Unknown letters first seen in this block (a warning each).
+    unknown_letters: u32,
+}
+
+impl Decoded {
+    /// The modal state the block's codes set, from `before`; the feed rate
+    /// too (a change of feed mode forgets the old F).
+    fn modes(&self, before: &ModalState) -> ModalState {
+        let mut m = *before;
+        if let Some(u) = self.units {
+            m.units = u;
+        }
+        if let Some(x) = self.motion {
+            m.motion = x;
+        }
+        if let Some(p) = self.plane {
+            m.plane = p;
+        }
+        if let Some(x) = self.distance {
+            m.distance = x;
+        }
+        if let Some(x) = self.arc_distance {
+            m.arc_distance = x;
+        }
+        if let Some(x) = self.inverse_time {
+            m.inverse_time = x;
+        }
+        if let Some(x) = self.cutter_comp {
+            m.cutter_comp = x;
+        }
+        if let Some(x) = self.tool_length {
+            m.tool_length = x;
+        }
+        if let Some(x) = self.frame {
+            m.frame = x;
+        }
+        if let Some(x) = self.retract_r_plane {
+            m.retract_r_plane = x;
+        }
+        if m.inverse_time != before.inverse_time || self.feed_reset {
+            m.feed = 0.0;
+        }
+        if let Some(f) = self.words.f {
+            m.feed = if m.inverse_time {
+                f
+            } else {
+                f * m.units.scale()
+            };
+        }
+        m
+    }
+}
+
+/// What a block changes: a copy of the interpreter's state that the
+/// conversions work on, committed ([`Interpreter::commit`]) only when the
+/// block succeeds. A failing block drops it: the one way a block is rolled
+/// back.
+struct BlockState {
+    modal: ModalState,
+    origin: Origin,
+    /// The position after the block (machine coordinates).
+    position: Axes,
+    spindle: SpindleDirection,
+    cycle_memory: CycleMemory,
+    mist: bool,
+    flood: bool,
+    /// Dwell time of the block (G4, cycles), min.
+    dwell_min: f64,
+    tool: ToolStep,
+    /// Parameters the block sets, in order.
+    store: Vec<(usize, f64)>,
+    nurbs: Vec<super::spline::ControlPoint>,
+    nurbs_order: usize,
+    /// The block's one ordinary move.
+    motion: Option<Motion>,
+    /// M2/M30.
+    ended: bool,
+}
+
+impl BlockState {
+    /// G92/G52 applied: #5210 and the offsets #5211….
+    fn store_g92(&mut self) {
+        self.store.push((numbers::G92_ENABLED, 1.0));
+        for (k, axis) in Axis::ALL.into_iter().enumerate() {
+            self.store
+                .push((numbers::G92_OFFSET + k, self.origin.g92.get(axis)));
+        }
+    }
+}
+
+/// A block being converted: its text and words, its event (warnings and
+/// moves go there) and the state it builds.
+struct Convert<'a> {
+    block: &'a Block,
+    words: &'a Words,
+    event: &'a mut BlockEvent,
+    next: &'a mut BlockState,
+}
+
 impl Interpreter {
     pub fn new(options: InterpretOptions) -> Self {
         Interpreter::with_parameters(options, Parameters::new())
@@ -553,7 +698,6 @@ impl Interpreter {
             offset_warned: false,
             no_table_warned: false,
             cycle_memory: CycleMemory::default(),
-            pending_dwell_min: 0.0,
             nurbs: Vec::new(),
             nurbs_order: 3,
         };
@@ -651,13 +795,7 @@ impl Interpreter {
         event.skipped = false;
         event.spline = None;
         event.warnings.clear();
-        self.pending_dwell_min = 0.0;
-        let (spindle, cycle_memory) = (self.spindle, self.cycle_memory);
         let result = self.apply(block, event);
-        if result.is_err() {
-            self.spindle = spindle;
-            self.cycle_memory = cycle_memory;
-        }
         event.modal = self.modal;
         event.tool = self.tool_in_use();
         event.position = self.position;
@@ -773,6 +911,9 @@ impl Interpreter {
         self.params.set(numbers::TOOL, self.current_tool);
     }
 
+    /// One block: LinuxCNC's `read_items` (+ `enhance_block`), `check_items`,
+    /// then `execute_block`'s conversions in its order. The conversions work
+    /// on a [`BlockState`]; it is committed only when the block succeeds.
     fn apply(&mut self, block: &Block, event: &mut BlockEvent) -> Result<(), GcodeError> {
         if let Some(err) = &block.unparsed {
             event.skipped = true;
@@ -809,41 +950,61 @@ impl Interpreter {
             return self.fail(block, event, ErrorKind::NeedsLanguage, at.0, at.1);
         }
         self.params.system.line = block.line as f64;
-        // Work on copies: nothing changes when the block fails.
-        let mut modal = self.modal;
-        let mut origin = self.origin;
-        let old_frame = modal.frame;
-        let old_inverse = modal.inverse_time;
-        let mut feed_reset = false;
-        let mut dwell = false;
-        let mut cancel_motion = false;
-        let mut spindle = self.spindle;
-        let (mut mist, mut flood, mut tool_change) = (self.mist, self.flood, false);
-        let mut words = Words::default();
-        let mut machine_coordinates = false;
-        let mut g53_span = (0, 0);
-        let mut motion_word: Option<(usize, usize)> = None;
-        let mut end = false;
-        let mut unsupported = false;
-        // Group-0 codes that take the axis words: (code, start, end).
-        let mut axis_user: Option<(GCode, usize, usize)> = None;
-        let mut store_home: Option<u8> = None;
-        let mut axis_offset: Option<u16> = None;
-        let mut coord_select: Option<u8> = None;
-        // G43/G43.1/G43.2/G49 (code × 10, span) and M61's span.
-        let mut offset_code: Option<(i32, usize, usize)> = None;
-        let mut m61: Option<(usize, usize)> = None;
-        let mut nurbs_end: Option<(usize, usize)> = None;
+        let mut decoded = self.read(block, event)?;
+        let mut next = BlockState {
+            modal: decoded.modes(&self.modal),
+            origin: self.origin,
+            position: self.position,
+            spindle: self.spindle,
+            cycle_memory: self.cycle_memory,
+            mist: self.mist,
+            flood: self.flood,
+            dwell_min: 0.0,
+            tool: ToolStep {
+                selected: self.selected_tool,
+                current: self.current_tool,
+                offset: self.tool_length_offset,
+                update: None,
+            },
+            store: Vec::new(),
+            nurbs: self.nurbs.clone(),
+            nurbs_order: self.nurbs_order,
+            motion: None,
+            ended: false,
+        };
+        self.check(block, event, &mut decoded, &next.modal)?;
+        let mut c = Convert {
+            block,
+            words: &decoded.words,
+            event,
+            next: &mut next,
+        };
+        self.convert_tools(&mut c, &decoded)?;
+        self.convert_spindle_and_coolant(&mut c, &decoded);
+        self.convert_dwell(&mut c, &decoded);
+        self.convert_coord_system(&mut c, &decoded);
+        self.convert_modal_0(&mut c, &decoded)?;
+        let nurbs_ran = self.convert_nurbs_end(&mut c, &decoded)?;
+        self.convert_motion(&mut c, &decoded, nurbs_ran)?;
+        self.convert_stop(&mut c, &decoded);
+        self.commit(block, event, &decoded, next);
+        Ok(())
+    }
+
+    /// LinuxCNC's `read_items` and `enhance_block`: the block's words into a
+    /// [`Decoded`] block. Refuses repeated words, two codes of one modal
+    /// group, unknown G codes, M98/M99 and axes the machine lacks.
+    fn read(&self, block: &Block, event: &mut BlockEvent) -> Result<Decoded, GcodeError> {
+        let mut d = Decoded::default();
+        for kw in &block.keywords {
+            d.frame = Some(match kw.keyword {
+                crate::gcode::syntax::block::Keyword::TraOri => Frame::Part,
+                crate::gcode::syntax::block::Keyword::TraFoof => Frame::Joint,
+            });
+        }
         let mut g_groups = [false; 16];
         let mut m_groups = [false; 11];
         let mut seen_letters = 0u32;
-
-        for kw in &block.keywords {
-            modal.frame = match kw.keyword {
-                crate::gcode::syntax::block::Keyword::TraOri => Frame::Part,
-                crate::gcode::syntax::block::Keyword::TraFoof => Frame::Joint,
-            };
-        }
         // Repeated words and modal-group conflicts (LinuxCNC refuses both).
         for w in &block.words {
             match w.letter {
@@ -904,15 +1065,16 @@ impl Interpreter {
         // Units first: every number of the block is in the block's units.
         for w in block.words.iter().filter(|w| w.letter == b'G') {
             if let Some(GCode::Units(u)) = w.code10().map(classify_g) {
-                modal.units = u;
+                d.units = Some(u);
             }
         }
-        let scale = modal.units.scale();
+        let scale = d.units.unwrap_or(self.modal.units).scale();
+        let words = &mut d.words;
         for w in &block.words {
             match w.letter {
                 b'G' => {
                     let Some(code) = w.code10() else {
-                        unsupported = true;
+                        d.unsupported = true;
                         self.fail(
                             block,
                             event,
@@ -925,64 +1087,61 @@ impl Interpreter {
                     let g = classify_g(code);
                     match g {
                         GCode::Motion(m) => {
-                            modal.motion = m;
-                            motion_word = Some((w.start, w.end));
+                            d.motion = Some(m);
+                            d.motion_word = Some((w.start, w.end));
                         }
-                        GCode::Plane(p) => modal.plane = p,
+                        GCode::Plane(p) => d.plane = Some(p),
                         GCode::Units(_) => {}
-                        GCode::Distance(d) => modal.distance = d,
-                        GCode::ArcDistance(d) => modal.arc_distance = d,
+                        GCode::Distance(x) => d.distance = Some(x),
+                        GCode::ArcDistance(x) => d.arc_distance = Some(x),
                         GCode::FeedMode(inv) => {
-                            modal.inverse_time = inv;
+                            d.inverse_time = Some(inv);
                             // LinuxCNC: G94 and G95 set the feed rate to 0.
                             if !inv {
-                                feed_reset = true;
+                                d.feed_reset = true;
                             }
                         }
-                        GCode::CutterComp(c) => modal.cutter_comp = c,
+                        GCode::CutterComp(x) => d.cutter_comp = Some(x),
                         GCode::ToolLength | GCode::ToolLengthDynamic | GCode::ToolLengthAdd => {
-                            modal.tool_length = true;
-                            offset_code = Some((code, w.start, w.end));
+                            d.tool_length = Some(true);
+                            d.offset_code = Some((code, w.start, w.end));
                         }
                         GCode::ToolTip => {
-                            modal.tool_length = true;
-                            modal.frame = Frame::Part;
-                            offset_code = Some((430, w.start, w.end));
+                            d.tool_length = Some(true);
+                            d.frame = Some(Frame::Part);
+                            d.offset_code = Some((430, w.start, w.end));
                         }
                         GCode::ToolLengthOff => {
-                            modal.tool_length = false;
-                            modal.frame = Frame::Joint;
-                            offset_code = Some((490, w.start, w.end));
+                            d.tool_length = Some(false);
+                            d.frame = Some(Frame::Joint);
+                            d.offset_code = Some((490, w.start, w.end));
                         }
-                        GCode::MachineCoordinates => {
-                            machine_coordinates = true;
-                            g53_span = (w.start, w.end);
-                        }
-                        GCode::CoordSystem(n) => coord_select = Some(n),
-                        GCode::RetractMode(r) => modal.retract_r_plane = r,
-                        GCode::Home(_) => axis_user = Some((g, w.start, w.end)),
-                        GCode::StoreHome(n) => store_home = Some(n),
+                        GCode::MachineCoordinates => d.g53 = Some((w.start, w.end)),
+                        GCode::CoordSystem(n) => d.coord_select = Some(n),
+                        GCode::RetractMode(r) => d.retract_r_plane = Some(r),
+                        GCode::Home(_) => d.axis_user = Some((g, w.start, w.end)),
+                        GCode::StoreHome(n) => d.store_home = Some(n),
                         GCode::SetData => {
-                            axis_user = Some((g, w.start, w.end));
+                            d.axis_user = Some((g, w.start, w.end));
                         }
                         GCode::AxisOffset(c) => {
-                            axis_offset = Some(c);
+                            d.axis_offset = Some(c);
                             if c == 920 || c == 520 {
-                                axis_user = Some((g, w.start, w.end));
+                                d.axis_user = Some((g, w.start, w.end));
                             }
                         }
-                        GCode::Dwell => dwell = true,
-                        GCode::NurbsEnd => nurbs_end = Some((w.start, w.end)),
+                        GCode::Dwell => d.dwell = true,
+                        GCode::NurbsEnd => d.nurbs_end = Some((w.start, w.end)),
                         GCode::PassThrough => {}
                         GCode::CancelMotion => {
                             // Ignored when the block holds another motion code.
                             if !g_groups[1] {
-                                modal.motion = MotionMode::None;
-                                cancel_motion = true;
+                                d.motion = Some(MotionMode::None);
+                                d.cancel_motion = true;
                             }
                         }
                         GCode::Unsupported => {
-                            unsupported = true;
+                            d.unsupported = true;
                             self.fail(
                                 block,
                                 event,
@@ -994,7 +1153,7 @@ impl Interpreter {
                     }
                 }
                 b'M' => match w.code10().map(classify_m) {
-                    Some(MCode::End) => end = true,
+                    Some(MCode::End) => d.end = true,
                     Some(MCode::Subroutine) => self.fail(
                         block,
                         event,
@@ -1002,17 +1161,17 @@ impl Interpreter {
                         w.start,
                         w.end,
                     )?,
-                    Some(MCode::ToolTipOn) => modal.frame = Frame::Part,
-                    Some(MCode::ToolTipOff) => modal.frame = Frame::Joint,
+                    Some(MCode::ToolTipOn) => d.frame = Some(Frame::Part),
+                    Some(MCode::ToolTipOff) => d.frame = Some(Frame::Joint),
                     Some(MCode::PassThrough) | None => match w.code10() {
-                        Some(30) => spindle = SpindleDirection::Clockwise,
-                        Some(40) => spindle = SpindleDirection::CounterClockwise,
-                        Some(50) => spindle = SpindleDirection::Stopped,
-                        Some(60) => tool_change = true,
-                        Some(610) => m61 = Some((w.start, w.end)),
-                        Some(70) => mist = true,
-                        Some(80) => flood = true,
-                        Some(90) => (mist, flood) = (false, false),
+                        Some(30) => d.spindle = Some(SpindleDirection::Clockwise),
+                        Some(40) => d.spindle = Some(SpindleDirection::CounterClockwise),
+                        Some(50) => d.spindle = Some(SpindleDirection::Stopped),
+                        Some(60) => d.tool_change = true,
+                        Some(610) => d.m61 = Some((w.start, w.end)),
+                        Some(70) => d.mist = Some(true),
+                        Some(80) => d.flood = Some(true),
+                        Some(90) => (d.mist, d.flood) = (Some(false), Some(false)),
                         _ => {}
                     },
                 },
@@ -1067,8 +1226,8 @@ impl Interpreter {
                 other => {
                     if !is_known_letter(other) && other.is_ascii_uppercase() {
                         let bit = 1u32 << (other - b'A');
-                        if self.unknown_letters_seen & bit == 0 {
-                            self.unknown_letters_seen |= bit;
+                        if (self.unknown_letters_seen | d.unknown_letters) & bit == 0 {
+                            d.unknown_letters |= bit;
                             event.warnings.push(Warning {
                                 line: block.line,
                                 column: w.start + 1,
@@ -1081,56 +1240,54 @@ impl Interpreter {
         }
         // G43.1's axis words set the offset and do not move (LinuxCNC's
         // `enhance_block`), unless the block has its own motion code.
-        if let Some((431, s, e)) = offset_code
-            && motion_word.is_none()
-            && axis_user.is_none()
+        if let Some((431, s, e)) = d.offset_code
+            && d.motion_word.is_none()
+            && d.axis_user.is_none()
         {
-            axis_user = Some((GCode::ToolLengthDynamic, s, e));
+            d.axis_user = Some((GCode::ToolLengthDynamic, s, e));
         }
-        // Feed: a change of feed mode forgets the old F.
-        if modal.inverse_time != old_inverse || feed_reset {
-            modal.feed = 0.0;
-        }
-        if let Some(f) = words.f {
-            modal.feed = if modal.inverse_time { f } else { f * scale };
-        }
-        // Spindle before motion (LinuxCNC's order of execution); a failing
-        // block restores it (`interpret_into`).
-        self.spindle = spindle;
-        if dwell {
-            match words.p {
-                Some(p) if p.is_finite() => self.pending_dwell_min += p.max(0.0) / 60.0,
-                _ => self.fail(block, event, ErrorKind::DwellWithoutP, 0, block.raw.len())?,
-            }
-        }
+        Ok(d)
+    }
 
+    /// LinuxCNC's `check_items`: what the block asks that no conversion can
+    /// do, refused with LinuxCNC's messages. `modal` is the modal state the
+    /// block's codes set. Under `lenient` a refused polar word is dropped.
+    fn check(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        d: &mut Decoded,
+        modal: &ModalState,
+    ) -> Result<(), GcodeError> {
+        if d.dwell && !matches!(d.words.p, Some(p) if p.is_finite()) {
+            self.fail(block, event, ErrorKind::DwellWithoutP, 0, block.raw.len())?;
+        }
         // Polar words (LinuxCNC's `enhance_block`): in the plane in force
         // before the block, G17, in place of X and Y, in motion blocks only.
-        if words.polar() {
-            let (s, e) = words.polar_span.unwrap_or((0, block.raw.len()));
+        if d.words.polar() {
+            let (s, e) = d.words.polar_span.unwrap_or((0, block.raw.len()));
             let refused = if self.modal.plane != Plane::XY {
                 Some("Cannot use polar coordinate except in G17 plane")
-            } else if words.axes[0].is_some() {
+            } else if d.words.axes[0].is_some() {
                 Some("Cannot specify both polar coordinate and X word")
-            } else if words.axes[1].is_some() {
+            } else if d.words.axes[1].is_some() {
                 Some("Cannot specify both polar coordinate and Y word")
-            } else if axis_user.is_some() {
+            } else if d.axis_user.is_some() {
                 Some("Polar coordinates can only be used for motion")
             } else {
                 None
             };
             if let Some(what) = refused {
                 self.fail(block, event, ErrorKind::Polar(what), s, e)?;
-                words.radius = None;
-                words.theta = None;
+                d.words.radius = None;
+                d.words.theta = None;
             }
         }
         // G5.3 with a motion code other than G5.2 (`check_g_codes`).
-        if let Some((s, e)) = nurbs_end
-            && let Some((ms, me)) = motion_word
+        if d.nurbs_end.is_some()
+            && let Some((ms, me)) = d.motion_word
             && modal.motion != MotionMode::Spline(52)
         {
-            let _ = (s, e);
             self.fail(
                 block,
                 event,
@@ -1142,343 +1299,394 @@ impl Interpreter {
             )?;
         }
         // A code volcomp does not know may use any word.
-        if !unsupported {
-            self.check_words(block, event, &words, axis_user.is_some())?;
+        if !d.unsupported {
+            self.check_words(block, event, &d.words, d.axis_user.is_some())?;
         }
         // G53 moves straight, in absolute coordinates (LinuxCNC's
         // `check_g_codes`; the block's own G90/G91 counts).
-        if machine_coordinates {
+        if let Some((s, e)) = d.g53 {
             if !matches!(modal.motion, MotionMode::Rapid | MotionMode::Linear) {
-                self.fail(block, event, ErrorKind::G53Motion, g53_span.0, g53_span.1)?;
+                self.fail(block, event, ErrorKind::G53Motion, s, e)?;
             } else if modal.distance == Distance::Incremental {
-                self.fail(
-                    block,
-                    event,
-                    ErrorKind::G53Incremental,
-                    g53_span.0,
-                    g53_span.1,
-                )?;
+                self.fail(block, event, ErrorKind::G53Incremental, s, e)?;
             }
         }
-        // Coordinate system selection (before the group-0 codes and the motion).
-        if let Some(n) = coord_select {
-            modal.coord_system = n;
-            origin.work = self.stored_origin(n);
-            origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
+        Ok(())
+    }
+
+    /// T, M6/M61, then G43/G43.1/G43.2/G49 (LinuxCNC's `convert_tool_select`,
+    /// `convert_m`'s tool change, `convert_tool_length_offset`; nothing
+    /// between them in LinuxCNC's order reads or refuses anything).
+    fn convert_tools(&self, c: &mut Convert<'_>, d: &Decoded) -> Result<(), GcodeError> {
+        c.next.tool = self.tool_words(c.block, c.event, d)?;
+        Ok(())
+    }
+
+    /// M3/M4/M5, then M7/M8/M9 (`convert_m`); S is kept at the commit.
+    fn convert_spindle_and_coolant(&self, c: &mut Convert<'_>, d: &Decoded) {
+        if let Some(s) = d.spindle {
+            c.next.spindle = s;
         }
-        // Tools, in LinuxCNC's order: T, M6/M61, then G43/G43.1/G43.2/G49.
-        let mut tool = self.tool_words(block, event, &words, tool_change, m61, offset_code)?;
-        let mut new_position = self.position;
-        let mut motion = None;
-        let mut store: Vec<(usize, f64)> = Vec::new();
-        let given = |words: &Words| -> [bool; crate::axes::AXIS_COUNT] {
-            let mut g = [false; crate::axes::AXIS_COUNT];
-            for (i, a) in words.axes.iter().enumerate() {
-                g[i] = a.is_some();
-            }
-            g
-        };
-        if let (Some((GCode::Motion(m), ..)), Some((ms, me))) = (axis_user, motion_word)
-            && m != MotionMode::None
+        if let Some(m) = d.mist {
+            c.next.mist = m;
+        }
+        if let Some(f) = d.flood {
+            c.next.flood = f;
+        }
+    }
+
+    /// G4 (`convert_dwell`; a missing P was refused by the check).
+    fn convert_dwell(&self, c: &mut Convert<'_>, d: &Decoded) {
+        if d.dwell
+            && let Some(p) = d.words.p
+            && p.is_finite()
         {
-            let _ = m;
-            self.fail(block, event, ErrorKind::TwoAxisUsers, ms, me)?;
+            c.next.dwell_min += p.max(0.0) / 60.0;
         }
+    }
+
+    /// G54–G59.3 (`convert_coordinate_system`).
+    fn convert_coord_system(&self, c: &mut Convert<'_>, d: &Decoded) {
+        if let Some(n) = d.coord_select {
+            c.next.modal.coord_system = n;
+            c.next.origin.work = self.stored_origin(n);
+            c.next.origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
+        }
+    }
+
+    /// The group-0 codes that take the axis words (G10, G28/G30, G52, G92,
+    /// and the G43.1 of `enhance_block`), then G28.1/G30.1 and
+    /// G92.1/G92.2/G92.3 (`convert_modal_0`).
+    fn convert_modal_0(&self, c: &mut Convert<'_>, d: &Decoded) -> Result<(), GcodeError> {
+        let (block, words) = (c.block, c.words);
         // Program coordinates of the current position in the block's origin.
-        let program_now = origin.to_program(&self.position);
-        match axis_user {
-            Some((GCode::SetData, s, e)) => {
-                self.set_data(
-                    block,
-                    event,
-                    &words,
-                    &modal,
-                    &mut origin,
-                    &mut store,
-                    &mut tool,
-                    (s, e),
-                )?;
-            }
+        let program_now = c.next.origin.to_program(&self.position);
+        match d.axis_user {
+            Some((GCode::SetData, s, e)) => self.set_data(c, (s, e))?,
             Some((GCode::AxisOffset(520), ..)) => {
                 // G52: the words are the offsets (LinuxCNC keeps them where
                 // G92 keeps its own).
                 if !words.has_axes() {
-                    self.fail(block, event, ErrorKind::G52WithoutAxes, 0, block.raw.len())?;
+                    self.fail(
+                        block,
+                        c.event,
+                        ErrorKind::G52WithoutAxes,
+                        0,
+                        block.raw.len(),
+                    )?;
                 }
                 for axis in Axis::ALL {
                     if let Some((v, _)) = words.axes[axis as usize] {
-                        origin.g92.set(axis, v);
+                        c.next.origin.g92.set(axis, v);
                     }
                 }
-                store.push((numbers::G92_ENABLED, 1.0));
-                for (k, axis) in Axis::ALL.into_iter().enumerate() {
-                    store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
-                }
+                c.next.store_g92();
             }
             Some((GCode::AxisOffset(_), ..)) => {
                 // G92: offsets so that the current position reads as the words.
                 if !words.has_axes() {
-                    self.fail(block, event, ErrorKind::G92WithoutAxes, 0, block.raw.len())?;
+                    self.fail(
+                        block,
+                        c.event,
+                        ErrorKind::G92WithoutAxes,
+                        0,
+                        block.raw.len(),
+                    )?;
                 }
-                let q = program_now.zip_with(&origin.g92, |p, g| p + g);
+                let q = program_now.zip_with(&c.next.origin.g92, |p, g| p + g);
                 for axis in Axis::ALL {
                     if let Some((v, _)) = words.axes[axis as usize] {
-                        origin.g92.set(axis, q.get(axis) - v);
+                        c.next.origin.g92.set(axis, q.get(axis) - v);
                     }
                 }
-                store.push((numbers::G92_ENABLED, 1.0));
-                for (k, axis) in Axis::ALL.into_iter().enumerate() {
-                    store.push((numbers::G92_OFFSET + k, origin.g92.get(axis)));
-                }
+                c.next.store_g92();
             }
-            Some((GCode::Home(n), s, _)) => {
-                // To the intermediate point (program coordinates), then to the
-                // stored position of the given axes (all when none is given).
-                let mut mid = program_now;
-                let g = given(&words);
-                for axis in Axis::ALL {
-                    if let Some((v, _)) = words.axes[axis as usize] {
-                        let base = if modal.distance == Distance::Incremental {
-                            program_now.get(axis)
-                        } else {
-                            0.0
-                        };
-                        mid.set(axis, base + v);
-                    }
-                }
-                let mid_program = mid;
-                let mid = origin.to_machine(&mid_program);
-                let base = if n == 28 {
-                    numbers::G28_POSITION
-                } else {
-                    numbers::G30_POSITION
-                };
-                // LinuxCNC's `convert_home` mixes in program coordinates:
-                // the stored position of the given axes, the intermediate
-                // point's others (under an XY rotation one axis word moves
-                // both X and Y).
-                let stored = origin.to_program(&self.stored_axes(base));
-                let mut home = mid_program;
-                let all = !g.iter().any(|x| *x);
-                for axis in Axis::ALL {
-                    if all || g[axis as usize] {
-                        home.set(axis, stored.get(axis));
-                    }
-                }
-                let home = if all {
-                    self.stored_axes(base)
-                } else {
-                    origin.to_machine(&home)
-                };
-                let _ = s;
-                for (from, to, g53) in [(self.position, mid, false), (mid, home, true)] {
-                    let mut m = Motion {
-                        kind: MotionKind::Rapid,
-                        frame: Frame::Joint,
-                        machine_coordinates: g53,
-                        start: from,
-                        end: to,
-                        feed: Feed::Rapid,
-                        duration_min: 0.0,
-                    };
-                    m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
-                    event.moves.expanded_mut(Expansion::Home).push(m);
-                }
-                new_position = home;
-            }
+            Some((GCode::Home(n), ..)) => self.convert_home(c, n, &program_now),
             _ => {}
         }
-        if let Some(n) = store_home {
+        if let Some(n) = d.store_home {
             let base = if n == 28 {
                 numbers::G28_POSITION
             } else {
                 numbers::G30_POSITION
             };
             for (k, axis) in Axis::ALL.into_iter().enumerate() {
-                store.push((base + k, self.position.get(axis)));
+                c.next.store.push((base + k, self.position.get(axis)));
             }
         }
-        match axis_offset {
+        match d.axis_offset {
             Some(921) | Some(922) => {
-                origin.g92 = Axes::default();
-                if axis_offset == Some(921) {
-                    store.push((numbers::G92_ENABLED, 0.0));
+                c.next.origin.g92 = Axes::default();
+                c.next.store.push((numbers::G92_ENABLED, 0.0));
+                if d.axis_offset == Some(921) {
                     for k in 0..9 {
-                        store.push((numbers::G92_OFFSET + k, 0.0));
+                        c.next.store.push((numbers::G92_OFFSET + k, 0.0));
                     }
-                } else {
-                    store.push((numbers::G92_ENABLED, 0.0));
                 }
             }
             Some(923) => {
-                origin.g92 = self.stored_axes(numbers::G92_OFFSET);
-                store.push((numbers::G92_ENABLED, 1.0));
+                c.next.origin.g92 = self.stored_axes(numbers::G92_OFFSET);
+                c.next.store.push((numbers::G92_ENABLED, 1.0));
             }
             _ => {}
         }
+        Ok(())
+    }
 
-        // G5.3 runs the NURBS of the G5.2 blocks before it (a group-0 code:
-        // before the block's motion; LinuxCNC's motion mode is then none).
-        let mut nurbs_ran = false;
-        if let Some((s, e)) = nurbs_end {
-            if self.modal.motion != MotionMode::Spline(52) {
-                self.fail(
-                    block,
-                    event,
-                    ErrorKind::Spline("Cannot use G5.3 without G5.2 first".into()),
-                    s,
-                    e,
-                )?;
-            } else if self.nurbs.len() < self.nurbs_order {
-                self.fail(
-                    block,
-                    event,
-                    ErrorKind::Spline(format!(
-                        "You must specify a number of control points at least equal to the order L = {}",
-                        self.nurbs_order
-                    )),
-                    s,
-                    e,
-                )?;
-            } else {
-                let curve = super::spline::Nurbs {
-                    points: std::mem::take(&mut self.nurbs),
-                    order: self.nurbs_order,
+    /// G28/G30 (`convert_home`): to the intermediate point (program
+    /// coordinates), then to the stored position of the given axes (all when
+    /// none is given).
+    fn convert_home(&self, c: &mut Convert<'_>, n: u8, program_now: &Axes) {
+        let words = c.words;
+        let origin = c.next.origin;
+        let mut mid = *program_now;
+        let mut given = [false; crate::axes::AXIS_COUNT];
+        for (i, a) in words.axes.iter().enumerate() {
+            given[i] = a.is_some();
+        }
+        for axis in Axis::ALL {
+            if let Some((v, _)) = words.axes[axis as usize] {
+                let base = if c.next.modal.distance == Distance::Incremental {
+                    program_now.get(axis)
+                } else {
+                    0.0
                 };
-                new_position = self.run_curve(
-                    block,
-                    event,
-                    &modal,
-                    &origin,
-                    self.position,
-                    &curve,
-                    53,
-                    (s, e),
-                )?;
-                nurbs_ran = true;
-            }
-            if motion_word.is_none() && !words.has_axes() {
-                modal.motion = MotionMode::None;
+                mid.set(axis, base + v);
             }
         }
-        let nurbs_block = modal.motion == MotionMode::Spline(52) && motion_word.is_some();
-        if axis_user.is_none() && (words.has_axes() || words.polar() || nurbs_block) && !unsupported
+        let mid_program = mid;
+        let mid = origin.to_machine(&mid_program);
+        let base = if n == 28 {
+            numbers::G28_POSITION
+        } else {
+            numbers::G30_POSITION
+        };
+        // LinuxCNC's `convert_home` mixes in program coordinates: the stored
+        // position of the given axes, the intermediate point's others (under
+        // an XY rotation one axis word moves both X and Y).
+        let stored = origin.to_program(&self.stored_axes(base));
+        let mut home = mid_program;
+        let all = !given.iter().any(|x| *x);
+        for axis in Axis::ALL {
+            if all || given[axis as usize] {
+                home.set(axis, stored.get(axis));
+            }
+        }
+        let home = if all {
+            self.stored_axes(base)
+        } else {
+            origin.to_machine(&home)
+        };
+        for (from, to, g53) in [(self.position, mid, false), (mid, home, true)] {
+            let mut m = Motion {
+                kind: MotionKind::Rapid,
+                frame: Frame::Joint,
+                machine_coordinates: g53,
+                start: from,
+                end: to,
+                feed: Feed::Rapid,
+                duration_min: 0.0,
+            };
+            m.duration_min = duration_min(&m, self.options.rapid_mm_per_min);
+            c.event.moves.expanded_mut(Expansion::Home).push(m);
+        }
+        c.next.position = home;
+    }
+
+    /// G5.3 runs the NURBS of the G5.2 blocks before it (a group-0 code:
+    /// before the block's motion; LinuxCNC's motion mode is then none).
+    /// Returns whether the curve ran.
+    fn convert_nurbs_end(&self, c: &mut Convert<'_>, d: &Decoded) -> Result<bool, GcodeError> {
+        let Some((s, e)) = d.nurbs_end else {
+            return Ok(false);
+        };
+        let block = c.block;
+        let mut ran = false;
+        if self.modal.motion != MotionMode::Spline(52) {
+            self.fail(
+                block,
+                c.event,
+                ErrorKind::Spline("Cannot use G5.3 without G5.2 first".into()),
+                s,
+                e,
+            )?;
+        } else if c.next.nurbs.len() < c.next.nurbs_order {
+            self.fail(
+                block,
+                c.event,
+                ErrorKind::Spline(format!(
+                    "You must specify a number of control points at least equal to the order L = {}",
+                    c.next.nurbs_order
+                )),
+                s,
+                e,
+            )?;
+        } else {
+            let curve = super::spline::Nurbs {
+                points: std::mem::take(&mut c.next.nurbs),
+                order: c.next.nurbs_order,
+            };
+            c.next.position = self.run_curve(c, self.position, &curve, 53, (s, e))?;
+            ran = true;
+        }
+        if d.motion_word.is_none() && !c.words.has_axes() {
+            c.next.modal.motion = MotionMode::None;
+        }
+        Ok(ran)
+    }
+
+    /// The block's motion (`convert_motion`): a canned cycle, a spline, a
+    /// straight move, an arc or a probing move, to the axis words' target.
+    fn convert_motion(
+        &self,
+        c: &mut Convert<'_>,
+        d: &Decoded,
+        nurbs_ran: bool,
+    ) -> Result<(), GcodeError> {
+        let (block, words) = (c.block, c.words);
+        let machine_coordinates = d.g53.is_some();
+        let nurbs_block = c.next.modal.motion == MotionMode::Spline(52) && d.motion_word.is_some();
+        if d.axis_user.is_some()
+            || !(words.has_axes() || words.polar() || nurbs_block)
+            || d.unsupported
         {
-            if modal.motion == MotionMode::None {
-                let at = words
-                    .polar_span
-                    .map_or(words.first_axis(), |p| p.0.min(words.first_axis()));
-                self.fail(block, event, ErrorKind::NoMotionMode, at, at + 1)?;
-                modal.motion = MotionMode::Linear;
+            // (Lenient: an unsupported code's axis words are ignored.)
+            return Ok(());
+        }
+        if c.next.modal.motion == MotionMode::None {
+            let at = words
+                .polar_span
+                .map_or(words.first_axis(), |p| p.0.min(words.first_axis()));
+            self.fail(block, c.event, ErrorKind::NoMotionMode, at, at + 1)?;
+            c.next.modal.motion = MotionMode::Linear;
+        }
+        if c.next.modal.cutter_comp != CutterComp::Off {
+            let (s, e) = d
+                .motion_word
+                .unwrap_or((words.first_axis(), words.first_axis() + 1));
+            let name = if c.next.modal.cutter_comp == CutterComp::Left {
+                "G41"
+            } else {
+                "G42"
+            };
+            self.fail(
+                block,
+                c.event,
+                ErrorKind::CutterCompensation(name.into()),
+                s,
+                e,
+            )?;
+        }
+        if let MotionMode::Cycle(code) = c.next.modal.motion {
+            c.next.position = self.cycle(c, code)?;
+            return Ok(());
+        }
+        let modal = c.next.modal;
+        let incremental = modal.distance == Distance::Incremental && !machine_coordinates;
+        // The target in the block's coordinates (machine for G53).
+        let mut target = if machine_coordinates {
+            self.position
+        } else {
+            c.next.origin.to_program(&self.position)
+        };
+        for axis in Axis::ALL {
+            if let Some((v, _)) = words.axes[axis as usize] {
+                let base = if incremental { target.get(axis) } else { 0.0 };
+                target.set(axis, base + v);
             }
-            if modal.cutter_comp != CutterComp::Off {
-                let (s, e) = motion_word.unwrap_or((words.first_axis(), words.first_axis() + 1));
-                let name = if modal.cutter_comp == CutterComp::Left {
-                    "G41"
-                } else {
-                    "G42"
-                };
+        }
+        // Polar words (LinuxCNC's `find_ends`); a G5.2 control point
+        // takes X and Y only.
+        if words.polar() && modal.motion != MotionMode::Spline(52) {
+            let (s, e) = words.polar_span.unwrap_or((0, block.raw.len()));
+            if machine_coordinates {
                 self.fail(
                     block,
-                    event,
-                    ErrorKind::CutterCompensation(name.into()),
+                    c.event,
+                    ErrorKind::Polar("Cannot use polar coordinates with G53"),
                     s,
                     e,
                 )?;
-            }
-            if let MotionMode::Cycle(code) = modal.motion {
-                new_position = self.cycle(block, event, &modal, &origin, &words, code)?;
             } else {
-                let incremental = modal.distance == Distance::Incremental && !machine_coordinates;
-                // The target in the block's coordinates (machine for G53).
-                let mut target = if machine_coordinates {
-                    self.position
-                } else {
-                    program_now
-                };
-                for axis in Axis::ALL {
-                    if let Some((v, _)) = words.axes[axis as usize] {
-                        let base = if incremental { target.get(axis) } else { 0.0 };
-                        target.set(axis, base + v);
-                    }
-                }
-                // Polar words (LinuxCNC's `find_ends`); a G5.2 control point
-                // takes X and Y only.
-                if words.polar() && modal.motion != MotionMode::Spline(52) {
-                    let (s, e) = words.polar_span.unwrap_or((0, block.raw.len()));
-                    if machine_coordinates {
-                        self.fail(
-                            block,
-                            event,
-                            ErrorKind::Polar("Cannot use polar coordinates with G53"),
-                            s,
-                            e,
-                        )?;
-                    } else {
-                        self.polar_target(block, event, &words, &mut target, incremental, (s, e))?;
-                    }
-                }
-                let block_origin = if machine_coordinates {
-                    Origin::MACHINE
-                } else {
-                    origin
-                };
-                let end_machine = block_origin.to_machine(&target);
-                if let MotionMode::Spline(code) = modal.motion
-                    && !machine_coordinates
-                {
-                    let now = if nurbs_ran {
-                        new_position
-                    } else {
-                        self.position
-                    };
-                    let span = motion_word.unwrap_or((0, block.raw.len()));
-                    if code == 52 {
-                        self.nurbs_point(
-                            block, event, &modal, &words, &origin, now, &target, nurbs_ran, span,
-                        )?;
-                    } else {
-                        new_position = self.spline(
-                            block, event, &modal, &words, &origin, now, &target, code, span,
-                        )?;
-                    }
-                } else if end_machine.is_finite() {
-                    let m = self.motion(
-                        block,
-                        event,
-                        &modal,
-                        &words,
-                        &block_origin,
-                        end_machine,
-                        machine_coordinates,
-                    )?;
-                    new_position = m.end;
-                    motion = Some(m);
-                } else {
-                    self.fail(block, event, ErrorKind::NonFinite, 0, block.raw.len())?;
-                }
+                self.polar_target(block, c.event, words, &mut target, incremental, (s, e))?;
             }
-        } else if words.has_axes() && axis_user.is_none() && unsupported {
-            // Lenient: the unsupported code's axis words are ignored.
         }
-        if end {
-            event.program_end = true;
-            self.ended = true;
+        let block_origin = if machine_coordinates {
+            Origin::MACHINE
+        } else {
+            c.next.origin
+        };
+        let end_machine = block_origin.to_machine(&target);
+        if let MotionMode::Spline(code) = modal.motion
+            && !machine_coordinates
+        {
+            let now = if nurbs_ran {
+                c.next.position
+            } else {
+                self.position
+            };
+            let span = d.motion_word.unwrap_or((0, block.raw.len()));
+            if code == 52 {
+                self.nurbs_point(c, now, &target, nurbs_ran, span)?;
+            } else {
+                c.next.position = self.spline(c, now, &target, code, span)?;
+            }
+        } else if end_machine.is_finite() {
+            let m = self.motion(c, &block_origin, end_machine, machine_coordinates)?;
+            c.next.position = m.end;
+            c.next.motion = Some(m);
+        } else {
+            self.fail(block, c.event, ErrorKind::NonFinite, 0, block.raw.len())?;
         }
-        // A motion other than a canned cycle ends the series of cycle blocks
-        // (LinuxCNC's `convert_motion`).
-        let runs_motion =
-            cancel_motion || motion_word.is_some() || (words.has_axes() && axis_user.is_none());
-        if runs_motion && !matches!(modal.motion, MotionMode::Cycle(_)) {
-            self.cycle_memory.leave_cycle();
+        Ok(())
+    }
+
+    /// M2/M30 (`convert_stop`), and the end of a series of canned-cycle
+    /// blocks: a motion other than a cycle ends it (`convert_motion`).
+    fn convert_stop(&self, c: &mut Convert<'_>, d: &Decoded) {
+        if d.end {
+            c.event.program_end = true;
+            c.next.ended = true;
         }
-        // Commit.
-        if modal.frame != old_frame {
+        let runs_motion = d.cancel_motion
+            || d.motion_word.is_some()
+            || (c.words.has_axes() && d.axis_user.is_none());
+        if runs_motion && !matches!(c.next.modal.motion, MotionMode::Cycle(_)) {
+            c.next.cycle_memory.leave_cycle();
+        }
+    }
+
+    /// Make a block that succeeded current: its state, its parameters
+    /// (LinuxCNC's `set_probe_data` for a probing move), the time, the tools.
+    fn commit(&mut self, block: &Block, event: &mut BlockEvent, d: &Decoded, next: BlockState) {
+        let BlockState {
+            modal,
+            origin,
+            position,
+            spindle,
+            cycle_memory,
+            mist,
+            flood,
+            dwell_min,
+            tool,
+            store,
+            nurbs,
+            nurbs_order,
+            motion,
+            ended,
+        } = next;
+        if modal.frame != self.modal.frame {
             event.frame_switch = Some(modal.frame);
         }
         self.modal = modal;
         self.origin = origin;
-        event.origin = if machine_coordinates {
+        self.spindle = spindle;
+        self.cycle_memory = cycle_memory;
+        self.nurbs = nurbs;
+        self.nurbs_order = nurbs_order;
+        self.ended |= ended;
+        self.unknown_letters_seen |= d.unknown_letters;
+        event.origin = if d.g53.is_some() {
             Origin::MACHINE
         } else {
             origin
@@ -1488,12 +1696,13 @@ impl Interpreter {
         }
         self.params
             .set(numbers::COORD_SYSTEM, modal.coord_system as f64);
-        self.position = new_position;
+        self.position = position;
         if let (Some(m), MotionMode::Probe(_)) = (&motion, modal.motion) {
             // LinuxCNC's `set_probe_data`. The probe is taken to run to its
             // end point without tripping (what rs274's simulation reports):
             // #5061–#5069 hold the end point in program coordinates and
             // units, #5070 is 0.
+            let scale = modal.units.scale();
             let p = origin.to_program(&m.end);
             let mut values = [0.0; 9];
             for (k, axis) in Axis::ALL.into_iter().enumerate() {
@@ -1520,30 +1729,27 @@ impl Interpreter {
             self.moved = true;
         }
         if self.moved {
-            self.time_min += self.pending_dwell_min;
+            self.time_min += dwell_min;
         }
         self.mist = mist;
         self.flood = flood;
-        if let Some(s) = words.s {
+        if let Some(s) = d.words.s {
             self.rpm = s.abs();
         }
         self.commit_tools(block, event, tool);
         self.update_parameters();
-        Ok(())
     }
 
     /// The block's T, M6, M61 and tool length offset words: the tool state
     /// after them (committed by [`Self::commit_tools`] when the block succeeds).
-    #[allow(clippy::too_many_arguments)]
     fn tool_words(
         &self,
         block: &Block,
         event: &mut BlockEvent,
-        words: &Words,
-        tool_change: bool,
-        m61: Option<(usize, usize)>,
-        offset_code: Option<(i32, usize, usize)>,
+        d: &Decoded,
     ) -> Result<ToolStep, GcodeError> {
+        let words = &d.words;
+        let (tool_change, m61, offset_code) = (d.tool_change, d.m61, d.offset_code);
         let mut step = ToolStep {
             selected: self.selected_tool,
             current: self.current_tool,
@@ -1825,18 +2031,15 @@ impl Interpreter {
 
     /// G10: L2/L20 set a work origin, L1/L10/L11 the tool table (accepted; tool
     /// offsets are not applied).
-    #[allow(clippy::too_many_arguments)]
-    fn set_data(
-        &self,
-        block: &Block,
-        event: &mut BlockEvent,
-        words: &Words,
-        modal: &ModalState,
-        origin: &mut Origin,
-        store: &mut Vec<(usize, f64)>,
-        tool: &mut ToolStep,
-        span: (usize, usize),
-    ) -> Result<(), GcodeError> {
+    fn set_data(&self, c: &mut Convert<'_>, span: Span) -> Result<(), GcodeError> {
+        let (block, words, event) = (c.block, c.words, &mut *c.event);
+        let BlockState {
+            modal,
+            origin,
+            store,
+            tool,
+            ..
+        } = &mut *c.next;
         let l = words.l.and_then(to_integer);
         let p = words.p.and_then(to_integer);
         match l {
@@ -2019,19 +2222,18 @@ impl Interpreter {
     /// A G5 (cubic) or G5.1 (quadratic) spline block from `now` (machine
     /// coordinates) to `target` (program coordinates), LinuxCNC's checks
     /// (`convert_spline`). Returns the position after the block.
-    #[allow(clippy::too_many_arguments)]
     fn spline(
-        &mut self,
-        block: &Block,
-        event: &mut BlockEvent,
-        modal: &ModalState,
-        words: &Words,
-        origin: &Origin,
+        &self,
+        c: &mut Convert<'_>,
         now: Axes,
         target: &Axes,
         code: u16,
-        span: (usize, usize),
+        span: Span,
     ) -> Result<Axes, GcodeError> {
+        let (block, words) = (c.block, c.words);
+        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (&modal, &origin);
+        let event = &mut *c.event;
         let scale = modal.units.scale();
         let refuse = |this: &Self, event: &mut BlockEvent, what: &str| {
             this.fail(block, event, ErrorKind::Spline(what.into()), span.0, span.1)
@@ -2101,13 +2303,13 @@ impl Interpreter {
         }
         use super::spline::ControlPoint;
         let cp = |x: f64, y: f64| ControlPoint { x, y, w: 1.0 };
-        if !self.nurbs.is_empty() {
+        if !c.next.nurbs.is_empty() {
             event.warnings.push(Warning {
                 line: block.line,
                 column: span.0 + 1,
                 kind: WarningKind::Spline(format!(
                     "{} control points of a G5.2 block never ended by G5.3 become part of this {} curve, as LinuxCNC takes them",
-                    self.nurbs.len(),
+                    c.next.nurbs.len(),
                     MotionMode::Spline(code).word()
                 )),
             });
@@ -2116,7 +2318,8 @@ impl Interpreter {
         let (x3, y3) = (target.x, target.y);
         let order = if code == 51 {
             let (i, j) = (ij.0.unwrap_or(0.0), ij.1.unwrap_or(0.0));
-            self.nurbs
+            c.next
+                .nurbs
                 .extend([cp(x0, y0), cp(x0 + i, y0 + j), cp(x3, y3)]);
             3
         } else {
@@ -2124,46 +2327,45 @@ impl Interpreter {
             // `cycle_j`, which G87 shares), for a tangent continuation.
             let (i, j) = match ij {
                 (Some(i), Some(j)) => (i, j),
-                _ => (self.cycle_memory.ijk[0], self.cycle_memory.ijk[1]),
+                _ => (c.next.cycle_memory.ijk[0], c.next.cycle_memory.ijk[1]),
             };
             let (p, q) = (
                 words.p.unwrap_or(0.0) * scale,
                 words.q.unwrap_or(0.0) * scale,
             );
-            self.nurbs.extend([
+            c.next.nurbs.extend([
                 cp(x0, y0),
                 cp(x0 + i, y0 + j),
                 cp(x3 + p, y3 + q),
                 cp(x3, y3),
             ]);
-            self.cycle_memory.ijk[0] = -p;
-            self.cycle_memory.ijk[1] = -q;
+            c.next.cycle_memory.ijk[0] = -p;
+            c.next.cycle_memory.ijk[1] = -q;
             4
         };
         let curve = super::spline::Nurbs {
-            points: std::mem::take(&mut self.nurbs),
+            points: std::mem::take(&mut c.next.nurbs),
             order,
         };
-        self.run_curve(block, event, modal, origin, now, &curve, code, span)
+        self.run_curve(c, now, &curve, code, span)
     }
 
     /// A G5.2 block (LinuxCNC's `convert_nurbs`): control points for the
     /// NURBS that G5.3 runs; nothing moves. `now` is the current position
     /// (machine coordinates), `target` the block's X Y (program
     /// coordinates); `restart`: a G5.3 of the same block ended the last one.
-    #[allow(clippy::too_many_arguments)]
     fn nurbs_point(
-        &mut self,
-        block: &Block,
-        event: &mut BlockEvent,
-        modal: &ModalState,
-        words: &Words,
-        origin: &Origin,
+        &self,
+        c: &mut Convert<'_>,
         now: Axes,
         target: &Axes,
         restart: bool,
-        span: (usize, usize),
+        span: Span,
     ) -> Result<(), GcodeError> {
+        let (block, words) = (c.block, c.words);
+        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (&modal, &origin);
+        let event = &mut *c.event;
         use super::spline::ControlPoint;
         let refuse = |this: &Self, event: &mut BlockEvent, what: String| {
             this.fail(block, event, ErrorKind::Spline(what), span.0, span.1)
@@ -2180,14 +2382,14 @@ impl Interpreter {
                 "You must specify both X and Y coordinates for Control Points".into(),
             );
         }
-        if !x && p > 0.0 && !self.nurbs.is_empty() {
+        if !x && p > 0.0 && !c.next.nurbs.is_empty() {
             return refuse(
                 self,
                 event,
                 "Can specify P without X and Y only for the first control point".into(),
             );
         }
-        if p <= 0.0 && !self.nurbs.is_empty() {
+        if p <= 0.0 && !c.next.nurbs.is_empty() {
             return refuse(
                 self,
                 event,
@@ -2206,22 +2408,22 @@ impl Interpreter {
             },
         };
         if self.modal.motion != MotionMode::Spline(52) || restart {
-            self.nurbs.clear();
+            c.next.nurbs.clear();
         }
-        if self.nurbs.is_empty() {
+        if c.next.nurbs.is_empty() {
             let start = origin.to_program(&now);
-            self.nurbs.push(ControlPoint {
+            c.next.nurbs.push(ControlPoint {
                 x: start.x,
                 y: start.y,
                 w: if !x && p > 0.0 { p } else { 1.0 },
             });
-            self.nurbs_order = 3;
+            c.next.nurbs_order = 3;
         }
         if let Some(l) = l.filter(|l| *l > 3) {
-            self.nurbs_order = l;
+            c.next.nurbs_order = l;
         }
         if x {
-            self.nurbs.push(ControlPoint {
+            c.next.nurbs.push(ControlPoint {
                 x: target.x,
                 y: target.y,
                 w: p,
@@ -2246,18 +2448,18 @@ impl Interpreter {
     /// The straight pieces of `curve` (program coordinates) from `now`
     /// (machine coordinates; Z, A and C stay) into the block's [`Moves::Spline`].
     /// Returns the position after the curve.
-    #[allow(clippy::too_many_arguments)]
     fn run_curve(
         &self,
-        block: &Block,
-        event: &mut BlockEvent,
-        modal: &ModalState,
-        origin: &Origin,
+        c: &mut Convert<'_>,
         now: Axes,
         curve: &super::spline::Nurbs,
         code: u16,
-        span: (usize, usize),
+        span: Span,
     ) -> Result<Axes, GcodeError> {
+        let block = c.block;
+        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (&modal, &origin);
+        let event = &mut *c.event;
         let pieces =
             match super::spline::chords(curve, self.options.spline_tolerance_mm, MAX_SPLINE_PIECES)
             {
@@ -2321,15 +2523,11 @@ impl Interpreter {
 
     /// A canned-cycle block: its moves, expanded by [`super::cycles`], in
     /// machine coordinates. Returns the position after the block.
-    fn cycle(
-        &mut self,
-        block: &Block,
-        event: &mut BlockEvent,
-        modal: &ModalState,
-        origin: &Origin,
-        words: &Words,
-        code: u16,
-    ) -> Result<Axes, GcodeError> {
+    fn cycle(&self, c: &mut Convert<'_>, code: u16) -> Result<Axes, GcodeError> {
+        let (block, words) = (c.block, c.words);
+        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (&modal, &origin);
+        let event = &mut *c.event;
         let Some(cycle) = CycleCode::from_code10(code as i32) else {
             self.fail(
                 block,
@@ -2368,11 +2566,11 @@ impl Interpreter {
             feed_rate: if modal.inverse_time { 0.0 } else { modal.feed },
             inverse_time: modal.inverse_time,
             cutter_comp: modal.cutter_comp != CutterComp::Off,
-            spindle: self.spindle,
+            spindle: c.next.spindle,
             inch: modal.units == Units::Inch,
         };
         let mut steps = Vec::new();
-        if let Err(e) = expand(&input, &mut self.cycle_memory, &mut steps) {
+        if let Err(e) = expand(&input, &mut c.next.cycle_memory, &mut steps) {
             let at = e
                 .word()
                 .and_then(|c| block.words.iter().find(|w| w.letter == c as u8))
@@ -2393,15 +2591,15 @@ impl Interpreter {
                 CycleStep::Feed(p) => (p, Some(MotionKind::Linear)),
                 CycleStep::AssumePosition(p) => (p, None),
                 CycleStep::Dwell { seconds } => {
-                    self.pending_dwell_min += seconds.max(0.0) / 60.0;
+                    c.next.dwell_min += seconds.max(0.0) / 60.0;
                     continue;
                 }
                 CycleStep::SpindleStop => {
-                    self.spindle = SpindleDirection::Stopped;
+                    c.next.spindle = SpindleDirection::Stopped;
                     continue;
                 }
                 CycleStep::SpindleStart { clockwise } => {
-                    self.spindle = if clockwise {
+                    c.next.spindle = if clockwise {
                         SpindleDirection::Clockwise
                     } else {
                         SpindleDirection::CounterClockwise
@@ -2443,17 +2641,17 @@ impl Interpreter {
 
     /// A straight move, arc or probing move from the current position to
     /// `end` (machine coordinates); `origin` is the block's (identity for G53).
-    #[allow(clippy::too_many_arguments)]
     fn motion(
         &self,
-        block: &Block,
-        event: &mut BlockEvent,
-        modal: &ModalState,
-        words: &Words,
+        c: &mut Convert<'_>,
         origin: &Origin,
         end: Axes,
         machine_coordinates: bool,
     ) -> Result<Motion, GcodeError> {
+        let (block, words) = (c.block, c.words);
+        let modal = c.next.modal;
+        let modal = &modal;
+        let event = &mut *c.event;
         let start = self.position;
         let feed_span = words.f_span.unwrap_or((0, block.raw.len()));
         let mut kind = match modal.motion {
@@ -2470,7 +2668,7 @@ impl Interpreter {
                 }
                 let s = origin.to_program(&start);
                 let e = origin.to_program(&end);
-                match self.arc_centre(block, event, modal, words, &s, &e, clockwise)? {
+                match self.arc_centre(block, event, modal, words, (&s, &e), clockwise)? {
                     Some(centre) => {
                         // P full circles (LinuxCNC runs every one of them).
                         let turns = match words.p.and_then(arc_turns) {
@@ -2572,15 +2770,13 @@ impl Interpreter {
     /// Centre of an arc in program coordinates (mm), LinuxCNC's checks and
     /// tolerances (`arc_data_ijk`, `arc_data_r`); `None` when it falls back to a
     /// straight move (lenient).
-    #[allow(clippy::too_many_arguments)]
     fn arc_centre(
         &self,
         block: &Block,
         event: &mut BlockEvent,
         modal: &ModalState,
         words: &Words,
-        start: &Axes,
-        end: &Axes,
+        (start, end): (&Axes, &Axes),
         clockwise: bool,
     ) -> Result<Option<[f64; 3]>, GcodeError> {
         let word_span = |letter: u8| {
