@@ -42,19 +42,19 @@
 //! assert_eq!(String::from_utf8(out).unwrap(),
 //!            "G21 G90 G93\nG1 X5.0000 F4.000000\nN10 G1 X10 Y0 Z0 A0 C0 F4.000000\n");
 //! ```
-pub mod error;
-pub mod execution;
-pub mod language;
-pub mod machine;
-pub mod summary;
-pub mod syntax;
-pub mod write;
+pub(crate) mod error;
+pub(crate) mod execution;
+pub(crate) mod language;
+pub(crate) mod machine;
+pub(crate) mod summary;
+pub(crate) mod syntax;
+pub(crate) mod write;
 
 // The modules under their names before the layers had folders (code outside
 // `gcode` names them).
-pub use language::parameters;
-pub use machine::{interpret, motion};
-pub use syntax::block;
+pub(crate) use language::parameters;
+pub(crate) use machine::{interpret, motion};
+pub(crate) use syntax::block;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use error::{ErrorKind, GcodeError};

@@ -37,7 +37,7 @@ use std::sync::Arc;
 use super::parameters::Parameters;
 use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::syntax::block::{AssignTarget, Block, LineEnding, OKeyword, OLabel, OWord};
-use crate::gcode::syntax::expression::{EvalError, EvalErrorKind, Expr, ParamSource, to_integer};
+use crate::gcode::syntax::expression::{EvalError, EvalErrorKind, Expr, to_integer};
 use crate::gcode::syntax::parser::parse_line;
 
 /// Lines of loop and subroutine bodies kept parsed (then re-read from the file).
@@ -1331,9 +1331,4 @@ pub fn push_value(out: &mut String, v: f64) {
         s = "0".into();
     }
     let _ = write!(out, "{s}");
-}
-
-/// What a parameter reference reads (for callers evaluating words themselves).
-pub fn eval_word(block: &Block, index: u32, params: &dyn ParamSource) -> Result<f64, EvalError> {
-    expr(block, index).eval(params)
 }

@@ -10,7 +10,7 @@
 //! Invariants: knows no kinematics and no machine state beyond what the
 //! parameter table holds; streams (memory bounded by the call stack, the
 //! parameter table and a bounded line cache).
-pub mod flow;
-pub mod parameters;
+pub(crate) mod flow;
+pub(crate) mod parameters;
 
 pub use flow::*;

@@ -121,6 +121,7 @@ impl CycleCode {
     }
 
     /// The G code's number × 10 (G81 → `810`).
+    #[cfg(test)]
     pub fn code10(self) -> i32 {
         match self {
             Self::G73 => 730,
@@ -177,6 +178,7 @@ impl CycleCode {
     /// digital/analog input, M98 or NURBS code"); P by G74 G82 G84 G86 G88 G89;
     /// Q by G73 G83; I J K by G87. A P, Q, I, J or K that the cycle does not
     /// use is an error there unless another code of the block uses it.
+    #[cfg(test)]
     pub fn uses(self, letter: char) -> bool {
         match letter {
             'R' => true,

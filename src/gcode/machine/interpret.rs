@@ -105,8 +105,6 @@ pub struct Warning {
 pub enum WarningKind {
     /// A letter the interpreter does not know (reported once per letter).
     UnknownLetter(char),
-    /// G28/G30: not interpolated.
-    Home(String),
     /// G93 move without F: the last F is used.
     MissingInverseTimeFeed,
     /// A move at zero feed: duration 0.
@@ -137,7 +135,6 @@ impl WarningKind {
     pub fn key(&self) -> &'static str {
         match self {
             WarningKind::UnknownLetter(_) => "unknown_word",
-            WarningKind::Home(_) => "home",
             WarningKind::MissingInverseTimeFeed => "inverse_time_feed",
             WarningKind::ZeroFeed => "zero_feed",
             WarningKind::ArcRadiusMismatch(_) => "arc_radius",
@@ -180,10 +177,6 @@ impl fmt::Display for Warning {
             WarningKind::UnknownLetter(c) => {
                 write!(f, "unknown word letter `{c}` kept verbatim (reported once)")
             }
-            WarningKind::Home(code) => write!(
-                f,
-                "{code} returns to a reference point; not interpolated, the next move starts from the last programmed position"
-            ),
             WarningKind::MissingInverseTimeFeed => {
                 write!(f, "G93 move without F; the last F is used")
             }
@@ -1297,6 +1290,16 @@ impl Interpreter {
                 ms,
                 me,
             )?;
+        }
+        // A motion code (G80 aside) beside a modal-group-0 code that takes the
+        // axis words (G10, G28, G30, G52, G92; LinuxCNC's `enhance_block`),
+        // whether or not the block has axis words.
+        if let Some((g, _, _)) = d.axis_user
+            && g != GCode::ToolLengthDynamic
+            && let Some((ms, me)) = d.motion_word
+            && d.motion != Some(MotionMode::None)
+        {
+            self.fail(block, event, ErrorKind::TwoAxisUsers, ms, me)?;
         }
         // A code volcomp does not know may use any word.
         if !d.unsupported {

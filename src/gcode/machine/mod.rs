@@ -15,10 +15,10 @@
 //! Invariants: knows no kinematics and does no file I/O (a `.var` file or a
 //! tool table comes in as data); refuses what LinuxCNC refuses, with its
 //! messages; a block that fails leaves the state as it was.
-pub mod cycles;
-pub mod interpret;
-pub mod modal;
-pub mod motion;
-pub mod origin;
-pub mod spline;
-pub mod tools;
+pub(crate) mod cycles;
+pub(crate) mod interpret;
+pub(crate) mod modal;
+pub(crate) mod motion;
+pub(crate) mod origin;
+pub(crate) mod spline;
+pub(crate) mod tools;

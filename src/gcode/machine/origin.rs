@@ -26,10 +26,6 @@ impl Origin {
         rotation_deg: 0.0,
     };
 
-    pub fn is_identity(&self) -> bool {
-        *self == Origin::MACHINE
-    }
-
     /// Program coordinates → machine coordinates.
     pub fn to_machine(&self, p: &Axes) -> Axes {
         let (x, y) = rotate(p.x + self.g92.x, p.y + self.g92.y, self.rotation_deg);

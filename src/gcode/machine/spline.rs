@@ -66,6 +66,7 @@ impl Nurbs {
 
     /// The point at parameter `u` ∈ [0, [`Nurbs::u_max`]] (de Boor on the
     /// weighted points).
+    #[cfg(test)]
     pub fn point(&self, u: f64) -> [f64; 2] {
         let knots = self.knots();
         self.point_with(&knots, u)

@@ -99,25 +99,6 @@ impl BinaryOp {
         }
     }
 
-    pub fn symbol(self) -> &'static str {
-        match self {
-            BinaryOp::Power => "**",
-            BinaryOp::Times => "*",
-            BinaryOp::Divide => "/",
-            BinaryOp::Modulo => "MOD",
-            BinaryOp::Plus => "+",
-            BinaryOp::Minus => "-",
-            BinaryOp::Eq => "EQ",
-            BinaryOp::Ne => "NE",
-            BinaryOp::Gt => "GT",
-            BinaryOp::Ge => "GE",
-            BinaryOp::Lt => "LT",
-            BinaryOp::Le => "LE",
-            BinaryOp::And => "AND",
-            BinaryOp::Or => "OR",
-            BinaryOp::Xor => "XOR",
-        }
-    }
 }
 
 /// A parameter reference: `#12`, `##1`, `#[#2+1]`, `#<name>`, `#<_global>`.

@@ -14,7 +14,7 @@
 //!
 //! Invariants: knows no parameter values, no modal state, no machine; no
 //! input makes it panic.
-pub mod block;
-pub mod expression;
-pub mod parser;
-pub mod reader;
+pub(crate) mod block;
+pub(crate) mod expression;
+pub(crate) mod parser;
+pub(crate) mod reader;

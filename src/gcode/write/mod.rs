@@ -9,5 +9,5 @@
 //!
 //! Invariant: a block is written byte for byte unless something it must say
 //! changes.
-pub mod format;
-pub mod rewrite;
+pub(crate) mod format;
+pub(crate) mod rewrite;

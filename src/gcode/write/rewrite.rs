@@ -249,11 +249,6 @@ impl Rewriter {
         }
     }
 
-    /// Where the emitted program stands now (absolute, mm/deg, last block's frame).
-    pub fn emitted_position(&self) -> Axes {
-        self.emitted
-    }
-
     /// Emit one block (see the module docs for the contract); says what was written.
     pub fn emit(
         &mut self,
