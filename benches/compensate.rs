@@ -82,7 +82,7 @@ fn bench_compensate(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
     };
     let options = CompensateOptions {
         interpret,
-        limits: Some(machine.limits.clone()),
+        limits: Some(machine.limits),
         ..CompensateOptions::default()
     };
     let mut group = c.benchmark_group("compensate_100k_blocks");

@@ -7,6 +7,7 @@
 //! expected against the achieved separation.
 //!
 //!     cargo run --release --example followup [-- SEEDS [noise=UM] [probes=N]]
+#![allow(clippy::result_large_err)]
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;

@@ -5,6 +5,7 @@
 //! row against its target and the diagnosis time.
 //!
 //!     cargo run --release --example robustness [-- verbose]
+#![allow(clippy::type_complexity)]
 use std::time::Instant;
 use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part, score};
 use volcomp::diagnose::{DiagnoseOptions, diagnose};

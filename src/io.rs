@@ -200,9 +200,8 @@ where
         }
         None => Some(staged),
     });
-    match unstaged {
-        Some(staged) => persist_all(vec![staged])?,
-        None => {}
+    if let Some(staged) = unstaged {
+        persist_all(vec![staged])?
     }
     Ok(())
 }

@@ -25,6 +25,14 @@
 //! See `ARCHITECTURE.md` for the pipeline and the invariants of each module.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// A located error carries its file, line, column and the line's text (what
+// the message shows), so `GcodeError` is 160 bytes; errors are the cold path
+// and boxing them would put an allocation on every failed lookup instead.
+#![allow(clippy::result_large_err)]
+// The NURBS and band-matrix algorithms are written with indices as their
+// references (Piegl & Tiller) write them; `!(a < b)` is meant where a NaN
+// must take the other branch.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod axes;
 mod cli;

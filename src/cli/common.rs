@@ -437,8 +437,7 @@ impl ProgramArgs {
         };
         let mut given: [Option<&str>; 10] = [None; 10];
         for text in &self.offset {
-            let (n, origin) =
-                parse_offset(text, rotary, letters).map_err(|m| super::UsageError(m))?;
+            let (n, origin) = parse_offset(text, rotary, letters).map_err(super::UsageError)?;
             if let Some(first) = given[n] {
                 return Err(super::UsageError(format!(
                     "--offset `{text}`: that work coordinate system is already given (--offset `{first}`); give each system once"
@@ -837,7 +836,7 @@ mod tests {
 
     #[test]
     fn rates_are_whole_with_thousands_separated() {
-        assert_eq!(thousands(203_087.9885), "203,088");
+        assert_eq!(thousands(203_087.988_5), "203,088");
         assert_eq!(thousands(999.4), "999");
         assert_eq!(thousands(1_000.0), "1,000");
         assert_eq!(thousands(-1234567.0), "-1,234,567");

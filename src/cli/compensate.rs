@@ -201,11 +201,10 @@ Give the original program, or --force to compensate it anyway"
         report = Some(r);
         Ok(())
     })
-    .map_err(|e| {
+    .inspect_err(|_e| {
         if let Some(b) = &bar {
             b.abandon();
         }
-        e
     })
     .with_context(|| {
         format!(

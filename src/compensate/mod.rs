@@ -30,8 +30,7 @@ use crate::toolpath::{effective_frame, joints_of, target_of};
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
-    SolveError, first_order_joints, first_order_joints_at, solve_joints_toward,
-    solve_pose_toward,
+    SolveError, first_order_joints, first_order_joints_at, solve_joints_toward, solve_pose_toward,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -792,17 +791,12 @@ fn plan_motion(
                 break;
             }
         }
-        if gap > tol_mm && arc.is_some() {
+        if gap > tol_mm
+            && let Some(arc) = arc.as_ref()
+        {
             // A split arc becomes straight pieces on the compensated arc.
             return Ok(Split {
-                via: densify_arc(
-                    model,
-                    motion,
-                    arc.as_ref().expect("arc"),
-                    frame,
-                    options,
-                    directions.incoming,
-                )?,
+                via: densify_arc(model, motion, arc, frame, options, directions.incoming)?,
                 capped_gap_um: None,
             });
         }

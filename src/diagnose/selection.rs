@@ -245,8 +245,8 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
                 terms
                     .iter()
                     .filter(|t| {
-                        !(t.model && current.model)
-                            && !t.kinds.iter().any(|k| current.kinds.contains(k))
+                        !((t.model && current.model)
+                            || t.kinds.iter().any(|k| current.kinds.contains(k)))
                     })
                     .map(|t| {
                         let mut kinds = current.kinds.clone();

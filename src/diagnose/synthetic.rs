@@ -120,7 +120,7 @@ fn curvature(p0: [f64; 3], p1: [f64; 3], p2: [f64; 3]) -> (f64, [f64; 3]) {
     ];
     let c = cross(w, axb).map(|v| v / den);
     let r = norm(c);
-    if r < 1e-12 || r > 1e9 {
+    if !(1e-12..=1e9).contains(&r) {
         return (0.0, [0.0; 3]);
     }
     (1.0 / r, c.map(|v| v / r))

@@ -44,6 +44,9 @@ pub struct BlockSummary {
 }
 
 /// One step of the alignment.
+// A pair holds both sides by value: the aligner keeps a bounded window of
+// these, and boxing would allocate twice per block.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Aligned {
     /// Present in both (possibly changed).

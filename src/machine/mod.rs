@@ -22,8 +22,8 @@ pub use definition::{
 pub use error_model::{
     Contribution, ErrorModel, LookupError, ModelError, ModelOptions, ModelUncertainty,
 };
-pub use reversal::{Approach, AxisReversal, Direction, DirectionTracker};
 pub use model_cache::{CacheOutcome, CacheReport, ModelCache};
-pub use update::edit_machine_text;
+pub use reversal::{Approach, AxisReversal, Direction, DirectionTracker};
 pub use table::ErrorTable;
 pub use tool_models::{ToolModels, kinematics_with};
+pub use update::edit_machine_text;

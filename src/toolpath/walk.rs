@@ -388,25 +388,6 @@ pub fn circle_curvature(a: [f64; 3], p: [f64; 3], b: [f64; 3]) -> (f64, [f64; 3]
     (1.0 / r, scale(c, 1.0 / r))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn circle_through_three_points_of_a_unit_circle() {
-        let (k, n) = circle_curvature([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]);
-        assert!((k - 1.0).abs() < 1e-12);
-        assert!((n[1] + 1.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn collinear_points_have_no_curvature() {
-        let (k, n) = circle_curvature([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]);
-        assert_eq!(k, 0.0);
-        assert_eq!(n, [0.0; 3]);
-    }
-}
-
 /// Advance `tracker` (the directions of the axes with a reversal) along
 /// `motion` from its fraction `t0` to `t1`, in the joints of `kinematics`: a
 /// straight joint move at its end alone (its joints move monotonically),
@@ -454,5 +435,24 @@ pub fn advance_directions(
             frame,
             &motion.point_at(arc.as_ref(), t),
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn circle_through_three_points_of_a_unit_circle() {
+        let (k, n) = circle_curvature([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]);
+        assert!((k - 1.0).abs() < 1e-12);
+        assert!((n[1] + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn collinear_points_have_no_curvature() {
+        let (k, n) = circle_curvature([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]);
+        assert_eq!(k, 0.0);
+        assert_eq!(n, [0.0; 3]);
     }
 }

@@ -95,7 +95,7 @@ pub fn compensate_on(
     let options = CompensateOptions {
         tolerance_um,
         interpret: interpret_options_on(machine, frame),
-        limits: Some(machine.limits.clone()),
+        limits: Some(machine.limits),
         orientation,
         ..CompensateOptions::default()
     };
@@ -1047,7 +1047,7 @@ fn arcs_of_many_turns_are_read_whole_or_refused() {
     let (machine, model) = ref_trt();
     let options = CompensateOptions {
         interpret: interpret_options(Frame::Joint),
-        limits: Some(machine.limits.clone()),
+        limits: Some(machine.limits),
         ..CompensateOptions::default()
     };
     let e = compensate(
@@ -1130,7 +1130,7 @@ fn a_g5_3_that_starts_another_nurbs_is_refused() {
     let (machine, model) = ref_trt();
     let options = CompensateOptions {
         interpret: interpret_options(Frame::Joint),
-        limits: Some(machine.limits.clone()),
+        limits: Some(machine.limits),
         ..CompensateOptions::default()
     };
     let e = compensate(

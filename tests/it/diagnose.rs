@@ -173,7 +173,7 @@ fn simulate_moves_points_by_truth_effects_and_noise() {
     let with = simulate(
         &p.contexts,
         &p.truth_um,
-        &[bl.clone()],
+        std::slice::from_ref(&bl),
         &SimulateOptions {
             noise_um: 0.0,
             seed: 1,
@@ -277,7 +277,7 @@ fn noise_floor_is_estimated_from_the_data() {
 fn check_blind(kind: EffectKind, seed: u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed * 31 + kind as u64);
     let effect = random_effect(kind, &part().contexts, (2.0, 6.0), &mut rng);
-    let r = run(&[effect.clone()], 0.3, 100 + seed);
+    let r = run(std::slice::from_ref(&effect), 0.3, 100 + seed);
     assert_eq!(
         r.selected.first().map(String::as_str),
         Some(kind.name()),
@@ -677,7 +677,7 @@ fn saddle_blind_single_effects_none_and_pairs() {
         for seed in 0..2 {
             let mut rng = ChaCha8Rng::seed_from_u64(seed * 17 + kind as u64);
             let effect = random_effect(kind, &saddle().contexts, (2.0, 6.0), &mut rng);
-            let r = run_saddle(&[effect.clone()], 300 + seed);
+            let r = run_saddle(std::slice::from_ref(&effect), 300 + seed);
             assert_eq!(
                 r.selected.first().map(String::as_str),
                 Some(kind.name()),
@@ -764,7 +764,7 @@ mod cli {
     }
 
     fn ok(out: &std::process::Output) -> String {
-        crate::support::assert_success(&out);
+        crate::support::assert_success(out);
         String::from_utf8_lossy(&out.stdout).into_owned()
     }
 
@@ -1178,9 +1178,14 @@ fn a_followup_tells_rotary_location_from_setup_error() {
         noise_um: 0.3,
         seed: 78,
     };
-    let measured = simulate(contexts, &part.truth_um, &[effect.clone()], &noise)
-        .unwrap()
-        .deviations_um();
+    let measured = simulate(
+        contexts,
+        &part.truth_um,
+        std::slice::from_ref(&effect),
+        &noise,
+    )
+    .unwrap()
+    .deviations_um();
     let before = diagnose(contexts, &measured, &DiagnoseOptions::default()).unwrap();
     assert_eq!(
         before.selected,
@@ -1257,7 +1262,14 @@ fn a_followup_tells_rotary_location_from_setup_error() {
         assert!(v.abs() < 1e-9, "{v}");
     }
     let drift = Effect::parse("thermal_drift:dz=5,tau=3").unwrap();
-    let values = simulate_followup(contexts, &probes, &none, &[drift.clone()], &zero).unwrap();
+    let values = simulate_followup(
+        contexts,
+        &probes,
+        &none,
+        std::slice::from_ref(&drift),
+        &zero,
+    )
+    .unwrap();
     for (p, v) in probes.iter().zip(values) {
         let expected = drift.deviation_um(&contexts[p.of]) - drift.deviation_um(&p.context);
         assert!((v - expected).abs() < 1e-12);

@@ -7,8 +7,8 @@ use volcomp::gcode::Frame;
 
 fn diff(a: &str, b: &str) -> volcomp::diff::DiffReport {
     diff_programs(
-        volcomp::gcode::Program::from_text(&a, "a.nc"),
-        volcomp::gcode::Program::from_text(&b, "b.nc"),
+        volcomp::gcode::Program::from_text(a, "a.nc"),
+        volcomp::gcode::Program::from_text(b, "b.nc"),
         &DiffOptions::default(),
     )
     .expect("diffs")

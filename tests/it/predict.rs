@@ -37,7 +37,7 @@ fn options() -> CutOptions {
 
 fn predict_text(text: &str, plan: &Plan) -> PredictReport {
     predict_plan(
-        volcomp::gcode::Program::from_text(&text, "program.nc"),
+        volcomp::gcode::Program::from_text(text, "program.nc"),
         &ref_trt().1,
         plan,
         &options(),

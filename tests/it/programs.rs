@@ -23,7 +23,7 @@ fn compensate_tol(
     let options = CompensateOptions {
         tolerance_um,
         interpret: interpret_options(Frame::Joint),
-        limits: Some(machine.limits.clone()),
+        limits: Some(machine.limits),
         ..CompensateOptions::default()
     };
     let program = Program::new(

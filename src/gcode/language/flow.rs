@@ -634,10 +634,7 @@ impl Executor {
             LineEnding::None => LineEnding::Lf,
             e => e,
         };
-        if let Err(e) = parse_line(&mut self.out) {
-            // Cannot happen for text this function wrote; report it located.
-            return Err(e);
-        }
+        parse_line(&mut self.out)?;
         self.executed = Executed {
             file: self.current,
             line: block.line,

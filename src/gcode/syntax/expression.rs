@@ -98,7 +98,6 @@ impl BinaryOp {
             BinaryOp::Power => 6,
         }
     }
-
 }
 
 /// A parameter reference: `#12`, `##1`, `#[#2+1]`, `#<name>`, `#<_global>`.
