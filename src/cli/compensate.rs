@@ -278,6 +278,20 @@ unmodelled effects not included): RMS {rms:.3} µm, max {max:.3} µm"
         ),
         None => msg,
     };
+    // The reversal is part of the correction: say which axes carry one.
+    let reversal = model.reversal_axes();
+    let msg = if reversal.is_empty() {
+        msg
+    } else {
+        let axes: Vec<String> = reversal
+            .iter()
+            .map(|(axis, source)| format!("{} ({source})", axis.letter()))
+            .collect();
+        format!(
+            "{msg}\nreversal applied by each axis's approach direction: {}; a straight move that reverses such an axis gets a take-up piece (counted in the splits)",
+            axes.join(", ")
+        )
+    };
     // Per tool, when the program changes tools.
     let msg = if report.tools.iter().any(|t| t.tool != 0) {
         let mut msg = msg;

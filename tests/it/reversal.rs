@@ -332,3 +332,42 @@ fn the_model_adds_half_the_reversal_by_direction() {
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
+
+/// The summary of `compensate` says that the correction includes the
+/// reversal, of which axes and from where; a machine without one says nothing.
+#[test]
+fn the_compensate_summary_names_the_reversal() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("p.nc");
+    std::fs::write(
+        &program,
+        "G21 G90 G94 F500\nG0 X0 Y0 Z0 A0 C0\nG1 X50\nG1 X0\nM2\n",
+    )
+    .unwrap();
+    let out = volcomp()
+        .arg("compensate")
+        .arg(machine_file())
+        .arg(&program)
+        .arg("-o")
+        .arg(dir.path().join("out.nc"))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains(
+            "reversal applied by each axis's approach direction: X ([reversal]), Y ([reversal])"
+        ),
+        "{stdout}"
+    );
+    let plain = volcomp()
+        .arg("compensate")
+        .arg(root().join("machines/ref-trt.toml"))
+        .arg(&program)
+        .arg("-o")
+        .arg(dir.path().join("plain.nc"))
+        .output()
+        .unwrap();
+    assert_success(&plain);
+    assert!(!String::from_utf8_lossy(&plain.stdout).contains("reversal"));
+}
