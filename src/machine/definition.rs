@@ -912,19 +912,8 @@ impl Machine {
             for (name, entry) in errors.get_ref() {
                 let key = format!("errors.{name}");
                 let axis = src.letter(entry.span(), &key, name)?;
-                let Some(slot) = chain.slot(axis) else {
-                    let why = if letters.contains(axis) {
-                        "U, V and W carry no error tables (volcomp models their position only)"
-                            .to_string()
-                    } else {
-                        format!(
-                            "the machine has no axis {} (its axes: {})",
-                            axis.letter(),
-                            letters.letters()
-                        )
-                    };
-                    return Err(src.invalid(entry.span(), &key, why));
-                };
+                let slot = modelled_slot(&chain, axis, "error tables")
+                    .map_err(|why| src.invalid(entry.span(), &key, why))?;
                 if tables[slot].is_some() {
                     return Err(src.invalid(
                         entry.span(),
@@ -1029,6 +1018,23 @@ impl Machine {
 /// per axis of the machine with error tables (X Y Z and its two rotary axes),
 /// finite, each axis once, and not for an axis whose table has a `REVERSAL`
 /// column (which of the two would hold is ambiguous).
+/// The error-model slot of `axis` on `chain`, or why it has none: an axis
+/// the machine lacks, or U V W (which carry no `carries`).
+fn modelled_slot(chain: &MachineChain, axis: Axis, carries: &str) -> Result<usize, String> {
+    let letters = chain.letters();
+    chain.slot(axis).ok_or_else(|| {
+        if letters.contains(axis) {
+            format!("U, V and W carry no {carries} (volcomp models their position only)")
+        } else {
+            format!(
+                "the machine has no axis {} (its axes: {})",
+                axis.letter(),
+                letters.letters()
+            )
+        }
+    })
+}
+
 fn reversal_constants(
     src: &Source<'_>,
     raw: &RawMachine,
@@ -1039,22 +1045,11 @@ fn reversal_constants(
     let Some(section) = &raw.reversal else {
         return Ok(out);
     };
-    let letters = chain.letters();
     for (name, value) in section.get_ref() {
         let key = format!("reversal.{name}");
         let axis = src.letter(value.span(), &key, name)?;
-        let Some(slot) = chain.slot(axis) else {
-            let why = if letters.contains(axis) {
-                "U, V and W carry no error model (volcomp models their position only)".to_string()
-            } else {
-                format!(
-                    "the machine has no axis {} (its axes: {})",
-                    axis.letter(),
-                    letters.letters()
-                )
-            };
-            return Err(src.invalid(value.span(), &key, why));
-        };
+        let slot = modelled_slot(chain, axis, "error model")
+            .map_err(|why| src.invalid(value.span(), &key, why))?;
         if out[slot].is_some() {
             return Err(src.invalid(
                 value.span(),
