@@ -94,6 +94,7 @@ type Lu5 = nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>;
 /// it beyond the residuals (1 nm, 0.01 µrad).
 #[derive(Clone, Debug, Default)]
 pub struct WarmStart {
+    /// Joint correction of the last pose (X Y Z mm, rotary joints degrees, slot order).
     pub correction: [f64; 5],
     jacobian: Option<KeptJacobian>,
 }

@@ -47,18 +47,31 @@ use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
 pub use simulate::{SimulateOptions, simulate, simulate_followup};
 use std::collections::BTreeMap;
 
+/// Why a diagnosis (or a simulation) was refused.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum DiagnoseError {
+    /// An input list does not hold one value per plan point.
     #[error("{what}: expected {expected} values (one per plan point), found {found}")]
     LengthMismatch {
+        /// Which input.
         what: &'static str,
+        /// Plan points.
         expected: usize,
+        /// Values given.
         found: usize,
     },
+    /// A value of a point (measurement or context) is NaN or infinite.
     #[error("point `{id}`: {what} is not finite")]
-    NonFinite { what: &'static str, id: String },
+    NonFinite {
+        /// Which value.
+        what: &'static str,
+        /// The plan point's id.
+        id: String,
+    },
+    /// The program cut none of the plan's points.
     #[error("no plan point was cut by the program: nothing to diagnose")]
     NoPoints,
+    /// An option is out of its range or malformed (the message says which).
     #[error("{0}")]
     BadOption(String),
 }
