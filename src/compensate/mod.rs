@@ -1,7 +1,7 @@
 //! `compensate`: rewrite a program so that the modelled actual tool tip lands on
 //! the programmed one.
 //!
-//! For every motion target the joints are solved ([`solve`]) so that the actual
+//! For every motion target the joints are solved (`solve`) so that the actual
 //! tool tip of the error model equals the nominal tip of the programmed target;
 //! part-frame (tool-tip control) targets are moved in part coordinates, through
 //! the nominal kinematics the control itself uses. A cutting move whose correction

@@ -5,16 +5,16 @@
 //!
 //! Method (docs/diagnose.md): residuals `r = measured − predicted` on the cut
 //! points; a noise floor estimated from the data (robust difference estimator
-//! along the cut, [`noise`]) unless given; every effect fitted by least squares
+//! along the cut, `noise`) unless given; every effect fitted by least squares
 //! on its signature columns (no intercept; `tau` profiled), judged by its
 //! cross-validated error (folds by region and by time) with a BIC penalty for
 //! parameters; symmetric aliases (two effects whose fitted contributions
-//! coincide to within the noise floor); selection on evidence ([`selection`]:
+//! coincide to within the noise floor); selection on evidence (`selection`:
 //! up to three effects and the error model's own axis factors, each member
 //! significant by a penalised held-out likelihood ratio against the noise and
 //! the model's own uncertainty); the model verdict; local anomalies of the
 //! residual; units, ± and plausibility of every selected parameter
-//! ([`plausibility`]).
+//! (`plausibility`).
 //!
 //! Invariants: inputs are checked (equal lengths, finite values) before any
 //! arithmetic; the result is deterministic; no I/O.
