@@ -1,7 +1,7 @@
 //! `compensate`: rewrite a program so that the modelled actual tool tip lands on
 //! the programmed one.
 //!
-//! For every motion target the joints are solved ([`solve`]) so that the actual
+//! For every motion target the joints are solved (`solve`) so that the actual
 //! tool tip of the error model equals the nominal tip of the programmed target;
 //! part-frame (tool-tip control) targets are moved in part coordinates, through
 //! the nominal kinematics the control itself uses. A cutting move whose correction
@@ -52,7 +52,9 @@ pub struct CompensateOptions {
     /// Most straight pieces a split arc becomes; an arc that needs more to
     /// stay within the tolerance is refused (a located error).
     pub max_arc_chords: usize,
+    /// How the program is read (start frame and position, rapid rate, leniency, axis letters, spline tolerance).
     pub interpret: InterpretOptions,
+    /// How the compensated blocks are written (decimals of the rewritten values).
     pub rewrite: RewriteOptions,
     /// Blocks per chunk (memory and parallel grain).
     pub chunk_blocks: usize,
@@ -87,15 +89,21 @@ impl Default for CompensateOptions {
 /// The summary (`--report` JSON: formats.md fields first).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct CompensateReport {
+    /// Blocks read from the program.
     pub blocks_read: usize,
+    /// Blocks written differently from how they were read.
     pub blocks_changed: usize,
+    /// Moves split into straight pieces because the correction varies along them.
     pub blocks_split: usize,
     /// Largest and RMS |Δ(X, Y, Z)| of the motion targets, µm (block frame).
     pub max_correction_um: f64,
+    /// RMS of the same, µm.
     pub rms_correction_um: f64,
+    /// Wall-clock time of the run, seconds.
     pub seconds: f64,
     /// Motion blocks and the new blocks the splits added.
     pub motion_blocks: usize,
+    /// Blocks the splits (and flattened cycles) added.
     pub blocks_added: usize,
     /// Largest solver residual, nm.
     pub max_residual_nm: f64,
@@ -103,6 +111,7 @@ pub struct CompensateReport {
     pub max_correction_line: usize,
     /// Lookups that held a table's end value (`--extrapolate hold`).
     pub held_lookups: u64,
+    /// The split tolerance of the run ([`CompensateOptions::tolerance_um`]), µm.
     pub tolerance_um: f64,
     /// The corrections per run of blocks cut with one tool, in program order.
     pub tools: Vec<ToolCorrections>,
@@ -113,6 +122,7 @@ pub struct CompensateReport {
     /// uncertainties (extension: docs/extensions.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub expected_residual_rms_um: Option<f64>,
+    /// The largest such standard uncertainty over the moves, µm (absent as above).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub expected_residual_max_um: Option<f64>,
     /// With `--orientation`: the modelled tool-axis error at the move ends
@@ -150,9 +160,11 @@ pub struct CompensateReport {
 pub struct TableEndReport {
     /// Move ends so compensated.
     pub moves: usize,
+    /// Line of the first such move end.
     pub first_line: usize,
     /// How far beyond a table's end, at most: X Y Z µm, A µrad.
     pub max_um: f64,
+    /// The same for the rotary axes, µrad.
     pub max_urad: f64,
     /// Lookups held over such slivers (move ends and split points).
     pub lookups: u64,
@@ -163,6 +175,7 @@ pub struct TableEndReport {
 pub struct SplitCap {
     /// Most pieces a move is split into.
     pub pieces: usize,
+    /// Moves that reached the cap.
     pub moves: usize,
     /// Their lines (the first 50).
     pub lines: Vec<usize>,
@@ -179,16 +192,22 @@ pub struct PassedDefinition {
     pub name: String,
     /// Lines of its `sub` and `endsub`.
     pub first_line: usize,
+    /// Line of its `endsub`.
     pub last_line: usize,
 }
 
 /// The tool-axis side of `compensate --orientation`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct OrientationReport {
+    /// Compensated move ends counted here.
     pub moves: usize,
+    /// Largest modelled tool-axis error before compensation, µrad.
     pub axis_error_before_max_urad: f64,
+    /// RMS of the modelled tool-axis error before compensation, µrad.
     pub axis_error_before_rms_urad: f64,
+    /// Largest modelled tool-axis error left after compensation, µrad.
     pub axis_error_after_max_urad: f64,
+    /// RMS of the modelled tool-axis error left after compensation, µrad.
     pub axis_error_after_rms_urad: f64,
     /// Moves too close to the A = 0 pole for C to steer the axis: position only.
     pub position_only_moves: usize,
@@ -209,9 +228,13 @@ pub struct ToolCorrections {
     pub length_mm: f64,
     /// Lines of the run's first and last compensated move.
     pub first_line: usize,
+    /// Line of the run's last compensated move.
     pub last_line: usize,
+    /// Compensated moves in the run.
     pub moves: usize,
+    /// Largest |Δ(X, Y, Z)| of the run's motion targets, µm.
     pub max_correction_um: f64,
+    /// RMS |Δ(X, Y, Z)| of the run's motion targets, µm.
     pub rms_correction_um: f64,
     #[serde(skip)]
     sum_sq: f64,
@@ -357,43 +380,64 @@ impl CompensateReport {
     }
 }
 
+/// Why a compensation run stopped; every variant but `Gcode` names the program file and line.
 #[derive(Debug, thiserror::Error)]
 pub enum CompensateError {
+    /// The program could not be read or interpreted.
     #[error(transparent)]
     Gcode(#[from] GcodeError),
+    /// Solving the joints of a block's compensated target failed (a table lookup, a non-finite target, no convergence).
     #[error("{path}:{line}: {source}")]
     Solve {
+        /// The program file.
         path: PathBuf,
+        /// Line of the block.
         line: usize,
+        /// Why the solve failed.
         source: SolveError,
     },
+    /// A compensated target falls outside the travel limits of the machine file.
     #[error(
         "{path}:{line}: the compensated target puts {axis:?} at {value:.4}, outside its travel [{}, {}]; \
 the machine cannot cut this block as compensated (move the part or relax the limits in the machine file)",
         range[0], range[1]
     )]
     OutsideTravel {
+        /// The program file.
         path: PathBuf,
+        /// Line of the block.
         line: usize,
+        /// The joint out of travel.
         axis: crate::axes::Axis,
+        /// Its compensated position (mm, or degrees for a rotary axis).
         value: f64,
+        /// Its travel limits `[min, max]`, same units.
         range: [f64; 2],
     },
+    /// An arc would need more straight pieces than [`CompensateOptions::max_arc_chords`].
     #[error(
         "{path}:{line}: the correction varies along this arc, which must be written as straight pieces: \
 {needed:.0} are needed to stay within a tenth of the tolerance of the arc, more than the {cap} volcomp writes for one arc; \
 raise --tol, or split the arc in the program"
     )]
     TooManyChords {
+        /// The program file.
         path: PathBuf,
+        /// Line of the arc.
         line: usize,
+        /// Pieces the arc would need.
         needed: f64,
+        /// The most pieces allowed for one arc.
         cap: usize,
     },
+    /// Writing a compensated block failed (output I/O or a block that cannot be rewritten).
     #[error("{path}:{line}: {source}")]
     Rewrite {
+        /// The program file.
         path: PathBuf,
+        /// Line of the block.
         line: usize,
+        /// Why the rewrite failed.
         source: RewriteError,
     },
 }

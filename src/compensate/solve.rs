@@ -94,6 +94,7 @@ type Lu5 = nalgebra::LU<f64, nalgebra::U5, nalgebra::U5>;
 /// it beyond the residuals (1 nm, 0.01 µrad).
 #[derive(Clone, Debug, Default)]
 pub struct WarmStart {
+    /// Joint correction of the last pose (X Y Z mm, rotary joints degrees, slot order).
     pub correction: [f64; 5],
     jacobian: Option<KeptJacobian>,
 }
@@ -138,11 +139,11 @@ pub(crate) fn describe_joints(kin: &Kinematics, q: &Axes) -> String {
 /// `nominal + warm.correction` (X Y Z mm, A C degrees) with the Jacobian `warm`
 /// keeps, if it is near. `Ok(None)`: the pose is too close to the A = 0 pole
 /// for C to steer the axis (a step with a fresh Jacobian would turn C by more
-/// than [`MAX_C_CORRECTION_DEG`], the system is singular, or the iteration does
-/// not reach the residuals in [`MAX_ITERATIONS`] steps); the caller solves
+/// than `MAX_C_CORRECTION_DEG`, the system is singular, or the iteration does
+/// not reach the residuals in `MAX_ITERATIONS` steps); the caller solves
 /// position only. A Jacobian serves several steps and poses (the errors' slope
 /// makes it differ by ~1e-5, a nearby pose by ≲ 1e-2); a kept one that does not
-/// converge in [`KEPT_JACOBIAN_STEPS`] is taken afresh. `warm` is updated.
+/// converge in `KEPT_JACOBIAN_STEPS` is taken afresh. `warm` is updated.
 pub fn solve_pose_from(
     model: &ErrorModel,
     nominal: &Axes,

@@ -22,36 +22,78 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
+    /// `thermal_drift`: a machine-frame drift `(dx, dy, dz)` µm approached as
+    /// `1 − exp(−t/tau)`, `tau` in minutes.
     ThermalDrift,
+    /// `backlash`: half of `(bx, by, bz)` µm, signed by each axis's last
+    /// direction of travel (machine frame).
     Backlash,
+    /// `servo_lag`: `k·v²·κ` along the path's principal normal, `k` in s².
     ServoLag,
+    /// `tool_deflection`: `c` µm along the part normal's component across the
+    /// tool axis.
     ToolDeflection,
+    /// `tool_wear`: `w` µm per metre of cut, along the part normal.
     ToolWear,
+    /// `radius_offset`: `r` µm along the part normal.
     RadiusOffset,
+    /// `setup_error`: the part displaced by `(tx, ty, tz)` µm and turned by
+    /// `(rx, ry, rz)` µrad (part coordinates).
     SetupError,
+    /// `squareness`: the linear axes out of square, `s_xy, s_xz, s_yz` µrad.
     Squareness,
+    /// `rotary_location`: offsets (µm) and tilts (µrad) of the rotary axes'
+    /// lines (named by the machine's rotary letters).
     RotaryLocation,
 }
 
+/// Why an effect given as text (`backlash:bx=6,by=0,bz=3`) was refused.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum EffectError {
+    /// The name is not in the catalogue.
     #[error("unknown effect `{name}` (valid effects: {valid})")]
-    UnknownEffect { name: String, valid: String },
-    #[error("effect `{effect}` has no parameter `{parameter}` (valid parameters: {valid})")]
-    UnknownParameter {
-        effect: String,
-        parameter: String,
+    UnknownEffect {
+        /// The name given.
+        name: String,
+        /// The catalogue's names, comma-separated.
         valid: String,
     },
+    /// A parameter name is not one of the effect's.
+    #[error("effect `{effect}` has no parameter `{parameter}` (valid parameters: {valid})")]
+    UnknownParameter {
+        /// The effect's name.
+        effect: String,
+        /// The parameter name given.
+        parameter: String,
+        /// The effect's parameter names, comma-separated.
+        valid: String,
+    },
+    /// A parameter is not `name=value` with a finite number.
     #[error("effect `{effect}`: `{text}` is not `name=value` with a finite number")]
-    BadValue { effect: String, text: String },
+    BadValue {
+        /// The effect's name.
+        effect: String,
+        /// The text given for the parameter.
+        text: String,
+    },
+    /// A parameter is given twice.
     #[error("effect `{effect}`: parameter `{parameter}` is given twice")]
-    Duplicate { effect: String, parameter: String },
+    Duplicate {
+        /// The effect's name.
+        effect: String,
+        /// The repeated parameter.
+        parameter: String,
+    },
+    /// `thermal_drift` whose `tau` is missing or not positive.
     #[error("effect `thermal_drift`: `tau` must be given and positive (minutes), found {tau}")]
-    BadTau { tau: f64 },
+    BadTau {
+        /// The `tau` found (minutes).
+        tau: f64,
+    },
 }
 
 impl EffectKind {
+    /// Every effect of the catalogue, in catalogue order.
     pub const ALL: [EffectKind; 9] = [
         EffectKind::ThermalDrift,
         EffectKind::Backlash,
@@ -64,6 +106,7 @@ impl EffectKind {
         EffectKind::RotaryLocation,
     ];
 
+    /// The effect's name in the CLI, the reports and effects.md (`thermal_drift`).
     pub fn name(self) -> &'static str {
         match self {
             EffectKind::ThermalDrift => "thermal_drift",
@@ -78,6 +121,7 @@ impl EffectKind {
         }
     }
 
+    /// The effect named `name` (as [`EffectKind::name`] spells it), if any.
     pub fn from_name(name: &str) -> Option<EffectKind> {
         EffectKind::ALL.into_iter().find(|k| k.name() == name)
     }
@@ -221,7 +265,9 @@ impl EffectKind {
 /// An effect with parameter values (in the order of [`EffectKind::parameters`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Effect {
+    /// Which effect.
     pub kind: EffectKind,
+    /// Its parameter values (units as in [`EffectKind`]; `tau` last for `thermal_drift`).
     pub values: Vec<f64>,
 }
 

@@ -44,7 +44,9 @@ pub struct Probe {
 /// A probe and what it read: `n·(m − p)`, µm.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeReading {
+    /// The probe.
     pub probe: Probe,
+    /// Its reading `n·(m − p)`, µm.
     pub reading_um: f64,
 }
 
@@ -310,16 +312,21 @@ pub struct Separation {
 /// A probe of the design with the reading each hypothesis expects.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct DesignedProbe {
+    /// Probe id (`F01`, …).
     pub id: String,
     /// The plan point probed.
     pub point_id: String,
+    /// The probe's first rotary joint (A on an A/C machine), degrees.
     pub a_deg: f64,
+    /// The probe's second rotary joint (C on an A/C machine), degrees.
     pub c_deg: f64,
+    /// When the probe is taken (program time), minutes.
     pub time_min: f64,
     /// How this pose differs from the cut: `cutting pose`, or the A/C change.
     pub pose: String,
     /// Expected reading beyond the model's (µm) under each hypothesis.
     pub expected_um: BTreeMap<String, f64>,
+    /// The probe itself (its context), for the fit of the outcome.
     #[serde(skip)]
     pub probe: Probe,
 }
@@ -327,10 +334,15 @@ pub struct DesignedProbe {
 /// A follow-up measurement designed to separate the selection from its rivals.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FollowupDesign {
+    /// The selected hypothesis (`a + b` for a pair).
     pub selected: String,
+    /// The rival hypotheses to tell from it.
     pub rivals: Vec<String>,
+    /// The probing noise assumed (the report's noise floor), µm.
     pub noise_um: f64,
+    /// The probes to take, in order.
     pub probes: Vec<DesignedProbe>,
+    /// The expected separation from each rival.
     pub separations: Vec<Separation>,
     /// The smallest expected separation over the rivals, σ.
     pub expected_separation_sigma: f64,
@@ -617,6 +629,7 @@ pub fn design(
 /// What a measured follow-up showed (report field `followup`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FollowupOutcome {
+    /// Follow-up readings judged.
     pub probes: usize,
     /// The selection on the measurement alone.
     pub selected_before: Vec<String>,

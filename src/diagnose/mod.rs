@@ -5,16 +5,16 @@
 //!
 //! Method (docs/diagnose.md): residuals `r = measured − predicted` on the cut
 //! points; a noise floor estimated from the data (robust difference estimator
-//! along the cut, [`noise`]) unless given; every effect fitted by least squares
+//! along the cut, `noise`) unless given; every effect fitted by least squares
 //! on its signature columns (no intercept; `tau` profiled), judged by its
 //! cross-validated error (folds by region and by time) with a BIC penalty for
 //! parameters; symmetric aliases (two effects whose fitted contributions
-//! coincide to within the noise floor); selection on evidence ([`selection`]:
+//! coincide to within the noise floor); selection on evidence (`selection`:
 //! up to three effects and the error model's own axis factors, each member
 //! significant by a penalised held-out likelihood ratio against the noise and
 //! the model's own uncertainty); the model verdict; local anomalies of the
 //! residual; units, ± and plausibility of every selected parameter
-//! ([`plausibility`]).
+//! (`plausibility`).
 //!
 //! Invariants: inputs are checked (equal lengths, finite values) before any
 //! arithmetic; the result is deterministic; no I/O.
@@ -47,18 +47,31 @@ use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
 pub use simulate::{SimulateOptions, simulate, simulate_followup};
 use std::collections::BTreeMap;
 
+/// Why a diagnosis (or a simulation) was refused.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum DiagnoseError {
+    /// An input list does not hold one value per plan point.
     #[error("{what}: expected {expected} values (one per plan point), found {found}")]
     LengthMismatch {
+        /// Which input.
         what: &'static str,
+        /// Plan points.
         expected: usize,
+        /// Values given.
         found: usize,
     },
+    /// A value of a point (measurement or context) is NaN or infinite.
     #[error("point `{id}`: {what} is not finite")]
-    NonFinite { what: &'static str, id: String },
+    NonFinite {
+        /// Which value.
+        what: &'static str,
+        /// The plan point's id.
+        id: String,
+    },
+    /// The program cut none of the plan's points.
     #[error("no plan point was cut by the program: nothing to diagnose")]
     NoPoints,
+    /// An option is out of its range or malformed (the message says which).
     #[error("{0}")]
     BadOption(String),
 }

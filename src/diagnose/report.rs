@@ -8,16 +8,22 @@ use super::effects::EffectKind;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// The report of [`diagnose`](super::diagnose) (`--report` JSON; effects.md "volcomp diagnose").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiagnoseReport {
     /// Points in the measurement.
     pub points: usize,
     /// Points used (cut by the program).
     pub points_used: usize,
+    /// The gap between the measurement and the model's prediction, and the noise floor.
     pub gap: Gap,
+    /// Where the residual is largest (worst points and program lines).
     pub localization: Localization,
+    /// Every catalogue effect fitted, best first (by held-out gain).
     pub effects: Vec<EffectFit>,
+    /// The effects the evidence supports (possibly none, possibly two).
     pub selected: Vec<String>,
+    /// The model with the selected effects added.
     pub after: After,
     /// What a machinist should do, one sentence per finding.
     pub summary: Vec<String>,

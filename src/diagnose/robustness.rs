@@ -45,6 +45,7 @@ pub enum CaseClass {
 }
 
 impl CaseClass {
+    /// Whether the case's machine model is wrong (scaled, noisy or stale tables).
     pub fn wrong_model(self) -> bool {
         matches!(
             self,
@@ -56,14 +57,19 @@ impl CaseClass {
 /// One generated case.
 #[derive(Clone, Debug)]
 pub struct Case {
+    /// What kind of case.
     pub class: CaseClass,
+    /// Probing noise of the measurement (one σ), µm.
     pub noise_um: f64,
+    /// The seed of the case (effects, model error, noise).
     pub seed: u64,
+    /// The effects injected (empty for no effect).
     pub injected: Vec<EffectKind>,
     /// The bump's centre (part x, y, mm) when there is one.
     pub bump: Option<[f64; 2]>,
     /// Contexts with the (wrong) model's prediction.
     pub contexts: Vec<PointContext>,
+    /// The simulated measured deviations, one per context, µm.
     pub measured_um: Vec<f64>,
 }
 
@@ -173,9 +179,11 @@ pub fn case(
 pub struct RobustnessOptions {
     /// Seeds per effect and noise level for the single effects (4: 36 runs per level).
     pub seeds_per_effect: u64,
+    /// Probing noise levels (one σ, µm); every kind of case is made at each.
     pub noise_levels: &'static [f64],
     /// Localised servo-lag runs per noise level.
     pub servo_runs: u64,
+    /// Pair runs per noise level.
     pub pair_runs: u64,
     /// Wrong-model runs: scaled tables, noisy tables, stale table.
     pub wrong_model_runs: [u64; 3],
@@ -291,15 +299,18 @@ pub struct Score {
     pub all_found: bool,
     /// Some effect is selected although none was injected.
     pub false_positive: bool,
+    /// The report names the machine model as wrong (its model check found a mismatch).
     pub model_named: bool,
     /// A local anomaly within 15 mm of the bump (decoys), or any (others).
     pub anomaly: bool,
     /// Selected parameters outside their physical range or undetermined
     /// (independent of the report's own flags), and of those, the unflagged.
     pub implausible: usize,
+    /// Selected parameters outside their physical range or undetermined.
     pub unflagged: usize,
     /// Alias relations (A lists B) and those listed both ways.
     pub alias_relations: usize,
+    /// Alias relations (A lists B as an alias).
     pub alias_two_way: usize,
 }
 

@@ -20,7 +20,9 @@ use rand_chacha::ChaCha8Rng;
 pub struct SyntheticOptions {
     /// Raster rows (along X), evenly spaced over y ∈ [−half_y, half_y].
     pub rows: usize,
+    /// Half length of the part along X, mm.
     pub half_x_mm: f64,
+    /// Half width of the part along Y, mm.
     pub half_y_mm: f64,
     /// Feed, mm/min.
     pub feed_mm_min: f64,
@@ -29,12 +31,15 @@ pub struct SyntheticOptions {
     /// Amplitude of the smooth difference between the model's prediction and the
     /// truth (table noise and fit error), µm.
     pub model_error_um: f64,
+    /// Seed of the plan points' positions along the rows.
     pub seed: u64,
     /// The surface: a saddle `z = 0.006 (x² − y²)` or a dome `z = −0.006 (x² + y²)`.
     pub dome: bool,
     /// A runs over `a_mid_deg ± a_span_deg` with x, C over `10 ± c_span_deg` with y.
     pub a_mid_deg: f64,
+    /// See `a_mid_deg`, degrees.
     pub a_span_deg: f64,
+    /// See `a_mid_deg`, degrees.
     pub c_span_deg: f64,
 }
 
@@ -73,7 +78,9 @@ impl SyntheticOptions {
 /// Contexts and the true volumetric error `e` (µm, part coordinates) of each.
 #[derive(Clone, Debug)]
 pub struct SyntheticPart {
+    /// The plan points' contexts along the path.
     pub contexts: Vec<PointContext>,
+    /// The true volumetric error `e` at each context (X Y Z, µm, part coordinates).
     pub truth_um: Vec<[f64; 3]>,
 }
 
