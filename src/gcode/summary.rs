@@ -109,8 +109,8 @@ pub struct ProgramSummary {
     /// The moves per tool, run by run in program order (the first
     /// [`KEPT_TOOL_RUNS`]; `tool_runs` counts them all).
     pub tools: Vec<ToolRun>,
-    /// How many tool runs the program has (`tools` keeps at most
-    /// [`KEPT_TOOL_RUNS`] of them).
+    /// How many tool runs the program has (`tools` keeps at most the first
+    /// 256, `KEPT_TOOL_RUNS`).
     pub tool_runs: usize,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
