@@ -11,151 +11,254 @@ use std::path::PathBuf;
 /// What went wrong.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ErrorKind {
+    /// A `(` comment is not closed by `)` on the same line.
     #[error("unclosed comment: `(` is never closed on this line")]
     UnclosedComment,
+    /// A word's letter is not followed by a number (the letter).
     #[error("word `{0}` has no number")]
     MissingNumber(char),
+    /// A word's number cannot be read as a decimal number (the letter).
     #[error("malformed number in word `{0}`")]
     MalformedNumber(char),
+    /// A word's number does not fit an f64 (the letter).
     #[error("number out of range in word `{0}`")]
     NumberOutOfRange(char),
+    /// An expression, parameter reference or assignment is malformed.
     #[error("{0}")]
     Syntax(crate::gcode::syntax::expression::SyntaxErrorKind),
+    /// Evaluating an expression failed (e.g. an unset named parameter, a
+    /// division by zero, a function's argument out of its domain).
     #[error("{0}")]
     Eval(crate::gcode::syntax::expression::EvalErrorKind),
+    /// An O-word control-flow error (an unmatched label, a misplaced
+    /// keyword, an undefined subroutine…), with LinuxCNC's message.
     #[error("{0}")]
     OWord(String),
+    /// The file ended inside a subroutine, or while an O-word label was
+    /// sought (what was sought, and where).
     #[error("EOF seeking {0}")]
     EndOfFileInSubroutine(String),
+    /// A parameter setting (`#1 …`) without its `=`.
     #[error("Equal sign missing in parameter setting")]
     MissingEquals,
+    /// Something other than a keyword follows an O-word's label.
     #[error("Unexpected character after O-word")]
     UnexpectedAfterOWord,
+    /// An O-word's keyword is none of LinuxCNC's.
     #[error(
         "Unknown O-word keyword: expected sub, endsub, call, do, while, endwhile, if, elseif, else, endif, repeat, endrepeat, return, break or continue"
     )]
     UnknownOWordKeyword,
+    /// An O-word keyword that takes a bracketed argument (the keyword, e.g.
+    /// `while`) is not followed by `[`.
     #[error("Left bracket missing after '{0}'")]
     BracketAfterOKeyword(&'static str),
+    /// A character that starts no word, comment or expression (shown as
+    /// written).
     #[error("unexpected character `{0}`")]
     UnexpectedCharacter(String),
+    /// An axis word for an axis the machine does not have.
     #[error(
         "Bad character '{}' used: the machine has no {letter} axis (its axes: {axes})",
         letter.to_ascii_lowercase()
     )]
-    AxisNotOnMachine { letter: char, axes: String },
+    AxisNotOnMachine {
+        /// The axis word's letter.
+        letter: char,
+        /// The machine's axis letters.
+        axes: String,
+    },
+    /// An M98 or M99 subroutine call (the code), which volcomp does not run.
     #[error("subroutine call `{0}` is not supported")]
     SubroutineCall(String),
+    /// A move while cutter radius compensation (the code: G41 or G42) is
+    /// active; volcomp cannot offset the path.
     #[error("cutter radius compensation {0} is active during a move")]
     CutterCompensation(String),
+    /// A G-code (as written) volcomp does not understand and that would
+    /// change the geometry.
     #[error("`{0}` changes the geometry and is not understood")]
     UnsupportedGCode(String),
+    /// A block with parameters, expressions or an O-word reached the machine
+    /// layer directly (read without the language layer, [`super::Execution`]).
     #[error(
         "parameters, expressions and O-words are not run by this command yet (`volcomp check` runs them)"
     )]
     NeedsLanguage,
+    /// The file ended without `%` or a program end (M2, M30) where one is
+    /// required.
     #[error("File ended with no percent sign or program end")]
     NoProgramEnd,
+    /// The same word letter twice in one block (the letter), which LinuxCNC
+    /// refuses.
     #[error("Multiple {0} words on one line")]
     RepeatedWord(char),
+    /// Two codes of the same modal group in one block (the code's letter, G
+    /// or M).
     #[error("Two {0} codes used from same modal group")]
     ModalGroupConflict(char),
+    /// A motion code beside a code that takes the axis words (G10, G28, G30,
+    /// G52, G92), e.g. `G1 G92 X1`.
     #[error("Cannot use two G codes that both use axis values")]
     TwoAxisUsers,
+    /// G92 without any axis word.
     #[error("G92 needs at least one axis word")]
     G92WithoutAxes,
+    /// G52 without any axis word.
     #[error("G52 needs at least one axis word")]
     G52WithoutAxes,
+    /// G10 with a missing or invalid P number (coordinate system or tool).
     #[error("G10 with a missing or invalid P number")]
     G10Pnumber,
+    /// G10 with a missing L number or one volcomp does not support.
     #[error("G10 with a missing or unsupported L number (L1, L2, L10, L11, L20)")]
     G10Lnumber,
+    /// G53 with a motion mode other than G0 or G1.
     #[error("Must use G0 or G1 with G53")]
     G53Motion,
+    /// G53 in incremental distance mode (G91).
     #[error("Cannot use G53 incremental")]
     G53Incremental,
+    /// An R (rotation) word with G10 L20.
     #[error("R not allowed in G10 L20")]
     G10L20Rotation,
+    /// G4 without its P word (the dwell time).
     #[error("Dwell time P word missing with G4")]
     DwellWithoutP,
+    /// A canned cycle in inverse time feed mode (G93).
     #[error("Cannot use inverse time feed with canned cycles")]
     CycleInverseTime,
+    /// A canned cycle's words are wrong (LinuxCNC's message).
     #[error("{0}")]
     Cycle(String),
+    /// A probing move (G38.x) in inverse time feed mode (G93).
     #[error("Cannot probe in inverse time feed mode")]
     ProbeInverseTime,
+    /// A probing move whose end is too close to its start.
     #[error("Start point too close to probe point")]
     ProbeTooClose,
+    /// A feed move (what: e.g. `probe`, `spline`) with a zero feed rate.
     #[error("Cannot do {0} with zero feed rate")]
     ZeroFeed(&'static str),
+    /// A feed move (what kind) in inverse time mode (G93) without its F word.
     #[error("F word missing with inverse time {0} move")]
     InverseTimeFeedMissing(&'static str),
+    /// An arc whose end point is its start point (with an R centre).
     #[error("Current point same as end point of arc")]
     ArcSamePoint,
+    /// An arc of zero radius.
     #[error("Zero-radius arc")]
     ArcZeroRadius,
+    /// An arc's centre is not at the same distance from its start and end
+    /// (beyond LinuxCNC's tolerance).
     #[error("Radius to end of arc differs from radius to start: r1={r1:.4} r2={r2:.4} mm")]
-    ArcRadiusMismatch { r1: f64, r2: f64 },
+    ArcRadiusMismatch {
+        /// Distance from the centre to the start (mm).
+        r1: f64,
+        /// Distance from the centre to the end (mm).
+        r2: f64,
+    },
+    /// An arc in the G18 or G19 plane while the coordinate system is rotated
+    /// about Z (G10 L2 R).
     #[error("arcs in the G18/G19 planes under an XY rotation (G10 L2 R) are not supported")]
     RotatedArcPlane,
+    /// Axis words in a block while no motion mode (G0, G1, G2, G3) is active.
     #[error("axis words without a motion mode (G0, G1, G2 or G3)")]
     NoMotionMode,
+    /// A word (the letter) that no G- or M-code of its block uses.
     #[error("{0} word with no G or M code that uses it")]
     UnusedWord(char),
+    /// A motion code other than G0, G1, G2, G3, G5.2 and G80 (e.g. a canned
+    /// cycle, a probe) without any axis word.
     #[error("All axes missing with motion code")]
     MotionWithoutAxes,
+    /// The P word (turns) of G2/G3 is not a whole number.
     #[error("P value not an integer with G2 or G3")]
     ArcTurnsNotInteger,
+    /// The P word (turns) of G2/G3 is less than 1.
     #[error("P value should be 1 or greater with G2 or G3")]
     ArcTurnsBelowOne,
+    /// An arc with both R and I/J/K centre words.
     #[error("Mixed radius ijk format for arc")]
     ArcMixedFormat,
+    /// A centre word (the letter) not in the arc's plane (the plane's name).
     #[error("{0} word given for arc in {1} plane")]
     ArcCentreWordOffPlane(char, &'static str),
+    /// A centre word (the letter) missing in an arc with absolute centre
+    /// (G90.1).
     #[error("{0} word missing in absolute center arc")]
     ArcAbsoluteCentreMissing(char),
+    /// An arc with neither I/J/K nor R.
     #[error("arc without a centre: give I/J/K or R")]
     ArcWithoutCentre,
+    /// An R arc whose radius (the R value, mm) is too small to reach the end
+    /// point.
     #[error("arc radius R{0} cannot reach the end point")]
     ArcUnreachable(f64),
+    /// A move's target is not finite (an infinite or NaN coordinate).
     #[error("the target is not finite")]
     NonFinite,
+    /// The program executed more lines than the limit (the limit) without
+    /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
     /// volcomp's limit on a line's length ([`crate::gcode::syntax::reader::MAX_LINE_BYTES`]).
     #[error(
         "line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")"
     )]
-    LineTooLong { bytes: usize, limit: usize },
+    LineTooLong {
+        /// The line's length (bytes).
+        bytes: usize,
+        /// The limit (bytes).
+        limit: usize,
+    },
     /// volcomp's limit on repeated work ([`super::LanguageOptions::max_loop_lines`],
     /// [`super::LanguageOptions::max_generated_moves`]).
     #[error("more than {limit} {what}{}: an endless or runaway loop? ({option} N raises the limit)", if within.is_empty() { String::new() } else { format!(", in {within}") })]
     LoopLimit {
+        /// The limit passed.
         limit: u64,
+        /// What was counted (lines in loops and calls, generated moves).
         what: &'static str,
+        /// The command-line option that raises the limit.
         option: &'static str,
+        /// The innermost loop running (e.g. `` `o1 while` (line 3) ``), or empty.
         within: String,
     },
     /// The up-front estimate of a canned cycle in `repeat` loops.
     #[error("this block would generate about {estimate:.3e} moves ({per_block} per execution × {trips:.0} executions{}), more than the limit of {limit} ({option} N raises it)", if within.is_empty() { String::new() } else { format!(" of {within}") })]
     MovesEstimate {
+        /// The estimated number of moves (`per_block` × `trips`).
         estimate: f64,
+        /// The moves one execution of the block generates.
         per_block: usize,
+        /// How many times the enclosing `repeat` loops run the block.
         trips: f64,
+        /// The limit on generated moves.
         limit: u64,
+        /// The command-line option that raises the limit.
         option: &'static str,
+        /// The innermost loop running (e.g. `` `o1 while` (line 3) ``), or empty.
         within: String,
     },
+    /// A carriage return inside a line (the file's line ends are CR only).
     #[error("carriage return inside the line: the file has CR-only (classic Mac) line ends")]
     BareCarriageReturn,
+    /// The file starts with a UTF-8 byte order mark, which LinuxCNC refuses.
     #[error("Bad character '\\357' used: the file starts with a UTF-8 byte order mark (EF BB BF)")]
     ByteOrderMark,
+    /// A tool number (the number) the tool table does not hold.
     #[error("Requested tool {0} not found in the tool table")]
     ToolNotInTable(u32),
+    /// A tool word (the letter: T, H, Q…) whose value is not a whole number
+    /// ≥ 0.
     #[error("{0} word: a tool number must be a whole number ≥ 0")]
     ToolNumber(char),
+    /// G43.2 with both H and axis words, or with neither (LinuxCNC's
+    /// message).
     #[error("G43.2: {0}")]
     ToolOffsetAdd(&'static str),
+    /// The program or a subroutine file cannot be read (the I/O error).
     #[error("cannot read the input: {0}")]
     Io(String),
     /// Polar coordinates (`@` radius, `^` angle) used where LinuxCNC
@@ -296,6 +399,7 @@ impl ErrorKind {
 /// An error located in the program.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GcodeError {
+    /// What went wrong.
     pub kind: ErrorKind,
     /// File, when known (set by [`GcodeError::with_path`]).
     pub path: Option<PathBuf>,

@@ -32,10 +32,13 @@ use crate::gcode::syntax::block::Block;
 /// subroutine files are.
 #[derive(Clone, Debug, Default)]
 pub struct ProgramSetup {
+    /// The parameter table the program starts with (work origins, G92
+    /// offsets, stored positions, at LinuxCNC's numbers).
     pub parameters: Parameters,
     /// The tool table (`--tools`, the machine file's `[[tools]]`; empty: any
     /// tool may be selected and the default tool is used throughout).
     pub tools: crate::gcode::machine::tools::ToolTable,
+    /// Settings of the language layer (subroutine path, loop limits).
     pub language: LanguageOptions,
     /// A program must end with M2, M30 or a closing `%` (LinuxCNC: "File
     /// ended with no percent sign or program end"); off for fragments.
@@ -64,6 +67,8 @@ pub struct Program {
 }
 
 impl Program {
+    /// A program read from `input`, named `path` in messages, run with
+    /// `setup`.
     pub fn new(input: Box<dyn ProgramInput>, path: &Path, setup: ProgramSetup) -> Self {
         Program {
             input,
@@ -102,6 +107,7 @@ impl Program {
         self.setup.warnings.clone()
     }
 
+    /// The setup it runs with.
     pub fn setup(&self) -> &ProgramSetup {
         &self.setup
     }

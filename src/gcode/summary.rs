@@ -56,6 +56,9 @@ fn widen(r: &mut Option<Range>, v: f64) {
     }
 }
 
+/// What `volcomp check` reports about a program: counts, machining time and
+/// the ranges of the move targets, accumulated block by block
+/// ([`ProgramSummary::add`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct ProgramSummary {
     /// Lines executed (every line is a block; a line in a loop or a
@@ -63,10 +66,14 @@ pub struct ProgramSummary {
     pub lines: usize,
     /// Lines with words or keywords.
     pub blocks: usize,
+    /// Comments (a line may hold several).
     pub comments: usize,
     /// Lines with block delete `/`.
     pub deleted_blocks: usize,
+    /// Moves by kind (rapid, linear, arc; a canned cycle or a spline
+    /// counts each of its moves).
     pub motion: MotionCounts,
+    /// Blocks that switch between the joint and the part frame.
     pub frame_switches: usize,
     /// Motion blocks in the part frame (tool-tip programming).
     pub part_frame_motions: usize,
@@ -78,21 +85,32 @@ pub struct ProgramSummary {
     pub home_blocks: usize,
     /// Machining time, min (effects.md rules; from the first move's target).
     pub time_min: f64,
-    /// Ranges of the programmed move targets (mm, degrees), over all frames.
+    /// Ranges of the programmed move targets (mm, degrees), over all frames:
+    /// X, mm (`None` before the first move).
     pub x: Option<Range>,
+    /// Range of the Y targets, mm.
     pub y: Option<Range>,
+    /// Range of the Z targets, mm.
     pub z: Option<Range>,
+    /// Range of the A targets, degrees.
     pub a: Option<Range>,
+    /// Range of the B targets, degrees.
     pub b: Option<Range>,
+    /// Range of the C targets, degrees.
     pub c: Option<Range>,
+    /// Range of the U targets, mm.
     pub u: Option<Range>,
+    /// Range of the V targets, mm.
     pub v: Option<Range>,
+    /// Range of the W targets, mm.
     pub w: Option<Range>,
     /// Words with a letter the interpreter does not know, by letter.
     pub unknown_words: BTreeMap<char, usize>,
     /// The moves per tool, run by run in program order (the first
     /// [`KEPT_TOOL_RUNS`]; `tool_runs` counts them all).
     pub tools: Vec<ToolRun>,
+    /// How many tool runs the program has (`tools` keeps at most the first
+    /// 256, `KEPT_TOOL_RUNS`).
     pub tool_runs: usize,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]

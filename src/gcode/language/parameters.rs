@@ -100,6 +100,7 @@ pub struct Parameters {
     locals: Vec<HashMap<String, f64>>,
     /// The last value returned by a subroutine (`#<_value>`), and whether one was.
     pub returned: Option<f64>,
+    /// The machine state the predefined named parameters (`#<_x>`, …) report.
     pub system: SystemState,
 }
 
@@ -110,6 +111,9 @@ impl Default for Parameters {
 }
 
 impl Parameters {
+    /// LinuxCNC's start: every numbered parameter 0 but #5220 (coordinate
+    /// system 1, G54), no named parameter set, the modal state of a fresh
+    /// start (G21 G17 G40 G54).
     pub fn new() -> Self {
         let mut p = Parameters {
             numbered: vec![0.0; MAX_PARAMETERS].into_boxed_slice(),

@@ -95,12 +95,15 @@ impl Default for InterpretOptions {
 /// A harmless problem, or an error passed through under `lenient`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Warning {
+    /// 1-based line of the block it is about.
     pub line: usize,
     /// 1-based byte column (1 when about the whole line).
     pub column: usize,
+    /// What it is about.
     pub kind: WarningKind,
 }
 
+/// What a [`Warning`] is about.
 #[derive(Clone, Debug, PartialEq)]
 pub enum WarningKind {
     /// A letter the interpreter does not know (reported once per letter).
@@ -121,8 +124,11 @@ pub enum WarningKind {
     /// differs from the loaded tool's length, mm (reported once per tool
     /// and offset).
     ToolLengthOffsetMismatch {
+        /// The loaded tool's number.
         tool: u32,
+        /// The loaded tool's length (mm).
         length_mm: f64,
+        /// The tool length offset in effect (mm).
         offset_mm: f64,
     },
     /// A spline word or state LinuxCNC reads in a way a reader may not expect
@@ -245,6 +251,7 @@ pub struct BlockEvent {
     /// A spline block: G5 or G5.1, or the G5.3 that runs a G5.2 NURBS (its
     /// curve's straight pieces are `expanded`), or a G5.2 control-point block.
     pub spline: Option<SplineStep>,
+    /// The block's warnings, in the order they were found.
     pub warnings: Vec<Warning>,
 }
 
@@ -263,7 +270,9 @@ pub enum Moves {
     /// order, each `Rapid`/`Feed` step the next of `moves`. Flat writers emit
     /// the dwells and spindle steps too.
     Cycle {
+        /// The cycle's moves, in order.
         moves: Vec<Motion>,
+        /// The cycle's steps (moves, dwells, spindle), in order.
         steps: Vec<CycleStep>,
     },
     /// The straight pieces of a spline (G5, G5.1, the G5.3 that runs a G5.2
@@ -662,6 +671,8 @@ struct Convert<'a> {
 }
 
 impl Interpreter {
+    /// An interpreter with a fresh parameter table ([`Parameters::new`]: G54,
+    /// every origin zero) and no tool table.
     pub fn new(options: InterpretOptions) -> Self {
         Interpreter::with_parameters(options, Parameters::new())
     }
@@ -736,6 +747,7 @@ impl Interpreter {
         &self.tools
     }
 
+    /// The options it runs with.
     pub fn options(&self) -> &InterpretOptions {
         &self.options
     }
@@ -760,6 +772,7 @@ impl Interpreter {
         &mut self.params
     }
 
+    /// The parameter table (work origins, G92 offsets, named parameters).
     pub fn parameters(&self) -> &Parameters {
         &self.params
     }

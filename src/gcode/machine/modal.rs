@@ -76,8 +76,10 @@ impl MotionMode {
 /// Length units of the program words (G20/G21). Reported values are always mm.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Units {
+    /// G21: millimetres.
     #[default]
     Mm,
+    /// G20: inches (25.4 mm).
     Inch,
 }
 
@@ -94,25 +96,34 @@ impl Units {
 /// Absolute (G90, G90.1) or incremental (G91, G91.1).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Distance {
+    /// G90 (G90.1 for I J K): words are positions.
     #[default]
     Absolute,
+    /// G91 (G91.1 for I J K): words are offsets from the current point.
     Incremental,
 }
 
 /// Cutter radius compensation (G40/G41/G42).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CutterComp {
+    /// G40: off.
     #[default]
     Off,
+    /// G41: the tool left of the path.
     Left,
+    /// G42: the tool right of the path.
     Right,
 }
 
 /// The modal state after a block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModalState {
+    /// The active motion mode (G0, G1, G2, G3, G38.x, a canned cycle, a
+    /// spline), or none.
     pub motion: MotionMode,
+    /// The arc plane (G17/G18/G19).
     pub plane: Plane,
+    /// The units of the program words (G20/G21).
     pub units: Units,
     /// G90/G91 for axis words.
     pub distance: Distance,
@@ -120,9 +131,12 @@ pub struct ModalState {
     pub arc_distance: Distance,
     /// G93 active.
     pub inverse_time: bool,
+    /// Cutter radius compensation (G40/G41/G42).
     pub cutter_comp: CutterComp,
     /// G43 (or G43.4/G234) tool length offset active.
     pub tool_length: bool,
+    /// The frame of the `X Y Z` words: joint (axis commands) or part
+    /// (tool tip, M428/G43.4/G234/TRAORI).
     pub frame: Frame,
     /// Last programmed F: mm/min under G94 (converted from in/min), 1/min under G93.
     pub feed: f64,
@@ -133,6 +147,8 @@ pub struct ModalState {
 }
 
 impl ModalState {
+    /// The modal state at the program's start (no motion mode, G17 G21 G90 G91.1
+    /// G94 G40 G49 G54 G99, F0), with `frame` as the starting frame.
     pub fn new(frame: Frame) -> Self {
         ModalState {
             motion: MotionMode::None,

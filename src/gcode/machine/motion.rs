@@ -21,12 +21,16 @@ pub enum Frame {
 /// Arc plane (G17/G18/G19).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Plane {
+    /// G17.
     #[default]
     XY,
+    /// G18.
     ZX,
+    /// G19.
     YZ,
 }
 
+/// The path of a [`Motion`] between its start and end.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum MotionKind {
     /// G0.
@@ -36,9 +40,13 @@ pub enum MotionKind {
     /// G2 (clockwise) or G3, about `centre` (absolute, same frame as the targets),
     /// in `plane`; `turns` extra full turns (P word), helical along the plane normal.
     Arc {
+        /// G2 (clockwise) rather than G3 (counter-clockwise).
         clockwise: bool,
+        /// The centre, X Y Z in mm, absolute, in the frame of the targets.
         centre: [f64; 3],
+        /// The arc's plane (G17/G18/G19).
         plane: Plane,
+        /// Full turns beyond the first sweep (the P word − 1; 0 without P).
         turns: u32,
     },
 }
@@ -57,12 +65,17 @@ pub enum Feed {
 /// One motion block, absolute and resolved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Motion {
+    /// Rapid, linear or arc.
     pub kind: MotionKind,
+    /// The frame of `start` and `end` (joint: axis commands; part: tool tip).
     pub frame: Frame,
     /// G53: the targets are machine coordinates for this block only.
     pub machine_coordinates: bool,
+    /// Where the move starts: absolute, mm and degrees, in `frame`.
     pub start: Axes,
+    /// Where the move ends: absolute, mm and degrees, in `frame`.
     pub end: Axes,
+    /// The feed it runs at.
     pub feed: Feed,
     /// Duration in minutes from the programmed coordinates (effects.md rules:
     /// XYZ path length / F, or √(Δa²+Δc²)/F when only A/C move, G0 at the rapid

@@ -21,7 +21,9 @@ use std::fmt;
 /// One tool of the table, mm.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ToolEntry {
+    /// The tool number (the table's `T`).
     pub number: u32,
+    /// The pocket (the table's `P`), when given.
     pub pocket: Option<u32>,
     /// Gauge point to tip (the table's `Z`), mm.
     pub length_mm: f64,
@@ -30,6 +32,7 @@ pub struct ToolEntry {
     /// Its cutting shape, when the machine file names one (LinuxCNC's tables
     /// do not).
     pub shape: Option<CutterShape>,
+    /// The line's comment (after `;`, trimmed; empty when none).
     pub comment: String,
     /// Where the entry comes from (`file:line`), for messages.
     #[serde(skip)]
@@ -42,7 +45,10 @@ pub struct ToolEntry {
 /// ball end; between: bull nose), cutting up to `flute_length_mm` above the tip.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CutterShape {
+    /// Radius of the rounded tip edge, mm (0: flat end; the tool's radius:
+    /// ball end).
     pub corner_radius_mm: f64,
+    /// How far above the tip the tool cuts, mm.
     pub flute_length_mm: f64,
 }
 
@@ -53,9 +59,13 @@ pub struct CutterShape {
 /// [`ToolInUse::or`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ToolInUse {
+    /// The tool number (0: the default tool).
     pub number: u32,
+    /// Gauge point to tip, mm.
     pub length_mm: f64,
+    /// Cutter radius, mm.
     pub radius_mm: f64,
+    /// Its cutting shape, when the machine file names one.
     pub shape: Option<CutterShape>,
 }
 
@@ -120,9 +130,13 @@ fn short_token(token: &str) -> std::borrow::Cow<'_, str> {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{source_name}:{line}:{column}: {message}")]
 pub struct ToolTableError {
+    /// The name the table was parsed under ([`ToolTable::parse`]).
     pub source_name: String,
+    /// 1-based line.
     pub line: usize,
+    /// 1-based byte column of the offending word (1: the whole line).
     pub column: usize,
+    /// What is wrong, and how to fix it.
     pub message: String,
 }
 
@@ -312,10 +326,12 @@ impl ToolTable {
         self.source = Some(source.into());
     }
 
+    /// The table's source in messages, when named.
     pub fn source(&self) -> Option<&str> {
         self.source.as_deref()
     }
 
+    /// Whether the table holds no tool.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }
@@ -325,14 +341,17 @@ impl ToolTable {
         self.given
     }
 
+    /// How many tools the table holds.
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
+    /// Tool `number`, when the table holds it.
     pub fn get(&self, number: u32) -> Option<&ToolEntry> {
         self.entries.get(&number)
     }
 
+    /// The tools, by increasing number.
     pub fn entries(&self) -> impl Iterator<Item = &ToolEntry> {
         self.entries.values()
     }

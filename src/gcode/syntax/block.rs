@@ -24,6 +24,7 @@ pub enum LineEnding {
 }
 
 impl LineEnding {
+    /// The bytes that end the line (empty for [`LineEnding::None`]).
     pub fn as_bytes(self) -> &'static [u8] {
         match self {
             LineEnding::Lf => b"\n",
@@ -40,8 +41,9 @@ pub struct Word {
     pub letter: u8,
     /// The value as written (sign included), never NaN or infinite.
     pub value: f64,
-    /// Byte range of the whole word (letter to last digit) inside the line.
+    /// Byte offset of the word's letter inside the line (0-based).
     pub start: usize,
+    /// Byte offset just past the word's last digit (exclusive end).
     pub end: usize,
     /// Digits written after the decimal point (`X5.` and `X5` have 0).
     pub decimals: u8,
@@ -54,6 +56,7 @@ pub struct Word {
 }
 
 impl Word {
+    /// Byte range of the whole word (letter to last digit) inside the line.
     pub fn span(&self) -> Range<usize> {
         self.start..self.end
     }
@@ -176,8 +179,11 @@ pub enum Keyword {
 /// A keyword and its byte range in the line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct KeywordWord {
+    /// Which keyword.
     pub keyword: Keyword,
+    /// Byte offset of its first character inside the line (0-based).
     pub start: usize,
+    /// Byte offset just past its last character (exclusive end).
     pub end: usize,
 }
 

@@ -103,6 +103,7 @@ pub struct BlockReader<R> {
 }
 
 impl<R: BufRead> BlockReader<R> {
+    /// A reader of the blocks of `input`, from its first line.
     pub fn new(input: R, options: ReadOptions) -> Self {
         BlockReader {
             input,

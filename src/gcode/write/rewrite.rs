@@ -119,7 +119,12 @@ pub enum Target<'a> {
     /// A new absolute end target (block's frame, mm and degrees).
     Move(Axes),
     /// Intermediate absolute targets, then the end.
-    Split { via: &'a [Axes], end: Axes },
+    Split {
+        /// The intermediate targets, in order (block's frame, mm and degrees).
+        via: &'a [Axes],
+        /// The end target (block's frame, mm and degrees).
+        end: Axes,
+    },
 }
 
 /// What [`Rewriter::emit`] wrote for a block.
@@ -131,16 +136,34 @@ pub struct Emitted {
     pub pieces: usize,
 }
 
+/// Why a program could not be rewritten.
 #[derive(Debug, thiserror::Error)]
 pub enum RewriteError {
+    /// A new target was given for a block that does not move.
     #[error("line {line}: only a motion block can be given a new target")]
-    NotAMotion { line: usize },
+    NotAMotion {
+        /// 1-based line of the block.
+        line: usize,
+    },
+    /// A new target (or an intermediate one) is not finite.
     #[error("line {line}: the new target is not finite")]
-    NonFinite { line: usize },
+    NonFinite {
+        /// 1-based line of the block.
+        line: usize,
+    },
+    /// A step of a canned cycle or spline that a flat program cannot say
+    /// (e.g. G87's spindle orientation).
     #[error("line {line}: a flat program cannot say {what}; expand this canned cycle by hand")]
-    CannotFlatten { line: usize, what: &'static str },
+    CannotFlatten {
+        /// 1-based line of the block.
+        line: usize,
+        /// What cannot be said, in words.
+        what: &'static str,
+    },
+    /// Writing the output failed.
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
+    /// Reading or interpreting the input program failed.
     #[error(transparent)]
     Input(#[from] crate::gcode::error::GcodeError),
 }
