@@ -202,7 +202,7 @@ pub enum ErrorKind {
     /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
     EndlessProgram(u64),
-    /// volcomp's limit on a line's length ([`crate::gcode::syntax::reader::MAX_LINE_BYTES`]).
+    /// volcomp's limit on a line's length (`MAX_LINE_BYTES`).
     #[error(
         "line of {bytes} bytes, longer than volcomp's limit of {limit} bytes (LinuxCNC reads at most 254 characters: \"Command too long\")"
     )]
@@ -410,7 +410,7 @@ pub struct GcodeError {
     /// Number of bytes the caret underlines (at least 1).
     pub width: usize,
     /// The line's text (lossily decoded); of a long line, an excerpt of at
-    /// most [`EXCERPT_BYTES`] around the column.
+    /// most `EXCERPT_BYTES` around the column.
     pub source_line: String,
     /// Where the excerpt starts in the line (bytes; 0: at its start).
     pub excerpt_from: usize,

@@ -9,21 +9,21 @@
 //!
 //! Layers (a folder each; a dialect is a syntax, and where it differs a
 //! language, feeding the same machine-state layer):
-//! - [`syntax`]: bytes → [`Block`]s ([`block`], [`parser`], [`expression`],
-//!   [`reader`]: the streaming [`BlockReader`] and [`parse_program`]); no
+//! - `syntax`: bytes → [`Block`]s (`block`, `parser`, `expression`,
+//!   `reader`: the streaming [`BlockReader`] and [`parse_program`]); no
 //!   meaning;
-//! - [`language`]: parameters ([`Parameters`]), O-word control flow,
+//! - `language`: parameters ([`Parameters`]), O-word control flow,
 //!   subroutine files → executed blocks ([`Executed`]);
-//! - [`machine`]: LinuxCNC's interpreter ([`Interpreter`] → one
+//! - `machine`: LinuxCNC's interpreter ([`Interpreter`] → one
 //!   [`BlockEvent`] per block, with what it moves ([`Moves`]: [`Motion`]s,
 //!   absolute, mm/deg, in the block's frame), its duration, [`ToolInUse`]);
 //!   modal state, origins, tools, canned cycles, splines;
-//! - [`write`]: [`Rewriter`] / [`rewrite_stream`] → program text, unchanged
+//! - `write`: [`Rewriter`] / [`rewrite_stream`] → program text, unchanged
 //!   blocks byte for byte, changed blocks word by word, splits, flat cycles.
 //!
-//! Across the layers: [`execution`] joins them ([`Program`] → [`Execution`],
-//! the one seam every command reads programs through); [`summary`]: what
-//! `volcomp check` reports ([`ProgramSummary`]); [`error`]: located errors
+//! Across the layers: `execution` joins them ([`Program`] → [`Execution`],
+//! the one seam every command reads programs through); `summary`: what
+//! `volcomp check` reports ([`ProgramSummary`]); `error`: located errors
 //! rendered like rustc ([`GcodeError`]).
 //!
 //! Typical use (a compensator):

@@ -107,7 +107,7 @@ pub struct ProgramSummary {
     /// Words with a letter the interpreter does not know, by letter.
     pub unknown_words: BTreeMap<char, usize>,
     /// The moves per tool, run by run in program order (the first
-    /// [`KEPT_TOOL_RUNS`]; `tool_runs` counts them all).
+    /// `KEPT_TOOL_RUNS`; `tool_runs` counts them all).
     pub tools: Vec<ToolRun>,
     /// How many tool runs the program has (`tools` keeps at most the first
     /// 256, `KEPT_TOOL_RUNS`).

@@ -37,7 +37,9 @@ pub enum Direction {
     /// reversal term.
     #[default]
     Unknown,
+    /// The axis's last motion was towards larger values (error `E + REVERSAL/2`).
     Positive,
+    /// The axis's last motion was towards smaller values (error `E − REVERSAL/2`).
     Negative,
 }
 
@@ -87,12 +89,15 @@ pub struct ApproachParseError {
 }
 
 impl Approach {
+    /// No axis with a known direction: every reversal term is zero.
     pub const NONE: Approach = Approach([Direction::Unknown; AXIS_COUNT]);
 
+    /// The direction of `axis`.
     pub fn get(&self, axis: Axis) -> Direction {
         self.0[axis as usize]
     }
 
+    /// Set the direction of `axis`.
     pub fn set(&mut self, axis: Axis, direction: Direction) {
         self.0[axis as usize] = direction;
     }
@@ -189,7 +194,9 @@ pub enum AxisReversal {
     Constant(f64),
     /// The table's `REVERSAL`, linear between its positions (ends held).
     Table {
+        /// The table's positions (mm, or degrees for a rotary axis), ascending.
         positions: Vec<f64>,
+        /// `REVERSAL` at each position (µm, or µrad for a rotary axis).
         values: Vec<f64>,
     },
 }
@@ -274,6 +281,7 @@ pub struct DirectionTracker {
 }
 
 impl DirectionTracker {
+    /// A tracker of the axes with a play, every direction unknown at first.
     pub fn new(plays: Vec<AxisPlay>) -> DirectionTracker {
         DirectionTracker {
             axes: plays.into_iter().map(|p| (p, Track::default())).collect(),

@@ -66,17 +66,17 @@ pub struct LanguageOptions {
     pub skip_deleted_blocks: bool,
     /// Most lines a run reads (loops and calls counted each time, O-word lines
     /// included) before it is refused as an endless loop (`None`:
-    /// [`DEFAULT_MAX_EXECUTED_LINES`]).
+    /// `DEFAULT_MAX_EXECUTED_LINES`).
     pub max_executed_lines: Option<u64>,
     /// Most lines read inside loop bodies and subroutine calls (the lines a
     /// program reads more than once, or from another file), checked as they
     /// are read: an endless or runaway loop stops with an error naming it
-    /// (`None`: [`DEFAULT_MAX_LOOP_LINES`]). The program's own lines read once
+    /// (`None`: `DEFAULT_MAX_LOOP_LINES`). The program's own lines read once
     /// in sequence do not count: a flat program of any length runs.
     pub max_loop_lines: Option<u64>,
     /// Most moves that no line of the main program spells out one by one:
     /// moves of blocks executed in loops and calls, canned-cycle and spline
-    /// expansions (`None`: [`DEFAULT_MAX_GENERATED_MOVES`]). Checked by
+    /// expansions (`None`: `DEFAULT_MAX_GENERATED_MOVES`). Checked by
     /// [`crate::gcode::Execution`] as they grow, and up front for a canned cycle in
     /// `repeat` loops (its moves × the loops' counts).
     pub max_generated_moves: Option<u64>,
@@ -117,7 +117,7 @@ struct OpenLoop {
 /// Where an executed block comes from.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Executed {
-    /// Index of the file in [`Executor::file_name`] (0: the main program).
+    /// Index of the file in `Executor::file_name` (0: the main program).
     pub file: usize,
     /// 1-based line in that file.
     pub line: usize,
