@@ -206,7 +206,12 @@ pub fn comp_file(
     let _ = if reversal {
         writeln!(
             text,
-            "# actual = nominal + ({p} ± REVERSAL/2)/1000: {p} the fitted curve of the table's {n} positions, REVERSAL linear between them.",
+            "# actual = nominal + ({p} ± REVERSAL/2)/1000: {p} the fitted curve of the table's {n} positions, REVERSAL {}.",
+            if pos.reversal_source() == Some("[reversal]") {
+                "the machine file's [reversal] constant"
+            } else {
+                "linear between them"
+            },
             p = pos.parameter,
             n = pos.positions().len()
         )

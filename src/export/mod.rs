@@ -62,6 +62,16 @@ impl<'a> Positioning<'a> {
         })
     }
 
+    /// Where the axis's reversal comes from (`"REVERSAL column"` or
+    /// `"[reversal]"`), `None` without one.
+    pub fn reversal_source(&self) -> Option<&'static str> {
+        self.model
+            .reversal_axes()
+            .into_iter()
+            .find(|(axis, _)| *axis == self.axis)
+            .map(|(_, source)| source)
+    }
+
     /// Whether the axis has a reversal (the table's `REVERSAL` or `[reversal]`).
     pub fn has_reversal(&self) -> bool {
         self.model.reversal_at(self.axis, self.range[0]).is_some()

@@ -371,3 +371,25 @@ fn the_compensate_summary_names_the_reversal() {
     assert_success(&plain);
     assert!(!String::from_utf8_lossy(&plain.stdout).contains("reversal"));
 }
+
+/// `export linuxcnc` of a machine whose reversal is the `[reversal]` constant
+/// says so in the COMP_FILE's trailing comment (it said "linear between them").
+#[test]
+fn the_exported_comp_file_names_a_constant_reversal() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = volcomp()
+        .args(["export", "linuxcnc"])
+        .arg(machine_file())
+        .arg("-o")
+        .arg(dir.path().join("lcnc"))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let x = std::fs::read_to_string(dir.path().join("lcnc/x.comp")).unwrap();
+    assert!(
+        x.contains("REVERSAL the machine file's [reversal] constant."),
+        "{x}"
+    );
+    let z = std::fs::read_to_string(dir.path().join("lcnc/z.comp")).unwrap();
+    assert!(z.contains("the table has no REVERSAL"), "{z}");
+}
