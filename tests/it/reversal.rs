@@ -393,3 +393,37 @@ fn the_exported_comp_file_names_a_constant_reversal() {
     let z = std::fs::read_to_string(dir.path().join("lcnc/z.comp")).unwrap();
     assert!(z.contains("the table has no REVERSAL"), "{z}");
 }
+
+/// The stamp's model fingerprint covers the machine file's constants: the
+/// same tables with and without a `[reversal]` stamp differently (they
+/// stamped the same value, the tables' only).
+#[test]
+fn the_stamp_tells_machines_that_differ_only_by_their_reversal() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("p.nc");
+    std::fs::write(
+        &program,
+        "G21 G90 G94 F500\nG0 X0 Y0 Z0 A0 C0\nG1 X50\nM2\n",
+    )
+    .unwrap();
+    let fingerprint = |machine: &std::path::Path, name: &str| {
+        let output = dir.path().join(name);
+        let out = volcomp()
+            .arg("compensate")
+            .arg(machine)
+            .arg(&program)
+            .arg("-o")
+            .arg(&output)
+            .output()
+            .unwrap();
+        assert_success(&out);
+        let text = std::fs::read_to_string(&output).unwrap();
+        text.lines()
+            .find(|l| l.contains("model-fnv1a64"))
+            .expect("stamped")
+            .to_string()
+    };
+    let with = fingerprint(machine_file(), "with.nc");
+    let without = fingerprint(&root().join("machines/ref-trt.toml"), "without.nc");
+    assert_ne!(with, without);
+}
