@@ -74,7 +74,7 @@ impl<'a> Positioning<'a> {
 
     /// Whether the axis has a reversal (the table's `REVERSAL` or `[reversal]`).
     pub fn has_reversal(&self) -> bool {
-        self.model.reversal_at(self.axis, self.range[0]).is_some()
+        self.reversal_source().is_some()
     }
 
     /// The table's positions.

@@ -344,32 +344,38 @@ fn the_compensate_summary_names_the_reversal() {
         "G21 G90 G94 F500\nG0 X0 Y0 Z0 A0 C0\nG1 X50\nG1 X0\nM2\n",
     )
     .unwrap();
-    let out = volcomp()
-        .arg("compensate")
-        .arg(machine_file())
-        .arg(&program)
-        .arg("-o")
-        .arg(dir.path().join("out.nc"))
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stdout = compensate_cli(machine_file(), &program, &dir.path().join("out.nc"));
     assert!(
         stdout.contains(
             "reversal applied by each axis's approach direction: X ([reversal]), Y ([reversal])"
         ),
         "{stdout}"
     );
-    let plain = volcomp()
+    let plain = compensate_cli(
+        &root().join("machines/ref-trt.toml"),
+        &program,
+        &dir.path().join("plain.nc"),
+    );
+    assert!(!plain.contains("reversal"));
+}
+
+/// `volcomp compensate MACHINE PROGRAM -o OUTPUT`, which must succeed; its
+/// standard output.
+fn compensate_cli(
+    machine: &std::path::Path,
+    program: &std::path::Path,
+    output: &std::path::Path,
+) -> String {
+    let out = volcomp()
         .arg("compensate")
-        .arg(root().join("machines/ref-trt.toml"))
-        .arg(&program)
+        .arg(machine)
+        .arg(program)
         .arg("-o")
-        .arg(dir.path().join("plain.nc"))
+        .arg(output)
         .output()
         .unwrap();
-    assert_success(&plain);
-    assert!(!String::from_utf8_lossy(&plain.stdout).contains("reversal"));
+    assert_success(&out);
+    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 /// `export linuxcnc` of a machine whose reversal is the `[reversal]` constant
@@ -408,15 +414,7 @@ fn the_stamp_tells_machines_that_differ_only_by_their_reversal() {
     .unwrap();
     let fingerprint = |machine: &std::path::Path, name: &str| {
         let output = dir.path().join(name);
-        let out = volcomp()
-            .arg("compensate")
-            .arg(machine)
-            .arg(&program)
-            .arg("-o")
-            .arg(&output)
-            .output()
-            .unwrap();
-        assert_success(&out);
+        compensate_cli(machine, &program, &output);
         let text = std::fs::read_to_string(&output).unwrap();
         text.lines()
             .find(|l| l.contains("model-fnv1a64"))
