@@ -4,7 +4,7 @@
 use super::UsageError;
 use crate::diagnose::followup::{self, FollowupOptions, Probe, ProbeReading};
 use crate::diagnose::probing_program::{ProbingOptions, probing_program};
-use crate::diagnose::{DiagnoseOptions, DiagnoseReport, diagnose, diagnose_with_followup, html};
+use crate::diagnose::{DiagnoseOptions, DiagnoseReport, diagnose, diagnose_with_followup};
 use crate::inspection::{Followup, FollowupPoint, Measurement, Plan};
 use crate::toolpath::PointContext;
 use anyhow::Context;
@@ -511,7 +511,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     crate::io::write_json_atomic(&args.report, &report)?;
     if let Some(path) = &args.html {
-        crate::io::write_file_atomic(path, html::render(&report).as_bytes())?;
+        crate::io::write_file_atomic(
+            path,
+            crate::report::diagnose_html::render(&report).as_bytes(),
+        )?;
     }
     outputs.commit()?;
     super::common::print_warnings(&report.warnings);

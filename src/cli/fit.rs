@@ -7,11 +7,11 @@ use rayon::prelude::*;
 
 use crate::axes::Axis;
 use crate::machine::table::ErrorTable;
-use crate::nurbs::plot::{PlotLabels, plot_fit};
 use crate::nurbs::{
     FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fit_parameter,
     fnv1a64,
 };
+use crate::report::fit_plot::{PlotLabels, plot_fit};
 
 const AFTER_HELP: &str = "\
 Examples:

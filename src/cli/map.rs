@@ -221,7 +221,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         na.letter(),
         level,
     );
-    let svg = map.to_svg(&title, &|u, v| surfaces.magnitude.eval(u, v));
+    let svg = crate::report::error_map_svg::error_map_svg(&map, &title, &|u, v| {
+        surfaces.magnitude.eval(u, v)
+    });
     crate::io::write_file_atomic(&args.out, svg.as_bytes())?;
     let mags = map.magnitudes();
     let rms = (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt();

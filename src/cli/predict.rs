@@ -2,7 +2,7 @@
 use super::common::{MachineArgs, ProgramArgs};
 use crate::inspection::Plan;
 use crate::io::{OutputError, write_atomic, write_file_atomic, write_json_atomic};
-use crate::predict::{PathErrors, PathReportStream, PathSummary, html, predict_plan};
+use crate::predict::{PathErrors, PathReportStream, PathSummary, predict_plan};
 use std::path::PathBuf;
 
 const AFTER_HELP: &str = "\
@@ -156,7 +156,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.program.display(),
             machine.name
         );
-        write_file_atomic(path, html::render(&report, &title).as_bytes())?;
+        write_file_atomic(
+            path,
+            crate::report::predict_html::render(&report, &title).as_bytes(),
+        )?;
     }
     outputs.commit()?;
     super::common::print_warnings(&report.warnings);

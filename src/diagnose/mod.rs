@@ -21,7 +21,6 @@
 pub(crate) mod effects;
 mod fit;
 pub mod followup;
-pub(crate) mod html;
 pub(crate) mod localization;
 pub(crate) mod machine_file;
 pub(crate) mod noise;
@@ -36,10 +35,13 @@ pub(crate) mod simulate;
 pub mod synthetic;
 
 use crate::inspection::profile;
+/// The `diagnose --html` page of a report; it is rendered in the crate's
+/// `report` module (domain modules do not render), and kept here as the
+/// public path.
+pub use crate::report::diagnose_html::render as render_html;
 use crate::toolpath::PointContext;
 pub use effects::{Effect, EffectError, EffectKind};
 use fit::{Folds, SetFit, Signatures, cross_validate, fit_set};
-pub use html::render as render_html;
 pub use machine_file::machine_update;
 use noise::rms;
 pub use report::DiagnoseReport;

@@ -21,7 +21,6 @@ pub(crate) mod lookup;
 pub(crate) mod model_file;
 pub(crate) mod optimise;
 pub(crate) mod parameterization;
-pub(crate) mod plot;
 pub(crate) mod problem;
 pub(crate) mod smem;
 pub(crate) mod smoothing;

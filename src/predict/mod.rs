@@ -1,7 +1,6 @@
 //! `predict`: the predicted deviation of every plan point (formats.md: `n · e` at
 //! the path point that cut it) and the profile error of the part, or, without a
 //! plan, the volumetric error along the path block by block.
-pub(crate) mod html;
 pub(crate) mod run;
 
 pub use run::{

@@ -1,8 +1,8 @@
 //! The `predict --html` page: what a machinist would rather look at than read.
 //! A heat map of the predicted deviations over the part, the error vectors
 //! magnified (as in the seed paper's Fig. 14(b)), a histogram, and the numbers.
-use super::PredictReport;
-use crate::report::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent, histogram};
+use super::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent, histogram};
+use crate::predict::PredictReport;
 
 /// Render the self-contained HTML report.
 pub fn render(report: &PredictReport, title: &str) -> String {

@@ -3,8 +3,10 @@
 //! effects table and the summary.
 //!
 //! Invariant: pure string building from the report (no I/O).
-use super::report::DiagnoseReport;
-use crate::report::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent};
+use super::svg::{Chart, ChartSpec, ColourMap, HtmlPage, extent};
+use crate::diagnose::EffectKind;
+use crate::diagnose::followup::Separation;
+use crate::diagnose::report::{DiagnoseReport, PointResidual};
 
 fn residual_map(report: &DiagnoseReport, after: bool, lim: f64) -> String {
     let res = &report.residuals;
@@ -41,7 +43,7 @@ fn residual_map(report: &DiagnoseReport, after: bool, lim: f64) -> String {
 
 fn scatter(
     report: &DiagnoseReport,
-    key: impl Fn(&super::report::PointResidual) -> f64,
+    key: impl Fn(&PointResidual) -> f64,
     title: &str,
     x_label: &str,
 ) -> String {
@@ -72,7 +74,7 @@ fn scatter(
 
 /// The unit of parameter `name` of `kind` (rotary-location names of any
 /// machine: `E` + X/Y/Z is an offset in µm, + A/B/C a tilt in µrad).
-fn unit_of(kind: super::EffectKind, name: &str) -> &'static str {
+fn unit_of(kind: EffectKind, name: &str) -> &'static str {
     if let Some(i) = kind.parameters().iter().position(|p| *p == name) {
         return kind.units().get(i).copied().unwrap_or("");
     }
@@ -236,7 +238,7 @@ pub fn render(report: &DiagnoseReport) -> String {
         .effects
         .iter()
         .map(|e| {
-            let kind = super::EffectKind::from_name(&e.name);
+            let kind = EffectKind::from_name(&e.name);
             let params: Vec<String> = e
                 .params
                 .iter()
@@ -369,7 +371,7 @@ pub fn render(report: &DiagnoseReport) -> String {
             })
             .collect::<Vec<_>>(),
     );
-    let separations = |list: &[super::followup::Separation]| -> Vec<Vec<String>> {
+    let separations = |list: &[Separation]| -> Vec<Vec<String>> {
         list.iter()
             .map(|s| {
                 vec![

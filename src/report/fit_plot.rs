@@ -1,10 +1,9 @@
 //! SVG plot of one fitted parameter, like the paper's Fig. 3 / Fig. 11: the
 //! measured points, the fitted curve and the knot positions (dashed verticals at
 //! `x(u_j)` of each distinct interior knot). Pure: returns the SVG text.
-use crate::report::svg::{Chart, ChartSpec, extent};
-
-use super::knot_vector;
-use super::smem::SmemCurve;
+use super::svg::{Chart, ChartSpec, extent};
+use crate::nurbs::SmemCurve;
+use crate::nurbs::knot_vector;
 
 /// Labels of a plot.
 pub struct PlotLabels<'a> {
