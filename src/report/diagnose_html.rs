@@ -85,9 +85,25 @@ fn unit_of(kind: EffectKind, name: &str) -> &'static str {
     }
 }
 
-/// The HTML page of a report.
+/// The HTML page of a report: one section after another, in the order a
+/// reader asks (how large is the gap, is the model right, which effect, where).
 pub fn render(report: &DiagnoseReport) -> String {
     let mut page = HtmlPage::new("volcomp diagnose: the sim-to-real gap");
+    summary_section(&mut page, report);
+    model_section(&mut page, report);
+    parameters_section(&mut page, report);
+    anomalies_section(&mut page, report);
+    effects_section(&mut page, report);
+    residual_plots_section(&mut page, report);
+    localisation_section(&mut page, report);
+    followup_sections(&mut page, report);
+    page.heading("Selection");
+    page.preformatted(&report.selection_notes.join("\n"));
+    page.finish()
+}
+
+/// The summary sentences and the gap, before and after the selected effects.
+fn summary_section(page: &mut HtmlPage, report: &DiagnoseReport) {
     page.heading("Summary");
     for s in &report.summary {
         page.paragraph(s);
@@ -115,8 +131,19 @@ pub fn render(report: &DiagnoseReport) -> String {
             format!("{:.3}", report.after.residual_rms_um),
         ]],
     );
+}
+
+/// The verdict on the machine's error model and its axis factors.
+fn model_section(page: &mut HtmlPage, report: &DiagnoseReport) {
     let m = &report.model_check;
     page.heading("The error model");
+    let verdict = if !m.mismatch {
+        "consistent with the measurement"
+    } else if m.follows_model {
+        "does not match: tables scaled or stale"
+    } else {
+        "does not match: the gap stays unexplained"
+    };
     page.table(
         &[
             "verdict",
@@ -127,15 +154,7 @@ pub fn render(report: &DiagnoseReport) -> String {
             "uncertainty would be ×",
         ],
         &[vec![
-            if m.mismatch {
-                if m.follows_model {
-                    "does not match: tables scaled or stale".into()
-                } else {
-                    "does not match: the gap stays unexplained".into()
-                }
-            } else {
-                "consistent with the measurement".to_string()
-            },
+            verdict.to_string(),
             m.factors
                 .iter()
                 .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
@@ -148,91 +167,112 @@ pub fn render(report: &DiagnoseReport) -> String {
                 .map_or(String::new(), |f| format!("{f:.1}")),
         ]],
     );
-    if !report.after.checks.is_empty() {
-        page.heading("Selected effects: parameters (joint fit, ± one standard uncertainty)");
-        let rows: Vec<Vec<String>> = report
-            .after
-            .checks
-            .iter()
-            .flat_map(|(effect, list)| {
-                let z = report.after.significance.get(effect).copied();
-                list.iter().map(move |c| {
-                    vec![
-                        effect.clone(),
-                        z.map_or(String::new(), |z| format!("{z:.0}")),
-                        c.name.clone(),
-                        if c.unit == "s²" {
-                            format!("{:.3e} ± {:.1e}", c.value, c.std)
-                        } else {
-                            format!("{:.3} ± {:.3}", c.value, c.std)
-                        },
-                        c.unit.clone(),
-                        if c.identifiable {
-                            "yes".into()
-                        } else {
-                            "no".to_string()
-                        },
-                        if c.plausible {
-                            "yes".into()
-                        } else {
-                            "no".to_string()
-                        },
-                        c.notes.join("; "),
-                    ]
-                })
-            })
-            .collect();
-        page.table(
-            &[
-                "effect",
-                "z",
-                "parameter",
-                "value ± σ",
-                "unit",
-                "identifiable",
-                "plausible",
-                "notes",
-            ],
-            &rows,
-        );
+}
+
+/// "yes" or "no".
+fn yes_no(b: bool) -> String {
+    if b { "yes" } else { "no" }.to_string()
+}
+
+/// The selected effects' parameters: value ± σ, unit, identifiable, plausible.
+fn parameters_section(page: &mut HtmlPage, report: &DiagnoseReport) {
+    if report.after.checks.is_empty() {
+        return;
     }
-    if !report.local_anomalies.is_empty() {
-        page.heading("Local anomalies (no catalogue effect explains them)");
-        let rows: Vec<Vec<String>> = report
-            .local_anomalies
-            .iter()
-            .map(|a| {
+    page.heading("Selected effects: parameters (joint fit, ± one standard uncertainty)");
+    let rows: Vec<Vec<String>> = report
+        .after
+        .checks
+        .iter()
+        .flat_map(|(effect, list)| {
+            let z = report.after.significance.get(effect).copied();
+            list.iter().map(move |c| {
                 vec![
-                    format!(
-                        "({:.1}, {:.1}, {:.1}) within {:.0} mm",
-                        a.centre[0], a.centre[1], a.centre[2], a.radius_mm
-                    ),
-                    a.points.to_string(),
-                    a.ids.join(", "),
-                    a.lines
-                        .iter()
-                        .map(|l| l.to_string())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    format!("{:+.2}", a.peak_um),
-                    format!("{:+.2}", a.mean_um),
-                    format!("{:.0}", a.sigma),
+                    effect.clone(),
+                    z.map_or(String::new(), |z| format!("{z:.0}")),
+                    c.name.clone(),
+                    if c.unit == "s²" {
+                        format!("{:.3e} ± {:.1e}", c.value, c.std)
+                    } else {
+                        format!("{:.3} ± {:.3}", c.value, c.std)
+                    },
+                    c.unit.clone(),
+                    yes_no(c.identifiable),
+                    yes_no(c.plausible),
+                    c.notes.join("; "),
                 ]
             })
-            .collect();
-        page.table(
-            &[
-                "where (part, mm)",
-                "points",
-                "plan ids",
-                "program lines",
-                "peak µm",
-                "mean µm",
-                "σ",
-            ],
-            &rows,
-        );
+        })
+        .collect();
+    page.table(
+        &[
+            "effect",
+            "z",
+            "parameter",
+            "value ± σ",
+            "unit",
+            "identifiable",
+            "plausible",
+            "notes",
+        ],
+        &rows,
+    );
+}
+
+/// The local anomalies of the residual (clusters no effect explains).
+fn anomalies_section(page: &mut HtmlPage, report: &DiagnoseReport) {
+    if report.local_anomalies.is_empty() {
+        return;
     }
+    page.heading("Local anomalies (no catalogue effect explains them)");
+    let rows: Vec<Vec<String>> = report
+        .local_anomalies
+        .iter()
+        .map(|a| {
+            vec![
+                format!(
+                    "({:.1}, {:.1}, {:.1}) within {:.0} mm",
+                    a.centre[0], a.centre[1], a.centre[2], a.radius_mm
+                ),
+                a.points.to_string(),
+                a.ids.join(", "),
+                a.lines
+                    .iter()
+                    .map(|l| l.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                format!("{:+.2}", a.peak_um),
+                format!("{:+.2}", a.mean_um),
+                format!("{:.0}", a.sigma),
+            ]
+        })
+        .collect();
+    page.table(
+        &[
+            "where (part, mm)",
+            "points",
+            "plan ids",
+            "program lines",
+            "peak µm",
+            "mean µm",
+            "σ",
+        ],
+        &rows,
+    );
+}
+
+/// One fitted parameter of an effect, with its unit and ± where known.
+fn parameter_text(kind: Option<EffectKind>, name: &str, value: f64, std: Option<&f64>) -> String {
+    let unit = kind.map_or("", |kind| unit_of(kind, name));
+    match std {
+        Some(s) if unit == "s²" => format!("{name} = {value:.3e} ± {s:.1e} {unit}"),
+        Some(s) => format!("{name} = {value:.3} ± {s:.3} {unit}"),
+        None => format!("{name} = {value:.3} {unit}"),
+    }
+}
+
+/// Every effect of the catalogue, best first, with its held-out scores.
+fn effects_section(page: &mut HtmlPage, report: &DiagnoseReport) {
     page.heading("Effects (best first, cross-validated by region and by time)");
     let rows: Vec<Vec<String>> = report
         .effects
@@ -242,14 +282,7 @@ pub fn render(report: &DiagnoseReport) -> String {
             let params: Vec<String> = e
                 .params
                 .iter()
-                .map(|(k, v)| {
-                    let unit = kind.map_or("", |kind| unit_of(kind, k));
-                    match e.params_std.get(k) {
-                        Some(s) if unit == "s²" => format!("{k} = {v:.3e} ± {s:.1e} {unit}"),
-                        Some(s) => format!("{k} = {v:.3} ± {s:.3} {unit}"),
-                        None => format!("{k} = {v:.3} {unit}"),
-                    }
-                })
+                .map(|(k, v)| parameter_text(kind, k, *v, e.params_std.get(k)))
                 .collect();
             vec![
                 e.name.clone(),
@@ -280,6 +313,11 @@ pub fn render(report: &DiagnoseReport) -> String {
         ],
         &rows,
     );
+}
+
+/// The residual over the part (before and after, one colour scale) and
+/// against time, A and C.
+fn residual_plots_section(page: &mut HtmlPage, report: &DiagnoseReport) {
     let lim = report
         .residuals
         .iter()
@@ -311,6 +349,10 @@ pub fn render(report: &DiagnoseReport) -> String {
         &scatter(report, |p| p.c_deg, "Residual vs C", "C (deg)"),
         "",
     );
+}
+
+/// The residual by region, by time band, by axis direction, and the worst points.
+fn localisation_section(page: &mut HtmlPage, report: &DiagnoseReport) {
     let l = &report.localization;
     page.heading("Localisation");
     page.table(
@@ -371,34 +413,42 @@ pub fn render(report: &DiagnoseReport) -> String {
             })
             .collect::<Vec<_>>(),
     );
-    let separations = |list: &[Separation]| -> Vec<Vec<String>> {
-        list.iter()
-            .map(|s| {
-                vec![
-                    s.selected.clone(),
-                    s.rival.clone(),
-                    format!("{:.1}", s.before_sigma),
-                    format!("{:.1}", s.if_selected_sigma),
-                    format!("{:.1}", s.if_rival_sigma),
-                    s.achieved_sigma.map_or("—".into(), |a| format!("{a:+.1}")),
-                ]
-            })
-            .collect()
-    };
-    let header = [
-        "selected",
-        "rival",
-        "before σ",
-        "expected σ if selected",
-        "expected σ if rival",
-        "achieved σ",
-    ];
+}
+
+/// The header of a table of separations between a selected effect and a rival.
+const SEPARATION_HEADER: [&str; 6] = [
+    "selected",
+    "rival",
+    "before σ",
+    "expected σ if selected",
+    "expected σ if rival",
+    "achieved σ",
+];
+
+/// The rows of a table of separations.
+fn separation_rows(list: &[Separation]) -> Vec<Vec<String>> {
+    list.iter()
+        .map(|s| {
+            vec![
+                s.selected.clone(),
+                s.rival.clone(),
+                format!("{:.1}", s.before_sigma),
+                format!("{:.1}", s.if_selected_sigma),
+                format!("{:.1}", s.if_rival_sigma),
+                s.achieved_sigma.map_or("—".into(), |a| format!("{a:+.1}")),
+            ]
+        })
+        .collect()
+}
+
+/// The follow-up's design (its probes) and its outcome, where the report has them.
+fn followup_sections(page: &mut HtmlPage, report: &DiagnoseReport) {
     if let Some(design) = &report.followup_design {
         page.heading("Follow-up design");
         for line in &design.explanation {
             page.paragraph(line);
         }
-        page.table(&header, &separations(&design.separations));
+        page.table(&SEPARATION_HEADER, &separation_rows(&design.separations));
         page.table(
             &["probe", "plan point", "pose", "A °", "C °", "t min"],
             &design
@@ -429,9 +479,6 @@ pub fn render(report: &DiagnoseReport) -> String {
                 outcome.selected_before.join(" + ")
             }
         ));
-        page.table(&header, &separations(&outcome.separations));
+        page.table(&SEPARATION_HEADER, &separation_rows(&outcome.separations));
     }
-    page.heading("Selection");
-    page.preformatted(&report.selection_notes.join("\n"));
-    page.finish()
 }
