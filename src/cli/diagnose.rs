@@ -272,6 +272,75 @@ impl CutPart {
 const MIN_DIAGNOSED_POINTS: usize = 20;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    check_arguments(args)?;
+    let data_on_stdout = super::common::stdout_output(&[
+        ("--report -", crate::io::is_stdio(&args.report)),
+        ("--html -", super::common::is_stdout(args.html.as_deref())),
+        (
+            "--dump-contexts -",
+            super::common::is_stdout(args.dump_contexts.as_deref()),
+        ),
+    ])?;
+    let measurement = Measurement::read(&args.measured)?;
+    let measurement = match work_frame_of(args)? {
+        Some(frame) => frame.measurement_to_part(&measurement),
+        None => measurement,
+    };
+    let part = CutPart::new(
+        &args.machine,
+        &args.program,
+        args.read.clone(),
+        measurement.plan(),
+    )?;
+    check_files(args, &part)?;
+    let outputs = crate::io::OutputSet::begin();
+    let followup_measured = args
+        .followup
+        .as_ref()
+        .map(|p| Followup::read_measurement(p, part.machine.chain.rotary()))
+        .transpose()?;
+    let contexts = cut_contexts(args, &part)?;
+    if let Some(path) = &args.dump_contexts {
+        crate::io::write_json_atomic(path, &contexts)?;
+    }
+    let options = DiagnoseOptions {
+        noise_um: args.noise_um,
+        ..DiagnoseOptions::default()
+    };
+    let measured = measurement.deviations_um();
+    let mut report =
+        diagnose(&contexts, &measured, &options).context("diagnosing the measurement")?;
+    let mut program_written = None;
+    if let (Some(followup), Some(path)) = (&followup_measured, &args.followup) {
+        let diagnosis = Diagnosis {
+            contexts: &contexts,
+            measured: &measured,
+            options: &options,
+        };
+        report = diagnosis.with_followup(&part, args, followup, path, &report)?;
+    } else if let Some(out) = &args.followup_program {
+        program_written = design_followup(args, &part, &contexts, &measured, &mut report, out)?;
+    }
+    report.warnings = part.warnings();
+    let machine_written = match &args.write_machine {
+        Some(out) => Some(write_machine_file(args, &part, &report, out)?),
+        None => None,
+    };
+    crate::io::write_json_atomic(&args.report, &report)?;
+    if let Some(path) = &args.html {
+        crate::io::write_file_atomic(
+            path,
+            crate::report::diagnose_html::render(&report).as_bytes(),
+        )?;
+    }
+    outputs.commit()?;
+    super::common::print_warnings(&report.warnings);
+    let text = outcome_text(&report, program_written, machine_written);
+    super::common::say(data_on_stdout, text.trim_end())
+}
+
+/// The usage errors of the options, before any file is read.
+fn check_arguments(args: &Args) -> anyhow::Result<()> {
     if let Some(s) = args.noise_um {
         if !(s.is_finite() && s > 0.0) {
             return Err(UsageError(format!("--noise-um must be > 0, got {s}")).into());
@@ -303,25 +372,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .into());
         }
     }
-    let data_on_stdout = super::common::stdout_output(&[
-        ("--report -", crate::io::is_stdio(&args.report)),
-        ("--html -", super::common::is_stdout(args.html.as_deref())),
-        (
-            "--dump-contexts -",
-            super::common::is_stdout(args.dump_contexts.as_deref()),
-        ),
-    ])?;
-    let measurement = Measurement::read(&args.measured)?;
-    let measurement = match work_frame_of(args)? {
-        Some(frame) => frame.measurement_to_part(&measurement),
-        None => measurement,
-    };
-    let part = CutPart::new(
-        &args.machine,
-        &args.program,
-        args.read.clone(),
-        measurement.plan(),
-    )?;
+    Ok(())
+}
+
+/// Inputs against outputs (and the machine's), before anything is computed.
+fn check_files(args: &Args, part: &CutPart) -> anyhow::Result<()> {
     let followup_plan = args
         .followup_program
         .as_ref()
@@ -354,12 +409,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             followup_plan.as_deref(),
         )
         .check()?;
-    let outputs = crate::io::OutputSet::begin();
-    let followup_measured = args
-        .followup
-        .as_ref()
-        .map(|p| Followup::read_measurement(p, part.machine.chain.rotary()))
-        .transpose()?;
+    Ok(())
+}
+
+/// The context of every measured point, refused when too few were cut.
+fn cut_contexts(args: &Args, part: &CutPart) -> anyhow::Result<Vec<PointContext>> {
     let contexts = part.contexts()?;
     // Held-out judging (a 3 × 3 grid of regions and time bands) needs points
     // in every fold and more points than the largest effect has parameters.
@@ -375,19 +429,30 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         );
     }
-    if let Some(path) = &args.dump_contexts {
-        crate::io::write_json_atomic(path, &contexts)?;
-    }
-    let options = DiagnoseOptions {
-        noise_um: args.noise_um,
-        ..DiagnoseOptions::default()
-    };
-    let measured = measurement.deviations_um();
-    let mut report =
-        diagnose(&contexts, &measured, &options).context("diagnosing the measurement")?;
-    let mut program_written = None;
-    if let (Some(followup), Some(path)) = (&followup_measured, &args.followup) {
-        let probes = part.followup_probes(&contexts, followup, &args.probe, path)?;
+    Ok(contexts)
+}
+
+/// What a diagnosis is computed from: the points' contexts, the measured
+/// deviations and the settings.
+struct Diagnosis<'a> {
+    contexts: &'a [PointContext],
+    measured: &'a [f64],
+    options: &'a DiagnoseOptions,
+}
+
+impl Diagnosis<'_> {
+    /// The diagnosis again with the follow-up's readings, and what the
+    /// follow-up achieved (in its summary and its `followup`).
+    fn with_followup(
+        &self,
+        part: &CutPart,
+        args: &Args,
+        followup: &Followup,
+        path: &Path,
+        first: &DiagnoseReport,
+    ) -> anyhow::Result<DiagnoseReport> {
+        let (contexts, measured) = (self.contexts, self.measured);
+        let probes = part.followup_probes(contexts, followup, &args.probe, path)?;
         let readings: Vec<ProbeReading> = probes
             .into_iter()
             .zip(&followup.points)
@@ -396,129 +461,153 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 reading_um: f.reading_um(),
             })
             .collect();
-        let outcome = followup::outcome(&contexts, &measured, &report, &readings)
+        let outcome = followup::outcome(contexts, measured, first, &readings)
             .context("judging the follow-up")?;
-        let before = report.selected.clone();
-        report = diagnose_with_followup(&contexts, &measured, &readings, &options)
+        let mut report = diagnose_with_followup(contexts, measured, &readings, self.options)
             .context("diagnosing the measurement with its follow-up")?;
-        report
-            .summary
-            .push(followup_sentence(&before, &report.selected, &outcome));
+        report.summary.push(followup_sentence(
+            &first.selected,
+            &report.selected,
+            &outcome,
+        ));
         report.followup = Some(outcome);
-    } else if let Some(out) = &args.followup_program {
-        let tool = part.probe_tool(&args.probe);
-        let candidates = followup::candidates(&contexts, |cut, rotary| {
-            crate::toolpath::cut::probe_context(
-                &part.model,
-                &tool,
-                Some(&part.machine.limits),
-                cut,
-                rotary,
-                part.end_min,
-            )
-        })?;
-        let design = followup::design(
-            &contexts,
-            &measured,
-            &report,
-            &candidates,
+        Ok(report)
+    }
+}
+
+/// Designs the follow-up that tells the selected effects from their aliases,
+/// writes its probing program `out` and plan (`out` as .csv), and says why
+/// in the summary when none is designed. Returns the two paths written.
+fn design_followup(
+    args: &Args,
+    part: &CutPart,
+    contexts: &[PointContext],
+    measured: &[f64],
+    report: &mut DiagnoseReport,
+    out: &Path,
+) -> anyhow::Result<Option<(PathBuf, PathBuf)>> {
+    let tool = part.probe_tool(&args.probe);
+    let candidates = followup::candidates(contexts, |cut, rotary| {
+        crate::toolpath::cut::probe_context(
+            &part.model,
+            &tool,
+            Some(&part.machine.limits),
+            cut,
+            rotary,
             part.end_min,
-            &FollowupOptions {
-                probes: args.followup_probes,
-                ..FollowupOptions::default()
-            },
         )
-        .context("designing the follow-up")?;
-        match design {
-            None if report.model_check.mismatch => report.summary.push(format!(
-                "No follow-up is designed: the error model itself does not match this machine, so the effects cannot be told apart from its error; fix the model first ({} not written).",
-                out.display()
-            )),
-            None => report.summary.push(format!(
-                "No follow-up is needed: {} (no alias on this part); {} not written.",
-                if report.selected.is_empty() {
-                    "no effect is selected".to_string()
-                } else {
-                    format!(
-                        "{} is told apart from every other effect",
-                        report.selected.join(" + ")
-                    )
-                },
-                out.display()
-            )),
-            Some(design) => {
-                let plan_path = out.with_extension("csv");
-                let text = probing_program(
-                    &design,
-                    &ProbingOptions {
-                        safe_z_mm: part.machine.limits.linear(crate::axes::Axis::Z)[1],
-                        feed_mm_min: 100.0,
-                        clearance_mm: 2.0,
-                        overtravel_mm: 1.0,
-                        stylus_radius_mm: tool.radius_mm,
-                        probe_length_mm: tool.length_mm,
-                        provenance: vec![
-                            format!("part program: {}", args.program.display()),
-                            format!("measurement: {}", args.measured.display()),
-                            format!("plan of the probes: {}", plan_path.display()),
-                        ],
-                    },
-                );
-                let plan = Followup {
-                    points: design
-                        .probes
-                        .iter()
-                        .map(|p| FollowupPoint {
-                            plan: crate::inspection::PlanPoint {
-                                id: p.id.clone(),
-                                point: p.probe.context.point,
-                                normal: p.probe.context.normal,
-                            },
-                            a_deg: p.a_deg,
-                            c_deg: p.c_deg,
-                            time_min: p.time_min,
-                            measured: None,
-                        })
-                        .collect(),
-                    rotary: part.machine.chain.rotary(),
-                };
-                plan.write(&plan_path)?;
-                crate::io::write_file_atomic(out, text.as_bytes())?;
-                report.summary.extend(design.explanation.iter().cloned());
-                program_written = Some((out.clone(), plan_path));
-                report.followup_design = Some(design);
-            }
-        }
-    }
-    report.warnings = part.warnings();
-    let machine_written = match &args.write_machine {
-        Some(out) => Some(super::write_machine::write(
-            out,
-            &part.machine,
-            &report,
-            &[
-                format!("machine file: {}", part.machine.source.display()),
-                format!("program: {}", args.program.display()),
-                format!(
-                    "measurement: {} ({} points, {} used)",
-                    args.measured.display(),
-                    report.points,
-                    report.points_used
-                ),
-            ],
-        )?),
-        None => None,
+    })?;
+    let design = followup::design(
+        contexts,
+        measured,
+        report,
+        &candidates,
+        part.end_min,
+        &FollowupOptions {
+            probes: args.followup_probes,
+            ..FollowupOptions::default()
+        },
+    )
+    .context("designing the follow-up")?;
+    let Some(design) = design else {
+        report.summary.push(no_followup_sentence(report, out));
+        return Ok(None);
     };
-    crate::io::write_json_atomic(&args.report, &report)?;
-    if let Some(path) = &args.html {
-        crate::io::write_file_atomic(
-            path,
-            crate::report::diagnose_html::render(&report).as_bytes(),
-        )?;
+    let plan_path = out.with_extension("csv");
+    let text = probing_program(
+        &design,
+        &ProbingOptions {
+            safe_z_mm: part.machine.limits.linear(crate::axes::Axis::Z)[1],
+            feed_mm_min: 100.0,
+            clearance_mm: 2.0,
+            overtravel_mm: 1.0,
+            stylus_radius_mm: tool.radius_mm,
+            probe_length_mm: tool.length_mm,
+            provenance: vec![
+                format!("part program: {}", args.program.display()),
+                format!("measurement: {}", args.measured.display()),
+                format!("plan of the probes: {}", plan_path.display()),
+            ],
+        },
+    );
+    let plan = Followup {
+        points: design
+            .probes
+            .iter()
+            .map(|p| FollowupPoint {
+                plan: crate::inspection::PlanPoint {
+                    id: p.id.clone(),
+                    point: p.probe.context.point,
+                    normal: p.probe.context.normal,
+                },
+                a_deg: p.a_deg,
+                c_deg: p.c_deg,
+                time_min: p.time_min,
+                measured: None,
+            })
+            .collect(),
+        rotary: part.machine.chain.rotary(),
+    };
+    plan.write(&plan_path)?;
+    crate::io::write_file_atomic(out, text.as_bytes())?;
+    report.summary.extend(design.explanation.iter().cloned());
+    report.followup_design = Some(design);
+    Ok(Some((out.to_path_buf(), plan_path)))
+}
+
+/// Why no follow-up is designed (the model does not match, or no alias).
+fn no_followup_sentence(report: &DiagnoseReport, out: &Path) -> String {
+    if report.model_check.mismatch {
+        return format!(
+            "No follow-up is designed: the error model itself does not match this machine, so the effects cannot be told apart from its error; fix the model first ({} not written).",
+            out.display()
+        );
     }
-    outputs.commit()?;
-    super::common::print_warnings(&report.warnings);
-    let mut text = summary_text(&report);
+    format!(
+        "No follow-up is needed: {} (no alias on this part); {} not written.",
+        if report.selected.is_empty() {
+            "no effect is selected".to_string()
+        } else {
+            format!(
+                "{} is told apart from every other effect",
+                report.selected.join(" + ")
+            )
+        },
+        out.display()
+    )
+}
+
+/// `--write-machine`: the machine file updated by the diagnosis, with its provenance.
+fn write_machine_file(
+    args: &Args,
+    part: &CutPart,
+    report: &DiagnoseReport,
+    out: &Path,
+) -> anyhow::Result<super::write_machine::Written> {
+    super::write_machine::write(
+        out,
+        &part.machine,
+        report,
+        &[
+            format!("machine file: {}", part.machine.source.display()),
+            format!("program: {}", args.program.display()),
+            format!(
+                "measurement: {} ({} points, {} used)",
+                args.measured.display(),
+                report.points,
+                report.points_used
+            ),
+        ],
+    )
+}
+
+/// The summary, then the files of the follow-up and of the machine written.
+fn outcome_text(
+    report: &DiagnoseReport,
+    program_written: Option<(PathBuf, PathBuf)>,
+    machine_written: Option<super::write_machine::Written>,
+) -> String {
+    let mut text = summary_text(report);
     if let Some((program, plan)) = program_written {
         text.push_str(&format!(
             "follow-up: probing program {} and its plan {}\n",
@@ -537,7 +626,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             text.push_str(&format!("  {c}\n"));
         }
     }
-    super::common::say(data_on_stdout, text.trim_end())
+    text
 }
 
 /// The summary sentence of a measured follow-up.
