@@ -107,6 +107,7 @@ fn load_tables(args: &Args) -> anyhow::Result<Vec<ErrorTable>> {
     }
 }
 
+/// The fit of one column of a table.
 struct Job<'a> {
     table: &'a ErrorTable,
     column: usize,
@@ -115,6 +116,87 @@ struct Job<'a> {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let started = Instant::now();
+    check_arguments(args)?;
+    // The human table goes to standard error when the report goes to
+    // standard output.
+    let data_on_stdout = super::common::is_stdout(args.report.as_deref());
+    let tables = load_tables(args)?;
+    let base = fit_options(args);
+    let jobs = column_jobs(&tables);
+    check_files(args, &tables, &jobs)?;
+    let outputs = crate::io::OutputSet::begin();
+    let hashes = table_hashes(&tables)?;
+    let fits = fit_columns(args, &base, &jobs)?;
+    let cv = args.select == Selection::Cv;
+    let mut report = SmemModelFile {
+        parameters: Vec::new(),
+        not_measured: Vec::new(),
+    };
+    print_header(data_on_stdout, cv)?;
+    for (job, curve) in jobs.iter().zip(&fits) {
+        let table_index = tables
+            .iter()
+            .position(|t| std::ptr::eq(t, job.table))
+            .unwrap_or(0);
+        let entry = ParameterFit::new(
+            job.table.axis.letter(),
+            &job.table.columns[job.column].name,
+            job.kind.unit(),
+            curve,
+            &job.table.path.display().to_string(),
+            hashes[table_index],
+        );
+        print_row(data_on_stdout, cv, &entry)?;
+        report.parameters.push(entry);
+    }
+    for t in &tables {
+        print_not_fitted(data_on_stdout, t)?;
+        report.not_measured.extend(t.missing.iter().cloned());
+    }
+    let missed: Vec<&str> = report
+        .parameters
+        .iter()
+        .filter(|p| !cv && !p.stats.met)
+        .map(|p| p.parameter.as_str())
+        .collect();
+    let seconds = started.elapsed().as_secs_f64();
+    if cv {
+        crate::cli::humanln!(
+            data_on_stdout,
+            "{} parameters fitted by cross-validation in {seconds:.2} s",
+            report.parameters.len(),
+        );
+    } else {
+        crate::cli::humanln!(
+            data_on_stdout,
+            "{} parameters fitted with method {} in {seconds:.2} s; {} within tolerance",
+            report.parameters.len(),
+            base.method,
+            report.parameters.len() - missed.len()
+        );
+    }
+    if let Some(path) = &args.report {
+        crate::io::write_json_atomic(path, &report)?;
+        crate::cli::humanln!(data_on_stdout, "report: {}", path.display());
+    }
+    if let Some(dir) = &args.plot {
+        write_plots(dir, &jobs, &fits)?;
+        crate::cli::humanln!(data_on_stdout, "plots: {}", dir.display());
+    }
+    outputs.commit()?;
+    if !missed.is_empty() {
+        anyhow::bail!(
+            "{} parameter(s) miss their tolerance: {} (raise --tol or the control-point cap)",
+            missed.len(),
+            missed.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// The usage errors: tolerances that are not positive, and the paper's
+/// options without `--select emax`.
+fn check_arguments(args: &Args) -> anyhow::Result<()> {
     for (name, v) in [("--tol", args.tol), ("--tol-angle", args.tol_angle)] {
         if let Some(t) = v {
             if !(t.is_finite() && t > 0.0) {
@@ -148,12 +230,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .into());
         }
     }
-    // The human table goes to standard error when the report goes to
-    // standard output.
-    let data_on_stdout = super::common::is_stdout(args.report.as_deref());
-    let tables = load_tables(args)?;
+    Ok(())
+}
+
+/// The fit settings every column shares (its tolerance and periodicity aside).
+fn fit_options(args: &Args) -> FitOptions {
     let defaults = FitOptions::default();
-    let base = FitOptions {
+    FitOptions {
         select: args.select,
         method: args.method.unwrap_or(defaults.method),
         control_points: args.control_points,
@@ -161,8 +244,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         optimise_weights: !args.no_weights,
         seed: args.seed.unwrap_or(defaults.seed),
         ..defaults
-    };
-    let jobs: Vec<Job<'_>> = tables
+    }
+}
+
+/// One fit for every column of every table, in table order.
+fn column_jobs(tables: &[ErrorTable]) -> Vec<Job<'_>> {
+    tables
         .iter()
         .flat_map(|t| {
             t.columns.iter().enumerate().map(move |(i, c)| Job {
@@ -175,31 +262,46 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 },
             })
         })
-        .collect();
+        .collect()
+}
+
+/// Inputs against outputs (the report, every plot), before anything is fitted.
+fn check_files(args: &Args, tables: &[ErrorTable], jobs: &[Job<'_>]) -> anyhow::Result<()> {
     let mut files = super::common::CommandFiles::new()
         .input("the input", Some(&args.input))
         .output("--report", args.report.as_deref());
-    for table in &tables {
+    for table in tables {
         files = files.input("the error table", Some(&table.path));
     }
     if let Some(dir) = &args.plot {
-        for job in &jobs {
+        for job in jobs {
             let name = format!("{}.svg", job.table.columns[job.column].name);
             files = files.output_in_new_folder("the plot (--plot)", &dir.join(name));
         }
     }
     files.check()?;
-    let outputs = crate::io::OutputSet::begin();
-    let hashes: Vec<u64> = tables
+    Ok(())
+}
+
+/// FNV-1a 64 of every table file's bytes (the report names what it fitted).
+fn table_hashes(tables: &[ErrorTable]) -> anyhow::Result<Vec<u64>> {
+    tables
         .iter()
         .map(|t| {
             std::fs::read(&t.path)
                 .map(|b| fnv1a64(&b))
                 .with_context(|| format!("cannot read {}", t.path.display()))
         })
-        .collect::<anyhow::Result<_>>()?;
-    let fits = jobs
-        .par_iter()
+        .collect()
+}
+
+/// Fits every column, in parallel.
+fn fit_columns(
+    args: &Args,
+    base: &FitOptions,
+    jobs: &[Job<'_>],
+) -> anyhow::Result<Vec<crate::nurbs::SmemCurve>> {
+    jobs.par_iter()
         .map(|job| {
             let column = &job.table.columns[job.column];
             let tolerance = match job.kind {
@@ -215,12 +317,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 || format!("{}: cannot fit {}", job.table.path.display(), column.name),
             )
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let mut report = SmemModelFile {
-        parameters: Vec::new(),
-        not_measured: Vec::new(),
-    };
-    let cv = args.select == Selection::Cv;
+        .collect()
+}
+
+/// The header of the table of fits.
+fn print_header(data_on_stdout: bool, cv: bool) -> anyhow::Result<()> {
     if cv {
         crate::cli::humanln!(
             data_on_stdout,
@@ -232,111 +333,63 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "axis  parameter  samples  ctrl  emax      erms      tol      unit  met  seconds"
         );
     }
-    for (job, curve) in jobs.iter().zip(&fits) {
-        let column = &job.table.columns[job.column];
-        let table_index = tables
-            .iter()
-            .position(|t| std::ptr::eq(t, job.table))
-            .unwrap_or(0);
-        let entry = ParameterFit::new(
-            job.table.axis.letter(),
-            &column.name,
-            job.kind.unit(),
-            curve,
-            &job.table.path.display().to_string(),
-            hashes[table_index],
+    Ok(())
+}
+
+/// One fitted parameter's row.
+fn print_row(data_on_stdout: bool, cv: bool, entry: &ParameterFit) -> anyhow::Result<()> {
+    let s = &entry.stats;
+    let unit = super::common::unit_symbol(&entry.unit);
+    if cv {
+        crate::cli::humanln!(
+            data_on_stdout,
+            "{:<4}  {:<9}  {:>7}  {:>4}  {:>5.1}  {:>8.4}  {:>8.4}  {:>8.4}  {:<4}  {:<8}  {:>7.3}",
+            entry.axis,
+            entry.parameter,
+            s.samples,
+            s.control_points,
+            s.dof,
+            s.noise,
+            s.cv_error,
+            s.emax,
+            unit,
+            if s.periodic { "yes" } else { "no" },
+            s.seconds
         );
-        if cv {
-            let s = &entry.stats;
-            crate::cli::humanln!(
-                data_on_stdout,
-                "{:<4}  {:<9}  {:>7}  {:>4}  {:>5.1}  {:>8.4}  {:>8.4}  {:>8.4}  {:<4}  {:<8}  {:>7.3}",
-                entry.axis,
-                entry.parameter,
-                s.samples,
-                s.control_points,
-                s.dof,
-                s.noise,
-                s.cv_error,
-                s.emax,
-                super::common::unit_symbol(&entry.unit),
-                if s.periodic { "yes" } else { "no" },
-                s.seconds
-            );
-            report.parameters.push(entry);
-            continue;
-        }
+    } else {
         crate::cli::humanln!(
             data_on_stdout,
             "{:<4}  {:<9}  {:>7}  {:>4}  {:>8.4}  {:>8.4}  {:>7.3}  {:<4}  {:<3}  {:>7.3}",
             entry.axis,
             entry.parameter,
-            entry.stats.samples,
-            entry.stats.control_points,
-            entry.stats.emax,
-            entry.stats.erms,
-            entry.stats.tolerance,
-            super::common::unit_symbol(&entry.unit),
-            if entry.stats.met { "yes" } else { "NO" },
-            entry.stats.seconds
+            s.samples,
+            s.control_points,
+            s.emax,
+            s.erms,
+            s.tolerance,
+            unit,
+            if s.met { "yes" } else { "NO" },
+            s.seconds
         );
-        report.parameters.push(entry);
     }
-    for t in &tables {
-        if t.reversal.is_some() {
-            crate::cli::humanln!(
-                data_on_stdout,
-                "{:<4}  REVERSAL   read, not fitted: linear between the positions, ±REVERSAL/2 by the direction of motion",
-                t.axis.letter()
-            );
-        }
-        for m in &t.missing {
-            crate::cli::humanln!(
-                data_on_stdout,
-                "{:<4}  {:<9}  not measured (taken as zero)",
-                t.axis.letter(),
-                m
-            );
-            report.not_measured.push(m.clone());
-        }
-    }
-    let missed: Vec<&str> = report
-        .parameters
-        .iter()
-        .filter(|p| !cv && !p.stats.met)
-        .map(|p| p.parameter.as_str())
-        .collect();
-    if cv {
+    Ok(())
+}
+
+/// A table's rows that are not fits: its REVERSAL column, its parameters not measured.
+fn print_not_fitted(data_on_stdout: bool, t: &ErrorTable) -> anyhow::Result<()> {
+    if t.reversal.is_some() {
         crate::cli::humanln!(
             data_on_stdout,
-            "{} parameters fitted by cross-validation in {:.2} s",
-            report.parameters.len(),
-            started.elapsed().as_secs_f64(),
+            "{:<4}  REVERSAL   read, not fitted: linear between the positions, ±REVERSAL/2 by the direction of motion",
+            t.axis.letter()
         );
-    } else {
+    }
+    for m in &t.missing {
         crate::cli::humanln!(
             data_on_stdout,
-            "{} parameters fitted with method {} in {:.2} s; {} within tolerance",
-            report.parameters.len(),
-            base.method,
-            started.elapsed().as_secs_f64(),
-            report.parameters.len() - missed.len()
-        );
-    }
-    if let Some(path) = &args.report {
-        crate::io::write_json_atomic(path, &report)?;
-        crate::cli::humanln!(data_on_stdout, "report: {}", path.display());
-    }
-    if let Some(dir) = &args.plot {
-        write_plots(dir, &jobs, &fits)?;
-        crate::cli::humanln!(data_on_stdout, "plots: {}", dir.display());
-    }
-    outputs.commit()?;
-    if !missed.is_empty() {
-        anyhow::bail!(
-            "{} parameter(s) miss their tolerance: {} (raise --tol or the control-point cap)",
-            missed.len(),
-            missed.join(", ")
+            "{:<4}  {:<9}  not measured (taken as zero)",
+            t.axis.letter(),
+            m
         );
     }
     Ok(())
