@@ -1,7 +1,9 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
 use super::common::{FrameArg, ModelArgs, load_model};
 use crate::axes::Axes;
+use crate::gcode::ToolInUse;
 use crate::kinematics::VolumetricError;
+use crate::machine::{Approach, ErrorModel, Machine};
 use crate::toolpath::joints_of;
 use anyhow::{Context, anyhow};
 use rayon::prelude::*;
@@ -230,6 +232,16 @@ fn fmt3(v: [f64; 3], decimals: usize) -> String {
     )
 }
 
+/// An `error` run, validated: the machine, the model for the tool in the
+/// spindle, and the approach direction of each axis.
+struct Job<'a> {
+    args: &'a Args,
+    machine: Machine,
+    tool: ToolInUse,
+    model: ErrorModel,
+    approach: Approach,
+}
+
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.poses.is_some() && args.verbose {
         return Err(
@@ -249,32 +261,58 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .transpose()?;
     let approach = match args.direction.as_deref() {
         Some(text) => parse_direction(text, model.kinematics())?,
-        None => crate::machine::Approach::NONE,
+        None => Approach::NONE,
     };
     let tool = super::common::select_tool(&machine, args.tool, args.tools.as_deref())?;
     let model = model.with_tool_length(tool.length_mm);
-    let kin = model.kinematics();
-    let frame = args.frame.into();
-    let to_joints = |pose: &Axes| joints_of(kin, frame, pose);
-    let uncertain = model.has_uncertainty();
-    let uncertainty = |joints: &Axes| -> anyhow::Result<Option<[f64; 3]>> {
-        Ok(if uncertain {
-            Some(model.uncertainty_at(joints)?.per_axis_um())
+    let job = Job {
+        args,
+        machine,
+        tool,
+        model,
+        approach,
+    };
+    if let Some(pose) = single {
+        job.print_pose(&pose)?;
+    } else if let (Some(path), Some(poses)) = (&args.poses, many) {
+        job.print_poses(path, &poses)?;
+    }
+    let held = job.model.held_lookups();
+    if held > 0 {
+        let warnings = crate::warnings::Warnings::new();
+        super::common::add_held_lookups(&warnings, held);
+        super::common::print_warnings(&warnings.groups());
+    }
+    Ok(())
+}
+
+impl Job<'_> {
+    /// The joints of a pose given in the `--frame`.
+    fn joints(&self, pose: &Axes) -> Axes {
+        joints_of(self.model.kinematics(), self.args.frame.into(), pose)
+    }
+
+    /// The standard uncertainty of e per axis, where the model carries one.
+    fn uncertainty(&self, joints: &Axes) -> anyhow::Result<Option<[f64; 3]>> {
+        Ok(if self.model.has_uncertainty() {
+            Some(self.model.uncertainty_at(joints)?.per_axis_um())
         } else {
             None
         })
-    };
+    }
 
-    if let Some(pose) = single {
-        let joints = to_joints(&pose);
-        let v = model.volumetric_error_toward(&joints, &approach)?;
-        let u = uncertainty(&joints)?;
-        let contributions = if args.verbose {
-            Some(model.contributions_toward(&joints, &approach)?)
+    /// `--at`: the error at one pose, as JSON or as text.
+    fn print_pose(&self, pose: &Axes) -> anyhow::Result<()> {
+        let (model, approach) = (&self.model, &self.approach);
+        let joints = self.joints(pose);
+        let v = model.volumetric_error_toward(&joints, approach)?;
+        let u = self.uncertainty(&joints)?;
+        let contributions = if self.args.verbose {
+            Some(model.contributions_toward(&joints, approach)?)
         } else {
             None
         };
-        if args.json {
+        if self.args.json {
             let obj = PoseJson {
                 e_um: v.e_um,
                 axis_urad: v.axis_urad,
@@ -282,104 +320,98 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 contributions: contributions.as_deref(),
             };
             crate::cli::outln!("{}", serde_json::to_string_pretty(&obj)?);
-        } else {
-            crate::cli::outln!("machine {} ({})", machine.name, machine.source.display());
-            crate::cli::outln!("tool    {tool}");
-            let j = kin.joints(&joints);
-            let [r1, r2] = kin.rotary();
-            crate::cli::outln!(
-                "joints  X {:.4} Y {:.4} Z {:.4} mm  {} {:.4} {} {:.4} deg",
-                j[0],
-                j[1],
-                j[2],
-                r1.letter(),
-                j[3],
-                r2.letter(),
-                j[4]
-            );
-            if args.direction.is_some() || model.has_reversal() {
-                let reversal: Vec<String> = model
-                    .reversal_axes()
-                    .iter()
-                    .map(|(axis, source)| {
-                        format!(
-                            "{} {:.4} {} ({source})",
-                            axis.letter(),
-                            model.reversal_at(*axis, joints.get(*axis)).unwrap_or(0.0),
-                            if axis.is_rotary() { "µrad" } else { "µm" }
-                        )
-                    })
-                    .collect();
-                crate::cli::outln!(
-                    "approach  {}   reversal: {}",
-                    if approach.is_none() {
-                        "unknown (mean error)".to_string()
-                    } else {
-                        approach.describe()
-                    },
-                    if reversal.is_empty() {
-                        "none on this machine".to_string()
-                    } else {
-                        reversal.join(", ")
-                    }
-                );
-            }
-            let tip = kin.nominal_tip(&joints);
-            crate::cli::outln!("tip (part) {} mm", fmt3(tip, 4));
-            crate::cli::outln!(
-                "e         {} µm   |e| = {:.4} µm",
-                fmt3(v.e_um, 4),
-                v.magnitude_um()
-            );
-            match u {
-                Some(u) => crate::cli::outln!(
-                    "u(e)      {} µm   (1 sigma: table noise and fit; unmodelled effects not included)",
-                    fmt3(u, 4)
-                ),
-                None => crate::cli::outln!(
-                    "u(e)      unknown (the model file carries no uncertainties; refit)"
-                ),
-            }
-            crate::cli::outln!("tool axis {} µrad", fmt3(v.axis_urad, 4));
-            if let Some(list) = &contributions {
-                crate::cli::outln!("contributions (each parameter alone, largest |e| first):");
-                crate::cli::outln!(
-                    "  {:<6} {:>12}  {:>34}  {:>9}",
-                    "param",
-                    "value",
-                    "e (µm)",
-                    "|e| µm"
-                );
-                for c in list {
-                    let unit = if is_length(c.parameter) {
-                        "µm"
-                    } else {
-                        "µrad"
-                    };
-                    crate::cli::outln!(
-                        "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
-                        c.parameter,
-                        c.value,
-                        unit,
-                        fmt3(c.e_um, 4),
-                        c.magnitude_um()
-                    );
-                }
-            }
+            return Ok(());
         }
-    } else if let (Some(path), Some(poses)) = (&args.poses, many) {
+        self.print_where(&joints)?;
+        let tip = model.kinematics().nominal_tip(&joints);
+        crate::cli::outln!("tip (part) {} mm", fmt3(tip, 4));
+        crate::cli::outln!(
+            "e         {} µm   |e| = {:.4} µm",
+            fmt3(v.e_um, 4),
+            v.magnitude_um()
+        );
+        match u {
+            Some(u) => crate::cli::outln!(
+                "u(e)      {} µm   (1 sigma: table noise and fit; unmodelled effects not included)",
+                fmt3(u, 4)
+            ),
+            None => crate::cli::outln!(
+                "u(e)      unknown (the model file carries no uncertainties; refit)"
+            ),
+        }
+        crate::cli::outln!("tool axis {} µrad", fmt3(v.axis_urad, 4));
+        if let Some(list) = &contributions {
+            print_contributions(list)?;
+        }
+        Ok(())
+    }
+
+    /// The machine, the tool, the joints and (where it matters) the approach
+    /// with each axis's reversal.
+    fn print_where(&self, joints: &Axes) -> anyhow::Result<()> {
+        let (machine, model, approach) = (&self.machine, &self.model, &self.approach);
+        let kin = model.kinematics();
+        crate::cli::outln!("machine {} ({})", machine.name, machine.source.display());
+        crate::cli::outln!("tool    {}", self.tool);
+        let j = kin.joints(joints);
+        let [r1, r2] = kin.rotary();
+        crate::cli::outln!(
+            "joints  X {:.4} Y {:.4} Z {:.4} mm  {} {:.4} {} {:.4} deg",
+            j[0],
+            j[1],
+            j[2],
+            r1.letter(),
+            j[3],
+            r2.letter(),
+            j[4]
+        );
+        if self.args.direction.is_none() && !model.has_reversal() {
+            return Ok(());
+        }
+        let reversal: Vec<String> = model
+            .reversal_axes()
+            .iter()
+            .map(|(axis, source)| {
+                format!(
+                    "{} {:.4} {} ({source})",
+                    axis.letter(),
+                    model.reversal_at(*axis, joints.get(*axis)).unwrap_or(0.0),
+                    if axis.is_rotary() { "µrad" } else { "µm" }
+                )
+            })
+            .collect();
+        crate::cli::outln!(
+            "approach  {}   reversal: {}",
+            if approach.is_none() {
+                "unknown (mean error)".to_string()
+            } else {
+                approach.describe()
+            },
+            if reversal.is_empty() {
+                "none on this machine".to_string()
+            } else {
+                reversal.join(", ")
+            }
+        );
+        Ok(())
+    }
+
+    /// `--poses`: the error at every pose of the file (in parallel), as JSON
+    /// or as a table with the largest and the RMS |e|.
+    fn print_poses(&self, path: &Path, poses: &[(usize, Axes)]) -> anyhow::Result<()> {
         let results: Vec<(VolumetricError, Option<[f64; 3]>)> = poses
             .par_iter()
             .map(|(line, pose)| {
-                let joints = to_joints(pose);
+                let joints = self.joints(pose);
                 let at = || format!("{}:{line}", path.display());
-                let v = model
-                    .volumetric_error_toward(&joints, &approach)
+                let v = self
+                    .model
+                    .volumetric_error_toward(&joints, &self.approach)
                     .with_context(at)?;
-                Ok((v, uncertainty(&joints).with_context(at)?))
+                Ok((v, self.uncertainty(&joints).with_context(at)?))
             })
             .collect::<anyhow::Result<_>>()?;
-        if args.json {
+        if self.args.json {
             let list: Vec<PoseJson> = results
                 .iter()
                 .map(|(v, u)| PoseJson {
@@ -390,46 +422,68 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 })
                 .collect();
             crate::cli::outln!("{}", serde_json::to_string(&list)?);
-        } else {
-            crate::cli::outln!(
-                "machine {} ({}), {} from {}",
-                machine.name,
-                machine.source.display(),
-                super::common::count(results.len() as u64, "pose", "poses"),
-                path.display()
-            );
-            crate::cli::outln!(
-                "{:>6}  {:>34}  {:>9}  {:>9}",
-                "line",
-                "e (µm)",
-                "|e| µm",
-                "u(e) µm"
-            );
-            for ((line, _), (v, u)) in poses.iter().zip(&results) {
-                let u = u.map_or("unknown".to_string(), |u| {
-                    format!("{:.4}", (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
-                });
-                crate::cli::outln!(
-                    "{line:>6}  {}  {:>9.4}  {u:>9}",
-                    fmt3(v.e_um, 4),
-                    v.magnitude_um()
-                );
-            }
-            let mags: Vec<f64> = results.iter().map(|(v, _)| v.magnitude_um()).collect();
-            let max = mags.iter().copied().fold(0.0, f64::max);
-            let rms = if mags.is_empty() {
-                0.0
-            } else {
-                (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
-            };
-            crate::cli::outln!("max |e| = {max:.4} µm, RMS |e| = {rms:.4} µm");
+            return Ok(());
         }
+        crate::cli::outln!(
+            "machine {} ({}), {} from {}",
+            self.machine.name,
+            self.machine.source.display(),
+            super::common::count(results.len() as u64, "pose", "poses"),
+            path.display()
+        );
+        crate::cli::outln!(
+            "{:>6}  {:>34}  {:>9}  {:>9}",
+            "line",
+            "e (µm)",
+            "|e| µm",
+            "u(e) µm"
+        );
+        for ((line, _), (v, u)) in poses.iter().zip(&results) {
+            let u = u.map_or("unknown".to_string(), |u| {
+                format!("{:.4}", (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+            });
+            crate::cli::outln!(
+                "{line:>6}  {}  {:>9.4}  {u:>9}",
+                fmt3(v.e_um, 4),
+                v.magnitude_um()
+            );
+        }
+        let mags: Vec<f64> = results.iter().map(|(v, _)| v.magnitude_um()).collect();
+        let max = mags.iter().copied().fold(0.0, f64::max);
+        let rms = if mags.is_empty() {
+            0.0
+        } else {
+            (mags.iter().map(|m| m * m).sum::<f64>() / mags.len() as f64).sqrt()
+        };
+        crate::cli::outln!("max |e| = {max:.4} µm, RMS |e| = {rms:.4} µm");
+        Ok(())
     }
-    let held = model.held_lookups();
-    if held > 0 {
-        let warnings = crate::warnings::Warnings::new();
-        super::common::add_held_lookups(&warnings, held);
-        super::common::print_warnings(&warnings.groups());
+}
+
+/// `--verbose`: each parameter's contribution alone, largest |e| first.
+fn print_contributions(list: &[crate::machine::Contribution]) -> anyhow::Result<()> {
+    crate::cli::outln!("contributions (each parameter alone, largest |e| first):");
+    crate::cli::outln!(
+        "  {:<6} {:>12}  {:>34}  {:>9}",
+        "param",
+        "value",
+        "e (µm)",
+        "|e| µm"
+    );
+    for c in list {
+        let unit = if is_length(c.parameter) {
+            "µm"
+        } else {
+            "µrad"
+        };
+        crate::cli::outln!(
+            "  {:<6} {:>8.4} {:<4} {}  {:>9.4}",
+            c.parameter,
+            c.value,
+            unit,
+            fmt3(c.e_um, 4),
+            c.magnitude_um()
+        );
     }
     Ok(())
 }
