@@ -128,31 +128,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let hashes = table_hashes(&tables)?;
     let fits = fit_columns(args, &base, &jobs)?;
     let cv = args.select == Selection::Cv;
-    let mut report = SmemModelFile {
-        parameters: Vec::new(),
-        not_measured: Vec::new(),
-    };
-    print_header(data_on_stdout, cv)?;
-    for (job, curve) in jobs.iter().zip(&fits) {
-        let table_index = tables
-            .iter()
-            .position(|t| std::ptr::eq(t, job.table))
-            .unwrap_or(0);
-        let entry = ParameterFit::new(
-            job.table.axis.letter(),
-            &job.table.columns[job.column].name,
-            job.kind.unit(),
-            curve,
-            &job.table.path.display().to_string(),
-            hashes[table_index],
-        );
-        print_row(data_on_stdout, cv, &entry)?;
-        report.parameters.push(entry);
-    }
-    for t in &tables {
-        print_not_fitted(data_on_stdout, t)?;
-        report.not_measured.extend(t.missing.iter().cloned());
-    }
+    let report = report_fits(data_on_stdout, cv, &tables, &jobs, &fits, &hashes)?;
     let missed: Vec<&str> = report
         .parameters
         .iter()
@@ -318,6 +294,44 @@ fn fit_columns(
             )
         })
         .collect()
+}
+
+/// The fits as the model file, printed as a table (a row a fit, then each
+/// table's rows that are not fits).
+fn report_fits(
+    data_on_stdout: bool,
+    cv: bool,
+    tables: &[ErrorTable],
+    jobs: &[Job<'_>],
+    fits: &[crate::nurbs::SmemCurve],
+    hashes: &[u64],
+) -> anyhow::Result<SmemModelFile> {
+    let mut report = SmemModelFile {
+        parameters: Vec::new(),
+        not_measured: Vec::new(),
+    };
+    print_header(data_on_stdout, cv)?;
+    for (job, curve) in jobs.iter().zip(fits) {
+        let table_index = tables
+            .iter()
+            .position(|t| std::ptr::eq(t, job.table))
+            .unwrap_or(0);
+        let entry = ParameterFit::new(
+            job.table.axis.letter(),
+            &job.table.columns[job.column].name,
+            job.kind.unit(),
+            curve,
+            &job.table.path.display().to_string(),
+            hashes[table_index],
+        );
+        print_row(data_on_stdout, cv, &entry)?;
+        report.parameters.push(entry);
+    }
+    for t in tables {
+        print_not_fitted(data_on_stdout, t)?;
+        report.not_measured.extend(t.missing.iter().cloned());
+    }
+    Ok(report)
 }
 
 /// The header of the table of fits.
