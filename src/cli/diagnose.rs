@@ -281,17 +281,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             super::common::is_stdout(args.dump_contexts.as_deref()),
         ),
     ])?;
-    let measurement = Measurement::read(&args.measured)?;
-    let measurement = match work_frame_of(args)? {
-        Some(frame) => frame.measurement_to_part(&measurement),
-        None => measurement,
-    };
-    let part = CutPart::new(
-        &args.machine,
-        &args.program,
-        args.read.clone(),
-        measurement.plan(),
-    )?;
+    let (measurement, part) = read_inputs(args)?;
     check_files(args, &part)?;
     let outputs = crate::io::OutputSet::begin();
     let followup_measured = args
@@ -326,17 +316,40 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(out) => Some(write_machine_file(args, &part, &report, out)?),
         None => None,
     };
-    crate::io::write_json_atomic(&args.report, &report)?;
-    if let Some(path) = &args.html {
-        crate::io::write_file_atomic(
-            path,
-            crate::report::diagnose_html::render(&report).as_bytes(),
-        )?;
-    }
+    write_report(args, &report)?;
     outputs.commit()?;
     super::common::print_warnings(&report.warnings);
     let text = outcome_text(&report, program_written, machine_written);
     super::common::say(data_on_stdout, text.trim_end())
+}
+
+/// The measurement (in part coordinates) and the part: its plan matched
+/// against the program on the machine's model.
+fn read_inputs(args: &Args) -> anyhow::Result<(Measurement, CutPart)> {
+    let measurement = Measurement::read(&args.measured)?;
+    let measurement = match work_frame_of(args)? {
+        Some(frame) => frame.measurement_to_part(&measurement),
+        None => measurement,
+    };
+    let part = CutPart::new(
+        &args.machine,
+        &args.program,
+        args.read.clone(),
+        measurement.plan(),
+    )?;
+    Ok((measurement, part))
+}
+
+/// `--report` and `--html`.
+fn write_report(args: &Args, report: &DiagnoseReport) -> anyhow::Result<()> {
+    crate::io::write_json_atomic(&args.report, report)?;
+    if let Some(path) = &args.html {
+        crate::io::write_file_atomic(
+            path,
+            crate::report::diagnose_html::render(report).as_bytes(),
+        )?;
+    }
+    Ok(())
 }
 
 /// The usage errors of the options, before any file is read.
