@@ -600,7 +600,7 @@ impl Executor {
     /// The line with its values substituted, assignments applied.
     fn flatten(&mut self, block: &Block, params: &mut Parameters) -> Result<(), GcodeError> {
         // `#<_line>` reads the line being executed (LinuxCNC's sequence number).
-        params.system.line = block.line as f64;
+        params.set_line(block.line);
         // 1. Evaluate everything with the parameters as they were.
         let mut values: Vec<f64> = Vec::with_capacity(block.words.len());
         for w in &block.words {
@@ -962,7 +962,7 @@ impl Executor {
     ) -> Result<Option<OLine<'a>>, GcodeError> {
         let running = self.mode == Mode::Run;
         if running {
-            params.system.line = block.line as f64;
+            params.set_line(block.line);
         }
         let label = match self.label_of(block, o, params) {
             Ok(l) => l,

@@ -880,7 +880,7 @@ impl Interpreter {
         }
         self.params.set_position(pos, abs);
         let m = &self.modal;
-        let s = &mut self.params.system;
+        let s = self.params.system_mut();
         s.motion_mode = m.motion.code10();
         s.plane = match m.plane {
             Plane::XY => 170.0,
@@ -955,7 +955,7 @@ impl Interpreter {
                 .unwrap_or((0, block.raw.len()));
             return self.fail(block, event, ErrorKind::NeedsLanguage, at.0, at.1);
         }
-        self.params.system.line = block.line as f64;
+        self.params.set_line(block.line);
         let mut decoded = self.read(block, event)?;
         let mut next = BlockState {
             modal: decoded.modes(&self.modal),
