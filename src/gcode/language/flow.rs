@@ -150,6 +150,79 @@ struct LabelEntry {
     repeat_left: Option<i64>,
 }
 
+/// What the executor does with the lines it reads. LinuxCNC keeps it in
+/// several flags (`skipping_o`, `skipping_to_sub`, `defining_sub`) of which
+/// only these combinations occur.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Lines are executed.
+    Run,
+    /// Skipping forward to the next O-line with this (resolved) label: an
+    /// `if` branch not taken, a loop left, a `break` or a `continue`.
+    Skip(String),
+    /// Looking for the `sub` line of the subroutine being called: the first
+    /// one of a subroutine file just opened (`None`), or the one with this
+    /// label, forward in the main program.
+    FindSub(Option<String>),
+    /// Passing over the definition of subroutine `name` in the main program,
+    /// up to its `endsub`; `passing`: its lines are handed on as written
+    /// ([`Executed::passed`]).
+    Define { name: String, passing: bool },
+}
+
+impl Mode {
+    /// The label of the O-line that ends the skip (`None`: running, or any
+    /// `sub` line ends it).
+    fn awaited(&self) -> Option<&str> {
+        match self {
+            Mode::Run | Mode::FindSub(None) => None,
+            Mode::Skip(label) | Mode::FindSub(Some(label)) | Mode::Define { name: label, .. } => {
+                Some(label)
+            }
+        }
+    }
+}
+
+/// LinuxCNC's flags that outlive the line that sets them (`executed_if`,
+/// `doing_break`, `doing_continue` of its interpreter state), kept as it
+/// keeps them: where they leak is visible (after a `break` out of a `while`
+/// the next do-while runs its body once).
+#[derive(Clone, Copy, Debug, Default)]
+struct Latches {
+    /// The last `if`, `elseif` or `else` test passed.
+    executed_if: bool,
+    /// A `break` was read (cleared only at the end of a do-while).
+    breaking: bool,
+    /// A `continue` was read (cleared at the end of the loop it skips to).
+    continuing: bool,
+}
+
+/// An O-line being executed: its block, its O-word and its resolved label.
+struct OLine<'a> {
+    block: &'a Block,
+    o: &'a OWord,
+    label: String,
+}
+
+impl OLine<'_> {
+    /// An error located at the O-word.
+    fn error(&self, message: String) -> GcodeError {
+        located(
+            ErrorKind::OWord(message),
+            self.block,
+            self.o.start,
+            self.o.end,
+        )
+    }
+
+    /// The value of the line's expression `index`.
+    fn eval(&self, index: u32, params: &Parameters) -> Result<f64, GcodeError> {
+        expr(self.block, index)
+            .eval(params)
+            .map_err(|e| eval_error(e, self.block))
+    }
+}
+
 /// A subroutine call in progress.
 #[derive(Clone, Debug)]
 struct Frame {
@@ -188,18 +261,11 @@ pub struct Executor {
     current: usize,
     labels: HashMap<String, LabelEntry>,
     frames: Vec<Frame>,
-    /// Skipping forward to the next O-line with this (resolved) label.
-    skipping: Option<String>,
-    /// Skipping to a subroutine's `sub` line (a forward search for a call).
-    skipping_to_sub: bool,
-    executed_if: bool,
-    doing_break: bool,
-    doing_continue: bool,
-    /// Defining (skipping over) a subroutine in the main program.
-    defining_sub: Option<String>,
-    /// The definition being skipped over is handed on as written
-    /// ([`Executed::passed`]).
-    passing_definition: bool,
+    /// What the lines read now are for (run, skipped, searched for a `sub`,
+    /// a definition passed over).
+    mode: Mode,
+    /// LinuxCNC's flags that outlive the line that sets them.
+    latches: Latches,
     /// Offsets of the definitions handed on (a definition inside a loop of
     /// the main program is read once per iteration, written once).
     passed_definitions: std::collections::HashSet<u64>,
@@ -250,13 +316,8 @@ impl Executor {
             current: 0,
             labels: HashMap::new(),
             frames: Vec::new(),
-            skipping: None,
-            skipping_to_sub: false,
-            executed_if: false,
-            doing_break: false,
-            doing_continue: false,
-            defining_sub: None,
-            passing_definition: false,
+            mode: Mode::Run,
+            latches: Latches::default(),
             passed_definitions: std::collections::HashSet::new(),
             main_loops: 0,
             open_loops: Vec::new(),
@@ -319,7 +380,7 @@ impl Executor {
             || self.current != 0
             || !self.frames.is_empty()
             || self.main_loops != 0
-            || self.skipping.is_some()
+            || self.mode.awaited().is_some()
         {
             return None;
         }
@@ -405,21 +466,18 @@ impl Executor {
                     ));
                 }
             }
-            if self.passing_definition {
+            if let Mode::Define { passing: true, .. } = self.mode {
                 // A subroutine definition the main program passes over: its
                 // lines go on as written; only its end matters.
                 if block.unparsed.is_none()
                     && let Some(o) = &block.o_word
                 {
                     self.control(&block, o, params)?;
-                    if self.defining_sub.is_none() {
-                        self.passing_definition = false;
-                    }
                 }
                 self.emit_passed(&block);
                 return Ok(true);
             }
-            let skipping = self.skipping.is_some() || self.skipping_to_sub;
+            let skipping = self.mode != Mode::Run;
             if let Some(err) = &block.unparsed {
                 if skipping {
                     continue;
@@ -472,14 +530,14 @@ impl Executor {
             }
             if let Some(o) = &block.o_word {
                 self.control(&block, o, params)?;
-                if self.passing_definition {
+                if let Mode::Define { passing: true, .. } = self.mode {
                     // The `sub` line of a definition passed over.
                     self.emit_passed(&block);
                     return Ok(true);
                 }
                 continue;
             }
-            if skipping || self.defining_sub.is_some() && self.frames.is_empty() {
+            if skipping {
                 continue;
             }
             if block.deleted && self.options.skip_deleted_blocks {
@@ -542,7 +600,7 @@ impl Executor {
     /// The line with its values substituted, assignments applied.
     fn flatten(&mut self, block: &Block, params: &mut Parameters) -> Result<(), GcodeError> {
         // `#<_line>` reads the line being executed (LinuxCNC's sequence number).
-        params.system.line = block.line as f64;
+        params.set_line(block.line);
         // 1. Evaluate everything with the parameters as they were.
         let mut values: Vec<f64> = Vec::with_capacity(block.words.len());
         for w in &block.words {
@@ -682,7 +740,7 @@ impl Executor {
     fn end_of_file(&mut self) -> Result<bool, GcodeError> {
         if self.current != 0 || !self.frames.is_empty() {
             let name = self.files[self.current].name.clone();
-            let what = if let Some(label) = &self.skipping {
+            let what = if let Some(label) = self.mode.awaited() {
                 format!("o-word o{label} (searched from a call or a control line)")
             } else {
                 "the end of the subroutine".to_string()
@@ -695,7 +753,7 @@ impl Executor {
                 0,
             ));
         }
-        if let Some(label) = &self.skipping {
+        if let Some(label) = self.mode.awaited() {
             return Err(GcodeError::at(
                 ErrorKind::EndOfFileInSubroutine(format!("o-word o{label}")),
                 self.files[0].line,
@@ -808,7 +866,10 @@ impl Executor {
                     .frames
                     .last()
                     .map(|f| f.name.as_str())
-                    .or(self.defining_sub.as_deref())
+                    .or(match &self.mode {
+                        Mode::Define { name, .. } => Some(name.as_str()),
+                        _ => None,
+                    })
                     .unwrap_or("");
                 format!("{scope}#{base}")
             }
@@ -861,327 +922,380 @@ impl Executor {
         f.positioned = false;
     }
 
+    /// Execute an O-line, or look at it while skipping: one function per
+    /// O-word kind, each changing [`Mode`] as LinuxCNC's `convert_control_functions`
+    /// changes its flags.
     fn control(
         &mut self,
         block: &Block,
         o: &OWord,
         params: &mut Parameters,
     ) -> Result<(), GcodeError> {
-        let o_err = |msg: String| located(ErrorKind::OWord(msg), block, o.start, o.end);
-        if self.skipping.is_none() && !self.skipping_to_sub {
-            params.system.line = block.line as f64;
+        let Some(line) = self.awaited_line(block, o, params)? else {
+            return Ok(());
+        };
+        match o.keyword {
+            OKeyword::Sub => self.o_sub(line),
+            OKeyword::EndSub | OKeyword::Return => self.o_end_sub(line, params),
+            OKeyword::Call => self.o_call(line, params),
+            OKeyword::Do => self.o_do(line),
+            OKeyword::Repeat => self.o_repeat(line, params),
+            OKeyword::While => self.o_while(line, params),
+            OKeyword::EndWhile | OKeyword::EndRepeat => self.o_end_loop(line),
+            OKeyword::If => self.o_if(line, params),
+            OKeyword::ElseIf => self.o_else_if(line, params),
+            OKeyword::Else => self.o_else(line),
+            OKeyword::EndIf => self.o_end_if(line),
+            OKeyword::Break | OKeyword::Continue => self.o_break(line),
         }
-        // While skipping only the awaited label (or a sub line when searching
-        // for a subroutine) is looked at.
+    }
+
+    /// The O-line with its resolved label, `None` when the mode passes it by:
+    /// while skipping only the awaited label (or a `sub` line when searching
+    /// for a subroutine) is looked at, and a label that cannot be resolved is
+    /// an error only when running.
+    fn awaited_line<'a>(
+        &self,
+        block: &'a Block,
+        o: &'a OWord,
+        params: &mut Parameters,
+    ) -> Result<Option<OLine<'a>>, GcodeError> {
+        let running = self.mode == Mode::Run;
+        if running {
+            params.set_line(block.line);
+        }
         let label = match self.label_of(block, o, params) {
             Ok(l) => l,
-            Err(e) => {
-                if self.skipping.is_some() || self.skipping_to_sub {
-                    return Ok(());
-                }
-                return Err(e);
-            }
+            Err(_) if !running => return Ok(None),
+            Err(e) => return Err(e),
         };
-        if let Some(awaited) = &self.skipping
-            && *awaited != label
+        if self.mode.awaited().is_some_and(|a| a != label)
+            || matches!(self.mode, Mode::FindSub(_)) && o.keyword != OKeyword::Sub
         {
+            return Ok(None);
+        }
+        Ok(Some(OLine { block, o, label }))
+    }
+
+    /// `sub`: the target of a call (its body is executed) or a definition in
+    /// the main program (passed over).
+    fn o_sub(&mut self, line: OLine) -> Result<(), GcodeError> {
+        match self.mode {
+            Mode::Run => {}
+            Mode::Define { .. } => {
+                self.record(&line.label, line.block, LabelKind::Sub)?;
+                return Err(line.error("Nested subroutine definition".into()));
+            }
+            Mode::Skip(_) | Mode::FindSub(_) => {
+                // Found by a forward search: record it; it is the call's target.
+                self.record(&line.label, line.block, LabelKind::Sub)?;
+                self.mode = Mode::Run;
+                if self.frames.last().is_some_and(|f| f.name == line.label) {
+                    return Ok(()); // execute the body
+                }
+            }
+        }
+        if let Some(frame) = self.frames.last() {
+            if frame.name != line.label {
+                return Err(line.error(format!(
+                    "Nested subroutine definition: 'O{} sub' found inside called subroutine 'O{}'",
+                    line.label, frame.name
+                )));
+            }
+            return Ok(()); // arriving at the called sub: execute its body
+        }
+        // A definition in the main program: record and skip over it
+        // (handing its lines on as written, once).
+        self.record(&line.label, line.block, LabelKind::Sub)?;
+        let passing = self.current == 0
+            && !self.options.drop_definitions
+            && self.passed_definitions.insert(line.block.offset);
+        self.mode = Mode::Define {
+            name: line.label,
+            passing,
+        };
+        Ok(())
+    }
+
+    /// `endsub` or `return`: the end of a definition passed over, or the
+    /// return from a call.
+    fn o_end_sub(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        if self.frames.is_empty() {
+            if !matches!(self.mode, Mode::Define { .. }) {
+                return Err(line.error(format!(
+                    "not in a subroutine definition: 'o{} {}'",
+                    line.label,
+                    line.o.keyword.name()
+                )));
+            }
+            if line.o.keyword == OKeyword::EndSub {
+                self.mode = Mode::Run;
+            }
             return Ok(());
         }
-        if self.skipping_to_sub && o.keyword != OKeyword::Sub {
+        // Return from the call. The value is evaluated only now: a
+        // definition passed over evaluates nothing (LinuxCNC).
+        let value = match line.o.args.first() {
+            Some(&i) => Some(line.eval(i, params)?),
+            None => None,
+        };
+        params.returned = value;
+        let frame = self.frames.pop().expect("checked");
+        let depth = self.frames.len();
+        self.open_loops.retain(|l| l.depth <= depth);
+        params.leave(&frame.saved);
+        self.mode = Mode::Run;
+        self.current = frame.return_file;
+        let f = &mut self.files[frame.return_file];
+        f.offset = frame.return_offset;
+        f.line = frame.return_line;
+        f.positioned = false;
+        Ok(())
+    }
+
+    /// `call`: enter a new call level, then go to the subroutine: recorded,
+    /// in a file on the subroutine path, or searched forward in the main
+    /// program.
+    fn o_call(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        if self.mode != Mode::Run {
             return Ok(());
         }
-        // Inside a sub definition in the main program, only its end matters.
-        if self.frames.is_empty()
-            && let Some(def) = &self.defining_sub
-            && self.skipping.is_none()
-            && !(matches!(o.keyword, OKeyword::EndSub | OKeyword::Return) && *def == label)
+        // LinuxCNC counts the main program as level 0 and refuses
+        // level INTERP_SUB_ROUTINE_LEVELS: at most 9 nested calls.
+        if self.frames.len() + 1 >= MAX_CALL_DEPTH {
+            return Err(line.error("Too many subroutine levels".into()));
+        }
+        let mut args = Vec::with_capacity(line.o.args.len());
+        for &i in &line.o.args {
+            if args.len() >= MAX_CALL_ARGUMENTS {
+                return Err(line.error("Too many subroutine parameters".into()));
+            }
+            args.push(line.eval(i, params)?);
+        }
+        let f = &self.files[self.current];
+        let frame = Frame {
+            name: line.label.clone(),
+            return_file: self.current,
+            return_offset: f.offset,
+            return_line: f.line,
+            saved: params.enter(&args),
+            loops: 0,
+        };
+        self.frames.push(frame);
+        params.returned = None;
+        self.go_to_sub(line)
+    }
+
+    /// Go to the `sub` line of the subroutine a call names.
+    fn go_to_sub(&mut self, line: OLine) -> Result<(), GcodeError> {
+        let label = line.label.as_str();
+        if let Some(entry) = self.labels.get(label).cloned() {
+            self.seek_to(&entry);
+        } else if let Some(path) = self.find_file(label) {
+            let input = std::fs::File::open(&path)
+                .map_err(|e| line.error(format!("cannot open {}: {e}", path.display())))?;
+            self.files.push(SourceFile {
+                name: path.display().to_string(),
+                path: Some(path),
+                input: Box::new(std::io::BufReader::new(input)),
+                offset: 0,
+                line: 0,
+                positioned: true,
+            });
+            self.current = self.files.len() - 1;
+            self.mode = Mode::FindSub(None);
+        } else {
+            if self.current != 0 {
+                return Err(line.error(format!(
+                    "Subroutine 'O{label}' not found -- not in offset table and no file '{label}.ngc' found"
+                )));
+            }
+            // Search forward in the main program.
+            self.mode = Mode::FindSub(Some(line.label));
+        }
+        Ok(())
+    }
+
+    /// `do`: the start of a do-while loop (its end is the `while` line).
+    fn o_do(&mut self, line: OLine) -> Result<(), GcodeError> {
+        self.mode = Mode::Run;
+        if !self.labels.contains_key(&line.label) {
+            self.record(&line.label, line.block, LabelKind::Do)?;
+            self.enter_loop(&line.label, line.block, LabelKind::Do, None);
+        }
+        Ok(())
+    }
+
+    /// `repeat`: count down the loop's trips, skip to its end after the last.
+    fn o_repeat(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        let label = line.label.as_str();
+        self.check_duplicate(label, line.block, LabelKind::Repeat)?;
+        self.record(label, line.block, LabelKind::Repeat)?;
+        self.mode = Mode::Run;
+        let count = self.condition(line.block, line.o, params)?;
+        let entry = self.labels.get_mut(label).expect("recorded");
+        if entry.repeat_left.is_none() {
+            // LinuxCNC's `round_to_int`: to the nearest, ties to even.
+            entry.repeat_left = Some(count.round_ties_even() as i64);
+            let trips = Some(count.round_ties_even());
+            self.enter_loop(label, line.block, LabelKind::Repeat, trips);
+        }
+        let entry = self.labels.get_mut(label).expect("recorded");
+        if entry.repeat_left.unwrap_or(0) > 0 {
+            entry.repeat_left = entry.repeat_left.map(|n| n - 1);
+        } else {
+            entry.repeat_left = None;
+            self.mode = Mode::Skip(line.label);
+        }
+        Ok(())
+    }
+
+    /// `while`: the test at the start of a while loop, or at the end of a
+    /// do-while loop.
+    fn o_while(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        let existing = self.labels.get(&line.label).cloned();
+        if let Some(e) = &existing
+            && e.kind != LabelKind::Do
+            && (e.file != self.current || e.offset != line.block.offset)
         {
-            return Ok(());
+            return Err(line.error(format!(
+                "duplicate O-word label: '{}' - defined in line {}",
+                line.label, e.line
+            )));
         }
-        match o.keyword {
-            OKeyword::Sub => {
-                if self.skipping_to_sub || self.skipping.is_some() {
-                    // Found by a forward search: record it; it is the call's target.
-                    self.record(&label, block, LabelKind::Sub)?;
-                    self.skipping = None;
-                    self.skipping_to_sub = false;
-                    if self.frames.last().is_some_and(|f| f.name == label) {
-                        return Ok(()); // execute the body
-                    }
-                }
-                self.skipping_to_sub = false;
-                if let Some(frame) = self.frames.last() {
-                    if frame.name != label {
-                        return Err(o_err(format!(
-                            "Nested subroutine definition: 'O{label} sub' found inside called subroutine 'O{}'",
-                            frame.name
-                        )));
-                    }
-                    return Ok(()); // arriving at the called sub: execute its body
-                }
-                if self.defining_sub.is_some() {
-                    return Err(o_err("Nested subroutine definition".into()));
-                }
-                // A definition in the main program: record and skip over it
-                // (handing its lines on as written, once).
-                self.record(&label, block, LabelKind::Sub)?;
-                self.defining_sub = Some(label.clone());
-                self.skipping = Some(label);
-                self.passing_definition = self.current == 0
-                    && !self.options.drop_definitions
-                    && self.passed_definitions.insert(block.offset);
-            }
-            OKeyword::EndSub | OKeyword::Return => {
-                if self.frames.is_empty() {
-                    if self.defining_sub.is_none() {
-                        return Err(o_err(format!(
-                            "not in a subroutine definition: 'o{label} {}'",
-                            o.keyword.name()
-                        )));
-                    }
-                    if o.keyword == OKeyword::EndSub {
-                        self.defining_sub = None;
-                        self.skipping = None;
-                    }
-                    return Ok(());
-                }
-                // Return from the call. The value is evaluated only now: a
-                // definition passed over evaluates nothing (LinuxCNC).
-                let value = match o.args.first() {
-                    Some(&i) => Some(
-                        expr(block, i)
-                            .eval(params)
-                            .map_err(|e| eval_error(e, block))?,
-                    ),
-                    None => None,
-                };
-                params.returned = value;
-                let frame = self.frames.pop().expect("checked");
-                let depth = self.frames.len();
-                self.open_loops.retain(|l| l.depth <= depth);
-                params.leave(&frame.saved);
-                self.skipping = None;
-                self.current = frame.return_file;
-                let f = &mut self.files[frame.return_file];
-                f.offset = frame.return_offset;
-                f.line = frame.return_line;
-                f.positioned = false;
-            }
-            OKeyword::Call => {
-                if self.skipping.is_some() {
-                    return Ok(());
-                }
-                // LinuxCNC counts the main program as level 0 and refuses
-                // level INTERP_SUB_ROUTINE_LEVELS: at most 9 nested calls.
-                if self.frames.len() + 1 >= MAX_CALL_DEPTH {
-                    return Err(o_err("Too many subroutine levels".into()));
-                }
-                let mut args = Vec::with_capacity(o.args.len());
-                for &i in &o.args {
-                    if args.len() >= MAX_CALL_ARGUMENTS {
-                        return Err(o_err("Too many subroutine parameters".into()));
-                    }
-                    args.push(
-                        expr(block, i)
-                            .eval(params)
-                            .map_err(|e| eval_error(e, block))?,
-                    );
-                }
-                let f = &self.files[self.current];
-                let frame = Frame {
-                    name: label.clone(),
-                    return_file: self.current,
-                    return_offset: f.offset,
-                    return_line: f.line,
-                    saved: params.enter(&args),
-                    loops: 0,
-                };
-                self.frames.push(frame);
-                params.returned = None;
-                if let Some(entry) = self.labels.get(&label).cloned() {
-                    self.seek_to(&entry);
-                } else if let Some(path) = self.find_file(&label) {
-                    let input = std::fs::File::open(&path)
-                        .map_err(|e| o_err(format!("cannot open {}: {e}", path.display())))?;
-                    self.files.push(SourceFile {
-                        name: path.display().to_string(),
-                        path: Some(path),
-                        input: Box::new(std::io::BufReader::new(input)),
-                        offset: 0,
-                        line: 0,
-                        positioned: true,
-                    });
-                    self.current = self.files.len() - 1;
-                    self.skipping_to_sub = true;
-                } else {
-                    if self.current != 0 {
-                        return Err(o_err(format!(
-                            "Subroutine 'O{label}' not found -- not in offset table and no file '{label}.ngc' found"
-                        )));
-                    }
-                    // Search forward in the main program.
-                    self.skipping_to_sub = true;
-                    self.skipping = Some(label);
-                }
-            }
-            OKeyword::Do => {
-                self.skipping = None;
-                if !self.labels.contains_key(&label) {
-                    self.record(&label, block, LabelKind::Do)?;
-                    self.enter_loop(&label, block, LabelKind::Do, None);
-                }
-            }
-            OKeyword::Repeat => {
-                self.check_duplicate(&label, block, LabelKind::Repeat)?;
-                self.record(&label, block, LabelKind::Repeat)?;
-                self.skipping = None;
-                let count = self.condition(block, o, params)?;
-                let entry = self.labels.get_mut(&label).expect("recorded");
-                if entry.repeat_left.is_none() {
-                    // LinuxCNC's `round_to_int`: to the nearest, ties to even.
-                    entry.repeat_left = Some(count.round_ties_even() as i64);
-                    self.enter_loop(
-                        &label,
-                        block,
-                        LabelKind::Repeat,
-                        Some(count.round_ties_even()),
-                    );
-                }
-                let entry = self.labels.get_mut(&label).expect("recorded");
-                if entry.repeat_left.unwrap_or(0) > 0 {
-                    entry.repeat_left = entry.repeat_left.map(|n| n - 1);
-                } else {
-                    entry.repeat_left = None;
-                    self.skipping = Some(label);
-                }
-            }
-            OKeyword::While => {
-                let existing = self.labels.get(&label).cloned();
-                if let Some(e) = &existing
-                    && e.kind != LabelKind::Do
-                    && (e.file != self.current || e.offset != block.offset)
-                {
-                    return Err(o_err(format!(
-                        "duplicate O-word label: '{label}' - defined in line {}",
-                        e.line
-                    )));
-                }
-                self.skipping = None;
-                let test = self.condition(block, o, params)?;
-                match existing {
-                    Some(e) if e.kind == LabelKind::Do => {
-                        // The end of a do-while loop.
-                        if test != 0.0 && !self.doing_break {
-                            self.seek_to(&e);
-                        } else {
-                            self.doing_break = false;
-                            self.leave_loop(&label);
-                        }
-                    }
-                    _ => {
-                        if existing.is_none() {
-                            self.record(&label, block, LabelKind::While)?;
-                            self.enter_loop(&label, block, LabelKind::While, None);
-                        }
-                        if test == 0.0 {
-                            self.skipping = Some(label);
-                        }
-                    }
-                }
-            }
-            OKeyword::EndWhile | OKeyword::EndRepeat => {
-                let Some(e) = self.labels.get(&label).cloned() else {
-                    return Err(o_err(format!("undefined O-word label: '{label}'")));
-                };
-                let want = if o.keyword == OKeyword::EndWhile {
-                    LabelKind::While
-                } else {
-                    LabelKind::Repeat
-                };
-                if e.kind != want {
-                    return Err(o_err(format!(
-                        "no matching label: '{label}' (found {:?} in line {})",
-                        e.kind, e.line
-                    )));
-                }
-                if self.skipping.as_deref() == Some(label.as_str()) {
-                    self.skipping = None;
-                    if self.doing_continue {
-                        self.doing_continue = false;
-                        self.seek_to(&e);
-                    } else {
-                        // The loop is over (condition false or break). A
-                        // break's flag stays set, as in LinuxCNC 2.9 (only the
-                        // end of a do-while clears it): the next do-while
-                        // then runs its body once.
-                        if let Some(entry) = self.labels.get_mut(&label) {
-                            entry.repeat_left = None;
-                        }
-                        self.leave_loop(&label);
-                    }
-                } else {
+        self.mode = Mode::Run;
+        let test = self.condition(line.block, line.o, params)?;
+        match existing {
+            Some(e) if e.kind == LabelKind::Do => {
+                // The end of a do-while loop.
+                if test != 0.0 && !self.latches.breaking {
                     self.seek_to(&e);
-                }
-            }
-            OKeyword::If => {
-                self.check_duplicate(&label, block, LabelKind::If)?;
-                self.record(&label, block, LabelKind::If)?;
-                if self.condition(block, o, params)? != 0.0 {
-                    self.skipping = None;
-                    self.executed_if = true;
                 } else {
-                    self.skipping = Some(label);
-                    self.executed_if = false;
+                    self.latches.breaking = false;
+                    self.leave_loop(&line.label);
                 }
             }
-            OKeyword::ElseIf => {
-                self.expect_if(&label, block, o)?;
-                if self.executed_if {
-                    self.skipping = Some(label);
-                    return Ok(());
+            _ => {
+                if existing.is_none() {
+                    self.record(&line.label, line.block, LabelKind::While)?;
+                    self.enter_loop(&line.label, line.block, LabelKind::While, None);
                 }
-                if self.condition(block, o, params)? != 0.0 {
-                    self.skipping = None;
-                    self.executed_if = true;
-                }
-            }
-            OKeyword::Else => {
-                self.expect_if(&label, block, o)?;
-                if self.executed_if {
-                    self.skipping = Some(label);
-                    return Ok(());
-                }
-                if self.skipping.as_deref() == Some(label.as_str()) {
-                    self.executed_if = true;
-                    self.skipping = None;
-                }
-            }
-            OKeyword::EndIf => {
-                self.expect_if(&label, block, o)?;
-                self.skipping = None;
-                self.executed_if = true;
-            }
-            OKeyword::Break | OKeyword::Continue => {
-                let Some(e) = self.labels.get(&label) else {
-                    return Err(o_err(format!("undefined O-word label: '{label}'")));
-                };
-                if e.kind != LabelKind::While && e.kind != LabelKind::Do {
-                    return Err(o_err(format!(
-                        "no matching while/do label: '{label}' (found {:?} in line {})",
-                        e.kind, e.line
-                    )));
-                }
-                if self.skipping.as_deref() == Some(label.as_str()) {
-                    return Ok(());
-                }
-                self.skipping = Some(label);
-                if o.keyword == OKeyword::Break {
-                    self.doing_break = true;
-                } else {
-                    self.doing_continue = true;
+                if test == 0.0 {
+                    self.mode = Mode::Skip(line.label);
                 }
             }
         }
+        Ok(())
+    }
+
+    /// `endwhile` or `endrepeat`: back to the loop's start, or out of the
+    /// loop when skipping to it.
+    fn o_end_loop(&mut self, line: OLine) -> Result<(), GcodeError> {
+        let label = line.label.as_str();
+        let Some(e) = self.labels.get(label).cloned() else {
+            return Err(line.error(format!("undefined O-word label: '{label}'")));
+        };
+        let want = if line.o.keyword == OKeyword::EndWhile {
+            LabelKind::While
+        } else {
+            LabelKind::Repeat
+        };
+        if e.kind != want {
+            return Err(line.error(format!(
+                "no matching label: '{label}' (found {:?} in line {})",
+                e.kind, e.line
+            )));
+        }
+        if self.mode.awaited() != Some(label) {
+            self.seek_to(&e);
+        } else if self.latches.continuing {
+            self.mode = Mode::Run;
+            self.latches.continuing = false;
+            self.seek_to(&e);
+        } else {
+            // The loop is over (condition false or break). A break's latch
+            // stays set, as in LinuxCNC 2.9 (only the end of a do-while
+            // clears it): the next do-while then runs its body once.
+            self.mode = Mode::Run;
+            if let Some(entry) = self.labels.get_mut(label) {
+                entry.repeat_left = None;
+            }
+            self.leave_loop(label);
+        }
+        Ok(())
+    }
+
+    /// `if`: run its body or skip to its next branch.
+    fn o_if(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        self.check_duplicate(&line.label, line.block, LabelKind::If)?;
+        self.record(&line.label, line.block, LabelKind::If)?;
+        let taken = self.condition(line.block, line.o, params)? != 0.0;
+        self.latches.executed_if = taken;
+        self.mode = if taken {
+            Mode::Run
+        } else {
+            Mode::Skip(line.label)
+        };
+        Ok(())
+    }
+
+    /// `elseif`: skip to the end after a branch taken, else test.
+    fn o_else_if(&mut self, line: OLine, params: &mut Parameters) -> Result<(), GcodeError> {
+        self.expect_if(&line.label, line.block, line.o)?;
+        if self.latches.executed_if {
+            self.mode = Mode::Skip(line.label);
+            return Ok(());
+        }
+        if self.condition(line.block, line.o, params)? != 0.0 {
+            self.mode = Mode::Run;
+            self.latches.executed_if = true;
+        }
+        Ok(())
+    }
+
+    /// `else`: skip to the end after a branch taken, else run its body.
+    fn o_else(&mut self, line: OLine) -> Result<(), GcodeError> {
+        self.expect_if(&line.label, line.block, line.o)?;
+        if self.latches.executed_if {
+            self.mode = Mode::Skip(line.label);
+            return Ok(());
+        }
+        if self.mode.awaited() == Some(line.label.as_str()) {
+            self.latches.executed_if = true;
+            self.mode = Mode::Run;
+        }
+        Ok(())
+    }
+
+    /// `endif`: run on.
+    fn o_end_if(&mut self, line: OLine) -> Result<(), GcodeError> {
+        self.expect_if(&line.label, line.block, line.o)?;
+        self.mode = Mode::Run;
+        self.latches.executed_if = true;
+        Ok(())
+    }
+
+    /// `break` or `continue`: skip to the loop's end, latching which.
+    fn o_break(&mut self, line: OLine) -> Result<(), GcodeError> {
+        let label = line.label.as_str();
+        let Some(e) = self.labels.get(label) else {
+            return Err(line.error(format!("undefined O-word label: '{label}'")));
+        };
+        if e.kind != LabelKind::While && e.kind != LabelKind::Do {
+            return Err(line.error(format!(
+                "no matching while/do label: '{label}' (found {:?} in line {})",
+                e.kind, e.line
+            )));
+        }
+        if self.mode.awaited() == Some(label) {
+            return Ok(());
+        }
+        if line.o.keyword == OKeyword::Break {
+            self.latches.breaking = true;
+        } else {
+            self.latches.continuing = true;
+        }
+        self.mode = Mode::Skip(line.label);
         Ok(())
     }
 

@@ -100,8 +100,10 @@ pub struct Parameters {
     locals: Vec<HashMap<String, f64>>,
     /// The last value returned by a subroutine (`#<_value>`), and whether one was.
     pub returned: Option<f64>,
-    /// The machine state the predefined named parameters (`#<_x>`, …) report.
-    pub system: SystemState,
+    /// The machine state the predefined named parameters (`#<_x>`, …) report,
+    /// written by the machine-state layer only, so that it cannot drift from
+    /// the interpreter's state (a program reads it through the names).
+    system: SystemState,
 }
 
 impl Default for Parameters {
@@ -199,6 +201,17 @@ impl Parameters {
     /// The call depth (0 in the main program).
     pub fn call_level(&self) -> usize {
         self.locals.len() - 1
+    }
+
+    /// The machine state the predefined named parameters report, for the
+    /// machine-state layer to update after every block.
+    pub(crate) fn system_mut(&mut self) -> &mut SystemState {
+        &mut self.system
+    }
+
+    /// Set the line being executed (`#<_line>`, LinuxCNC's sequence number).
+    pub(crate) fn set_line(&mut self, line: usize) {
+        self.system.line = line as f64;
     }
 
     /// Write the current position (program coordinates, program units) to

@@ -707,17 +707,88 @@ fn expand_inner(
     mem: &mut CycleMemory,
     out: &mut Vec<CycleStep>,
 ) -> Result<(), CycleError> {
-    use CycleCode::*;
     check_finite(block)?;
     let code = block.code;
     let plane = block.plane;
-    let unit = if block.inch { 25.4 } else { 1.0 };
+    let continuing = mem.mode == Some(code);
+    let (l, r_word) = convert_cycle(block, mem, continuing)?;
+    let mut layout = Layout::new(block, mem, continuing, r_word)?;
+    let peck = Peck::of(block, &layout, r_word);
+    let (r, cc) = (layout.r, layout.bottom);
+    let mut emit = Emitter {
+        out,
+        plane,
+        count: 0,
+        last: None,
+    };
+    let [_, _, ic] = plane_axes(plane);
+    let pos = block.position;
+    let mut current_cc = pos[ic];
+    if layout.old_cc < r {
+        // Up to R along the drilling axis alone, from the current point.
+        let mut p = pos;
+        p[ic] = r;
+        emit.point(p, false)?;
+        layout.old_cc = r;
+        current_cc = r;
+    }
+    let clear = match block.retract {
+        RetractMode::RPlane => r,
+        RetractMode::OldZ => layout.old_cc,
+    };
+    let sticky = Sticky::take(block, mem, continuing, cc)?;
+    check_cycle_function(code, sticky.q, block.spindle)?;
+    let repeats = bounded_repeats(code, l, r - cc, sticky.q)?;
+    let levels = Levels {
+        r,
+        clear,
+        bottom: cc,
+        middle: sticky.middle,
+    };
+    for repeat in 0..repeats {
+        let [aa, bb] = layout.next_hole()?;
+        if repeat == 0 && current_cc > r {
+            emit.rapid(aa, bb, current_cc)?;
+            emit.rapid(aa, bb, r)?;
+        } else {
+            emit.rapid(aa, bb, clear)?;
+            if clear > r {
+                emit.rapid(aa, bb, r)?;
+            }
+        }
+        let words = (sticky.p, sticky.q);
+        cycle_function(
+            &mut emit,
+            block,
+            [aa, bb],
+            levels,
+            words,
+            &peck,
+            sticky.offset,
+        )?;
+    }
+    let end = plane_point(plane, layout.aa, layout.bb, clear);
+    if !end.iter().all(|v| v.is_finite()) {
+        return Err(CycleError::NonFiniteResult);
+    }
+    if emit.last != Some(end) {
+        emit.push(CycleStep::AssumePosition(end))?;
+    }
+    mem.mode = Some(code);
+    mem.r = r_word;
+    mem.depth = layout.depth_word;
+    Ok(())
+}
 
-    // Reading the block (read_l, the -1 sentinels of read_p/read_q).
+/// Reading the block (`read_l`), `check_other_codes` and `convert_cycle`:
+/// the repeats L (1 when not given) and the R word (the last one when the
+/// cycle continues).
+fn convert_cycle(
+    block: &CycleBlock,
+    mem: &CycleMemory,
+    continuing: bool,
+) -> Result<(f64, f64), CycleError> {
     let l = repeats(block.l)?;
-    let p_word = block.p.filter(|&p| p != -1.0);
-    let q_word = block.q.filter(|&q| q != -unit);
-
     // check_other_codes.
     for (present, err) in
         block
@@ -729,7 +800,6 @@ fn expand_inner(
             return Err(err);
         }
     }
-
     // convert_cycle.
     if block.feed_rate == 0.0 {
         return Err(CycleError::ZeroFeed);
@@ -740,7 +810,6 @@ fn expand_inner(
     if block.cutter_comp {
         return Err(CycleError::CutterComp);
     }
-    let continuing = mem.mode == Some(code);
     let r_word = match block.r {
         Some(r) => r,
         None if continuing => mem.r,
@@ -755,76 +824,152 @@ fn expand_inner(
         if *present {
             return Err(CycleError::UvwWord {
                 letter,
-                plane: plane_name(plane),
+                plane: plane_name(block.plane),
             });
         }
     }
+    Ok((l, r_word))
+}
 
-    // convert_cycle_xy / _yz / _zx.
-    let [ia, ib, ic] = plane_axes(plane);
-    let pos = block.position;
-    let depth_word = match block.xyz[ic] {
-        Some(v) => v,
-        None if continuing => mem.depth,
-        None => return Err(CycleError::DepthMissing(plane)),
-    };
-    let mut old_cc = match mem.initial_level {
-        Some(il) => il,
-        None => {
-            mem.initial_level = Some(pos[ic]);
-            pos[ic]
-        }
-    };
-    let (mut aa, mut bb, aa_inc, bb_inc, r, cc);
-    // Polar words: XY plane only (`convert_cycle_xy`).
-    let polar = if plane == Plane::XY {
-        block.polar
-    } else {
-        [None; 2]
-    };
-    let (mut radius_inc, mut theta_inc) = (0.0, 0.0);
-    if block.incremental {
-        aa_inc = block.xyz[ia].unwrap_or(0.0);
-        bb_inc = block.xyz[ib].unwrap_or(0.0);
-        r = r_word + old_cc;
-        cc = r + depth_word;
-        aa = pos[ia];
-        bb = pos[ib];
-        radius_inc = polar[0].unwrap_or(0.0);
-        theta_inc = polar[1].unwrap_or(0.0).to_radians();
-    } else {
-        aa_inc = 0.0;
-        bb_inc = 0.0;
-        r = r_word;
-        cc = depth_word;
-        if polar.iter().any(Option::is_some) {
-            let radius = polar[0].unwrap_or(pos[ib].hypot(pos[ia]));
-            let theta = polar[1].map_or(pos[ib].atan2(pos[ia]), f64::to_radians);
-            aa = radius * theta.cos();
-            bb = radius * theta.sin();
+/// Where a cycle's holes are and its levels along the drilling axis
+/// (`convert_cycle_xy` / `_yz` / `_zx`), in plane coordinates: the hole
+/// before the first repeat and the increment of each repeat.
+struct Layout {
+    /// The hole (before [`Layout::next_hole`] moves it by the increments).
+    aa: f64,
+    bb: f64,
+    aa_inc: f64,
+    bb_inc: f64,
+    /// Polar increments (G91 with `@`, `^`): radius, angle in radians.
+    radius_inc: f64,
+    theta_inc: f64,
+    /// The R level and the bottom.
+    r: f64,
+    bottom: f64,
+    /// The initial level, raised to R when it is below.
+    old_cc: f64,
+    /// The depth word as written (the last one when the cycle continues).
+    depth_word: f64,
+}
+
+impl Layout {
+    fn new(
+        block: &CycleBlock,
+        mem: &mut CycleMemory,
+        continuing: bool,
+        r_word: f64,
+    ) -> Result<Layout, CycleError> {
+        let plane = block.plane;
+        let [ia, ib, ic] = plane_axes(plane);
+        let pos = block.position;
+        let depth_word = match block.xyz[ic] {
+            Some(v) => v,
+            None if continuing => mem.depth,
+            None => return Err(CycleError::DepthMissing(plane)),
+        };
+        let old_cc = *mem.initial_level.get_or_insert(pos[ic]);
+        // Polar words: XY plane only (`convert_cycle_xy`).
+        let polar = if plane == Plane::XY {
+            block.polar
         } else {
-            aa = block.xyz[ia].unwrap_or(pos[ia]);
-            bb = block.xyz[ib].unwrap_or(pos[ib]);
+            [None; 2]
+        };
+        let layout = if block.incremental {
+            let r = r_word + old_cc;
+            Layout {
+                aa: pos[ia],
+                bb: pos[ib],
+                aa_inc: block.xyz[ia].unwrap_or(0.0),
+                bb_inc: block.xyz[ib].unwrap_or(0.0),
+                radius_inc: polar[0].unwrap_or(0.0),
+                theta_inc: polar[1].unwrap_or(0.0).to_radians(),
+                r,
+                bottom: r + depth_word,
+                old_cc,
+                depth_word,
+            }
+        } else {
+            let [aa, bb] = if polar.iter().any(Option::is_some) {
+                let radius = polar[0].unwrap_or(pos[ib].hypot(pos[ia]));
+                let theta = polar[1].map_or(pos[ib].atan2(pos[ia]), f64::to_radians);
+                [radius * theta.cos(), radius * theta.sin()]
+            } else {
+                [
+                    block.xyz[ia].unwrap_or(pos[ia]),
+                    block.xyz[ib].unwrap_or(pos[ib]),
+                ]
+            };
+            Layout {
+                aa,
+                bb,
+                aa_inc: 0.0,
+                bb_inc: 0.0,
+                radius_inc: 0.0,
+                theta_inc: 0.0,
+                r: r_word,
+                bottom: depth_word,
+                old_cc,
+                depth_word,
+            }
+        };
+        if !(layout.r.is_finite() && layout.bottom.is_finite()) {
+            return Err(CycleError::NonFiniteResult);
         }
-    }
-    if !(r.is_finite() && cc.is_finite()) {
-        return Err(CycleError::NonFiniteResult);
-    }
-    if r < cc {
-        return Err(CycleError::RBelowBottom(plane));
+        if layout.r < layout.bottom {
+            return Err(CycleError::RBelowBottom(plane));
+        }
+        Ok(layout)
     }
 
-    // The peck loop of G73/G83 in the program's units (see `Units`).
-    let peck = if block.inch {
+    /// Move to the next repeat's hole (LinuxCNC's `CYCLE_MACRO`: a zero
+    /// increment is no increment) and return it.
+    fn next_hole(&mut self) -> Result<[f64; 2], CycleError> {
+        self.aa += self.aa_inc;
+        self.bb += self.bb_inc;
+        if self.radius_inc != 0.0 {
+            if self.aa == 0.0 && self.bb == 0.0 {
+                return Err(CycleError::PolarAtOrigin);
+            }
+            let (t, rad) = (
+                self.bb.atan2(self.aa),
+                self.bb.hypot(self.aa) + self.radius_inc,
+            );
+            (self.aa, self.bb) = (rad * t.cos(), rad * t.sin());
+        }
+        if self.theta_inc != 0.0 {
+            if self.aa == 0.0 && self.bb == 0.0 {
+                return Err(CycleError::PolarAtOrigin);
+            }
+            let (t, rad) = (
+                self.bb.atan2(self.aa) + self.theta_inc,
+                self.bb.hypot(self.aa),
+            );
+            (self.aa, self.bb) = (rad * t.cos(), rad * t.sin());
+        }
+        Ok([self.aa, self.bb])
+    }
+}
+
+impl Peck {
+    /// The peck loop of G73/G83 in the program's units (see `Units`).
+    fn of(block: &CycleBlock, layout: &Layout, r_word: f64) -> Peck {
+        if !block.inch {
+            return Peck {
+                r: layout.r,
+                bottom: layout.bottom,
+                unit: 1.0,
+                retract: PECK_RETRACT_MM,
+            };
+        }
         let r_in = if block.incremental {
-            to_inches(r_word) + to_inches(old_cc)
+            to_inches(r_word) + to_inches(layout.old_cc)
         } else {
             to_inches(r_word)
         };
         let bottom_in = if block.incremental {
-            r_in + to_inches(depth_word)
+            r_in + to_inches(layout.depth_word)
         } else {
-            to_inches(depth_word)
+            to_inches(layout.depth_word)
         };
         Peck {
             r: r_in,
@@ -832,94 +977,107 @@ fn expand_inner(
             unit: 25.4,
             retract: 0.010,
         }
+    }
+}
+
+/// The sticky words of a cycle (given, or the last ones while the cycle
+/// continues): its dwell `p`, peck `q`, and G87's offsets along the plane and
+/// the top of its back bore.
+struct Sticky {
+    p: f64,
+    q: f64,
+    middle: f64,
+    offset: [f64; 2],
+}
+
+impl Sticky {
+    /// Take the block's sticky words (checked as LinuxCNC checks them before
+    /// the repeats) and remember them; `bottom` is the cycle's bottom.
+    fn take(
+        block: &CycleBlock,
+        mem: &mut CycleMemory,
+        continuing: bool,
+        bottom: f64,
+    ) -> Result<Sticky, CycleError> {
+        use CycleCode::*;
+        let code = block.code;
+        // The -1 sentinels of read_p/read_q.
+        let unit = if block.inch { 25.4 } else { 1.0 };
+        let p_word = block.p.filter(|&p| p != -1.0);
+        let q_word = block.q.filter(|&q| q != -unit);
+        let mut sticky = Sticky {
+            p: 0.0,
+            q: 0.0,
+            middle: 0.0,
+            offset: [0.0; 2],
+        };
+        match code {
+            G82 | G86 | G88 | G89 => {
+                if !continuing && p_word.is_none() {
+                    return Err(CycleError::PMissing(code));
+                }
+                sticky.p = p_word.unwrap_or(mem.p);
+                mem.p = sticky.p;
+            }
+            G73 | G83 => {
+                if !continuing && q_word.is_none() {
+                    return Err(CycleError::QMissing(code));
+                }
+                sticky.q = q_word.unwrap_or(mem.q);
+                mem.q = sticky.q;
+            }
+            G74 | G84 => {
+                sticky.p = p_word.unwrap_or(mem.p);
+                mem.p = sticky.p;
+            }
+            G87 => (sticky.offset, sticky.middle) = back_bore(block, mem, continuing, bottom)?,
+            G81 | G85 => {}
+        }
+        Ok(sticky)
+    }
+}
+
+/// G87's I J K (given, or the last ones while the cycle continues): the
+/// offsets along the plane's two axes and the top of the back bore.
+fn back_bore(
+    block: &CycleBlock,
+    mem: &mut CycleMemory,
+    continuing: bool,
+    bottom: f64,
+) -> Result<([f64; 2], f64), CycleError> {
+    let [ia, ib, ic] = plane_axes(block.plane);
+    if !continuing {
+        let missing = [
+            CycleError::IMissing,
+            CycleError::JMissing,
+            CycleError::KMissing,
+        ];
+        for (word, err) in block.ijk.iter().zip(missing) {
+            if word.is_none() {
+                return Err(err);
+            }
+        }
+    }
+    let mut ijk = mem.ijk;
+    for (v, word) in ijk.iter_mut().zip(block.ijk) {
+        if let Some(w) = word {
+            *v = w;
+        }
+    }
+    mem.ijk = ijk;
+    let middle = if block.incremental {
+        bottom + ijk[ic]
     } else {
-        Peck {
-            r,
-            bottom: cc,
-            unit: 1.0,
-            retract: PECK_RETRACT_MM,
-        }
+        ijk[ic]
     };
+    Ok(([ijk[ia], ijk[ib]], middle))
+}
 
-    let mut emit = Emitter {
-        out,
-        plane,
-        count: 0,
-        last: None,
-    };
-    let mut current_cc = pos[ic];
-    if old_cc < r {
-        // Up to R along the drilling axis alone, from the current point.
-        let mut p = pos;
-        p[ic] = r;
-        emit.point(p, false)?;
-        old_cc = r;
-        current_cc = r;
-    }
-    let clear = match block.retract {
-        RetractMode::RPlane => r,
-        RetractMode::OldZ => old_cc,
-    };
-
-    // The sticky words of each cycle, and its checks before the repeats.
-    let mut p = 0.0;
-    let mut q = 0.0;
-    let mut middle = 0.0;
-    let mut offset = [0.0; 2];
-    match code {
-        G82 | G86 | G88 | G89 => {
-            if !continuing && p_word.is_none() {
-                return Err(CycleError::PMissing(code));
-            }
-            p = p_word.unwrap_or(mem.p);
-            mem.p = p;
-        }
-        G73 | G83 => {
-            if !continuing && q_word.is_none() {
-                return Err(CycleError::QMissing(code));
-            }
-            q = q_word.unwrap_or(mem.q);
-            mem.q = q;
-        }
-        G74 | G84 => {
-            p = p_word.unwrap_or(mem.p);
-            mem.p = p;
-        }
-        G87 => {
-            if !continuing {
-                let missing = [
-                    CycleError::IMissing,
-                    CycleError::JMissing,
-                    CycleError::KMissing,
-                ];
-                for (word, err) in block.ijk.iter().zip(missing) {
-                    if word.is_none() {
-                        return Err(err);
-                    }
-                }
-            }
-            let mut ijk = mem.ijk;
-            for (v, word) in ijk.iter_mut().zip(block.ijk) {
-                if let Some(w) = word {
-                    *v = w;
-                }
-            }
-            mem.ijk = ijk;
-            // The offsets along a and b, and the top of the back bore along c.
-            offset = [ijk[ia], ijk[ib]];
-            middle = if block.incremental {
-                cc + ijk[ic]
-            } else {
-                ijk[ic]
-            };
-        }
-        G81 | G85 => {}
-    }
-    check_cycle_function(code, q, block.spindle)?;
-
-    // Bound the work before doing it (the pecks of G73/G83 dominate).
-    let pecks = if matches!(code, G73 | G83) {
-        ((r - cc) / q).ceil()
+/// The number of repeats, bounding the work before doing it (the pecks of
+/// G73/G83 dominate); `height` is R − bottom.
+fn bounded_repeats(code: CycleCode, l: f64, height: f64, q: f64) -> Result<u64, CycleError> {
+    let pecks = if matches!(code, CycleCode::G73 | CycleCode::G83) {
+        (height / q).ceil()
     } else {
         0.0
     };
@@ -927,55 +1085,7 @@ fn expand_inner(
     if estimate.is_nan() || estimate > MAX_STEPS as f64 {
         return Err(CycleError::TooManySteps);
     }
-    let repeats = l as u64;
-
-    for repeat in 0..repeats {
-        aa += aa_inc;
-        bb += bb_inc;
-        // LinuxCNC's `CYCLE_MACRO`: a zero increment is no increment.
-        if radius_inc != 0.0 {
-            if aa == 0.0 && bb == 0.0 {
-                return Err(CycleError::PolarAtOrigin);
-            }
-            let (t, rad) = (bb.atan2(aa), bb.hypot(aa) + radius_inc);
-            (aa, bb) = (rad * t.cos(), rad * t.sin());
-        }
-        if theta_inc != 0.0 {
-            if aa == 0.0 && bb == 0.0 {
-                return Err(CycleError::PolarAtOrigin);
-            }
-            let (t, rad) = (bb.atan2(aa) + theta_inc, bb.hypot(aa));
-            (aa, bb) = (rad * t.cos(), rad * t.sin());
-        }
-        if repeat == 0 && current_cc > r {
-            emit.rapid(aa, bb, current_cc)?;
-            emit.rapid(aa, bb, r)?;
-        } else {
-            emit.rapid(aa, bb, clear)?;
-            if clear > r {
-                emit.rapid(aa, bb, r)?;
-            }
-        }
-        let levels = Levels {
-            r,
-            clear,
-            bottom: cc,
-            middle,
-        };
-        cycle_function(&mut emit, block, [aa, bb], levels, (p, q), &peck, offset)?;
-    }
-
-    let end = plane_point(plane, aa, bb, clear);
-    if !end.iter().all(|v| v.is_finite()) {
-        return Err(CycleError::NonFiniteResult);
-    }
-    if emit.last != Some(end) {
-        emit.push(CycleStep::AssumePosition(end))?;
-    }
-    mem.mode = Some(code);
-    mem.r = r_word;
-    mem.depth = depth_word;
-    Ok(())
+    Ok(l as u64)
 }
 
 /// One repeat of the cycle proper, from the hole at R (`convert_cycle_g73` …

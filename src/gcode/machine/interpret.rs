@@ -50,7 +50,7 @@ use super::origin::Origin;
 use super::tools::{ToolInUse, ToolTable};
 use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::language::parameters::{Parameters, numbers};
-use crate::gcode::syntax::block::Block;
+use crate::gcode::syntax::block::{Block, Word};
 use crate::gcode::syntax::expression::to_integer;
 
 /// Interpreter settings.
@@ -880,7 +880,7 @@ impl Interpreter {
         }
         self.params.set_position(pos, abs);
         let m = &self.modal;
-        let s = &mut self.params.system;
+        let s = self.params.system_mut();
         s.motion_mode = m.motion.code10();
         s.plane = match m.plane {
             Plane::XY => 170.0,
@@ -955,7 +955,7 @@ impl Interpreter {
                 .unwrap_or((0, block.raw.len()));
             return self.fail(block, event, ErrorKind::NeedsLanguage, at.0, at.1);
         }
-        self.params.system.line = block.line as f64;
+        self.params.set_line(block.line);
         let mut decoded = self.read(block, event)?;
         let mut next = BlockState {
             modal: decoded.modes(&self.modal),
@@ -1008,66 +1008,7 @@ impl Interpreter {
                 crate::gcode::syntax::block::Keyword::TraFoof => Frame::Joint,
             });
         }
-        let mut g_groups = [false; 16];
-        let mut m_groups = [false; 11];
-        let mut seen_letters = 0u32;
-        // Repeated words and modal-group conflicts (LinuxCNC refuses both).
-        for w in &block.words {
-            match w.letter {
-                b'G' => {
-                    if let Some(code) = w.code10()
-                        && let Some(g) = g_group(classify_g(code))
-                    {
-                        // G80 with another motion code is no conflict: the
-                        // other code wins (LinuxCNC's `read_g`).
-                        if code == 800 {
-                            continue;
-                        }
-                        if std::mem::replace(&mut g_groups[g as usize], true) {
-                            self.fail(
-                                block,
-                                event,
-                                ErrorKind::ModalGroupConflict('G'),
-                                w.start,
-                                w.end,
-                            )?;
-                        }
-                    }
-                }
-                b'M' => {
-                    if let Some(code) = w.code10()
-                        && let Some(g) = m_group(code)
-                    {
-                        // LinuxCNC 2.9 allows no two codes of a group, M7 and
-                        // M8 included (`read_m`).
-                        if m_groups[g as usize] {
-                            self.fail(
-                                block,
-                                event,
-                                ErrorKind::ModalGroupConflict('M'),
-                                w.start,
-                                w.end,
-                            )?;
-                        }
-                        m_groups[g as usize] = true;
-                    }
-                }
-                letter if letter.is_ascii_uppercase() => {
-                    let bit = 1u32 << (letter - b'A');
-                    if seen_letters & bit != 0 {
-                        self.fail(
-                            block,
-                            event,
-                            ErrorKind::RepeatedWord(letter as char),
-                            w.start,
-                            w.end,
-                        )?;
-                    }
-                    seen_letters |= bit;
-                }
-                _ => {}
-            }
-        }
+        let other_motion = self.read_conflicts(block, event)?;
         // Units first: every number of the block is in the block's units.
         for w in block.words.iter().filter(|w| w.letter == b'G') {
             if let Some(GCode::Units(u)) = w.code10().map(classify_g) {
@@ -1075,173 +1016,14 @@ impl Interpreter {
             }
         }
         let scale = d.units.unwrap_or(self.modal.units).scale();
-        let words = &mut d.words;
         for w in &block.words {
             match w.letter {
-                b'G' => {
-                    let Some(code) = w.code10() else {
-                        d.unsupported = true;
-                        self.fail(
-                            block,
-                            event,
-                            ErrorKind::UnsupportedGCode(format!("G{}", w.value)),
-                            w.start,
-                            w.end,
-                        )?;
-                        continue;
-                    };
-                    let g = classify_g(code);
-                    match g {
-                        GCode::Motion(m) => {
-                            d.motion = Some(m);
-                            d.motion_word = Some((w.start, w.end));
-                        }
-                        GCode::Plane(p) => d.plane = Some(p),
-                        GCode::Units(_) => {}
-                        GCode::Distance(x) => d.distance = Some(x),
-                        GCode::ArcDistance(x) => d.arc_distance = Some(x),
-                        GCode::FeedMode(inv) => {
-                            d.inverse_time = Some(inv);
-                            // LinuxCNC: G94 and G95 set the feed rate to 0.
-                            if !inv {
-                                d.feed_reset = true;
-                            }
-                        }
-                        GCode::CutterComp(x) => d.cutter_comp = Some(x),
-                        GCode::ToolLength | GCode::ToolLengthDynamic | GCode::ToolLengthAdd => {
-                            d.tool_length = Some(true);
-                            d.offset_code = Some((code, w.start, w.end));
-                        }
-                        GCode::ToolTip => {
-                            d.tool_length = Some(true);
-                            d.frame = Some(Frame::Part);
-                            d.offset_code = Some((430, w.start, w.end));
-                        }
-                        GCode::ToolLengthOff => {
-                            d.tool_length = Some(false);
-                            d.frame = Some(Frame::Joint);
-                            d.offset_code = Some((490, w.start, w.end));
-                        }
-                        GCode::MachineCoordinates => d.g53 = Some((w.start, w.end)),
-                        GCode::CoordSystem(n) => d.coord_select = Some(n),
-                        GCode::RetractMode(r) => d.retract_r_plane = Some(r),
-                        GCode::Home(_) => d.axis_user = Some((g, w.start, w.end)),
-                        GCode::StoreHome(n) => d.store_home = Some(n),
-                        GCode::SetData => {
-                            d.axis_user = Some((g, w.start, w.end));
-                        }
-                        GCode::AxisOffset(c) => {
-                            d.axis_offset = Some(c);
-                            if c == 920 || c == 520 {
-                                d.axis_user = Some((g, w.start, w.end));
-                            }
-                        }
-                        GCode::Dwell => d.dwell = true,
-                        GCode::NurbsEnd => d.nurbs_end = Some((w.start, w.end)),
-                        GCode::PassThrough => {}
-                        GCode::CancelMotion => {
-                            // Ignored when the block holds another motion code.
-                            if !g_groups[1] {
-                                d.motion = Some(MotionMode::None);
-                                d.cancel_motion = true;
-                            }
-                        }
-                        GCode::Unsupported => {
-                            d.unsupported = true;
-                            self.fail(
-                                block,
-                                event,
-                                ErrorKind::UnsupportedGCode(code_text('G', code)),
-                                w.start,
-                                w.end,
-                            )?
-                        }
-                    }
-                }
-                b'M' => match w.code10().map(classify_m) {
-                    Some(MCode::End) => d.end = true,
-                    Some(MCode::Subroutine) => self.fail(
-                        block,
-                        event,
-                        ErrorKind::SubroutineCall(code_text('M', w.code10().unwrap_or(0))),
-                        w.start,
-                        w.end,
-                    )?,
-                    Some(MCode::ToolTipOn) => d.frame = Some(Frame::Part),
-                    Some(MCode::ToolTipOff) => d.frame = Some(Frame::Joint),
-                    Some(MCode::PassThrough) | None => match w.code10() {
-                        Some(30) => d.spindle = Some(SpindleDirection::Clockwise),
-                        Some(40) => d.spindle = Some(SpindleDirection::CounterClockwise),
-                        Some(50) => d.spindle = Some(SpindleDirection::Stopped),
-                        Some(60) => d.tool_change = true,
-                        Some(610) => d.m61 = Some((w.start, w.end)),
-                        Some(70) => d.mist = Some(true),
-                        Some(80) => d.flood = Some(true),
-                        Some(90) => (d.mist, d.flood) = (Some(false), Some(false)),
-                        _ => {}
-                    },
-                },
+                b'G' => self.read_g(block, event, w, &mut d, other_motion)?,
+                b'M' => self.read_m(block, event, w, &mut d)?,
                 b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
-                    if let Some(axis) = Axis::from_letter(w.letter as char) {
-                        if !self.options.axes.contains(axis) {
-                            // LinuxCNC: "Bad character 'b' used" for an axis its
-                            // configuration lacks; under --lenient the word is
-                            // ignored and reported.
-                            self.fail(
-                                block,
-                                event,
-                                ErrorKind::AxisNotOnMachine {
-                                    letter: axis.letter(),
-                                    axes: self.options.axes.letters(),
-                                },
-                                w.start,
-                                w.end,
-                            )?;
-                            continue;
-                        }
-                        let i = axis as usize;
-                        let v = if axis.is_rotary() {
-                            w.value
-                        } else {
-                            w.value * scale
-                        };
-                        words.axes[i] = Some((v, w.start));
-                    }
+                    self.read_axis(block, event, w, &mut d.words, scale)?
                 }
-                b'I' => words.ijk[0] = Some(w.value * scale),
-                b'J' => words.ijk[1] = Some(w.value * scale),
-                b'K' => words.ijk[2] = Some(w.value * scale),
-                b'R' => words.r = Some(w.value),
-                b'P' => words.p = Some(w.value),
-                b'Q' => words.q = Some(w.value),
-                b'L' => words.l = Some(w.value),
-                b'S' => words.s = Some(w.value),
-                b'T' => words.t = Some(w.value),
-                b'F' => {
-                    words.f = Some(w.value);
-                    words.f_span = Some((w.start, w.end));
-                }
-                b'@' => {
-                    words.radius = Some(w.value * scale);
-                    words.polar_span.get_or_insert((w.start, w.end));
-                }
-                b'^' => {
-                    words.theta = Some(w.value);
-                    words.polar_span.get_or_insert((w.start, w.end));
-                }
-                other => {
-                    if !is_known_letter(other) && other.is_ascii_uppercase() {
-                        let bit = 1u32 << (other - b'A');
-                        if (self.unknown_letters_seen | d.unknown_letters) & bit == 0 {
-                            d.unknown_letters |= bit;
-                            event.warnings.push(Warning {
-                                line: block.line,
-                                column: w.start + 1,
-                                kind: WarningKind::UnknownLetter(other as char),
-                            });
-                        }
-                    }
-                }
+                _ => self.read_other(block, event, w, &mut d, scale),
             }
         }
         // G43.1's axis words set the offset and do not move (LinuxCNC's
@@ -1253,6 +1035,238 @@ impl Interpreter {
             d.axis_user = Some((GCode::ToolLengthDynamic, s, e));
         }
         Ok(d)
+    }
+
+    /// Repeated words and modal-group conflicts (LinuxCNC refuses both);
+    /// whether the block holds a motion code other than G80.
+    fn read_conflicts(&self, block: &Block, event: &mut BlockEvent) -> Result<bool, GcodeError> {
+        let mut g_groups = [false; 16];
+        let mut m_groups = [false; 11];
+        let mut seen_letters = 0u32;
+        for w in &block.words {
+            let (conflict, kind) = match w.letter {
+                b'G' => {
+                    let Some(g) = w.code10().and_then(|code| {
+                        // G80 with another motion code is no conflict: the
+                        // other code wins (LinuxCNC's `read_g`).
+                        g_group(classify_g(code)).filter(|_| code != 800)
+                    }) else {
+                        continue;
+                    };
+                    let seen = std::mem::replace(&mut g_groups[g as usize], true);
+                    (seen, ErrorKind::ModalGroupConflict('G'))
+                }
+                b'M' => {
+                    // LinuxCNC 2.9 allows no two codes of a group, M7 and
+                    // M8 included (`read_m`).
+                    let Some(g) = w.code10().and_then(m_group) else {
+                        continue;
+                    };
+                    let seen = std::mem::replace(&mut m_groups[g as usize], true);
+                    (seen, ErrorKind::ModalGroupConflict('M'))
+                }
+                letter if letter.is_ascii_uppercase() => {
+                    let bit = 1u32 << (letter - b'A');
+                    let seen = seen_letters & bit != 0;
+                    seen_letters |= bit;
+                    (seen, ErrorKind::RepeatedWord(letter as char))
+                }
+                _ => continue,
+            };
+            if conflict {
+                self.fail(block, event, kind, w.start, w.end)?;
+            }
+        }
+        Ok(g_groups[1])
+    }
+
+    /// A G word (LinuxCNC's `read_g`); `other_motion`: the block holds a
+    /// motion code other than G80.
+    fn read_g(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        w: &Word,
+        d: &mut Decoded,
+        other_motion: bool,
+    ) -> Result<(), GcodeError> {
+        let Some(code) = w.code10() else {
+            d.unsupported = true;
+            let kind = ErrorKind::UnsupportedGCode(format!("G{}", w.value));
+            return self.fail(block, event, kind, w.start, w.end);
+        };
+        let g = classify_g(code);
+        let span = (w.start, w.end);
+        match g {
+            GCode::Motion(m) => {
+                d.motion = Some(m);
+                d.motion_word = Some(span);
+            }
+            GCode::Plane(p) => d.plane = Some(p),
+            GCode::Units(_) => {}
+            GCode::Distance(x) => d.distance = Some(x),
+            GCode::ArcDistance(x) => d.arc_distance = Some(x),
+            GCode::FeedMode(inv) => {
+                d.inverse_time = Some(inv);
+                // LinuxCNC: G94 and G95 set the feed rate to 0.
+                if !inv {
+                    d.feed_reset = true;
+                }
+            }
+            GCode::CutterComp(x) => d.cutter_comp = Some(x),
+            GCode::ToolLength | GCode::ToolLengthDynamic | GCode::ToolLengthAdd => {
+                d.tool_length = Some(true);
+                d.offset_code = Some((code, w.start, w.end));
+            }
+            GCode::ToolTip => {
+                d.tool_length = Some(true);
+                d.frame = Some(Frame::Part);
+                d.offset_code = Some((430, w.start, w.end));
+            }
+            GCode::ToolLengthOff => {
+                d.tool_length = Some(false);
+                d.frame = Some(Frame::Joint);
+                d.offset_code = Some((490, w.start, w.end));
+            }
+            GCode::MachineCoordinates => d.g53 = Some(span),
+            GCode::CoordSystem(n) => d.coord_select = Some(n),
+            GCode::RetractMode(r) => d.retract_r_plane = Some(r),
+            GCode::Home(_) | GCode::SetData => d.axis_user = Some((g, w.start, w.end)),
+            GCode::StoreHome(n) => d.store_home = Some(n),
+            GCode::AxisOffset(c) => {
+                d.axis_offset = Some(c);
+                if c == 920 || c == 520 {
+                    d.axis_user = Some((g, w.start, w.end));
+                }
+            }
+            GCode::Dwell => d.dwell = true,
+            GCode::NurbsEnd => d.nurbs_end = Some(span),
+            GCode::PassThrough => {}
+            GCode::CancelMotion => {
+                // Ignored when the block holds another motion code.
+                if !other_motion {
+                    d.motion = Some(MotionMode::None);
+                    d.cancel_motion = true;
+                }
+            }
+            GCode::Unsupported => {
+                d.unsupported = true;
+                let kind = ErrorKind::UnsupportedGCode(code_text('G', code));
+                self.fail(block, event, kind, w.start, w.end)?
+            }
+        }
+        Ok(())
+    }
+
+    /// An M word (LinuxCNC's `read_m`).
+    fn read_m(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        w: &Word,
+        d: &mut Decoded,
+    ) -> Result<(), GcodeError> {
+        match w.code10().map(classify_m) {
+            Some(MCode::End) => d.end = true,
+            Some(MCode::Subroutine) => {
+                let kind = ErrorKind::SubroutineCall(code_text('M', w.code10().unwrap_or(0)));
+                self.fail(block, event, kind, w.start, w.end)?
+            }
+            Some(MCode::ToolTipOn) => d.frame = Some(Frame::Part),
+            Some(MCode::ToolTipOff) => d.frame = Some(Frame::Joint),
+            Some(MCode::PassThrough) | None => match w.code10() {
+                Some(30) => d.spindle = Some(SpindleDirection::Clockwise),
+                Some(40) => d.spindle = Some(SpindleDirection::CounterClockwise),
+                Some(50) => d.spindle = Some(SpindleDirection::Stopped),
+                Some(60) => d.tool_change = true,
+                Some(610) => d.m61 = Some((w.start, w.end)),
+                Some(70) => d.mist = Some(true),
+                Some(80) => d.flood = Some(true),
+                Some(90) => (d.mist, d.flood) = (Some(false), Some(false)),
+                _ => {}
+            },
+        }
+        Ok(())
+    }
+
+    /// An axis word, in mm (linear) or degrees; `scale`: mm per program unit.
+    fn read_axis(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        w: &Word,
+        words: &mut Words,
+        scale: f64,
+    ) -> Result<(), GcodeError> {
+        let Some(axis) = Axis::from_letter(w.letter as char) else {
+            return Ok(());
+        };
+        if !self.options.axes.contains(axis) {
+            // LinuxCNC: "Bad character 'b' used" for an axis its
+            // configuration lacks; under --lenient the word is
+            // ignored and reported.
+            let kind = ErrorKind::AxisNotOnMachine {
+                letter: axis.letter(),
+                axes: self.options.axes.letters(),
+            };
+            return self.fail(block, event, kind, w.start, w.end);
+        }
+        let v = if axis.is_rotary() {
+            w.value
+        } else {
+            w.value * scale
+        };
+        words.axes[axis as usize] = Some((v, w.start));
+        Ok(())
+    }
+
+    /// The other words: numbers the conversions read, and a warning for a
+    /// letter that is not known (once a letter).
+    fn read_other(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        w: &Word,
+        d: &mut Decoded,
+        scale: f64,
+    ) {
+        let words = &mut d.words;
+        match w.letter {
+            b'I' => words.ijk[0] = Some(w.value * scale),
+            b'J' => words.ijk[1] = Some(w.value * scale),
+            b'K' => words.ijk[2] = Some(w.value * scale),
+            b'R' => words.r = Some(w.value),
+            b'P' => words.p = Some(w.value),
+            b'Q' => words.q = Some(w.value),
+            b'L' => words.l = Some(w.value),
+            b'S' => words.s = Some(w.value),
+            b'T' => words.t = Some(w.value),
+            b'F' => {
+                words.f = Some(w.value);
+                words.f_span = Some((w.start, w.end));
+            }
+            b'@' => {
+                words.radius = Some(w.value * scale);
+                words.polar_span.get_or_insert((w.start, w.end));
+            }
+            b'^' => {
+                words.theta = Some(w.value);
+                words.polar_span.get_or_insert((w.start, w.end));
+            }
+            other => {
+                if !is_known_letter(other) && other.is_ascii_uppercase() {
+                    let bit = 1u32 << (other - b'A');
+                    if (self.unknown_letters_seen | d.unknown_letters) & bit == 0 {
+                        d.unknown_letters |= bit;
+                        event.warnings.push(Warning {
+                            line: block.line,
+                            column: w.start + 1,
+                            kind: WarningKind::UnknownLetter(other as char),
+                        });
+                    }
+                }
+            }
+        }
     }
 
     /// LinuxCNC's `check_items`: what the block asks that no conversion can

@@ -243,14 +243,14 @@ struct Edit {
 /// Emits blocks; keeps the position and motion mode of the program written so far.
 #[derive(Clone, Debug)]
 pub struct Rewriter {
-    options: RewriteOptions,
-    emitted: Axes,
-    emitted_motion: MotionMode,
+    pub(super) options: RewriteOptions,
+    pub(super) emitted: Axes,
+    pub(super) emitted_motion: MotionMode,
     /// Motion mode of the original program after the last block.
-    original_motion: MotionMode,
-    decimals: [u8; crate::axes::AXIS_COUNT],
+    pub(super) original_motion: MotionMode,
+    pub(super) decimals: [u8; crate::axes::AXIS_COUNT],
     edits: Vec<Edit>,
-    text: String,
+    pub(super) text: String,
     line: Vec<u8>,
     /// Scratch: split targets in program coordinates.
     via_program: Vec<Axes>,
@@ -579,296 +579,8 @@ impl Rewriter {
         Ok(Emitted { rewritten, pieces })
     }
 
-    /// Emit a block that is written flat, a canned cycle
-    /// ([`Rewriter::emit_cycle`]) or a spline ([`Rewriter::emit_spline`]),
-    /// with `ends[k]` the absolute target of `event.expanded[k]` (machine
-    /// coordinates).
-    pub fn emit_flat(
-        &mut self,
-        block: &Block,
-        event: &BlockEvent,
-        ends: &[Axes],
-        out: &mut dyn Write,
-    ) -> Result<Emitted, RewriteError> {
-        if event.spline.is_some() {
-            self.emit_spline(block, event, ends, out)
-        } else {
-            self.emit_cycle(block, event, ends, out)
-        }
-    }
-
-    /// Emit a spline block flat. A curve (G5, G5.1, or the G5.3 that runs a
-    /// G5.2 NURBS): the block without its spline words (its other words and
-    /// comments keep their effect) and a comment, then every straight piece
-    /// (`ends[k]` the absolute target of `event.expanded[k]`, machine
-    /// coordinates) as `G1 X… Y…` in absolute coordinates, under G93 with
-    /// its `F` (the piece's share of the curve's time). A G5.2 control-point
-    /// block: the block without its G5.2 X Y P L words, and a comment (its
-    /// curve is written at its G5.3).
-    pub fn emit_spline(
-        &mut self,
-        block: &Block,
-        event: &BlockEvent,
-        ends: &[Axes],
-        out: &mut dyn Write,
-    ) -> Result<Emitted, RewriteError> {
-        use crate::gcode::machine::interpret::SplineStep;
-        if ends.len() != event.expanded().len() {
-            return Err(RewriteError::NotAMotion { line: block.line });
-        }
-        if !ends.iter().all(Axes::is_finite) {
-            return Err(RewriteError::NonFinite { line: block.line });
-        }
-        let curve = match event.spline {
-            Some(SplineStep::Curve { code, .. }) => Some(code),
-            _ => None,
-        };
-        if curve == Some(53) && event.modal.motion == MotionMode::Spline(52) {
-            return Err(RewriteError::CannotFlatten {
-                line: block.line,
-                what: "a G5.3 block whose axis words start another NURBS",
-            });
-        }
-        self.note_decimals(block);
-        let ctx = Context::new(block, event);
-        let ending = line_ending(block);
-        // 1. The block without its spline words.
-        self.strip_words(block, |w| match w.letter {
-            b'G' => matches!(
-                w.code10().map(classify_g),
-                Some(GCode::Motion(MotionMode::Spline(_)) | GCode::NurbsEnd)
-            ),
-            b'I' | b'J' | b'P' | b'Q' | b'L' | b'@' | b'^' => true,
-            letter => Axis::from_letter(letter as char).is_some(),
-        });
-        let from = self.text.len();
-        {
-            use std::fmt::Write as _;
-            let _ = match curve {
-                Some(53) => write!(
-                    self.text,
-                    " (volcomp: the G5.2 NURBS run by line {} written flat below)",
-                    block.line
-                ),
-                Some(code) => write!(
-                    self.text,
-                    " (volcomp: {} of line {} written flat below)",
-                    MotionMode::Spline(code).word(),
-                    block.line
-                ),
-                None => write!(
-                    self.text,
-                    " (volcomp: G5.2 control point of line {}, the curve is written flat at its G5.3)",
-                    block.line
-                ),
-            };
-        }
-        self.record(from, block.raw.len(), block.raw.len());
-        let mut header = Vec::with_capacity(block.raw.len() + 64);
-        self.write_edited(block, &mut header)?;
-        out.write_all(header.trim_ascii_start())?;
-        let Some(_) = curve else {
-            self.original_motion = event.modal.motion;
-            return Ok(Emitted {
-                rewritten: true,
-                pieces: 0,
-            });
-        };
-        // 2. The pieces.
-        let mut written = Vec::new();
-        if ctx.incremental {
-            written.push("G90".to_string());
-        }
-        for (end, motion) in ends.iter().zip(event.expanded()) {
-            let program = event.origin.to_program(end);
-            let mut line = String::from("G1");
-            for axis in Axis::ALL {
-                let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
-                if !moved && axis != Axis::X && axis != Axis::Y {
-                    continue;
-                }
-                let unit = ctx.unit(axis);
-                let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
-                line.push(' ');
-                line.push(axis.letter());
-                push_number(&mut line, program.get(axis) / unit, dec);
-            }
-            if let Feed::InverseTime(f) = motion.feed {
-                line.push_str(" F");
-                push_number(
-                    &mut line,
-                    f,
-                    feed_decimals(f, ctx.feed_decimals, &self.options),
-                );
-            }
-            self.emitted = *end;
-            written.push(line);
-        }
-        if ctx.incremental {
-            written.push("G91".to_string());
-        }
-        for l in &written {
-            let l = if ctx.lowercase {
-                l.to_ascii_lowercase()
-            } else {
-                l.clone()
-            };
-            out.write_all(l.as_bytes())?;
-            out.write_all(ending)?;
-        }
-        if !event.expanded().is_empty() {
-            self.emitted_motion = MotionMode::Linear;
-        }
-        self.original_motion = event.modal.motion;
-        Ok(Emitted {
-            rewritten: true,
-            pieces: written.len(),
-        })
-    }
-
-    /// Emit a canned-cycle block flat: the block without its cycle words (its
-    /// other words and comments keep their effect), then every step as an
-    /// explicit line: each move (`ends[k]` is the absolute target of
-    /// `event.expanded[k]`, machine coordinates, as for [`Rewriter::emit`])
-    /// as `G0`/`G1 X… Y… Z…` in absolute coordinates, dwells as `G4 P…`,
-    /// spindle stops and starts as `M5`/`M3`/`M4`, override switches as
-    /// `M49`/`M48`. Steps LinuxCNC runs that a flat program cannot say (the
-    /// spindle orientation of G87, the assumed position after G88's stop and
-    /// after G74/G84 in G18/G19) are refused ([`RewriteError::CannotFlatten`]).
-    pub fn emit_cycle(
-        &mut self,
-        block: &Block,
-        event: &BlockEvent,
-        ends: &[Axes],
-        out: &mut dyn Write,
-    ) -> Result<Emitted, RewriteError> {
-        use crate::gcode::machine::cycles::CycleStep;
-        if ends.len() != event.expanded().len() {
-            return Err(RewriteError::NotAMotion { line: block.line });
-        }
-        if !ends.iter().all(Axes::is_finite) {
-            return Err(RewriteError::NonFinite { line: block.line });
-        }
-        for step in event.cycle_steps() {
-            let what = match step {
-                CycleStep::SpindleOrient { .. } => "the spindle orientation of G87",
-                CycleStep::AssumePosition(_) => {
-                    "a position LinuxCNC assumes without moving there (G88's hand retract, G74/G84 outside G17)"
-                }
-                _ => continue,
-            };
-            return Err(RewriteError::CannotFlatten {
-                line: block.line,
-                what,
-            });
-        }
-        self.note_decimals(block);
-        let ctx = Context::new(block, event);
-        let ending = line_ending(block);
-        // 1. The block without the cycle's words.
-        self.strip_words(block, |w| match w.letter {
-            b'G' => matches!(
-                w.code10().map(classify_g),
-                Some(GCode::Motion(MotionMode::Cycle(_)))
-            ),
-            b'R' | b'Q' | b'P' | b'L' | b'I' | b'J' | b'K' | b'@' | b'^' => true,
-            letter => Axis::from_letter(letter as char).is_some(),
-        });
-        let name = match event.modal.motion {
-            MotionMode::Cycle(c) => crate::gcode::machine::cycles::CycleCode::from_code10(c as i32)
-                .map_or("canned cycle", |c| c.name()),
-            _ => "canned cycle",
-        };
-        let from = self.text.len();
-        {
-            use std::fmt::Write as _;
-            let _ = write!(
-                self.text,
-                " (volcomp: {name} of line {} expanded below)",
-                block.line
-            );
-        }
-        self.record(from, block.raw.len(), block.raw.len());
-        let mut header = Vec::with_capacity(block.raw.len() + 48);
-        self.write_edited(block, &mut header)?;
-        // Without its cycle words the line may start with white space.
-        out.write_all(header.trim_ascii_start())?;
-        // 2. The steps.
-        let mut line = String::new();
-        let mut written = Vec::new();
-        let mut moves = ends.iter().zip(event.expanded());
-        if ctx.incremental {
-            line.push_str("G90");
-            written.push(std::mem::take(&mut line));
-        }
-        for step in event.cycle_steps() {
-            match *step {
-                CycleStep::Rapid(_) | CycleStep::Feed(_) => {
-                    let Some((end, motion)) = moves.next() else {
-                        return Err(RewriteError::NotAMotion { line: block.line });
-                    };
-                    let program = event.origin.to_program(end);
-                    line.push_str(if motion.kind == MotionKind::Rapid {
-                        "G0"
-                    } else {
-                        "G1"
-                    });
-                    for axis in Axis::ALL {
-                        let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
-                        // X Y Z always (a cycle move names them); the other
-                        // letters where they move.
-                        if !matches!(axis, Axis::X | Axis::Y | Axis::Z) && !moved {
-                            continue;
-                        }
-                        let unit = ctx.unit(axis);
-                        let dec = ctx.decimals(axis, self.decimals[axis as usize], &self.options);
-                        line.push(' ');
-                        line.push(axis.letter());
-                        push_number(&mut line, program.get(axis) / unit, dec);
-                    }
-                    self.emitted = *end;
-                }
-                CycleStep::Dwell { seconds } => {
-                    line.push_str("G4 P");
-                    push_number(&mut line, seconds, 4);
-                }
-                CycleStep::SpindleStop => line.push_str("M5"),
-                CycleStep::SpindleStart { clockwise } => {
-                    line.push_str(if clockwise { "M3" } else { "M4" })
-                }
-                CycleStep::OverridesDisabled => line.push_str("M49"),
-                CycleStep::OverridesRestored => line.push_str("M48"),
-                CycleStep::ProgramStop => line.push_str("M0"),
-                CycleStep::SpindleOrient { .. } | CycleStep::AssumePosition(_) => continue,
-            }
-            written.push(std::mem::take(&mut line));
-        }
-        if ctx.incremental {
-            written.push("G91".to_string());
-        }
-        for l in &written {
-            let l = if ctx.lowercase {
-                l.to_ascii_lowercase()
-            } else {
-                l.clone()
-            };
-            out.write_all(l.as_bytes())?;
-            out.write_all(ending)?;
-        }
-        self.emitted_motion = match event.expanded().last().map(|m| m.kind) {
-            Some(MotionKind::Rapid) => MotionMode::Rapid,
-            Some(_) => MotionMode::Linear,
-            None => self.emitted_motion,
-        };
-        self.original_motion = event.modal.motion;
-        Ok(Emitted {
-            rewritten: true,
-            pieces: written.len(),
-        })
-    }
-
     /// Record that `raw[start..end]` becomes the text written since `from`.
-    fn record(&mut self, from: usize, start: usize, end: usize) {
+    pub(super) fn record(&mut self, from: usize, start: usize, end: usize) {
         let to = self.text.len();
         self.edits.push(Edit {
             start,
@@ -890,7 +602,7 @@ impl Rewriter {
 
     /// Remove a word and the white space before it.
     /// Every axis letter's largest number of decimals written so far.
-    fn note_decimals(&mut self, block: &Block) {
+    pub(super) fn note_decimals(&mut self, block: &Block) {
         for w in &block.words {
             if let Some(axis) = Axis::from_letter(w.letter as char) {
                 let i = axis as usize;
@@ -900,7 +612,7 @@ impl Rewriter {
     }
 
     /// Start a new edit of `block` with the words `strip` selects removed.
-    fn strip_words(&mut self, block: &Block, strip: impl Fn(&Word) -> bool) {
+    pub(super) fn strip_words(&mut self, block: &Block, strip: impl Fn(&Word) -> bool) {
         self.edits.clear();
         self.text.clear();
         for w in &block.words {
@@ -1133,7 +845,11 @@ impl Rewriter {
     }
 
     /// Write the block with its edits; `true` when it differs from the input.
-    fn write_edited(&mut self, block: &Block, out: &mut dyn Write) -> Result<bool, RewriteError> {
+    pub(super) fn write_edited(
+        &mut self,
+        block: &Block,
+        out: &mut dyn Write,
+    ) -> Result<bool, RewriteError> {
         if self.edits.is_empty() {
             block.write_raw(out)?;
             return Ok(false);
@@ -1169,22 +885,22 @@ impl Rewriter {
 }
 
 /// What the rewriter needs to know about a motion block.
-struct Context {
+pub(super) struct Context {
     scale: f64,
     inch: bool,
-    incremental: bool,
+    pub(super) incremental: bool,
     arc_absolute: bool,
     g53: bool,
     rapid: bool,
     inverse_time: bool,
     /// The block's F under G93 (1/min).
     feed: Option<f64>,
-    feed_decimals: u8,
-    lowercase: bool,
+    pub(super) feed_decimals: u8,
+    pub(super) lowercase: bool,
 }
 
 impl Context {
-    fn new(block: &Block, event: &BlockEvent) -> Self {
+    pub(super) fn new(block: &Block, event: &BlockEvent) -> Self {
         let motion = event.motion();
         let g53 = motion.is_some_and(|m| m.machine_coordinates);
         let (rapid, inverse_time, feed) = match motion.map(|m| m.feed) {
@@ -1218,7 +934,7 @@ impl Context {
         }
     }
 
-    fn unit(&self, axis: Axis) -> f64 {
+    pub(super) fn unit(&self, axis: Axis) -> f64 {
         if axis.is_rotary() { 1.0 } else { self.scale }
     }
 
@@ -1230,7 +946,7 @@ impl Context {
         }
     }
 
-    fn decimals(&self, axis: Axis, written: u8, o: &RewriteOptions) -> u8 {
+    pub(super) fn decimals(&self, axis: Axis, written: u8, o: &RewriteOptions) -> u8 {
         let min = if axis.is_rotary() {
             o.min_decimals_mm
         } else {
@@ -1242,7 +958,7 @@ impl Context {
 
 /// Whether two points print the same at the rewriter's resolution (mm/deg).
 /// The line ending `block` was written with.
-fn line_ending(block: &Block) -> &'static [u8] {
+pub(super) fn line_ending(block: &Block) -> &'static [u8] {
     match block.ending {
         crate::gcode::syntax::block::LineEnding::CrLf => b"\r\n",
         _ => b"\n",
@@ -1356,7 +1072,7 @@ fn modal_word_spans(block: &Block) -> Vec<(usize, usize)> {
 
 /// Decimals of a recomputed F: the word's, at least `min_decimals_feed`, and
 /// enough for `min_significant_feed` significant digits.
-fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
+pub(super) fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
     let int_digits = if f.abs() >= 1.0 {
         f.abs().log10().floor() as i32 + 1
     } else {
