@@ -125,114 +125,17 @@ pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, Las
         }
     }
     order.sort_by_key(|p| *p != positioning);
-    let place = |file: usize, line: u32, column: u32| {
-        format!("{}:{line}:{column}", files[file].path.display())
-    };
-    let mut parameters = Vec::new();
+    let mut parameters: Vec<ParameterResult> = Vec::new();
     for parameter in &order {
-        let mut index: FastMap<u64, usize> = FastMap::default();
-        let mut targets: Vec<TargetAcc> = Vec::new();
-        let mut seen: FastMap<(u64, usize, u32, bool), (u32, u32)> = FastMap::default();
-        let mut runs: FastSet<(usize, u32, bool)> = FastSet::default();
-        let mut last_run = None;
-        for (fi, f) in files.iter().enumerate() {
-            if f.parameter != *parameter {
-                continue;
-            }
-            seen.reserve(f.readings.len());
-            for r in &f.readings {
-                let target = if r.target == 0.0 { 0.0 } else { r.target };
-                let key = target.to_bits();
-                if let Some((line, column)) =
-                    seen.insert((key, fi, r.run, r.up), (r.line, r.column))
-                {
-                    return Err(LaserError::Data(format!(
-                        "{}: run {} approaches target {target} {} a second time (first at {})",
-                        place(fi, r.line, r.column),
-                        r.run,
-                        if r.up {
-                            "from below (+)"
-                        } else {
-                            "from above (-)"
-                        },
-                        place(fi, line, column)
-                    )));
-                }
-                if last_run != Some((fi, r.run, r.up)) {
-                    runs.insert((fi, r.run, r.up));
-                    last_run = Some((fi, r.run, r.up));
-                }
-                let k = *index.entry(key).or_insert_with(|| {
-                    targets.push(TargetAcc {
-                        target,
-                        up: Vec::new(),
-                        down: Vec::new(),
-                        first: (fi, r.line),
-                    });
-                    targets.len() - 1
-                });
-                if r.up {
-                    targets[k].up.push(r.deviation);
-                } else {
-                    targets[k].down.push(r.deviation);
-                }
-            }
-        }
-        drop(seen);
-        targets.sort_by(|a, b| a.target.total_cmp(&b.target));
-        for t in &targets {
-            if t.up.is_empty() || t.down.is_empty() {
-                return Err(LaserError::Data(format!(
-                    "{}: {parameter} at target {} has no reading approached {} (every target needs both approaches, + and -)",
-                    place(t.first.0, t.first.1, 1),
-                    t.target,
-                    if t.up.is_empty() {
-                        "from below (+)"
-                    } else {
-                        "from above (-)"
-                    }
-                )));
-            }
-        }
-        if targets.len() < crate::machine::table::MIN_ROWS {
-            let fi = files
-                .iter()
-                .position(|f| f.parameter == *parameter)
-                .unwrap_or(0);
-            return Err(LaserError::Data(format!(
-                "{}: {parameter} has {} targets, but an error table needs at least {} to be fitted",
-                files[fi].path.display(),
-                targets.len(),
-                crate::machine::table::MIN_ROWS
-            )));
-        }
-        let stats: Vec<TargetStats> = targets
+        let grouped = group_targets(&files, parameter)?;
+        let stats: Vec<TargetStats> = grouped
+            .targets
             .iter()
             .map(|t| iso230::target_stats(t.target, &t.up, &t.down))
             .collect();
         if let Some(first) = parameters.first() {
-            let first: &ParameterResult = first;
-            let a: Vec<f64> = first.targets.iter().map(|t| t.target).collect();
-            let b: Vec<f64> = stats.iter().map(|t| t.target).collect();
-            if a != b {
-                let odd = b
-                    .iter()
-                    .find(|t| !a.contains(t))
-                    .map(|t| format!("target {t} is not among {}'s", first.parameter))
-                    .or_else(|| {
-                        a.iter()
-                            .find(|t| !b.contains(t))
-                            .map(|t| format!("{}'s target {t} is missing", first.parameter))
-                    })
-                    .unwrap_or_default();
-                return Err(LaserError::Data(format!(
-                    "{parameter} and {} were measured at different targets ({odd}); one table needs the same positions for every column",
-                    first.parameter
-                )));
-            }
+            same_targets(first, parameter, &stats)?;
         }
-        let runs_up = runs.iter().filter(|r| r.2).count();
-        let runs_down = runs.len() - runs_up;
         parameters.push(ParameterResult {
             parameter: parameter.clone(),
             unit: if is_angular(parameter) {
@@ -240,8 +143,8 @@ pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, Las
             } else {
                 "µm"
             },
-            runs_up,
-            runs_down,
+            runs_up: grouped.runs_up,
+            runs_down: grouped.runs_down,
             figures: iso230::axis_figures(&stats),
             targets: stats,
         });
@@ -267,6 +170,131 @@ pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, Las
         files,
         parameters,
     })
+}
+
+/// One parameter's readings grouped by target (ascending), and its runs.
+struct Grouped {
+    targets: Vec<TargetAcc>,
+    runs_up: usize,
+    runs_down: usize,
+}
+
+/// `file:line:column` of a reading of `files[file]`.
+fn place(files: &[FileReadings], file: usize, line: u32, column: u32) -> String {
+    format!("{}:{line}:{column}", files[file].path.display())
+}
+
+fn approach_words(up: bool) -> &'static str {
+    if up {
+        "from below (+)"
+    } else {
+        "from above (-)"
+    }
+}
+
+/// Group the readings of `parameter` over `files` by target: a run that
+/// approaches a target twice the same way, a target without both approaches,
+/// or fewer targets than a table needs are errors.
+fn group_targets(files: &[FileReadings], parameter: &str) -> Result<Grouped, LaserError> {
+    let mut index: FastMap<u64, usize> = FastMap::default();
+    let mut targets: Vec<TargetAcc> = Vec::new();
+    let mut seen: FastMap<(u64, usize, u32, bool), (u32, u32)> = FastMap::default();
+    let mut runs: FastSet<(usize, u32, bool)> = FastSet::default();
+    let mut last_run = None;
+    for (fi, f) in files.iter().enumerate() {
+        if f.parameter != parameter {
+            continue;
+        }
+        seen.reserve(f.readings.len());
+        for r in &f.readings {
+            let target = if r.target == 0.0 { 0.0 } else { r.target };
+            let key = target.to_bits();
+            if let Some((line, column)) = seen.insert((key, fi, r.run, r.up), (r.line, r.column)) {
+                return Err(LaserError::Data(format!(
+                    "{}: run {} approaches target {target} {} a second time (first at {})",
+                    place(files, fi, r.line, r.column),
+                    r.run,
+                    approach_words(r.up),
+                    place(files, fi, line, column)
+                )));
+            }
+            if last_run != Some((fi, r.run, r.up)) {
+                runs.insert((fi, r.run, r.up));
+                last_run = Some((fi, r.run, r.up));
+            }
+            let k = *index.entry(key).or_insert_with(|| {
+                targets.push(TargetAcc {
+                    target,
+                    up: Vec::new(),
+                    down: Vec::new(),
+                    first: (fi, r.line),
+                });
+                targets.len() - 1
+            });
+            if r.up {
+                targets[k].up.push(r.deviation);
+            } else {
+                targets[k].down.push(r.deviation);
+            }
+        }
+    }
+    drop(seen);
+    targets.sort_by(|a, b| a.target.total_cmp(&b.target));
+    for t in &targets {
+        if t.up.is_empty() || t.down.is_empty() {
+            return Err(LaserError::Data(format!(
+                "{}: {parameter} at target {} has no reading approached {} (every target needs both approaches, + and -)",
+                place(files, t.first.0, t.first.1, 1),
+                t.target,
+                approach_words(t.up.is_empty())
+            )));
+        }
+    }
+    if targets.len() < crate::machine::table::MIN_ROWS {
+        let fi = files
+            .iter()
+            .position(|f| f.parameter == parameter)
+            .unwrap_or(0);
+        return Err(LaserError::Data(format!(
+            "{}: {parameter} has {} targets, but an error table needs at least {} to be fitted",
+            files[fi].path.display(),
+            targets.len(),
+            crate::machine::table::MIN_ROWS
+        )));
+    }
+    let runs_up = runs.iter().filter(|r| r.2).count();
+    Ok(Grouped {
+        targets,
+        runs_up,
+        runs_down: runs.len() - runs_up,
+    })
+}
+
+/// Every parameter of one table must be measured at the first one's targets.
+fn same_targets(
+    first: &ParameterResult,
+    parameter: &str,
+    stats: &[TargetStats],
+) -> Result<(), LaserError> {
+    let a: Vec<f64> = first.targets.iter().map(|t| t.target).collect();
+    let b: Vec<f64> = stats.iter().map(|t| t.target).collect();
+    if a == b {
+        return Ok(());
+    }
+    let odd = b
+        .iter()
+        .find(|t| !a.contains(t))
+        .map(|t| format!("target {t} is not among {}'s", first.parameter))
+        .or_else(|| {
+            a.iter()
+                .find(|t| !b.contains(t))
+                .map(|t| format!("{}'s target {t} is missing", first.parameter))
+        })
+        .unwrap_or_default();
+    Err(LaserError::Data(format!(
+        "{parameter} and {} were measured at different targets ({odd}); one table needs the same positions for every column",
+        first.parameter
+    )))
 }
 
 impl LaserImport {

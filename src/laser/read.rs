@@ -393,12 +393,7 @@ pub fn read_file(path: &Path, settings: &ReadSettings) -> Result<FileReadings, L
 
 /// Parse `text` as the laser file `path` (named in errors).
 pub fn parse(text: &str, path: &Path, settings: &ReadSettings) -> Result<FileReadings, LaserError> {
-    let invalid = |line: usize, column: usize, message: String| LaserError::Invalid {
-        path: path.to_path_buf(),
-        line,
-        column,
-        message,
-    };
+    let at = Locator { path };
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .split('\n')
@@ -408,319 +403,441 @@ pub fn parse(text: &str, path: &Path, settings: &ReadSettings) -> Result<FileRea
             let t = l.trim();
             !t.is_empty() && !t.starts_with('#')
         });
-    let Some((header_line, header)) = lines.next() else {
-        return Err(invalid(
+    let Some((header_line, header_text)) = lines.next() else {
+        return Err(at.invalid(
             1,
             1,
             "empty file: expected a header such as `target,run,direction,deviation`".into(),
         ));
     };
-    let separator = if header.contains('\t') {
-        '\t'
-    } else if header.contains(';') {
-        ';'
-    } else {
-        ','
-    };
+    let header = Header::read(header_text, header_line, &at)?;
+    let units = Units::read(&header, settings, &at)?;
+    let mut readings: Vec<Reading> = Vec::new();
     let mut decimal_comma = false;
     let mut fields = Vec::new();
-    split_fields(header, separator, &mut fields);
-    let mut cells: Vec<HeaderCell> = Vec::new();
-    for (start, raw) in &fields {
-        let column = char_column(header, *start);
-        let (name, unit) = split_unit(raw);
-        let Some(role) = classify(&name, column) else {
-            return Err(invalid(
-                header_line,
-                column,
-                format!(
-                    "unknown column `{raw}`: expected target, run, direction, deviation (long layout), \
-+ and - deviations (paired) or run columns like `run 1 +` (wide; docs/extensions.md)"
-                ),
-            ));
+    for (line_no, line) in lines {
+        split_fields(line, header.separator, &mut fields);
+        let row = Row {
+            header: &header,
+            at: &at,
+            line_no,
+            line,
+            fields: &fields,
         };
-        if let Some(prev) = cells.iter().find(|c| c.role == role) {
-            return Err(invalid(
-                header_line,
-                column,
-                format!(
-                    "column `{raw}` repeats column {} (`{}`)",
-                    prev.column, prev.name
-                ),
-            ));
-        }
-        cells.push(HeaderCell {
-            role,
-            name: raw.to_string(),
-            unit,
-            column,
-        });
+        row.check_width()?;
+        decimal_comma |= fields.iter().any(|(_, f)| f.contains(','));
+        row.read(&units, &mut readings)?;
     }
-    let find = |role: Role| cells.iter().position(|c| c.role == role);
-    let target_col = find(Role::Target).ok_or_else(|| {
-        invalid(
-            header_line,
-            1,
-            format!("no target column: expected `target` (or `position`) in the header `{header}`"),
-        )
-    })?;
-    let run_col = find(Role::Run);
-    let dir_col = find(Role::Direction);
-    let dev_col = find(Role::Deviation);
-    let approach: Vec<usize> = (0..cells.len())
-        .filter(|&i| matches!(cells[i].role, Role::Approach(_)))
-        .collect();
-    let wide: Vec<usize> = (0..cells.len())
-        .filter(|&i| matches!(cells[i].role, Role::RunApproach(..)))
-        .collect();
-    let layout = match (run_col, dir_col, dev_col, approach.len(), wide.len()) {
-        (Some(_), Some(_), Some(_), 0, 0) => Layout::Long,
-        (Some(_), None, None, 2, 0) => Layout::Paired,
-        (None, None, None, 0, n) if n > 0 => Layout::Wide,
-        _ => {
-            return Err(invalid(
-                header_line,
+    if readings.is_empty() {
+        return Err(at.invalid(header_line, 1, "no data rows after the header".into()));
+    }
+    Ok(FileReadings {
+        path: path.to_path_buf(),
+        parameter: units.parameter,
+        layout: header.layout,
+        separator: header.separator,
+        decimal_comma,
+        target_unit: header.cells[header.target].unit.clone(),
+        deviation_unit: units.deviation_units.join(", "),
+        readings,
+    })
+}
+
+/// Where a file's errors are reported.
+struct Locator<'p> {
+    path: &'p Path,
+}
+
+impl Locator<'_> {
+    fn invalid(&self, line: usize, column: usize, message: String) -> LaserError {
+        LaserError::Invalid {
+            path: self.path.to_path_buf(),
+            line,
+            column,
+            message,
+        }
+    }
+}
+
+/// A file's header: its separator, its columns and the layout they make.
+struct Header {
+    line: usize,
+    separator: char,
+    cells: Vec<HeaderCell>,
+    layout: Layout,
+    /// Column indices of the roles.
+    target: usize,
+    run: Option<usize>,
+    direction: Option<usize>,
+    deviation: Option<usize>,
+    /// The paired layout's `+` and `-` columns.
+    approach: Vec<usize>,
+    /// The wide layout's `run N ±` columns.
+    wide: Vec<usize>,
+}
+
+impl Header {
+    /// Read the header line `text` (line `line` of the file).
+    fn read(text: &str, line: usize, at: &Locator) -> Result<Self, LaserError> {
+        let separator = if text.contains('\t') {
+            '\t'
+        } else if text.contains(';') {
+            ';'
+        } else {
+            ','
+        };
+        let cells = Self::cells(text, line, separator, at)?;
+        let find = |role: Role| cells.iter().position(|c| c.role == role);
+        let target = find(Role::Target).ok_or_else(|| {
+            at.invalid(
+                line,
                 1,
                 format!(
-                    "cannot tell the layout of the header `{header}`: expected `target,run,direction,deviation` \
-(long), `target,run,+,-` (paired) or `target,run 1 +,run 1 -,…` (wide), without mixing them"
-                ),
-            ));
-        }
-    };
-    // Units.
-    let rotary = settings.axis.is_rotary();
-    let tcell = &cells[target_col];
-    let target_factor = if tcell.unit.is_empty() {
-        1.0
-    } else {
-        target_unit(&tcell.unit, rotary).ok_or_else(|| {
-            invalid(
-                header_line,
-                tcell.column,
-                format!(
-                    "target unit `{}`: axis {} takes {}",
-                    tcell.unit,
-                    settings.axis.letter(),
-                    if rotary { "degrees (`deg`)" } else { "mm" }
+                    "no target column: expected `target` (or `position`) in the header `{text}`"
                 ),
             )
-        })?
-    };
-    let mut parameter = settings
-        .parameter
-        .clone()
-        .unwrap_or_else(|| positioning_parameter(settings.axis));
-    if let Some(d) = dev_col {
-        let upper = cells[d].name.trim();
-        let (name, _) = split_unit(upper);
-        let name = name.to_ascii_uppercase();
-        if is_parameter_name(&name) {
-            if let Some(given) = &settings.parameter {
-                if *given != name {
-                    return Err(invalid(
-                        header_line,
-                        cells[d].column,
-                        format!("the column measures {name}, but the file was given as {given}"),
+        })?;
+        let run = find(Role::Run);
+        let direction = find(Role::Direction);
+        let deviation = find(Role::Deviation);
+        let approach: Vec<usize> = (0..cells.len())
+            .filter(|&i| matches!(cells[i].role, Role::Approach(_)))
+            .collect();
+        let wide: Vec<usize> = (0..cells.len())
+            .filter(|&i| matches!(cells[i].role, Role::RunApproach(..)))
+            .collect();
+        let layout = match (run, direction, deviation, approach.len(), wide.len()) {
+            (Some(_), Some(_), Some(_), 0, 0) => Layout::Long,
+            (Some(_), None, None, 2, 0) => Layout::Paired,
+            (None, None, None, 0, n) if n > 0 => Layout::Wide,
+            _ => {
+                return Err(at.invalid(
+                    line,
+                    1,
+                    format!(
+                        "cannot tell the layout of the header `{text}`: expected `target,run,direction,deviation` \
+(long), `target,run,+,-` (paired) or `target,run 1 +,run 1 -,…` (wide), without mixing them"
+                    ),
+                ));
+            }
+        };
+        Ok(Header {
+            line,
+            separator,
+            cells,
+            layout,
+            target,
+            run,
+            direction,
+            deviation,
+            approach,
+            wide,
+        })
+    }
+
+    /// The header's cells, each classified; an unknown or repeated role is an error.
+    fn cells(
+        text: &str,
+        line: usize,
+        separator: char,
+        at: &Locator,
+    ) -> Result<Vec<HeaderCell>, LaserError> {
+        let mut fields = Vec::new();
+        split_fields(text, separator, &mut fields);
+        let mut cells: Vec<HeaderCell> = Vec::new();
+        for (start, raw) in &fields {
+            let column = char_column(text, *start);
+            let (name, unit) = split_unit(raw);
+            let Some(role) = classify(&name, column) else {
+                return Err(at.invalid(
+                    line,
+                    column,
+                    format!(
+                        "unknown column `{raw}`: expected target, run, direction, deviation (long layout), \
++ and - deviations (paired) or run columns like `run 1 +` (wide; docs/extensions.md)"
+                    ),
+                ));
+            };
+            if let Some(prev) = cells.iter().find(|c| c.role == role) {
+                return Err(at.invalid(
+                    line,
+                    column,
+                    format!(
+                        "column `{raw}` repeats column {} (`{}`)",
+                        prev.column, prev.name
+                    ),
+                ));
+            }
+            cells.push(HeaderCell {
+                role,
+                name: raw.to_string(),
+                unit,
+                column,
+            });
+        }
+        Ok(cells)
+    }
+
+    /// The columns that hold deviations.
+    fn value_columns(&self) -> Vec<usize> {
+        match self.layout {
+            Layout::Long => vec![self.deviation.unwrap_or(0)],
+            Layout::Paired => self.approach.clone(),
+            Layout::Wide => self.wide.clone(),
+        }
+    }
+}
+
+/// What the header says of the values: the parameter measured and the factors
+/// that bring targets and deviations to volcomp's units.
+struct Units {
+    parameter: String,
+    target_factor: f64,
+    /// Per column (1 where the column gives no unit).
+    factors: Vec<f64>,
+    /// The deviation units the file gave, each once, in column order.
+    deviation_units: Vec<String>,
+}
+
+impl Units {
+    fn read(header: &Header, settings: &ReadSettings, at: &Locator) -> Result<Self, LaserError> {
+        let cells = &header.cells;
+        let rotary = settings.axis.is_rotary();
+        let tcell = &cells[header.target];
+        let target_factor = if tcell.unit.is_empty() {
+            1.0
+        } else {
+            target_unit(&tcell.unit, rotary).ok_or_else(|| {
+                at.invalid(
+                    header.line,
+                    tcell.column,
+                    format!(
+                        "target unit `{}`: axis {} takes {}",
+                        tcell.unit,
+                        settings.axis.letter(),
+                        if rotary { "degrees (`deg`)" } else { "mm" }
+                    ),
+                )
+            })?
+        };
+        let parameter = Self::parameter(header, settings, at)?;
+        let angular = is_angular(&parameter);
+        let mut factors = vec![1.0; cells.len()];
+        let mut deviation_units: Vec<String> = Vec::new();
+        for k in header.value_columns() {
+            let cell = &cells[k];
+            if cell.unit.is_empty() {
+                continue;
+            }
+            match deviation_unit(&cell.unit) {
+                Some((f, is_angle)) if is_angle == angular => {
+                    factors[k] = f;
+                    if !deviation_units.contains(&cell.unit) {
+                        deviation_units.push(cell.unit.clone());
+                    }
+                }
+                _ => {
+                    return Err(at.invalid(
+                        header.line,
+                        cell.column,
+                        format!(
+                            "deviation unit `{}`: {parameter} is {}",
+                            cell.unit,
+                            if angular {
+                                "an angle: µrad, urad, mrad, arcsec, mm/m or µm/m"
+                            } else {
+                                "a length: µm, um, nm or mm"
+                            }
+                        ),
                     ));
                 }
             }
-            parameter = name;
         }
+        Ok(Units {
+            parameter,
+            target_factor,
+            factors,
+            deviation_units,
+        })
     }
-    if !is_parameter_of(&parameter, settings.axis) {
-        let column = dev_col.map_or(1, |d| cells[d].column);
-        return Err(invalid(
-            header_line,
-            column,
-            format!(
-                "{parameter} is not an error parameter of axis {} (E<direction>{}, e.g. {})",
-                settings.axis.letter(),
-                settings.axis.letter(),
-                positioning_parameter(settings.axis)
-            ),
-        ));
-    }
-    let angular = is_angular(&parameter);
-    let value_cols: Vec<usize> = match layout {
-        Layout::Long => vec![dev_col.unwrap_or(0)],
-        Layout::Paired => approach.clone(),
-        Layout::Wide => wide.clone(),
-    };
-    let mut factors = vec![1.0; cells.len()];
-    let mut units: Vec<String> = Vec::new();
-    for &k in &value_cols {
-        let cell = &cells[k];
-        if cell.unit.is_empty() {
-            continue;
-        }
-        match deviation_unit(&cell.unit) {
-            Some((f, is_angle)) if is_angle == angular => {
-                factors[k] = f;
-                if !units.contains(&cell.unit) {
-                    units.push(cell.unit.clone());
+
+    /// The parameter measured: the deviation column's name when it is one
+    /// (and agrees with the settings), else the settings', else the axis's
+    /// positioning parameter; it must belong to the axis.
+    fn parameter(
+        header: &Header,
+        settings: &ReadSettings,
+        at: &Locator,
+    ) -> Result<String, LaserError> {
+        let cells = &header.cells;
+        let mut parameter = settings
+            .parameter
+            .clone()
+            .unwrap_or_else(|| positioning_parameter(settings.axis));
+        if let Some(d) = header.deviation {
+            let (name, _) = split_unit(cells[d].name.trim());
+            let name = name.to_ascii_uppercase();
+            if is_parameter_name(&name) {
+                if let Some(given) = &settings.parameter {
+                    if *given != name {
+                        return Err(at.invalid(
+                            header.line,
+                            cells[d].column,
+                            format!(
+                                "the column measures {name}, but the file was given as {given}"
+                            ),
+                        ));
+                    }
                 }
-            }
-            _ => {
-                return Err(invalid(
-                    header_line,
-                    cell.column,
-                    format!(
-                        "deviation unit `{}`: {parameter} is {}",
-                        cell.unit,
-                        if angular {
-                            "an angle: µrad, urad, mrad, arcsec, mm/m or µm/m"
-                        } else {
-                            "a length: µm, um, nm or mm"
-                        }
-                    ),
-                ));
+                parameter = name;
             }
         }
-    }
-    // Rows.
-    let mut readings: Vec<Reading> = Vec::new();
-    let width = cells.len();
-    for (line_no, line) in lines {
-        split_fields(line, separator, &mut fields);
-        if fields.len() != width {
-            let column = if fields.len() > width {
-                char_column(line, fields[width].0)
-            } else {
-                line.chars().count() + 1
-            };
-            return Err(invalid(
-                line_no,
+        if !is_parameter_of(&parameter, settings.axis) {
+            let column = header.deviation.map_or(1, |d| cells[d].column);
+            return Err(at.invalid(
+                header.line,
                 column,
                 format!(
-                    "{} fields, but the header (line {header_line}) has {width} columns{}",
-                    fields.len(),
-                    if fields.len() < width {
-                        format!("; the cell of `{}` is missing", cells[fields.len()].name)
-                    } else {
-                        String::new()
-                    }
+                    "{parameter} is not an error parameter of axis {} (E<direction>{}, e.g. {})",
+                    settings.axis.letter(),
+                    settings.axis.letter(),
+                    positioning_parameter(settings.axis)
                 ),
             ));
         }
-        let cell = |k: usize| -> Result<(&str, usize), LaserError> {
-            let (start, text) = &fields[k];
-            let column = char_column(line, *start);
-            if text.is_empty() {
-                return Err(invalid(
-                    line_no,
-                    column,
-                    format!(
-                        "empty cell in column `{}`: every cell needs a value",
-                        cells[k].name
-                    ),
-                ));
-            }
-            Ok((text.as_ref(), column))
+        Ok(parameter)
+    }
+}
+
+/// One data row, split into its fields.
+struct Row<'a> {
+    header: &'a Header,
+    at: &'a Locator<'a>,
+    line_no: usize,
+    line: &'a str,
+    fields: &'a [(usize, std::borrow::Cow<'a, str>)],
+}
+
+impl Row<'_> {
+    /// As many fields as the header has columns.
+    fn check_width(&self) -> Result<(), LaserError> {
+        let width = self.header.cells.len();
+        let found = self.fields.len();
+        if found == width {
+            return Ok(());
+        }
+        let column = if found > width {
+            char_column(self.line, self.fields[width].0)
+        } else {
+            self.line.chars().count() + 1
         };
-        let number = |k: usize| -> Result<(f64, usize), LaserError> {
-            let (text, column) = cell(k)?;
-            parse_number(text).map(|v| (v, column)).ok_or_else(|| {
-                invalid(
-                    line_no,
-                    column,
+        Err(self.at.invalid(
+            self.line_no,
+            column,
+            format!(
+                "{found} fields, but the header (line {}) has {width} columns{}",
+                self.header.line,
+                if found < width {
                     format!(
-                        "`{text}` in column `{}` is not a finite number",
-                        cells[k].name
-                    ),
-                )
+                        "; the cell of `{}` is missing",
+                        self.header.cells[found].name
+                    )
+                } else {
+                    String::new()
+                }
+            ),
+        ))
+    }
+
+    /// The text of column `k` and its column; empty cells are errors.
+    fn cell(&self, k: usize) -> Result<(&str, usize), LaserError> {
+        let (start, text) = &self.fields[k];
+        let column = char_column(self.line, *start);
+        if text.is_empty() {
+            return Err(self.at.invalid(
+                self.line_no,
+                column,
+                format!(
+                    "empty cell in column `{}`: every cell needs a value",
+                    self.header.cells[k].name
+                ),
+            ));
+        }
+        Ok((text.as_ref(), column))
+    }
+
+    fn number(&self, k: usize) -> Result<(f64, usize), LaserError> {
+        let (text, column) = self.cell(k)?;
+        parse_number(text).map(|v| (v, column)).ok_or_else(|| {
+            self.at.invalid(
+                self.line_no,
+                column,
+                format!(
+                    "`{text}` in column `{}` is not a finite number",
+                    self.header.cells[k].name
+                ),
+            )
+        })
+    }
+
+    fn run(&self, k: usize) -> Result<u32, LaserError> {
+        let (text, column) = self.cell(k)?;
+        match text.parse::<u32>() {
+            Ok(r) if r >= 1 => Ok(r),
+            _ => Err(self.at.invalid(
+                self.line_no,
+                column,
+                format!("run `{text}` is not a whole number from 1"),
+            )),
+        }
+    }
+
+    /// The row's readings, appended to `out` in column order.
+    fn read(&self, units: &Units, out: &mut Vec<Reading>) -> Result<(), LaserError> {
+        let header = self.header;
+        let target = self.number(header.target)?.0 * units.target_factor;
+        let reading = |k: usize, run: u32, up: bool| -> Result<Reading, LaserError> {
+            let (v, column) = self.number(k)?;
+            Ok(Reading {
+                target,
+                run,
+                up,
+                deviation: v * units.factors[k],
+                line: self.line_no as u32,
+                column: column as u32,
             })
         };
-        let run_of = |k: usize| -> Result<u32, LaserError> {
-            let (text, column) = cell(k)?;
-            match text.parse::<u32>() {
-                Ok(r) if r >= 1 => Ok(r),
-                _ => Err(invalid(
-                    line_no,
-                    column,
-                    format!("run `{text}` is not a whole number from 1"),
-                )),
-            }
-        };
-        if !decimal_comma && fields.iter().any(|(_, f)| f.contains(',')) {
-            decimal_comma = true;
-        }
-        let target = number(target_col)?.0 * target_factor;
-        let line32 = line_no as u32;
-        match layout {
+        match header.layout {
             Layout::Long => {
-                let run = run_of(run_col.unwrap_or(0))?;
-                let (dtext, dcol) = cell(dir_col.unwrap_or(0))?;
+                let run = self.run(header.run.unwrap_or(0))?;
+                let (dtext, dcol) = self.cell(header.direction.unwrap_or(0))?;
                 let up = parse_direction(dtext).ok_or_else(|| {
-                    invalid(
-                        line_no,
+                    self.at.invalid(
+                        self.line_no,
                         dcol,
                         format!("direction `{dtext}`: expected + or - (also up/down, fwd/rev)"),
                     )
                 })?;
-                let k = dev_col.unwrap_or(0);
-                let (v, column) = number(k)?;
-                readings.push(Reading {
-                    target,
-                    run,
-                    up,
-                    deviation: v * factors[k],
-                    line: line32,
-                    column: column as u32,
-                });
+                out.push(reading(header.deviation.unwrap_or(0), run, up)?);
             }
             Layout::Paired => {
-                let run = run_of(run_col.unwrap_or(0))?;
-                for &k in &approach {
-                    let Role::Approach(up) = cells[k].role else {
-                        continue;
-                    };
-                    let (v, column) = number(k)?;
-                    readings.push(Reading {
-                        target,
-                        run,
-                        up,
-                        deviation: v * factors[k],
-                        line: line32,
-                        column: column as u32,
-                    });
+                let run = self.run(header.run.unwrap_or(0))?;
+                for &k in &header.approach {
+                    if let Role::Approach(up) = header.cells[k].role {
+                        out.push(reading(k, run, up)?);
+                    }
                 }
             }
             Layout::Wide => {
-                for &k in &wide {
-                    let Role::RunApproach(run, up) = cells[k].role else {
-                        continue;
-                    };
-                    let (v, column) = number(k)?;
-                    readings.push(Reading {
-                        target,
-                        run,
-                        up,
-                        deviation: v * factors[k],
-                        line: line32,
-                        column: column as u32,
-                    });
+                for &k in &header.wide {
+                    if let Role::RunApproach(run, up) = header.cells[k].role {
+                        out.push(reading(k, run, up)?);
+                    }
                 }
             }
         }
+        Ok(())
     }
-    if readings.is_empty() {
-        return Err(invalid(
-            header_line,
-            1,
-            "no data rows after the header".into(),
-        ));
-    }
-    Ok(FileReadings {
-        path: path.to_path_buf(),
-        parameter,
-        layout,
-        separator,
-        decimal_comma,
-        target_unit: tcell.unit.clone(),
-        deviation_unit: units.join(", "),
-        readings,
-    })
 }
 
 #[cfg(test)]

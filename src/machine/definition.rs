@@ -720,161 +720,15 @@ impl Machine {
             }
         })?;
 
-        let kinematics = match raw.kinematics.get_ref().as_str() {
-            "xyzac-trt" => KinematicsType::XyzacTrt,
-            "xyzbc-trt" => KinematicsType::XyzbcTrt,
-            "chain" => KinematicsType::Chain,
-            other => {
-                return Err(src.invalid(
-                    raw.kinematics.span(),
-                    "kinematics",
-                    format!(
-                        "unsupported kinematics \"{other}\" (expected \"xyzac-trt\", \"xyzbc-trt\" or \"chain\")"
-                    ),
-                ));
-            }
-        };
+        let kinematics = kinematics_type(&src, &raw)?;
         let chain = match kinematics {
             KinematicsType::Chain => described_chain(&src, &raw)?,
             preset => preset_chain(&src, &raw, preset)?,
         };
-        let letters = chain.letters();
-        let layout = chain.layout();
-        let (length, radius) = (*raw.tool.length.get_ref(), *raw.tool.radius.get_ref());
-        src.finite(raw.tool.length.span(), "tool.length", &[length])?;
-        src.finite(raw.tool.radius.span(), "tool.radius", &[radius])?;
-        if length < 0.0 {
-            return Err(src.invalid(raw.tool.length.span(), "tool.length", "must be ≥ 0 mm"));
-        }
-        if radius < 0.0 {
-            return Err(src.invalid(raw.tool.radius.span(), "tool.radius", "must be ≥ 0 mm"));
-        }
-        let shape = cutter_shape(
-            raw.tool.shape.as_ref().map(|s| s.get_ref().as_str()),
-            radius,
-            raw.tool.corner_radius,
-            raw.tool.flute_length,
-        )
-        .map_err(|message| {
-            let span = raw
-                .tool
-                .shape
-                .as_ref()
-                .map_or(raw.tool.radius.span(), |s| s.span());
-            src.invalid(span, "tool.shape", message)
-        })?;
-        let tool = Tool {
-            length,
-            radius,
-            shape,
-        };
-        let mut tools = crate::gcode::ToolTable::new();
-        tools.set_source(format!("{} [[tools]]", path.display()));
-        for entry in &raw.tools {
-            let span = entry.span();
-            let e = entry.get_ref();
-            let key = format!("tools (T{})", e.number);
-            src.finite(span.clone(), &key, &[e.length, e.radius])?;
-            if e.number == 0 {
-                return Err(src.invalid(
-                    span,
-                    &key,
-                    "tool 0 is the empty spindle ([tool] is the default tool): number tools from 1",
-                ));
-            }
-            if e.length < 0.0 || e.radius < 0.0 {
-                return Err(src.invalid(
-                    span,
-                    &key,
-                    "length (gauge point to tip) and radius must be ≥ 0 mm",
-                ));
-            }
-            let shape = cutter_shape(
-                e.shape.as_deref(),
-                e.radius,
-                e.corner_radius,
-                e.flute_length,
-            )
-            .map_err(|message| src.invalid(span.clone(), &key, message))?;
-            let (line, _) = line_column(text, span.start);
-            tools
-                .insert(crate::gcode::ToolEntry {
-                    number: e.number,
-                    pocket: e.pocket,
-                    length_mm: e.length,
-                    diameter_mm: 2.0 * e.radius,
-                    shape,
-                    comment: e.comment.clone(),
-                    origin: format!("{}:{line}", path.display()),
-                })
-                .map_err(|first| {
-                    src.invalid(
-                        span,
-                        &key,
-                        format!("tool {} is listed twice (first at {first})", e.number),
-                    )
-                })?;
-        }
-        // Limits: every linear axis of the machine; a rotary axis may be omitted
-        // (endless), but the tilting axis of the presets is required (formats.md).
-        let limits_span = raw.limits.span();
-        let mut limits = Limits::default();
-        for (name, value) in raw.limits.get_ref() {
-            let key = format!("limits.{name}");
-            let axis = src.letter(value.span(), &key, name)?;
-            if !letters.contains(axis) {
-                return Err(src.invalid(
-                    value.span(),
-                    &key,
-                    format!(
-                        "the machine has no axis {} (its axes: {})",
-                        axis.letter(),
-                        letters.letters()
-                    ),
-                ));
-            }
-            if limits.get(axis).is_some() {
-                return Err(src.invalid(
-                    value.span(),
-                    &key,
-                    format!("limits of {} given twice", axis.letter()),
-                ));
-            }
-            limits.set(axis, Some(src.range(&key, value)?));
-        }
-        let tilting = match kinematics {
-            KinematicsType::XyzacTrt => Some(Axis::A),
-            KinematicsType::XyzbcTrt => Some(Axis::B),
-            KinematicsType::Chain => None,
-        };
-        for axis in letters.iter() {
-            if limits.get(axis).is_none() && (!axis.is_rotary() || Some(axis) == tilting) {
-                return Err(src.invalid(
-                    limits_span.clone(),
-                    &format!("limits.{}", axis.lower()),
-                    format!(
-                        "missing the travel of {} ([min, max], {})",
-                        axis.letter(),
-                        axis.unit()
-                    ),
-                ));
-            }
-        }
-        let (rapid_mm_per_min, rapid_is_default) =
-            match raw.rates.as_ref().and_then(|r| r.rapid.as_ref()) {
-                Some(rapid) => {
-                    let v = *rapid.get_ref();
-                    if !(v.is_finite() && v > 0.0) {
-                        return Err(src.invalid(
-                            rapid.span(),
-                            "rates.rapid",
-                            "must be a positive number (mm/min)",
-                        ));
-                    }
-                    (v, false)
-                }
-                None => (DEFAULT_RAPID_MM_PER_MIN, true),
-            };
+        let tool = default_tool(&src, &raw.tool)?;
+        let tools = tool_table(&src, &raw.tools)?;
+        let limits = travel_limits(&src, &raw, &chain, kinematics)?;
+        let (rapid_mm_per_min, rapid_is_default) = rapid_rate(&src, &raw)?;
         let squareness = match &raw.squareness {
             Some(s) => {
                 let r = s.get_ref();
@@ -884,61 +738,8 @@ impl Machine {
             }
             None => [0.0; 3],
         };
-        let mut location = [0.0; 10];
-        if let Some(l) = &raw.location {
-            let names = layout.location_names();
-            for (name, value) in l.get_ref() {
-                let key = format!("location.{name}");
-                let Some(i) = names.iter().position(|n| n == name) else {
-                    return Err(src.invalid(
-                        value.span(),
-                        &key,
-                        format!(
-                            "unknown location error `{name}`: this machine's rotary axes {} and {} take {}",
-                            layout.rotary()[0].letter(),
-                            layout.rotary()[1].letter(),
-                            names.join(", ")
-                        ),
-                    ));
-                };
-                src.finite(value.span(), &key, &[*value.get_ref()])?;
-                location[i] = *value.get_ref();
-            }
-        }
-
-        let base = path.parent().unwrap_or(Path::new(""));
-        let mut tables: [Option<ErrorTable>; 5] = Default::default();
-        if let Some(errors) = &raw.errors {
-            for (name, entry) in errors.get_ref() {
-                let key = format!("errors.{name}");
-                let axis = src.letter(entry.span(), &key, name)?;
-                let slot = modelled_slot(&chain, axis, "error tables")
-                    .map_err(|why| src.invalid(entry.span(), &key, why))?;
-                if tables[slot].is_some() {
-                    return Err(src.invalid(
-                        entry.span(),
-                        &key,
-                        format!("the table of {} is given twice", axis.letter()),
-                    ));
-                }
-                let table_path = base.join(entry.get_ref());
-                let table = ErrorTable::read(&table_path, Some(axis)).map_err(|source| {
-                    let (line, column) = line_column(text, entry.span().start);
-                    MachineError::Table {
-                        path: path.to_path_buf(),
-                        line,
-                        column,
-                        key: key.clone(),
-                        source: Box::new(source),
-                    }
-                })?;
-                if options.extrapolation == ExtrapolationPolicy::Error {
-                    check_coverage(&src, &raw, &limits, axis, &table, &key)?;
-                }
-                tables[slot] = Some(table);
-            }
-        }
-
+        let location = location_errors(&src, &raw, &chain)?;
+        let tables = error_tables(&src, &raw, &chain, &limits, options)?;
         let reversal = reversal_constants(&src, &raw, &chain, &tables)?;
 
         Ok(Machine {
@@ -1012,6 +813,257 @@ impl Machine {
         debug_assert_eq!(SQUARENESS_NAMES.len(), 3);
         values
     }
+}
+
+/// The `kinematics` key.
+fn kinematics_type(src: &Source<'_>, raw: &RawMachine) -> Result<KinematicsType, MachineError> {
+    match raw.kinematics.get_ref().as_str() {
+        "xyzac-trt" => Ok(KinematicsType::XyzacTrt),
+        "xyzbc-trt" => Ok(KinematicsType::XyzbcTrt),
+        "chain" => Ok(KinematicsType::Chain),
+        other => Err(src.invalid(
+            raw.kinematics.span(),
+            "kinematics",
+            format!(
+                "unsupported kinematics \"{other}\" (expected \"xyzac-trt\", \"xyzbc-trt\" or \"chain\")"
+            ),
+        )),
+    }
+}
+
+/// `[tool]`: the default tool.
+fn default_tool(src: &Source<'_>, raw: &RawTool) -> Result<Tool, MachineError> {
+    let (length, radius) = (*raw.length.get_ref(), *raw.radius.get_ref());
+    src.finite(raw.length.span(), "tool.length", &[length])?;
+    src.finite(raw.radius.span(), "tool.radius", &[radius])?;
+    if length < 0.0 {
+        return Err(src.invalid(raw.length.span(), "tool.length", "must be ≥ 0 mm"));
+    }
+    if radius < 0.0 {
+        return Err(src.invalid(raw.radius.span(), "tool.radius", "must be ≥ 0 mm"));
+    }
+    let shape = cutter_shape(
+        raw.shape.as_ref().map(|s| s.get_ref().as_str()),
+        radius,
+        raw.corner_radius,
+        raw.flute_length,
+    )
+    .map_err(|message| {
+        let span = raw.shape.as_ref().map_or(raw.radius.span(), |s| s.span());
+        src.invalid(span, "tool.shape", message)
+    })?;
+    Ok(Tool {
+        length,
+        radius,
+        shape,
+    })
+}
+
+/// `[[tools]]`: the tool table (each entry located in the machine file).
+fn tool_table(
+    src: &Source<'_>,
+    entries: &[Spanned<RawToolEntry>],
+) -> Result<crate::gcode::ToolTable, MachineError> {
+    let path = src.path;
+    let mut tools = crate::gcode::ToolTable::new();
+    tools.set_source(format!("{} [[tools]]", path.display()));
+    for entry in entries {
+        let span = entry.span();
+        let e = entry.get_ref();
+        let key = format!("tools (T{})", e.number);
+        src.finite(span.clone(), &key, &[e.length, e.radius])?;
+        if e.number == 0 {
+            return Err(src.invalid(
+                span,
+                &key,
+                "tool 0 is the empty spindle ([tool] is the default tool): number tools from 1",
+            ));
+        }
+        if e.length < 0.0 || e.radius < 0.0 {
+            return Err(src.invalid(
+                span,
+                &key,
+                "length (gauge point to tip) and radius must be ≥ 0 mm",
+            ));
+        }
+        let shape = cutter_shape(
+            e.shape.as_deref(),
+            e.radius,
+            e.corner_radius,
+            e.flute_length,
+        )
+        .map_err(|message| src.invalid(span.clone(), &key, message))?;
+        let (line, _) = line_column(src.text, span.start);
+        tools
+            .insert(crate::gcode::ToolEntry {
+                number: e.number,
+                pocket: e.pocket,
+                length_mm: e.length,
+                diameter_mm: 2.0 * e.radius,
+                shape,
+                comment: e.comment.clone(),
+                origin: format!("{}:{line}", path.display()),
+            })
+            .map_err(|first| {
+                src.invalid(
+                    span,
+                    &key,
+                    format!("tool {} is listed twice (first at {first})", e.number),
+                )
+            })?;
+    }
+    Ok(tools)
+}
+
+/// `[limits]`: every linear axis of the machine; a rotary axis may be omitted
+/// (endless), but the tilting axis of the presets is required (formats.md).
+fn travel_limits(
+    src: &Source<'_>,
+    raw: &RawMachine,
+    chain: &MachineChain,
+    kinematics: KinematicsType,
+) -> Result<Limits, MachineError> {
+    let letters = chain.letters();
+    let limits_span = raw.limits.span();
+    let mut limits = Limits::default();
+    for (name, value) in raw.limits.get_ref() {
+        let key = format!("limits.{name}");
+        let axis = src.letter(value.span(), &key, name)?;
+        if !letters.contains(axis) {
+            return Err(src.invalid(
+                value.span(),
+                &key,
+                format!(
+                    "the machine has no axis {} (its axes: {})",
+                    axis.letter(),
+                    letters.letters()
+                ),
+            ));
+        }
+        if limits.get(axis).is_some() {
+            return Err(src.invalid(
+                value.span(),
+                &key,
+                format!("limits of {} given twice", axis.letter()),
+            ));
+        }
+        limits.set(axis, Some(src.range(&key, value)?));
+    }
+    let tilting = match kinematics {
+        KinematicsType::XyzacTrt => Some(Axis::A),
+        KinematicsType::XyzbcTrt => Some(Axis::B),
+        KinematicsType::Chain => None,
+    };
+    for axis in letters.iter() {
+        if limits.get(axis).is_none() && (!axis.is_rotary() || Some(axis) == tilting) {
+            return Err(src.invalid(
+                limits_span.clone(),
+                &format!("limits.{}", axis.lower()),
+                format!(
+                    "missing the travel of {} ([min, max], {})",
+                    axis.letter(),
+                    axis.unit()
+                ),
+            ));
+        }
+    }
+    Ok(limits)
+}
+
+/// `[rates] rapid`, mm/min, and whether it is the default.
+fn rapid_rate(src: &Source<'_>, raw: &RawMachine) -> Result<(f64, bool), MachineError> {
+    match raw.rates.as_ref().and_then(|r| r.rapid.as_ref()) {
+        Some(rapid) => {
+            let v = *rapid.get_ref();
+            if !(v.is_finite() && v > 0.0) {
+                return Err(src.invalid(
+                    rapid.span(),
+                    "rates.rapid",
+                    "must be a positive number (mm/min)",
+                ));
+            }
+            Ok((v, false))
+        }
+        None => Ok((DEFAULT_RAPID_MM_PER_MIN, true)),
+    }
+}
+
+/// `[location]`: the rotary axes' location errors, by the layout's names.
+fn location_errors(
+    src: &Source<'_>,
+    raw: &RawMachine,
+    chain: &MachineChain,
+) -> Result<[f64; 10], MachineError> {
+    let mut location = [0.0; 10];
+    let Some(l) = &raw.location else {
+        return Ok(location);
+    };
+    let layout = chain.layout();
+    let names = layout.location_names();
+    for (name, value) in l.get_ref() {
+        let key = format!("location.{name}");
+        let Some(i) = names.iter().position(|n| n == name) else {
+            return Err(src.invalid(
+                value.span(),
+                &key,
+                format!(
+                    "unknown location error `{name}`: this machine's rotary axes {} and {} take {}",
+                    layout.rotary()[0].letter(),
+                    layout.rotary()[1].letter(),
+                    names.join(", ")
+                ),
+            ));
+        };
+        src.finite(value.span(), &key, &[*value.get_ref()])?;
+        location[i] = *value.get_ref();
+    }
+    Ok(location)
+}
+
+/// `[errors]`: each axis's error table, read relative to the machine file's
+/// folder (coverage of the travel checked as `options` say).
+fn error_tables(
+    src: &Source<'_>,
+    raw: &RawMachine,
+    chain: &MachineChain,
+    limits: &Limits,
+    options: &LoadOptions,
+) -> Result<[Option<ErrorTable>; 5], MachineError> {
+    let path = src.path;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut tables: [Option<ErrorTable>; 5] = Default::default();
+    let Some(errors) = &raw.errors else {
+        return Ok(tables);
+    };
+    for (name, entry) in errors.get_ref() {
+        let key = format!("errors.{name}");
+        let axis = src.letter(entry.span(), &key, name)?;
+        let slot = modelled_slot(chain, axis, "error tables")
+            .map_err(|why| src.invalid(entry.span(), &key, why))?;
+        if tables[slot].is_some() {
+            return Err(src.invalid(
+                entry.span(),
+                &key,
+                format!("the table of {} is given twice", axis.letter()),
+            ));
+        }
+        let table_path = base.join(entry.get_ref());
+        let table = ErrorTable::read(&table_path, Some(axis)).map_err(|source| {
+            let (line, column) = line_column(src.text, entry.span().start);
+            MachineError::Table {
+                path: path.to_path_buf(),
+                line,
+                column,
+                key: key.clone(),
+                source: Box::new(source),
+            }
+        })?;
+        if options.extrapolation == ExtrapolationPolicy::Error {
+            check_coverage(src, raw, limits, axis, &table, &key)?;
+        }
+        tables[slot] = Some(table);
+    }
+    Ok(tables)
 }
 
 /// `[reversal]` (docs/extensions.md): `X = 8.0` (µm; µrad for a rotary axis)

@@ -89,12 +89,7 @@ impl ErrorTable {
 
     /// Parse `text` as the table `path` (named in errors).
     pub fn parse(text: &str, path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
-        let err = |line: usize, column: Option<String>, message: String| TableError::Invalid {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message,
-        };
+        let at = TableSource { path };
         // A byte order mark (spreadsheets write one) is not part of the header.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
@@ -102,126 +97,49 @@ impl ErrorTable {
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let Some((header_line, header)) = lines.next() else {
-            return Err(err(
+        let Some((header_line, header_text)) = lines.next() else {
+            return Err(at.invalid(
                 1,
                 None,
                 "empty table: expected a header `position,EXX,...`".into(),
             ));
         };
-        let names: Vec<String> = header
-            .split(',')
-            .map(|s| s.trim().to_ascii_uppercase())
-            .collect();
-        let raw_names: Vec<&str> = header.split(',').map(str::trim).collect();
-        // Columns are named as written in the file.
-        let col_label = |i: usize, _names: &[String]| {
-            format!("{} ({})", i + 1, raw_names.get(i).copied().unwrap_or("?"))
-        };
-        let Some(pos_col) = names.iter().position(|n| n == "POSITION") else {
-            return Err(err(
-                header_line,
-                None,
-                format!(
-                    "missing header: expected a `position` column followed by error parameters like EXX, found `{header}`"
-                ),
-            ));
-        };
-        // The axis: given, or the last letter shared by every parameter column.
-        let mut inferred: Option<Axis> = axis;
-        let mut params: Vec<(usize, String)> = Vec::new();
-        let mut reversal_col: Option<usize> = None;
-        for (i, name) in names.iter().enumerate() {
-            if i == pos_col {
-                continue;
-            }
-            if name == "REVERSAL" {
-                if reversal_col.is_some() {
-                    return Err(err(
-                        header_line,
-                        Some(col_label(i, &names)),
-                        "column `REVERSAL` appears twice".into(),
-                    ));
-                }
-                reversal_col = Some(i);
-                continue;
-            }
-            let b = name.as_bytes();
-            let valid = b.len() == 3
-                && b[0] == b'E'
-                && DIRECTIONS.contains(&(b[1] as char))
-                && Axis::from_letter(b[2] as char).is_some();
-            if !valid {
-                return Err(err(
-                    header_line,
-                    Some(col_label(i, &names)),
-                    format!(
-                        "unknown column `{name}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL"
-                    ),
-                ));
-            }
-            let col_axis = Axis::from_letter(b[2] as char).unwrap_or(Axis::X);
-            match inferred {
-                None => inferred = Some(col_axis),
-                Some(a) if a != col_axis => {
-                    return Err(err(
-                        header_line,
-                        Some(col_label(i, &names)),
-                        format!(
-                            "column `{name}` belongs to axis {}, but this is the table of axis {}",
-                            col_axis.letter(),
-                            a.letter()
-                        ),
-                    ));
-                }
-                _ => {}
-            }
-            if params.iter().any(|(_, n)| n == name) {
-                return Err(err(
-                    header_line,
-                    Some(col_label(i, &names)),
-                    format!("column `{name}` appears twice"),
-                ));
-            }
-            params.push((i, name.clone()));
-        }
-        let Some(axis) = inferred else {
-            return Err(err(header_line, None, "no error columns: cannot tell the axis (name the columns like EXX or give the axis)".into()));
-        };
+        let header = TableHeader::read(header_text, header_line, axis, &at)?;
+        let axis = header.axis;
         let mut positions: Vec<f64> = Vec::new();
-        let mut values: Vec<Vec<f64>> = vec![Vec::new(); params.len()];
+        let mut values: Vec<Vec<f64>> = vec![Vec::new(); header.params.len()];
         let mut reversal: Vec<f64> = Vec::new();
         let mut last_line = header_line;
         for (line, row) in lines {
             last_line = line;
             let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-            if fields.len() != names.len() {
-                return Err(err(
+            if fields.len() != header.width {
+                return Err(at.invalid(
                     line,
                     None,
                     format!(
                         "{} fields, but the header has {} columns",
                         fields.len(),
-                        names.len()
+                        header.width
                     ),
                 ));
             }
             let number = |i: usize| -> Result<f64, TableError> {
                 match fields[i].parse::<f64>() {
                     Ok(v) if v.is_finite() => Ok(v),
-                    _ => Err(err(
+                    _ => Err(at.invalid(
                         line,
-                        Some(col_label(i, &names)),
+                        Some(header.label(i)),
                         format!("`{}` is not a finite number", fields[i]),
                     )),
                 }
             };
-            let x = number(pos_col)?;
+            let x = number(header.position)?;
             if let Some(&prev) = positions.last() {
                 if x <= prev {
-                    return Err(err(
+                    return Err(at.invalid(
                         line,
-                        Some(col_label(pos_col, &names)),
+                        Some(header.label(header.position)),
                         format!(
                             "position {x} does not increase (previous row: {prev}); positions must be strictly increasing"
                         ),
@@ -229,15 +147,15 @@ impl ErrorTable {
                 }
             }
             positions.push(x);
-            for (slot, (i, _)) in params.iter().enumerate() {
+            for (slot, (i, _)) in header.params.iter().enumerate() {
                 values[slot].push(number(*i)?);
             }
-            if let Some(i) = reversal_col {
+            if let Some(i) = header.reversal {
                 reversal.push(number(i)?);
             }
         }
         if positions.len() < MIN_ROWS {
-            return Err(err(
+            return Err(at.invalid(
                 last_line,
                 None,
                 format!(
@@ -246,7 +164,7 @@ impl ErrorTable {
                 ),
             ));
         }
-        let present: Vec<&String> = params.iter().map(|(_, n)| n).collect();
+        let present: Vec<&String> = header.params.iter().map(|(_, n)| n).collect();
         let missing = DIRECTIONS
             .iter()
             .map(|&d| parameter_name(d, axis))
@@ -255,7 +173,8 @@ impl ErrorTable {
         let first = positions[0];
         let last = positions[positions.len() - 1];
         let one_revolution = axis.is_rotary() && first == 0.0 && (last - 360.0).abs() < 1e-9;
-        let columns = params
+        let columns = header
+            .params
             .into_iter()
             .zip(values)
             .map(|((_, name), values)| TableColumn { name, values })
@@ -267,7 +186,7 @@ impl ErrorTable {
             columns,
             missing,
             one_revolution,
-            reversal: reversal_col.map(|_| reversal),
+            reversal: header.reversal.map(|_| reversal),
         })
     }
 
@@ -276,5 +195,143 @@ impl ErrorTable {
         self.columns
             .iter()
             .find(|c| c.name.eq_ignore_ascii_case(name))
+    }
+}
+
+/// Column `i` as errors name it: its number and its name as written in the file.
+fn column_label(raw_names: &[String], i: usize) -> String {
+    format!(
+        "{} ({})",
+        i + 1,
+        raw_names.get(i).map_or("?", String::as_str)
+    )
+}
+
+/// Where a table's errors are reported.
+struct TableSource<'p> {
+    path: &'p Path,
+}
+
+impl TableSource<'_> {
+    fn invalid(&self, line: usize, column: Option<String>, message: String) -> TableError {
+        TableError::Invalid {
+            path: self.path.to_path_buf(),
+            line,
+            column,
+            message,
+        }
+    }
+}
+
+/// A table's header: which column is the position, which are parameters (and
+/// of which axis), which is the reversal.
+struct TableHeader {
+    /// The columns as written in the file.
+    raw_names: Vec<String>,
+    width: usize,
+    position: usize,
+    /// (column, upper-case parameter name), in file order.
+    params: Vec<(usize, String)>,
+    reversal: Option<usize>,
+    axis: Axis,
+}
+
+impl TableHeader {
+    /// Read the header line `text` (line `line`); `axis` None = infer it from
+    /// the parameter columns (the last letter shared by every one).
+    fn read(
+        text: &str,
+        line: usize,
+        axis: Option<Axis>,
+        at: &TableSource,
+    ) -> Result<Self, TableError> {
+        let names: Vec<String> = text
+            .split(',')
+            .map(|s| s.trim().to_ascii_uppercase())
+            .collect();
+        let raw_names: Vec<String> = text.split(',').map(|s| s.trim().to_string()).collect();
+        let label = |i: usize| column_label(&raw_names, i);
+        let Some(position) = names.iter().position(|n| n == "POSITION") else {
+            return Err(at.invalid(
+                line,
+                None,
+                format!(
+                    "missing header: expected a `position` column followed by error parameters like EXX, found `{text}`"
+                ),
+            ));
+        };
+        let mut inferred: Option<Axis> = axis;
+        let mut params: Vec<(usize, String)> = Vec::new();
+        let mut reversal: Option<usize> = None;
+        for (i, name) in names.iter().enumerate() {
+            if i == position {
+                continue;
+            }
+            if name == "REVERSAL" {
+                if reversal.is_some() {
+                    return Err(at.invalid(
+                        line,
+                        Some(label(i)),
+                        "column `REVERSAL` appears twice".into(),
+                    ));
+                }
+                reversal = Some(i);
+                continue;
+            }
+            let b = name.as_bytes();
+            let valid = b.len() == 3
+                && b[0] == b'E'
+                && DIRECTIONS.contains(&(b[1] as char))
+                && Axis::from_letter(b[2] as char).is_some();
+            if !valid {
+                return Err(at.invalid(
+                    line,
+                    Some(label(i)),
+                    format!(
+                        "unknown column `{name}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL"
+                    ),
+                ));
+            }
+            let col_axis = Axis::from_letter(b[2] as char).unwrap_or(Axis::X);
+            match inferred {
+                None => inferred = Some(col_axis),
+                Some(a) if a != col_axis => {
+                    return Err(at.invalid(
+                        line,
+                        Some(label(i)),
+                        format!(
+                            "column `{name}` belongs to axis {}, but this is the table of axis {}",
+                            col_axis.letter(),
+                            a.letter()
+                        ),
+                    ));
+                }
+                _ => {}
+            }
+            if params.iter().any(|(_, n)| n == name) {
+                return Err(at.invalid(
+                    line,
+                    Some(label(i)),
+                    format!("column `{name}` appears twice"),
+                ));
+            }
+            params.push((i, name.clone()));
+        }
+        let Some(axis) = inferred else {
+            return Err(at.invalid(line, None, "no error columns: cannot tell the axis (name the columns like EXX or give the axis)".into()));
+        };
+        Ok(TableHeader {
+            width: names.len(),
+            raw_names,
+            position,
+            params,
+            reversal,
+            axis,
+        })
+    }
+
+    /// Column `i` as errors name it.
+    fn label(&self, i: usize) -> String {
+        column_label(&self.raw_names, i)
     }
 }
