@@ -923,6 +923,9 @@ fn rs274_and_volcomp_read_programs_alike() {
     );
     println!("{table}\n{summary}\n({:.1} s)", elapsed.as_secs_f64());
     if only.is_none() && std::env::var("VOLCOMP_WRITE_RS274_TABLE").is_ok_and(|v| v == "1") {
+        // rs274's messages name files by absolute path: the page names them
+        // from the checkout's root, wherever it is.
+        let table = table.replace(&format!("{}/", support::root().display()), "");
         let doc = format!(
             "# Differential test against LinuxCNC's rs274\n\n\
              LinuxCNC's standalone interpreter `rs274` (2.9, Debian package `linuxcnc-uspace`) \
