@@ -223,6 +223,10 @@ struct PoseJson<'a> {
     u_um: Option<[f64; 3]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     contributions: Option<&'a [crate::machine::Contribution]>,
+    /// The approach the error is for, as `--direction` takes it (`X+,Y-`),
+    /// when `--direction` was given (extension).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    approach: Option<String>,
 }
 
 fn fmt3(v: [f64; 3], decimals: usize) -> String {
@@ -292,6 +296,14 @@ impl Job<'_> {
         joints_of(self.model.kinematics(), self.args.frame.into(), pose)
     }
 
+    /// The approach for the JSON output: `X+,Y-` when `--direction` was given.
+    fn approach_json(&self) -> Option<String> {
+        self.args
+            .direction
+            .is_some()
+            .then(|| self.approach.describe().replace(' ', ","))
+    }
+
     /// The standard uncertainty of e per axis, where the model carries one.
     fn uncertainty(&self, joints: &Axes) -> anyhow::Result<Option<[f64; 3]>> {
         Ok(if self.model.has_uncertainty() {
@@ -318,6 +330,7 @@ impl Job<'_> {
                 axis_urad: v.axis_urad,
                 u_um: u,
                 contributions: contributions.as_deref(),
+                approach: self.approach_json(),
             };
             crate::cli::outln!("{}", serde_json::to_string_pretty(&obj)?);
             return Ok(());
@@ -419,6 +432,7 @@ impl Job<'_> {
                     axis_urad: v.axis_urad,
                     u_um: *u,
                     contributions: None,
+                    approach: self.approach_json(),
                 })
                 .collect();
             crate::cli::outln!("{}", serde_json::to_string(&list)?);

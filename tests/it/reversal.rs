@@ -7,7 +7,7 @@ use crate::compensate::{
     NominalPath, PathError, Rig, compensate_on, interpret_options_on, program_on,
 };
 use crate::support::{assert_success, root, volcomp};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::Frame;
@@ -225,22 +225,31 @@ fn saddle_closed_loop_with_and_without_the_reversal_model() {
 /// missing sign are usage errors naming the column.
 #[test]
 fn error_takes_the_approach_direction() {
-    let e = |extra: &[&str]| -> [f64; 3] {
+    let json = |machine: &Path, extra: &[&str]| -> serde_json::Value {
         let out = volcomp()
             .args(["error"])
-            .arg(machine_file())
+            .arg(machine)
             .args(["--at", "50,20,-30,0,0", "--json"])
             .args(extra)
+            .current_dir(root())
             .output()
             .unwrap();
         assert_success(&out);
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let e = &v["e_um"];
-        [0, 1, 2].map(|k| e[k].as_f64().unwrap())
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let e = |extra: &[&str]| -> [f64; 3] {
+        let v = json(machine_file(), extra);
+        [0, 1, 2].map(|k| v["e_um"][k].as_f64().unwrap())
     };
     let mean = e(&[]);
     let up = e(&["--direction", "X+,Y+"]);
     let down = e(&["--direction", "x-,Y+"]);
+    // The JSON says which approach its error is for, as --direction takes it.
+    assert_eq!(
+        json(machine_file(), &["--direction", "x-, y+"])["approach"],
+        "X-,Y+"
+    );
+    assert!(json(machine_file(), &[]).get("approach").is_none());
     // At A0 C0 the X joint moves along the part's X.
     assert!(
         ((up[0] - down[0]).abs() - REVERSAL_UM).abs() < 1e-3,
@@ -269,33 +278,13 @@ fn error_takes_the_approach_direction() {
         assert!(stderr.contains(says), "{arg}: {stderr}");
         assert!(out.stdout.is_empty());
     }
-    // Directions change nothing on a machine without a reversal.
-    let out = volcomp()
-        .args([
-            "error",
-            "machines/ref-trt.toml",
-            "--at",
-            "50,20,-30,0,0",
-            "--json",
-            "--direction",
-            "X+",
-        ])
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let plain = volcomp()
-        .args([
-            "error",
-            "machines/ref-trt.toml",
-            "--at",
-            "50,20,-30,0,0",
-            "--json",
-        ])
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_eq!(out.stdout, plain.stdout);
+    // Directions change nothing on a machine without a reversal (but the
+    // echo of the approach).
+    let reference = Path::new("machines/ref-trt.toml");
+    let mut with = json(reference, &["--direction", "X+"]);
+    assert_eq!(with["approach"], "X+");
+    with.as_object_mut().unwrap().remove("approach");
+    assert_eq!(with, json(reference, &[]));
 }
 
 /// The model: ±REVERSAL/2 on the positioning parameter, nothing without a
