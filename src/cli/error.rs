@@ -1,6 +1,7 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
 use super::common::{FrameArg, ModelArgs, load_model};
 use crate::axes::Axes;
+use crate::gcode::Pose;
 use crate::kinematics::VolumetricError;
 use crate::toolpath::joints_of;
 use anyhow::{Context, anyhow};
@@ -255,7 +256,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let model = model.with_tool_length(tool.length_mm);
     let kin = model.kinematics();
     let frame = args.frame.into();
-    let to_joints = |pose: &Axes| joints_of(kin, frame, pose);
+    let to_joints = |pose: &Axes| joints_of(kin, &Pose::in_frame(frame, *pose));
     let uncertain = model.has_uncertainty();
     let uncertainty = |joints: &Axes| -> anyhow::Result<Option<[f64; 3]>> {
         Ok(if uncertain {
