@@ -4,7 +4,9 @@
 //! All values are absolute, in mm and degrees (G20 input is converted), in the
 //! frame the block was programmed in. `gcode` knows nothing about kinematics:
 //! a part-frame target is reported as programmed, and the layers that know the
-//! machine turn it into joints.
+//! machine turn it into joints: a consumer takes a target as a [`Pose`]
+//! ([`Motion::end_pose`]), tagged with its frame, and `toolpath::joints_of` is
+//! the one conversion.
 use crate::axes::{Axes, Joints};
 use serde::{Deserialize, Serialize};
 
