@@ -1,6 +1,6 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
 use super::common::{FrameArg, ModelArgs, load_model};
-use crate::axes::Axes;
+use crate::axes::{Axes, Joints};
 use crate::gcode::Pose;
 use crate::kinematics::VolumetricError;
 use crate::toolpath::joints_of;
@@ -258,7 +258,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let frame = args.frame.into();
     let to_joints = |pose: &Axes| joints_of(kin, &Pose::in_frame(frame, *pose));
     let uncertain = model.has_uncertainty();
-    let uncertainty = |joints: &Axes| -> anyhow::Result<Option<[f64; 3]>> {
+    let uncertainty = |joints: &Joints| -> anyhow::Result<Option<[f64; 3]>> {
         Ok(if uncertain {
             Some(model.uncertainty_at(joints)?.per_axis_um())
         } else {
