@@ -155,15 +155,15 @@ fn bench_predict(c: &mut Criterion, machine: &Machine, model: &ErrorModel) {
 /// Where compensation time goes: one error lookup (30 curves) and one solve.
 fn bench_pose(c: &mut Criterion, model: &ErrorModel) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let poses: Vec<volcomp::axes::Axes> = (0..1000)
+    let poses: Vec<volcomp::axes::Joints> = (0..1000)
         .map(|_| {
-            volcomp::axes::Axes::xyzac(
+            volcomp::axes::Joints::new(volcomp::axes::Axes::xyzac(
                 rng.random_range(-150.0..150.0),
                 rng.random_range(-100.0..100.0),
                 rng.random_range(-150.0..50.0),
                 rng.random_range(-60.0..60.0),
                 rng.random_range(0.0..720.0),
-            )
+            ))
         })
         .collect();
     let mut group = c.benchmark_group("per_pose_1000");

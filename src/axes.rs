@@ -4,10 +4,11 @@
 //! The program layer tracks all nine, as LinuxCNC's interpreter does; a machine
 //! has X Y Z, two of A B C and possibly some of U V W (`kinematics::MachineChain`
 //! says which), and a word for a letter the machine lacks is refused where the
-//! machine is known. The same type carries joint commands (machine coordinates,
-//! as a joint-frame program writes them) and part-frame targets (tool tip in part
-//! coordinates plus the rotary joints); which one a value is depends on where it
-//! came from (see `gcode::Frame`).
+//! machine is known. `Axes` is a bare set of numbers: a value that *is* a machine
+//! joint position is a [`Joints`]; a motion's target says its frame as a
+//! `gcode::Pose` (joint commands, or the tool tip in part coordinates plus the
+//! rotary joints), and `toolpath::joints_of` / `toolpath::pose_of` are the one
+//! conversion between the two.
 use serde::{Deserialize, Serialize};
 
 /// A position of all nine axes. Letters a machine lacks stay 0.
@@ -35,6 +36,37 @@ pub struct Axes {
     /// W (linear, parallel to Z), mm.
     #[serde(default)]
     pub w: f64,
+}
+
+/// A machine joint position: X Y Z (and U V W) machine coordinates in mm, the
+/// rotary joints in degrees, as the axes are commanded. Kinematics evaluates
+/// joints; a program's target becomes joints only through
+/// `toolpath::joints_of` (a part-frame target needs the kinematics), so a
+/// value of this type never holds a part-frame tool tip. It reads as the
+/// [`Axes`] it wraps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Joints(Axes);
+
+impl Joints {
+    /// The joint position whose values are `axes` (machine coordinates: a
+    /// joint-frame or G53 target, a solver's result).
+    pub const fn new(axes: Axes) -> Joints {
+        Joints(axes)
+    }
+
+    /// The values, as bare [`Axes`].
+    pub const fn axes(&self) -> Axes {
+        self.0
+    }
+}
+
+impl std::ops::Deref for Joints {
+    type Target = Axes;
+
+    fn deref(&self) -> &Axes {
+        &self.0
+    }
 }
 
 /// One of the nine axis letters, in RS274NGC order.

@@ -1,7 +1,7 @@
 //! `volcomp error`: the volumetric error and tool-axis error at one pose or many.
 use super::common::{FrameArg, ModelArgs, load_model};
-use crate::axes::Axes;
-use crate::gcode::ToolInUse;
+use crate::axes::{Axes, Joints};
+use crate::gcode::{Pose, ToolInUse};
 use crate::kinematics::VolumetricError;
 use crate::machine::{Approach, ErrorModel, Machine};
 use crate::toolpath::joints_of;
@@ -292,8 +292,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 impl Job<'_> {
     /// The joints of a pose given in the `--frame`.
-    fn joints(&self, pose: &Axes) -> Axes {
-        joints_of(self.model.kinematics(), self.args.frame.into(), pose)
+    fn joints(&self, pose: &Axes) -> Joints {
+        joints_of(
+            self.model.kinematics(),
+            &Pose::in_frame(self.args.frame.into(), *pose),
+        )
     }
 
     /// The approach for the JSON output: `X+,Y-` when `--direction` was given.
@@ -305,7 +308,7 @@ impl Job<'_> {
     }
 
     /// The standard uncertainty of e per axis, where the model carries one.
-    fn uncertainty(&self, joints: &Axes) -> anyhow::Result<Option<[f64; 3]>> {
+    fn uncertainty(&self, joints: &Joints) -> anyhow::Result<Option<[f64; 3]>> {
         Ok(if self.model.has_uncertainty() {
             Some(self.model.uncertainty_at(joints)?.per_axis_um())
         } else {

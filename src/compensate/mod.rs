@@ -16,17 +16,17 @@
 pub(crate) mod solve;
 pub use solve::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_joints, solve_pose_from};
 
-use crate::axes::Axes;
+use crate::axes::{Axes, Joints};
 use crate::gcode::ToolInUse;
 use crate::gcode::{
-    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Moves, Program,
-    RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
+    Block, BlockEvent, Frame, GcodeError, InterpretOptions, Motion, MotionKind, Moves, Pose,
+    Program, RewriteError, RewriteOptions, Rewriter, Target, motion::ArcGeometry,
 };
 use crate::machine::{
     Approach, Direction, DirectionTracker, ErrorModel, ExtrapolationPolicy, Limits, LookupError,
     ToolModels,
 };
-use crate::toolpath::{effective_frame, joints_of, target_of};
+use crate::toolpath::{joints_of, pose_of};
 use rayon::prelude::*;
 use serde::Serialize;
 use solve::{
@@ -459,7 +459,7 @@ struct Plan {
 /// A compensated target: in the block's frame, and the solve residual (mm).
 #[derive(Clone, Copy, Debug)]
 struct Compensated {
-    target: Axes,
+    target: Pose,
     residual_mm: f64,
     /// With `--orientation`: the tool-axis error before and after (µrad), and
     /// whether the pose was left to the position-only solve (A = 0 pole).
@@ -487,8 +487,8 @@ struct AxisCorrection {
 /// at `nominal`, µrad.
 fn axis_error_urad(
     model: &ErrorModel,
-    joints: &Axes,
-    nominal: &Axes,
+    joints: &Joints,
+    nominal: &Joints,
     approach: &Approach,
 ) -> Result<f64, PointError> {
     let kin = model.kinematics();
@@ -500,20 +500,19 @@ fn axis_error_urad(
     Ok(1e6 * crate::vec3::norm(crate::vec3::cross(actual, programmed)))
 }
 
-/// The compensated target of `target` (in `frame`), the solve starting from
+/// The compensated target of `target` (in its frame), the solve starting from
 /// `warm` (updated when it succeeds); A and C corrected too when `orientation`;
 /// the pose approached as `approach` says (the reversal terms).
 fn compensate_target(
     model: &ErrorModel,
-    frame: Frame,
-    target: &Axes,
+    target: &Pose,
     limits: Option<&Limits>,
     warm: &mut WarmStart,
     orientation: bool,
     approach: &Approach,
 ) -> Result<Compensated, PointError> {
     let kin = model.kinematics();
-    let nominal = joints_of(kin, frame, target);
+    let nominal = joints_of(kin, target);
     let (joints, residual_mm, axis, beyond) =
         match solve_target(model, &nominal, warm, orientation, approach) {
             Err(PointError::Solve(SolveError::Lookup(e @ LookupError::OutOfRange { .. })))
@@ -550,7 +549,7 @@ fn compensate_target(
     let (jq, jn) = (kin.joints(&joints), kin.joints(&nominal));
     warm.correction = std::array::from_fn(|i| jq[i] - jn[i]);
     Ok(Compensated {
-        target: target_of(kin, frame, &joints),
+        target: pose_of(kin, target.frame(), &joints),
         residual_mm,
         orientation: axis,
         beyond_table: beyond.map(|b| TableEnd {
@@ -564,11 +563,11 @@ fn compensate_target(
 /// tool-axis correction.
 fn solve_target(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     warm: &mut WarmStart,
     orientation: bool,
     approach: &Approach,
-) -> Result<(Axes, f64, Option<AxisCorrection>), PointError> {
+) -> Result<(Joints, f64, Option<AxisCorrection>), PointError> {
     let nominal = *nominal;
     let guess = warm.correction;
     let (joints, residual_mm, axis) = if orientation {
@@ -614,13 +613,12 @@ fn solve_target(
 /// order).
 fn estimate_target(
     model: &ErrorModel,
-    frame: Frame,
-    target: &Axes,
+    target: &Pose,
     rotary: Option<[f64; 2]>,
     approach: &Approach,
-) -> Result<Axes, PointError> {
+) -> Result<Pose, PointError> {
     let kin = model.kinematics();
-    let nominal = joints_of(kin, frame, target);
+    let nominal = joints_of(kin, target);
     let estimate = |model: &ErrorModel| match rotary {
         Some(r) => first_order_joints_at(model, &nominal, r, approach),
         None => first_order_joints(model, &nominal, approach),
@@ -637,7 +635,7 @@ fn estimate_target(
         other => other,
     }
     .map_err(PointError::Solve)?;
-    Ok(target_of(kin, frame, &q))
+    Ok(pose_of(kin, target.frame(), &q))
 }
 
 #[derive(Debug)]
@@ -706,7 +704,7 @@ fn approach_at(
     let Some(incoming) = incoming else {
         return Approach::NONE;
     };
-    if effective_frame(motion) == Frame::Joint && motion.arc_geometry().is_none() {
+    if motion.target_frame() == Frame::Joint && motion.arc_geometry().is_none() {
         return *end;
     }
     let mut tracker = incoming.clone();
@@ -735,7 +733,6 @@ fn plan_motion(
     let Some(mut start_comp) = start_comp.filter(|_| splittable) else {
         return Ok(Split::default());
     };
-    let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
     let at = |t: f64| approach_at(model, motion, directions.incoming, directions.end, t);
     // A move that reverses an axis with a reversal (its direction before the
@@ -754,8 +751,8 @@ fn plan_motion(
         let before = incoming.approach();
         let kin = model.kinematics();
         let (q0, q1) = (
-            joints_of(kin, frame, &motion.start),
-            joints_of(kin, frame, &motion.end),
+            joints_of(kin, &motion.start_pose()),
+            joints_of(kin, &motion.end_pose()),
         );
         let mut t_s = 0.0f64;
         for axis in crate::axes::Axis::ALL {
@@ -782,14 +779,13 @@ fn plan_motion(
         let at_new = |t: f64| {
             compensate_target(
                 model,
-                frame,
-                &motion.point_at(arc.as_ref(), t),
+                &motion.pose(motion.point_at(arc.as_ref(), t)),
                 options.limits.as_ref(),
                 &mut WarmStart::default(),
                 options.orientation,
                 directions.end,
             )
-            .map(|c| c.target)
+            .map(|c| c.target.axes())
         };
         if arc.is_none() && t_s > 0.0 && t_s < 0.9 {
             let c = at_new(t_s)?;
@@ -829,8 +825,8 @@ fn plan_motion(
                 .orientation
                 .then_some([straight.get(r1), straight.get(r2)]);
             let approach = at(t0 + f * (t1 - t0));
-            let estimate = estimate_target(model, frame, &nominal, rotary, &approach)?;
-            gap = gap.max(xyz_gap(&estimate, &straight));
+            let estimate = estimate_target(model, &motion.pose(nominal), rotary, &approach)?;
+            gap = gap.max(xyz_gap(&estimate.axes(), &straight));
             if gap > tol_mm && depth < options.max_split_depth {
                 break;
             }
@@ -840,7 +836,7 @@ fn plan_motion(
         {
             // A split arc becomes straight pieces on the compensated arc.
             return Ok(Split {
-                via: densify_arc(model, motion, arc, frame, options, directions.incoming)?,
+                via: densify_arc(model, motion, arc, options, directions.incoming)?,
                 capped_gap_um: None,
             });
         }
@@ -848,14 +844,14 @@ fn plan_motion(
             let tm = 0.5 * (t0 + t1);
             let cm = compensate_target(
                 model,
-                frame,
-                &motion.point_at(arc.as_ref(), tm),
+                &motion.pose(motion.point_at(arc.as_ref(), tm)),
                 limits,
                 &mut WarmStart::default(),
                 options.orientation,
                 &at(tm),
             )?
-            .target;
+            .target
+            .axes();
             // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
             stack.push((t0, tm, c0, cm, depth + 1));
@@ -878,7 +874,6 @@ fn densify_arc(
     model: &ErrorModel,
     motion: &Motion,
     arc: &ArcGeometry,
-    frame: Frame,
     options: &CompensateOptions,
     incoming: Option<&DirectionTracker>,
 ) -> Result<Vec<Axes>, PointError> {
@@ -913,14 +908,14 @@ fn densify_arc(
         via.push(
             compensate_target(
                 model,
-                frame,
-                &p,
+                &motion.pose(p),
                 options.limits.as_ref(),
                 &mut warm,
                 options.orientation,
                 &approach,
             )?
-            .target,
+            .target
+            .axes(),
         );
     }
     Ok(via)
@@ -1152,8 +1147,7 @@ fn solve_chunks(
                         k += 1;
                         compensate_target(
                             model,
-                            effective_frame(m),
-                            &m.end,
+                            &m.end_pose(),
                             options.limits.as_ref(),
                             &mut warm,
                             options.orientation,
@@ -1180,7 +1174,7 @@ fn solve_chunks(
                         if let Some(end) = c.beyond_table {
                             axes.record_table_end(block.line, end);
                         }
-                        mine.push((c.target, c.residual_mm));
+                        mine.push((c.target.axes(), c.residual_mm));
                     }
                     Some(Err(e)) => {
                         let _ = solved.send(Err(point_error(path, block.line, e)));
@@ -1245,7 +1239,7 @@ fn solve_chunks(
                 };
                 let split = plan_motion(model, m, *start, *end, options, directions)?;
                 let uncertainty_um = if uncertain {
-                    let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
+                    let joints = joints_of(model.kinematics(), &m.end_pose());
                     Some(
                         model
                             .uncertainty_at(&joints)

@@ -28,7 +28,7 @@
 //! [`MAX_C_CORRECTION_DEG`] (or the iteration stalls there), the block is left
 //! to the position-only solve, and counted. Joint vectors are `(x, y, z, r₁, r₂)`
 //! with the machine's rotary letters in letter order.
-use crate::axes::Axes;
+use crate::axes::{Axes, Joints};
 use crate::kinematics::Kinematics;
 use crate::machine::{Approach, ErrorModel, LookupError};
 
@@ -66,7 +66,7 @@ pub const MAX_C_CORRECTION_DEG: f64 = 0.05;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolvedPose {
     /// Compensated joints, the rotary joints included.
-    pub joints: Axes,
+    pub joints: Joints,
     /// Final |r_act − r_target|, mm.
     pub residual_mm: f64,
     /// Final angle between the actual and the programmed tool axis, µrad.
@@ -146,7 +146,7 @@ pub(crate) fn describe_joints(kin: &Kinematics, q: &Axes) -> String {
 /// converge in `KEPT_JACOBIAN_STEPS` is taken afresh. `warm` is updated.
 pub fn solve_pose_from(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     warm: &mut WarmStart,
 ) -> Result<Option<SolvedPose>, SolveError> {
     solve_pose_toward(model, nominal, &Approach::NONE, warm)
@@ -156,13 +156,13 @@ pub fn solve_pose_from(
 /// terms of the axes with a known direction: `ErrorModel::errors_toward`).
 pub fn solve_pose_toward(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     approach: &Approach,
     warm: &mut WarmStart,
 ) -> Result<Option<SolvedPose>, SolveError> {
     let target = PoseTarget::of(model, nominal)?;
     let kin = model.kinematics();
-    let mut q = *nominal;
+    let mut q = nominal.axes();
     let guess = warm.correction;
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
         let j = kin.joints(&q);
@@ -207,7 +207,7 @@ pub fn solve_pose_toward(
         if residual_mm < RESIDUAL_MM && residual_urad < RESIDUAL_URAD {
             warm.jacobian = Some(kept);
             return Ok(Some(SolvedPose {
-                joints: q,
+                joints: Joints::new(q),
                 residual_mm,
                 residual_urad,
                 before_urad,
@@ -345,14 +345,14 @@ fn normal_basis(u: [f64; 3]) -> ([f64; 3], [f64; 3]) {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Solved {
     /// Compensated joints (rotary joints as programmed).
-    pub joints: Axes,
+    pub joints: Joints,
     /// Final |r_act − r_target|, mm.
     pub residual_mm: f64,
     pub iterations: usize,
 }
 
 /// Joints `q` with `r_act(q) = nominal_tip(nominal)`, starting from `nominal`.
-pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveError> {
+pub fn solve_joints(model: &ErrorModel, nominal: &Joints) -> Result<Solved, SolveError> {
     solve_joints_from(model, nominal, [0.0; 3])
 }
 
@@ -362,7 +362,7 @@ pub fn solve_joints(model: &ErrorModel, nominal: &Axes) -> Result<Solved, SolveE
 /// the 1 nm residual.
 pub fn solve_joints_from(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     guess: [f64; 3],
 ) -> Result<Solved, SolveError> {
     solve_joints_toward(model, nominal, &Approach::NONE, guess)
@@ -371,12 +371,12 @@ pub fn solve_joints_from(
 /// [`solve_joints_from`] for a pose approached as `approach` says.
 pub fn solve_joints_toward(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     approach: &Approach,
     guess: [f64; 3],
 ) -> Result<Solved, SolveError> {
     let target = Target::of(model, nominal)?;
-    let mut q = *nominal;
+    let mut q = nominal.axes();
     if guess.iter().all(|g| g.is_finite() && g.abs() < 1.0) {
         q.x += guess[0];
         q.y += guess[1];
@@ -388,7 +388,7 @@ pub fn solve_joints_toward(
         residual = r;
         if residual < RESIDUAL_MM {
             return Ok(Solved {
-                joints: q,
+                joints: Joints::new(q),
                 residual_mm: residual,
                 iterations: iteration,
             });
@@ -411,12 +411,11 @@ pub fn solve_joints_toward(
 /// nm), so it serves to decide whether a move must be split, never as output.
 pub fn first_order_joints(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     approach: &Approach,
-) -> Result<Axes, SolveError> {
-    Ok(Target::of(model, nominal)?
-        .newton_step(model, approach, nominal)?
-        .0)
+) -> Result<Joints, SolveError> {
+    let (next, _) = Target::of(model, nominal)?.newton_step(model, approach, nominal)?;
+    Ok(Joints::new(next))
 }
 
 /// First-order X Y Z at the rotary joints `rotary` (degrees, slot order) such that
@@ -425,15 +424,15 @@ pub fn first_order_joints(
 /// axes to the interpolated corrected angles between two compensated ends).
 pub fn first_order_joints_at(
     model: &ErrorModel,
-    nominal: &Axes,
+    nominal: &Joints,
     rotary: [f64; 2],
     approach: &Approach,
-) -> Result<Axes, SolveError> {
+) -> Result<Joints, SolveError> {
     if !nominal.is_finite() {
-        return Err(SolveError::NotFinite(*nominal));
+        return Err(SolveError::NotFinite(nominal.axes()));
     }
     let kin = model.kinematics();
-    let mut turned = *nominal;
+    let mut turned = nominal.axes();
     let [r1, r2] = kin.rotary();
     turned.set(r1, rotary[0]);
     turned.set(r2, rotary[1]);
@@ -445,7 +444,8 @@ pub fn first_order_joints_at(
         map,
     };
     let start = target.map.joints(target.tip);
-    Ok(target.newton_step(model, approach, &start)?.0)
+    let (next, _) = target.newton_step(model, approach, &start)?;
+    Ok(Joints::new(next))
 }
 
 /// The nominal tool tip to land on, and its machine point at the programmed

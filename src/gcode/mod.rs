@@ -67,7 +67,7 @@ pub use language::{Executed, LanguageOptions, ProgramInput};
 pub use machine::modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use machine::origin::Origin;
 pub use machine::tools::{CutterShape, ToolEntry, ToolInUse, ToolTable, ToolTableError};
-pub use motion::{Feed, Frame, Motion, MotionKind, Plane};
+pub use motion::{Feed, Frame, Motion, MotionKind, Plane, Pose};
 pub use parameters::Parameters;
 pub use summary::ProgramSummary;
 pub use syntax::parser::{parse_block, parse_line};

@@ -460,24 +460,6 @@ impl Kinematics {
         self.chain.orientation()[0].0
     }
 
-    /// Joints of a part-frame target: `part.x, part.y, part.z` the tool tip in part
-    /// coordinates, the rotary letters (and U V W) taken as given.
-    pub fn joints_from_part(&self, part: &Axes) -> Axes {
-        self.nominal_joints_for_tip(part.xyz(), part)
-    }
-
-    /// Part-frame target of a joint position: the nominal tool tip in part
-    /// coordinates with the same rotary joints (inverse of [`Kinematics::joints_from_part`]).
-    pub fn part_from_joints(&self, joints: &Axes) -> Axes {
-        let r = self.nominal_tip(joints);
-        Axes {
-            x: r[0],
-            y: r[1],
-            z: r[2],
-            ..*joints
-        }
-    }
-
     /// Actual tool tip (mm) and tool axis (not re-normalised), part coordinates.
     #[inline]
     pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {

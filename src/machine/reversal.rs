@@ -294,7 +294,7 @@ impl DirectionTracker {
     }
 
     /// Move to `joints` (a straight, monotone motion from the last joints).
-    pub fn update(&mut self, joints: &crate::axes::Axes) {
+    pub fn update(&mut self, joints: &crate::axes::Joints) {
         for (play, track) in &mut self.axes {
             let q = joints.get(play.axis);
             if !q.is_finite() {
@@ -388,9 +388,11 @@ mod tests {
             wrap: false,
         };
         let mut t = DirectionTracker::new(vec![play]);
-        let at = |x: f64| crate::axes::Axes {
-            x,
-            ..Default::default()
+        let at = |x: f64| {
+            crate::axes::Joints::new(crate::axes::Axes {
+                x,
+                ..Default::default()
+            })
         };
         let dir = |t: &DirectionTracker| t.approach().get(Axis::X);
         t.update(&at(0.0));

@@ -6,7 +6,7 @@ use crate::machine::tool_models::kinematics_with;
 use crate::machine::{ErrorModel, LookupError, ToolModels};
 use crate::stamp::Stamp;
 use crate::toolpath::cut::{CutError, CutOptions, match_errors, match_plan};
-use crate::toolpath::{effective_frame, joints_of};
+use crate::toolpath::joints_of;
 use crate::vec3::dot;
 use serde::{Serialize, Serializer};
 use std::cell::{Cell, RefCell};
@@ -251,7 +251,7 @@ impl<'m> PathErrors<'m> {
         // Every move's end (a canned cycle's or a loop's moves each).
         let model = self.models.get_or_make(&event.tool);
         for m in event.motions() {
-            let joints = joints_of(model.kinematics(), effective_frame(m), &m.end);
+            let joints = joints_of(model.kinematics(), &m.end_pose());
             crate::toolpath::walk::advance_directions(
                 &mut self.directions,
                 model.kinematics(),

@@ -141,7 +141,7 @@ pub fn contexts(
                 line: pp.line,
                 block: pp.block,
                 time_min: pp.time_min,
-                joints: pp.joints,
+                joints: pp.joints.axes(),
                 sigma: pp.sigma,
                 speed_mm_s: pp.speed_mm_s,
                 curvature_per_mm: pp.curvature_per_mm,
@@ -290,12 +290,15 @@ pub fn probe_context(
     let at = Axes::xyz_rotary([0.0; 3], [(r1, rotary[0]), (r2, rotary[1])]);
     let u = kin.nominal_tool_axis(&at);
     let tip = [0, 1, 2].map(|k| p[k] + probe.radius_mm * (n[k] - u[k]));
-    let joints = kin.joints_from_part(&Axes {
-        x: tip[0],
-        y: tip[1],
-        z: tip[2],
-        ..at
-    });
+    let joints = super::pose::joints_of(
+        &kin,
+        &crate::gcode::Pose::Part(Axes {
+            x: tip[0],
+            y: tip[1],
+            z: tip[2],
+            ..at
+        }),
+    );
     if limits.is_some_and(|l| l.violated(&joints).is_some()) {
         return Ok(None);
     }
@@ -324,7 +327,7 @@ pub fn probe_context(
         line: 0,
         block: 0,
         time_min,
-        joints,
+        joints: joints.axes(),
         sigma,
         speed_mm_s: 0.0,
         curvature_per_mm: 0.0,

@@ -7,7 +7,8 @@
 //! endpoint that is distinct in machine XYZ is known (for the curvature of its
 //! end point); rotary-only blocks in a row are the only thing that lengthens the
 //! window.
-use crate::axes::Axes;
+use super::pose::joints_of;
+use crate::axes::Joints;
 use crate::gcode::{Frame, Motion, MotionKind, ToolInUse, duration_from_lengths};
 use crate::kinematics::Kinematics;
 use crate::vec3::{cross, dist, dot, norm, scale, sub};
@@ -35,7 +36,7 @@ impl Default for WalkOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathPoint {
     /// Joint position (machine XYZ mm, A C degrees).
-    pub joints: Axes,
+    pub joints: Joints,
     /// Nominal tool tip, part coordinates, mm.
     pub tip: [f64; 3],
     /// Nominal unit tool axis, part coordinates.
@@ -67,32 +68,6 @@ pub struct PathPoint {
     pub approach: crate::machine::Approach,
 }
 
-/// The frame a motion's targets are really in: G53 targets are machine
-/// coordinates (joints) whatever the program's frame.
-pub fn effective_frame(motion: &Motion) -> Frame {
-    if motion.machine_coordinates {
-        Frame::Joint
-    } else {
-        motion.frame
-    }
-}
-
-/// Joints of a target given in `frame` (nominal kinematics, A and C as given).
-pub fn joints_of(kinematics: &Kinematics, frame: Frame, target: &Axes) -> Axes {
-    match frame {
-        Frame::Joint => *target,
-        Frame::Part => kinematics.joints_from_part(target),
-    }
-}
-
-/// The target in `frame` of joint position `joints` (inverse of [`joints_of`]).
-pub fn target_of(kinematics: &Kinematics, frame: Frame, joints: &Axes) -> Axes {
-    match frame {
-        Frame::Joint => *joints,
-        Frame::Part => kinematics.part_from_joints(joints),
-    }
-}
-
 /// A sample waiting for its curvature.
 #[derive(Clone, Copy, Debug)]
 struct Pending {
@@ -119,7 +94,9 @@ pub struct PathWalker<'k> {
     previous_distinct: Option<[f64; 3]>,
     pending: VecDeque<Pending>,
     /// Reused sample buffer.
-    samples: Vec<Axes>,
+    samples: Vec<Joints>,
+    /// Reused buffer of a move's points in its own frame.
+    points: Vec<crate::axes::Axes>,
     /// Directions of the axes with a reversal (`None`: not tracked).
     directions: Option<crate::machine::DirectionTracker>,
 }
@@ -141,6 +118,7 @@ impl<'k> PathWalker<'k> {
             previous_distinct: None,
             pending: VecDeque::new(),
             samples: Vec::new(),
+            points: Vec::new(),
             directions: None,
         }
     }
@@ -165,13 +143,12 @@ impl<'k> PathWalker<'k> {
         motion: &Motion,
         visit: &mut impl FnMut(&PathPoint),
     ) {
-        let frame = effective_frame(motion);
         // The tool in the spindle: on a machine with a rotary axis on the
         // tool side its length moves the nominal tip (and the joints of a
         // tool-tip target).
         let kin = crate::machine::tool_models::kinematics_for_tool(self.kinematics, &tool);
-        let start_joints = joints_of(&kin, frame, &motion.start);
-        let end_joints = joints_of(&kin, frame, &motion.end);
+        let start_joints = joints_of(&kin, &motion.start_pose());
+        let end_joints = joints_of(&kin, &motion.end_pose());
         if !self.started {
             // Time starts at the first block's target: the first motion only positions.
             self.started = true;
@@ -318,19 +295,16 @@ impl<'k> PathWalker<'k> {
         &mut self,
         kin: &Kinematics,
         motion: &Motion,
-        start_joints: &Axes,
-        end_joints: &Axes,
+        start_joints: &Joints,
+        end_joints: &Joints,
     ) {
         self.samples.clear();
+        self.points.clear();
         let step = self.options.step_mm;
-        match effective_frame(motion) {
+        match motion.target_frame() {
             Frame::Part => {
                 // A tool-tip control interpolates the tip in part coordinates.
-                let mut part = Vec::new();
-                motion.interpolate_into(step, &mut part);
-                for p in &part {
-                    self.samples.push(kin.joints_from_part(p));
-                }
+                motion.interpolate_into(step, &mut self.points);
             }
             Frame::Joint => {
                 // Joint interpolation: bound the part-coordinate chord by the XYZ
@@ -343,7 +317,6 @@ impl<'k> PathWalker<'k> {
                     + (end_joints.c - start_joints.c).abs())
                 .to_radians();
                 let bound = motion.xyz_length().max(dist(tip0, tip1)) + sweep * lever;
-                let mut pts = Vec::new();
                 let scaled = if bound > 0.0 {
                     // interpolate() steps by XYZ (and degrees for rotary-only moves);
                     // ask for enough points that the part chord stays below `step`.
@@ -355,10 +328,11 @@ impl<'k> PathWalker<'k> {
                 } else {
                     step
                 };
-                motion.interpolate_into(scaled.max(1e-6), &mut pts);
-                self.samples.extend_from_slice(&pts);
+                motion.interpolate_into(scaled.max(1e-6), &mut self.points);
             }
         }
+        self.samples
+            .extend(self.points.iter().map(|p| joints_of(kin, &motion.pose(*p))));
         if let Some(last) = self.samples.last_mut() {
             *last = *end_joints;
         } else {
@@ -403,16 +377,12 @@ pub fn advance_directions(
     if tracker.is_empty() {
         return;
     }
-    let frame = effective_frame(motion);
     let arc = motion.arc_geometry();
+    let joints_at = |t: f64| joints_of(kinematics, &motion.pose(motion.point_at(arc.as_ref(), t)));
     // The start (the last end: no change, but it places the first move).
-    tracker.update(&joints_of(
-        kinematics,
-        frame,
-        &motion.point_at(arc.as_ref(), t0),
-    ));
-    if frame == Frame::Joint && arc.is_none() {
-        tracker.update(&motion.point_at(None, t1));
+    tracker.update(&joints_at(t0));
+    if motion.target_frame() == Frame::Joint && arc.is_none() {
+        tracker.update(&joints_at(t1));
         return;
     }
     let len = arc
@@ -430,11 +400,7 @@ pub fn advance_directions(
     };
     for j in 1..=n {
         let t = t0 + (t1 - t0) * j as f64 / n as f64;
-        tracker.update(&joints_of(
-            kinematics,
-            frame,
-            &motion.point_at(arc.as_ref(), t),
-        ));
+        tracker.update(&joints_at(t));
     }
 }
 

@@ -706,7 +706,7 @@ pub fn replayed_axis_error_on(
                 if p.cutting && p.block_end {
                     let key = labels[p.line - 1]
                         .map_or_else(|| format!("line {}", p.line), str::to_string);
-                    out.insert(key, (p.joints, p.tool));
+                    out.insert(key, (p.joints.axes(), p.tool));
                 }
             },
         )
@@ -797,20 +797,20 @@ fn orientation_falls_back_to_position_only_at_the_pole() {
 /// pose through that a fresh one would refuse.
 #[test]
 fn a_kept_jacobian_solves_as_a_fresh_one() {
-    use volcomp::axes::Axes;
+    use volcomp::axes::{Axes, Joints};
     use volcomp::compensate::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_pose_from};
     let (_, model) = ref_trt();
     let mut warm = WarmStart::default();
     let (mut kept_fallbacks, mut poses) = (0, 0);
     for i in 0..=400 {
         let t = i as f64 / 400.0;
-        let nominal = Axes::xyzac(
+        let nominal = Joints::new(Axes::xyzac(
             -80.0 + 160.0 * t,
             40.0 * (6.0 * t).sin(),
             -30.0 + 20.0 * t,
             30.0 * (2.0 * std::f64::consts::PI * t).cos().abs() + 0.05,
             720.0 * t,
-        );
+        ));
         let kept = solve_pose_from(model, &nominal, &mut warm).expect("solves");
         let fresh = solve_pose_from(model, &nominal, &mut WarmStart::default()).expect("solves");
         poses += 1;

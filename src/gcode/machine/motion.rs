@@ -4,8 +4,10 @@
 //! All values are absolute, in mm and degrees (G20 input is converted), in the
 //! frame the block was programmed in. `gcode` knows nothing about kinematics:
 //! a part-frame target is reported as programmed, and the layers that know the
-//! machine turn it into joints.
-use crate::axes::Axes;
+//! machine turn it into joints: a consumer takes a target as a [`Pose`]
+//! ([`Motion::end_pose`]), tagged with its frame, and `toolpath::joints_of` is
+//! the one conversion.
+use crate::axes::{Axes, Joints};
 use serde::{Deserialize, Serialize};
 
 /// The frame of a block's `X Y Z` words (gcode.md "Joint programs and tool-tip programs").
@@ -16,6 +18,45 @@ pub enum Frame {
     Joint,
     /// Tool tip in part coordinates (M428, G43.4, G234, TRAORI active); A C degrees.
     Part,
+}
+
+/// A target that says its frame: what a motion block commands. A joint-frame
+/// (or G53) target is a joint position as it stands; a part-frame target is
+/// the tool tip in part coordinates with the rotary joints (and U V W) as
+/// given, and becomes joints only through the machine's kinematics
+/// (`toolpath::joints_of`, the one conversion; `gcode` knows no kinematics).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pose {
+    /// Machine joints (axis commands).
+    Joint(Joints),
+    /// Tool tip in part coordinates, rotary joints as given.
+    Part(Axes),
+}
+
+impl Pose {
+    /// The pose of the values `axes` given in `frame`.
+    pub fn in_frame(frame: Frame, axes: Axes) -> Pose {
+        match frame {
+            Frame::Joint => Pose::Joint(Joints::new(axes)),
+            Frame::Part => Pose::Part(axes),
+        }
+    }
+
+    /// Its frame.
+    pub fn frame(&self) -> Frame {
+        match self {
+            Pose::Joint(_) => Frame::Joint,
+            Pose::Part(_) => Frame::Part,
+        }
+    }
+
+    /// Its values in its own frame (the numbers a block writes).
+    pub fn axes(&self) -> Axes {
+        match self {
+            Pose::Joint(j) => j.axes(),
+            Pose::Part(p) => *p,
+        }
+    }
 }
 
 /// Arc plane (G17/G18/G19).
@@ -85,6 +126,32 @@ pub struct Motion {
 }
 
 impl Motion {
+    /// The frame its targets are really in: G53 targets are machine
+    /// coordinates (joints) whatever the program's frame.
+    pub fn target_frame(&self) -> Frame {
+        if self.machine_coordinates {
+            Frame::Joint
+        } else {
+            self.frame
+        }
+    }
+
+    /// A point of this move (its start, end, [`Motion::point_at`] or
+    /// [`Motion::interpolate`]) as the pose it is, in [`Motion::target_frame`].
+    pub fn pose(&self, point: Axes) -> Pose {
+        Pose::in_frame(self.target_frame(), point)
+    }
+
+    /// Where the move starts, tagged with its frame.
+    pub fn start_pose(&self) -> Pose {
+        self.pose(self.start)
+    }
+
+    /// Where the move ends, tagged with its frame.
+    pub fn end_pose(&self) -> Pose {
+        self.pose(self.end)
+    }
+
     /// Points along the move at most `max_step` apart (XYZ distance in the move's
     /// frame; rotary-only moves are stepped so that no axis moves more than
     /// `max_step` degrees), excluding the start and including the end. Arcs are
