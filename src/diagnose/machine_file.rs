@@ -47,12 +47,23 @@ pub struct MachineUpdate {
     pub changes: Vec<String>,
 }
 
+/// The ± of `param` of `effect`: the joint fit's (`after.checks`), since the
+/// values written are the joint fit's (`after.params`); the effect fitted
+/// alone only for a parameter the joint fit gives no ± (`tau`, profiled).
 fn value_std(report: &DiagnoseReport, effect: &str, param: &str) -> Option<f64> {
     report
-        .effects
-        .iter()
-        .find(|e| e.name == effect)
-        .and_then(|e| e.params_std.get(param).copied())
+        .after
+        .checks
+        .get(effect)
+        .and_then(|list| list.iter().find(|c| c.name == param && c.name != "tau"))
+        .map(|c| c.std)
+        .or_else(|| {
+            report
+                .effects
+                .iter()
+                .find(|e| e.name == effect)
+                .and_then(|e| e.params_std.get(param).copied())
+        })
         .filter(|s| s.is_finite())
 }
 
@@ -124,7 +135,7 @@ pub fn machine_update(
     header.push(format!(
         "What changed and why (each value: the file's own plus the diagnosed one, ± one standard error of {}):",
         if selected.len() > 1 {
-            "the effect fitted alone; the values are the joint fit's"
+            "the joint fit of the selected effects"
         } else {
             "the fit"
         }
@@ -484,5 +495,64 @@ mod tests {
         let r = report(&[]);
         let update = machine_update(&r, &machine, &[]);
         assert!(update.edits.header.join("\n").contains("Nothing changed"));
+    }
+
+    /// Issue 26: with two effects selected, the values written and their ±
+    /// are the joint fit's (`after`), not those of each effect fitted alone.
+    #[test]
+    fn a_pair_is_written_with_the_joint_fits_values_and_standard_errors() {
+        let machine = workpiece_x_machine();
+        let r = report(&["squareness:s_xy=40,s_xz=-20", "backlash:bx=8,by=5,bz=3"]);
+        assert_eq!(r.selected.len(), 2, "{:?}", r.selected);
+        assert!(r.selected.iter().any(|s| s == "squareness"));
+        assert!(r.selected.iter().any(|s| s == "backlash"));
+        let update = machine_update(&r, &machine, &[]);
+        let joint = |effect: &str, param: &str| {
+            r.after.checks[effect]
+                .iter()
+                .find(|c| c.name == param)
+                .map(|c| (c.value, c.std))
+                .unwrap()
+        };
+        let alone = |effect: &str, param: &str| {
+            let e = r.effects.iter().find(|e| e.name == effect).unwrap();
+            (e.params[param], e.params_std[param])
+        };
+        // Backlash on X (the workpiece side): REVERSAL = −bx of the joint fit,
+        // its note with the joint fit's ±.
+        let (bx, bx_std) = joint("backlash", "bx");
+        let (_, bx_alone_std) = alone("backlash", "bx");
+        assert_ne!(pm(bx, Some(bx_std), "µm"), pm(bx, Some(bx_alone_std), "µm"));
+        assert_eq!(update.reversal[0].add_um, rounded(-bx));
+        assert!(
+            update.reversal[0]
+                .note
+                .contains(&pm(bx, Some(bx_std), "µm")),
+            "{:?} (joint ± {bx_std}, alone ± {bx_alone_std})",
+            update.reversal[0]
+        );
+        // Squareness: the file's value plus the joint fit's, with its ±.
+        let (s_xy, s_xy_std) = joint("squareness", "s_xy");
+        let (_, s_xy_alone_std) = alone("squareness", "s_xy");
+        assert_ne!(
+            pm(s_xy, Some(s_xy_std), "µrad"),
+            pm(s_xy, Some(s_xy_alone_std), "µrad")
+        );
+        let edit = update
+            .edits
+            .squareness
+            .iter()
+            .find(|e| e.key == "s_xy")
+            .unwrap();
+        assert_eq!(edit.value, machine.squareness[0] + s_xy);
+        assert!(
+            edit.note.contains(&pm(s_xy, Some(s_xy_std), "µrad")),
+            "{edit:?} (joint ± {s_xy_std}, alone ± {s_xy_alone_std})"
+        );
+        let header = update.edits.header.join("\n");
+        assert!(
+            header.contains("the joint fit of the selected effects"),
+            "{header}"
+        );
     }
 }
