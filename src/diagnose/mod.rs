@@ -177,11 +177,12 @@ pub fn diagnose_with_followup(
     options: &DiagnoseOptions,
 ) -> Result<DiagnoseReport, DiagnoseError> {
     validate(contexts, measured_um, options)?;
-    let p = Problem::new(contexts, measured_um, followup, options)?;
+    let mut p = Problem::new(contexts, measured_um, followup, options)?;
     let candidates = single_effects(&p);
     let mut picked = select_terms(&p, &candidates, options);
     let effects = effect_table(&p, &candidates, options.alias_cosine);
-    let not_named = guard_not_named(&p, &mut picked);
+    let mut not_named = guard_not_named(&p, &mut picked);
+    not_named.extend(guard_table_shape(&mut p, &mut picked, options.significance));
     let joint = joint_fit(&p, &picked.selected, picked.with_model);
     let outcome = check_model(&p, &picked, &joint);
     let summary = summary_sentences(&p, &picked, &joint, &outcome, &effects, &not_named);
@@ -266,6 +267,9 @@ struct Problem<'a> {
     mse_before: f64,
     /// The error model's own columns, with their names.
     named_cols: Vec<(String, Vec<f64>)>,
+    /// Per axis named in `named_cols`, the columns of an unknown smooth
+    /// table of that axis (`shape_columns`).
+    shape_cols: Vec<(String, Vec<Vec<f64>>)>,
     /// The model's own standard uncertainty: mean square over the rows, and
     /// RMS over the measurement's points.
     model_u2: f64,
@@ -324,6 +328,15 @@ impl<'a> Problem<'a> {
         // machine file's position-independent errors: squareness, rotary location).
         let named_cols = model_columns(&rows, &slot_letters);
         sig.model = named_cols.iter().map(|(_, c)| c.clone()).collect();
+        let shape_cols = slot_letters
+            .iter()
+            .filter(|a| {
+                named_cols
+                    .iter()
+                    .any(|(name, _)| *name == a.letter().to_string())
+            })
+            .map(|a| (a.letter().to_string(), shape_columns(&rows, *a)))
+            .collect();
         let model_u2 = rows
             .iter()
             .map(|row| row.cut.model_u_um.powi(2) + row.probe.map_or(0.0, |p| p.model_u_um.powi(2)))
@@ -347,6 +360,7 @@ impl<'a> Problem<'a> {
             sig,
             folds,
             named_cols,
+            shape_cols,
             model_u2,
             model_u,
         })
@@ -590,6 +604,172 @@ fn guard_not_named(p: &Problem, picked: &mut Picked) -> Vec<EffectKind> {
     };
     std::mem::take(&mut picked.selected)
 }
+
+/// Stage 6b: when the model's own factors are in the selection, the tables
+/// they name are off, and not necessarily by a scale: a table can be wrong in
+/// shape (stale, or another machine's), and what a scale leaves of it can be
+/// taken for an effect. An effect beside the factors is named only when
+/// - it stays significant against that alternative, each named axis's table
+///   being also an unknown smooth function of its own position
+///   (`shape_columns`, cross-validated like any term), or
+/// - its own evidence (`z`) exceeds that of the model's factors: it is then
+///   the main explanation of the gap, not what remains of a table error the
+///   data sees more strongly.
+///
+/// Returns the effects not named (taken out of `picked`).
+fn guard_table_shape(p: &mut Problem, picked: &mut Picked, threshold: f64) -> Vec<EffectKind> {
+    if !picked.with_model || picked.selected.is_empty() {
+        return Vec::new();
+    }
+    let mut kinds = picked.selected.clone();
+    kinds.sort();
+    let fit = p.fit(&kinds, true);
+    let offset: usize = kinds.iter().map(|k| k.linear_count()).sum();
+    let off: Vec<usize> = p
+        .named_cols
+        .iter()
+        .zip(&fit.linear.coefs[offset..])
+        .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
+        .filter_map(|((name, _), _)| p.shape_cols.iter().position(|(axis, _)| axis == name))
+        .collect();
+    if off.is_empty() {
+        return Vec::new();
+    }
+    let own = p.sig.model.len();
+    for &k in &off {
+        let cols = p.shape_cols[k].1.clone();
+        p.sig.model.extend(cols);
+    }
+    let terms = selection::Terms { kinds, model: true };
+    let significance = {
+        let any = |_: &selection::Terms| true;
+        let mut scorer = selection::Scorer {
+            sig: &p.sig,
+            folds: &p.folds,
+            r: &p.r,
+            mse_before: p.mse_before,
+            settings: selection::SelectionSettings {
+                noise_um: p.floor,
+                model_u2: p.model_u2,
+                max_effects: terms.kinds.len(),
+                threshold,
+                model_available: true,
+            },
+            model_plausible: &any,
+            cache: BTreeMap::new(),
+        };
+        scorer.significance_of(&terms)
+    };
+    p.sig.model.truncate(own);
+    let axes = off
+        .iter()
+        .map(|&k| p.shape_cols[k].0.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    // The evidence of the model's factors beside the effects (the selection's).
+    let model_z = picked
+        .chosen
+        .significance
+        .iter()
+        .find(|(name, _)| !terms.kinds.iter().any(|k| k.name() == name))
+        .map_or(f64::INFINITY, |(_, z)| *z);
+    let own_z = |k: &EffectKind| {
+        picked
+            .chosen
+            .significance
+            .iter()
+            .find(|(name, _)| name == k.name())
+            .map_or(0.0, |(_, z)| *z)
+    };
+    let failing: Vec<EffectKind> = terms
+        .kinds
+        .iter()
+        .zip(&significance)
+        .filter(|(k, (_, z))| *z < threshold && own_z(k) <= model_z)
+        .map(|(k, _)| *k)
+        .collect();
+    picked.notes.push(format!(
+        "with the tables of {axes} also free in shape (smooth in their own positions): {}; threshold {threshold:.0}; model factors z = {model_z:.1} beside them{}",
+        terms
+            .kinds
+            .iter()
+            .zip(&significance)
+            .map(|(k, (_, z))| format!("{} z = {z:.1}", k.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        if failing.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ": {} not named (what a table of another shape would explain, with less evidence than the model's factors)",
+                failing.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
+            )
+        }
+    ));
+    if failing.is_empty() {
+        return failing;
+    }
+    picked.selected.retain(|k| !failing.contains(k));
+    picked.chosen.terms.kinds.retain(|k| !failing.contains(k));
+    picked.selected_mse = if picked.selected.is_empty() {
+        picked.model_only_mse
+    } else {
+        fit::cross_validate_terms(&p.sig, &p.folds, &picked.chosen.terms.kinds, true, &p.r)
+    };
+    failing
+}
+
+/// Columns of an unknown smooth error table of `axis` over `rows` (the
+/// alternative "the table is wrong in shape"): the machine-frame components
+/// of the normal times Legendre polynomials of degree ≤ `SHAPE_DEGREE` of the
+/// axis's position, scaled to [−1, 1] over the rows (the translation part of
+/// a table that is smooth over the part's travel; at a follow-up row, the
+/// cut's less the probe's).
+fn shape_columns(rows: &[fit::Row], axis: crate::axes::Axis) -> Vec<Vec<f64>> {
+    let points = || {
+        rows.iter()
+            .flat_map(|r| std::iter::once(r.cut).chain(r.probe))
+    };
+    let (lo, hi) = points()
+        .map(|c| c.joints.get(axis))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+            (lo.min(q), hi.max(q))
+        });
+    let span = hi - lo;
+    let degree = if span > 1e-9 { SHAPE_DEGREE } else { 0 };
+    let legendre = |s: f64, m: usize| match m {
+        0 => 1.0,
+        1 => s,
+        2 => 1.5 * s * s - 0.5,
+        _ => 2.5 * s * s * s - 1.5 * s,
+    };
+    let value = |c: &PointContext, j: usize, m: usize| {
+        let mut e = [0.0; 3];
+        e[j] = 1.0;
+        let s = if degree > 0 {
+            2.0 * (c.joints.get(axis) - lo) / span - 1.0
+        } else {
+            0.0
+        };
+        crate::vec3::dot(c.normal, c.machine_to_part(e)) * legendre(s, m)
+    };
+    let mut cols = Vec::new();
+    for j in 0..3 {
+        for m in 0..=degree {
+            cols.push(
+                rows.iter()
+                    .map(|r| value(r.cut, j, m) - r.probe.map_or(0.0, |c| value(c, j, m)))
+                    .collect(),
+            );
+        }
+    }
+    cols
+}
+
+/// Degree of the polynomials of an unknown smooth table (`shape_columns`):
+/// cubic, a table with a slope, a curvature and an inflection over the
+/// part's travel.
+pub const SHAPE_DEGREE: usize = 3;
 
 /// The selection fitted jointly on all used points (stage 7).
 struct Joint {
