@@ -47,12 +47,23 @@ pub struct MachineUpdate {
     pub changes: Vec<String>,
 }
 
+/// The ± of `param` of `effect`: the joint fit's (`after.checks`), since the
+/// values written are the joint fit's (`after.params`); the effect fitted
+/// alone only for a parameter the joint fit gives no ± (`tau`, profiled).
 fn value_std(report: &DiagnoseReport, effect: &str, param: &str) -> Option<f64> {
     report
-        .effects
-        .iter()
-        .find(|e| e.name == effect)
-        .and_then(|e| e.params_std.get(param).copied())
+        .after
+        .checks
+        .get(effect)
+        .and_then(|list| list.iter().find(|c| c.name == param && c.name != "tau"))
+        .map(|c| c.std)
+        .or_else(|| {
+            report
+                .effects
+                .iter()
+                .find(|e| e.name == effect)
+                .and_then(|e| e.params_std.get(param).copied())
+        })
         .filter(|s| s.is_finite())
 }
 
@@ -91,37 +102,26 @@ pub fn machine_update(
     provenance: &[String],
 ) -> MachineUpdate {
     let mut update = MachineUpdate::default();
-    let mut header = vec![format!(
-        "Written by `volcomp diagnose --write-machine` (volcomp {}) from the diagnosis of:",
-        env!("CARGO_PKG_VERSION")
-    )];
-    header.extend(provenance.iter().map(|p| format!("  {p}")));
-    let g = &report.gap;
-    header.push(format!(
-        "Measured profile {:.2} µm, predicted {:.2} µm; residual RMS {:.2} µm, noise floor {:.2} µm ({}).",
-        g.measured_profile_um,
-        g.predicted_profile_um,
-        g.residual_rms_um,
-        g.noise_floor_um,
-        g.noise_floor_source
-    ));
+    let mut header = header_lines(report, provenance);
     let selected: Vec<EffectKind> = report
         .selected
         .iter()
         .filter_map(|n| EffectKind::from_name(n))
         .collect();
-    if report.model_check.mismatch {
-        let line = "Nothing changed: the diagnosis says the error model itself does not match this machine (see its report's model_check); re-measure the error tables rather than adding effects to this file.".to_string();
-        header.push(line.clone());
-        update.changes.push(line);
-        header.push(String::new());
-        update.edits.header = header;
-        return update;
-    }
-    if selected.is_empty() {
-        let line = "Nothing changed: no unmodelled effect is supported by the measurement (the gap is within the noise floor and the model's uncertainty).".to_string();
-        header.push(line.clone());
-        update.changes.push(line);
+    let nothing = if report.model_check.mismatch {
+        Some(
+            "Nothing changed: the diagnosis says the error model itself does not match this machine (see its report's model_check); re-measure the error tables rather than adding effects to this file.",
+        )
+    } else if selected.is_empty() {
+        Some(
+            "Nothing changed: no unmodelled effect is supported by the measurement (the gap is within the noise floor and the model's uncertainty).",
+        )
+    } else {
+        None
+    };
+    if let Some(line) = nothing {
+        header.push(line.to_string());
+        update.changes.push(line.to_string());
         header.push(String::new());
         update.edits.header = header;
         return update;
@@ -129,191 +129,40 @@ pub fn machine_update(
     header.push(format!(
         "Selected: {}; held-out residual RMS {:.2} -> {:.2} µm.",
         report.selected.join(" + "),
-        g.residual_rms_um,
+        report.gap.residual_rms_um,
         report.after.heldout_rms_um
     ));
     header.push(format!(
         "What changed and why (each value: the file's own plus the diagnosed one, ± one standard error of {}):",
         if selected.len() > 1 {
-            "the effect fitted alone; the values are the joint fit's"
+            "the joint fit of the selected effects"
         } else {
             "the fit"
         }
     ));
     let empty = BTreeMap::new();
-    let layout = machine.layout();
-    let location_names = layout.location_names();
     let mut advice = Vec::new();
     for kind in &selected {
-        let name = kind.name();
-        let params = report.after.params.get(name).unwrap_or(&empty);
+        let params = report.after.params.get(kind.name()).unwrap_or(&empty);
+        let mut out = Written {
+            header: &mut header,
+            update: &mut update,
+            advice: &mut advice,
+        };
         match kind {
             EffectKind::RotaryLocation | EffectKind::Squareness => {
-                let (section, keys, own): (&str, Vec<&str>, Vec<f64>) =
-                    if *kind == EffectKind::Squareness {
-                        (
-                            "squareness",
-                            SQUARENESS_NAMES.to_vec(),
-                            machine.squareness.to_vec(),
-                        )
-                    } else {
-                        (
-                            "location",
-                            location_names.to_vec(),
-                            machine.location.to_vec(),
-                        )
-                    };
-                let units: BTreeMap<&str, &str> = kind
-                    .parameters_for(machine.chain.rotary())
-                    .iter()
-                    .copied()
-                    .zip(kind.units().iter().copied())
-                    .collect();
-                let rank = report
-                    .effects
-                    .iter()
-                    .find(|e| e.name == name)
-                    .map(|e| (e.rank, e.parameter_count));
-                for (param, delta) in params {
-                    let Some(k) = keys.iter().position(|key| key == param) else {
-                        continue;
-                    };
-                    let new = own[k] + delta;
-                    if rounded(new) == rounded(own[k]) {
-                        continue;
-                    }
-                    let unit = units.get(param.as_str()).copied().unwrap_or("");
-                    let std = value_std(report, name, param);
-                    let weak = std.is_some_and(|s| s >= delta.abs());
-                    let note = format!(
-                        "was {:.2}; {name} {}{}",
-                        own[k],
-                        pm(*delta, std, unit),
-                        if weak {
-                            " (not significant on this part)"
-                        } else {
-                            ""
-                        }
-                    );
-                    header.push(format!(
-                        "  [{section}] {param}: {:.2} -> {:.2} {unit} ({name} {}){}",
-                        own[k],
-                        rounded(new),
-                        pm(*delta, std, unit),
-                        if weak {
-                            ": not significant (its standard error is at least its value)"
-                        } else {
-                            ""
-                        }
-                    ));
-                    let edit = ValueEdit {
-                        key: param.clone(),
-                        value: new,
-                        note,
-                    };
-                    if *kind == EffectKind::Squareness {
-                        update.edits.squareness.push(edit);
-                    } else {
-                        update.edits.location.push(edit);
-                    }
-                }
-                if let Some((rank, count)) = rank {
-                    if rank < count {
-                        header.push(format!(
-                            "  ({name}: rank {rank} of {count} on this part: some combinations cannot be identified from it and are written at minimum norm; they cancel this part's deviations, not necessarily another's)"
-                        ));
-                    }
-                }
-                update.changes.push(format!(
-                    "[{section}]: {name} added to the machine file's values"
-                ));
+                write_values(report, machine, *kind, params, &mut out)
             }
-            EffectKind::Backlash => {
-                for (axis, param) in [(Axis::X, "bx"), (Axis::Y, "by"), (Axis::Z, "bz")] {
-                    let b = params.get(param).copied().unwrap_or(0.0);
-                    if rounded(b) == 0.0 {
-                        continue;
-                    }
-                    let std = value_std(report, name, param);
-                    let sign = match machine.chain.side_of(axis) {
-                        Some(Side::Workpiece) => -1.0,
-                        _ => 1.0,
-                    };
-                    let carries = if sign < 0.0 {
-                        "the workpiece"
-                    } else {
-                        "the tool"
-                    };
-                    let why = format!(
-                        "backlash {param} = {} ({} carries {carries}: REVERSAL = {}{param})",
-                        pm(b, std, "µm"),
-                        axis.letter(),
-                        if sign < 0.0 { "−" } else { "" }
-                    );
-                    if machine.table(axis).is_some() {
-                        header.push(format!(
-                            "  [errors] {}: REVERSAL {:+.2} µm at every position ({why})",
-                            axis.letter().to_ascii_lowercase(),
-                            rounded(sign * b)
-                        ));
-                        update.reversal.push(ReversalEdit {
-                            axis,
-                            add_um: rounded(sign * b),
-                            note: why,
-                        });
-                    } else {
-                        header.push(format!(
-                            "  {}: not written ({why}): the machine file has no error table for {} to carry a REVERSAL column",
-                            axis.letter(),
-                            axis.letter()
-                        ));
-                    }
-                }
-                update.changes.push(
-                    "[errors]: backlash as REVERSAL columns of copies of the axis tables".into(),
-                );
-            }
+            EffectKind::Backlash => write_reversal(report, machine, params, &mut out),
             EffectKind::SetupError => {
-                let p = |k: &str| params.get(k).copied().unwrap_or(0.0);
-                let line = format!(
-                    "Set-up (not written: the part's placement on the table is not a property of the machine, and changes with every set-up): the surface was cut shifted by ({:.1}, {:.1}, {:.1}) µm and turned by ({:.0}, {:.0}, {:.0}) µrad about X, Y, Z in part coordinates. To cancel it, move the work offset (G54…) by ({:.1}, {:.1}, {:.1}) µm in part coordinates (the machine frame at rotary zero) and turn the part by ({:.0}, {:.0}, {:.0}) µrad, or re-probe the part zero and alignment.",
-                    p("tx"),
-                    p("ty"),
-                    p("tz"),
-                    p("rx"),
-                    p("ry"),
-                    p("rz"),
-                    -p("tx"),
-                    -p("ty"),
-                    -p("tz"),
-                    -p("rx"),
-                    -p("ry"),
-                    -p("rz")
-                );
-                advice.push(line.clone());
-                update.changes.push(line);
+                let line = setup_advice(params);
+                out.advice.push(line.clone());
+                out.update.changes.push(line);
             }
             other => {
-                let units: BTreeMap<&str, &str> = other
-                    .parameters()
-                    .iter()
-                    .copied()
-                    .zip(other.units().iter().copied())
-                    .collect();
-                let values: Vec<String> = params
-                    .iter()
-                    .map(|(k, v)| {
-                        let unit = units.get(k.as_str()).copied().unwrap_or("");
-                        format!("{k} = {}", pm(*v, value_std(report, name, k), unit))
-                    })
-                    .collect();
-                let line = format!(
-                    "{name} ({}): not written: {}.",
-                    values.join(", "),
-                    not_written(*other)
-                );
-                advice.push(line.clone());
-                update.changes.push(line);
+                let line = effect_advice(report, *other, params);
+                out.advice.push(line.clone());
+                out.update.changes.push(line);
             }
         }
     }
@@ -332,6 +181,226 @@ pub fn machine_update(
     header.push(String::new());
     update.edits.header = header;
     update
+}
+
+/// Where an effect's changes go: the comment block, the update, and the
+/// advice (written after every value).
+struct Written<'a> {
+    header: &'a mut Vec<String>,
+    update: &'a mut MachineUpdate,
+    advice: &'a mut Vec<String>,
+}
+
+/// The comment block's first lines: what wrote it, from what, and the gap.
+fn header_lines(report: &DiagnoseReport, provenance: &[String]) -> Vec<String> {
+    let mut header = vec![format!(
+        "Written by `volcomp diagnose --write-machine` (volcomp {}) from the diagnosis of:",
+        env!("CARGO_PKG_VERSION")
+    )];
+    header.extend(provenance.iter().map(|p| format!("  {p}")));
+    let g = &report.gap;
+    header.push(format!(
+        "Measured profile {:.2} µm, predicted {:.2} µm; residual RMS {:.2} µm, noise floor {:.2} µm ({}).",
+        g.measured_profile_um,
+        g.predicted_profile_um,
+        g.residual_rms_um,
+        g.noise_floor_um,
+        g.noise_floor_source
+    ));
+    header
+}
+
+/// `rotary_location` or `squareness`: the machine file's values plus the
+/// diagnosed ones.
+fn write_values(
+    report: &DiagnoseReport,
+    machine: &Machine,
+    kind: EffectKind,
+    params: &BTreeMap<String, f64>,
+    out: &mut Written,
+) {
+    let name = kind.name();
+    let layout = machine.layout();
+    let location_names = layout.location_names();
+    let (section, keys, own): (&str, Vec<&str>, Vec<f64>) = if kind == EffectKind::Squareness {
+        (
+            "squareness",
+            SQUARENESS_NAMES.to_vec(),
+            machine.squareness.to_vec(),
+        )
+    } else {
+        (
+            "location",
+            location_names.to_vec(),
+            machine.location.to_vec(),
+        )
+    };
+    let units: BTreeMap<&str, &str> = kind
+        .parameters_for(machine.chain.rotary())
+        .iter()
+        .copied()
+        .zip(kind.units().iter().copied())
+        .collect();
+    let rank = report
+        .effects
+        .iter()
+        .find(|e| e.name == name)
+        .map(|e| (e.rank, e.parameter_count));
+    for (param, delta) in params {
+        let Some(k) = keys.iter().position(|key| key == param) else {
+            continue;
+        };
+        let new = own[k] + delta;
+        if rounded(new) == rounded(own[k]) {
+            continue;
+        }
+        let unit = units.get(param.as_str()).copied().unwrap_or("");
+        let std = value_std(report, name, param);
+        let weak = std.is_some_and(|s| s >= delta.abs());
+        let note = format!(
+            "was {:.2}; {name} {}{}",
+            own[k],
+            pm(*delta, std, unit),
+            if weak {
+                " (not significant on this part)"
+            } else {
+                ""
+            }
+        );
+        out.header.push(format!(
+            "  [{section}] {param}: {:.2} -> {:.2} {unit} ({name} {}){}",
+            own[k],
+            rounded(new),
+            pm(*delta, std, unit),
+            if weak {
+                ": not significant (its standard error is at least its value)"
+            } else {
+                ""
+            }
+        ));
+        let edit = ValueEdit {
+            key: param.clone(),
+            value: new,
+            note,
+        };
+        if kind == EffectKind::Squareness {
+            out.update.edits.squareness.push(edit);
+        } else {
+            out.update.edits.location.push(edit);
+        }
+    }
+    if let Some((rank, count)) = rank {
+        if rank < count {
+            out.header.push(format!(
+                "  ({name}: rank {rank} of {count} on this part: some combinations cannot be identified from it and are written at minimum norm; they cancel this part's deviations, not necessarily another's)"
+            ));
+        }
+    }
+    out.update.changes.push(format!(
+        "[{section}]: {name} added to the machine file's values"
+    ));
+}
+
+/// `backlash`: a `REVERSAL` column for each of X, Y, Z with a table, of the
+/// sign of the side the axis carries.
+fn write_reversal(
+    report: &DiagnoseReport,
+    machine: &Machine,
+    params: &BTreeMap<String, f64>,
+    out: &mut Written,
+) {
+    let name = EffectKind::Backlash.name();
+    for (axis, param) in [(Axis::X, "bx"), (Axis::Y, "by"), (Axis::Z, "bz")] {
+        let b = params.get(param).copied().unwrap_or(0.0);
+        if rounded(b) == 0.0 {
+            continue;
+        }
+        let std = value_std(report, name, param);
+        let sign = match machine.chain.side_of(axis) {
+            Some(Side::Workpiece) => -1.0,
+            _ => 1.0,
+        };
+        let carries = if sign < 0.0 {
+            "the workpiece"
+        } else {
+            "the tool"
+        };
+        let why = format!(
+            "backlash {param} = {} ({} carries {carries}: REVERSAL = {}{param})",
+            pm(b, std, "µm"),
+            axis.letter(),
+            if sign < 0.0 { "−" } else { "" }
+        );
+        if machine.table(axis).is_some() {
+            out.header.push(format!(
+                "  [errors] {}: REVERSAL {:+.2} µm at every position ({why})",
+                axis.letter().to_ascii_lowercase(),
+                rounded(sign * b)
+            ));
+            out.update.reversal.push(ReversalEdit {
+                axis,
+                add_um: rounded(sign * b),
+                note: why,
+            });
+        } else {
+            out.header.push(format!(
+                "  {}: not written ({why}): the machine file has no error table for {} to carry a REVERSAL column",
+                axis.letter(),
+                axis.letter()
+            ));
+        }
+    }
+    out.update
+        .changes
+        .push("[errors]: backlash as REVERSAL columns of copies of the axis tables".into());
+}
+
+/// `setup_error`: a work-offset suggestion (not written).
+fn setup_advice(params: &BTreeMap<String, f64>) -> String {
+    let p = |k: &str| params.get(k).copied().unwrap_or(0.0);
+    format!(
+        "Set-up (not written: the part's placement on the table is not a property of the machine, and changes with every set-up): the surface was cut shifted by ({:.1}, {:.1}, {:.1}) µm and turned by ({:.0}, {:.0}, {:.0}) µrad about X, Y, Z in part coordinates. To cancel it, move the work offset (G54…) by ({:.1}, {:.1}, {:.1}) µm in part coordinates (the machine frame at rotary zero) and turn the part by ({:.0}, {:.0}, {:.0}) µrad, or re-probe the part zero and alignment.",
+        p("tx"),
+        p("ty"),
+        p("tz"),
+        p("rx"),
+        p("ry"),
+        p("rz"),
+        -p("tx"),
+        -p("ty"),
+        -p("tz"),
+        -p("rx"),
+        -p("ry"),
+        -p("rz")
+    )
+}
+
+/// An effect that is not a property of the machine: its values and why it
+/// is not written.
+fn effect_advice(
+    report: &DiagnoseReport,
+    kind: EffectKind,
+    params: &BTreeMap<String, f64>,
+) -> String {
+    let name = kind.name();
+    let units: BTreeMap<&str, &str> = kind
+        .parameters()
+        .iter()
+        .copied()
+        .zip(kind.units().iter().copied())
+        .collect();
+    let values: Vec<String> = params
+        .iter()
+        .map(|(k, v)| {
+            let unit = units.get(k.as_str()).copied().unwrap_or("");
+            format!("{k} = {}", pm(*v, value_std(report, name, k), unit))
+        })
+        .collect();
+    format!(
+        "{name} ({}): not written: {}.",
+        values.join(", "),
+        not_written(kind)
+    )
 }
 
 #[cfg(test)]
@@ -426,5 +495,64 @@ mod tests {
         let r = report(&[]);
         let update = machine_update(&r, &machine, &[]);
         assert!(update.edits.header.join("\n").contains("Nothing changed"));
+    }
+
+    /// Issue 26: with two effects selected, the values written and their ±
+    /// are the joint fit's (`after`), not those of each effect fitted alone.
+    #[test]
+    fn a_pair_is_written_with_the_joint_fits_values_and_standard_errors() {
+        let machine = workpiece_x_machine();
+        let r = report(&["squareness:s_xy=40,s_xz=-20", "backlash:bx=8,by=5,bz=3"]);
+        assert_eq!(r.selected.len(), 2, "{:?}", r.selected);
+        assert!(r.selected.iter().any(|s| s == "squareness"));
+        assert!(r.selected.iter().any(|s| s == "backlash"));
+        let update = machine_update(&r, &machine, &[]);
+        let joint = |effect: &str, param: &str| {
+            r.after.checks[effect]
+                .iter()
+                .find(|c| c.name == param)
+                .map(|c| (c.value, c.std))
+                .unwrap()
+        };
+        let alone = |effect: &str, param: &str| {
+            let e = r.effects.iter().find(|e| e.name == effect).unwrap();
+            (e.params[param], e.params_std[param])
+        };
+        // Backlash on X (the workpiece side): REVERSAL = −bx of the joint fit,
+        // its note with the joint fit's ±.
+        let (bx, bx_std) = joint("backlash", "bx");
+        let (_, bx_alone_std) = alone("backlash", "bx");
+        assert_ne!(pm(bx, Some(bx_std), "µm"), pm(bx, Some(bx_alone_std), "µm"));
+        assert_eq!(update.reversal[0].add_um, rounded(-bx));
+        assert!(
+            update.reversal[0]
+                .note
+                .contains(&pm(bx, Some(bx_std), "µm")),
+            "{:?} (joint ± {bx_std}, alone ± {bx_alone_std})",
+            update.reversal[0]
+        );
+        // Squareness: the file's value plus the joint fit's, with its ±.
+        let (s_xy, s_xy_std) = joint("squareness", "s_xy");
+        let (_, s_xy_alone_std) = alone("squareness", "s_xy");
+        assert_ne!(
+            pm(s_xy, Some(s_xy_std), "µrad"),
+            pm(s_xy, Some(s_xy_alone_std), "µrad")
+        );
+        let edit = update
+            .edits
+            .squareness
+            .iter()
+            .find(|e| e.key == "s_xy")
+            .unwrap();
+        assert_eq!(edit.value, machine.squareness[0] + s_xy);
+        assert!(
+            edit.note.contains(&pm(s_xy, Some(s_xy_std), "µrad")),
+            "{edit:?} (joint ± {s_xy_std}, alone ± {s_xy_alone_std})"
+        );
+        let header = update.edits.header.join("\n");
+        assert!(
+            header.contains("the joint fit of the selected effects"),
+            "{header}"
+        );
     }
 }

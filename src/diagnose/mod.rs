@@ -178,6 +178,38 @@ pub fn diagnose_with_followup(
     followup: &[followup::ProbeReading],
     options: &DiagnoseOptions,
 ) -> Result<DiagnoseReport, DiagnoseError> {
+    validate(contexts, measured_um, options)?;
+    let mut p = Problem::new(contexts, measured_um, followup, options)?;
+    let candidates = single_effects(&p);
+    let mut picked = select_terms(&p, &candidates, options);
+    let effects = effect_table(&p, &candidates, options.alias_cosine);
+    let mut not_named = guard_not_named(&p, &mut picked);
+    not_named.extend(guard_table_shape(&mut p, &mut picked, options.significance));
+    let joint = joint_fit(&p, &picked.selected, picked.with_model);
+    let outcome = check_model(&p, &picked, &joint);
+    let summary = summary_sentences(&p, &picked, &joint, &outcome, &effects, &not_named);
+    if picked.with_model {
+        picked.notes.push(format!(
+            "the error model's own factors are in the selection: {}",
+            outcome
+                .model_check
+                .factors
+                .iter()
+                .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    Ok(assemble(p, picked, effects, joint, outcome, summary))
+}
+
+/// Stage 1: the inputs are one finite value per plan point, the options in
+/// their ranges.
+fn validate(
+    contexts: &[PointContext],
+    measured_um: &[f64],
+    options: &DiagnoseOptions,
+) -> Result<(), DiagnoseError> {
     if contexts.len() != measured_um.len() {
         return Err(DiagnoseError::LengthMismatch {
             what: "measured deviations",
@@ -207,69 +239,183 @@ pub fn diagnose_with_followup(
             options.max_selected
         )));
     }
-    let used_idx: Vec<usize> = (0..contexts.len()).filter(|&i| contexts[i].cut).collect();
-    if used_idx.is_empty() {
-        return Err(DiagnoseError::NoPoints);
-    }
-    let used: Vec<&PointContext> = used_idx.iter().map(|&i| &contexts[i]).collect();
-    let measured: Vec<f64> = used_idx.iter().map(|&i| measured_um[i]).collect();
-    // The machine's axes, as the contexts name them (one machine per diagnosis).
-    let slot_letters = used[0].slot_letters();
-    let rotary = used[0].rotary;
-    let predicted: Vec<f64> = used.iter().map(|c| c.predicted_um).collect();
-    let r0: Vec<f64> = measured
-        .iter()
-        .zip(&predicted)
-        .map(|(m, p)| m - p)
-        .collect();
-    // The measurement's points.
-    let n0 = r0.len();
-    let (noise_floor, noise_source) = match options.noise_um {
-        Some(s) => (s, "given"),
-        None => (noise::estimate_noise_floor(&used, &r0), "estimated"),
-    };
-    // Guard the thresholds against a zero floor (noise-free synthetic data).
-    let floor = noise_floor.max(1e-6);
+    Ok(())
+}
 
-    // Every row fitted: the measurement's, then the follow-up's.
-    let mut rows: Vec<fit::Row> = used
-        .iter()
-        .map(|c| fit::Row {
-            cut: c,
-            probe: None,
+/// Stage 2: what is fitted. The measurement's used points and residuals, the
+/// follow-up's rows after them, the noise floor, the signatures (with the
+/// model's own columns), the folds and the model's uncertainty.
+struct Problem<'a> {
+    /// The plan's points (cut or not).
+    points: usize,
+    /// The cut points, in plan order.
+    used: Vec<&'a PointContext>,
+    /// Their measured and predicted deviations and residuals (µm).
+    measured: Vec<f64>,
+    predicted: Vec<f64>,
+    r0: Vec<f64>,
+    /// The residual of every row fitted (the measurement's, then the
+    /// follow-up's).
+    r: Vec<f64>,
+    rotary: [crate::axes::Axis; 2],
+    noise_floor: f64,
+    noise_source: &'static str,
+    /// The noise floor guarded against zero (noise-free synthetic data).
+    floor: f64,
+    sig: Signatures,
+    folds: Folds,
+    all_rows: Vec<usize>,
+    /// Mean square of the residual with nothing fitted.
+    mse_before: f64,
+    /// The error model's own columns, with their names.
+    named_cols: Vec<(String, Vec<f64>)>,
+    /// Per axis named in `named_cols`, the columns of an unknown smooth
+    /// table of that axis (`shape_columns`).
+    shape_cols: Vec<(String, Vec<Vec<f64>>)>,
+    /// The model's own standard uncertainty: mean square over the rows, and
+    /// RMS over the measurement's points.
+    model_u2: f64,
+    model_u: f64,
+    /// √(σ² + u²): what the noise and the model's uncertainty allow.
+    expected: f64,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        contexts: &'a [PointContext],
+        measured_um: &[f64],
+        followup: &'a [followup::ProbeReading],
+        options: &DiagnoseOptions,
+    ) -> Result<Problem<'a>, DiagnoseError> {
+        let used_idx: Vec<usize> = (0..contexts.len()).filter(|&i| contexts[i].cut).collect();
+        if used_idx.is_empty() {
+            return Err(DiagnoseError::NoPoints);
+        }
+        let used: Vec<&PointContext> = used_idx.iter().map(|&i| &contexts[i]).collect();
+        let measured: Vec<f64> = used_idx.iter().map(|&i| measured_um[i]).collect();
+        // The machine's axes, as the contexts name them (one machine per diagnosis).
+        let slot_letters = used[0].slot_letters();
+        let rotary = used[0].rotary;
+        let predicted: Vec<f64> = used.iter().map(|c| c.predicted_um).collect();
+        let r0: Vec<f64> = measured
+            .iter()
+            .zip(&predicted)
+            .map(|(m, p)| m - p)
+            .collect();
+        let n0 = r0.len();
+        let (noise_floor, noise_source) = match options.noise_um {
+            Some(s) => (s, "given"),
+            None => (noise::estimate_noise_floor(&used, &r0), "estimated"),
+        };
+        let floor = noise_floor.max(1e-6);
+        let mut rows: Vec<fit::Row> = used
+            .iter()
+            .map(|c| fit::Row {
+                cut: c,
+                probe: None,
+            })
+            .collect();
+        let mut r = r0.clone();
+        for reading in followup {
+            let row = followup::check_reading(contexts, reading)?;
+            r.push(reading.reading_um - row.predicted_um());
+            rows.push(row);
+        }
+        let n = r.len();
+        let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
+        let mut sig = Signatures::new(&rows);
+        let folds = Folds::new(&row_points, options.time_folds);
+        // The error model's own columns: one per measured axis (what the model
+        // attributes to its tables), and one for the rest of the prediction (the
+        // machine file's position-independent errors: squareness, rotary location).
+        let named_cols = model_columns(&rows, &slot_letters);
+        sig.model = named_cols.iter().map(|(_, c)| c.clone()).collect();
+        let shape_cols = slot_letters
+            .iter()
+            .filter(|a| {
+                named_cols
+                    .iter()
+                    .any(|(name, _)| *name == a.letter().to_string())
+            })
+            .map(|a| (a.letter().to_string(), shape_columns(&rows, *a)))
+            .collect();
+        let model_u2 = rows
+            .iter()
+            .map(|row| row.cut.model_u_um.powi(2) + row.probe.map_or(0.0, |p| p.model_u_um.powi(2)))
+            .sum::<f64>()
+            / n as f64;
+        let model_u = (used.iter().map(|c| c.model_u_um.powi(2)).sum::<f64>() / n0 as f64).sqrt();
+        Ok(Problem {
+            points: contexts.len(),
+            mse_before: r.iter().map(|v| v * v).sum::<f64>() / n as f64,
+            all_rows: (0..n).collect(),
+            expected: (floor * floor + model_u * model_u).sqrt(),
+            used,
+            measured,
+            predicted,
+            r0,
+            r,
+            rotary,
+            noise_floor,
+            noise_source,
+            floor,
+            sig,
+            folds,
+            named_cols,
+            shape_cols,
+            model_u2,
+            model_u,
         })
-        .collect();
-    let mut r = r0.clone();
-    for reading in followup {
-        let row = followup::check_reading(contexts, reading)?;
-        r.push(reading.reading_um - row.predicted_um());
-        rows.push(row);
     }
-    let n = r.len();
-    let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
-    let sig = Signatures::new(&rows);
-    let folds = Folds::new(&row_points, options.time_folds);
-    let all_rows: Vec<usize> = (0..n).collect();
-    let mse_before = r.iter().map(|v| v * v).sum::<f64>() / n as f64;
-    let ln_n = (n as f64).ln();
-    let bic = |mse: f64, p: usize| n as f64 * mse.max(1e-300).ln() + p as f64 * ln_n;
 
-    struct Candidate {
-        kind: EffectKind,
-        fit: SetFit,
-        mse: f64,
-        bic: f64,
-        contribution: Vec<f64>,
+    /// Rows fitted (the measurement's and the follow-up's).
+    fn n(&self) -> usize {
+        self.r.len()
     }
+
+    /// `n·ln(MSE) + p·ln(n)`.
+    fn bic(&self, mse: f64, p: usize) -> f64 {
+        let n = self.n() as f64;
+        n * mse.max(1e-300).ln() + p as f64 * n.ln()
+    }
+
+    /// `terms` (effects and, when `model`, the model's columns) fitted on all rows.
+    fn fit(&self, kinds: &[EffectKind], model: bool) -> SetFit {
+        fit::fit_terms(&self.sig, kinds, model, &self.all_rows, &self.r)
+    }
+
+    /// The measurement's residual less `contribution`.
+    fn residual_after(&self, contribution: &[f64]) -> Vec<f64> {
+        self.r0
+            .iter()
+            .zip(contribution)
+            .map(|(a, c)| a - c)
+            .collect()
+    }
+}
+
+/// One catalogue effect fitted alone (stage 3).
+struct Candidate {
+    kind: EffectKind,
+    fit: SetFit,
+    /// Held-out mean square error.
+    mse: f64,
+    bic: f64,
+    contribution: Vec<f64>,
+}
+
+/// Stage 3: every catalogue effect fitted alone and cross-validated, best
+/// (lowest held-out BIC) first.
+fn single_effects(p: &Problem) -> Vec<Candidate> {
     let mut candidates: Vec<Candidate> = EffectKind::ALL
         .iter()
         .map(|&kind| {
-            let fit = fit_set(&sig, &[kind], &all_rows, &r);
-            let mse = cross_validate(&sig, &folds, &[kind], &r);
-            let contribution = fit.contribution(&sig);
+            let fit = fit_set(&p.sig, &[kind], &p.all_rows, &p.r);
+            let mse = cross_validate(&p.sig, &p.folds, &[kind], &p.r);
+            let contribution = fit.contribution(&p.sig);
             Candidate {
                 kind,
-                bic: bic(mse, fit.parameter_count()),
+                bic: p.bic(mse, fit.parameter_count()),
                 fit,
                 mse,
                 contribution,
@@ -277,40 +423,44 @@ pub fn diagnose_with_followup(
         })
         .collect();
     candidates.sort_by(|a, b| a.bic.total_cmp(&b.bic).then(a.kind.cmp(&b.kind)));
+    candidates
+}
 
-    // The error model's own columns: one per measured axis (what the model
-    // attributes to its tables), and one for the rest of the prediction (the
-    // machine file's position-independent errors: squareness, rotary location).
-    let named_cols = model_columns(&rows, &slot_letters);
-    let mut sig = sig;
-    sig.model = named_cols.iter().map(|(_, c)| c.clone()).collect();
-    let sig = sig;
-    // The model's own standard uncertainty (RMS over the rows).
-    let model_u2 = rows
-        .iter()
-        .map(|row| row.cut.model_u_um.powi(2) + row.probe.map_or(0.0, |p| p.model_u_um.powi(2)))
-        .sum::<f64>()
-        / n as f64;
+/// What the selection picked (stage 4), after the "not named" guard (stage 6).
+struct Picked {
+    chosen: selection::Selection,
+    /// The selected effects, in the order of the single-effect ranking.
+    selected: Vec<EffectKind>,
+    /// The model's own factors are in the selection.
+    with_model: bool,
+    /// Held-out mean square error of what is selected.
+    selected_mse: f64,
+    /// Held-out mean square error of the model's factors alone.
+    model_only_mse: f64,
+    notes: Vec<String>,
+}
 
-    // Selection on evidence (selection.rs).
+/// Stage 4: selection on evidence (selection.rs), effects and the model's
+/// own factors.
+fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions) -> Picked {
     let max_factor = |t: &selection::Terms| -> bool {
-        let fit = fit::fit_terms(&sig, &t.kinds, true, &all_rows, &r);
+        let fit = p.fit(&t.kinds, true);
         let offset: usize = t.kinds.iter().map(|k| k.linear_count()).sum();
         fit.linear.coefs[offset..]
             .iter()
             .any(|b| b.abs() >= MODEL_FACTOR_MIN)
     };
     let mut scorer = selection::Scorer {
-        sig: &sig,
-        folds: &folds,
-        r: &r,
-        mse_before,
+        sig: &p.sig,
+        folds: &p.folds,
+        r: &p.r,
+        mse_before: p.mse_before,
         settings: selection::SelectionSettings {
-            noise_um: floor,
-            model_u2,
+            noise_um: p.floor,
+            model_u2: p.model_u2,
             max_effects: options.max_selected,
             threshold: options.significance,
-            model_available: !named_cols.is_empty(),
+            model_available: !p.named_cols.is_empty(),
         },
         model_plausible: &max_factor,
         cache: candidates
@@ -327,18 +477,14 @@ pub fn diagnose_with_followup(
             .collect(),
     };
     let chosen = selection::select(&mut scorer, &EffectKind::ALL);
-    let model_only_mse = {
-        let t = selection::Terms {
+    let model_only_mse = if p.named_cols.is_empty() {
+        p.mse_before
+    } else {
+        scorer.mse(&selection::Terms {
             kinds: Vec::new(),
             model: true,
-        };
-        if named_cols.is_empty() {
-            mse_before
-        } else {
-            scorer.mse(&t)
-        }
+        })
     };
-    let mut notes = chosen.notes.clone();
     // Order the selected effects by their single-effect ranking.
     let rank = |k: EffectKind| {
         candidates
@@ -348,12 +494,23 @@ pub fn diagnose_with_followup(
     };
     let mut selected: Vec<EffectKind> = chosen.terms.kinds.clone();
     selected.sort_by_key(|k| rank(*k));
-    let with_model = chosen.terms.model;
-    let selected_mse = chosen.mse;
+    Picked {
+        selected,
+        with_model: chosen.terms.model,
+        selected_mse: chosen.mse,
+        model_only_mse,
+        notes: chosen.notes.clone(),
+        chosen,
+    }
+}
 
-    // Aliases (symmetric): two effects whose fitted contributions coincide to
-    // within the probing noise (cosine ≥ alias_cosine and the RMS of their
-    // difference below the noise floor), both being larger than it.
+/// Stage 5: the effects table, each effect fitted alone, with its
+/// (symmetric) aliases: two effects whose fitted contributions coincide to
+/// within the probing noise (cosine ≥ `alias_cosine` and the RMS of their
+/// difference below the noise floor), both being larger than it.
+fn effect_table(p: &Problem, candidates: &[Candidate], alias_cosine: f64) -> Vec<EffectFit> {
+    let n = p.n();
+    let floor = p.floor;
     let alias_of = |a: &Candidate, b: &Candidate| -> bool {
         let (ra, rb) = (rms(&a.contribution), rms(&b.contribution));
         if ra < floor || rb < floor {
@@ -372,12 +529,12 @@ pub fn diagnose_with_followup(
             .zip(&b.contribution)
             .map(|(x, y)| x - y)
             .collect();
-        cos >= options.alias_cosine && rms(&diff) < floor
+        cos >= alias_cosine && rms(&diff) < floor
     };
-    let effects: Vec<EffectFit> = candidates
+    candidates
         .iter()
         .map(|c| {
-            let (params, var) = named_params(&c.fit, 0, rotary);
+            let (params, var) = named_params(&c.fit, 0, p.rotary);
             let dof = (n as f64 - c.fit.linear.rank as f64).max(1.0);
             let s2 = c.fit.linear.sse / dof;
             let params_std = var.into_iter().map(|(k, v)| (k, (v * s2).sqrt())).collect();
@@ -387,7 +544,7 @@ pub fn diagnose_with_followup(
                 .filter(|b| b.kind != c.kind && alias_of(c, b))
                 .map(|b| b.kind.name().to_string())
                 .collect();
-            let before = mse_before.sqrt();
+            let before = p.mse_before.sqrt();
             let after = c.mse.sqrt();
             EffectFit {
                 name: c.kind.name().to_string(),
@@ -407,107 +564,252 @@ pub fn diagnose_with_followup(
                 contribution_rms_um: contribution_rms,
             }
         })
-        .collect();
+        .collect()
+}
 
-    // What remains after a selection (the measurement's residual, its local
-    // anomalies, and its RMS outside them).
-    let model_u = (used.iter().map(|c| c.model_u_um.powi(2)).sum::<f64>() / n0 as f64).sqrt();
-    let expected = (floor * floor + model_u * model_u).sqrt();
-    let remains = |kinds: &[EffectKind], model: bool| {
-        let contribution = if kinds.is_empty() && !model {
-            vec![0.0; n]
-        } else {
-            fit::fit_terms(&sig, kinds, model, &all_rows, &r).contribution(&sig)
-        };
-        let r_after: Vec<f64> = r0.iter().zip(&contribution).map(|(a, c)| a - c).collect();
-        let anomalies = localization::local_anomalies(&used, &r_after, floor, model_u);
-        let remaining = remaining_outside(&used, &r_after, &anomalies);
-        (anomalies, remaining)
+/// Stage 6: effects are named only when, with them, the gap is explained:
+/// when what remains (local anomalies left out) stays well above what the
+/// noise and the model's uncertainty allow, the model is off in a way its
+/// factors do not describe, and catalogue effects fitted to part of its
+/// error would be guesses. Returns the effects not named (taken out of
+/// `picked`).
+fn guard_not_named(p: &Problem, picked: &mut Picked) -> Vec<EffectKind> {
+    if picked.selected.is_empty() {
+        return Vec::new();
+    }
+    let contribution = p
+        .fit(&picked.selected, picked.with_model)
+        .contribution(&p.sig);
+    let r_after = p.residual_after(&contribution);
+    let anomalies = localization::local_anomalies(&p.used, &r_after, p.floor, p.model_u);
+    let remaining = remaining_outside(&p.used, &r_after, &anomalies);
+    if remaining < UNEXPLAINED_RATIO * p.expected {
+        return Vec::new();
+    }
+    picked.notes.push(format!(
+        "with {} the residual stays at {:.3} µm RMS ≥ {:.1} × √(σ² + u²) = {:.3} µm: the model is off beyond its factors; {} not named",
+        picked.chosen.terms.label(),
+        remaining,
+        UNEXPLAINED_RATIO,
+        p.expected,
+        picked
+            .selected
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    ));
+    picked.selected_mse = if picked.with_model {
+        picked.model_only_mse
+    } else {
+        p.mse_before
     };
-    // Effects are named only when, with them, the gap is explained: when
-    // what remains stays well above what the noise and the model's
-    // uncertainty allow, the model is off in a way its factors do not
-    // describe, and catalogue effects fitted to part of its error would be
-    // guesses.
-    let mut not_named: Vec<EffectKind> = Vec::new();
-    if !selected.is_empty() {
-        let (_, remaining) = remains(&selected, with_model);
-        if remaining >= UNEXPLAINED_RATIO * expected {
-            notes.push(format!(
-                "with {} the residual stays at {:.3} µm RMS ≥ {:.1} × √(σ² + u²) = {:.3} µm: the model is off beyond its factors; {} not named",
-                chosen.terms.label(),
-                remaining,
-                UNEXPLAINED_RATIO,
-                expected,
-                selected.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
-            ));
-            not_named = std::mem::take(&mut selected);
+    std::mem::take(&mut picked.selected)
+}
+
+/// Stage 6b: when the model's own factors are in the selection, the tables
+/// they name are off, and not necessarily by a scale: a table can be wrong in
+/// shape (stale, or another machine's), and what a scale leaves of it can be
+/// taken for an effect. An effect beside the factors is named only when
+/// - it stays significant against that alternative, each named axis's table
+///   being also an unknown smooth function of its own position
+///   (`shape_columns`, cross-validated like any term), or
+/// - its own evidence (`z`) exceeds that of the model's factors: it is then
+///   the main explanation of the gap, not what remains of a table error the
+///   data sees more strongly.
+///
+/// Returns the effects not named (taken out of `picked`).
+fn guard_table_shape(p: &mut Problem, picked: &mut Picked, threshold: f64) -> Vec<EffectKind> {
+    if !picked.with_model || picked.selected.is_empty() {
+        return Vec::new();
+    }
+    let mut kinds = picked.selected.clone();
+    kinds.sort();
+    let fit = p.fit(&kinds, true);
+    let offset: usize = kinds.iter().map(|k| k.linear_count()).sum();
+    let off: Vec<usize> = p
+        .named_cols
+        .iter()
+        .zip(&fit.linear.coefs[offset..])
+        .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
+        .filter_map(|((name, _), _)| p.shape_cols.iter().position(|(axis, _)| axis == name))
+        .collect();
+    if off.is_empty() {
+        return Vec::new();
+    }
+    let own = p.sig.model.len();
+    for &k in &off {
+        let cols = p.shape_cols[k].1.clone();
+        p.sig.model.extend(cols);
+    }
+    let terms = selection::Terms { kinds, model: true };
+    let significance = {
+        let any = |_: &selection::Terms| true;
+        let mut scorer = selection::Scorer {
+            sig: &p.sig,
+            folds: &p.folds,
+            r: &p.r,
+            mse_before: p.mse_before,
+            settings: selection::SelectionSettings {
+                noise_um: p.floor,
+                model_u2: p.model_u2,
+                max_effects: terms.kinds.len(),
+                threshold,
+                model_available: true,
+            },
+            model_plausible: &any,
+            cache: BTreeMap::new(),
+        };
+        scorer.significance_of(&terms)
+    };
+    p.sig.model.truncate(own);
+    let axes = off
+        .iter()
+        .map(|&k| p.shape_cols[k].0.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    // The evidence of the model's factors beside the effects (the selection's).
+    let model_z = picked
+        .chosen
+        .significance
+        .iter()
+        .find(|(name, _)| !terms.kinds.iter().any(|k| k.name() == name))
+        .map_or(f64::INFINITY, |(_, z)| *z);
+    let own_z = |k: &EffectKind| {
+        picked
+            .chosen
+            .significance
+            .iter()
+            .find(|(name, _)| name == k.name())
+            .map_or(0.0, |(_, z)| *z)
+    };
+    let failing: Vec<EffectKind> = terms
+        .kinds
+        .iter()
+        .zip(&significance)
+        .filter(|(k, (_, z))| *z < threshold && own_z(k) <= model_z)
+        .map(|(k, _)| *k)
+        .collect();
+    picked.notes.push(format!(
+        "with the tables of {axes} also free in shape (smooth in their own positions): {}; threshold {threshold:.0}; model factors z = {model_z:.1} beside them{}",
+        terms
+            .kinds
+            .iter()
+            .zip(&significance)
+            .map(|(k, (_, z))| format!("{} z = {z:.1}", k.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        if failing.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ": {} not named (what a table of another shape would explain, with less evidence than the model's factors)",
+                failing.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ")
+            )
+        }
+    ));
+    if failing.is_empty() {
+        return failing;
+    }
+    picked.selected.retain(|k| !failing.contains(k));
+    picked.chosen.terms.kinds.retain(|k| !failing.contains(k));
+    picked.selected_mse = if picked.selected.is_empty() {
+        picked.model_only_mse
+    } else {
+        fit::cross_validate_terms(&p.sig, &p.folds, &picked.chosen.terms.kinds, true, &p.r)
+    };
+    failing
+}
+
+/// Columns of an unknown smooth error table of `axis` over `rows` (the
+/// alternative "the table is wrong in shape"): the machine-frame components
+/// of the normal times Legendre polynomials of degree ≤ `SHAPE_DEGREE` of the
+/// axis's position, scaled to [−1, 1] over the rows (the translation part of
+/// a table that is smooth over the part's travel; at a follow-up row, the
+/// cut's less the probe's).
+fn shape_columns(rows: &[fit::Row], axis: crate::axes::Axis) -> Vec<Vec<f64>> {
+    let points = || {
+        rows.iter()
+            .flat_map(|r| std::iter::once(r.cut).chain(r.probe))
+    };
+    let (lo, hi) = points()
+        .map(|c| c.joints.get(axis))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+            (lo.min(q), hi.max(q))
+        });
+    let span = hi - lo;
+    let degree = if span > 1e-9 { SHAPE_DEGREE } else { 0 };
+    let legendre = |s: f64, m: usize| match m {
+        0 => 1.0,
+        1 => s,
+        2 => 1.5 * s * s - 0.5,
+        _ => 2.5 * s * s * s - 1.5 * s,
+    };
+    let value = |c: &PointContext, j: usize, m: usize| {
+        let mut e = [0.0; 3];
+        e[j] = 1.0;
+        let s = if degree > 0 {
+            2.0 * (c.joints.get(axis) - lo) / span - 1.0
+        } else {
+            0.0
+        };
+        crate::vec3::dot(c.normal, c.machine_to_part(e)) * legendre(s, m)
+    };
+    let mut cols = Vec::new();
+    for j in 0..3 {
+        for m in 0..=degree {
+            cols.push(
+                rows.iter()
+                    .map(|r| value(r.cut, j, m) - r.probe.map_or(0.0, |c| value(c, j, m)))
+                    .collect(),
+            );
         }
     }
-    let selected_mse = if not_named.is_empty() {
-        selected_mse
-    } else if with_model {
-        model_only_mse
-    } else {
-        mse_before
-    };
+    cols
+}
 
-    // After: the selection fitted jointly on all used points.
-    let duration = used.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
-    let joint = (!selected.is_empty() || with_model)
-        .then(|| fit::fit_terms(&sig, &selected, with_model, &all_rows, &r));
-    let (after_contribution, after_params, checks) = match &joint {
-        None => (vec![0.0; n], BTreeMap::new(), BTreeMap::new()),
+/// Degree of the polynomials of an unknown smooth table (`shape_columns`):
+/// cubic, a table with a slope, a curvature and an inflection over the
+/// part's travel.
+pub const SHAPE_DEGREE: usize = 3;
+
+/// The selection fitted jointly on all used points (stage 7).
+struct Joint {
+    /// Its contribution at every row.
+    contribution: Vec<f64>,
+    /// Parameters per selected effect.
+    params: BTreeMap<String, BTreeMap<String, f64>>,
+    /// The same with unit, ± (the joint fit's) and checks.
+    checks: BTreeMap<String, Vec<plausibility::ParameterCheck>>,
+    /// The model's factors of the joint fit (or of the model alone).
+    factors: BTreeMap<String, f64>,
+}
+
+/// Stage 7: the selected effects (and, when selected, the model's factors)
+/// fitted jointly on all used points, with each parameter's ± and
+/// plausibility (`plausibility`).
+fn joint_fit(p: &Problem, selected: &[EffectKind], with_model: bool) -> Joint {
+    let duration = p.used.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let joint = (!selected.is_empty() || with_model).then(|| p.fit(selected, with_model));
+    let (contribution, params, checks) = match &joint {
+        None => (vec![0.0; p.n()], BTreeMap::new(), BTreeMap::new()),
         Some(fit) => {
-            let dof = (n as f64 - fit.linear.rank as f64).max(1.0);
-            let s2 = fit.linear.sse / dof;
-            let design = sig.design_with(&fit.kinds, fit.model, fit.tau.unwrap_or(1.0));
-            let independence = fit::column_independence(&design);
-            let mut params = BTreeMap::new();
-            let mut checks = BTreeMap::new();
-            let mut offset = 0;
-            for (m, kind) in fit.kinds.iter().enumerate() {
-                let names = kind.parameters_for(rotary);
-                let lc = kind.linear_count();
-                let mut values: Vec<f64> = fit.linear.coefs[offset..offset + lc].to_vec();
-                let mut stds: Vec<f64> = fit.linear.inverse_diagonal[offset..offset + lc]
-                    .iter()
-                    .map(|v| (v * s2).sqrt())
-                    .collect();
-                if let (true, Some(tau)) = (kind.is_nonlinear(), fit.tau) {
-                    values.push(tau);
-                    stds.push(0.0);
-                }
-                let ind = &independence[offset..offset + lc];
-                let list =
-                    plausibility::check(*kind, names, &values, &stds, ind, duration.max(1e-6));
-                let _ = m;
-                params.insert(kind.name().to_string(), {
-                    let mut p = BTreeMap::new();
-                    for c in &list {
-                        p.insert(c.name.clone(), c.value);
-                    }
-                    p
-                });
-                checks.insert(kind.name().to_string(), list);
-                offset += lc;
-            }
-            (fit.contribution(&sig), params, checks)
+            let (params, checks) = joint_checks(p, fit, duration);
+            (fit.contribution(&p.sig), params, checks)
         }
     };
-    // The model factors of the joint fit (or of the model alone).
     let factors: BTreeMap<String, f64> = match &joint {
         Some(fit) if fit.model => {
             let offset: usize = fit.kinds.iter().map(|k| k.linear_count()).sum();
-            named_cols
+            p.named_cols
                 .iter()
                 .zip(&fit.linear.coefs[offset..])
                 .map(|((name, _), b)| (name.clone(), *b))
                 .collect()
         }
-        _ if !named_cols.is_empty() => {
-            let fit = fit::fit_terms(&sig, &[], true, &all_rows, &r);
-            named_cols
+        _ if !p.named_cols.is_empty() => {
+            let fit = p.fit(&[], true);
+            p.named_cols
                 .iter()
                 .zip(&fit.linear.coefs)
                 .map(|((name, _), b)| (name.clone(), *b))
@@ -515,83 +817,131 @@ pub fn diagnose_with_followup(
         }
         _ => BTreeMap::new(),
     };
-    let predicted_after: Vec<f64> = predicted
-        .iter()
-        .zip(&after_contribution)
-        .map(|(p, c)| p + c)
-        .collect();
-    // The measurement's residuals after (the follow-up's are in `followup`).
-    let r_after: Vec<f64> = r0
-        .iter()
-        .zip(&after_contribution)
-        .map(|(a, c)| a - c)
-        .collect();
-    let local_anomalies = localization::local_anomalies(&used, &r_after, floor, model_u);
+    Joint {
+        contribution,
+        params,
+        checks,
+        factors,
+    }
+}
 
-    // Is the machine's error model itself off? Either its own factors are in
-    // the selection, or what remains (local anomalies left out) is well above
-    // what the noise and the model's uncertainty allow.
-    let model_check = {
-        let remaining = remaining_outside(&used, &r_after, &local_anomalies);
-        let unexplained = remaining >= UNEXPLAINED_RATIO * expected;
-        let excess = (remaining * remaining - floor * floor).max(0.0).sqrt();
-        ModelCheck {
-            heldout_rms_before_um: mse_before.sqrt(),
-            heldout_rms_after_um: model_only_mse.sqrt(),
-            explained_um: (mse_before - model_only_mse).max(0.0).sqrt(),
-            factors,
-            bic: bic(model_only_mse, named_cols.len()),
-            follows_model: with_model,
-            unexplained,
-            mismatch: with_model || unexplained,
-            model_uncertainty_um: model_u,
-            expected_rms_um: expected,
-            remaining_rms_um: remaining,
-            uncertainty_factor: (model_u > 1e-9 && excess > 0.0).then(|| excess / model_u),
+/// Parameters of a joint `fit`, per effect, and their checks (unit, ± from
+/// the fit's residual, identifiability and plausibility over a program of
+/// `duration` minutes).
+#[allow(clippy::type_complexity)]
+fn joint_checks(
+    p: &Problem,
+    fit: &SetFit,
+    duration: f64,
+) -> (
+    BTreeMap<String, BTreeMap<String, f64>>,
+    BTreeMap<String, Vec<plausibility::ParameterCheck>>,
+) {
+    let dof = (p.n() as f64 - fit.linear.rank as f64).max(1.0);
+    let s2 = fit.linear.sse / dof;
+    let design = p
+        .sig
+        .design_with(&fit.kinds, fit.model, fit.tau.unwrap_or(1.0));
+    let independence = fit::column_independence(&design);
+    let mut params = BTreeMap::new();
+    let mut checks = BTreeMap::new();
+    let mut offset = 0;
+    for kind in &fit.kinds {
+        let names = kind.parameters_for(p.rotary);
+        let lc = kind.linear_count();
+        let mut values: Vec<f64> = fit.linear.coefs[offset..offset + lc].to_vec();
+        let mut stds: Vec<f64> = fit.linear.inverse_diagonal[offset..offset + lc]
+            .iter()
+            .map(|v| (v * s2).sqrt())
+            .collect();
+        if let (true, Some(tau)) = (kind.is_nonlinear(), fit.tau) {
+            values.push(tau);
+            stds.push(0.0);
         }
+        let ind = &independence[offset..offset + lc];
+        let list = plausibility::check(*kind, names, &values, &stds, ind, duration.max(1e-6));
+        params.insert(
+            kind.name().to_string(),
+            list.iter().map(|c| (c.name.clone(), c.value)).collect(),
+        );
+        checks.insert(kind.name().to_string(), list);
+        offset += lc;
+    }
+    (params, checks)
+}
+
+/// What remains after the selection (stage 8).
+struct Outcome {
+    /// The measurement's residual after the joint fit.
+    r_after: Vec<f64>,
+    local_anomalies: Vec<report::LocalAnomaly>,
+    model_check: ModelCheck,
+}
+
+/// Stage 8: local anomalies of what remains, and the model check: is the
+/// machine's error model itself off? Either its own factors are in the
+/// selection, or what remains (local anomalies left out) is well above
+/// what the noise and the model's uncertainty allow.
+fn check_model(p: &Problem, picked: &Picked, joint: &Joint) -> Outcome {
+    // The measurement's residuals after (the follow-up's are in `followup`).
+    let r_after = p.residual_after(&joint.contribution);
+    let local_anomalies = localization::local_anomalies(&p.used, &r_after, p.floor, p.model_u);
+    let remaining = remaining_outside(&p.used, &r_after, &local_anomalies);
+    let unexplained = remaining >= UNEXPLAINED_RATIO * p.expected;
+    let floor = p.floor;
+    let excess = (remaining * remaining - floor * floor).max(0.0).sqrt();
+    let model_u = p.model_u;
+    let model_check = ModelCheck {
+        heldout_rms_before_um: p.mse_before.sqrt(),
+        heldout_rms_after_um: picked.model_only_mse.sqrt(),
+        explained_um: (p.mse_before - picked.model_only_mse).max(0.0).sqrt(),
+        factors: joint.factors.clone(),
+        bic: p.bic(picked.model_only_mse, p.named_cols.len()),
+        follows_model: picked.with_model,
+        unexplained,
+        mismatch: picked.with_model || unexplained,
+        model_uncertainty_um: model_u,
+        expected_rms_um: p.expected,
+        remaining_rms_um: remaining,
+        uncertainty_factor: (model_u > 1e-9 && excess > 0.0).then(|| excess / model_u),
     };
-    let max_cut = used.iter().map(|c| c.cut_length_m).fold(0.0f64, f64::max);
+    Outcome {
+        r_after,
+        local_anomalies,
+        model_check,
+    }
+}
+
+/// Stage 9: the summary, for the machinist: the model verdict first, one
+/// sentence per selected effect (its advice, what is left out and what is
+/// implausible), the effects not named, the local anomalies, or that nothing
+/// is supported; then the aliases of the selected effects.
+fn summary_sentences(
+    p: &Problem,
+    picked: &Picked,
+    joint: &Joint,
+    outcome: &Outcome,
+    effects: &[EffectFit],
+    not_named: &[EffectKind],
+) -> Vec<String> {
+    let selected = &picked.selected;
+    let model_check = &outcome.model_check;
+    let local_anomalies = &outcome.local_anomalies;
+    let noise_floor = p.noise_floor;
+    let max_cut = p.used.iter().map(|c| c.cut_length_m).fold(0.0f64, f64::max);
     let mut summary = Vec::new();
     if model_check.mismatch {
-        summary.push(model_sentence(&model_check, rms(&r0), noise_floor));
+        summary.push(model_sentence(model_check, rms(&p.r0), noise_floor));
     }
-    for kind in &selected {
-        let list = checks.get(kind.name()).cloned().unwrap_or_default();
-        let advised: BTreeMap<String, f64> = list
-            .iter()
-            .filter(|c| c.identifiable || (kind.is_nonlinear() && c.name == "tau" && c.plausible))
-            .map(|c| (c.name.clone(), c.value))
-            .collect();
-        let mut sentence = report::machinist_sentence(*kind, &advised, max_cut);
-        let left_out: Vec<String> = list
-            .iter()
-            .filter(|c| !advised.contains_key(&c.name))
-            .map(|c| c.display())
-            .collect();
-        if !left_out.is_empty() {
-            sentence.push_str(&format!(
-                " Not determined by this part, left out of this advice: {}.",
-                left_out.join(", ")
-            ));
-        }
-        let implausible: Vec<String> = list
-            .iter()
-            .filter(|c| !c.plausible)
-            .map(|c| format!("{} ({})", c.display(), c.notes.join("; ")))
-            .collect();
-        if !implausible.is_empty() {
-            sentence.push_str(&format!(
-                " Implausible, check before acting: {}.",
-                implausible.join(", ")
-            ));
-        }
-        summary.push(sentence);
+    for kind in selected {
+        let list = joint.checks.get(kind.name()).cloned().unwrap_or_default();
+        summary.push(effect_sentence(*kind, &list, max_cut));
     }
     if !selected.is_empty() {
         summary.push(format!(
             "With {} added, the residual RMS falls from {:.2} to {:.2} µm (held-out {:.2} µm; noise floor {:.2} µm).",
-            chosen.terms.label().replace(" + ", " and "),
-            rms(&r0), rms(&r_after), selected_mse.sqrt(), noise_floor
+            picked.chosen.terms.label().replace(" + ", " and "),
+            rms(&p.r0), rms(&outcome.r_after), picked.selected_mse.sqrt(), noise_floor
         ));
     }
     if !not_named.is_empty() {
@@ -601,19 +951,19 @@ pub fn diagnose_with_followup(
             if not_named.len() == 1 { "it" } else { "they" }
         ));
     }
-    for a in &local_anomalies {
+    for a in local_anomalies {
         summary.push(anomaly_sentence(a));
     }
     if selected.is_empty() && !model_check.mismatch && local_anomalies.is_empty() {
         summary.push(format!(
             "The gap between measured and predicted deviations (residual RMS {:.2} µm) is within what the noise floor ({:.2} µm) and the model explain: no unmodelled effect is supported by the data.",
-            rms(&r0), noise_floor
+            rms(&p.r0), noise_floor
         ));
     } else if selected.is_empty() && !model_check.mismatch {
         summary.push(format!(
             "No catalogue effect is supported by the data beyond the local anomal{} above (residual RMS {:.2} µm, noise floor {:.2} µm).",
             if local_anomalies.len() == 1 { "y" } else { "ies" },
-            rms(&r0), noise_floor
+            rms(&p.r0), noise_floor
         ));
     }
     for e in effects
@@ -628,65 +978,116 @@ pub fn diagnose_with_followup(
             ));
         }
     }
-    if with_model {
-        notes.push(format!(
-            "the error model's own factors are in the selection: {}",
-            model_check
-                .factors
-                .iter()
-                .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
-                .collect::<Vec<_>>()
-                .join(", ")
+    summary
+}
+
+/// The summary sentence of a selected effect: the machinist's advice on its
+/// identifiable (and, for `tau`, plausible) parameters, then those left out
+/// and those implausible.
+fn effect_sentence(
+    kind: EffectKind,
+    list: &[plausibility::ParameterCheck],
+    max_cut: f64,
+) -> String {
+    let advised: BTreeMap<String, f64> = list
+        .iter()
+        .filter(|c| c.identifiable || (kind.is_nonlinear() && c.name == "tau" && c.plausible))
+        .map(|c| (c.name.clone(), c.value))
+        .collect();
+    let mut sentence = report::machinist_sentence(kind, &advised, max_cut);
+    let left_out: Vec<String> = list
+        .iter()
+        .filter(|c| !advised.contains_key(&c.name))
+        .map(|c| c.display())
+        .collect();
+    if !left_out.is_empty() {
+        sentence.push_str(&format!(
+            " Not determined by this part, left out of this advice: {}.",
+            left_out.join(", ")
         ));
     }
-    let measured_profile = profile(&measured);
-    let predicted_profile = profile(&predicted);
+    let implausible: Vec<String> = list
+        .iter()
+        .filter(|c| !c.plausible)
+        .map(|c| format!("{} ({})", c.display(), c.notes.join("; ")))
+        .collect();
+    if !implausible.is_empty() {
+        sentence.push_str(&format!(
+            " Implausible, check before acting: {}.",
+            implausible.join(", ")
+        ));
+    }
+    sentence
+}
+
+/// Stage 10: the report.
+fn assemble(
+    p: Problem,
+    picked: Picked,
+    effects: Vec<EffectFit>,
+    joint: Joint,
+    outcome: Outcome,
+    summary: Vec<String>,
+) -> DiagnoseReport {
+    let n0 = p.r0.len();
+    let predicted_after: Vec<f64> = p
+        .predicted
+        .iter()
+        .zip(&joint.contribution)
+        .map(|(p, c)| p + c)
+        .collect();
+    let measured_profile = profile(&p.measured);
+    let predicted_profile = profile(&p.predicted);
     let residuals = (0..n0)
         .map(|i| PointResidual {
-            id: used[i].id.clone(),
-            point: used[i].point,
-            time_min: used[i].time_min,
-            a_deg: used[i].joints.a,
-            c_deg: used[i].joints.c,
-            measured_um: measured[i],
-            predicted_um: predicted[i],
-            residual_um: r0[i],
-            residual_after_um: r_after[i],
+            id: p.used[i].id.clone(),
+            point: p.used[i].point,
+            time_min: p.used[i].time_min,
+            a_deg: p.used[i].joints.a,
+            c_deg: p.used[i].joints.c,
+            measured_um: p.measured[i],
+            predicted_um: p.predicted[i],
+            residual_um: p.r0[i],
+            residual_after_um: outcome.r_after[i],
         })
         .collect();
-    Ok(DiagnoseReport {
-        points: contexts.len(),
+    DiagnoseReport {
+        points: p.points,
         points_used: n0,
         gap: Gap {
             measured_profile_um: measured_profile.profile_um,
             predicted_profile_um: predicted_profile.profile_um,
             measured_range_um: measured_profile.range_um,
             predicted_range_um: predicted_profile.range_um,
-            residual_rms_um: rms(&r0),
-            residual_mean_um: r0.iter().sum::<f64>() / n0 as f64,
-            noise_floor_um: noise_floor,
-            noise_floor_source: noise_source.to_string(),
+            residual_rms_um: rms(&p.r0),
+            residual_mean_um: p.r0.iter().sum::<f64>() / n0 as f64,
+            noise_floor_um: p.noise_floor,
+            noise_floor_source: p.noise_source.to_string(),
         },
-        localization: localization::localize(&used, &r0),
+        localization: localization::localize(&p.used, &p.r0),
         effects,
-        selected: selected.iter().map(|k| k.name().to_string()).collect(),
+        selected: picked
+            .selected
+            .iter()
+            .map(|k| k.name().to_string())
+            .collect(),
         after: After {
             predicted_profile_um: profile(&predicted_after).profile_um,
-            residual_rms_um: rms(&r_after),
-            heldout_rms_um: selected_mse.sqrt(),
-            params: after_params,
-            checks,
-            significance: chosen.significance.iter().cloned().collect(),
+            residual_rms_um: rms(&outcome.r_after),
+            heldout_rms_um: picked.selected_mse.sqrt(),
+            params: joint.params,
+            checks: joint.checks,
+            significance: picked.chosen.significance.iter().cloned().collect(),
         },
         summary,
-        selection_notes: notes,
+        selection_notes: picked.notes,
         residuals,
-        model_check,
-        local_anomalies,
+        model_check: outcome.model_check,
+        local_anomalies: outcome.local_anomalies,
         followup_design: None,
         followup: None,
         warnings: Vec::new(),
-    })
+    }
 }
 
 /// The error model's own columns over `rows`: one per measured axis, and one

@@ -143,6 +143,14 @@ impl Scorer<'_> {
         self.cache.extend(scored);
     }
 
+    /// `z` of every member of `t`, cross-validating the sets it needs.
+    pub fn significance_of(&mut self, t: &Terms) -> Vec<(String, f64)> {
+        let mut needed = vec![t.clone()];
+        needed.extend((0..t.len()).map(|m| t.without(m)));
+        self.ensure(&needed);
+        self.members(t)
+    }
+
     pub fn mse(&self, t: &Terms) -> f64 {
         if t.len() == 0 {
             self.mse_before
