@@ -281,6 +281,24 @@ struct Problem<'a> {
 }
 
 impl<'a> Problem<'a> {
+    /// A scorer of term sets on this problem's rows (selection.rs).
+    fn scorer<'s>(
+        &'s self,
+        settings: selection::SelectionSettings,
+        model_plausible: &'s (dyn Fn(&selection::Terms) -> bool + Sync),
+        cache: BTreeMap<selection::Terms, f64>,
+    ) -> selection::Scorer<'s> {
+        selection::Scorer {
+            sig: &self.sig,
+            folds: &self.folds,
+            r: &self.r,
+            mse_before: self.mse_before,
+            settings,
+            model_plausible,
+            cache,
+        }
+    }
+
     fn new(
         contexts: &'a [PointContext],
         measured_um: &[f64],
@@ -450,32 +468,26 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
             .iter()
             .any(|b| b.abs() >= MODEL_FACTOR_MIN)
     };
-    let mut scorer = selection::Scorer {
-        sig: &p.sig,
-        folds: &p.folds,
-        r: &p.r,
-        mse_before: p.mse_before,
-        settings: selection::SelectionSettings {
-            noise_um: p.floor,
-            model_u2: p.model_u2,
-            max_effects: options.max_selected,
-            threshold: options.significance,
-            model_available: !p.named_cols.is_empty(),
-        },
-        model_plausible: &max_factor,
-        cache: candidates
-            .iter()
-            .map(|c| {
-                (
-                    selection::Terms {
-                        kinds: vec![c.kind],
-                        model: false,
-                    },
-                    c.mse,
-                )
-            })
-            .collect(),
+    let cache = candidates
+        .iter()
+        .map(|c| {
+            (
+                selection::Terms {
+                    kinds: vec![c.kind],
+                    model: false,
+                },
+                c.mse,
+            )
+        })
+        .collect();
+    let settings = selection::SelectionSettings {
+        noise_um: p.floor,
+        model_u2: p.model_u2,
+        max_effects: options.max_selected,
+        threshold: options.significance,
+        model_available: !p.named_cols.is_empty(),
     };
+    let mut scorer = p.scorer(settings, &max_factor, cache);
     let chosen = selection::select(&mut scorer, &EffectKind::ALL);
     let model_only_mse = if p.named_cols.is_empty() {
         p.mse_before
@@ -645,21 +657,14 @@ fn guard_table_shape(p: &mut Problem, picked: &mut Picked, threshold: f64) -> Ve
     let terms = selection::Terms { kinds, model: true };
     let significance = {
         let any = |_: &selection::Terms| true;
-        let mut scorer = selection::Scorer {
-            sig: &p.sig,
-            folds: &p.folds,
-            r: &p.r,
-            mse_before: p.mse_before,
-            settings: selection::SelectionSettings {
-                noise_um: p.floor,
-                model_u2: p.model_u2,
-                max_effects: terms.kinds.len(),
-                threshold,
-                model_available: true,
-            },
-            model_plausible: &any,
-            cache: BTreeMap::new(),
+        let settings = selection::SelectionSettings {
+            noise_um: p.floor,
+            model_u2: p.model_u2,
+            max_effects: terms.kinds.len(),
+            threshold,
+            model_available: true,
         };
+        let mut scorer = p.scorer(settings, &any, BTreeMap::new());
         scorer.significance_of(&terms)
     };
     p.sig.model.truncate(own);
