@@ -112,9 +112,12 @@ pub struct Motion {
     pub frame: Frame,
     /// G53: the targets are machine coordinates for this block only.
     pub machine_coordinates: bool,
-    /// Where the move starts: absolute, mm and degrees, in `frame`.
+    /// Where the move starts: absolute, mm and degrees, in `frame` (the
+    /// numbers as programmed; [`Motion::start_pose`] says their frame, G53
+    /// included, and is what converts to joints).
     pub start: Axes,
-    /// Where the move ends: absolute, mm and degrees, in `frame`.
+    /// Where the move ends: absolute, mm and degrees, in `frame` (see
+    /// [`Motion::end_pose`]).
     pub end: Axes,
     /// The feed it runs at.
     pub feed: Feed,
