@@ -155,11 +155,7 @@ fn model_section(page: &mut HtmlPage, report: &DiagnoseReport) {
         ],
         &[vec![
             verdict.to_string(),
-            m.factors
-                .iter()
-                .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
-                .collect::<Vec<_>>()
-                .join(", "),
+            factors_cell(m),
             format!("{:.3}", m.remaining_rms_um),
             format!("{:.3}", m.expected_rms_um),
             format!("{:.3}", m.model_uncertainty_um),
@@ -167,6 +163,23 @@ fn model_section(page: &mut HtmlPage, report: &DiagnoseReport) {
                 .map_or(String::new(), |f| format!("{f:.1}")),
         ]],
     );
+}
+
+/// The model's axis factors: the selection's when the model is in it; else
+/// said to be the model fitted alone, which the evidence did not select (a
+/// reader must not take them for the machine's scale).
+fn factors_cell(m: &crate::diagnose::report::ModelCheck) -> String {
+    let factors = m
+        .factors
+        .iter()
+        .map(|(k, b)| format!("{k} ×{:.2}", 1.0 + b))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if m.follows_model || factors.is_empty() {
+        factors
+    } else {
+        format!("not selected (the model fitted alone: {factors})")
+    }
 }
 
 /// "yes" or "no".
