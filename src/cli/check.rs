@@ -66,74 +66,130 @@ pub struct Args {
     pub json: bool,
 }
 
+/// A `check` run, validated: the machine (if any), how the program is read,
+/// and whether standard output carries data.
+struct Job<'a> {
+    args: &'a Args,
+    machine: Option<crate::machine::Machine>,
+    options: InterpretOptions,
+    data_on_stdout: bool,
+}
+
+/// The program to read: its input, the name it is reported under, the
+/// reading set-up, and the stamp of a compensated program.
+struct Input {
+    input: Box<dyn crate::gcode::ProgramInput>,
+    name: PathBuf,
+    setup: ProgramSetup,
+    stamp: Option<crate::stamp::Stamp>,
+}
+
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let machine = args
-        .machine
-        .as_deref()
-        .map(|path| {
-            crate::machine::Machine::load_with(
-                path,
-                &crate::machine::LoadOptions {
-                    extrapolation: crate::machine::ExtrapolationPolicy::Hold,
-                },
-            )
-        })
-        .transpose()?;
-    let rapid = args
-        .rapid
-        .unwrap_or(machine.as_ref().map_or(10_000.0, |m| m.rapid_mm_per_min));
-    if !(rapid.is_finite() && rapid > 0.0) {
-        return Err(super::UsageError(format!(
-            "--rapid must be a positive number of mm/min, got {rapid}"
-        ))
-        .into());
-    }
-    let letters = machine
-        .as_ref()
-        .map_or(crate::axes::AxisSet::RS274, |m| m.letters());
-    let data_on_stdout = super::common::stdout_output(&[
-        (
-            "--targets -",
-            super::common::is_stdout(args.targets.as_deref()),
-        ),
-        ("-o -", super::common::is_stdout(args.output.as_deref())),
-        ("--json", args.json),
-    ])?;
-    let options = InterpretOptions {
-        skip_deleted_blocks: args.skip_deleted,
-        ..args.read.interpret_options(rapid, letters)
-    };
-    let files = super::common::CommandFiles::new()
-        .input("the program", Some(&args.program))
-        .input("the machine file", args.machine.as_deref());
-    let files = match &machine {
-        Some(m) => files.machine(m),
-        None => files,
-    };
-    files
-        .program_args(&args.read)
-        .output("--targets", args.targets.as_deref())
-        .output("-o", args.output.as_deref())
-        .check()?;
+    let job = Job::new(args)?;
     let outputs = crate::io::OutputSet::begin();
-    let setup = args.read.setup(machine.as_ref())?;
-    let warnings = setup.warnings.clone();
-    let name = if crate::io::is_stdio(&args.program) {
-        PathBuf::from("<stdin>")
-    } else {
-        args.program.clone()
-    };
-    let (input, stamp) = super::common::open_program_with_stamp(&args.program)?;
+    let input = job.open()?;
     if let (true, Some(output)) = (args.flatten, &args.output) {
+        return job.flatten(input, output, outputs);
+    }
+    job.check(input, outputs)
+}
+
+impl<'a> Job<'a> {
+    /// Load the machine, check the options and that no output overwrites an input.
+    fn new(args: &'a Args) -> anyhow::Result<Self> {
+        let machine = args
+            .machine
+            .as_deref()
+            .map(|path| {
+                crate::machine::Machine::load_with(
+                    path,
+                    &crate::machine::LoadOptions {
+                        extrapolation: crate::machine::ExtrapolationPolicy::Hold,
+                    },
+                )
+            })
+            .transpose()?;
+        let rapid = args
+            .rapid
+            .unwrap_or(machine.as_ref().map_or(10_000.0, |m| m.rapid_mm_per_min));
+        if !(rapid.is_finite() && rapid > 0.0) {
+            return Err(super::UsageError(format!(
+                "--rapid must be a positive number of mm/min, got {rapid}"
+            ))
+            .into());
+        }
+        let letters = machine
+            .as_ref()
+            .map_or(crate::axes::AxisSet::RS274, |m| m.letters());
+        let data_on_stdout = super::common::stdout_output(&[
+            (
+                "--targets -",
+                super::common::is_stdout(args.targets.as_deref()),
+            ),
+            ("-o -", super::common::is_stdout(args.output.as_deref())),
+            ("--json", args.json),
+        ])?;
+        let options = InterpretOptions {
+            skip_deleted_blocks: args.skip_deleted,
+            ..args.read.interpret_options(rapid, letters)
+        };
+        let files = super::common::CommandFiles::new()
+            .input("the program", Some(&args.program))
+            .input("the machine file", args.machine.as_deref());
+        let files = match &machine {
+            Some(m) => files.machine(m),
+            None => files,
+        };
+        files
+            .program_args(&args.read)
+            .output("--targets", args.targets.as_deref())
+            .output("-o", args.output.as_deref())
+            .check()?;
+        Ok(Job {
+            args,
+            machine,
+            options,
+            data_on_stdout,
+        })
+    }
+
+    /// The reading set-up and the program.
+    fn open(&self) -> anyhow::Result<Input> {
+        let args = self.args;
+        let setup = args.read.setup(self.machine.as_ref())?;
+        let name = if crate::io::is_stdio(&args.program) {
+            PathBuf::from("<stdin>")
+        } else {
+            args.program.clone()
+        };
+        let (input, stamp) = super::common::open_program_with_stamp(&args.program)?;
+        Ok(Input {
+            input,
+            name,
+            setup,
+            stamp,
+        })
+    }
+
+    /// `--flatten -o OUT`: the program written flat, then its summary.
+    fn flatten(
+        &self,
+        input: Input,
+        output: &Path,
+        outputs: crate::io::OutputSet,
+    ) -> anyhow::Result<()> {
+        let args = self.args;
+        let warnings = input.setup.warnings.clone();
+        let (name, stamp) = (&input.name, &input.stamp);
         // A flat program holds no O-words: the subroutine definitions the
         // program passes over are left out (their calls come flat).
-        let mut setup = setup;
+        let mut setup = input.setup;
         setup.language.drop_definitions = true;
-        let program = crate::gcode::Program::new(input, &name, setup);
+        let program = crate::gcode::Program::new(input.input, name, setup);
         let mut stats = None;
         crate::io::write_atomic(output, |out| -> anyhow::Result<()> {
             stats = Some(crate::gcode::rewrite_stream(
-                program.run(options),
+                program.run(self.options),
                 out,
                 crate::gcode::RewriteOptions::default(),
                 |_, _, _| None,
@@ -164,11 +220,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
         }
         super::common::print_warnings(&groups);
-        if let Some(stamp) = &stamp {
+        if let Some(stamp) = stamp {
             eprintln!("note: {}: {}", args.program.display(), stamp.summary());
         }
         crate::cli::humanln!(
-            data_on_stdout,
+            self.data_on_stdout,
             "{}: {} executed ({}), {} written flat (+{} for canned cycles), flat program written to {}{}",
             args.program.display(),
             super::common::count(stats.blocks as u64, "block", "blocks"),
@@ -178,70 +234,83 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             crate::io::display_name(output),
             super::common::result_note(&groups)
         );
-        return Ok(());
+        Ok(())
     }
-    let summary = match &args.targets {
-        None => check_stream(input, &name, options, &setup, None)?,
-        Some(path) if crate::io::is_stdio(path) => {
-            let stdout = std::io::stdout();
-            let mut out = std::io::BufWriter::new(stdout.lock());
-            let s = check_stream(
-                input,
-                &name,
-                options,
-                &setup,
-                Some((&mut out, "standard output")),
-            )?;
-            out.flush()
-                .context("cannot write the targets to standard output")?;
-            s
-        }
-        Some(path) => {
-            let mut summary = None;
-            crate::io::write_atomic(path, |out| -> anyhow::Result<()> {
-                summary = Some(check_stream(
+
+    /// Read the program through (writing `--targets` where asked), then its summary.
+    fn check(&self, input: Input, outputs: crate::io::OutputSet) -> anyhow::Result<()> {
+        let args = self.args;
+        let options = self.options;
+        let Input {
+            input,
+            name,
+            setup,
+            stamp,
+        } = input;
+        let warnings = setup.warnings.clone();
+        let summary = match &args.targets {
+            None => check_stream(input, &name, options, &setup, None)?,
+            Some(path) if crate::io::is_stdio(path) => {
+                let stdout = std::io::stdout();
+                let mut out = std::io::BufWriter::new(stdout.lock());
+                let s = check_stream(
                     input,
                     &name,
                     options,
                     &setup,
-                    Some((out, "the file")),
-                )?);
-                Ok(())
-            })
-            .with_context(|| format!("no targets were written to {}", path.display()))?;
-            summary.expect("written")
-        }
-    };
-    outputs.commit()?;
-    let groups = warnings.groups();
-    if args.json {
-        let report = CheckReport {
-            program: name.display().to_string(),
-            frame: match options.initial_frame {
-                Frame::Joint => "joint",
-                Frame::Part => "part",
-            },
-            summary: &summary,
-            passed_through: summary.passed_through(),
-            targets: args.targets.as_ref().map(|p| p.display().to_string()),
-            compensated: stamp.is_some(),
-            stamp: stamp.as_ref(),
-            warnings: &groups,
+                    Some((&mut out, "standard output")),
+                )?;
+                out.flush()
+                    .context("cannot write the targets to standard output")?;
+                s
+            }
+            Some(path) => {
+                let mut summary = None;
+                crate::io::write_atomic(path, |out| -> anyhow::Result<()> {
+                    summary = Some(check_stream(
+                        input,
+                        &name,
+                        options,
+                        &setup,
+                        Some((out, "the file")),
+                    )?);
+                    Ok(())
+                })
+                .with_context(|| format!("no targets were written to {}", path.display()))?;
+                summary.expect("written")
+            }
         };
-        super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
+        outputs.commit()?;
+        let groups = warnings.groups();
+        if args.json {
+            let report = CheckReport {
+                program: name.display().to_string(),
+                frame: match options.initial_frame {
+                    Frame::Joint => "joint",
+                    Frame::Part => "part",
+                },
+                summary: &summary,
+                passed_through: summary.passed_through(),
+                targets: args.targets.as_ref().map(|p| p.display().to_string()),
+                compensated: stamp.is_some(),
+                stamp: stamp.as_ref(),
+                warnings: &groups,
+            };
+            super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
+        }
+        let mut text = summary_text(&args.program, &summary, options.initial_frame, &groups);
+        if let Some(stamp) = &stamp {
+            text.push_str(&format!("\n  stamp: {}", stamp.summary()));
+        }
+        if let Some(path) = &args.targets {
+            text.push_str(&format!(
+                "\n  targets: {} written to {}",
+                super::common::count(summary.motion.total() as u64, "row", "rows"),
+                crate::io::display_name(path)
+            ));
+        }
+        super::common::say(self.data_on_stdout, &text)
     }
-    let mut text = summary_text(&args.program, &summary, options.initial_frame, &groups);
-    if let Some(stamp) = &stamp {
-        text.push_str(&format!("\n  stamp: {}", stamp.summary()));
-    }
-    if let Some(path) = &args.targets {
-        text.push_str(&format!(
-            "\n  targets: {} written to {}",
-            super::common::count(summary.motion.total() as u64, "row", "rows"),
-            crate::io::display_name(path)
-        ));
-    }
-    super::common::say(data_on_stdout, &text)
 }
 
 /// `check --json`.
