@@ -128,45 +128,42 @@ fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// The HTML page of `volcomp ARGS --report R --html H` (a whole page, no NaN).
+fn page_of(args: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let (report, html) = (dir.path().join("r.json"), dir.path().join("r.html"));
+    let mut args = args.to_vec();
+    args.extend(["--report", report.to_str().unwrap()]);
+    args.extend(["--html", html.to_str().unwrap()]);
+    run(&args);
+    let page = read(&html);
+    assert!(page.starts_with("<!DOCTYPE html>") && !page.contains("NaN"));
+    page
+}
+
 #[test]
 fn the_predict_page_of_the_saddle() {
-    let dir = tempfile::tempdir().unwrap();
-    let (report, html) = (dir.path().join("p.json"), dir.path().join("p.html"));
-    run(&[
+    let page = page_of(&[
         "predict",
         "machines/ref-trt.toml",
         "samples/saddle.nc",
         "--plan",
         "samples/saddle-plan.csv",
-        "--report",
-        report.to_str().unwrap(),
-        "--html",
-        html.to_str().unwrap(),
     ]);
-    let page = read(&html);
-    assert!(page.starts_with("<!DOCTYPE html>") && !page.contains("NaN"));
     insta::assert_snapshot!(skeleton(&page));
 }
 
 #[test]
 fn the_diagnose_page_of_a_blind_example() {
-    let dir = tempfile::tempdir().unwrap();
-    let (report, html) = (dir.path().join("d.json"), dir.path().join("d.html"));
     let case = "tests/data/blind/01-backlash";
-    run(&[
+    let page = page_of(&[
         "diagnose",
         "machines/ref-trt.toml",
         &format!("{case}/program.nc"),
         &format!("{case}/measured.csv"),
         "--plan-frame",
         "part",
-        "--report",
-        report.to_str().unwrap(),
-        "--html",
-        html.to_str().unwrap(),
     ]);
-    let page = read(&html);
-    assert!(page.starts_with("<!DOCTYPE html>") && !page.contains("NaN"));
     assert!(page.contains("Backlash of about"), "{page}");
     insta::assert_snapshot!(skeleton(&page));
 }
