@@ -44,7 +44,7 @@ fn main() {
         volcomp::inspection::Measurement::read(&data.join("saddle-truth.csv")).expect("fixture");
     let part = from_fixture(&json, &truth).expect("fixture");
     let contexts = &part.contexts;
-    let end = contexts.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let end = volcomp::toolpath::last_time_min(contexts);
     let probe = ProbeTool {
         length_mm: machine.tool.length,
         radius_mm: 1.0,

@@ -13,11 +13,7 @@ use volcomp::diagnose::{DiagnoseOptions, diagnose};
 fn main() {
     let verbose = std::env::args().any(|a| a == "verbose");
     let part = part();
-    let duration = part
-        .contexts
-        .iter()
-        .map(|c| c.time_min)
-        .fold(0.0f64, f64::max);
+    let duration = volcomp::toolpath::last_time_min(&part.contexts);
     let options = RobustnessOptions::default();
     let all = cases(&part, &options);
     let mut rows: Vec<(

@@ -794,7 +794,7 @@ struct Joint {
 /// fitted jointly on all used points, with each parameter's ± and
 /// plausibility (`plausibility`).
 fn joint_fit(p: &Problem, selected: &[EffectKind], with_model: bool) -> Joint {
-    let duration = p.used.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let duration = crate::toolpath::last_time_min(p.used.iter().copied());
     let joint = (!selected.is_empty() || with_model).then(|| p.fit(selected, with_model));
     let (contribution, params, checks) = match &joint {
         None => (vec![0.0; p.n()], BTreeMap::new(), BTreeMap::new()),

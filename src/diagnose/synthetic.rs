@@ -319,11 +319,7 @@ pub fn random_effect(
     rng: &mut impl Rng,
 ) -> Effect {
     let mut u = |lo: f64, hi: f64| rng.random_range(lo..hi);
-    let t_max = contexts
-        .iter()
-        .map(|c| c.time_min)
-        .fold(0.0f64, f64::max)
-        .max(1e-3);
+    let t_max = crate::toolpath::last_time_min(contexts).max(1e-3);
     let mut values: Vec<f64> = match kind {
         EffectKind::ThermalDrift => vec![
             u(-8.0, 8.0),

@@ -88,6 +88,15 @@ impl PointContext {
     }
 }
 
+/// The time of the last of `points` (minutes since the program's first
+/// target): the duration of the program up to them; 0 for none.
+pub fn last_time_min<'a>(points: impl IntoIterator<Item = &'a PointContext>) -> f64 {
+    points
+        .into_iter()
+        .map(|c| c.time_min)
+        .fold(0.0f64, f64::max)
+}
+
 /// `Rz(−c)·Rx(−a)·v`, `a` and `c` in degrees.
 pub fn machine_to_part(a_deg: f64, c_deg: f64, v: [f64; 3]) -> [f64; 3] {
     use crate::vec3::{rot_x, rot_z};

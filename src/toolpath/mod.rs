@@ -12,7 +12,7 @@ pub(crate) mod program;
 pub(crate) mod walk;
 pub(crate) mod work_origin;
 
-pub use context::PointContext;
+pub use context::{PointContext, last_time_min};
 pub use cut::{CutError, CutOptions, ProbeTool, probe_context};
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use pose::{joints_of, pose_of};

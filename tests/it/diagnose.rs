@@ -1162,7 +1162,7 @@ fn a_followup_tells_rotary_location_from_setup_error() {
     let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).unwrap();
     let part = saddle();
     let contexts = &part.contexts;
-    let end = contexts.iter().map(|c| c.time_min).fold(0.0f64, f64::max);
+    let end = volcomp::toolpath::last_time_min(contexts);
     let tool = ProbeTool {
         length_mm: machine.tool.length,
         radius_mm: 1.0,
@@ -1360,11 +1360,7 @@ fn simulate_of_a_compensated_program_cuts_the_compensated_part() {
 fn robustness_subset_meets_the_issue_targets() {
     use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part, score};
     let part = part();
-    let duration = part
-        .contexts
-        .iter()
-        .map(|c| c.time_min)
-        .fold(0.0f64, f64::max);
+    let duration = volcomp::toolpath::last_time_min(&part.contexts);
     let options = RobustnessOptions {
         seeds_per_effect: 0,
         noise_levels: &[0.6],

@@ -800,18 +800,7 @@ impl Executor {
             return Ok(None);
         }
         file.offset += n as u64;
-        let raw = &mut self.source.raw;
-        self.source.ending = if raw.last() == Some(&b'\n') {
-            raw.pop();
-            if raw.last() == Some(&b'\r') {
-                raw.pop();
-                LineEnding::CrLf
-            } else {
-                LineEnding::Lf
-            }
-        } else {
-            LineEnding::None
-        };
+        self.source.ending = LineEnding::take_from(&mut self.source.raw);
         if let Err(e) = parse_line(&mut self.source) {
             self.source.words.clear();
             self.source.keywords.clear();

@@ -24,6 +24,21 @@ pub enum LineEnding {
 }
 
 impl LineEnding {
+    /// Take the line ending off a line as read (`\n`, `\r\n`, or none at the
+    /// end of a file) and say which it was.
+    pub fn take_from(raw: &mut Vec<u8>) -> LineEnding {
+        if raw.last() != Some(&b'\n') {
+            return LineEnding::None;
+        }
+        raw.pop();
+        if raw.last() == Some(&b'\r') {
+            raw.pop();
+            LineEnding::CrLf
+        } else {
+            LineEnding::Lf
+        }
+    }
+
     /// The bytes that end the line (empty for [`LineEnding::None`]).
     pub fn as_bytes(self) -> &'static [u8] {
         match self {

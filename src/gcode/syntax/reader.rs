@@ -145,18 +145,7 @@ impl<R: BufRead> BlockReader<R> {
             return None;
         }
         self.offset += n as u64;
-        let raw = &mut self.block.raw;
-        self.block.ending = if raw.last() == Some(&b'\n') {
-            raw.pop();
-            if raw.last() == Some(&b'\r') {
-                raw.pop();
-                LineEnding::CrLf
-            } else {
-                LineEnding::Lf
-            }
-        } else {
-            LineEnding::None
-        };
+        self.block.ending = LineEnding::take_from(&mut self.block.raw);
         match parse_line(&mut self.block) {
             Ok(()) => Some(Ok(&self.block)),
             Err(e) => {
