@@ -269,6 +269,10 @@ pub enum ErrorKind {
     /// one volcomp cannot follow.
     #[error("{0}")]
     Spline(String),
+    /// A Heidenhain Klartext block the control refuses, or one volcomp does
+    /// not read yet (the message names the feature).
+    #[error("{0}")]
+    Klartext(String),
 }
 
 impl ErrorKind {
@@ -326,6 +330,9 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::Klartext(_) => {
+                "check the block against the TNC user's manual (Klartext programming); a feature volcomp does not read yet can be expanded in the CAM post-processor"
+            }
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"
             }

@@ -44,6 +44,7 @@
 //! ```
 pub(crate) mod error;
 pub(crate) mod execution;
+pub(crate) mod heidenhain;
 pub(crate) mod language;
 pub(crate) mod machine;
 pub(crate) mod summary;

@@ -231,6 +231,10 @@ pub struct BlockEvent {
     pub moves: Moves,
     /// The origin the block's axis words were read in (identity under G53).
     pub origin: Origin,
+    /// A working plane's rotation (rows; Heidenhain `PLANE`): the block's
+    /// program X Y Z are turned by it before the origin's shift applies
+    /// (part = work + g92 + R·program). `None` for LinuxCNC programs.
+    pub tilt: Option<[[f64; 3]; 3]>,
     /// Modal state after the block.
     pub modal: ModalState,
     /// The tool in the spindle for the block's moves (after its M6/M61).
@@ -411,6 +415,7 @@ impl Default for BlockEvent {
             line: 0,
             moves: Moves::None,
             origin: Origin::MACHINE,
+            tilt: None,
             modal: ModalState::new(Frame::Joint),
             tool: ToolInUse::default(),
             start: Axes::default(),

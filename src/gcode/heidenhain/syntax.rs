@@ -1,0 +1,799 @@
+//! The syntax of Heidenhain Klartext blocks, lossless and without meaning.
+//!
+//! A block is one logical block of the program: a line, plus the lines that
+//! follow it while a line ends with `~` (TNC 640 user's manual, "Programming
+//! fundamentals › NC blocks": long blocks continue on `~` lines). It starts
+//! with its block number; `;` starts a comment that runs to the end of the
+//! physical line (before a trailing `~`); a `*` after the number is a section
+//! line. The rest is space-separated words: keywords (`L`, `CC`, `CYCL`,
+//! `DEF`, `FMAX`, `RL`…) and addresses with a value (`X+12.5`, `IX-3`,
+//! `X+Q1`, `DR+`, `M128`, `Q200=+2`). Q formulas (`Q1 = Q2 * SIN(Q3)`) and
+//! the `FN` functions keep their right-hand side as text, parsed by
+//! [`Formula::parse`].
+//!
+//! Invariant: no input makes anything here panic; every token knows its byte
+//! range in the block's raw bytes.
+use std::ops::Range;
+
+/// A parameter kind: `Q` (global), `QL` (local to the program), `QR`
+/// (remanent), `QS` (strings: not read).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ParamKind {
+    /// `Q`.
+    Q,
+    /// `QL`.
+    Ql,
+    /// `QR`.
+    Qr,
+}
+
+impl ParamKind {
+    /// Its letters.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParamKind::Q => "Q",
+            ParamKind::Ql => "QL",
+            ParamKind::Qr => "QR",
+        }
+    }
+}
+
+/// A parameter reference `Q12`, `QL3`, `QR100`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Param {
+    /// Which table.
+    pub kind: ParamKind,
+    /// Its number.
+    pub number: u32,
+}
+
+/// The value of an address as written: a number or a signed parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// A number (sign included).
+    Number(f64),
+    /// A parameter, negated when written `-Q1`.
+    Param {
+        /// The parameter.
+        param: Param,
+        /// Written with a minus sign.
+        negate: bool,
+    },
+    /// Only a sign (`DR+`, `DR-`, `SEQ-`): +1 or −1.
+    Sign(f64),
+}
+
+/// One space-separated token of a block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Token {
+    /// Byte range inside the block's raw bytes.
+    pub span: Range<usize>,
+    /// Byte range inside [`KlBlock::code`].
+    pub text: Range<usize>,
+    /// The address: the leading letters, upper case (`X`, `IX`, `FMAX`,
+    /// `Q200`'s `Q` …); empty for a token that starts with a digit or sign.
+    pub address: String,
+    /// The value after the address, when it has one.
+    pub value: Option<Value>,
+    /// Byte range of the value inside the raw bytes (empty when none).
+    pub value_span: Range<usize>,
+    /// Digits after the decimal point of a number value.
+    pub decimals: u8,
+    /// The number value was written with an explicit sign (`X+5`).
+    pub signed: bool,
+}
+
+impl Token {
+    /// The value as a plain number (not a parameter).
+    pub fn number(&self) -> Option<f64> {
+        match self.value {
+            Some(Value::Number(v)) | Some(Value::Sign(v)) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+/// One logical block, parsed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct KlBlock {
+    /// The block number and its byte range.
+    pub number: Option<(u64, Range<usize>)>,
+    /// A `*` section line.
+    pub section: bool,
+    /// The code tokens, in order (comments and `~` excluded).
+    pub tokens: Vec<Token>,
+    /// Byte ranges of the comments (from `;` to the end of the physical line
+    /// or the `~`).
+    pub comments: Vec<Range<usize>>,
+    /// The bytes of the code part after the block number (comments removed,
+    /// physical lines joined by a space), for formulas and names.
+    pub code: String,
+    /// Offset in `raw` of each byte of `code` (same length as `code`).
+    pub code_map: Vec<usize>,
+}
+
+impl KlBlock {
+    /// The token at `i`'s address, upper case (`""` past the end).
+    pub fn address(&self, i: usize) -> &str {
+        self.tokens.get(i).map_or("", |t| t.address.as_str())
+    }
+
+    /// Whether the tokens start with these keywords (whole tokens, no value).
+    pub fn starts_with(&self, keywords: &[&str]) -> bool {
+        keywords.len() <= self.tokens.len()
+            && keywords
+                .iter()
+                .zip(&self.tokens)
+                .all(|(k, t)| t.value.is_none() && t.address == *k)
+    }
+
+    /// The first token with this address (after token `from`).
+    pub fn find(&self, address: &str, from: usize) -> Option<&Token> {
+        self.tokens.iter().skip(from).find(|t| t.address == address)
+    }
+
+    /// The raw byte range of `code[range]`.
+    pub fn raw_range(&self, range: Range<usize>) -> Range<usize> {
+        let start = self.code_map.get(range.start).copied().unwrap_or(0);
+        let end = if range.end == 0 {
+            start
+        } else {
+            self.code_map.get(range.end - 1).map_or(start, |e| e + 1)
+        };
+        start..end.max(start)
+    }
+}
+
+/// Parse one logical block's raw bytes (physical lines joined with their
+/// line endings inside).
+pub fn parse_block(raw: &[u8]) -> KlBlock {
+    let mut out = KlBlock::default();
+    let mut code = String::new();
+    let mut map = Vec::new();
+    // Split physical lines; cut comments and trailing `~`.
+    let mut line_start = 0;
+    while line_start <= raw.len() {
+        let line_end = raw[line_start..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(raw.len(), |k| line_start + k);
+        let mut content_end = line_end;
+        if content_end > line_start && raw[content_end - 1] == b'\r' {
+            content_end -= 1;
+        }
+        // A trailing `~` (after spaces) continues the block.
+        let mut trimmed = content_end;
+        while trimmed > line_start && raw[trimmed - 1].is_ascii_whitespace() {
+            trimmed -= 1;
+        }
+        if trimmed > line_start && raw[trimmed - 1] == b'~' {
+            content_end = trimmed - 1;
+        }
+        // A leading `~` on a continuation line is the other convention.
+        let mut from = line_start;
+        while from < content_end && raw[from].is_ascii_whitespace() {
+            from += 1;
+        }
+        if line_start > 0 && from < content_end && raw[from] == b'~' {
+            from += 1;
+        }
+        let mut in_quote = false;
+        let mut k = from;
+        while k < content_end {
+            let b = raw[k];
+            if b == b'"' {
+                in_quote = !in_quote;
+            }
+            if b == b';' && !in_quote {
+                out.comments.push(k..content_end);
+                break;
+            }
+            code.push(if b.is_ascii() { b as char } else { '?' });
+            map.push(k);
+            k += 1;
+        }
+        code.push(' ');
+        map.push(content_end.min(raw.len().saturating_sub(1)));
+        line_start = line_end + 1;
+    }
+    // The block number.
+    let bytes = code.as_bytes();
+    let mut k = 0;
+    while k < bytes.len() && bytes[k] == b' ' {
+        k += 1;
+    }
+    let digits_start = k;
+    while k < bytes.len() && bytes[k].is_ascii_digit() {
+        k += 1;
+    }
+    if k > digits_start && (k == bytes.len() || !bytes[k].is_ascii_alphabetic()) {
+        if let Ok(n) = code[digits_start..k].parse::<u64>() {
+            let start = map[digits_start];
+            out.number = Some((n, start..map[k - 1] + 1));
+        }
+    } else {
+        k = digits_start;
+    }
+    let rest_start = k;
+    let rest = &code[rest_start..];
+    if rest.trim_start().starts_with('*') {
+        out.section = true;
+    }
+    if !out.section {
+        tokenize(&code, &map, rest_start, &mut out.tokens);
+    }
+    out.code = code[rest_start..].to_string();
+    out.code_map = map[rest_start..].to_vec();
+    out
+}
+
+/// Split `code[from..]` into tokens at spaces (quoted names stay whole).
+fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
+    let bytes = code.as_bytes();
+    let mut k = from;
+    while k < bytes.len() {
+        while k < bytes.len() && bytes[k] == b' ' {
+            k += 1;
+        }
+        if k >= bytes.len() {
+            break;
+        }
+        let start = k;
+        let mut in_quote = false;
+        while k < bytes.len() && (in_quote || bytes[k] != b' ') {
+            if bytes[k] == b'"' {
+                in_quote = !in_quote;
+            }
+            k += 1;
+        }
+        let mut t = token(&code[start..k], map, start);
+        t.text = start - from..k - from;
+        tokens.push(t);
+    }
+}
+
+/// One token: the leading letters are its address, the rest its value.
+fn token(text: &str, map: &[usize], at: usize) -> Token {
+    let raw_start = map.get(at).copied().unwrap_or(0);
+    let raw_end = map
+        .get(at + text.len().saturating_sub(1))
+        .map_or(raw_start, |e| e + 1);
+    let bytes = text.as_bytes();
+    let mut k = 0;
+    while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
+        k += 1;
+    }
+    // `Q200=+2`: the `=` belongs to the value syntax.
+    let address = text[..k].to_ascii_uppercase();
+    let mut v = &text[k..];
+    let mut v_at = at + k;
+    if let Some(s) = v.strip_prefix('=') {
+        v = s;
+        v_at += 1;
+    }
+    let value_span = if v.is_empty() {
+        raw_end..raw_end
+    } else {
+        map.get(v_at).copied().unwrap_or(raw_end)..raw_end
+    };
+    let (value, decimals, signed) = read_value(v);
+    Token {
+        span: raw_start..raw_end,
+        text: 0..0,
+        address,
+        value,
+        value_span,
+        decimals,
+        signed,
+    }
+}
+
+/// A value as written: `+12.5`, `-3`, `7`, `+Q1`, `-QL3`, `+`, `-`.
+fn read_value(v: &str) -> (Option<Value>, u8, bool) {
+    if v.is_empty() {
+        return (None, 0, false);
+    }
+    let (negate, body, signed) = match v.as_bytes()[0] {
+        b'+' => (false, &v[1..], true),
+        b'-' => (true, &v[1..], true),
+        _ => (false, v, false),
+    };
+    if body.is_empty() {
+        return if signed {
+            (Some(Value::Sign(if negate { -1.0 } else { 1.0 })), 0, true)
+        } else {
+            (None, 0, false)
+        };
+    }
+    if let Some(param) = read_param(body) {
+        return (Some(Value::Param { param, negate }), 0, signed);
+    }
+    if body
+        .bytes()
+        .all(|b| b.is_ascii_digit() || b == b'.' || b == b',')
+        && body.bytes().any(|b| b.is_ascii_digit())
+    {
+        let body = body.replace(',', ".");
+        if let Ok(x) = body.parse::<f64>()
+            && x.is_finite()
+        {
+            let decimals = body
+                .find('.')
+                .map_or(0, |p| (body.len() - p - 1).min(255) as u8);
+            return (
+                Some(Value::Number(if negate { -x } else { x })),
+                decimals,
+                signed,
+            );
+        }
+    }
+    (None, 0, signed)
+}
+
+/// `Q12`, `QL3`, `QR100` (upper or lower case).
+pub fn read_param(text: &str) -> Option<Param> {
+    let upper = text.to_ascii_uppercase();
+    let (kind, digits) = if let Some(d) = upper.strip_prefix("QL") {
+        (ParamKind::Ql, d)
+    } else if let Some(d) = upper.strip_prefix("QR") {
+        (ParamKind::Qr, d)
+    } else if let Some(d) = upper.strip_prefix('Q') {
+        (ParamKind::Q, d)
+    } else {
+        return None;
+    };
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) || digits.len() > 6 {
+        return None;
+    }
+    Some(Param {
+        kind,
+        number: digits.parse().ok()?,
+    })
+}
+
+/// A Q formula or an `FN` right-hand side, parsed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Formula {
+    /// A number.
+    Number(f64),
+    /// A parameter.
+    Param(Param),
+    /// `-x`.
+    Neg(Box<Formula>),
+    /// A binary operation.
+    Binary(BinaryOp, Box<Formula>, Box<Formula>),
+    /// A function of one argument.
+    Function(Function, Box<Formula>),
+}
+
+/// Binary operators of Q formulas and `FN` functions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinaryOp {
+    /// `+`.
+    Add,
+    /// `-`.
+    Sub,
+    /// `*`.
+    Mul,
+    /// `/` or `DIV`.
+    Div,
+    /// `^`.
+    Pow,
+    /// `LEN` (FN 8: √(a² + b²)).
+    Len,
+    /// `ANG` (FN 13: the angle of the vector (a, b), degrees).
+    Ang,
+}
+
+/// Functions of Q formulas (TNC 640 user's manual, "Q parameters ›
+/// Formulas": SIN COS TAN ASIN ACOS ATAN SQ SQRT LN LOG ABS INT NEG FRAC
+/// SGN EXP; angles in degrees).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Function {
+    /// Sine of degrees.
+    Sin,
+    /// Cosine of degrees.
+    Cos,
+    /// Tangent of degrees.
+    Tan,
+    /// Arc sine, degrees.
+    Asin,
+    /// Arc cosine, degrees.
+    Acos,
+    /// Arc tangent, degrees.
+    Atan,
+    /// Square.
+    Sq,
+    /// Square root.
+    Sqrt,
+    /// Natural logarithm.
+    Ln,
+    /// Decimal logarithm.
+    Log,
+    /// e^x.
+    Exp,
+    /// Absolute value.
+    Abs,
+    /// Integer part (towards zero).
+    Int,
+    /// Negation.
+    Neg,
+    /// Fractional part.
+    Frac,
+    /// Sign (−1, 0, 1).
+    Sgn,
+}
+
+impl Function {
+    fn from_name(name: &str) -> Option<Function> {
+        Some(match name {
+            "SIN" => Function::Sin,
+            "COS" => Function::Cos,
+            "TAN" => Function::Tan,
+            "ASIN" => Function::Asin,
+            "ACOS" => Function::Acos,
+            "ATAN" => Function::Atan,
+            "SQ" => Function::Sq,
+            "SQRT" => Function::Sqrt,
+            "LN" => Function::Ln,
+            "LOG" => Function::Log,
+            "EXP" => Function::Exp,
+            "ABS" => Function::Abs,
+            "INT" => Function::Int,
+            "NEG" => Function::Neg,
+            "FRAC" => Function::Frac,
+            "SGN" => Function::Sgn,
+            _ => return None,
+        })
+    }
+}
+
+/// Why a formula cannot be read or computed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FormulaError {
+    /// Not a formula (what was found, at which byte of the text).
+    #[error("cannot read the formula: {0}")]
+    Syntax(String, usize),
+    /// A division by zero.
+    #[error("division by zero")]
+    DivisionByZero,
+    /// A function's argument outside its domain (the function).
+    #[error("{0} of an argument outside its domain")]
+    Domain(&'static str),
+}
+
+struct FormulaParser<'a> {
+    text: &'a [u8],
+    at: usize,
+}
+
+impl Formula {
+    /// Parse `text` (the whole of it) as a formula.
+    pub fn parse(text: &str) -> Result<Formula, FormulaError> {
+        let mut p = FormulaParser {
+            text: text.as_bytes(),
+            at: 0,
+        };
+        let f = p.sum()?;
+        p.skip_spaces();
+        if p.at < p.text.len() {
+            return Err(p.error());
+        }
+        Ok(f)
+    }
+
+    /// Compute it, reading parameters through `get`.
+    pub fn eval(&self, get: &dyn Fn(Param) -> f64) -> Result<f64, FormulaError> {
+        let v = match self {
+            Formula::Number(x) => *x,
+            Formula::Param(p) => get(*p),
+            Formula::Neg(a) => -a.eval(get)?,
+            Formula::Binary(op, a, b) => {
+                let (a, b) = (a.eval(get)?, b.eval(get)?);
+                match op {
+                    BinaryOp::Add => a + b,
+                    BinaryOp::Sub => a - b,
+                    BinaryOp::Mul => a * b,
+                    BinaryOp::Div => {
+                        if b == 0.0 {
+                            return Err(FormulaError::DivisionByZero);
+                        }
+                        a / b
+                    }
+                    BinaryOp::Pow => a.powf(b),
+                    BinaryOp::Len => a.hypot(b),
+                    BinaryOp::Ang => b.atan2(a).to_degrees(),
+                }
+            }
+            Formula::Function(f, a) => {
+                let x = a.eval(get)?;
+                let domain = |ok: bool, name| if ok { Ok(()) } else { Err(FormulaError::Domain(name)) };
+                match f {
+                    Function::Sin => x.to_radians().sin(),
+                    Function::Cos => x.to_radians().cos(),
+                    Function::Tan => x.to_radians().tan(),
+                    Function::Asin => {
+                        domain((-1.0..=1.0).contains(&x), "ASIN")?;
+                        x.asin().to_degrees()
+                    }
+                    Function::Acos => {
+                        domain((-1.0..=1.0).contains(&x), "ACOS")?;
+                        x.acos().to_degrees()
+                    }
+                    Function::Atan => x.atan().to_degrees(),
+                    Function::Sq => x * x,
+                    Function::Sqrt => {
+                        domain(x >= 0.0, "SQRT")?;
+                        x.sqrt()
+                    }
+                    Function::Ln => {
+                        domain(x > 0.0, "LN")?;
+                        x.ln()
+                    }
+                    Function::Log => {
+                        domain(x > 0.0, "LOG")?;
+                        x.log10()
+                    }
+                    Function::Exp => x.exp(),
+                    Function::Abs => x.abs(),
+                    Function::Int => x.trunc(),
+                    Function::Neg => -x,
+                    Function::Frac => x.fract(),
+                    Function::Sgn => {
+                        if x > 0.0 {
+                            1.0
+                        } else if x < 0.0 {
+                            -1.0
+                        } else {
+                            0.0
+                        }
+                    }
+                }
+            }
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(FormulaError::Domain("the result"))
+        }
+    }
+}
+
+impl FormulaParser<'_> {
+    fn skip_spaces(&mut self) {
+        while self.at < self.text.len() && self.text[self.at] == b' ' {
+            self.at += 1;
+        }
+    }
+
+    fn error(&self) -> FormulaError {
+        let rest = String::from_utf8_lossy(&self.text[self.at.min(self.text.len())..]);
+        let found = if rest.trim().is_empty() {
+            "the end of the formula".to_string()
+        } else {
+            format!("`{}`", rest.trim())
+        };
+        FormulaError::Syntax(format!("unexpected {found}"), self.at)
+    }
+
+    /// An upper-case word at the cursor (letters only), without taking it.
+    fn peek_word(&self) -> String {
+        let mut k = self.at;
+        while k < self.text.len() && self.text[k].is_ascii_alphabetic() {
+            k += 1;
+        }
+        String::from_utf8_lossy(&self.text[self.at..k]).to_ascii_uppercase()
+    }
+
+    fn sum(&mut self) -> Result<Formula, FormulaError> {
+        let mut left = self.product()?;
+        loop {
+            self.skip_spaces();
+            let op = match self.text.get(self.at) {
+                Some(b'+') => BinaryOp::Add,
+                Some(b'-') => BinaryOp::Sub,
+                _ => return Ok(left),
+            };
+            self.at += 1;
+            let right = self.product()?;
+            left = Formula::Binary(op, Box::new(left), Box::new(right));
+        }
+    }
+
+    fn product(&mut self) -> Result<Formula, FormulaError> {
+        let mut left = self.power()?;
+        loop {
+            self.skip_spaces();
+            let op = match self.text.get(self.at) {
+                Some(b'*') => {
+                    self.at += 1;
+                    BinaryOp::Mul
+                }
+                Some(b'/') => {
+                    self.at += 1;
+                    BinaryOp::Div
+                }
+                _ => {
+                    let word = self.peek_word();
+                    let op = match word.as_str() {
+                        "DIV" => BinaryOp::Div,
+                        "LEN" => BinaryOp::Len,
+                        "ANG" => BinaryOp::Ang,
+                        _ => return Ok(left),
+                    };
+                    self.at += word.len();
+                    op
+                }
+            };
+            let right = self.power()?;
+            left = Formula::Binary(op, Box::new(left), Box::new(right));
+        }
+    }
+
+    fn power(&mut self) -> Result<Formula, FormulaError> {
+        let base = self.unary()?;
+        self.skip_spaces();
+        if self.text.get(self.at) == Some(&b'^') {
+            self.at += 1;
+            let exponent = self.power()?;
+            return Ok(Formula::Binary(
+                BinaryOp::Pow,
+                Box::new(base),
+                Box::new(exponent),
+            ));
+        }
+        Ok(base)
+    }
+
+    fn unary(&mut self) -> Result<Formula, FormulaError> {
+        self.skip_spaces();
+        match self.text.get(self.at) {
+            Some(b'+') => {
+                self.at += 1;
+                self.unary()
+            }
+            Some(b'-') => {
+                self.at += 1;
+                Ok(Formula::Neg(Box::new(self.unary()?)))
+            }
+            Some(b'(') => {
+                self.at += 1;
+                let f = self.sum()?;
+                self.skip_spaces();
+                if self.text.get(self.at) != Some(&b')') {
+                    return Err(self.error());
+                }
+                self.at += 1;
+                Ok(f)
+            }
+            Some(b) if b.is_ascii_digit() || *b == b'.' => {
+                let start = self.at;
+                while self.at < self.text.len()
+                    && (self.text[self.at].is_ascii_digit() || self.text[self.at] == b'.')
+                {
+                    self.at += 1;
+                }
+                let s = String::from_utf8_lossy(&self.text[start..self.at]);
+                s.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .map(Formula::Number)
+                    .ok_or_else(|| {
+                        self.at = start;
+                        self.error()
+                    })
+            }
+            Some(b) if b.is_ascii_alphabetic() => {
+                let word = self.peek_word();
+                if word == "PI" {
+                    self.at += 2;
+                    return Ok(Formula::Number(std::f64::consts::PI));
+                }
+                if let Some(f) = Function::from_name(&word) {
+                    self.at += word.len();
+                    let arg = self.unary()?;
+                    return Ok(Formula::Function(f, Box::new(arg)));
+                }
+                // A parameter: letters Q/QL/QR then digits.
+                let start = self.at;
+                let mut k = self.at;
+                while k < self.text.len() && self.text[k].is_ascii_alphanumeric() {
+                    k += 1;
+                }
+                let text = String::from_utf8_lossy(&self.text[start..k]);
+                match read_param(&text) {
+                    Some(p) => {
+                        self.at = k;
+                        Ok(Formula::Param(p))
+                    }
+                    None => Err(self.error()),
+                }
+            }
+            _ => Err(self.error()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_block_tokens() {
+        let b = parse_block(b"12 L X+12.5 IY-3 Z+Q1 R0 FMAX M3 ; rapid");
+        assert_eq!(b.number.as_ref().map(|n| n.0), Some(12));
+        assert_eq!(b.address(0), "L");
+        assert_eq!(b.tokens[1].address, "X");
+        assert_eq!(b.tokens[1].number(), Some(12.5));
+        assert_eq!(b.tokens[1].decimals, 1);
+        assert!(b.tokens[1].signed);
+        assert_eq!(b.tokens[2].address, "IY");
+        assert_eq!(b.tokens[2].number(), Some(-3.0));
+        assert_eq!(
+            b.tokens[3].value,
+            Some(Value::Param {
+                param: Param {
+                    kind: ParamKind::Q,
+                    number: 1
+                },
+                negate: false
+            })
+        );
+        assert_eq!(b.tokens[4].address, "R");
+        assert_eq!(b.tokens[5].address, "FMAX");
+        assert_eq!(b.comments.len(), 1);
+        let raw = b"12 L X+12.5 IY-3 Z+Q1 R0 FMAX M3 ; rapid";
+        assert_eq!(&raw[b.tokens[1].span.clone()], b"X+12.5");
+        assert_eq!(&raw[b.tokens[1].value_span.clone()], b"+12.5");
+    }
+
+    #[test]
+    fn continuation_and_cycle_parameters() {
+        let raw = b"7 CYCL DEF 200 DRILLING ~\r\n  Q200=+2 ;SET-UP CLEARANCE ~\r\n  Q201=-20 ;DEPTH";
+        let b = parse_block(raw);
+        assert!(b.starts_with(&["CYCL", "DEF"]));
+        let q = b.find("Q", 0).unwrap();
+        assert_eq!(q.number(), Some(2.0));
+        assert_eq!(&raw[q.span.clone()], b"Q200=+2");
+        assert_eq!(b.comments.len(), 2);
+    }
+
+    #[test]
+    fn formulas() {
+        let f = Formula::parse("+Q1 + +3 * SIN(30) - SQ 2").unwrap();
+        let v = f.eval(&|_| 2.0).unwrap();
+        assert!((v - (2.0 + 1.5 - 4.0)).abs() < 1e-12);
+        let f = Formula::parse("+3 LEN +4").unwrap();
+        assert_eq!(f.eval(&|_| 0.0).unwrap(), 5.0);
+        let f = Formula::parse("+10 DIV +Q2").unwrap();
+        assert_eq!(f.eval(&|_| 0.0), Err(FormulaError::DivisionByZero));
+        assert!(Formula::parse("3 +").is_err());
+        assert!(Formula::parse("SQRT Q").is_err());
+    }
+
+    #[test]
+    fn section_and_names() {
+        let b = parse_block(b"3 * - ROUGHING");
+        assert!(b.section);
+        let b = parse_block(b"4 TOOL CALL \"MILL D10\" Z S5000");
+        assert_eq!(b.tokens[2].address, "");
+        assert_eq!(b.tokens[3].address, "Z");
+    }
+
+    #[test]
+    fn arbitrary_bytes_do_not_panic() {
+        for raw in [
+            &b""[..],
+            b"~",
+            b"\n~\n",
+            b"99999999999999999999999 L",
+            b"1 L X+",
+            b"1 L X+.",
+            b"\xff\xfe ;\"",
+            b"1 Q1 = (",
+        ] {
+            let b = parse_block(raw);
+            let _ = Formula::parse(&b.code);
+        }
+    }
+}
