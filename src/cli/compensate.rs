@@ -246,6 +246,7 @@ Give the original program, or --force to compensate it anyway"
         let options = self.options();
         let (input, total, position) = super::common::track(input)?;
         let program = crate::gcode::Program::new(input, &args.program, setup);
+        super::common::announce_dialect(&program);
         let warnings = program.warnings();
         let bar = Progress::new(&args.program, "compensating", total, position);
         let mut report: Option<CompensateReport> = None;

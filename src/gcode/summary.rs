@@ -112,6 +112,11 @@ pub struct ProgramSummary {
     /// How many tool runs the program has (`tools` keeps at most the first
     /// 256, `KEPT_TOOL_RUNS`).
     pub tool_runs: usize,
+    /// The dialect the program was read in and why (`read as Sinumerik
+    /// (extension .MPF)`), for programs not read as LinuxCNC's (whose
+    /// summaries stay as they were).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dialect: Option<String>,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
     passed: BTreeMap<(u8, i32), usize>,

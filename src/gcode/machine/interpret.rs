@@ -231,10 +231,6 @@ pub struct BlockEvent {
     pub moves: Moves,
     /// The origin the block's axis words were read in (identity under G53).
     pub origin: Origin,
-    /// A working plane's rotation (rows; Heidenhain `PLANE`): the block's
-    /// program X Y Z are turned by it before the origin's shift applies
-    /// (part = work + g92 + R·program). `None` for LinuxCNC programs.
-    pub tilt: Option<[[f64; 3]; 3]>,
     /// Modal state after the block.
     pub modal: ModalState,
     /// The tool in the spindle for the block's moves (after its M6/M61).
@@ -415,7 +411,6 @@ impl Default for BlockEvent {
             line: 0,
             moves: Moves::None,
             origin: Origin::MACHINE,
-            tilt: None,
             modal: ModalState::new(Frame::Joint),
             tool: ToolInUse::default(),
             start: Axes::default(),
@@ -770,6 +765,21 @@ impl Interpreter {
     /// The active origin (work offset, G92, rotation).
     pub fn origin(&self) -> Origin {
         self.origin
+    }
+
+    /// Set a dialect's programmable frame (Sinumerik `TRANS`/`ROT`/…, a
+    /// swivelled plane), applied to the X Y Z words of the next blocks
+    /// before the work origin ([`Origin::frame`]); `None` clears it.
+    /// LinuxCNC programs never set one.
+    pub fn set_frame(&mut self, frame: Option<super::origin::FrameTransform>) {
+        self.origin.frame = frame;
+    }
+
+    /// Set the position (machine coordinates) without a move: a dialect's
+    /// step that moves axes the program does not write as words (a
+    /// swivelled plane turning the rotary axes), reported by the front.
+    pub fn set_position(&mut self, position: Axes) {
+        self.position = position;
     }
 
     /// The parameter table (the language layer reads and writes it).
@@ -2108,6 +2118,7 @@ impl Interpreter {
                         work: o,
                         g92,
                         rotation_deg: self.params.get(numbers::coord(n as usize, 9)),
+                        frame: None,
                     };
                     let mut wanted = system.to_program(&self.position);
                     for axis in Axis::ALL {
@@ -2166,6 +2177,7 @@ impl Interpreter {
                                 work: self.stored_origin(9),
                                 g92: Axes::default(),
                                 rotation_deg: self.params.get(numbers::coord(9, 9)),
+                                frame: None,
                             }
                             .to_program(&self.position)
                         };
