@@ -335,16 +335,11 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
-<<<<<<< HEAD
-            ErrorKind::Klartext(_) => {
-                "check the block against the TNC user's manual (Klartext programming); a feature volcomp does not read yet can be expanded in the CAM post-processor"
-=======
             ErrorKind::DialectFeature(..) => {
                 "docs/dialects.md lists what volcomp reads of each control's language; rewrite the block without the feature (or post-process it flat)"
             }
             ErrorKind::DialectRefused(_) => {
                 "the control refuses this too (docs/dialects.md cites its manual); correct the program"
->>>>>>> sinumerik
             }
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"

@@ -197,7 +197,7 @@ impl Execution {
             ..setup.language.clone()
         };
         Execution {
-            executor: Front::new(&dialect, input, path, language, setup),
+            executor: Front::new(&dialect, input, path, language, &options, setup),
             dialect,
             interpreter: {
                 let mut i = Interpreter::with_parameters(options, setup.parameters.clone());
@@ -338,8 +338,8 @@ impl Execution {
                     Some(Err(e.with_path(&self.path)))
                 }
                 Some(Ok(())) => {
+                    self.executor.pass_over(&self.interpreter, &mut self.event);
                     let block = self.executor.block();
-                    self.interpreter.pass_over(block, &mut self.event);
                     self.event.index = self.blocks;
                     self.blocks += 1;
                     Some(Ok((block, &self.event, self.executor.executed())))
@@ -384,15 +384,14 @@ impl Execution {
             }
             Some(Ok(())) if self.executor.executed().passed => {
                 // A subroutine definition passed over: as written, not run.
+                self.executor.pass_over(&self.interpreter, &mut self.event);
                 let block = self.executor.block();
-                self.interpreter.pass_over(block, &mut self.event);
                 self.event.index = self.blocks;
                 self.blocks += 1;
                 Some(Ok((block, &self.event, self.executor.executed())))
             }
             Some(Ok(())) => {
-                let block = self.executor.block();
-                let result = self.interpreter.interpret_into(block, &mut self.event);
+                let result = self.executor.interpret(&mut self.interpreter, &mut self.event);
                 if let Err(e) = result {
                     self.done = true;
                     let executed = self.executor.executed();

@@ -21,6 +21,9 @@ use crate::gcode::syntax::block::Block;
 pub(crate) enum Front {
     /// LinuxCNC's language layer (O-words, parameters, subroutine files).
     LinuxCnc(Executor),
+    /// Heidenhain Klartext: its own language and machine state, which give
+    /// each block's event themselves ([`Front::interpret`]).
+    Heidenhain(Box<crate::gcode::heidenhain::KlartextFront>),
     /// A dialect volcomp does not read yet: the first block is an error
     /// naming it (never a silent LinuxCNC reading).
     Unread {
@@ -41,11 +44,15 @@ impl Front {
         input: Box<dyn ProgramInput>,
         path: &Path,
         language: LanguageOptions,
-        _setup: &crate::gcode::ProgramSetup,
+        options: &crate::gcode::InterpretOptions,
+        setup: &crate::gcode::ProgramSetup,
     ) -> Front {
         match choice.dialect {
             Dialect::LinuxCnc => Front::LinuxCnc(Executor::new(input, path, language)),
-            dialect @ (Dialect::Sinumerik | Dialect::Heidenhain) => Front::Unread {
+            Dialect::Heidenhain => Front::Heidenhain(Box::new(
+                crate::gcode::heidenhain::KlartextFront::new(input, path, &language, options, setup),
+            )),
+            dialect @ Dialect::Sinumerik => Front::Unread {
                 dialect,
                 done: false,
                 block: Block::default(),
@@ -67,6 +74,7 @@ impl Front {
     ) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_block(interpreter.parameters_mut()),
+            Front::Heidenhain(h) => h.next_block(),
             Front::Unread { dialect, done, .. } => {
                 if *done {
                     return None;
@@ -88,6 +96,7 @@ impl Front {
     pub(crate) fn block(&self) -> &Block {
         match self {
             Front::LinuxCnc(e) => e.block(),
+            Front::Heidenhain(h) => h.block(),
             Front::Unread { block, .. } => block,
         }
     }
@@ -97,6 +106,7 @@ impl Front {
     pub(crate) fn executed(&self) -> &Executed {
         match self {
             Front::LinuxCnc(e) => e.executed(),
+            Front::Heidenhain(h) => h.executed(),
             Front::Unread { executed, .. } => executed,
         }
     }
@@ -105,6 +115,7 @@ impl Front {
     pub(crate) fn file_name(&self, index: usize) -> &str {
         match self {
             Front::LinuxCnc(e) => e.file_name(index),
+            Front::Heidenhain(h) => h.file_name(index),
             Front::Unread { .. } => "?",
         }
     }
@@ -113,6 +124,7 @@ impl Front {
     pub(crate) fn end_program(&mut self) {
         match self {
             Front::LinuxCnc(e) => e.end_program(),
+            Front::Heidenhain(h) => h.end_program(),
             Front::Unread { done, .. } => *done = true,
         }
     }
@@ -121,6 +133,7 @@ impl Front {
     pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_tail_line(),
+            Front::Heidenhain(h) => h.next_tail_line(),
             Front::Unread { .. } => None,
         }
     }
@@ -129,6 +142,7 @@ impl Front {
     pub(crate) fn percent_ended(&self) -> bool {
         match self {
             Front::LinuxCnc(e) => e.percent_ended(),
+            Front::Heidenhain(_) => false,
             Front::Unread { .. } => false,
         }
     }
@@ -137,6 +151,7 @@ impl Front {
     pub(crate) fn lines_read(&self) -> usize {
         match self {
             Front::LinuxCnc(e) => e.lines_read(),
+            Front::Heidenhain(h) => h.lines_read(),
             Front::Unread { .. } => 0,
         }
     }
@@ -145,6 +160,7 @@ impl Front {
     pub(crate) fn repeat_trips(&self) -> f64 {
         match self {
             Front::LinuxCnc(e) => e.repeat_trips(),
+            Front::Heidenhain(_) => 1.0,
             Front::Unread { .. } => 1.0,
         }
     }
@@ -153,7 +169,33 @@ impl Front {
     pub(crate) fn innermost_loop(&self) -> Option<String> {
         match self {
             Front::LinuxCnc(e) => e.innermost_loop(),
+            Front::Heidenhain(h) => h.in_call().then(|| "a CALL LBL / CALL PGM".to_string()),
             Front::Unread { .. } => None,
+        }
+    }
+
+    /// Give the block just handed on its meaning: LinuxCNC's interpreter,
+    /// or a dialect front that keeps its own machine state.
+    #[inline]
+    pub(crate) fn interpret(
+        &mut self,
+        interpreter: &mut Interpreter,
+        event: &mut crate::gcode::BlockEvent,
+    ) -> Result<(), GcodeError> {
+        match self {
+            Front::Heidenhain(h) => h.interpret(event),
+            Front::LinuxCnc(e) => interpreter.interpret_into(e.block(), event),
+            Front::Unread { block, .. } => interpreter.interpret_into(block, event),
+        }
+    }
+
+    /// The event of a block handed on as written, not run.
+    #[inline]
+    pub(crate) fn pass_over(&self, interpreter: &Interpreter, event: &mut crate::gcode::BlockEvent) {
+        match self {
+            Front::Heidenhain(h) => h.pass_over(event),
+            Front::LinuxCnc(e) => interpreter.pass_over(e.block(), event),
+            Front::Unread { block, .. } => interpreter.pass_over(block, event),
         }
     }
 }

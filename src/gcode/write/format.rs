@@ -64,19 +64,19 @@ pub(super) fn push_fixed(out: &mut String, value: f64, decimals: u8) -> Option<f
 }
 
 /// Half a unit of the last of `decimals` decimals (a hair less).
-pub(super) fn half_ulp(decimals: u8) -> f64 {
+pub(crate) fn half_ulp(decimals: u8) -> f64 {
     0.5 * 10f64.powi(-(decimals as i32)) * (1.0 - 1e-9)
 }
 
 /// `v` rounded to `decimals` decimals, no `-0`.
-pub(super) fn round_to(v: f64, decimals: u8) -> f64 {
+pub(crate) fn round_to(v: f64, decimals: u8) -> f64 {
     let p = 10f64.powi(decimals as i32);
     let r = (v * p).round() / p;
     if r == 0.0 { 0.0 } else { r }
 }
 
 /// Append `value` with `decimals` decimals (no `-0`); returns the printed value.
-pub(super) fn push_number(out: &mut String, value: f64, decimals: u8) -> f64 {
+pub(crate) fn push_number(out: &mut String, value: f64, decimals: u8) -> f64 {
     use std::fmt::Write as _;
     if let Some(printed) = push_fixed(out, value, decimals) {
         return printed;
