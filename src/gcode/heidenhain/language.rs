@@ -142,7 +142,7 @@ impl Source {
                     && labels.insert(label.clone(), index).is_some()
                 {
                     return Err(GcodeError::at(
-                        ErrorKind::Klartext(format!("{label} is defined twice")),
+                        ErrorKind::DialectRefused(format!("{label} is defined twice")),
                         first_line,
                         raw,
                         0,
@@ -271,13 +271,15 @@ impl Language {
         }
     }
 
-    /// Count one executed block; an error past the limit.
-    pub fn count(&mut self, line: usize, raw: &[u8]) -> Result<(), GcodeError> {
+    /// Count one executed block (block `pc` of `file`); an error past the limit.
+    pub fn count(&mut self, file: usize, pc: usize) -> Result<(), GcodeError> {
         self.executed += 1;
         if self.executed > self.max_executed {
+            let source = &self.files[file];
+            let raw = source.raw(pc);
             return Err(GcodeError::at(
                 ErrorKind::EndlessProgram(self.max_executed),
-                line,
+                source.blocks[pc].line,
                 raw,
                 0,
                 raw.len(),
@@ -292,7 +294,7 @@ impl Language {
         let raw = source.raw(self.pc);
         let span = block.tokens.first().map_or(0..raw.len(), |t| t.span.clone());
         let end = block.tokens.last().map_or(span.end, |t| t.span.end);
-        GcodeError::at(ErrorKind::Klartext(message), r.line, raw, span.start, end)
+        GcodeError::at(ErrorKind::DialectRefused(message), r.line, raw, span.start, end)
     }
 
     /// Run the language statements of `block` (at `pc`): assignments,
@@ -301,9 +303,7 @@ impl Language {
         let next = self.pc + 1;
         let first = block.address(0);
         // Q formulas: `Q1 = …`, `QL2 = …`.
-        if let Some(p) = read_param(first)
-            && block.tokens.first().is_some_and(|t| t.value.is_none())
-        {
+        if let Some(p) = block.assigned() {
             let rhs = self.right_hand_side(block)?;
             let v = self.formula(&rhs, block)?;
             self.q.set(p, v);

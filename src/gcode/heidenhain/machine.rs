@@ -17,8 +17,11 @@
 //! it was (the state is copied, changed and committed).
 use std::sync::Arc;
 
+use crate::gcode::dialect::{Branch, OrientationSolver};
+use crate::gcode::machine::origin::FrameTransform;
+
 use super::language::QParameters;
-use super::syntax::{KlBlock, Token, Value};
+use super::syntax::{KlBlock, Token};
 use crate::axes::{Axes, Axis};
 use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::machine::cycles::CycleStep;
@@ -32,22 +35,6 @@ use crate::gcode::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, t
 pub type Mat3 = [[f64; 3]; 3];
 
 const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
-/// The machine's orientation kinematics, as the control uses it to solve a
-/// working plane or a tool vector (implemented outside `gcode` from the
-/// machine file's chain; `gcode` knows no kinematics).
-pub trait OrientationSolver: Send + Sync + std::fmt::Debug {
-    /// The rotary joints that point the tool along `axis` (unit, workpiece
-    /// frame), in `previous` with its rotary values replaced. `seq`: the
-    /// sign the first rotary axis of the chain (from the bed) must have
-    /// (`SEQ+`/`SEQ-`), else the solution nearest `previous`. `None` when
-    /// the machine cannot reach the axis (or not within its limits).
-    fn joints_for_axis(&self, axis: [f64; 3], seq: Option<f64>, previous: &Axes) -> Option<Axes>;
-    /// The tool axis (unit, workpiece frame) at rotary joints `joints`.
-    fn axis_of(&self, joints: &Axes) -> [f64; 3];
-    /// The machine's two rotary axes.
-    fn rotary(&self) -> [Axis; 2];
-}
 
 /// Settings of the machine layer.
 #[derive(Clone, Debug, Default)]
@@ -210,7 +197,6 @@ impl KlMachine {
         event.line = line;
         event.moves = Moves::None;
         event.origin = self.origin();
-        event.tilt = s.tilt;
         event.modal = self.modal();
         event.tool = s.tool;
         event.start = s.position;
@@ -223,17 +209,25 @@ impl KlMachine {
         event.warnings.clear();
     }
 
+    /// The origin of the block's words: the preset, and the datum shift
+    /// and working plane as a frame (`part = preset + shift + R·(p + s₁)`).
     fn origin(&self) -> Origin {
+        let s = &self.state;
+        let r = s.tilt.unwrap_or(IDENTITY);
+        let turned = mat_vec(&r, s.shift_tilted);
+        let shift = [
+            s.shift[0] + turned[0],
+            s.shift[1] + turned[1],
+            s.shift[2] + turned[2],
+        ];
+        let frame = (s.tilt.is_some() || shift != [0.0; 3])
+            .then(|| FrameTransform::new(r, shift))
+            .flatten();
         Origin {
             work: self.setup.preset,
-            g92: Axes::xyzac(
-                self.state.shift[0],
-                self.state.shift[1],
-                self.state.shift[2],
-                0.0,
-                0.0,
-            ),
+            g92: Axes::default(),
             rotation_deg: 0.0,
+            frame,
         }
     }
 
@@ -315,7 +309,6 @@ impl KlMachine {
         }
         event.modal = self.modal();
         event.origin = self.origin();
-        event.tilt = self.state.tilt;
         event.tool = self.state.tool;
         event.program_end = statement == Statement::End;
         Ok(statement)
@@ -365,24 +358,14 @@ impl KlMachine {
                 Ok(Statement::Other)
             }
             "C" | "CR" | "CT" | "CP" => self.circle(c, s, event),
-            "RND" | "CHF" => Err(c.error(
-                &format!(
-                    "{} ({}) is not read yet: round or chamfer the corner in the CAM system",
-                    first,
-                    if first == "RND" { "corner rounding" } else { "chamfer" }
-                ),
-                Some(0),
-            )),
+            "RND" | "CHF" => Err(c.unread(first, Some(0))),
             "CYCL" if b.starts_with(&["CYCL", "DEF"]) => {
                 self.cycle_def(c, s)?;
                 Ok(Statement::Other)
             }
             "CYCL" if b.starts_with(&["CYCL", "CALL"]) => {
                 if b.find("PAT", 2).is_some() || b.find("POS", 2).is_some() {
-                    return Err(c.error(
-                        "CYCL CALL PAT / CYCL CALL POS is not read yet (call the cycle at each point with L … M99)",
-                        Some(1),
-                    ));
+                    return Err(c.unread("CYCL CALL PAT/POS", Some(1)));
                 }
                 self.cycle_call(c, s, event)?;
                 Ok(Statement::Other)
@@ -409,17 +392,10 @@ impl KlMachine {
             }
             // Language statements (the language layer ran them).
             "FN" | "LBL" | "CALL" => Ok(Statement::Other),
-            _ if super::syntax::read_param(first).is_some()
-                && b.tokens.first().is_some_and(|t| t.value.is_none()) =>
-            {
-                Ok(Statement::Other)
-            }
+            _ if b.assigned().is_some() => Ok(Statement::Other),
             // Statements that do not move (passed through, counted).
             "FUNCTION" | "SEL" | "DECLARE" | "SPEC" | "SYSCALL" => Ok(Statement::Other),
-            _ => Err(c.error(
-                &format!("`{first}` is not read yet (volcomp reads L, LN, LP, C, CC, CR, CT, CP, CYCL, PLANE, TOOL CALL, Q parameters and labels)"),
-                Some(0),
-            )),
+            _ => Err(c.unread(first, Some(0))),
         }
     }
 
@@ -632,7 +608,7 @@ impl KlMachine {
                     None => axis_prog,
                 };
                 let previous = self.to_frame(s, target, rot);
-                let j = solver.joints_for_axis(axis, None, &previous).ok_or_else(|| {
+                let j = solver.joints_for_axis(axis, Branch::Nearest, &previous).ok_or_else(|| {
                     c.error(
                         "the machine cannot point the tool along this LN vector",
                         Some(0),
@@ -649,7 +625,7 @@ impl KlMachine {
             return Ok(Statement::Other);
         }
         if machine_datum {
-            return self.machine_datum_move(c, s, event, target, rot, feed);
+            return self.machine_datum_move(c, s, event, feed);
         }
         self.refuse_compensation(c, s)?;
         let start = s.position;
@@ -675,18 +651,13 @@ impl KlMachine {
         c: &Ctx<'_>,
         s: &mut State,
         event: &mut BlockEvent,
-        target: [f64; 3],
-        rot: [f64; 3],
         feed: Feed,
     ) -> Result<Statement, GcodeError> {
         let scale = if s.inch { 25.4 } else { 1.0 };
         let mut end = if self.frame() == Frame::Joint && s.tilt.is_none() {
             s.position
         } else {
-            return Err(c.error(
-                "M91/M92 with a working plane or tool-tip control active is not read yet",
-                Some(0),
-            ));
+            return Err(c.unread("M91/M92 under PLANE or M128", Some(0)));
         };
         for (k, t) in c.block.tokens.iter().enumerate() {
             let axis = match t.address.as_str() {
@@ -697,7 +668,7 @@ impl KlMachine {
                 "B" => Axis::B,
                 "C" => Axis::C,
                 "IX" | "IY" | "IZ" | "IA" | "IB" | "IC" => {
-                    return Err(c.error("M91/M92 with incremental words is not read yet", Some(k)));
+                    return Err(c.unread("M91/M92 with incremental words", Some(k)));
                 }
                 _ => continue,
             };
@@ -797,16 +768,10 @@ impl KlMachine {
                 129 => s.tcpm = false,
                 99 => self.cycle_call(c, s, event)?,
                 89 => {
-                    return Err(c.error(
-                        "M89 (modal cycle call) is not read yet: call the cycle with M99 or CYCL CALL",
-                        Some(k),
-                    ));
+                    return Err(c.unread("M89", Some(k)));
                 }
                 140 => {
-                    return Err(c.error(
-                        "M140 (retract along the tool axis) is not read yet",
-                        Some(k),
-                    ));
+                    return Err(c.unread("M140", Some(k)));
                 }
                 _ => {}
             }
@@ -989,10 +954,7 @@ impl KlMachine {
             let rn = mat_vec(&r, n);
             (dot(rn, n) - 1.0).abs() > 1e-9
         }) {
-            return Err(c.error(
-                "a circle in a working plane tilted out of its own plane is not read yet",
-                Some(0),
-            ));
+            return Err(c.unread("circle in a tilted working plane", Some(0)));
         }
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 1)?;
@@ -1035,19 +997,14 @@ impl KlMachine {
         let minor = ((n - n.trunc()) * 10.0).round() as u32;
         match major {
             7 => self.datum_shift(c, s, minor),
-            19 => Err(c.error(
-                "CYCL DEF 19 (working plane by axis angles) is not read yet: use PLANE AXIAL",
-                Some(2),
-            )),
+            19 => Err(c.unread("CYCL DEF 19", Some(2))),
             // Cycles that do not move: tolerance, and the like.
             32 | 332 | 392 | 9 | 13 | 247 => Ok(()),
             200 => {
                 let mut q = Vec::new();
                 for (k, t) in b.tokens.iter().enumerate().skip(3) {
-                    if t.address == "Q"
-                        && let Some(p) = super::syntax::read_param(
-                            super::language::token_text(b, t).unwrap_or("").split('=').next().unwrap_or(""),
-                        )
+                    if let Some(p) = super::syntax::read_param(&t.address)
+                        && t.value.is_some()
                     {
                         q.push((p.number, c.value(k)?));
                     }
@@ -1075,7 +1032,7 @@ impl KlMachine {
     fn datum_shift(&self, c: &Ctx<'_>, s: &mut State, minor: u32) -> Result<(), GcodeError> {
         if minor == 0 {
             if c.block.tokens.iter().any(|t| t.address == "#") || c.block.code.contains('#') {
-                return Err(c.error("a datum shift from the datum table (#) is not read yet", Some(0)));
+                return Err(c.unread("CYCL DEF 7 from the datum table (#)", Some(0)));
             }
             return Ok(());
         }
@@ -1112,9 +1069,9 @@ impl KlMachine {
             return Err(c.error("a cycle call without a cycle defined (CYCL DEF)", Some(0)));
         };
         if cycle.number != 200 {
-            return Err(c.error(
+            return Err(c.unread(
                 &format!(
-                    "the call runs CYCL DEF {} (defined on line {}), which volcomp does not expand yet",
+                    "CYCL DEF {} (defined on line {}) called here",
                     cycle.number, cycle.line
                 ),
                 Some(0),
@@ -1273,19 +1230,20 @@ impl KlMachine {
                 (None, Some(a))
             }
             "PROJECTED" | "EULER" | "POINTS" | "RELATIVE" => {
-                return Err(c.error(
-                    &format!("PLANE {kind} is not read yet (volcomp reads PLANE SPATIAL, VECTOR, AXIAL and RESET)"),
-                    Some(1),
-                ));
+                return Err(c.unread(&format!("PLANE {kind}"), Some(1)));
             }
             _ => return Err(c.error("PLANE: expected SPATIAL, PROJECTED, EULER, VECTOR, POINTS, RELATIVE, AXIAL or RESET", Some(1))),
         };
         let mode = ["MOVE", "TURN", "STAY"]
             .into_iter()
             .find(|m| b.tokens.iter().any(|t| t.address == *m));
-        let seq = b.tokens.iter().find(|t| t.address == "SEQ").and_then(|t| t.number());
+        let seq = match b.tokens.iter().find(|t| t.address == "SEQ").and_then(|t| t.number()) {
+            Some(v) if v > 0.0 => Branch::Plus,
+            Some(_) => Branch::Minus,
+            None => Branch::Nearest,
+        };
         if b.tokens.iter().any(|t| t.address == "COORD") {
-            return Err(c.error("PLANE … COORD ROT is not read yet (TABLE ROT is)", Some(1)));
+            return Err(c.unread("PLANE … COORD ROT", Some(1)));
         }
         let pre = self.setup.preset;
         // The rotary position the plane asks for.
@@ -1331,10 +1289,7 @@ impl KlMachine {
                 || (j.c - here.c).abs() > 1e-12;
             if moves_rotary {
                 if mode == Some("MOVE") {
-                    return Err(c.error(
-                        "PLANE … MOVE (the tool follows the rotation) is not read yet: use TURN",
-                        Some(1),
-                    ));
+                    return Err(c.unread("PLANE … MOVE", Some(1)));
                 }
                 let end = Axes { a: j.a, b: j.b, c: j.c, ..here };
                 let feed = if b.tokens.iter().any(|t| t.address == "FMAX") {
@@ -1507,19 +1462,26 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// A located error at token `at` (or the whole block).
+    /// A located error at token `at` (or the whole block): what the control
+    /// refuses, in its words.
     fn error(&self, message: &str, at: Option<usize>) -> GcodeError {
+        self.located(ErrorKind::DialectRefused(message.to_string()), at)
+    }
+
+    /// A located error naming a feature volcomp does not read yet.
+    fn unread(&self, feature: &str, at: Option<usize>) -> GcodeError {
+        self.located(
+            ErrorKind::DialectFeature("Heidenhain", feature.to_string()),
+            at,
+        )
+    }
+
+    fn located(&self, kind: ErrorKind, at: Option<usize>) -> GcodeError {
         let (start, end) = match at.and_then(|k| self.block.tokens.get(k)) {
             Some(t) => (t.span.start, t.span.end),
             None => (0, self.raw.len()),
         };
-        GcodeError::at(
-            ErrorKind::Klartext(message.to_string()),
-            self.line,
-            self.raw,
-            start,
-            end,
-        )
+        GcodeError::at(kind, self.line, self.raw, start, end)
     }
 
     /// The value of token `k` (a number or a parameter's).

@@ -1,5 +1,444 @@
 //! Heidenhain TNC Klartext programs (dialects.md "Heidenhain TNC
 //! (Klartext)"): their syntax, language and machine state, feeding the same
-//! seam as LinuxCNC's programs.
+//! seam as LinuxCNC's programs ([`crate::gcode::Execution`]).
+//!
+//! - `syntax`: a logical block (a line and its `~` continuation lines) →
+//!   tokens with byte ranges, Q formulas;
+//! - `language`: Q parameters, `FN` functions and jumps, labels, `CALL LBL`
+//!   repeats and subprograms, `CALL PGM` → executed blocks in order;
+//! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
+//!   tool-tip control, tools, the drilling cycle) → [`BlockEvent`]s;
+//! - `write`: Klartext written back (renumbered, numbers in the input's
+//!   style).
+//!
+//! The front ([`KlartextFront`]) reads the whole program into memory (a
+//! Klartext program's jumps and labels go both ways) and hands on one
+//! block at a time: the main program's blocks read once in sequence as
+//! written (`literal`), blocks run again or from a call as flat copies
+//! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
+//! block, and blocks never run as `passed`, so that a writer loses no byte.
 pub(crate) mod language;
+pub(crate) mod machine;
 pub(crate) mod syntax;
+pub(crate) mod write;
+
+use std::path::{Path, PathBuf};
+
+use language::{Flow, Language, Reach, Source};
+use machine::{KlMachine, KlartextSetup};
+use syntax::{KlBlock, Value, parse_block};
+
+use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
+use crate::gcode::machine::interpret::{BlockEvent, InterpretOptions};
+use crate::gcode::syntax::block::{Block, LineEnding, Word};
+
+/// The Klartext front of a run.
+pub(crate) struct KlartextFront {
+    language: Language,
+    machine: KlMachine,
+    block: Block,
+    parsed: KlBlock,
+    executed: Executed,
+    /// The main program has ended (M2, M30, its END PGM).
+    ended: bool,
+    /// This block ends the main program.
+    ends_here: bool,
+    /// A read error to hand on first.
+    failed: Option<GcodeError>,
+    done: bool,
+    path: PathBuf,
+    lenient: bool,
+}
+
+impl KlartextFront {
+    /// Read `input` (named `path`) whole and prepare the run.
+    pub(crate) fn new(
+        mut input: Box<dyn ProgramInput>,
+        path: &Path,
+        language: &LanguageOptions,
+        options: &InterpretOptions,
+        setup: &crate::gcode::ProgramSetup,
+    ) -> Self {
+        let mut text = Vec::new();
+        let read = std::io::Read::read_to_end(&mut input, &mut text);
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let (source, mut failed) = match read {
+            Err(e) => (None, Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0))),
+            Ok(_) => match Source::new(name.clone(), Some(path.to_path_buf()), text) {
+                Ok(s) => (Some(s), None),
+                Err(e) => (None, Some(e)),
+            },
+        };
+        let source = source.unwrap_or_else(|| {
+            Source::new(name, None, Vec::new()).unwrap_or_else(|_| unreachable_source())
+        });
+        if failed.is_none() {
+            failed = check_numbers(&source).err();
+        }
+        let preset = {
+            let p = &setup.parameters;
+            let get = |k| p.get(crate::gcode::language::parameters::numbers::coord(1, k));
+            crate::axes::Axes {
+                x: get(0),
+                y: get(1),
+                z: get(2),
+                a: get(3),
+                b: get(4),
+                c: get(5),
+                ..crate::axes::Axes::default()
+            }
+        };
+        let max = language
+            .max_executed_lines
+            .unwrap_or(crate::gcode::language::DEFAULT_MAX_EXECUTED_LINES);
+        KlartextFront {
+            language: Language::new(source, language.subroutine_path.clone(), max),
+            machine: KlMachine::new(KlartextSetup {
+                preset,
+                tools: setup.tools.clone(),
+                orientation: setup.orientation.clone(),
+                rapid_mm_per_min: options.rapid_mm_per_min,
+            }),
+            block: Block::default(),
+            parsed: KlBlock::default(),
+            executed: Executed {
+                file: 0,
+                line: 1,
+                literal: true,
+                passed: false,
+            },
+            ended: false,
+            ends_here: false,
+            failed,
+            done: false,
+            path: path.to_path_buf(),
+            lenient: options.lenient,
+        }
+    }
+
+    /// The next executed block, `None` after the program's end.
+    pub(crate) fn next_block(&mut self) -> Option<Result<(), GcodeError>> {
+        if let Some(e) = self.failed.take() {
+            self.done = true;
+            return Some(Err(e));
+        }
+        if self.done || self.ended {
+            return None;
+        }
+        let result = self.step();
+        if result.is_err() {
+            self.done = true;
+        }
+        Some(result)
+    }
+
+    fn step(&mut self) -> Result<(), GcodeError> {
+        let lang = &mut self.language;
+        let (file, pc) = (lang.file, lang.pc);
+        let count = lang.files[file].blocks.len();
+        if pc >= count {
+            let source = &lang.files[file];
+            let line = source.blocks.last().map_or(1, |b| b.line);
+            return Err(GcodeError::at(
+                ErrorKind::DialectRefused(format!(
+                    "the program {} ends without END PGM",
+                    source.name
+                )),
+                line,
+                b"",
+                0,
+                0,
+            )
+            .with_path(source.path.clone().unwrap_or_else(|| self.path.clone())));
+        }
+        // Main-program blocks a jump passed over: handed on as written.
+        if file == 0 && !lang.in_call() && pc > lang.next_literal {
+            let k = lang.next_literal;
+            lang.next_literal += 1;
+            self.emit_passed(k);
+            return Ok(());
+        }
+        let reach = lang.reach();
+        if reach == Reach::Literal {
+            lang.next_literal = pc + 1;
+        }
+        lang.count(file, pc)?;
+        let r = lang.files[file].blocks[pc];
+        let raw = lang.files[file].raw(pc);
+        self.parsed = parse_block(raw);
+        let flat = substituted(&self.parsed, raw, &lang.q);
+        let ends_program = self.parsed.starts_with(&["END", "PGM"]);
+        let stops = self.parsed.tokens.iter().any(|t| {
+            t.address == "M" && matches!(t.number(), Some(v) if v == 2.0 || v == 30.0)
+        });
+        let flow = if ends_program || stops {
+            self.ends_here = stops || lang.end_program();
+            if self.ends_here {
+                self.ended = true;
+            }
+            Flow::Next
+        } else {
+            self.ends_here = false;
+            lang.step(&self.parsed).map_err(|e| self.with_file(e, file))?
+        };
+        let control = matches!(flow, Flow::Jumped)
+            || (reach == Reach::Flat
+                && (self.parsed.starts_with(&["LBL"])
+                    || self.parsed.starts_with(&["BEGIN", "PGM"])
+                    || ends_program));
+        let origin = if file == 0 {
+            format!("line {}", r.line)
+        } else {
+            format!("{}:{}", self.language.files[file].name, r.line)
+        };
+        let raw = self.language.files[file].raw(r_index(pc));
+        self.block.reset(r.line, r.start as u64);
+        self.block.ending = r.ending;
+        if control {
+            // What the flat copies already did: a comment.
+            let number = self.parsed.number.as_ref().map_or(0, |n| n.0);
+            let code = self.parsed.code.trim().to_string();
+            self.block.raw = format!("{number} ; volcomp: {origin}: {code}").into_bytes();
+        } else if reach == Reach::Flat {
+            self.block.raw = flat.unwrap_or_else(|| raw.to_vec());
+            let at = self.block.raw.len();
+            self.block.raw.extend_from_slice(format!(" ; volcomp: {origin}").as_bytes());
+            self.block.comments.push(at + 1..self.block.raw.len());
+        } else {
+            self.block.raw.extend_from_slice(raw);
+            self.block.comments.extend(self.parsed.comments.iter().cloned());
+        }
+        if self.block.ending == LineEnding::None && (reach == Reach::Flat || control) {
+            self.block.ending = LineEnding::Lf;
+        }
+        if let Some((n, span)) = &self.parsed.number {
+            self.block.words.push(number_word(*n, span.clone()));
+        }
+        self.executed = Executed {
+            file,
+            line: r.line,
+            literal: reach == Reach::Literal && !control,
+            passed: false,
+        };
+        Ok(())
+    }
+
+    fn with_file(&self, e: GcodeError, file: usize) -> GcodeError {
+        if file == 0 {
+            e
+        } else {
+            let path = self.language.files[file].path.clone();
+            match path {
+                Some(p) => e.with_path(p),
+                None => e,
+            }
+        }
+    }
+
+    /// Hand on main-program block `k` as written, not run.
+    fn emit_passed(&mut self, k: usize) {
+        let source = &self.language.files[0];
+        let r = source.blocks[k];
+        self.block.reset(r.line, r.start as u64);
+        self.block.raw.extend_from_slice(source.raw(k));
+        self.block.ending = r.ending;
+        let parsed = parse_block(&self.block.raw);
+        self.block.comments.extend(parsed.comments.iter().cloned());
+        if let Some((n, span)) = &parsed.number {
+            self.block.words.push(number_word(*n, span.clone()));
+        }
+        self.parsed = parsed;
+        self.executed = Executed {
+            file: 0,
+            line: r.line,
+            literal: true,
+            passed: true,
+        };
+    }
+
+    /// Interpret the block just handed on.
+    pub(crate) fn interpret(&mut self, event: &mut BlockEvent) -> Result<(), GcodeError> {
+        let file = self.executed.file;
+        let index = self.language.files[file]
+            .blocks
+            .iter()
+            .position(|b| b.line == self.executed.line)
+            .unwrap_or(0);
+        let raw = self.language.files[file].raw(index);
+        let result = self.machine.interpret(
+            &self.parsed,
+            raw,
+            self.executed.line,
+            &self.language.q,
+            event,
+        );
+        match result {
+            Ok(_) => {
+                event.program_end = self.ends_here;
+                Ok(())
+            }
+            Err(e) if self.lenient && !matches!(e.kind, ErrorKind::DialectRefused(_)) => {
+                self.machine.pass_over(self.executed.line, event);
+                event.warnings.push(crate::gcode::Warning {
+                    line: self.executed.line,
+                    column: e.column,
+                    kind: crate::gcode::WarningKind::Lenient(e.kind),
+                });
+                Ok(())
+            }
+            Err(e) => Err(self.with_file(e, file)),
+        }
+    }
+
+    /// The event of a block not run.
+    pub(crate) fn pass_over(&self, event: &mut BlockEvent) {
+        self.machine.pass_over(self.executed.line, event);
+    }
+
+    /// After the end: the main program's blocks not handed on yet.
+    pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
+        let k = self.language.next_literal;
+        if k >= self.language.files[0].blocks.len() {
+            return None;
+        }
+        self.language.next_literal += 1;
+        self.emit_passed(k);
+        Some(Ok(()))
+    }
+
+    pub(crate) fn block(&self) -> &Block {
+        &self.block
+    }
+
+    pub(crate) fn executed(&self) -> &Executed {
+        &self.executed
+    }
+
+    pub(crate) fn file_name(&self, index: usize) -> &str {
+        self.language
+            .files
+            .get(index)
+            .map_or("?", |f| f.name.as_str())
+    }
+
+    pub(crate) fn end_program(&mut self) {
+        self.ended = true;
+    }
+
+    pub(crate) fn lines_read(&self) -> usize {
+        self.language.files[0].blocks.last().map_or(0, |b| b.line)
+    }
+
+    pub(crate) fn in_call(&self) -> bool {
+        self.language.in_call()
+    }
+}
+
+fn r_index(pc: usize) -> usize {
+    pc
+}
+
+fn unreachable_source() -> Source {
+    Source {
+        name: String::new(),
+        path: None,
+        text: Vec::new(),
+        blocks: Vec::new(),
+        labels: Default::default(),
+    }
+}
+
+fn number_word(n: u64, span: std::ops::Range<usize>) -> Word {
+    Word {
+        letter: b'N',
+        value: n as f64,
+        start: span.start,
+        end: span.end,
+        decimals: 0,
+        point: false,
+        expr: None,
+    }
+}
+
+/// Block numbers must run consecutively (the TNC numbers a program's blocks
+/// 0, 1, 2 … and `compensate` renumbers them so).
+fn check_numbers(source: &Source) -> Result<(), GcodeError> {
+    let mut previous: Option<u64> = None;
+    for k in 0..source.blocks.len() {
+        let raw = source.raw(k);
+        let digits = raw
+            .iter()
+            .skip_while(|b| b.is_ascii_whitespace())
+            .take_while(|b| b.is_ascii_digit())
+            .count();
+        if digits == 0 {
+            if raw.iter().all(|b| b.is_ascii_whitespace()) {
+                continue;
+            }
+            return Err(GcodeError::at(
+                ErrorKind::DialectRefused("a Klartext block starts with its block number".into()),
+                source.blocks[k].line,
+                raw,
+                0,
+                raw.len().min(1),
+            ));
+        }
+        let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        let n: Option<u64> = std::str::from_utf8(&raw[lead..lead + digits])
+            .ok()
+            .and_then(|s| s.parse().ok());
+        let Some(n) = n else { continue };
+        if let Some(p) = previous
+            && n != p + 1
+        {
+            return Err(GcodeError::at(
+                ErrorKind::DialectRefused(format!(
+                    "block number {n} out of order: expected {} (the blocks of a TNC program are numbered consecutively)",
+                    p + 1
+                )),
+                source.blocks[k].line,
+                raw,
+                lead,
+                lead + digits,
+            ));
+        }
+        previous = Some(n);
+    }
+    Ok(())
+}
+
+/// The block with its parameter values written as numbers (a flat copy),
+/// `None` when it has none.
+fn substituted(block: &KlBlock, raw: &[u8], q: &language::QParameters) -> Option<Vec<u8>> {
+    let params: Vec<_> = block
+        .tokens
+        .iter()
+        .filter(|t| matches!(t.value, Some(Value::Param { .. })))
+        .filter(|t| !(t.address.starts_with('Q') && t.value_span.start == t.span.start))
+        .collect();
+    if params.is_empty() || block.starts_with(&["FN"]) {
+        return None;
+    }
+    // Q assignments keep their formula (they run again in order).
+    if block.assigned().is_some() {
+        return None;
+    }
+    let mut out = Vec::with_capacity(raw.len() + 8);
+    let mut at = 0;
+    for t in params {
+        let Some(v) = &t.value else { continue };
+        let span = t.value_span.clone();
+        if span.start < at || span.end > raw.len() {
+            continue;
+        }
+        out.extend_from_slice(&raw[at..span.start]);
+        out.extend_from_slice(write::signed_number(q.value(v), 4).as_bytes());
+        at = span.end;
+    }
+    out.extend_from_slice(&raw[at..]);
+    Some(out)
+}

@@ -132,6 +132,12 @@ impl KlBlock {
         self.tokens.iter().skip(from).find(|t| t.address == address)
     }
 
+    /// The parameter a Q formula block assigns (`Q1 = …`, `QL2=…`).
+    pub fn assigned(&self) -> Option<Param> {
+        let eq = self.code.find('=')?;
+        read_param(self.code[..eq].trim())
+    }
+
     /// The raw byte range of `code[range]`.
     pub fn raw_range(&self, range: Range<usize>) -> Range<usize> {
         let start = self.code_map.get(range.start).copied().unwrap_or(0);
@@ -263,7 +269,13 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
     while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
         k += 1;
     }
-    // `Q200=+2`: the `=` belongs to the value syntax.
+    // `Q200=+2` (a cycle parameter): the address is `Q200`.
+    if let Some(eq) = text.find('=')
+        && eq > k
+        && read_param(&text[..eq]).is_some()
+    {
+        k = eq;
+    }
     let address = text[..k].to_ascii_uppercase();
     let mut v = &text[k..];
     let mut v_at = at + k;

@@ -1,0 +1,450 @@
+//! Klartext written back (dialects.md "Writing back"): an untouched block
+//! byte for byte; a changed block keeps its words and comment and changes
+//! only its changed axis words, in the input's style (`X+12.5` →
+//! `X+12.5001`: the sign written when the input wrote it, at least the
+//! rewriter's decimals); a changed parameter word (`X+Q1`) as a number;
+//! split pieces and canned-cycle moves as `L` blocks; blocks numbered
+//! consecutively from the first (`0 BEGIN PGM`), so that a program with
+//! pieces added still reads on the control. Blocks a taken jump passed
+//! over become `; volcomp:` comments (the output is the run, flat), blocks
+//! after the program's end stay as written.
+use std::io::Write;
+
+use super::syntax::{KlBlock, parse_block};
+use crate::axes::Axes;
+use crate::gcode::machine::interpret::{BlockEvent, Moves};
+use crate::gcode::machine::modal::Units;
+use crate::gcode::machine::motion::{Feed, MotionKind};
+use crate::gcode::syntax::block::Block;
+use crate::gcode::write::format::{half_ulp, push_number};
+use crate::gcode::write::rewrite::{Emitted, RewriteError, RewriteOptions, Target};
+
+/// `v` with an explicit sign and `decimals` decimals (`+12.5000`).
+pub fn signed_number(v: f64, decimals: u8) -> String {
+    let mut s = String::new();
+    let printed = push_number(&mut s, v, decimals);
+    if printed >= 0.0 && !s.starts_with('-') {
+        s.insert(0, '+');
+    }
+    s
+}
+
+/// The Klartext writer: block numbers and the emitted position.
+#[derive(Clone, Debug, Default)]
+pub struct KlartextWriter {
+    /// The number the next numbered block gets.
+    next_number: Option<u64>,
+    /// The program has ended: passed blocks are written as they are.
+    ended: bool,
+    /// The last target written (event frame), for incremental words.
+    emitted: Option<Axes>,
+    line: Vec<u8>,
+}
+
+const LETTERS: [(&str, usize); 6] = [("X", 0), ("Y", 1), ("Z", 2), ("A", 3), ("B", 4), ("C", 5)];
+
+fn slot_value(a: &Axes, slot: usize) -> f64 {
+    match slot {
+        0 => a.x,
+        1 => a.y,
+        2 => a.z,
+        3 => a.a,
+        4 => a.b,
+        _ => a.c,
+    }
+}
+
+impl KlartextWriter {
+    /// Emit one block (the contract of [`crate::gcode::Rewriter::emit`]).
+    pub fn emit(
+        &mut self,
+        options: &RewriteOptions,
+        block: &Block,
+        event: &BlockEvent,
+        target: Target<'_>,
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        let parsed = parse_block(&block.raw);
+        if event.skipped {
+            if target != Target::Same {
+                return Err(RewriteError::NotAMotion { line: block.line });
+            }
+            if self.ended || parsed.tokens.is_empty() && !parsed.section {
+                self.write_numbered(block, &parsed, None, out)?;
+            } else {
+                // Passed over by a jump the flat output no longer takes.
+                let code = parsed.code.trim();
+                let text = format!(" ; volcomp: not run (line {}): {code}", block.line);
+                self.write_fresh(&text, block, out)?;
+            }
+            return Ok(Emitted::default());
+        }
+        let mut emitted = Emitted::default();
+        if matches!(event.moves, Moves::Cycle { .. }) && target == Target::Same {
+            let ends: Vec<Axes> = event.expanded().iter().map(|m| m.end).collect();
+            return self.emit_flat(options, block, event, &ends, out);
+        }
+        match (target, event.motion()) {
+            (Target::Same, _) | (_, None) => {
+                if target != Target::Same {
+                    return Err(RewriteError::NotAMotion { line: block.line });
+                }
+                self.write_numbered(block, &parsed, None, out)?;
+                if let Some(m) = event.motions().last() {
+                    self.emitted = Some(m.end);
+                }
+            }
+            (Target::Move(end), Some(m)) => {
+                let edits = self.edits(options, block, &parsed, event, &end)?;
+                emitted.rewritten = !edits.is_empty();
+                self.write_numbered(block, &parsed, Some(&edits), out)?;
+                let _ = m;
+                self.emitted = Some(end);
+            }
+            (Target::Split { via, end }, Some(m)) => {
+                let feed = m.feed;
+                for p in via {
+                    if !p.is_finite() {
+                        return Err(RewriteError::NonFinite { line: block.line });
+                    }
+                    let text = self.linear_text(options, event, p, feed, block.line);
+                    self.write_fresh(&text, block, out)?;
+                    emitted.pieces += 1;
+                    self.emitted = Some(*p);
+                }
+                if matches!(m.kind, MotionKind::Arc { .. }) {
+                    // The arc's last chord: a straight block, the arc as a comment.
+                    let text = self.linear_text(options, event, &end, feed, block.line);
+                    self.write_fresh(&text, block, out)?;
+                    let code = parsed.code.trim();
+                    self.write_fresh(&format!(" ; volcomp: line {} as chords: {code}", block.line), block, out)?;
+                } else {
+                    let edits = self.edits(options, block, &parsed, event, &end)?;
+                    self.write_numbered(block, &parsed, Some(&edits), out)?;
+                }
+                emitted.rewritten = true;
+                self.emitted = Some(end);
+            }
+        }
+        if event.program_end {
+            self.ended = true;
+        }
+        Ok(emitted)
+    }
+
+    /// A canned cycle written flat: the calling block as a comment, then its
+    /// moves as `L` blocks at `ends` (event frame).
+    pub fn emit_flat(
+        &mut self,
+        options: &RewriteOptions,
+        block: &Block,
+        event: &BlockEvent,
+        ends: &[Axes],
+        out: &mut dyn Write,
+    ) -> Result<Emitted, RewriteError> {
+        let parsed = parse_block(&block.raw);
+        let code = parsed.code.trim().to_string();
+        self.write_fresh(&format!(" ; volcomp: line {} written flat: {code}", block.line), block, out)?;
+        let mut emitted = Emitted {
+            rewritten: true,
+            pieces: 0,
+        };
+        for (m, end) in event.expanded().iter().zip(ends) {
+            if !end.is_finite() {
+                return Err(RewriteError::NonFinite { line: block.line });
+            }
+            let text = self.linear_text(options, event, end, m.feed, block.line);
+            self.write_fresh(&text, block, out)?;
+            emitted.pieces += 1;
+            self.emitted = Some(*end);
+        }
+        Ok(emitted)
+    }
+
+    /// ` L X… Y… Z… [A… B… C…] FMAX|F…` for a target in the event's frame.
+    fn linear_text(&self, options: &RewriteOptions, event: &BlockEvent, p: &Axes, feed: Feed, line: usize) -> String {
+        let prog = event.origin.to_program(p);
+        let inch = event.modal.units == Units::Inch;
+        let d = if inch {
+            options.min_decimals_inch
+        } else {
+            options.min_decimals_mm
+        };
+        let mut s = String::from(" L");
+        for (letter, slot) in LETTERS {
+            let v = slot_value(&prog, slot);
+            let v = if slot < 3 && inch { v / 25.4 } else { v };
+            if slot >= 3 && v == 0.0 && slot_value(&event.start, slot) == 0.0 {
+                continue;
+            }
+            s.push(' ');
+            s.push_str(letter);
+            s.push_str(&signed_number(v, d));
+        }
+        match feed {
+            Feed::Rapid => s.push_str(" FMAX"),
+            Feed::PerMinute(f) | Feed::InverseTime(f) => {
+                let f = if inch { f / 2.54 } else { f };
+                s.push_str(&format!(" F{}", trim_number(f)));
+            }
+        }
+        s.push_str(&format!(" ; volcomp: line {line}"));
+        s
+    }
+
+    /// The word edits that move `block` to `end` (event frame).
+    fn edits(
+        &self,
+        options: &RewriteOptions,
+        block: &Block,
+        parsed: &KlBlock,
+        event: &BlockEvent,
+        end: &Axes,
+    ) -> Result<Vec<(std::ops::Range<usize>, String)>, RewriteError> {
+        if !end.is_finite() {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        let Some(m) = event.motion() else {
+            return Err(RewriteError::NotAMotion { line: block.line });
+        };
+        let inch = event.modal.units == Units::Inch;
+        let base_d = if inch {
+            options.min_decimals_inch
+        } else {
+            options.min_decimals_mm
+        };
+        let new = event.origin.to_program(end);
+        let old = event.origin.to_program(&m.end);
+        let before = event.origin.to_program(&self.emitted.unwrap_or(m.start));
+        let unit = |slot: usize, v: f64| if slot < 3 && inch { v / 25.4 } else { v };
+        let mut edits = Vec::new();
+        let mut last_axis_end = parsed.tokens.first().map_or(0, |t| t.span.end);
+        let polar = parsed.address(0) == "CP" || parsed.address(0) == "LP";
+        for (letter, slot) in LETTERS {
+            let (n, o) = (unit(slot, slot_value(&new, slot)), unit(slot, slot_value(&old, slot)));
+            let token = parsed.tokens.iter().find(|t| {
+                t.address == letter || (t.address.len() == 2 && t.address.starts_with('I') && &t.address[1..] == letter)
+            });
+            let changed = (n - o).abs() >= half_ulp(base_d);
+            match token {
+                Some(t) => {
+                    last_axis_end = last_axis_end.max(t.span.end);
+                    if !changed && !self.emitted_moved(slot, &before, event, m) {
+                        continue;
+                    }
+                    let incremental = t.address.starts_with('I');
+                    let v = if incremental {
+                        n - unit(slot, slot_value(&before, slot))
+                    } else {
+                        n
+                    };
+                    let d = t.decimals.max(base_d);
+                    let mut text = signed_number(v, d);
+                    if !t.signed && !text.starts_with('-') {
+                        text.remove(0);
+                    }
+                    if t.value_span.is_empty() {
+                        continue;
+                    }
+                    let old_text = &block.raw[t.value_span.clone()];
+                    if old_text != text.as_bytes() && (changed || incremental) {
+                        edits.push((t.value_span.clone(), text));
+                    }
+                }
+                None if changed => {
+                    if polar {
+                        return Err(RewriteError::CannotFlatten {
+                            line: block.line,
+                            what: "a corrected end of a polar block (LP, CP)",
+                        });
+                    }
+                    edits.push((last_axis_end..last_axis_end, format!(" {letter}{}", signed_number(n, base_d))));
+                }
+                None => {}
+            }
+        }
+        edits.sort_by_key(|e| e.0.start);
+        Ok(edits)
+    }
+
+    /// Whether the emitted start of this move differs from its programmed
+    /// start on `slot` (an incremental word must then be rewritten).
+    fn emitted_moved(&self, slot: usize, before: &Axes, event: &BlockEvent, m: &crate::gcode::Motion) -> bool {
+        let start = event.origin.to_program(&m.start);
+        (slot_value(before, slot) - slot_value(&start, slot)).abs() > 1e-9
+    }
+
+    /// Write `block` renumbered, with `edits` applied.
+    fn write_numbered(
+        &mut self,
+        block: &Block,
+        parsed: &KlBlock,
+        edits: Option<&Vec<(std::ops::Range<usize>, String)>>,
+        out: &mut dyn Write,
+    ) -> Result<(), RewriteError> {
+        self.line.clear();
+        let mut all: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+        if let Some((n, span)) = &parsed.number {
+            let want = *self.next_number.get_or_insert(*n);
+            self.next_number = Some(want + 1);
+            if want != *n {
+                all.push((span.clone(), want.to_string()));
+            }
+        }
+        if let Some(e) = edits {
+            all.extend(e.iter().cloned());
+        }
+        all.sort_by_key(|e| e.0.start);
+        let mut at = 0;
+        for (range, text) in &all {
+            if range.start < at || range.end > block.raw.len() {
+                continue;
+            }
+            self.line.extend_from_slice(&block.raw[at..range.start]);
+            self.line.extend_from_slice(text.as_bytes());
+            at = range.end;
+        }
+        self.line.extend_from_slice(&block.raw[at..]);
+        self.line.extend_from_slice(block.ending.as_bytes());
+        out.write_all(&self.line)?;
+        Ok(())
+    }
+
+    /// Write a new block: the next number, then `text` (which starts with a
+    /// space), with `block`'s line ending (a new line when it has none).
+    fn write_fresh(&mut self, text: &str, block: &Block, out: &mut dyn Write) -> Result<(), RewriteError> {
+        let n = *self.next_number.get_or_insert(0);
+        self.next_number = Some(n + 1);
+        let ending = match block.ending {
+            crate::gcode::LineEnding::None => b"\n".as_slice(),
+            e => e.as_bytes(),
+        };
+        out.write_all(n.to_string().as_bytes())?;
+        out.write_all(text.as_bytes())?;
+        out.write_all(ending)?;
+        Ok(())
+    }
+}
+
+/// A feed as the shortest decimal that reads back the same (at most 4 decimals).
+fn trim_number(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s.is_empty() || s == "-" { "0".into() } else { s.to_string() }
+}
+
+/// A writer for a compensated Klartext program's bytes that inserts the
+/// stamp as `;` blocks after the `BEGIN PGM` block and renumbers the blocks
+/// after it, so that the numbers stay consecutive.
+pub struct KlartextStampWriter<'a> {
+    inner: &'a mut dyn Write,
+    stamp: Vec<String>,
+    pending: Vec<u8>,
+    /// Blocks inserted so far (added to every later block number).
+    inserted: u64,
+    done: bool,
+}
+
+impl<'a> KlartextStampWriter<'a> {
+    /// A writer passing everything to `inner`, with the lines of
+    /// `stamp_text` (one stamp line each, LinuxCNC's `( … )` form) written as
+    /// `N ; …` blocks after `BEGIN PGM`.
+    pub fn new(inner: &'a mut dyn Write, stamp_text: &str) -> Self {
+        let stamp = stamp_text
+            .lines()
+            .map(|l| {
+                let l = l.trim();
+                let l = l.strip_prefix('(').unwrap_or(l);
+                let l = l.strip_suffix(')').unwrap_or(l);
+                l.to_string()
+            })
+            .filter(|l| !l.is_empty())
+            .collect();
+        KlartextStampWriter {
+            inner,
+            stamp,
+            pending: Vec::new(),
+            inserted: 0,
+            done: false,
+        }
+    }
+
+    fn line(&mut self, line: &[u8]) -> std::io::Result<()> {
+        let digits = line.iter().take_while(|b| b.is_ascii_digit()).count();
+        let number = std::str::from_utf8(&line[..digits])
+            .ok()
+            .and_then(|s| s.parse::<u64>().ok());
+        match number {
+            Some(n) if self.inserted > 0 => {
+                self.inner.write_all((n + self.inserted).to_string().as_bytes())?;
+                self.inner.write_all(&line[digits..])?;
+            }
+            _ => self.inner.write_all(line)?,
+        }
+        if !self.done
+            && let Some(n) = number
+        {
+            let rest = String::from_utf8_lossy(&line[digits..]);
+            if rest.trim_start().to_ascii_uppercase().starts_with("BEGIN PGM") {
+                self.done = true;
+                let eol = if line.ends_with(b"\r\n") { "\r\n" } else { "\n" };
+                let stamp = std::mem::take(&mut self.stamp);
+                for (k, s) in stamp.iter().enumerate() {
+                    write!(self.inner, "{} ; {s}{eol}", n + 1 + k as u64)?;
+                }
+                self.inserted = stamp.len() as u64;
+            }
+        }
+        Ok(())
+    }
+
+    /// Write what is held and flush.
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        let rest = std::mem::take(&mut self.pending);
+        if !rest.is_empty() {
+            self.line(&rest)?;
+        }
+        self.inner.flush()
+    }
+}
+
+impl Write for KlartextStampWriter<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.pending.extend_from_slice(buf);
+        while let Some(k) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=k).collect();
+            self.line(&line)?;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn signed_numbers() {
+        assert_eq!(signed_number(12.50006, 4), "+12.5001");
+        assert_eq!(signed_number(-3.0, 0), "-3");
+        assert_eq!(signed_number(-0.00001, 4), "+0.0000");
+    }
+
+    #[test]
+    fn stamp_after_begin_pgm_renumbers() {
+        let mut out = Vec::new();
+        {
+            let mut w = KlartextStampWriter::new(&mut out, "(volcomp-stamp a: 1)\n(volcomp-stamp b: 2)\n");
+            w.write_all(b"0 BEGIN PGM T MM\n1 L X+1 FMAX\n2 END PGM T MM\n").unwrap();
+            w.finish().unwrap();
+        }
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "0 BEGIN PGM T MM\n1 ; volcomp-stamp a: 1\n2 ; volcomp-stamp b: 2\n3 L X+1 FMAX\n4 END PGM T MM\n"
+        );
+    }
+}
