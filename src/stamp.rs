@@ -101,6 +101,11 @@ fn stamp_body(line: &str) -> Option<&str> {
     if let Some(rest) = t.strip_prefix('/') {
         t = rest.trim_start();
     }
+    // A Klartext block number (`3 ; volcomp-stamp …`).
+    let bare = t.len() - t.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    if bare > 0 && t[bare..].trim_start().starts_with(';') {
+        t = t[bare..].trim_start();
+    }
     if let Some(rest) = t.strip_prefix(['N', 'n']) {
         let digits = rest.len() - rest.trim_start_matches(|c: char| c.is_ascii_digit()).len();
         if digits > 0 {

@@ -250,18 +250,30 @@ Give the original program, or --force to compensate it anyway"
         let warnings = program.warnings();
         let bar = Progress::new(&args.program, "compensating", total, position);
         let mut report: Option<CompensateReport> = None;
+        let klartext = program.dialect().dialect == crate::gcode::Dialect::Heidenhain;
         write_atomic(output, |out| -> anyhow::Result<()> {
-            let mut out = StampWriter::new(out, stamp);
-            let r = compensate(program, &mut out, &self.model, &options, |n| {
+            let progress = |n| {
                 if let Some(b) = &bar {
                     b.update(n);
                 }
-            })?;
-            out.finish()
-                .map_err(|source| crate::io::OutputError::Write {
-                    path: output.to_path_buf(),
-                    source,
-                })?;
+            };
+            let write_error = |source| crate::io::OutputError::Write {
+                path: output.to_path_buf(),
+                source,
+            };
+            let r = if klartext {
+                // The stamp as `;` blocks after BEGIN PGM (dialects.md).
+                let mut out =
+                    crate::gcode::KlartextStampWriter::new(out, &stamp.render("\n"));
+                let r = compensate(program, &mut out, &self.model, &options, progress)?;
+                out.finish().map_err(write_error)?;
+                r
+            } else {
+                let mut out = StampWriter::new(out, stamp);
+                let r = compensate(program, &mut out, &self.model, &options, progress)?;
+                out.finish().map_err(write_error)?;
+                r
+            };
             report = Some(r);
             Ok(())
         })

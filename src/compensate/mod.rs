@@ -961,6 +961,13 @@ pub fn compensate(
         ..options.interpret
     };
     let chunk_blocks = options.chunk_blocks.max(1);
+    let options = &CompensateOptions {
+        rewrite: crate::gcode::RewriteOptions {
+            dialect: program.dialect().dialect,
+            ..options.rewrite
+        },
+        ..options.clone()
+    };
     let models_ref = &mut models;
     std::thread::scope(|scope| {
         // Three stages, each a chunk or two ahead of the next (bounded channels:

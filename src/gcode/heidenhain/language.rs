@@ -203,8 +203,6 @@ pub(crate) enum Reach {
     Literal,
     /// Run again or from a call: a flat copy.
     Flat,
-    /// A main-program block never run (jumped over, after the end).
-    Passed,
 }
 
 /// A call in progress.

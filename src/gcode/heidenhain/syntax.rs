@@ -27,17 +27,6 @@ pub enum ParamKind {
     Qr,
 }
 
-impl ParamKind {
-    /// Its letters.
-    pub fn name(self) -> &'static str {
-        match self {
-            ParamKind::Q => "Q",
-            ParamKind::Ql => "QL",
-            ParamKind::Qr => "QR",
-        }
-    }
-}
-
 /// A parameter reference `Q12`, `QL3`, `QR100`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Param {
@@ -138,16 +127,6 @@ impl KlBlock {
         read_param(self.code[..eq].trim())
     }
 
-    /// The raw byte range of `code[range]`.
-    pub fn raw_range(&self, range: Range<usize>) -> Range<usize> {
-        let start = self.code_map.get(range.start).copied().unwrap_or(0);
-        let end = if range.end == 0 {
-            start
-        } else {
-            self.code_map.get(range.end - 1).map_or(start, |e| e + 1)
-        };
-        start..end.max(start)
-    }
 }
 
 /// Parse one logical block's raw bytes (physical lines joined with their

@@ -54,6 +54,10 @@ impl Rewriter {
         ends: &[Axes],
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
+        if self.options.dialect == crate::gcode::Dialect::Heidenhain {
+            let options = self.options;
+            return self.klartext.emit_flat(&options, block, event, ends, out);
+        }
         if event.spline.is_some() {
             self.emit_spline(block, event, ends, out)
         } else {

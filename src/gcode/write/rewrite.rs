@@ -98,6 +98,8 @@ pub struct RewriteOptions {
     /// Least significant digits of a recomputed G93 F (time is 1/F, so its
     /// relative precision is F's).
     pub min_significant_feed: u8,
+    /// The dialect written (the input's: [`crate::gcode::Program::dialect`]).
+    pub dialect: crate::gcode::Dialect,
 }
 
 impl Default for RewriteOptions {
@@ -107,6 +109,7 @@ impl Default for RewriteOptions {
             min_decimals_inch: 5,
             min_decimals_feed: 4,
             min_significant_feed: 7,
+            dialect: crate::gcode::Dialect::LinuxCnc,
         }
     }
 }
@@ -198,6 +201,10 @@ pub fn rewrite_stream(
     mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
 ) -> Result<RewriteStats, RewriteError> {
     let mut run = run;
+    let options = RewriteOptions {
+        dialect: run.dialect().dialect,
+        ..options
+    };
     let mut rewriter = Rewriter::new(options, run.interpreter().options().initial_position);
     let mut via = Vec::new();
     let mut stats = RewriteStats::default();
@@ -254,6 +261,8 @@ pub struct Rewriter {
     line: Vec<u8>,
     /// Scratch: split targets in program coordinates.
     via_program: Vec<Axes>,
+    /// The writer of Heidenhain programs (`options.dialect`).
+    pub(super) klartext: crate::gcode::heidenhain::write::KlartextWriter,
 }
 
 impl Rewriter {
@@ -269,6 +278,7 @@ impl Rewriter {
             text: String::new(),
             line: Vec::new(),
             via_program: Vec::new(),
+            klartext: Default::default(),
         }
     }
 
@@ -280,6 +290,11 @@ impl Rewriter {
         target: Target<'_>,
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
+        if self.options.dialect == crate::gcode::Dialect::Heidenhain {
+            return self
+                .klartext
+                .emit(&self.options, block, event, target, out);
+        }
         if event.skipped {
             // Not executed (a subroutine definition passed over, a line after
             // the end, a deleted or unparsed line): as written, and the
