@@ -59,6 +59,11 @@ pub fn program_on(machine: &Machine, text: &str, name: &str) -> volcomp::gcode::
         std::path::Path::new(name),
         volcomp::gcode::ProgramSetup {
             tools: machine.tools.clone(),
+            // A dialect's working planes and tool vectors are solved on the
+            // machine's chain (LinuxCNC programs never ask).
+            orientation: Some(std::sync::Arc::new(
+                volcomp::toolpath::ChainOrientation::of(machine),
+            )),
             ..Default::default()
         },
     )

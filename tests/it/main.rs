@@ -17,6 +17,7 @@ mod diff;
 mod export;
 mod fit;
 mod gcode;
+mod heidenhain;
 mod inspection;
 mod kinematics;
 mod laser;

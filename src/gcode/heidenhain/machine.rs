@@ -48,6 +48,8 @@ pub struct KlartextSetup {
     pub orientation: Option<Arc<dyn OrientationSolver>>,
     /// Rapid rate for durations, mm/min.
     pub rapid_mm_per_min: f64,
+    /// The machine's axes (a word for another axis is refused).
+    pub axes: crate::axes::AxisSet,
 }
 
 /// A defined machining cycle (`CYCL DEF n` with its Q parameters).
@@ -564,6 +566,19 @@ impl KlMachine {
             };
             let v = c.value(k)?;
             given = true;
+            let axis = [[Axis::X, Axis::Y, Axis::Z], [Axis::A, Axis::B, Axis::C]][usize::from(rotary)][slot];
+            if !self.setup.axes.contains(axis) {
+                return Err(GcodeError::at(
+                    ErrorKind::AxisNotOnMachine {
+                        letter: axis.letter(),
+                        axes: self.setup.axes.letters(),
+                    },
+                    c.line,
+                    c.raw,
+                    t.span.start,
+                    t.span.end,
+                ));
+            }
             if rotary {
                 let base = if inc { rot[slot] } else { 0.0 };
                 rot[slot] = if !inc && s.shortest {

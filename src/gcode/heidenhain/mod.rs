@@ -102,6 +102,7 @@ impl KlartextFront {
                 tools: setup.tools.clone(),
                 orientation: setup.orientation.clone(),
                 rapid_mm_per_min: options.rapid_mm_per_min,
+                axes: options.axes,
             }),
             block: Block::default(),
             parsed: KlBlock::default(),
