@@ -1307,7 +1307,10 @@ fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
             std::fs::remove_file(dir.path().join(name)).unwrap();
         }
         // The message, and where it points for program errors (` --> file:line:col`).
-        let mut lines = shown.lines();
+        // The dialect note (`note: … read as Heidenhain …`) comes before the message.
+        let mut lines = shown
+            .lines()
+            .skip_while(|l| l.starts_with("note: ") && l.contains(": read as "));
         let mut first = lines.next().unwrap_or("").to_string();
         if let Some(at) = lines.next().and_then(|l| l.trim().strip_prefix("--> ")) {
             first.push_str(&format!(" (at {at})"));
