@@ -493,10 +493,10 @@ fn cases() -> Vec<Case> {
         case(
             "program",
             "Heidenhain: a block number out of order",
-            p("0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n3 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n4 END PGM T MM\n"),
+            p("0 BEGIN PGM T MM\n2 TOOL CALL 1 Z\n1 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 END PGM T MM\n"),
             COMPENSATE,
             1,
-            &["block number 3 out of order: expected 2", "{d}/bad.nc:3:1"],
+            &["block number 1 out of order: after block 2", "{d}/bad.nc:3:1"],
         ),
         case(
             "program",

@@ -286,6 +286,15 @@ impl Language {
         Ok(())
     }
 
+    /// A located error naming a feature volcomp does not read yet.
+    fn unread(&self, feature: String, block: &KlBlock) -> GcodeError {
+        let e = self.error(String::new(), block);
+        GcodeError {
+            kind: ErrorKind::DialectFeature("Heidenhain", feature),
+            ..e
+        }
+    }
+
     fn error(&self, message: String, block: &KlBlock) -> GcodeError {
         let source = &self.files[self.file];
         let r = source.blocks[self.pc];
@@ -404,10 +413,7 @@ impl Language {
                 format!("FN 14: ERROR: the program stops with an error here (`{body}`)"),
                 block,
             )),
-            _ => Err(self.error(
-                format!("FN {n} is not read yet (volcomp reads FN 0–13)"),
-                block,
-            )),
+            _ => Err(self.unread(format!("FN {n}"), block)),
         }
     }
 

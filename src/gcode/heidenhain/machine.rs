@@ -327,9 +327,6 @@ impl KlMachine {
             return Ok(Statement::Other);
         }
         let first = b.address(0);
-        if b.number.is_none() {
-            return Err(c.error("a Klartext block starts with its block number", None));
-        }
         if !s.begun && !b.starts_with(&["BEGIN", "PGM"]) {
             return Err(c.error("the program must start with BEGIN PGM", None));
         }

@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 
 use language::{Flow, Language, Reach, Source};
 use machine::{KlMachine, KlartextSetup};
-use syntax::{KlBlock, Value, parse_block};
+use syntax::{KlBlock, Value, parse_block, parse_block_into};
 
 use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
@@ -46,6 +46,8 @@ pub(crate) struct KlartextFront {
     ends_here: bool,
     /// A read error to hand on first.
     failed: Option<GcodeError>,
+    /// The file and block index of the block handed on.
+    current: (usize, usize),
     done: bool,
     path: PathBuf,
     lenient: bool,
@@ -115,6 +117,7 @@ impl KlartextFront {
             ended: false,
             ends_here: false,
             failed,
+            current: (0, 0),
             done: false,
             path: path.to_path_buf(),
             lenient: options.lenient,
@@ -170,7 +173,7 @@ impl KlartextFront {
         lang.count(file, pc)?;
         let r = lang.files[file].blocks[pc];
         let raw = lang.files[file].raw(pc);
-        self.parsed = parse_block(raw);
+        parse_block_into(raw, &mut self.parsed);
         let flat = substituted(&self.parsed, raw, &lang.q);
         let ends_program = self.parsed.starts_with(&["END", "PGM"]);
         let stops = self.parsed.tokens.iter().any(|t| {
@@ -196,14 +199,16 @@ impl KlartextFront {
         } else {
             format!("{}:{}", self.language.files[file].name, r.line)
         };
-        let raw = self.language.files[file].raw(r_index(pc));
+        self.current = (file, pc);
+        let raw = self.language.files[file].raw(pc);
         self.block.reset(r.line, r.start as u64);
         self.block.ending = r.ending;
         if control {
             // What the flat copies already did: a comment.
-            let number = self.parsed.number.as_ref().map_or(0, |n| n.0);
+            let number = self.parsed.number.as_ref().map(|n| format!("{} ", n.0));
             let code = self.parsed.code.trim().to_string();
-            self.block.raw = format!("{number} ; volcomp: {origin}: {code}").into_bytes();
+            self.block.raw = format!("{}; volcomp: {origin}: {code}", number.unwrap_or_default())
+                .into_bytes();
         } else if reach == Reach::Flat {
             self.block.raw = flat.unwrap_or_else(|| raw.to_vec());
             let at = self.block.raw.len();
@@ -242,6 +247,7 @@ impl KlartextFront {
 
     /// Hand on main-program block `k` as written, not run.
     fn emit_passed(&mut self, k: usize) {
+        self.current = (0, k);
         let source = &self.language.files[0];
         let r = source.blocks[k];
         self.block.reset(r.line, r.start as u64);
@@ -263,12 +269,7 @@ impl KlartextFront {
 
     /// Interpret the block just handed on.
     pub(crate) fn interpret(&mut self, event: &mut BlockEvent) -> Result<(), GcodeError> {
-        let file = self.executed.file;
-        let index = self.language.files[file]
-            .blocks
-            .iter()
-            .position(|b| b.line == self.executed.line)
-            .unwrap_or(0);
+        let (file, index) = self.current;
         let raw = self.language.files[file].raw(index);
         let result = self.machine.interpret(
             &self.parsed,
@@ -339,10 +340,6 @@ impl KlartextFront {
     }
 }
 
-fn r_index(pc: usize) -> usize {
-    pc
-}
-
 fn unreachable_source() -> Source {
     Source {
         name: String::new(),
@@ -365,43 +362,45 @@ fn number_word(n: u64, span: std::ops::Range<usize>) -> Word {
     }
 }
 
-/// Block numbers must run consecutively (the TNC numbers a program's blocks
-/// 0, 1, 2 … and `compensate` renumbers them so).
+/// Block numbers must ascend (the TNC numbers a program's blocks 0, 1, 2 …;
+/// older controls' files have gaps, which are kept), and either every block
+/// has one or none does (a file written by hand, numbered by the control on
+/// loading).
 fn check_numbers(source: &Source) -> Result<(), GcodeError> {
     let mut previous: Option<u64> = None;
+    let mut numbered: Option<bool> = None;
     for k in 0..source.blocks.len() {
         let raw = source.raw(k);
-        let digits = raw
-            .iter()
-            .skip_while(|b| b.is_ascii_whitespace())
-            .take_while(|b| b.is_ascii_digit())
-            .count();
-        if digits == 0 {
-            if raw.iter().all(|b| b.is_ascii_whitespace()) {
-                continue;
-            }
-            return Err(GcodeError::at(
-                ErrorKind::DialectRefused("a Klartext block starts with its block number".into()),
-                source.blocks[k].line,
-                raw,
-                0,
-                raw.len().min(1),
-            ));
+        if raw.iter().all(|b| b.is_ascii_whitespace()) {
+            continue;
         }
         let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        let digits = raw[lead..].iter().take_while(|b| b.is_ascii_digit()).count();
+        let line = source.blocks[k].line;
+        let has = digits > 0;
+        if *numbered.get_or_insert(has) != has {
+            return Err(GcodeError::at(
+                ErrorKind::DialectRefused(
+                    "a block without its block number among numbered blocks".into(),
+                ),
+                line,
+                raw,
+                lead,
+                lead + 1,
+            ));
+        }
         let n: Option<u64> = std::str::from_utf8(&raw[lead..lead + digits])
             .ok()
             .and_then(|s| s.parse().ok());
         let Some(n) = n else { continue };
         if let Some(p) = previous
-            && n != p + 1
+            && n <= p
         {
             return Err(GcodeError::at(
                 ErrorKind::DialectRefused(format!(
-                    "block number {n} out of order: expected {} (the blocks of a TNC program are numbered consecutively)",
-                    p + 1
+                    "block number {n} out of order: after block {p} (block numbers ascend)"
                 )),
-                source.blocks[k].line,
+                line,
                 raw,
                 lead,
                 lead + digits,

@@ -52,6 +52,65 @@ pub enum Value {
     Sign(f64),
 }
 
+/// A token's address, upper case, held inline (no allocation per token):
+/// at most [`Address::CAPACITY`] bytes are kept of a longer one.
+#[derive(Clone, Copy, Default, PartialEq, Eq)]
+pub struct Address {
+    bytes: [u8; Address::CAPACITY],
+    len: u8,
+}
+
+impl Address {
+    /// Bytes kept of an address.
+    pub const CAPACITY: usize = 23;
+
+    /// The address of `text` (ASCII letters and digits), upper-cased.
+    pub fn new(text: &str) -> Address {
+        let mut a = Address::default();
+        for (k, b) in text.bytes().take(Address::CAPACITY).enumerate() {
+            a.bytes[k] = b.to_ascii_uppercase();
+            a.len = k as u8 + 1;
+        }
+        a
+    }
+
+    /// It as text.
+    pub fn as_str(&self) -> &str {
+        std::str::from_utf8(&self.bytes[..self.len as usize]).unwrap_or("")
+    }
+}
+
+impl std::ops::Deref for Address {
+    type Target = str;
+    fn deref(&self) -> &str {
+        self.as_str()
+    }
+}
+
+impl std::fmt::Debug for Address {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.as_str().fmt(f)
+    }
+}
+
+impl std::fmt::Display for Address {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl PartialEq<str> for Address {
+    fn eq(&self, other: &str) -> bool {
+        self.as_str() == other
+    }
+}
+
+impl PartialEq<&str> for Address {
+    fn eq(&self, other: &&str) -> bool {
+        self.as_str() == *other
+    }
+}
+
 /// One space-separated token of a block.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Token {
@@ -61,7 +120,7 @@ pub struct Token {
     pub text: Range<usize>,
     /// The address: the leading letters, upper case (`X`, `IX`, `FMAX`,
     /// `Q200`'s `Q` …); empty for a token that starts with a digit or sign.
-    pub address: String,
+    pub address: Address,
     /// The value after the address, when it has one.
     pub value: Option<Value>,
     /// Byte range of the value inside the raw bytes (empty when none).
@@ -133,8 +192,20 @@ impl KlBlock {
 /// line endings inside).
 pub fn parse_block(raw: &[u8]) -> KlBlock {
     let mut out = KlBlock::default();
-    let mut code = String::new();
-    let mut map = Vec::new();
+    parse_block_into(raw, &mut out);
+    out
+}
+
+/// [`parse_block`] into `out`, reusing its buffers.
+pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
+    out.number = None;
+    out.section = false;
+    out.tokens.clear();
+    out.comments.clear();
+    let mut code = std::mem::take(&mut out.code);
+    let mut map = std::mem::take(&mut out.code_map);
+    code.clear();
+    map.clear();
     // Split physical lines; cut comments and trailing `~`.
     let mut line_start = 0;
     while line_start <= raw.len() {
@@ -200,16 +271,17 @@ pub fn parse_block(raw: &[u8]) -> KlBlock {
         k = digits_start;
     }
     let rest_start = k;
-    let rest = &code[rest_start..];
-    if rest.trim_start().starts_with('*') {
+    if code[rest_start..].trim_start().starts_with('*') {
         out.section = true;
     }
     if !out.section {
         tokenize(&code, &map, rest_start, &mut out.tokens);
     }
-    out.code = code[rest_start..].to_string();
-    out.code_map = map[rest_start..].to_vec();
-    out
+    // The code after the block number (its byte map likewise).
+    code.drain(..rest_start);
+    map.drain(..rest_start);
+    out.code = code;
+    out.code_map = map;
 }
 
 /// Split `code[from..]` into tokens at spaces (quoted names stay whole).
@@ -255,7 +327,7 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
     {
         k = eq;
     }
-    let address = text[..k].to_ascii_uppercase();
+    let address = Address::new(&text[..k]);
     let mut v = &text[k..];
     let mut v_at = at + k;
     if let Some(s) = v.strip_prefix('=') {

@@ -32,8 +32,10 @@ pub fn signed_number(v: f64, decimals: u8) -> String {
 /// The Klartext writer: block numbers and the emitted position.
 #[derive(Clone, Debug, Default)]
 pub struct KlartextWriter {
-    /// The number the next numbered block gets.
-    next_number: Option<u64>,
+    /// The last block number written; whether the program numbers its
+    /// blocks (known from its first block).
+    last_number: Option<u64>,
+    numbered: Option<bool>,
     /// The program has ended: passed blocks are written as they are.
     ended: bool,
     /// The last target written (event frame), for incremental words.
@@ -285,11 +287,16 @@ impl KlartextWriter {
         self.line.clear();
         let mut all: Vec<(std::ops::Range<usize>, String)> = Vec::new();
         if let Some((n, span)) = &parsed.number {
-            let want = *self.next_number.get_or_insert(*n);
-            self.next_number = Some(want + 1);
+            self.numbered.get_or_insert(true);
+            // Ascending: the block's own number unless a piece or a flat
+            // copy came before it (then the next one).
+            let want = self.last_number.map_or(*n, |l| (*n).max(l + 1));
+            self.last_number = Some(want);
             if want != *n {
                 all.push((span.clone(), want.to_string()));
             }
+        } else if !parsed.tokens.is_empty() || parsed.section {
+            self.numbered.get_or_insert(false);
         }
         if let Some(e) = edits {
             all.extend(e.iter().cloned());
@@ -313,13 +320,16 @@ impl KlartextWriter {
     /// Write a new block: the next number, then `text` (which starts with a
     /// space), with `block`'s line ending (a new line when it has none).
     fn write_fresh(&mut self, text: &str, block: &Block, out: &mut dyn Write) -> Result<(), RewriteError> {
-        let n = *self.next_number.get_or_insert(0);
-        self.next_number = Some(n + 1);
+        if self.numbered != Some(false) {
+            let n = self.last_number.map_or(0, |l| l + 1);
+            self.last_number = Some(n);
+            out.write_all(n.to_string().as_bytes())?;
+        }
         let ending = match block.ending {
             crate::gcode::LineEnding::None => b"\n".as_slice(),
             e => e.as_bytes(),
         };
-        out.write_all(n.to_string().as_bytes())?;
+        let text = if self.numbered == Some(false) { text.trim_start() } else { text };
         out.write_all(text.as_bytes())?;
         out.write_all(ending)?;
         Ok(())
@@ -381,17 +391,18 @@ impl<'a> KlartextStampWriter<'a> {
             }
             _ => self.inner.write_all(line)?,
         }
-        if !self.done
-            && let Some(n) = number
-        {
-            let rest = String::from_utf8_lossy(&line[digits..]);
-            if rest.trim_start().to_ascii_uppercase().starts_with("BEGIN PGM") {
-                self.done = true;
-                let eol = if line.ends_with(b"\r\n") { "\r\n" } else { "\n" };
-                let stamp = std::mem::take(&mut self.stamp);
-                for (k, s) in stamp.iter().enumerate() {
-                    write!(self.inner, "{} ; {s}{eol}", n + 1 + k as u64)?;
+        let rest = String::from_utf8_lossy(&line[digits..]);
+        if !self.done && rest.trim_start().to_ascii_uppercase().starts_with("BEGIN PGM") {
+            self.done = true;
+            let eol = if line.ends_with(b"\r\n") { "\r\n" } else { "\n" };
+            let stamp = std::mem::take(&mut self.stamp);
+            for (k, s) in stamp.iter().enumerate() {
+                match number {
+                    Some(n) => write!(self.inner, "{} ; {s}{eol}", n + 1 + k as u64)?,
+                    None => write!(self.inner, "; {s}{eol}")?,
                 }
+            }
+            if number.is_some() {
                 self.inserted = stamp.len() as u64;
             }
         }
