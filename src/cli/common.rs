@@ -362,7 +362,11 @@ pub fn parse_offset(
     };
     let name = name.trim().to_ascii_uppercase();
     // `PRESET` (Heidenhain: the preset in use) is the first work system.
-    let key = if name == "PRESET" { "G54" } else { name.as_str() };
+    let key = if name == "PRESET" {
+        "G54"
+    } else {
+        name.as_str()
+    };
     let Some(n) = SYSTEMS.iter().position(|s| *s == key) else {
         return Err(format!(
             "--offset `{text}`: `{name}` is not a work coordinate system (G54 … G59, G59.1 … G59.3, or PRESET for Heidenhain programs)"
@@ -446,9 +450,9 @@ impl ProgramArgs {
         };
         if let Some(m) = machine {
             setup.tools = m.tools.clone();
-            setup.orientation = Some(std::sync::Arc::new(
-                crate::toolpath::ChainOrientation::of(m),
-            ));
+            setup.orientation = Some(std::sync::Arc::new(crate::toolpath::ChainOrientation::of(
+                m,
+            )));
         }
         if let Some(path) = &self.tools {
             setup.tools = read_tool_table(path)?;

@@ -263,8 +263,7 @@ Give the original program, or --force to compensate it anyway"
             };
             let r = if klartext {
                 // The stamp as `;` blocks after BEGIN PGM (dialects.md).
-                let mut out =
-                    crate::gcode::KlartextStampWriter::new(out, &stamp.render("\n"));
+                let mut out = crate::gcode::KlartextStampWriter::new(out, &stamp.render("\n"));
                 let r = compensate(program, &mut out, &self.model, &options, progress)?;
                 out.finish().map_err(write_error)?;
                 r

@@ -391,7 +391,9 @@ impl Execution {
                 Some(Ok((block, &self.event, self.executor.executed())))
             }
             Some(Ok(())) => {
-                let result = self.executor.interpret(&mut self.interpreter, &mut self.event);
+                let result = self
+                    .executor
+                    .interpret(&mut self.interpreter, &mut self.event);
                 if let Err(e) = result {
                     self.done = true;
                     let executed = self.executor.executed();

@@ -49,9 +49,11 @@ impl Front {
     ) -> Front {
         match choice.dialect {
             Dialect::LinuxCnc => Front::LinuxCnc(Executor::new(input, path, language)),
-            Dialect::Heidenhain => Front::Heidenhain(Box::new(
-                crate::gcode::heidenhain::KlartextFront::new(input, path, &language, options, setup),
-            )),
+            Dialect::Heidenhain => {
+                Front::Heidenhain(Box::new(crate::gcode::heidenhain::KlartextFront::new(
+                    input, path, &language, options, setup,
+                )))
+            }
             dialect @ Dialect::Sinumerik => Front::Unread {
                 dialect,
                 done: false,
@@ -191,7 +193,11 @@ impl Front {
 
     /// The event of a block handed on as written, not run.
     #[inline]
-    pub(crate) fn pass_over(&self, interpreter: &Interpreter, event: &mut crate::gcode::BlockEvent) {
+    pub(crate) fn pass_over(
+        &self,
+        interpreter: &Interpreter,
+        event: &mut crate::gcode::BlockEvent,
+    ) {
         match self {
             Front::Heidenhain(h) => h.pass_over(event),
             Front::LinuxCnc(e) => interpreter.pass_over(e.block(), event),

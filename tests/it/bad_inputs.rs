@@ -453,10 +453,15 @@ fn cases() -> Vec<Case> {
         case(
             "program",
             "Heidenhain: a jump to a label the program does not define",
-            p("0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 FN 9: IF +0 EQU +0 GOTO LBL 7\n4 END PGM T MM\n"),
+            p(
+                "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 FN 9: IF +0 EQU +0 GOTO LBL 7\n4 END PGM T MM\n",
+            ),
             COMPENSATE,
             1,
-            &["jump to LBL 7, which the program does not define", "{d}/bad.nc:4:3"],
+            &[
+                "jump to LBL 7, which the program does not define",
+                "{d}/bad.nc:4:3",
+            ],
         ),
         case(
             "program",
@@ -469,23 +474,35 @@ fn cases() -> Vec<Case> {
         case(
             "program",
             "Heidenhain: C with no CC before it",
-            p("0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 C X+0 Y+2 DR+\n4 END PGM T MM\n"),
+            p(
+                "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 C X+0 Y+2 DR+\n4 END PGM T MM\n",
+            ),
             COMPENSATE,
             1,
-            &["no circle centre: program CC before C, CP or LP", "{d}/bad.nc:4:3"],
+            &[
+                "no circle centre: program CC before C, CP or LP",
+                "{d}/bad.nc:4:3",
+            ],
         ),
         case(
             "program",
             "Heidenhain: a PLANE the machine cannot reach (A 120° on an A ±110° table)",
-            p("0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 PLANE SPATIAL SPA+0 SPB+120 SPC+0 TURN FMAX\n3 L X+1 Y+1 Z+1 R0 F100\n4 END PGM T MM\n"),
+            p(
+                "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 PLANE SPATIAL SPA+0 SPB+120 SPC+0 TURN FMAX\n3 L X+1 Y+1 Z+1 R0 F100\n4 END PGM T MM\n",
+            ),
             COMPENSATE,
             1,
-            &["the machine cannot reach this working plane", "{d}/bad.nc:3:"],
+            &[
+                "the machine cannot reach this working plane",
+                "{d}/bad.nc:3:",
+            ],
         ),
         case(
             "program",
             "Heidenhain: LN with a zero vector",
-            p("0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 M128\n3 LN X+1 Y+1 Z+1 NX+0 NY+0 NZ+0 R0 F100\n4 END PGM T MM\n"),
+            p(
+                "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 M128\n3 LN X+1 Y+1 Z+1 NX+0 NY+0 NZ+0 R0 F100\n4 END PGM T MM\n",
+            ),
             COMPENSATE,
             1,
             &["LN with a zero normal vector", "{d}/bad.nc:4:3"],
@@ -493,10 +510,15 @@ fn cases() -> Vec<Case> {
         case(
             "program",
             "Heidenhain: a block number out of order",
-            p("0 BEGIN PGM T MM\n2 TOOL CALL 1 Z\n1 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 END PGM T MM\n"),
+            p(
+                "0 BEGIN PGM T MM\n2 TOOL CALL 1 Z\n1 L X+1 Y+1 Z+1 A+10 C+0 R0 F100\n3 END PGM T MM\n",
+            ),
             COMPENSATE,
             1,
-            &["block number 1 out of order: after block 2", "{d}/bad.nc:3:1"],
+            &[
+                "block number 1 out of order: after block 2",
+                "{d}/bad.nc:3:1",
+            ],
         ),
         case(
             "program",

@@ -79,11 +79,17 @@ fn circle_about_cc_turns_by_dr() {
             "0 BEGIN PGM C MM\n1 TOOL CALL 1 Z S1000\n2 L X+10 Y+0 Z+0 R0 F500\n3 CC X+0 Y+0\n4 C X+0 Y+10 DR{dr}\n5 END PGM C MM\n"
         )
     };
-    for (dr, mid) in [("+", [7.0710678118654755, 7.0710678118654755]), ("-", [-7.0710678118654755, -7.0710678118654755])] {
+    for (dr, mid) in [
+        ("+", [7.0710678118654755, 7.0710678118654755]),
+        ("-", [-7.0710678118654755, -7.0710678118654755]),
+    ] {
         let m = motions(&program(dr), None).unwrap();
         let (line, arc) = m.last().unwrap();
         assert_eq!(*line, 5);
-        let MotionKind::Arc { clockwise, centre, .. } = arc.kind else {
+        let MotionKind::Arc {
+            clockwise, centre, ..
+        } = arc.kind
+        else {
             panic!("an arc")
         };
         assert_eq!(clockwise, dr == "-");
@@ -93,7 +99,11 @@ fn circle_about_cc_turns_by_dr() {
         assert_point(p, [mid[0], mid[1], 0.0]);
         // A quarter turn one way, three quarters the other.
         let quarter = std::f64::consts::FRAC_PI_2;
-        assert_abs_diff_eq!(g.sweep().abs(), if dr == "+" { quarter } else { 3.0 * quarter }, epsilon = 1e-12);
+        assert_abs_diff_eq!(
+            g.sweep().abs(),
+            if dr == "+" { quarter } else { 3.0 * quarter },
+            epsilon = 1e-12
+        );
     }
 }
 
@@ -187,7 +197,10 @@ fn m128_with_a_c_and_with_ln() {
     // A zero vector is refused at its block.
     let bad = text.replace("TX+0 TY-0.5 TZ+0.8660254", "TX+0 TY+0 TZ+0");
     let e = motions(&bad, Some(machine)).unwrap_err();
-    assert!(e.contains("zero tool vector") && e.contains("t.h:5:"), "{e}");
+    assert!(
+        e.contains("zero tool vector") && e.contains("t.h:5:"),
+        "{e}"
+    );
 }
 
 /// The closed loop (issue 35 "Show"): a five-axis M128 program on bc-trt
@@ -245,9 +258,15 @@ fn written_blocks_change_only_their_words() {
         std::fs::read_to_string(root().join("tests/data/heidenhain/saddle-tcp-bc.h")).unwrap();
     let (text, _) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
     let words = |l: &str| -> Vec<String> {
-        l.split(';').next().unwrap().split_whitespace().map(|w| {
-            w.trim_start_matches(|c: char| c.is_ascii_alphabetic()).to_string()
-        }).collect()
+        l.split(';')
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|w| {
+                w.trim_start_matches(|c: char| c.is_ascii_alphabetic())
+                    .to_string()
+            })
+            .collect()
     };
     let mut changed = 0;
     for (a, b) in original.lines().zip(text.lines()) {
@@ -256,11 +275,20 @@ fn written_blocks_change_only_their_words() {
         }
         changed += 1;
         // Same comment, same words in the same order (an added word at the end of the axes).
-        assert_eq!(a.split_once(';').map(|c| c.1), b.split_once(';').map(|c| c.1));
+        assert_eq!(
+            a.split_once(';').map(|c| c.1),
+            b.split_once(';').map(|c| c.1)
+        );
         let (wa, wb) = (words(a), words(b));
-        assert!(wb.len() >= wa.len() && wb.len() <= wa.len() + 2, "{a} -> {b}");
+        assert!(
+            wb.len() >= wa.len() && wb.len() <= wa.len() + 2,
+            "{a} -> {b}"
+        );
         let code = b.split(';').next().unwrap();
-        for w in code.split_whitespace().filter(|w| w.len() > 1 && "XYZBC".contains(&w[..1])) {
+        for w in code
+            .split_whitespace()
+            .filter(|w| w.len() > 1 && "XYZBC".contains(&w[..1]))
+        {
             let v = &w[1..];
             assert!(v.starts_with('+') || v.starts_with('-'), "{b}");
             assert!(v.split('.').nth(1).is_some_and(|d| d.len() == 4), "{b}");

@@ -118,7 +118,11 @@ impl Source {
                 } else {
                     (eol, LineEnding::Lf)
                 };
-                at = if eol < text.len() { eol + 1 } else { text.len() };
+                at = if eol < text.len() {
+                    eol + 1
+                } else {
+                    text.len()
+                };
                 let continues =
                     text[start..content_end].trim_ascii_end().ends_with(b"~") && at < text.len();
                 if !continues {
@@ -299,9 +303,18 @@ impl Language {
         let source = &self.files[self.file];
         let r = source.blocks[self.pc];
         let raw = source.raw(self.pc);
-        let span = block.tokens.first().map_or(0..raw.len(), |t| t.span.clone());
+        let span = block
+            .tokens
+            .first()
+            .map_or(0..raw.len(), |t| t.span.clone());
         let end = block.tokens.last().map_or(span.end, |t| t.span.end);
-        GcodeError::at(ErrorKind::DialectRefused(message), r.line, raw, span.start, end)
+        GcodeError::at(
+            ErrorKind::DialectRefused(message),
+            r.line,
+            raw,
+            span.start,
+            end,
+        )
     }
 
     /// Run the language statements of `block` (at `pc`): assignments,
@@ -401,8 +414,9 @@ impl Language {
                 let Some(eq) = body.find('=') else {
                     return Err(self.error(format!("FN {n} without `=`"), block));
                 };
-                let target = read_param(body[..eq].trim())
-                    .ok_or_else(|| self.error(format!("FN {n}: no Q parameter before `=`"), block))?;
+                let target = read_param(body[..eq].trim()).ok_or_else(|| {
+                    self.error(format!("FN {n}: no Q parameter before `=`"), block)
+                })?;
                 let v = self.formula(&body[eq + 1..], block)?;
                 self.q.set(target, v);
                 self.pc += 1;
@@ -418,7 +432,12 @@ impl Language {
     }
 
     /// `IF a op b GOTO LBL n`.
-    fn conditional_jump(&mut self, n: u32, body: &str, block: &KlBlock) -> Result<Flow, GcodeError> {
+    fn conditional_jump(
+        &mut self,
+        n: u32,
+        body: &str,
+        block: &KlBlock,
+    ) -> Result<Flow, GcodeError> {
         let upper = body.to_ascii_uppercase();
         let op = match n {
             9 => "EQU",
@@ -430,15 +449,20 @@ impl Language {
             let rest = upper.trim().strip_prefix("IF")?;
             let goto = rest.find("GOTO")?;
             let cond = &rest[..goto];
-            let target = rest[goto + 4..].trim().strip_prefix("LBL")?.trim().to_string();
+            let target = rest[goto + 4..]
+                .trim()
+                .strip_prefix("LBL")?
+                .trim()
+                .to_string();
             let k = cond.find(&format!(" {op} "))?;
-            Some((cond[..k].to_string(), cond[k + op.len() + 2..].to_string(), target))
+            Some((
+                cond[..k].to_string(),
+                cond[k + op.len() + 2..].to_string(),
+                target,
+            ))
         };
         let Some((a, b, target)) = parse() else {
-            return Err(self.error(
-                format!("FN {n}: expected `IF a {op} b GOTO LBL n`"),
-                block,
-            ));
+            return Err(self.error(format!("FN {n}: expected `IF a {op} b GOTO LBL n`"), block));
         };
         let (a, b) = (self.formula(&a, block)?, self.formula(&b, block)?);
         let holds = match n {
@@ -454,7 +478,10 @@ impl Language {
         let label = target_label(&target, &self.q)
             .ok_or_else(|| self.error(format!("FN {n}: the jump names no label"), block))?;
         let Some(&to) = self.files[self.file].labels.get(&label) else {
-            return Err(self.error(format!("jump to {label}, which the program does not define"), block));
+            return Err(self.error(
+                format!("jump to {label}, which the program does not define"),
+                block,
+            ));
         };
         self.pc = to;
         Ok(Flow::Jumped)
@@ -470,7 +497,10 @@ impl Language {
             return Ok(Flow::Next);
         }
         let Some(&to) = self.files[self.file].labels.get(&label) else {
-            return Err(self.error(format!("CALL {label}: the program does not define it"), block));
+            return Err(self.error(
+                format!("CALL {label}: the program does not define it"),
+                block,
+            ));
         };
         self.repeats.insert(key, left - 1);
         self.pc = to;
@@ -480,13 +510,13 @@ impl Language {
     /// `CALL LBL n`: run the subprogram to its `LBL 0`.
     fn call_label(&mut self, label: Label, block: &KlBlock) -> Result<Flow, GcodeError> {
         let Some(&to) = self.files[self.file].labels.get(&label) else {
-            return Err(self.error(format!("CALL {label}: the program does not define it"), block));
-        };
-        if self.stack.len() >= MAX_CALL_DEPTH {
             return Err(self.error(
-                format!("more than {MAX_CALL_DEPTH} nested calls"),
+                format!("CALL {label}: the program does not define it"),
                 block,
             ));
+        };
+        if self.stack.len() >= MAX_CALL_DEPTH {
+            return Err(self.error(format!("more than {MAX_CALL_DEPTH} nested calls"), block));
         }
         self.stack.push(CallFrame {
             file: self.file,
@@ -512,7 +542,11 @@ impl Language {
         if self.stack.len() >= MAX_CALL_DEPTH {
             return Err(self.error(format!("more than {MAX_CALL_DEPTH} nested calls"), block));
         }
-        let index = match self.files.iter().position(|f| f.name.eq_ignore_ascii_case(&name)) {
+        let index = match self
+            .files
+            .iter()
+            .position(|f| f.name.eq_ignore_ascii_case(&name))
+        {
             Some(i) if i > 0 => i,
             _ => {
                 let path = self.find_program(&name).ok_or_else(|| {
@@ -525,7 +559,8 @@ impl Language {
                 })?;
                 let text = std::fs::read(&path)
                     .map_err(|e| self.error(format!("CALL PGM {name}: {e}"), block))?;
-                self.files.push(Source::new(name.clone(), Some(path), text)?);
+                self.files
+                    .push(Source::new(name.clone(), Some(path), text)?);
                 self.files.len() - 1
             }
         };

@@ -399,7 +399,12 @@ impl KlMachine {
     }
 
     /// `TOOL CALL n|"name" axis S… F… DL… DR…`.
-    fn tool_call(&self, c: &Ctx<'_>, s: &mut State, _event: &mut BlockEvent) -> Result<(), GcodeError> {
+    fn tool_call(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        _event: &mut BlockEvent,
+    ) -> Result<(), GcodeError> {
         let b = c.block;
         let mut i = 2;
         let mut number = None;
@@ -443,7 +448,13 @@ impl KlMachine {
                         b.tokens[2].span.end,
                     ));
                 }
-                self.setup.tools.in_use(n, ToolInUse { number: n, ..default })
+                self.setup.tools.in_use(
+                    n,
+                    ToolInUse {
+                        number: n,
+                        ..default
+                    },
+                )
             }
             Some(_) => default,
             // Tool by name, or TOOL CALL with the axis only: the tool stays.
@@ -526,7 +537,12 @@ impl KlMachine {
     }
 
     /// `L`/`LN`: a straight move to the axis words.
-    fn linear(&self, c: &Ctx<'_>, s: &mut State, event: &mut BlockEvent) -> Result<Statement, GcodeError> {
+    fn linear(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
         let b = c.block;
         let ln = b.address(0) == "LN";
         let scale = if s.inch { 25.4 } else { 1.0 };
@@ -563,7 +579,8 @@ impl KlMachine {
             };
             let v = c.value(k)?;
             given = true;
-            let axis = [[Axis::X, Axis::Y, Axis::Z], [Axis::A, Axis::B, Axis::C]][usize::from(rotary)][slot];
+            let axis = [[Axis::X, Axis::Y, Axis::Z], [Axis::A, Axis::B, Axis::C]]
+                [usize::from(rotary)][slot];
             if !self.setup.axes.contains(axis) {
                 return Err(GcodeError::at(
                     ErrorKind::AxisNotOnMachine {
@@ -620,12 +637,14 @@ impl KlMachine {
                     None => axis_prog,
                 };
                 let previous = self.to_frame(s, target, rot);
-                let j = solver.joints_for_axis(axis, Branch::Nearest, &previous).ok_or_else(|| {
-                    c.error(
-                        "the machine cannot point the tool along this LN vector",
-                        Some(0),
-                    )
-                })?;
+                let j = solver
+                    .joints_for_axis(axis, Branch::Nearest, &previous)
+                    .ok_or_else(|| {
+                        c.error(
+                            "the machine cannot point the tool along this LN vector",
+                            Some(0),
+                        )
+                    })?;
                 let pre = &self.setup.preset;
                 rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
                 given = true;
@@ -647,7 +666,11 @@ impl KlMachine {
         } else {
             MotionKind::Linear
         };
-        let d = [target[0] - s.pos[0], target[1] - s.pos[1], target[2] - s.pos[2]];
+        let d = [
+            target[0] - s.pos[0],
+            target[1] - s.pos[1],
+            target[2] - s.pos[2],
+        ];
         if dot(d, d) > 0.0 {
             s.tangent = Some(d);
         }
@@ -691,7 +714,11 @@ impl KlMachine {
         let o = self.origin();
         let p = o.to_program(&end);
         s.pos = [p.x, p.y, p.z];
-        s.rot = [end.a - self.setup.preset.a, end.b - self.setup.preset.b, end.c - self.setup.preset.c];
+        s.rot = [
+            end.a - self.setup.preset.a,
+            end.b - self.setup.preset.b,
+            end.c - self.setup.preset.c,
+        ];
         let start = s.position;
         let mut m = Motion {
             kind: if feed == Feed::Rapid {
@@ -733,7 +760,13 @@ impl KlMachine {
         feed: Feed,
     ) -> Result<(), GcodeError> {
         if !end.is_finite() {
-            return Err(GcodeError::at(ErrorKind::NonFinite, c.line, c.raw, 0, c.raw.len()));
+            return Err(GcodeError::at(
+                ErrorKind::NonFinite,
+                c.line,
+                c.raw,
+                0,
+                c.raw.len(),
+            ));
         }
         if let Feed::PerMinute(f) = feed
             && f <= 0.0
@@ -805,7 +838,10 @@ impl KlMachine {
             };
             let Some(slot) = plane_slot(s.plane, letter) else {
                 if matches!(letter, b'X' | b'Y' | b'Z') {
-                    return Err(c.error("CC: the pole's coordinate is not in the working plane", Some(k)));
+                    return Err(c.error(
+                        "CC: the pole's coordinate is not in the working plane",
+                        Some(k),
+                    ));
                 }
                 continue;
             };
@@ -819,16 +855,17 @@ impl KlMachine {
     }
 
     fn require_pole(&self, c: &Ctx<'_>, s: &State) -> Result<[f64; 2], GcodeError> {
-        s.pole.ok_or_else(|| {
-            c.error(
-                "no circle centre: program CC before C, CP or LP",
-                Some(0),
-            )
-        })
+        s.pole
+            .ok_or_else(|| c.error("no circle centre: program CC before C, CP or LP", Some(0)))
     }
 
     /// `LP PR PA`: a straight move to polar coordinates about the pole.
-    fn polar_line(&self, c: &Ctx<'_>, s: &mut State, event: &mut BlockEvent) -> Result<Statement, GcodeError> {
+    fn polar_line(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
         let pole = self.require_pole(c, s)?;
         let scale = if s.inch { 25.4 } else { 1.0 };
         let cur = to_plane(s.plane, s.pos);
@@ -854,7 +891,11 @@ impl KlMachine {
         self.refuse_compensation(c, s)?;
         let start = s.position;
         let end = self.to_frame(s, target, s.rot);
-        let d = [target[0] - s.pos[0], target[1] - s.pos[1], target[2] - s.pos[2]];
+        let d = [
+            target[0] - s.pos[0],
+            target[1] - s.pos[1],
+            target[2] - s.pos[2],
+        ];
         if dot(d, d) > 0.0 {
             s.tangent = Some(d);
         }
@@ -869,7 +910,12 @@ impl KlMachine {
     }
 
     /// `C`, `CR`, `CT`, `CP`: circles and helices in the working plane.
-    fn circle(&self, c: &Ctx<'_>, s: &mut State, event: &mut BlockEvent) -> Result<Statement, GcodeError> {
+    fn circle(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
         let b = c.block;
         let kind = b.address(0).to_string();
         let scale = if s.inch { 25.4 } else { 1.0 };
@@ -919,17 +965,24 @@ impl KlMachine {
                     return Err(c.error("CR needs its direction DR+ or DR-", Some(0)));
                 };
                 let centre = radius_centre(cur, end, r, dr < 0.0).ok_or_else(|| {
-                    c.error("CR: the end point is farther than the diameter from the start", Some(0))
+                    c.error(
+                        "CR: the end point is farther than the diameter from the start",
+                        Some(0),
+                    )
                 })?;
                 (centre, dr < 0.0, 0)
             }
             "CT" => {
                 let t = s.tangent.map(|t| to_plane(s.plane, t)).ok_or_else(|| {
-                    c.error("CT needs a contour element before it (its tangent)", Some(0))
+                    c.error(
+                        "CT needs a contour element before it (its tangent)",
+                        Some(0),
+                    )
                 })?;
-                let (centre, clockwise) = tangent_centre(cur, end, [t[0], t[1]]).ok_or_else(|| {
-                    c.error("CT: the end point lies on the tangent (no arc)", Some(0))
-                })?;
+                let (centre, clockwise) =
+                    tangent_centre(cur, end, [t[0], t[1]]).ok_or_else(|| {
+                        c.error("CT: the end point lies on the tangent (no arc)", Some(0))
+                    })?;
                 (centre, clockwise, 0)
             }
             _ => {
@@ -978,7 +1031,11 @@ impl KlMachine {
         let centre_frame = self.to_frame(s, centre_prog, s.rot).xyz();
         // The tangent at the end: perpendicular to the radius, in the sense of travel.
         let re = [end[0] - centre[0], end[1] - centre[1]];
-        let tan = if clockwise { [re[1], -re[0], 0.0] } else { [-re[1], re[0], 0.0] };
+        let tan = if clockwise {
+            [re[1], -re[0], 0.0]
+        } else {
+            [-re[1], re[0], 0.0]
+        };
         s.tangent = Some(from_plane(s.plane, tan));
         s.pos = target;
         let kind = MotionKind::Arc {
@@ -1076,7 +1133,12 @@ impl KlMachine {
     }
 
     /// `CYCL CALL`, `M99`: run the defined cycle.
-    fn cycle_call(&self, c: &Ctx<'_>, s: &mut State, event: &mut BlockEvent) -> Result<(), GcodeError> {
+    fn cycle_call(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<(), GcodeError> {
         let Some(cycle) = s.cycle.clone() else {
             return Err(c.error("a cycle call without a cycle defined (CYCL DEF)", Some(0)));
         };
@@ -1141,14 +1203,18 @@ impl KlMachine {
             if dwell_top > 0.0 {
                 steps.push(CycleStep::Dwell { seconds: dwell_top });
             }
-            steps.push(CycleStep::Rapid(at(surface + dir * reached - dir * clearance)));
+            steps.push(CycleStep::Rapid(at(
+                surface + dir * reached - dir * clearance
+            )));
             if steps.len() > 100_000 {
                 return Err(c.error("CYCL DEF 200: more than 100000 pecks", Some(0)));
             }
         }
         let _ = bottom;
         if dwell_depth > 0.0 {
-            steps.push(CycleStep::Dwell { seconds: dwell_depth });
+            steps.push(CycleStep::Dwell {
+                seconds: dwell_depth,
+            });
         }
         steps.push(CycleStep::Rapid(at(safe)));
         if second > clearance {
@@ -1249,7 +1315,12 @@ impl KlMachine {
         let mode = ["MOVE", "TURN", "STAY"]
             .into_iter()
             .find(|m| b.tokens.iter().any(|t| t.address == *m));
-        let seq = match b.tokens.iter().find(|t| t.address == "SEQ").and_then(|t| t.number()) {
+        let seq = match b
+            .tokens
+            .iter()
+            .find(|t| t.address == "SEQ")
+            .and_then(|t| t.number())
+        {
             Some(v) if v > 0.0 => Branch::Plus,
             Some(_) => Branch::Minus,
             None => Branch::Nearest,
@@ -1260,7 +1331,15 @@ impl KlMachine {
         let pre = self.setup.preset;
         // The rotary position the plane asks for.
         let (tilt, joints): (Option<Mat3>, Option<Axes>) = match (rotation, axes) {
-            (None, None) => (None, Some(Axes { a: pre.a, b: pre.b, c: pre.c, ..s.position })),
+            (None, None) => (
+                None,
+                Some(Axes {
+                    a: pre.a,
+                    b: pre.b,
+                    c: pre.c,
+                    ..s.position
+                }),
+            ),
             (Some(r), _) => {
                 let axis = mat_vec(&r, [0.0, 0.0, 1.0]);
                 let solver = self.solver(c)?;
@@ -1283,7 +1362,11 @@ impl KlMachine {
                 let axis = solver.axis_of(&j);
                 // The plane of machine-axis angles: the tool axis they give,
                 // the X axis kept as near the workpiece's as the axis allows.
-                (vector_frame([1.0, 0.0, 0.0], axis).or_else(|| vector_frame([0.0, 1.0, 0.0], axis)), Some(j))
+                (
+                    vector_frame([1.0, 0.0, 0.0], axis)
+                        .or_else(|| vector_frame([0.0, 1.0, 0.0], axis)),
+                    Some(j),
+                )
             }
         };
         let tilt = tilt.filter(|r| *r != IDENTITY);
@@ -1303,17 +1386,30 @@ impl KlMachine {
                 if mode == Some("MOVE") {
                     return Err(c.unread("PLANE … MOVE", Some(1)));
                 }
-                let end = Axes { a: j.a, b: j.b, c: j.c, ..here };
+                let end = Axes {
+                    a: j.a,
+                    b: j.b,
+                    c: j.c,
+                    ..here
+                };
                 let feed = if b.tokens.iter().any(|t| t.address == "FMAX") {
                     Feed::Rapid
                 } else {
-                    match b.tokens.iter().position(|t| t.address == "F" && t.value.is_some()) {
+                    match b
+                        .tokens
+                        .iter()
+                        .position(|t| t.address == "F" && t.value.is_some())
+                    {
                         Some(k) => Feed::PerMinute(self.feed_value(c, s, k)?),
                         None => Feed::Rapid,
                     }
                 };
                 let mut m = Motion {
-                    kind: if feed == Feed::Rapid { MotionKind::Rapid } else { MotionKind::Linear },
+                    kind: if feed == Feed::Rapid {
+                        MotionKind::Rapid
+                    } else {
+                        MotionKind::Linear
+                    },
                     frame: Frame::Joint,
                     machine_coordinates: false,
                     start: here,
@@ -1374,7 +1470,11 @@ pub fn vector_frame(base: [f64; 3], normal: [f64; 3]) -> Option<Mat3> {
     }
     let z = normal.map(|v| v / nn);
     let bz = dot(base, z);
-    let x = [base[0] - bz * z[0], base[1] - bz * z[1], base[2] - bz * z[2]];
+    let x = [
+        base[0] - bz * z[0],
+        base[1] - bz * z[1],
+        base[2] - bz * z[2],
+    ];
     let nx = dot(x, x).sqrt();
     if nx < 1e-9 {
         return None;

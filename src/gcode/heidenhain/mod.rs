@@ -69,7 +69,10 @@ impl KlartextFront {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         let (source, mut failed) = match read {
-            Err(e) => (None, Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0))),
+            Err(e) => (
+                None,
+                Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0)),
+            ),
             Ok(_) => match Source::new(name.clone(), Some(path.to_path_buf()), text) {
                 Ok(s) => (Some(s), None),
                 Err(e) => (None, Some(e)),
@@ -176,9 +179,10 @@ impl KlartextFront {
         parse_block_into(raw, &mut self.parsed);
         let flat = substituted(&self.parsed, raw, &lang.q);
         let ends_program = self.parsed.starts_with(&["END", "PGM"]);
-        let stops = self.parsed.tokens.iter().any(|t| {
-            t.address == "M" && matches!(t.number(), Some(v) if v == 2.0 || v == 30.0)
-        });
+        let stops =
+            self.parsed.tokens.iter().any(|t| {
+                t.address == "M" && matches!(t.number(), Some(v) if v == 2.0 || v == 30.0)
+            });
         let flow = if ends_program || stops {
             self.ends_here = stops || lang.end_program();
             if self.ends_here {
@@ -187,7 +191,8 @@ impl KlartextFront {
             Flow::Next
         } else {
             self.ends_here = false;
-            lang.step(&self.parsed).map_err(|e| self.with_file(e, file))?
+            lang.step(&self.parsed)
+                .map_err(|e| self.with_file(e, file))?
         };
         let control = matches!(flow, Flow::Jumped)
             || (reach == Reach::Flat
@@ -207,16 +212,20 @@ impl KlartextFront {
             // What the flat copies already did: a comment.
             let number = self.parsed.number.as_ref().map(|n| format!("{} ", n.0));
             let code = self.parsed.code.trim().to_string();
-            self.block.raw = format!("{}; volcomp: {origin}: {code}", number.unwrap_or_default())
-                .into_bytes();
+            self.block.raw =
+                format!("{}; volcomp: {origin}: {code}", number.unwrap_or_default()).into_bytes();
         } else if reach == Reach::Flat {
             self.block.raw = flat.unwrap_or_else(|| raw.to_vec());
             let at = self.block.raw.len();
-            self.block.raw.extend_from_slice(format!(" ; volcomp: {origin}").as_bytes());
+            self.block
+                .raw
+                .extend_from_slice(format!(" ; volcomp: {origin}").as_bytes());
             self.block.comments.push(at + 1..self.block.raw.len());
         } else {
             self.block.raw.extend_from_slice(raw);
-            self.block.comments.extend(self.parsed.comments.iter().cloned());
+            self.block
+                .comments
+                .extend(self.parsed.comments.iter().cloned());
         }
         if self.block.ending == LineEnding::None && (reach == Reach::Flat || control) {
             self.block.ending = LineEnding::Lf;
@@ -375,7 +384,10 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
             continue;
         }
         let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
-        let digits = raw[lead..].iter().take_while(|b| b.is_ascii_digit()).count();
+        let digits = raw[lead..]
+            .iter()
+            .take_while(|b| b.is_ascii_digit())
+            .count();
         let line = source.blocks[k].line;
         let has = digits > 0;
         if *numbered.get_or_insert(has) != has {

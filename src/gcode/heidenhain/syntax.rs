@@ -185,7 +185,6 @@ impl KlBlock {
         let eq = self.code.find('=')?;
         read_param(self.code[..eq].trim())
     }
-
 }
 
 /// Parse one logical block's raw bytes (physical lines joined with their
@@ -570,7 +569,13 @@ impl Formula {
             }
             Formula::Function(f, a) => {
                 let x = a.eval(get)?;
-                let domain = |ok: bool, name| if ok { Ok(()) } else { Err(FormulaError::Domain(name)) };
+                let domain = |ok: bool, name| {
+                    if ok {
+                        Ok(())
+                    } else {
+                        Err(FormulaError::Domain(name))
+                    }
+                };
                 match f {
                     Function::Sin => x.to_radians().sin(),
                     Function::Cos => x.to_radians().cos(),
@@ -812,7 +817,8 @@ mod tests {
 
     #[test]
     fn continuation_and_cycle_parameters() {
-        let raw = b"7 CYCL DEF 200 DRILLING ~\r\n  Q200=+2 ;SET-UP CLEARANCE ~\r\n  Q201=-20 ;DEPTH";
+        let raw =
+            b"7 CYCL DEF 200 DRILLING ~\r\n  Q200=+2 ;SET-UP CLEARANCE ~\r\n  Q201=-20 ;DEPTH";
         let b = parse_block(raw);
         assert!(b.starts_with(&["CYCL", "DEF"]));
         let q = b.find("Q", 0).unwrap();

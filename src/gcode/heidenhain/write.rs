@@ -119,7 +119,11 @@ impl KlartextWriter {
                     let text = self.linear_text(options, event, &end, feed, block.line);
                     self.write_fresh(&text, block, out)?;
                     let code = parsed.code.trim();
-                    self.write_fresh(&format!(" ; volcomp: line {} as chords: {code}", block.line), block, out)?;
+                    self.write_fresh(
+                        &format!(" ; volcomp: line {} as chords: {code}", block.line),
+                        block,
+                        out,
+                    )?;
                 } else {
                     let edits = self.edits(options, block, &parsed, event, &end)?;
                     self.write_numbered(block, &parsed, Some(&edits), out)?;
@@ -146,7 +150,11 @@ impl KlartextWriter {
     ) -> Result<Emitted, RewriteError> {
         let parsed = parse_block(&block.raw);
         let code = parsed.code.trim().to_string();
-        self.write_fresh(&format!(" ; volcomp: line {} written flat: {code}", block.line), block, out)?;
+        self.write_fresh(
+            &format!(" ; volcomp: line {} written flat: {code}", block.line),
+            block,
+            out,
+        )?;
         let mut emitted = Emitted {
             rewritten: true,
             pieces: 0,
@@ -164,7 +172,14 @@ impl KlartextWriter {
     }
 
     /// ` L X… Y… Z… [A… B… C…] FMAX|F…` for a target in the event's frame.
-    fn linear_text(&self, options: &RewriteOptions, event: &BlockEvent, p: &Axes, feed: Feed, line: usize) -> String {
+    fn linear_text(
+        &self,
+        options: &RewriteOptions,
+        event: &BlockEvent,
+        p: &Axes,
+        feed: Feed,
+        line: usize,
+    ) -> String {
         let prog = event.origin.to_program(p);
         let inch = event.modal.units == Units::Inch;
         let d = if inch {
@@ -223,9 +238,15 @@ impl KlartextWriter {
         let mut last_axis_end = parsed.tokens.first().map_or(0, |t| t.span.end);
         let polar = parsed.address(0) == "CP" || parsed.address(0) == "LP";
         for (letter, slot) in LETTERS {
-            let (n, o) = (unit(slot, slot_value(&new, slot)), unit(slot, slot_value(&old, slot)));
+            let (n, o) = (
+                unit(slot, slot_value(&new, slot)),
+                unit(slot, slot_value(&old, slot)),
+            );
             let token = parsed.tokens.iter().find(|t| {
-                t.address == letter || (t.address.len() == 2 && t.address.starts_with('I') && &t.address[1..] == letter)
+                t.address == letter
+                    || (t.address.len() == 2
+                        && t.address.starts_with('I')
+                        && &t.address[1..] == letter)
             });
             let changed = (n - o).abs() >= half_ulp(base_d);
             match token {
@@ -260,7 +281,10 @@ impl KlartextWriter {
                             what: "a corrected end of a polar block (LP, CP)",
                         });
                     }
-                    edits.push((last_axis_end..last_axis_end, format!(" {letter}{}", signed_number(n, base_d))));
+                    edits.push((
+                        last_axis_end..last_axis_end,
+                        format!(" {letter}{}", signed_number(n, base_d)),
+                    ));
                 }
                 None => {}
             }
@@ -271,7 +295,13 @@ impl KlartextWriter {
 
     /// Whether the emitted start of this move differs from its programmed
     /// start on `slot` (an incremental word must then be rewritten).
-    fn emitted_moved(&self, slot: usize, before: &Axes, event: &BlockEvent, m: &crate::gcode::Motion) -> bool {
+    fn emitted_moved(
+        &self,
+        slot: usize,
+        before: &Axes,
+        event: &BlockEvent,
+        m: &crate::gcode::Motion,
+    ) -> bool {
         let start = event.origin.to_program(&m.start);
         (slot_value(before, slot) - slot_value(&start, slot)).abs() > 1e-9
     }
@@ -319,7 +349,12 @@ impl KlartextWriter {
 
     /// Write a new block: the next number, then `text` (which starts with a
     /// space), with `block`'s line ending (a new line when it has none).
-    fn write_fresh(&mut self, text: &str, block: &Block, out: &mut dyn Write) -> Result<(), RewriteError> {
+    fn write_fresh(
+        &mut self,
+        text: &str,
+        block: &Block,
+        out: &mut dyn Write,
+    ) -> Result<(), RewriteError> {
         if self.numbered != Some(false) {
             let n = self.last_number.map_or(0, |l| l + 1);
             self.last_number = Some(n);
@@ -329,7 +364,11 @@ impl KlartextWriter {
             crate::gcode::LineEnding::None => b"\n".as_slice(),
             e => e.as_bytes(),
         };
-        let text = if self.numbered == Some(false) { text.trim_start() } else { text };
+        let text = if self.numbered == Some(false) {
+            text.trim_start()
+        } else {
+            text
+        };
         out.write_all(text.as_bytes())?;
         out.write_all(ending)?;
         Ok(())
@@ -340,7 +379,11 @@ impl KlartextWriter {
 fn trim_number(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s.is_empty() || s == "-" { "0".into() } else { s.to_string() }
+    if s.is_empty() || s == "-" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
 }
 
 /// A writer for a compensated Klartext program's bytes that inserts the
@@ -386,15 +429,25 @@ impl<'a> KlartextStampWriter<'a> {
             .and_then(|s| s.parse::<u64>().ok());
         match number {
             Some(n) if self.inserted > 0 => {
-                self.inner.write_all((n + self.inserted).to_string().as_bytes())?;
+                self.inner
+                    .write_all((n + self.inserted).to_string().as_bytes())?;
                 self.inner.write_all(&line[digits..])?;
             }
             _ => self.inner.write_all(line)?,
         }
         let rest = String::from_utf8_lossy(&line[digits..]);
-        if !self.done && rest.trim_start().to_ascii_uppercase().starts_with("BEGIN PGM") {
+        if !self.done
+            && rest
+                .trim_start()
+                .to_ascii_uppercase()
+                .starts_with("BEGIN PGM")
+        {
             self.done = true;
-            let eol = if line.ends_with(b"\r\n") { "\r\n" } else { "\n" };
+            let eol = if line.ends_with(b"\r\n") {
+                "\r\n"
+            } else {
+                "\n"
+            };
             let stamp = std::mem::take(&mut self.stamp);
             for (k, s) in stamp.iter().enumerate() {
                 match number {
@@ -449,8 +502,10 @@ mod tests {
     fn stamp_after_begin_pgm_renumbers() {
         let mut out = Vec::new();
         {
-            let mut w = KlartextStampWriter::new(&mut out, "(volcomp-stamp a: 1)\n(volcomp-stamp b: 2)\n");
-            w.write_all(b"0 BEGIN PGM T MM\n1 L X+1 FMAX\n2 END PGM T MM\n").unwrap();
+            let mut w =
+                KlartextStampWriter::new(&mut out, "(volcomp-stamp a: 1)\n(volcomp-stamp b: 2)\n");
+            w.write_all(b"0 BEGIN PGM T MM\n1 L X+1 FMAX\n2 END PGM T MM\n")
+                .unwrap();
             w.finish().unwrap();
         }
         assert_eq!(

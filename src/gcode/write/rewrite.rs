@@ -291,9 +291,7 @@ impl Rewriter {
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
         if self.options.dialect == crate::gcode::Dialect::Heidenhain {
-            return self
-                .klartext
-                .emit(&self.options, block, event, target, out);
+            return self.klartext.emit(&self.options, block, event, target, out);
         }
         if event.skipped {
             // Not executed (a subroutine definition passed over, a line after
