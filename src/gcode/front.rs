@@ -18,6 +18,9 @@ use crate::gcode::machine::interpret::Interpreter;
 use crate::gcode::syntax::block::Block;
 
 /// The language front of one run.
+// LinuxCNC's executor stays inline (its path is the hot one); the Klartext
+// front is boxed.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Front {
     /// LinuxCNC's language layer (O-words, parameters, subroutine files).
     LinuxCnc(Executor),

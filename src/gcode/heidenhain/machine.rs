@@ -1544,7 +1544,7 @@ fn radius_centre(s: [f64; 3], e: [f64; 3], r: f64, clockwise: bool) -> Option<[f
     // Unit normal to the chord, to the left of travel.
     let (nx, ny) = (-dy / chord, dx / chord);
     // A counter-clockwise arc under 180° has its centre on the left.
-    let left = (!clockwise) == (r > 0.0);
+    let left = clockwise != (r > 0.0);
     let sign = if left { 1.0 } else { -1.0 };
     Some([mx + sign * h * nx, my + sign * h * ny])
 }
