@@ -102,14 +102,18 @@ fn written_for(block: &Block) -> Option<usize> {
 pub struct BlockSummaries {
     run: Execution,
     failed: bool,
+    /// A Heidenhain program (its block numbers do not pair blocks).
+    klartext: bool,
 }
 
 impl BlockSummaries {
     /// The blocks of `program` run with `interpret`.
     pub fn new(program: Program, interpret: InterpretOptions) -> Self {
+        let klartext = program.dialect().dialect == crate::gcode::Dialect::Heidenhain;
         BlockSummaries {
             run: program.run(interpret),
             failed: false,
+            klartext,
         }
     }
 }
@@ -126,7 +130,22 @@ impl Iterator for BlockSummaries {
                 // The provenance stamp is shown apart (`diff` prints it), not
                 // compared as added blocks.
                 Ok((block, _, _)) if block.raw.starts_with(STAMP_PREFIX.as_bytes()) => continue,
-                Ok((block, event, _)) => return Some(Ok(summarize(block, event))),
+                // A Klartext stamp block (`3 ; volcomp-stamp …`).
+                Ok((block, _, _))
+                    if block.raw.first().is_some_and(u8::is_ascii_digit)
+                        && crate::stamp::is_stamp_line(&block.raw) =>
+                {
+                    continue;
+                }
+                Ok((block, event, _)) => {
+                    let mut summary = summarize(block, event);
+                    // Klartext block numbers are a sequence the writer
+                    // renumbers, not labels: blocks pair by their content.
+                    if self.klartext {
+                        summary.number = None;
+                    }
+                    return Some(Ok(summary));
+                }
                 Err(e) => {
                     self.failed = true;
                     return Some(Err(e));

@@ -821,7 +821,7 @@ mod tests {
             b"7 CYCL DEF 200 DRILLING ~\r\n  Q200=+2 ;SET-UP CLEARANCE ~\r\n  Q201=-20 ;DEPTH";
         let b = parse_block(raw);
         assert!(b.starts_with(&["CYCL", "DEF"]));
-        let q = b.find("Q", 0).unwrap();
+        let q = b.find("Q200", 0).unwrap();
         assert_eq!(q.number(), Some(2.0));
         assert_eq!(&raw[q.span.clone()], b"Q200=+2");
         assert_eq!(b.comments.len(), 2);
