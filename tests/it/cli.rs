@@ -189,6 +189,9 @@ fn lenient_pass_through_is_reported() {
         "-o",
         s(&out_path),
         "--lenient",
+        // Read as LinuxCNC's (detected, it reads as the Klartext it is).
+        "--dialect",
+        "linuxcnc",
     ]);
     assert_success(&out);
     let first = stdout(&out).lines().next().unwrap().to_string();
