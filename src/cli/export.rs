@@ -5,14 +5,12 @@ use crate::export::tables::GridSettings;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp export linuxcnc machines/ref-trt.toml -o linuxcnc-ref-trt
-  volcomp export linuxcnc machine.toml -o comp --comp-type 1 --tol-um 0.05
+  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1 --tol-um 0.05
   volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1";
 
 #[derive(Debug, clap::Args)]
-#[command(after_help = AFTER_HELP)]
 pub struct Args {
     #[command(subcommand)]
     pub target: Target,
@@ -26,11 +24,11 @@ pub enum Target {
     Tables(TablesArgs),
 }
 
-const LINUXCNC_HELP: &str = "\
-Examples:
+pub const LINUXCNC_EXAMPLES: &str = "\
   volcomp export linuxcnc machines/ref-trt.toml -o linuxcnc-ref-trt
-  volcomp export linuxcnc machine.toml -o comp --comp-type 1
+  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1";
 
+const LINUXCNC_HELP: &str = "\
 Writes into DIR:
   <axis>.comp      for each linear axis whose table measures its positioning error (EXX, EYY,
                    EZZ): LinuxCNC's COMP_FILE triplets `nominal forward reverse` (mm), ascending,
@@ -62,10 +60,10 @@ pub struct LinuxcncArgs {
     pub max_lines: usize,
 }
 
-const TABLES_HELP: &str = "\
-Examples:
-  volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1
+pub const TABLES_EXAMPLES: &str = "\
+  volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1";
 
+const TABLES_HELP: &str = "\
 Writes DIR/<axis>.csv for each measured axis: `position` on the grid (the table's first
 position, then every --step mm or --step-deg degrees, and its last position), each fitted
 parameter's value (µm, µrad; error = actual − nominal) and REVERSAL when the table has it

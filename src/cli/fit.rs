@@ -13,13 +13,13 @@ use crate::nurbs::{
 };
 use crate::report::fit_plot::{PlotLabels, plot_fit};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp fit machines/ref-trt.toml
   volcomp fit machines/ref-trt.toml --report fit.json --plot fit-plots
   volcomp fit machines/ref-trt/x.csv --select emax --method ga --seed 7
-  volcomp fit machines/ref-trt/a.csv --select emax --tol 0.3 --tol-angle 0.8 --method exhaustive --control-points 8
+  volcomp fit machines/ref-trt/a.csv --select emax --tol 0.5 --tol-angle 1.0 --method ukm";
 
+const AFTER_HELP: &str = "\
 Each measured column is fitted with a cubic NURBS. By default (--select cv) the curve
 follows the machine, not the measurement noise: a penalised cubic B-spline whose number
 of control points and smoothness minimise generalised cross-validation, smoothing less

@@ -4,12 +4,12 @@ use crate::axes::Axis;
 use crate::laser::{ReadSettings, evaluate, is_parameter_of, positioning_parameter, read_file};
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp import-laser tests/data/laser/x-long.csv --axis X -o x.csv --report x-iso230.json
-  volcomp import-laser run1.csv run2.csv run3.csv --axis X -o x.csv
-  volcomp import-laser x-pos.csv EYX=x-straightness.csv EBX=x-pitch.csv --axis X -o x.csv
+  volcomp import-laser tests/data/laser/x-long.csv tests/data/laser/x-paired.csv --axis X -o x.csv
+  volcomp import-laser tests/data/laser/x-long.csv EYX=tests/data/laser/x-straightness-eyx.csv EBX=tests/data/laser/x-pitch-ebx.csv --axis X -o x.csv";
 
+const AFTER_HELP: &str = "\
 Each FILE holds bidirectional runs in one of three layouts (docs/extensions.md):
   long    target,run,direction,deviation      one reading a row (direction + - up down fwd rev)
   paired  target,run,+,-                      a target and run a row, both approaches
