@@ -11,11 +11,11 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 
 pub const EXAMPLES: &str = "\
-  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect backlash:bx=15,by=12,bz=8 --seed 2016
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect setup_error:tx=8,ty=-5 --seed 7
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
-  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect backlash:bx=15,by=12,bz=8
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect setup_error:tx=8,ty=-5 --seed 7
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --write-machine ref-trt-diag.toml
   volcomp compensate ref-trt-diag.toml samples/saddle.nc -o saddle-comp.nc";

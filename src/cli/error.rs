@@ -16,7 +16,7 @@ pub const EXAMPLES: &str = "\
   volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
   volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
   volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --tools samples/saddle.tbl --tool 2
-  volcomp check samples/saddle.nc --targets poses.csv
+  printf 'x,y,z,a,c\\n10,20,-30,15,45\\n0,0,-50,30,90\\n' > poses.csv
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45

@@ -17,8 +17,7 @@ commands.";
 
 pub const MAN_EXAMPLES: &str = "\
   volcomp man > volcomp.1
-  volcomp man -o man
-  man -l man/volcomp-compensate.1";
+  volcomp man -o man   # volcomp.1, volcomp-compensate.1, volcomp-export-linuxcnc.1 …";
 
 const MAN_HELP: &str = "\
 With -o DIR, writes volcomp.1 and a page per command (volcomp-compensate.1, \

@@ -12,8 +12,9 @@ pub const EXAMPLES: &str = "\
   volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5 --effect tool_wear:w=4 --noise-um 0.5 --seed 7
   volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect rotary_location:EY0A=20,EX0C=12
   volcomp simulate machines/bc-trt.toml samples/bc-trt/saddle.nc samples/bc-trt/saddle-plan.csv -o bc-meas.csv --effect rotary_location:EX0B=20,EZ0B=-15
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5
   volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
-  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect rotary_location:EY0A=20,EX0C=12";
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect thermal_drift:dz=-6,tau=5";
 
 const AFTER_HELP: &str = "\
 Effects (parameters default to 0; thermal_drift needs tau):

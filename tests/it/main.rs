@@ -27,6 +27,7 @@ mod nurbs;
 mod outputs;
 mod predict;
 mod programs;
+mod readme;
 mod report_pages;
 mod reversal;
 mod rs274;
