@@ -174,7 +174,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         anyhow::bail!(
             "{} already {} something else; nothing written (--force replaces {}, --out-dir writes elsewhere)",
             differing.join(", "),
-            if differing.len() == 1 { "holds" } else { "hold" },
+            if differing.len() == 1 {
+                "holds"
+            } else {
+                "hold"
+            },
             if differing.len() == 1 { "it" } else { "them" },
         );
     }
@@ -197,7 +201,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ));
     }
     for path in &unchanged {
-        summary.push(format!("{} unchanged (already these bytes)", path.display()));
+        summary.push(format!(
+            "{} unchanged (already these bytes)",
+            path.display()
+        ));
     }
     super::common::say(false, &summary.join("\n"))?;
     Ok(())

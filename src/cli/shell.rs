@@ -118,8 +118,7 @@ fn man_pages(
     }
     let man = clap_mangen::Man::new(cmd.clone());
     let mut roff = Vec::new();
-    man.render(&mut roff)
-        .context("rendering a manual page")?;
+    man.render(&mut roff).context("rendering a manual page")?;
     let mut page = String::from_utf8_lossy(&roff).into_owned();
     if let Some(examples) = super::examples(path) {
         page.push_str(".SH EXAMPLES\n.nf\n");

@@ -9,7 +9,10 @@ pub fn render(report: &PredictReport, title: &str) -> String {
     let mut page = HtmlPage::new(title);
     let c = report.compensated;
     let pm = |u: Option<f64>| u.map_or(String::new(), |u| format!(" ± {u:.2}"));
-    let (profile_u, range_u) = (pm(figure_u(report, c, false)), pm(figure_u(report, c, true)));
+    let (profile_u, range_u) = (
+        pm(figure_u(report, c, false)),
+        pm(figure_u(report, c, true)),
+    );
     if c {
         // A compensated program: what the part will measure comes first.
         page.paragraph(&format!(
@@ -80,8 +83,7 @@ so no ± is shown."
                         p.deviation_u_um
                             .map_or(String::new(), |u| format!(" ± {u:.3}"))
                     ),
-                    p.deviation_u_um
-                        .map_or("-".into(), |u| format!("{u:.3}")),
+                    p.deviation_u_um.map_or("-".into(), |u| format!("{u:.3}")),
                     p.line.map_or("-".into(), |l| l.to_string()),
                     format!("{:.2}, {:.2}, {:.2}", p.point[0], p.point[1], p.point[2]),
                 ]

@@ -42,7 +42,9 @@ fn binary_dir() -> PathBuf {
 /// `PATH` with `first` before the system's.
 fn path_with(first: &[&Path]) -> std::ffi::OsString {
     let mut dirs: Vec<PathBuf> = first.iter().map(|p| p.to_path_buf()).collect();
-    dirs.extend(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()));
+    dirs.extend(std::env::split_paths(
+        &std::env::var_os("PATH").unwrap_or_default(),
+    ));
     std::env::join_paths(dirs).unwrap()
 }
 
@@ -80,7 +82,11 @@ esac
 fn every_shell_block_of_the_readme_runs_in_order() {
     let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
     let blocks = shell_blocks(&readme);
-    assert!(blocks.len() >= 5, "README.md has {} shell blocks", blocks.len());
+    assert!(
+        blocks.len() >= 5,
+        "README.md has {} shell blocks",
+        blocks.len()
+    );
     let clone = fresh_clone();
     let home = clone.path().join("home");
     let stand_in = clone.path().join("stand-in");
@@ -280,7 +286,9 @@ fn completions_and_manual_pages() {
     assert!(page.starts_with(".ie") || page.contains(".TH"), "{page}");
     // The examples verbatim, hyphens as minus signs (copyable).
     assert!(page.contains(".SH EXAMPLES\n.nf\n"));
-    assert!(page.contains("volcomp compensate machines/ref\\-trt.toml samples/saddle.nc \\-o saddle\\-comp.nc\n"));
+    assert!(page.contains(
+        "volcomp compensate machines/ref\\-trt.toml samples/saddle.nc \\-o saddle\\-comp.nc\n"
+    ));
     assert!(dir.path().join("man1/volcomp-export-linuxcnc.1").is_file());
 }
 
@@ -311,7 +319,9 @@ fn quiet_and_verbose() {
     let (stdout, stderr) = run("-q");
     assert_eq!(stdout, "");
     assert!(
-        stderr.starts_with("warning: samples/bc-trt/saddle.nc: its header says it was written for machine BC-TRT"),
+        stderr.starts_with(
+            "warning: samples/bc-trt/saddle.nc: its header says it was written for machine BC-TRT"
+        ),
         "{stderr}"
     );
     let (stdout, stderr) = run("-v");

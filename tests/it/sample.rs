@@ -81,7 +81,11 @@ fn sample_never_replaces_another_machines_files() {
     let out = run(&["sample", "saddle", "--machine", "machines/bc-trt.toml"]);
     crate::support::assert_success(&out);
     let bc = std::fs::read_to_string(dir.path().join("samples/bc-trt/saddle.nc")).unwrap();
-    assert!(bc.lines().take(6).any(|l| l.ends_with(" FOR MACHINE BC-TRT)")));
+    assert!(
+        bc.lines()
+            .take(6)
+            .any(|l| l.ends_with(" FOR MACHINE BC-TRT)"))
+    );
     assert_eq!(
         bc,
         std::fs::read_to_string(root().join("samples/bc-trt/saddle.nc")).unwrap()
@@ -100,8 +104,14 @@ fn sample_never_replaces_another_machines_files() {
     ]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("samples/saddle.nc") && err.contains("--force"), "{err}");
-    assert_eq!(std::fs::read(dir.path().join("samples/saddle.nc")).unwrap(), reference);
+    assert!(
+        err.contains("samples/saddle.nc") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("samples/saddle.nc")).unwrap(),
+        reference
+    );
     // Again: the same bytes, said so.
     let out = run(&["sample", "saddle"]);
     crate::support::assert_success(&out);
