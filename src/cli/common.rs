@@ -218,7 +218,7 @@ pub fn model_notes(machine: &Machine) -> Vec<String> {
         .collect();
     if !reversal.is_empty() {
         let (has, column) = if reversal.len() == 1 {
-            ("has", "column")
+            ("has a", "column")
         } else {
             ("have", "columns")
         };
