@@ -59,8 +59,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             extrapolation: crate::machine::ExtrapolationPolicy::Hold,
         },
     )?;
-    std::fs::create_dir_all(&args.out_dir)
-        .with_context(|| format!("cannot create {}", args.out_dir.display()))?;
     let files: Vec<(&str, String)> = match args.name {
         SampleName::Saddle => {
             let options = SaddleOptions {

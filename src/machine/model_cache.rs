@@ -163,18 +163,11 @@ impl ModelCache {
     ) -> Result<(), String> {
         let mut tables = Vec::new();
         for table in machine.tables.iter().flatten() {
-            let text = crate::io::read_to_string(&table.path).map_err(|e| e.to_string())?;
-            // The file may have changed since it was fitted: store only what was.
-            if !same_table(table, &text) {
-                return Err(format!(
-                    "{} changed while it was fitted",
-                    table.path.display()
-                ));
-            }
+            // What was fitted: the text as read, not the file read again.
             tables.push(CachedTable {
                 axis: table.axis.letter().to_string(),
                 path: table.path.clone(),
-                text,
+                text: table.text.to_string(),
             });
         }
         let entry = Entry {

@@ -12,6 +12,9 @@
 use std::path::{Path, PathBuf};
 
 use crate::axes::Axis;
+use super::physical_ranges::{
+    MAX_LENGTH_MM, MAX_REVERSAL_UM, MAX_REVERSAL_URAD, check_magnitude, error_bound,
+};
 
 /// Fewest rows a column needs to be fitted (the seed paper's minimum).
 pub const MIN_ROWS: usize = 8;
@@ -54,6 +57,9 @@ pub struct ErrorTable {
     /// positioning error approaching from below minus from above, µm or µrad,
     /// one value per position; `None` when the file has no such column.
     pub reversal: Option<Vec<f64>>,
+    /// The file's text as it was read and parsed: what hashes and copies of
+    /// the table are made from (the file may change after it was read).
+    pub text: std::sync::Arc<str>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -90,6 +96,7 @@ impl ErrorTable {
     /// Parse `text` as the table `path` (named in errors).
     pub fn parse(text: &str, path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
         let at = TableSource { path };
+        let source_text: std::sync::Arc<str> = std::sync::Arc::from(text);
         // A byte order mark (spreadsheets write one) is not part of the header.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
@@ -134,7 +141,13 @@ impl ErrorTable {
                     )),
                 }
             };
-            let x = number(header.position)?;
+            // Within what a machine tool can have (physical_ranges).
+            let bounded = |i: usize, name: &str, max: f64, unit: &str| {
+                let v = number(i)?;
+                check_magnitude(name, unit, v, max)
+                    .map_err(|m| at.invalid(line, Some(header.label(i)), m))
+            };
+            let x = bounded(header.position, "position", MAX_LENGTH_MM, "mm or °")?;
             if let Some(&prev) = positions.last() {
                 if x <= prev {
                     return Err(at.invalid(
@@ -147,11 +160,17 @@ impl ErrorTable {
                 }
             }
             positions.push(x);
-            for (slot, (i, _)) in header.params.iter().enumerate() {
-                values[slot].push(number(*i)?);
+            for (slot, (i, name)) in header.params.iter().enumerate() {
+                let (max, unit) = error_bound(name);
+                values[slot].push(bounded(*i, name, max, unit)?);
             }
             if let Some(i) = header.reversal {
-                reversal.push(number(i)?);
+                let (max, unit) = if axis.is_rotary() {
+                    (MAX_REVERSAL_URAD, "µrad")
+                } else {
+                    (MAX_REVERSAL_UM, "µm")
+                };
+                reversal.push(bounded(i, "REVERSAL", max, unit)?);
             }
         }
         if positions.len() < MIN_ROWS {
@@ -187,6 +206,7 @@ impl ErrorTable {
             missing,
             one_revolution,
             reversal: header.reversal.map(|_| reversal),
+            text: source_text,
         })
     }
 
