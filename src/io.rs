@@ -46,7 +46,9 @@ pub enum OutputError {
         "{path} is a symbolic link to {target}, which does not exist; volcomp does not write through a dangling link (name the file itself)"
     )]
     DanglingLink { path: PathBuf, target: PathBuf },
-    #[error("cannot write {path}: {folder} is not a folder, so the output's folder cannot be created")]
+    #[error(
+        "cannot write {path}: {folder} is not a folder, so the output's folder cannot be created"
+    )]
     NotAFolder { path: PathBuf, folder: PathBuf },
     #[error("cannot create the folder {folder} of {path}: {source}")]
     CreateFolder {

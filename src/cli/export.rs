@@ -166,8 +166,7 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let machine =
-        super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
+    let machine = super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
     let mut files: Vec<PathBuf> = machine
         .letters()
         .iter()
@@ -272,12 +271,10 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
 
 fn tables(args: &TablesArgs) -> anyhow::Result<()> {
     use crate::machine::physical_ranges::{MAX_STEP_DEG, MAX_STEP_MM, check_range};
-    check_range("--step", "mm", args.step, (0.0, MAX_STEP_MM), false)
-        .map_err(super::UsageError)?;
+    check_range("--step", "mm", args.step, (0.0, MAX_STEP_MM), false).map_err(super::UsageError)?;
     check_range("--step-deg", "°", args.step_deg, (0.0, MAX_STEP_DEG), false)
         .map_err(super::UsageError)?;
-    let machine =
-        super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
+    let machine = super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
     let files: Vec<PathBuf> = machine
         .letters()
         .iter()

@@ -262,10 +262,7 @@ fn check_files(args: &Args, tables: &[ErrorTable], jobs: &[Job<'_>]) -> anyhow::
 /// FNV-1a 64 of every table file's bytes as they were read and fitted (the
 /// report names what it fitted).
 fn table_hashes(tables: &[ErrorTable]) -> anyhow::Result<Vec<u64>> {
-    Ok(tables
-        .iter()
-        .map(|t| fnv1a64(t.text.as_bytes()))
-        .collect())
+    Ok(tables.iter().map(|t| fnv1a64(t.text.as_bytes())).collect())
 }
 
 /// Fits every column, in parallel.

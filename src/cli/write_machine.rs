@@ -59,7 +59,12 @@ pub(crate) fn write(
     // OUT's folder, resolved; it may not exist yet (made when OUT is written).
     let folder = crate::io::resolved_path(out)
         .and_then(|p| p.parent().map(Path::to_path_buf))
-        .with_context(|| format!("--write-machine {}: its folder cannot be found", out.display()))?;
+        .with_context(|| {
+            format!(
+                "--write-machine {}: its folder cannot be found",
+                out.display()
+            )
+        })?;
     let mut edits = update.edits.clone();
     let mut tables = Vec::new();
     for slot in machine.tables.iter().flatten() {

@@ -11,10 +11,10 @@
 //! Every error names the file, the line and (where it applies) the column.
 use std::path::{Path, PathBuf};
 
-use crate::axes::Axis;
 use super::physical_ranges::{
     MAX_LENGTH_MM, MAX_REVERSAL_UM, MAX_REVERSAL_URAD, check_magnitude, error_bound,
 };
+use crate::axes::Axis;
 
 /// Fewest rows a column needs to be fitted (the seed paper's minimum).
 pub const MIN_ROWS: usize = 8;
