@@ -592,6 +592,38 @@ pub fn check_outputs(inputs: &[NamedPath], outputs: &[NamedPath]) -> Result<(), 
     Ok(())
 }
 
+/// The most bytes of a cell, word or line a reader's message echoes (as the
+/// G-code reader's excerpt): a message stays short however long the input.
+pub const ECHO_BYTES: usize = crate::gcode::error::EXCERPT_BYTES;
+
+/// The longest line the line readers take (error tables, plans and
+/// measurements, tool tables, `.var` files), bytes: as the G-code reader's.
+pub const MAX_LINE_BYTES: usize = 65_536;
+
+/// `text` as a message shows it: whole when short, else its first
+/// [`ECHO_BYTES`] (at a character boundary), `…` and its length.
+pub fn echo(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.len() <= ECHO_BYTES {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut end = ECHO_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    std::borrow::Cow::Owned(format!("{}… ({} bytes)", &text[..end], text.len()))
+}
+
+/// The message for a line longer than [`MAX_LINE_BYTES`], `None` for one
+/// within it.
+pub fn long_line(line: &str) -> Option<String> {
+    (line.len() > MAX_LINE_BYTES).then(|| {
+        format!(
+            "line of {} bytes, longer than volcomp's limit of {MAX_LINE_BYTES} bytes",
+            line.len()
+        )
+    })
+}
+
 /// Convenience: write a whole string or byte buffer atomically.
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_atomic(path, |w| {

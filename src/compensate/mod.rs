@@ -1300,7 +1300,11 @@ fn write_chunks(
     options: &CompensateOptions,
     progress: &mut dyn FnMut(usize),
 ) -> Result<CompensateReport, CompensateError> {
-    let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
+    let rewrite = RewriteOptions {
+        axes: options.interpret.axes,
+        ..options.rewrite
+    };
+    let mut rewriter = Rewriter::new(rewrite, options.interpret.initial_position);
     let mut report = CompensateReport {
         tolerance_um: options.tolerance_um,
         ..CompensateReport::default()

@@ -770,7 +770,7 @@ impl Machine {
                 path: path.to_path_buf(),
                 line,
                 column,
-                message: e.message().trim_end().to_string(),
+                message: crate::io::echo(e.message().trim_end()).into_owned(),
             }
         })?;
 

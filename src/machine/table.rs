@@ -99,6 +99,15 @@ impl ErrorTable {
         let source_text: std::sync::Arc<str> = std::sync::Arc::from(text);
         // A byte order mark (spreadsheets write one) is not part of the header.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // Lines longer than the readers' limit are refused, not echoed.
+        if let Some((i, l)) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.len() > crate::io::MAX_LINE_BYTES)
+        {
+            let message = crate::io::long_line(l).unwrap_or_default();
+            return Err(at.invalid(i + 1, None, message));
+        }
         let mut lines = text
             .lines()
             .enumerate()
@@ -137,7 +146,7 @@ impl ErrorTable {
                     _ => Err(at.invalid(
                         line,
                         Some(header.label(i)),
-                        format!("`{}` is not a finite number", fields[i]),
+                        format!("`{}` is not a finite number", crate::io::echo(fields[i])),
                     )),
                 }
             };
@@ -223,7 +232,7 @@ fn column_label(raw_names: &[String], i: usize) -> String {
     format!(
         "{} ({})",
         i + 1,
-        raw_names.get(i).map_or("?", String::as_str)
+        crate::io::echo(raw_names.get(i).map_or("?", String::as_str))
     )
 }
 
@@ -276,7 +285,8 @@ impl TableHeader {
                 line,
                 None,
                 format!(
-                    "missing header: expected a `position` column followed by error parameters like EXX, found `{text}`"
+                    "missing header: expected a `position` column followed by error parameters like EXX, found `{}`",
+                    crate::io::echo(text)
                 ),
             ));
         };
@@ -308,7 +318,8 @@ impl TableHeader {
                     line,
                     Some(label(i)),
                     format!(
-                        "unknown column `{name}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL"
+                        "unknown column `{}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL",
+                        crate::io::echo(name)
                     ),
                 ));
             }

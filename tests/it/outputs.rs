@@ -1061,3 +1061,67 @@ fn export_does_not_replace_files_without_force() {
     let out = w.run(&["export", "tables", "m.toml", "-o", "fitted/new"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
 }
+
+/// The model cache opens only regular files: a cache file that is a link
+/// (to a file, to `/dev/zero`) or a named pipe is a miss, never followed nor
+/// waited on; the model is stored under a new name and renamed over it, so a
+/// link's target is never written.
+#[cfg(unix)]
+#[test]
+fn the_model_cache_opens_only_regular_files() {
+    let w = Workshop::new();
+    let run = || {
+        let out = w.run(&["fit", "m.toml", "--model-cache", "cache"]);
+        assert_success(&out);
+    };
+    run();
+    let cached: Vec<PathBuf> = std::fs::read_dir(w.path().join("cache"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(cached.len(), 1, "{cached:?}");
+    let file = &cached[0];
+    std::fs::write(w.path().join("victim.txt"), "keep\n").unwrap();
+    let replace = |make: &dyn Fn(&Path)| {
+        std::fs::remove_file(file).unwrap();
+        make(file);
+    };
+    // A link to another file: not written through.
+    replace(&|f| std::os::unix::fs::symlink(w.path().join("victim.txt"), f).unwrap());
+    run();
+    assert_eq!(
+        std::fs::read_to_string(w.path().join("victim.txt")).unwrap(),
+        "keep\n"
+    );
+    assert!(
+        std::fs::symlink_metadata(file)
+            .unwrap()
+            .file_type()
+            .is_file()
+    );
+    // A link to an endless device, then a named pipe: neither read nor waited on.
+    replace(&|f| std::os::unix::fs::symlink("/dev/zero", f).unwrap());
+    run();
+    assert!(
+        std::fs::symlink_metadata(file)
+            .unwrap()
+            .file_type()
+            .is_file()
+    );
+    replace(&|f| {
+        let status = std::process::Command::new("mkfifo")
+            .arg(f)
+            .status()
+            .unwrap();
+        assert!(status.success());
+    });
+    run();
+    assert!(
+        std::fs::symlink_metadata(file)
+            .unwrap()
+            .file_type()
+            .is_file()
+    );
+    // And the stored model is used.
+    run();
+}
