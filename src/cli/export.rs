@@ -271,8 +271,8 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
 
 fn tables(args: &TablesArgs) -> anyhow::Result<()> {
     use crate::machine::physical_ranges::{MAX_STEP_DEG, MAX_STEP_MM, check_range};
-    check_range("--step", "mm", args.step, (0.0, MAX_STEP_MM), false).map_err(super::UsageError)?;
-    check_range("--step-deg", "°", args.step_deg, (0.0, MAX_STEP_DEG), false)
+    check_range("--step", "mm", args.step, (0.0, MAX_STEP_MM), true).map_err(super::UsageError)?;
+    check_range("--step-deg", "°", args.step_deg, (0.0, MAX_STEP_DEG), true)
         .map_err(super::UsageError)?;
     let machine = super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
     let files: Vec<PathBuf> = machine

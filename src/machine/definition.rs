@@ -416,7 +416,12 @@ impl Source<'_> {
         value: f64,
         max: f64,
     ) -> Result<f64, MachineError> {
-        check_magnitude(key, unit, value, max).map_err(|m| self.invalid(span, key, m))
+        self.finite(span.clone(), key, &[value])?;
+        check_magnitude(key, unit, value, max).map_err(|m| {
+            // The key is named before the message already.
+            let m = m.strip_prefix(&format!("{key} = ")).unwrap_or(&m);
+            self.invalid(span, key, m)
+        })
     }
 
     fn range(&self, key: &str, value: &Spanned<[f64; 2]>) -> Result<[f64; 2], MachineError> {

@@ -46,8 +46,14 @@ pub fn check_range(
         format!("{lo} to {hi} {unit}")
     };
     Err(if value.is_finite() {
+        // 1e300 as written, not as 301 digits.
+        let shown = if value.abs() >= 1e6 {
+            format!("{value:e}")
+        } else {
+            format!("{value}")
+        };
         format!(
-            "{name} = {value} {unit} is beyond what a machine tool can have: the range is {range}"
+            "{name} = {shown} {unit} is beyond what a machine tool can have: the range is {range}"
         )
     } else {
         format!("{name} = {value} is not a finite number: the range is {range}")
