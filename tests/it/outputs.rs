@@ -1071,7 +1071,15 @@ fn export_does_not_replace_files_without_force() {
 fn the_model_cache_opens_only_regular_files() {
     let w = Workshop::new();
     let run = || {
-        let out = w.run(&["fit", "m.toml", "--model-cache", "cache"]);
+        let out = w.run(&[
+            "compensate",
+            "m.toml",
+            "part.nc",
+            "-o",
+            "o.nc",
+            "--model-cache",
+            "cache",
+        ]);
         assert_success(&out);
     };
     run();
