@@ -140,17 +140,32 @@ impl ModelArgs {
 
 /// Load a machine and fit its error model, printing what was not measured to stderr.
 pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
+    let machine = load_machine(path, args)?;
+    fit_model(machine, path, args)
+}
+
+/// The machine file and its tables, read as `args` says (no model yet).
+pub fn load_machine(path: &Path, args: &ModelArgs) -> anyhow::Result<Machine> {
     if args.fit_select == crate::nurbs::Selection::Cv && args.fit_method.is_some() {
         return Err(super::UsageError(
             "--fit-method belongs to the paper's selection: add --fit-select emax".into(),
         )
         .into());
     }
-    let policy: ExtrapolationPolicy = args.extrapolate.into();
     let options = crate::machine::LoadOptions {
-        extrapolation: policy,
+        extrapolation: args.extrapolate.into(),
     };
-    let machine = Machine::load_with(path, &options)?;
+    Ok(Machine::load_with(path, &options)?)
+}
+
+/// The error model of a loaded machine (fitted, from the cache or from
+/// `--model`), printing what was not measured to stderr.
+pub fn fit_model(
+    machine: Machine,
+    path: &Path,
+    args: &ModelArgs,
+) -> anyhow::Result<(Machine, ErrorModel)> {
+    let policy: ExtrapolationPolicy = args.extrapolate.into();
     let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
         fit: crate::nurbs::FitOptions {
@@ -949,14 +964,13 @@ mod tests {
 /// The files a command reads and the files it writes. [`CommandFiles::check`]
 /// runs before anything is computed: an output that is an input or another
 /// output is a usage error (exit 2) naming both; an output that cannot be
-/// replaced (read-only, a dangling link, a missing folder) is an error.
+/// replaced (read-only, a dangling link, a folder that cannot be created) is
+/// an error. A missing folder is not: it is created when the outputs are
+/// written (`crate::io`'s one rule for output folders).
 #[derive(Debug, Default)]
 pub struct CommandFiles {
     inputs: Vec<crate::io::NamedPath>,
     outputs: Vec<crate::io::NamedPath>,
-    /// Outputs written into a folder the command creates (not checked for
-    /// writability before it exists).
-    derived: Vec<crate::io::NamedPath>,
 }
 
 impl CommandFiles {
@@ -975,12 +989,6 @@ impl CommandFiles {
         if let Some(path) = path {
             self.outputs.push(crate::io::NamedPath::new(role, path));
         }
-        self
-    }
-
-    /// An output in a folder that the command creates when it is missing.
-    pub fn output_in_new_folder(mut self, role: &str, path: &Path) -> CommandFiles {
-        self.derived.push(crate::io::NamedPath::new(role, path));
         self
     }
 
@@ -1005,9 +1013,7 @@ impl CommandFiles {
     }
 
     pub fn check(&self) -> anyhow::Result<()> {
-        let outputs: Vec<crate::io::NamedPath> =
-            self.outputs.iter().chain(&self.derived).cloned().collect();
-        crate::io::check_outputs(&self.inputs, &outputs)
+        crate::io::check_outputs(&self.inputs, &self.outputs)
             .map_err(|e| super::UsageError(e.to_string()))?;
         for output in &self.outputs {
             if !crate::io::is_stdio(&output.path) {

@@ -563,17 +563,16 @@ fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
     }
 }
 
-/// FNV-1a 64 over the error-table files' bytes, in axis order (the data the
-/// model was fitted to; a `--model` file is checked against the same tables),
+/// FNV-1a 64 over the error-table files' bytes as they were read (the data the
+/// model was built from, not the files read again; a `--model` file is
+/// checked against the same tables), in axis order,
 /// then over the machine file's own error constants: the squareness, the
 /// rotary location errors and the `[reversal]` constants (0 where absent), so
 /// that two machine files with the same tables but other constants differ.
 fn model_hash(machine: &crate::machine::Machine) -> anyhow::Result<Fnv1a64> {
     let mut hash = Fnv1a64::default();
     for table in machine.tables.iter().flatten() {
-        let bytes = std::fs::read(&table.path)
-            .with_context(|| format!("cannot read {}", table.path.display()))?;
-        hash.update(&bytes);
+        hash.update(table.text.as_bytes());
     }
     let constants = machine
         .squareness

@@ -252,23 +252,17 @@ fn check_files(args: &Args, tables: &[ErrorTable], jobs: &[Job<'_>]) -> anyhow::
     if let Some(dir) = &args.plot {
         for job in jobs {
             let name = format!("{}.svg", job.table.columns[job.column].name);
-            files = files.output_in_new_folder("the plot (--plot)", &dir.join(name));
+            files = files.output("(--plot)", Some(&dir.join(name)));
         }
     }
     files.check()?;
     Ok(())
 }
 
-/// FNV-1a 64 of every table file's bytes (the report names what it fitted).
+/// FNV-1a 64 of every table file's bytes as they were read and fitted (the
+/// report names what it fitted).
 fn table_hashes(tables: &[ErrorTable]) -> anyhow::Result<Vec<u64>> {
-    tables
-        .iter()
-        .map(|t| {
-            std::fs::read(&t.path)
-                .map(|b| fnv1a64(&b))
-                .with_context(|| format!("cannot read {}", t.path.display()))
-        })
-        .collect()
+    Ok(tables.iter().map(|t| fnv1a64(t.text.as_bytes())).collect())
 }
 
 /// Fits every column, in parallel.
@@ -414,7 +408,6 @@ fn write_plots(
     jobs: &[Job<'_>],
     fits: &[crate::nurbs::SmemCurve],
 ) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for (job, curve) in jobs.iter().zip(fits) {
         let column = &job.table.columns[job.column];
         let s = curve.stats();

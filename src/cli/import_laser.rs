@@ -71,6 +71,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ("-o", super::common::is_stdout(Some(&args.output))),
         ("--report", super::common::is_stdout(args.report.as_deref())),
     ])?;
+    // Every output against every input (the laser files, through links) and
+    // the other output, before anything is read.
+    let mut check = super::common::CommandFiles::new();
+    for arg in &args.files {
+        check = check.input("the laser file", Some(&split_source(arg).1));
+    }
+    check
+        .output("-o", Some(&args.output))
+        .output("--report", args.report.as_deref())
+        .check()?;
     let mut files = Vec::new();
     for arg in &args.files {
         let (parameter, path) = split_source(arg);
@@ -104,10 +114,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })
         })
         .transpose()?;
+    // Both or neither: a report that cannot be written leaves -o as it was.
+    let outputs = crate::io::OutputSet::begin();
     crate::io::write_file_atomic(&args.output, table.as_bytes())?;
     if let (Some(path), Some(text)) = (&args.report, &report) {
         crate::io::write_file_atomic(path, text.as_bytes())?;
     }
+    outputs.commit()?;
     let layouts: Vec<&str> = import.files.iter().map(|f| f.layout.name()).collect();
     let first = &import.parameters[0];
     crate::cli::humanln!(

@@ -57,7 +57,9 @@ command took, and with `error` each parameter's contribution (as `error --verbos
     long_about = "Reads the G-code a CAM system wrote, predicts where the real machine puts the tool \
 from its measured error tables (fitted as cubic NURBS curves, the SMEM), and rewrites the program \
 so the part comes out right. Files use the formats of the project's docs (machine TOML, error CSV, \
-inspection plans, measurements); `-` means standard input or output.",
+inspection plans, measurements); `-` means standard input or output. Outputs: no option writes over \
+an input or another output; a command writes all its outputs or none; a missing folder of an output \
+is created (one that cannot be, refused before anything is computed).",
     after_help = AFTER_HELP
 )]
 pub struct Cli {

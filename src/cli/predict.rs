@@ -157,6 +157,7 @@ impl<'a> Job<'a> {
             .program_args(&args.read)
             .output("--report", args.report.as_deref())
             .output("--html", args.html.as_deref())
+            .output("--csv", args.csv.as_deref())
             .check()?;
         Ok(Job {
             args,

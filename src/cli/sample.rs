@@ -150,7 +150,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let mut command_files = super::common::CommandFiles::new().machine(&machine);
     for (name, _) in &files {
-        command_files = command_files.output_in_new_folder("the sample file", &out_dir.join(name));
+        command_files = command_files.output("the sample file", Some(&out_dir.join(name)));
     }
     command_files.check()?;
     // A file that holds other bytes is replaced only with --force; one that

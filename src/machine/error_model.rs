@@ -105,13 +105,10 @@ the model is not defined there (use --extrapolate hold to hold the end values)",
     },
 }
 
-/// FNV-1a 64 of a table file's bytes (what fitted-model files record).
+/// FNV-1a 64 of a table file's bytes as they were read (what fitted-model
+/// files record).
 fn table_hash(table: &ErrorTable) -> Result<u64, ModelError> {
-    let bytes = std::fs::read(&table.path).map_err(|source| crate::io::InputError {
-        path: table.path.clone(),
-        source,
-    })?;
-    Ok(fnv1a64(&bytes))
+    Ok(fnv1a64(table.text.as_bytes()))
 }
 
 /// Curves of one measured axis.

@@ -769,7 +769,9 @@ fn cases() -> Vec<Case> {
             vec![("ok.csv", measured(&[], 30))],
             WRITE_MACHINE_NO_FOLDER,
             1,
-            &["cannot write {d}/ok.nc/out.toml: its folder {d}/ok.nc does not exist"],
+            &[
+                "cannot write {d}/ok.nc/out.toml: {d}/ok.nc is not a folder, so the output's folder cannot be created",
+            ],
         ),
         case(
             "`diagnose --write-machine` output",
@@ -1139,6 +1141,233 @@ fn cases() -> Vec<Case> {
     ]
 }
 
+/// The head-table chain machine's text with `from` replaced by `to`.
+fn chain_machine(from: &str, to: &str) -> Vec<u8> {
+    let text = std::fs::read_to_string(root().join("machines/head-table.toml")).unwrap();
+    assert!(text.contains(from), "{from}");
+    text.replacen(from, to, 1).into_bytes()
+}
+
+/// Issue 38: the numbers a user gives within what a machine tool can have,
+/// the outputs of `import-laser` and `export` checked against the inputs,
+/// `--lenient` words passed through as written, echoes cut.
+fn issue_38_cases() -> Vec<Case> {
+    let long_cell = "9".repeat(1000);
+    let long_line = "9".repeat(100_000);
+    let leak = |s: String| -> &'static str { Box::leak(s.into_boxed_str()) };
+    vec![
+        case(
+            "machine file (TOML)",
+            "`[reversal] X = 1e6` (µm)",
+            vec![("bad.toml", with_reversal("X = 1e6"))],
+            MACHINE,
+            1,
+            &[
+                "`reversal.X`: 1e6 µm is beyond what a machine tool can have: the range is -1000 to 1000 µm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "`[reversal] X = 1e300`",
+            vec![("bad.toml", with_reversal("X = 1e300"))],
+            MACHINE,
+            1,
+            &["is beyond what a machine tool can have"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a location error of 1e20 µm",
+            vec![("bad.toml", machine("EY0A = 12.7", "EY0A = 1e20"))],
+            MACHINE,
+            1,
+            &[
+                "`location.EY0A`: 1e20 µm is beyond what a machine tool can have: the range is -10000 to 10000 µm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a squareness of 1e9 µrad",
+            vec![("bad.toml", machine("s_xy = -39.9", "s_xy = 1e9"))],
+            MACHINE,
+            1,
+            &["`squareness.s_xy`: 1e9 µrad is beyond what a machine tool can have"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a tool length of 1e300 mm",
+            vec![("bad.toml", machine("length = 100.0", "length = 1e300"))],
+            MACHINE,
+            1,
+            &[
+                "`tool.length`: 1e300 mm is beyond what a machine tool can have: the range is -5000 to 5000 mm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `direction` of 4 numbers",
+            vec![(
+                "bad.toml",
+                chain_machine(
+                    "direction = [0.0, 1.0, 0.0]",
+                    "direction = [0.0, 1.0, 0.0, 7.0]",
+                ),
+            )],
+            MACHINE,
+            1,
+            &["`axes.B.direction`: expected 3 numbers [x, y, z], got 4"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `point` of 2 numbers",
+            vec![(
+                "bad.toml",
+                chain_machine("point = [0.0, 0.0, 150.0]", "point = [0.0, 150.0]"),
+            )],
+            MACHINE,
+            1,
+            &["`axes.B.point`: expected 3 numbers [x, y, z], got 2"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `point` at 1e20 mm",
+            vec![(
+                "bad.toml",
+                chain_machine("point = [0.0, 0.0, 150.0]", "point = [0.0, 0.0, 1e20]"),
+            )],
+            MACHINE,
+            1,
+            &[
+                "`axes.B.point`: 1e20 mm is beyond what a machine tool can have: the range is -100000 to 100000 mm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `direction` too large to normalise (1e300 × 3)",
+            vec![(
+                "bad.toml",
+                chain_machine(
+                    "direction = [0.0, 1.0, 0.0]",
+                    "direction = [1e300, 1e300, 1e300]",
+                ),
+            )],
+            MACHINE,
+            1,
+            &["too large to normalise"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a 100 000-byte string where a number goes (the message cut)",
+            vec![(
+                "bad.toml",
+                machine("length = 100.0", leak(format!("length = \"{long_line}\""))),
+            )],
+            MACHINE,
+            1,
+            &["bytes)"],
+        ),
+        case(
+            "error table (CSV)",
+            "a value of 1e300 µm",
+            table(|l| l[3] = "-100,1e300,0.4,-0.2,1.2,0.9,-0.3".into()),
+            TABLE,
+            1,
+            &[
+                "EXX = 1e300 µm is beyond what a machine tool can have: the range is -10000 to 10000 µm",
+            ],
+        ),
+        case(
+            "error table (CSV)",
+            "a 1000-byte cell (the message cut)",
+            table(|l| l[3] = format!("-100,{}x,0.4,-0.2,1.2,0.9,-0.3", long_cell)),
+            TABLE,
+            1,
+            &["… (1001 bytes)` is not a finite number"],
+        ),
+        case(
+            "error table (CSV)",
+            "a 100 000-byte line",
+            table(|l| l[3] = long_line.clone()),
+            TABLE,
+            1,
+            &["line of 100000 bytes, longer than volcomp's limit of 65536 bytes"],
+        ),
+        case(
+            "inspection plan (CSV)",
+            "a 1000-byte cell (the message cut)",
+            vec![(
+                "bad.csv",
+                plan_rows(&[leak(format!("p1,{long_cell}x,0,0,0,0,1"))]),
+            )],
+            PLAN,
+            1,
+            &["… (1001 bytes)`"],
+        ),
+        case(
+            "inspection plan (CSV)",
+            "a 100 000-byte line",
+            vec![("bad.csv", plan_rows(&[leak(long_line.clone())]))],
+            PLAN,
+            1,
+            &["line of 100000 bytes, longer than volcomp's limit of 65536 bytes"],
+        ),
+        case(
+            "parameter file (.var)",
+            "a 1000-byte value (the message cut)",
+            vec![("bad.var", text(leak(format!("5220 {long_cell}x\n"))))],
+            VAR,
+            1,
+            &["… (1001 bytes)` is not a finite number"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`-o` naming the laser file itself",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv --axis X -o {d}/bad.csv",
+            2,
+            &["-o {d}/bad.csv is the laser file {d}/bad.csv (the same file)"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`-o` and `--report` the same file",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv --axis X -o {d}/out.csv --report {d}/out.csv",
+            2,
+            &["-o {d}/out.csv and --report {d}/out.csv are the same file"],
+        ),
+        case(
+            "export folder",
+            "`export tables -o` the folder of the machine's tables",
+            vec![],
+            "export tables {d}/ok.toml -o {d}/ref-trt --model {d}/fit.json",
+            2,
+            &["(-o) {d}/ref-trt/x.csv is the error table"],
+        ),
+        case(
+            "export setting",
+            "`export tables --step 1e300`",
+            vec![],
+            "export tables {d}/ok.toml -o {d}/out.d --model {d}/fit.json --step 1e300",
+            2,
+            &[
+                "--step = 1e300 mm is beyond what a machine tool can have: the range is more than 0 and at most 100000 mm",
+            ],
+        ),
+        case(
+            "program",
+            "`B45 U3 V4 W10 W-7.5` on an X Y Z A C machine under --lenient (accepted, words kept as written)",
+            vec![(
+                "bad.nc",
+                text(
+                    "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 B45 F500\nG1 X6 U3 V4 W10\nG1 X7 W-7.5\nM30\n%\n",
+                ),
+            )],
+            "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --lenient",
+            0,
+            &["8 blocks read"],
+        ),
+    ]
+}
+
 /// A laser file: `header`, then targets 0, 10, … 70 with run 1 up and down
 /// (lines 2-17), then `extra` rows.
 fn laser_rows(header: &str, extra: &[&str]) -> Vec<u8> {
@@ -1215,7 +1444,7 @@ fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
     let dir = scratch();
     let d = dir.path().display().to_string();
     let mut rows = Vec::new();
-    for c in cases() {
+    for c in cases().into_iter().chain(issue_38_cases()) {
         for (name, bytes) in &c.files {
             let bytes = match bytes.as_slice() {
                 b"STALE" => stale_model(dir.path()),
@@ -1298,4 +1527,37 @@ first line of the summary.\n\n\
             "docs/bad-inputs.md is stale: run VOLCOMP_WRITE_BAD_INPUTS=1 cargo test --release --locked bad_inputs"
         );
     }
+}
+
+/// Under `--lenient`, a word of a letter the machine lacks (B45, U3 V4 W10,
+/// W-7.5 on an X Y Z A C machine) is written as it was read, byte for byte,
+/// never as a rewritten zero.
+#[test]
+fn lenient_words_of_letters_the_machine_lacks_are_written_as_read() {
+    let dir = scratch();
+    let program = "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 B45 F500\nG1 X6 U3 V4 W10\nG1 X7 w-7.5\nM30\n%\n";
+    std::fs::write(dir.path().join("bad.nc"), program).unwrap();
+    let d = dir.path();
+    let out = volcomp()
+        .args(["compensate", "--lenient", "--model"])
+        .arg(d.join("fit.json"))
+        .arg(d.join("ok.toml"))
+        .arg(d.join("bad.nc"))
+        .arg("-o")
+        .arg(d.join("out.nc"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let written = std::fs::read_to_string(d.join("out.nc")).unwrap();
+    for word in [" B45 ", " U3 V4 W10", " w-7.5"] {
+        assert!(written.contains(word), "`{word}` not kept in:\n{written}");
+    }
+    assert!(
+        !written.contains("B0.0") && !written.contains("W0.0"),
+        "{written}"
+    );
 }

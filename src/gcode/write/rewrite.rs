@@ -98,6 +98,10 @@ pub struct RewriteOptions {
     /// Least significant digits of a recomputed G93 F (time is 1/F, so its
     /// relative precision is F's).
     pub min_significant_feed: u8,
+    /// The machine's axis letters: only their words are rewritten or added. A
+    /// word of another letter (passed through under `--lenient`) is written
+    /// as it was, byte for byte. Default: every letter.
+    pub axes: crate::axes::AxisSet,
 }
 
 impl Default for RewriteOptions {
@@ -107,6 +111,7 @@ impl Default for RewriteOptions {
             min_decimals_inch: 5,
             min_decimals_feed: 4,
             min_significant_feed: 7,
+            axes: crate::axes::AxisSet::ALL,
         }
     }
 }
@@ -198,7 +203,12 @@ pub fn rewrite_stream(
     mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
 ) -> Result<RewriteStats, RewriteError> {
     let mut run = run;
-    let mut rewriter = Rewriter::new(options, run.interpreter().options().initial_position);
+    let interpret = run.interpreter().options();
+    let options = RewriteOptions {
+        axes: interpret.axes,
+        ..options
+    };
+    let mut rewriter = Rewriter::new(options, interpret.initial_position);
     let mut via = Vec::new();
     let mut stats = RewriteStats::default();
     while let Some(step) = run.next() {
@@ -329,7 +339,7 @@ impl Rewriter {
                 let o = event.origin;
                 let (emitted, nominal) = (o.to_program(&self.emitted), o.to_program(&event.start));
                 let ctx = Context::new(block, event);
-                for axis in Axis::ALL {
+                for axis in self.options.axes.iter() {
                     let Some(w) = block
                         .words
                         .iter()
@@ -450,7 +460,7 @@ impl Rewriter {
         // Axis words.
         let mut last_axis_end = None;
         let mut appended: [Option<f64>; crate::axes::AXIS_COUNT] = [None; crate::axes::AXIS_COUNT];
-        for axis in Axis::ALL {
+        for axis in self.options.axes.iter() {
             let i = axis as usize;
             let unit = ctx.unit(axis);
             let base = if ctx.incremental {
@@ -790,7 +800,7 @@ impl Rewriter {
         }
         let mut moved = false;
         let mut new_emitted = self.emitted;
-        for axis in Axis::ALL {
+        for axis in self.options.axes.iter() {
             let unit = ctx.unit(axis);
             let base = if ctx.incremental {
                 self.emitted.get(axis)
