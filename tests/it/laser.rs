@@ -227,3 +227,205 @@ fn an_imported_table_is_fitted_and_compensated_with() {
     );
     assert!(dir.path().join("out.nc").exists());
 }
+
+/// One row of the layout table of docs/extensions.md: a fixture as laser
+/// software writes it, and what must be read from it.
+struct Export {
+    file: &'static str,
+    axis: &'static str,
+    reference: &'static str,
+    column: &'static str,
+    /// In the summary line of the file.
+    read_as: &'static str,
+    runs: usize,
+    reversal: f64,
+}
+
+/// Every export layout of docs/extensions.md gives the reference table (within
+/// the fixtures' noise) and its known reversal, and the summary says how the
+/// file was read (layout, separator, decimal mark, units, metadata, columns
+/// that hold no reading).
+#[test]
+fn exports_as_laser_software_writes_them_are_read() {
+    let rows = [
+        Export {
+            file: "x-carto-preamble.csv",
+            axis: "X",
+            reference: "machines/ref-trt/x.csv",
+            column: "EXX",
+            read_as: "EXX long; separator ,; decimal point; targets mm, deviations µm; 5 lines before the header (in the report); not readings (kept in the report): `Air temp (°C)` 20.1 to 20.26, `Material temp (°C)` 20.4 to 20.52, `Pressure (mbar)` 1011.7 to 1012.5, `Comment`",
+            runs: 5,
+            reversal: f64::NAN,
+        },
+        Export {
+            file: "z-german-latin1.csv",
+            axis: "Z",
+            reference: "machines/ref-trt/z.csv",
+            column: "EZZ",
+            read_as: "EZZ long; separator ;; decimal comma; Latin-1 text; targets mm, deviations µm; 2 lines before the header (in the report); not readings (kept in the report): `Lufttemperatur [°C]` 20.2, `Bemerkung`",
+            runs: 4,
+            reversal: 3.0,
+        },
+        Export {
+            file: "y-german-wide.tsv",
+            axis: "Y",
+            reference: "machines/ref-trt/y.csv",
+            column: "EYY",
+            read_as: "EYY wide; separator tab; decimal comma; targets mm, deviations µm (units line 2)",
+            runs: 3,
+            reversal: 4.0,
+        },
+        Export {
+            file: "y-inch-paired.csv",
+            axis: "Y",
+            reference: "machines/ref-trt/y.csv",
+            column: "EYY",
+            read_as: "EYY paired; separator ,; decimal point; targets in, deviations µin",
+            runs: 3,
+            reversal: 4.0,
+        },
+        Export {
+            file: "z-units-line-mil.csv",
+            axis: "Z",
+            reference: "machines/ref-trt/z.csv",
+            column: "EZZ",
+            read_as: "EZZ long; separator ,; decimal point; targets mm, deviations mil (units line 2)",
+            runs: 3,
+            reversal: 3.0,
+        },
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for row in rows {
+        let out_path = dir.path().join("t.csv");
+        let report_path = dir.path().join("r.json");
+        let out = volcomp()
+            .arg("import-laser")
+            .arg(root().join("tests/data/laser").join(row.file))
+            .args(["--axis", row.axis, "-o"])
+            .arg(&out_path)
+            .arg("--report")
+            .arg(&report_path)
+            .output()
+            .unwrap();
+        assert_success(&out);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            stdout.contains(&format!("{}: {}\n", row.file, row.read_as)),
+            "{}: {stdout}",
+            row.file
+        );
+        let t = ErrorTable::read(&out_path, None).unwrap();
+        let r = ErrorTable::read(&root().join(row.reference), None).unwrap();
+        assert_eq!(t.positions.len(), r.positions.len(), "{}", row.file);
+        let got = &t.column(row.column).unwrap().values;
+        let want = &r.column(row.column).unwrap().values;
+        for k in 0..t.positions.len() {
+            assert!(
+                (t.positions[k] - r.positions[k]).abs() < 1e-5,
+                "{}: position {} vs {}",
+                row.file,
+                t.positions[k],
+                r.positions[k]
+            );
+            assert!(
+                (got[k] - want[k]).abs() < 0.5,
+                "{}: {} at {}: {} vs {}",
+                row.file,
+                row.column,
+                r.positions[k],
+                got[k],
+                want[k]
+            );
+        }
+        let rev = t.reversal.as_ref().expect("REVERSAL");
+        for (p, b) in t.positions.iter().zip(rev) {
+            let known = if row.reversal.is_nan() {
+                6.0 + p / 200.0
+            } else {
+                row.reversal
+            };
+            assert!((b - known).abs() < 0.8, "{}: B at {p} = {b}", row.file);
+        }
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+        assert_eq!(report["parameters"][0]["runs_up"], row.runs, "{}", row.file);
+        assert_eq!(
+            report["parameters"][0]["runs_down"], row.runs,
+            "{}",
+            row.file
+        );
+    }
+}
+
+/// The CARTO-style export's metadata lines and other columns are in the report.
+#[test]
+fn the_report_keeps_the_metadata_and_the_other_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = volcomp()
+        .arg("import-laser")
+        .arg(root().join("tests/data/laser/x-carto-preamble.csv"))
+        .args(["--axis", "X", "-o"])
+        .arg(dir.path().join("t.csv"))
+        .arg("--report")
+        .arg(dir.path().join("r.json"))
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    let file = &report["files"][0];
+    assert_eq!(file["preamble"][0], "Renishaw CARTO Explore export");
+    assert_eq!(file["preamble"][2], "Axis,X");
+    assert_eq!(file["header_line"], 7);
+    assert_eq!(file["decimal_mark"], "point");
+    assert_eq!(file["other_columns"][0]["name"], "Air temp (°C)");
+    assert_eq!(file["other_columns"][3]["name"], "Comment");
+    assert_eq!(file["other_columns"][3]["cells"], 1);
+}
+
+/// One measurement counts once: the same file under another spelling, through
+/// a symbolic link, as `EXX=FILE`, or a copy of its bytes is an error naming both.
+#[test]
+fn the_same_measurement_given_twice_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = dir.path().join("runs.csv");
+    std::fs::copy(root().join("tests/data/laser/x-long.csv"), &runs).unwrap();
+    std::fs::copy(&runs, dir.path().join("copy.csv")).unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&runs, dir.path().join("link.csv")).unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["runs.csv", "./runs.csv"],
+            "./runs.csv (file 2) is the same file as runs.csv (file 1)",
+        ),
+        (
+            &["runs.csv", "EXX=runs.csv"],
+            "runs.csv (file 2) is the same file as runs.csv (file 1)",
+        ),
+        (
+            &["runs.csv", "copy.csv"],
+            "copy.csv (file 2) has the same bytes as runs.csv (file 1)",
+        ),
+        #[cfg(unix)]
+        (
+            &["runs.csv", "link.csv"],
+            "link.csv (file 2) is the same file as runs.csv (file 1)",
+        ),
+    ];
+    for (files, message) in cases {
+        let out = volcomp()
+            .current_dir(dir.path())
+            .arg("import-laser")
+            .args(*files)
+            .args(["--axis", "X", "-o", "t.csv"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{files:?}: {stderr}");
+        assert!(
+            stderr.contains(message) && stderr.contains("one measurement counts once"),
+            "{files:?}: {stderr}"
+        );
+        assert!(!dir.path().join("t.csv").exists());
+    }
+}
