@@ -344,6 +344,14 @@ fn same_targets(
     )))
 }
 
+impl ParameterResult {
+    /// Every target has two runs or more in each direction: the table gets
+    /// the parameter's `u_` column.
+    pub fn has_uncertainty(&self) -> bool {
+        self.targets.iter().all(|t| t.uncertainty.is_some())
+    }
+}
+
 impl LaserImport {
     /// The axis's error table (formats.md "Error table", with `REVERSAL`):
     /// `position`, each parameter's mean bidirectional deviation, and after the
@@ -353,12 +361,17 @@ impl LaserImport {
         let positioning = positioning_parameter(self.axis);
         let _ = writeln!(
             out,
-            "# volcomp import-laser: axis {}, {} file{}; mean bidirectional deviation per target (ISO 230-2 x̄_i){}",
+            "# volcomp import-laser: axis {}, {} file{}; mean bidirectional deviation per target (ISO 230-2 x̄_i){}{}",
             self.axis.letter(),
             self.files.len(),
             if self.files.len() == 1 { "" } else { "s" },
             if self.parameters.iter().any(|p| p.parameter == positioning) {
                 "; REVERSAL = x̄_i↑ − x̄_i↓ (B_i)"
+            } else {
+                ""
+            },
+            if self.parameters.iter().any(ParameterResult::has_uncertainty) {
+                "; u_<parameter> = ½√(s_i↑²/n↑ + s_i↓²/n↓), the standard uncertainty of x̄_i"
             } else {
                 ""
             }
@@ -368,6 +381,9 @@ impl LaserImport {
             header.push(p.parameter.clone());
             if p.parameter == positioning {
                 header.push("REVERSAL".into());
+            }
+            if p.has_uncertainty() {
+                header.push(format!("u_{}", p.parameter));
             }
         }
         let _ = writeln!(out, "{}", header.join(","));
@@ -381,6 +397,9 @@ impl LaserImport {
                 let _ = write!(out, ",{:.4}", s.mean + 0.0);
                 if p.parameter == positioning {
                     let _ = write!(out, ",{:.4}", s.reversal + 0.0);
+                }
+                if let (true, Some(u)) = (p.has_uncertainty(), s.uncertainty) {
+                    let _ = write!(out, ",{:.4}", u + 0.0);
                 }
             }
             out.push('\n');
