@@ -26,8 +26,8 @@
 //! (targets mm or degrees, deviations µm or µrad) and within the physical ranges
 //! ([`MAX_DEVIATION`], [`MAX_TARGET_MM`], [`MAX_TARGET_DEG`]); every error names
 //! the file, the line and the column (1-based characters) of the cell, and echoes
-//! at most [`EXCERPT_BYTES`] of it; a line is read with at most
-//! [`MAX_LINE_BYTES`] of it in memory.
+//! at most 160 bytes (`EXCERPT_BYTES`) of it; a line is read with at most
+//! 64 KiB (`MAX_LINE_BYTES`) of it in memory.
 use std::borrow::Cow;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -38,8 +38,8 @@ use super::vocabulary::{
     split_unit, strip_brackets, target_unit,
 };
 use crate::axes::Axis;
-pub use crate::gcode::error::EXCERPT_BYTES;
-pub use crate::gcode::syntax::reader::MAX_LINE_BYTES;
+use crate::gcode::error::EXCERPT_BYTES;
+use crate::gcode::syntax::reader::MAX_LINE_BYTES;
 
 /// The largest |deviation| read: µm of a length parameter (100 mm), µrad of
 /// an angle (0.1 rad). A positioning error beyond it is no machine tool's.
@@ -152,7 +152,7 @@ pub struct Reading {
 /// what it held.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct OtherColumn {
-    /// The header cell as written (cut to [`EXCERPT_BYTES`]).
+    /// The header cell as written (cut to 160 bytes (`EXCERPT_BYTES`)).
     pub name: String,
     /// Its unit (header or units line; empty: none given).
     pub unit: String,
@@ -199,7 +199,7 @@ pub struct FileReadings {
     /// The line of a units line under the header, if it had one.
     pub units_line: Option<usize>,
     /// The metadata lines before the header (blank lines left out; each cut to
-    /// [`EXCERPT_BYTES`]).
+    /// 160 bytes (`EXCERPT_BYTES`)).
     pub preamble: Vec<String>,
     /// The columns that hold no reading, in header order.
     pub other_columns: Vec<OtherColumn>,
@@ -244,7 +244,7 @@ pub fn is_angular(parameter: &str) -> bool {
     matches!(parameter.as_bytes().get(1), Some(b'A' | b'B' | b'C'))
 }
 
-/// At most [`EXCERPT_BYTES`] of `text` (cut at a character), for messages.
+/// At most 160 bytes (`EXCERPT_BYTES`) of `text` (cut at a character), for messages.
 pub(crate) fn excerpt(text: &str) -> Cow<'_, str> {
     if text.len() <= EXCERPT_BYTES {
         return Cow::Borrowed(text);
