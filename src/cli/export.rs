@@ -228,11 +228,12 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         ));
         if !f.met {
             eprintln!(
-                "warning: {}: {} lines do not meet --tol-um {} (within {:.4} µm); raise --max-lines or --tol-um",
+                "warning: {}: {} lines do not meet --tol-um {} (within {:.4} µm); {}",
                 f.axis.letter(),
                 f.nominals.len(),
                 args.tol_um,
-                f.max_error_um
+                f.max_error_um,
+                unmet_tolerance_advice(args.max_lines, f.max_error_um)
             );
         }
     }
@@ -265,6 +266,24 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         crate::cli::outln!("{line}");
     }
     Ok(())
+}
+
+/// What to do when a COMP_FILE of `max_lines` lines stays `reached_um` from
+/// the fitted curve: raise --max-lines while it is below LinuxCNC's limit;
+/// at the limit, say so, and that only a larger tolerance (or a smoother fit,
+/// which needs fewer lines) remains.
+fn unmet_tolerance_advice(max_lines: usize, reached_um: f64) -> String {
+    if max_lines < MAX_COMP_LINES {
+        format!(
+            "raise --max-lines (now {max_lines}, LinuxCNC takes up to {MAX_COMP_LINES}) or --tol-um"
+        )
+    } else {
+        format!(
+            "--max-lines is at LinuxCNC's limit of {MAX_COMP_LINES} lines a joint: give --tol-um {:.4} or more, \
+or fit a smoother curve (fit --select cv, the default) that fewer lines follow",
+            (reached_um * 1e4).ceil() / 1e4
+        )
+    }
 }
 
 fn tables(args: &TablesArgs) -> anyhow::Result<()> {

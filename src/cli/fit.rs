@@ -8,8 +8,7 @@ use rayon::prelude::*;
 use crate::axes::Axis;
 use crate::machine::table::ErrorTable;
 use crate::nurbs::{
-    FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fit_parameter,
-    fnv1a64,
+    FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fnv1a64,
 };
 use crate::report::fit_plot::{PlotLabels, plot_fit};
 
@@ -283,9 +282,14 @@ fn fit_columns(
                 periodic: job.table.one_revolution,
                 ..base.clone()
             };
-            fit_parameter(&job.table.positions, &column.values, job.kind, &options).with_context(
-                || format!("{}: cannot fit {}", job.table.path.display(), column.name),
+            crate::nurbs::fit_parameter_with_uncertainty(
+                &job.table.positions,
+                &column.values,
+                column.uncertainty.as_deref(),
+                job.kind,
+                &options,
             )
+            .with_context(|| format!("{}: cannot fit {}", job.table.path.display(), column.name))
         })
         .collect()
 }

@@ -20,8 +20,7 @@ use crate::axes::{Axes, Axis};
 use crate::kinematics::error_values::PARAMETER_COUNT;
 use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
 use crate::nurbs::{
-    FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fit_parameter,
-    fnv1a64,
+    FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fnv1a64,
 };
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -255,13 +254,19 @@ impl ErrorModel {
                     periodic: table.one_revolution,
                     ..options.fit.clone()
                 };
-                fit_parameter(&table.positions, &column.values, kind, &fit)
-                    .map(|curve| (*slot, *k, curve))
-                    .map_err(|source| ModelError::Fit {
-                        table: table.path.clone(),
-                        parameter: name.to_string(),
-                        source,
-                    })
+                crate::nurbs::fit_parameter_with_uncertainty(
+                    &table.positions,
+                    &column.values,
+                    column.uncertainty.as_deref(),
+                    kind,
+                    &fit,
+                )
+                .map(|curve| (*slot, *k, curve))
+                .map_err(|source| ModelError::Fit {
+                    table: table.path.clone(),
+                    parameter: name.to_string(),
+                    source,
+                })
             })
             .collect::<Result<_, _>>()?;
         let mut axes = Self::empty_axes(machine);

@@ -29,6 +29,10 @@ pub struct TableColumn {
     pub name: String,
     /// One value per position: µm for E{X,Y,Z}*, µrad for E{A,B,C}*.
     pub values: Vec<f64>,
+    /// The standard uncertainty of every value, when the table has its
+    /// `u_<name>` column (`import-laser` writes it from the runs' scatter):
+    /// the fit weights by it and takes it as the noise. Same units.
+    pub uncertainty: Option<Vec<f64>>,
 }
 
 impl TableColumn {
@@ -139,6 +143,10 @@ impl ErrorTable {
         let mut positions: Vec<f64> = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); header.params.len()];
         let mut reversal: Vec<f64> = Vec::new();
+        let mut uncertainty: Vec<Option<Vec<f64>>> = vec![None; header.params.len()];
+        for &(_, slot) in &header.uncertainties {
+            uncertainty[slot] = Some(Vec::new());
+        }
         let mut last_line = header_line;
         for (line, row) in lines {
             last_line = line;
@@ -195,6 +203,19 @@ impl ErrorTable {
                 };
                 reversal.push(bounded(i, "REVERSAL", max, unit)?);
             }
+            for &(i, slot) in &header.uncertainties {
+                let u = number(i)?;
+                if u < 0.0 {
+                    return Err(at.invalid(
+                        line,
+                        Some(header.label(i)),
+                        format!("uncertainty {u} is negative: a standard uncertainty is >= 0"),
+                    ));
+                }
+                if let Some(column) = &mut uncertainty[slot] {
+                    column.push(u);
+                }
+            }
         }
         if positions.len() < MIN_ROWS {
             return Err(at.invalid(
@@ -219,7 +240,12 @@ impl ErrorTable {
             .params
             .into_iter()
             .zip(values)
-            .map(|((_, name), values)| TableColumn { name, values })
+            .zip(uncertainty)
+            .map(|(((_, name), values), uncertainty)| TableColumn {
+                name,
+                values,
+                uncertainty,
+            })
             .collect();
         Ok(ErrorTable {
             path: path.to_path_buf(),
@@ -275,6 +301,8 @@ struct TableHeader {
     position: usize,
     /// (column, upper-case parameter name), in file order.
     params: Vec<(usize, String)>,
+    /// (column, the parameter's slot in `params`) of each `u_<parameter>`.
+    uncertainties: Vec<(usize, usize)>,
     reversal: Option<usize>,
     axis: Axis,
 }
@@ -307,8 +335,20 @@ impl TableHeader {
         let mut inferred: Option<Axis> = axis;
         let mut params: Vec<(usize, String)> = Vec::new();
         let mut reversal: Option<usize> = None;
+        let mut u_columns: Vec<(usize, String)> = Vec::new();
         for (i, name) in names.iter().enumerate() {
             if i == position {
+                continue;
+            }
+            if let Some(parameter) = name.strip_prefix("U_") {
+                if u_columns.iter().any(|(_, p)| p == parameter) {
+                    return Err(at.invalid(
+                        line,
+                        Some(label(i)),
+                        format!("column `{}` appears twice", raw_names[i]),
+                    ));
+                }
+                u_columns.push((i, parameter.to_string()));
                 continue;
             }
             if name == "REVERSAL" {
@@ -365,11 +405,26 @@ impl TableHeader {
         let Some(axis) = inferred else {
             return Err(at.invalid(line, None, "no error columns: cannot tell the axis (name the columns like EXX or give the axis)".into()));
         };
+        let mut uncertainties = Vec::new();
+        for (i, parameter) in u_columns {
+            let Some(slot) = params.iter().position(|(_, n)| *n == parameter) else {
+                return Err(at.invalid(
+                    line,
+                    Some(label(i)),
+                    format!(
+                        "column `{}` is the uncertainty of {parameter}, but the table has no {parameter} column",
+                        raw_names[i]
+                    ),
+                ));
+            };
+            uncertainties.push((i, slot));
+        }
         Ok(TableHeader {
             width: names.len(),
             raw_names,
             position,
             params,
+            uncertainties,
             reversal,
             axis,
         })

@@ -984,18 +984,18 @@ fn cases() -> Vec<Case> {
             vec![("bad.csv", binary())],
             LASER,
             1,
-            &["{d}/bad.csv", "not UTF-8 text"],
+            &["{d}/bad.csv:1:1: byte 0x00 is not text"],
         ),
         case(
             "laser runs (CSV)",
-            "an unknown column",
+            "a column that is not a reading, its cells left out (accepted, named)",
             vec![(
                 "bad.csv",
                 laser_rows("target,run,direction,deviation,temperature", &[]),
             )],
-            LASER,
-            1,
-            &["{d}/bad.csv:1:32: unknown column `temperature`"],
+            "import-laser {d}/bad.csv --axis X -o {d}/out.csv",
+            0,
+            &["not readings (kept in the report): `temperature`"],
         ),
         case(
             "laser runs (CSV)",
@@ -1042,14 +1042,82 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "laser runs (CSV)",
-            "a quoted decimal comma with `,` separators (accepted)",
+            "a quoted decimal comma among decimal points",
             vec![(
                 "bad.csv",
                 laser_rows("target,run,direction,deviation", &["30,2,-,\"1,5\""]),
             )],
-            "import-laser {d}/bad.csv --axis X -o {d}/out.csv",
-            0,
-            &["axis X: 1 file (long)"],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: `1,5` writes a decimal comma, but this file writes a decimal point (first `1.5` at line 2, column 7)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`1.030` in a `;` file of decimal commas",
+            vec![(
+                "bad.csv",
+                text("target;run;direction;deviation\n0;1;+;0,0012\n10;1;+;1.030\n"),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:3:8: `1.030` writes a decimal point, but this file writes a decimal comma (first `0,0012` at line 2, column 7)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a deviation of 1e308",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-,1e308"]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: deviation `1e308` in column `deviation` is beyond a machine tool's positioning error (|deviation| ≤ 100000 µm = 100 mm)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "the same file twice",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv {d}/./bad.csv --axis X -o {d}/out.csv --report {d}/out.json",
+            1,
+            &[
+                "{d}/./bad.csv (file 2) is the same file as {d}/bad.csv (file 1): one measurement counts once",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a 100 000-byte line",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &[&"7".repeat(100_000)]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:65537: line of 100000 bytes: volcomp reads laser lines of at most 65536 bytes",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a 20 000-byte cell (echoed cut)",
+            vec![(
+                "bad.csv",
+                laser_rows(
+                    "target,run,direction,deviation",
+                    &[&format!("30,2,-,{}x", "1".repeat(20_000))],
+                ),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: `1111",
+                "… (20001 bytes)` in column `deviation` is not a finite number",
+            ],
         ),
         case(
             "laser runs (CSV)",
@@ -1089,11 +1157,11 @@ fn cases() -> Vec<Case> {
             "an unknown target unit",
             vec![(
                 "bad.csv",
-                laser_rows("target [inch],run,direction,deviation", &[]),
+                laser_rows("target [ft],run,direction,deviation", &[]),
             )],
             LASER,
             1,
-            &["{d}/bad.csv:1:1: target unit `inch`: axis X takes mm"],
+            &["{d}/bad.csv:1:1: target unit `ft`: axis X takes mm or inch (`in`)"],
         ),
         case(
             "laser runs (CSV)",
