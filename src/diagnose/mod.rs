@@ -24,6 +24,8 @@ pub mod followup;
 pub(crate) mod localization;
 pub(crate) mod machine_file;
 pub(crate) mod noise;
+#[cfg(any(test, feature = "testkit"))]
+pub mod oracle;
 pub(crate) mod plausibility;
 pub(crate) mod probing_program;
 pub(crate) mod report;
