@@ -266,6 +266,8 @@ struct Problem<'a> {
     floor: f64,
     sig: Signatures,
     folds: Folds,
+    /// The patch of every row (`selection::patches`).
+    patches: Vec<usize>,
     all_rows: Vec<usize>,
     /// Mean square of the residual with nothing fitted.
     mse_before: f64,
@@ -298,6 +300,8 @@ impl<'a> Problem<'a> {
             settings,
             model_plausible,
             cache,
+            patches: &self.patches,
+            fitted: BTreeMap::new(),
         }
     }
 
@@ -345,6 +349,7 @@ impl<'a> Problem<'a> {
         let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
         let mut sig = Signatures::new(&rows);
         let folds = Folds::new(&row_points, options.time_folds);
+        let patches = selection::patches(&row_points);
         // The error model's own columns: one per measured axis (what the model
         // attributes to its tables), and one for the rest of the prediction (the
         // machine file's position-independent errors: squareness, rotary location).
@@ -381,6 +386,7 @@ impl<'a> Problem<'a> {
             floor,
             sig,
             folds,
+            patches,
             named_cols,
             shape_cols,
             model_u2,
