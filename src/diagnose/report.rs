@@ -93,6 +93,27 @@ pub struct ModelCheck {
     /// remains (√(remaining² − σ²)/u; absent when u is 0 or nothing remains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub uncertainty_factor: Option<f64>,
+    /// The model's factors, with other effects, fit as well as a selection
+    /// without them (a rival the data cannot tell from it): the verdict is
+    /// given beside the selected effects (issue 36).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alternative: Option<ModelAlternative>,
+}
+
+/// A rival of the selection with the model's own factors in it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelAlternative {
+    /// The rival set's label (`thermal_drift + model factors`).
+    pub terms: String,
+    /// Its catalogue effects.
+    pub effects: Vec<String>,
+    /// `z` of the change from it to the selection (below the threshold: the
+    /// selection is not significantly better).
+    pub z: f64,
+    /// Its held-out RMS, µm.
+    pub heldout_rms_um: f64,
+    /// The factors `β` of its joint fit, per table (`1 + β` × the model's).
+    pub factors: BTreeMap<String, f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

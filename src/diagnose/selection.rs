@@ -178,11 +178,16 @@ impl Scorer<'_> {
             return most;
         }
         let zero = Vec::new();
-        let a = if from.len() == 0 { &zero } else { self.fitted.get(from).unwrap_or(&zero) };
-        let b = if to.len() == 0 { &zero } else { self.fitted.get(to).unwrap_or(&zero) };
-        if a.is_empty() && b.is_empty() {
+        let fitted = |t: &Terms| {
+            if t.len() == 0 {
+                Some(&zero)
+            } else {
+                self.fitted.get(t)
+            }
+        };
+        let (Some(a), Some(b)) = (fitted(from), fitted(to)) else {
             return most;
-        }
+        };
         let at = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(0.0);
         let patches = self.patches.iter().copied().max().map_or(0, |m| m + 1);
         let mut sums = vec![0.0; patches];
@@ -224,6 +229,7 @@ impl Scorer<'_> {
 
     /// The penalised held-out likelihood ratio of going from `from` to `to`.
     pub fn z(&self, from: &Terms, to: &Terms) -> f64 {
+
         let (a, b) = (self.mse(from), self.mse(to));
         let dp = self.params(to) as f64 - self.params(from) as f64;
         self.n() * (a - b) / self.variance(b, self.inflation(from, to)) - dp * self.n().ln()
@@ -430,3 +436,54 @@ pub(crate) fn patches(points: &[&PointContext]) -> Vec<usize> {
     let (bx, by) = (bands(0, 6), bands(1, 5));
     (0..n).map(|i| bx[i] + 6 * by[i]).collect()
 }
+
+/// A set of terms the data cannot tell from the selection (issue 36):
+/// every member significant in it, and the selection not significantly
+/// better than it on held-out points.
+#[derive(Clone, Debug)]
+pub(crate) struct Rival {
+    pub terms: Terms,
+    /// `z` of the change from the rival to the selection (below the threshold).
+    pub z: f64,
+    /// Held-out mean square error of the rival.
+    pub mse: f64,
+}
+
+/// The rivals of `current` among the sets scored (closest first, at most
+/// `MAX_RIVALS`): admissible sets whose members and subsets were all
+/// cross-validated, from which going to `current` is not significant.
+pub(crate) fn rivals(scorer: &Scorer, current: &Terms) -> Vec<Rival> {
+    if current.len() == 0 {
+        return Vec::new();
+    }
+    let mut list: Vec<Rival> = scorer
+        .cache
+        .keys()
+        .filter(|t| *t != current && t.len() > 0)
+        .filter(|t| {
+            (0..t.len()).all(|m| {
+                let w = t.without(m);
+                w.len() == 0 || scorer.cache.contains_key(&w)
+            })
+        })
+        .filter(|t| scorer.admissible(t))
+        .map(|t| Rival {
+            terms: t.clone(),
+            z: scorer.z(t, current),
+            mse: scorer.mse(t),
+        })
+        .filter(|r| r.z < scorer.settings.threshold)
+        .collect();
+    list.sort_by(|a, b| a.z.total_cmp(&b.z).then(a.terms.cmp(&b.terms)));
+    // The closest, and the closest with the model's factors (the verdict
+    // beside the effects).
+    let with_model = list.iter().position(|r| r.terms.model && !current.model);
+    let mut kept: Vec<Rival> = list.iter().take(MAX_RIVALS).cloned().collect();
+    if let Some(i) = with_model.filter(|&i| i >= MAX_RIVALS) {
+        kept.push(list[i].clone());
+    }
+    kept
+}
+
+/// Rivals reported at most.
+pub const MAX_RIVALS: usize = 3;
