@@ -1102,15 +1102,27 @@ fn effect_sentence(
 ) -> String {
     let advised: BTreeMap<String, f64> = list
         .iter()
-        .filter(|c| c.identifiable || (kind.is_nonlinear() && c.name == "tau" && c.plausible))
+        .filter(|c| c.advised(kind))
         .map(|c| (c.name.clone(), c.value))
         .collect();
     let mut sentence = report::machinist_sentence(kind, &advised, max_cut);
     let left_out: Vec<String> = list
         .iter()
-        .filter(|c| !advised.contains_key(&c.name))
+        .filter(|c| !advised.contains_key(&c.name) && !(c.identifiable && !c.distinguishable))
         .map(|c| c.display())
         .collect();
+    let near_zero: Vec<String> = list
+        .iter()
+        .filter(|c| c.identifiable && !c.distinguishable)
+        .map(|c| c.display())
+        .collect();
+    if !near_zero.is_empty() {
+        sentence.push_str(&format!(
+            " Not distinguishable from zero (within {:.0} σ), not an error to fix: {}.",
+            plausibility::DISTINGUISHABLE_SIGMAS,
+            near_zero.join(", ")
+        ));
+    }
     if !left_out.is_empty() {
         sentence.push_str(&format!(
             " Not determined by this part, left out of this advice: {}.",
@@ -1154,8 +1166,8 @@ fn assemble(
             id: p.used[i].id.clone(),
             point: p.used[i].point,
             time_min: p.used[i].time_min,
-            a_deg: p.used[i].joints.a,
-            c_deg: p.used[i].joints.c,
+            a_deg: p.used[i].joints.get(p.rotary[0]),
+            c_deg: p.used[i].joints.get(p.rotary[1]),
             measured_um: p.measured[i],
             predicted_um: p.predicted[i],
             residual_um: p.r0[i],
@@ -1193,6 +1205,7 @@ fn assemble(
         summary,
         selection_notes: picked.notes,
         residuals,
+        rotary_axes: p.rotary.iter().map(|a| a.letter().to_string()).collect(),
         model_check: outcome.model_check,
         local_anomalies: outcome.local_anomalies,
         followup_design: None,
