@@ -2,11 +2,11 @@
 //! region of the part, by A and C range, and by direction of travel.
 //!
 //! Invariant: every group lists its point count; empty groups are left out.
-use crate::axes::Axis;
 use super::noise::rms;
 use super::report::{
     AngleBand, BlockResidual, DirectionGroup, Localization, Region, TimeBand, WorstPoint,
 };
+use crate::axes::Axis;
 use crate::toolpath::PointContext;
 use std::collections::BTreeMap;
 

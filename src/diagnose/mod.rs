@@ -620,7 +620,12 @@ fn rival_aliases(effects: &mut [EffectFit], picked: &Picked) {
             .filter(|k| !rival.terms.kinds.contains(k))
             .copied()
             .collect();
-        for instead in rival.terms.kinds.iter().filter(|k| !picked.selected.contains(k)) {
+        for instead in rival
+            .terms
+            .kinds
+            .iter()
+            .filter(|k| !picked.selected.contains(k))
+        {
             for out in &left {
                 pairs.push((*out, *instead));
                 pairs.push((*instead, *out));
@@ -1026,7 +1031,11 @@ fn summary_sentences(
     let label = picked.chosen.terms.label();
     match &model_check.alternative {
         Some(alt) if !model_check.follows_model && !model_check.unexplained => {
-            summary.push(alternative_sentence(alt, &label, picked.selected_mse.sqrt()));
+            summary.push(alternative_sentence(
+                alt,
+                &label,
+                picked.selected_mse.sqrt(),
+            ));
         }
         _ if model_check.mismatch => {
             summary.push(model_sentence(model_check, rms(&p.r0), noise_floor));
@@ -1037,7 +1046,11 @@ fn summary_sentences(
         let list = joint.checks.get(kind.name()).cloned().unwrap_or_default();
         summary.push(effect_sentence(*kind, &list, max_cut));
     }
-    for rival in picked.rivals.iter().filter(|r| !r.terms.model || picked.with_model) {
+    for rival in picked
+        .rivals
+        .iter()
+        .filter(|r| !r.terms.model || picked.with_model)
+    {
         summary.push(format!(
             "The data cannot tell {} from {} (held-out RMS {:.2} against {:.2} µm; z = {:.1} below the threshold {:.0}): neither is certain; confirm with a dedicated test before acting (--followup-program designs one).",
             label.replace(" + ", " and "),
@@ -1108,7 +1121,7 @@ fn effect_sentence(
     let mut sentence = report::machinist_sentence(kind, &advised, max_cut);
     let left_out: Vec<String> = list
         .iter()
-        .filter(|c| !advised.contains_key(&c.name) && !(c.identifiable && !c.distinguishable))
+        .filter(|c| !advised.contains_key(&c.name) && (!c.identifiable || c.distinguishable))
         .map(|c| c.display())
         .collect();
     let near_zero: Vec<String> = list

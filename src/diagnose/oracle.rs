@@ -164,10 +164,8 @@ impl OracleMachine {
             &program_path,
             setup,
         );
-        let options = crate::toolpath::CutOptions::for_machine(
-            &self.machine,
-            crate::gcode::Frame::Joint,
-        );
+        let options =
+            crate::toolpath::CutOptions::for_machine(&self.machine, crate::gcode::Frame::Joint);
         let plan = measurement.plan();
         let (matches, _) =
             crate::toolpath::cut::match_plan(program, &self.model, &plan.points, &options)

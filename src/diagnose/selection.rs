@@ -229,7 +229,6 @@ impl Scorer<'_> {
 
     /// The penalised held-out likelihood ratio of going from `from` to `to`.
     pub fn z(&self, from: &Terms, to: &Terms) -> f64 {
-
         let (a, b) = (self.mse(from), self.mse(to));
         let dp = self.params(to) as f64 - self.params(from) as f64;
         self.n() * (a - b) / self.variance(b, self.inflation(from, to)) - dp * self.n().ln()
@@ -342,7 +341,8 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         // The best admissible set (lowest held-out BIC) among those
         // significantly better than the current one; else the best admissible.
         let admissible: Vec<&Terms> = sets.iter().filter(|t| scorer.admissible(t)).collect();
-        let by_bic = |a: &&&Terms, b: &&&Terms| scorer.bic(a).total_cmp(&scorer.bic(b)).then(a.cmp(b));
+        let by_bic =
+            |a: &&&Terms, b: &&&Terms| scorer.bic(a).total_cmp(&scorer.bic(b)).then(a.cmp(b));
         let best = admissible
             .iter()
             .filter(|t| ***t != current && scorer.z(&current, t) >= s.threshold)

@@ -355,7 +355,12 @@ fn residual_plots_section(page: &mut HtmlPage, report: &DiagnoseReport) {
         "Red: before, blue: after.",
     );
     // The machine's own rotary axes (A and C, B and C, …).
-    let axis = |k: usize| report.rotary_axes.get(k).map_or(["A", "C"][k], |s| s.as_str());
+    let axis = |k: usize| {
+        report
+            .rotary_axes
+            .get(k)
+            .map_or(["A", "C"][k], |s| s.as_str())
+    };
     for (k, value) in [|p: &PointResidual| p.a_deg, |p: &PointResidual| p.c_deg]
         .into_iter()
         .enumerate()
@@ -470,7 +475,12 @@ fn followup_sections(page: &mut HtmlPage, report: &DiagnoseReport) {
             page.paragraph(line);
         }
         page.table(&SEPARATION_HEADER, &separation_rows(&design.separations));
-        let letter = |k: usize| report.rotary_axes.get(k).map_or(["A", "C"][k], |s| s.as_str());
+        let letter = |k: usize| {
+            report
+                .rotary_axes
+                .get(k)
+                .map_or(["A", "C"][k], |s| s.as_str())
+        };
         let (first, second) = (format!("{} °", letter(0)), format!("{} °", letter(1)));
         page.table(
             &["probe", "plan point", "pose", &first, &second, "t min"],

@@ -1478,11 +1478,16 @@ fn oracle_cases_are_diagnosed_as_their_readme_says() {
         };
         let report = diagnose_case(machine, &dir, case).unwrap();
         let s = score(case, &report);
-        assert!(s.pass, "{}: said {}; {:?}", case.name, s.said, report.selection_notes);
+        assert!(
+            s.pass,
+            "{}: said {}; {:?}",
+            case.name, s.said, report.selection_notes
+        );
         if case.group == OracleGroup::WrongModel {
             // The verdict is said first, beside the effect.
             assert!(
-                report.summary[0].contains("may not match") && report.summary[0].contains("thermal_drift"),
+                report.summary[0].contains("may not match")
+                    && report.summary[0].contains("thermal_drift"),
                 "{:?}",
                 report.summary
             );
@@ -1509,8 +1514,11 @@ fn values_within_two_sigma_of_zero_are_not_advice() {
             if within && c.identifiable {
                 near_zero += 1;
                 assert!(
-                    report.summary.iter().any(|s| s.contains("Not distinguishable from zero")
-                        && s.contains(&c.display())),
+                    report
+                        .summary
+                        .iter()
+                        .any(|s| s.contains("Not distinguishable from zero")
+                            && s.contains(&c.display())),
                     "{c:?} {:?}",
                     report.summary
                 );
