@@ -83,7 +83,7 @@ mod tests {
         assert_eq!(check_magnitude("x", "µm", 5.0, 10.0), Ok(5.0));
         let e = check_magnitude("[reversal] X", "µm", 1e6, MAX_REVERSAL_UM).unwrap_err();
         assert!(
-            e.contains("1000000 µm") && e.contains("-1000 to 1000 µm"),
+            e.contains("= 1e6 µm") && e.contains("-1000 to 1000 µm"),
             "{e}"
         );
         let e = check_range("--step", "mm", 0.0, (0.0, 5.0), true).unwrap_err();
