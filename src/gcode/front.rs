@@ -21,6 +21,8 @@ use crate::gcode::syntax::block::Block;
 pub(crate) enum Front {
     /// LinuxCNC's language layer (O-words, parameters, subroutine files).
     LinuxCnc(Executor),
+    /// SINUMERIK 840D sl (`gcode::sinumerik`).
+    Sinumerik(Box<crate::gcode::sinumerik::SinumerikFront>),
     /// A dialect volcomp does not read yet: the first block is an error
     /// naming it (never a silent LinuxCNC reading).
     Unread {
@@ -41,11 +43,14 @@ impl Front {
         input: Box<dyn ProgramInput>,
         path: &Path,
         language: LanguageOptions,
-        _setup: &crate::gcode::ProgramSetup,
+        setup: &crate::gcode::ProgramSetup,
     ) -> Front {
         match choice.dialect {
             Dialect::LinuxCnc => Front::LinuxCnc(Executor::new(input, path, language)),
-            dialect @ (Dialect::Sinumerik | Dialect::Heidenhain) => Front::Unread {
+            Dialect::Sinumerik => Front::Sinumerik(Box::new(
+                crate::gcode::sinumerik::SinumerikFront::new(input, path, language, setup),
+            )),
+            dialect @ Dialect::Heidenhain => Front::Unread {
                 dialect,
                 done: false,
                 block: Block::default(),
@@ -67,6 +72,7 @@ impl Front {
     ) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_block(interpreter.parameters_mut()),
+            Front::Sinumerik(s) => s.next_block(interpreter),
             Front::Unread { dialect, done, .. } => {
                 if *done {
                     return None;
@@ -88,6 +94,7 @@ impl Front {
     pub(crate) fn block(&self) -> &Block {
         match self {
             Front::LinuxCnc(e) => e.block(),
+            Front::Sinumerik(s) => s.block(),
             Front::Unread { block, .. } => block,
         }
     }
@@ -97,6 +104,7 @@ impl Front {
     pub(crate) fn executed(&self) -> &Executed {
         match self {
             Front::LinuxCnc(e) => e.executed(),
+            Front::Sinumerik(s) => s.executed(),
             Front::Unread { executed, .. } => executed,
         }
     }
@@ -105,6 +113,7 @@ impl Front {
     pub(crate) fn file_name(&self, index: usize) -> &str {
         match self {
             Front::LinuxCnc(e) => e.file_name(index),
+            Front::Sinumerik(s) => s.file_name(index),
             Front::Unread { .. } => "?",
         }
     }
@@ -113,6 +122,7 @@ impl Front {
     pub(crate) fn end_program(&mut self) {
         match self {
             Front::LinuxCnc(e) => e.end_program(),
+            Front::Sinumerik(s) => s.end_program(),
             Front::Unread { done, .. } => *done = true,
         }
     }
@@ -121,6 +131,7 @@ impl Front {
     pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_tail_line(),
+            Front::Sinumerik(s) => s.next_tail_line(),
             Front::Unread { .. } => None,
         }
     }
@@ -129,6 +140,7 @@ impl Front {
     pub(crate) fn percent_ended(&self) -> bool {
         match self {
             Front::LinuxCnc(e) => e.percent_ended(),
+            Front::Sinumerik(s) => s.percent_ended(),
             Front::Unread { .. } => false,
         }
     }
@@ -137,6 +149,7 @@ impl Front {
     pub(crate) fn lines_read(&self) -> usize {
         match self {
             Front::LinuxCnc(e) => e.lines_read(),
+            Front::Sinumerik(s) => s.lines_read(),
             Front::Unread { .. } => 0,
         }
     }
@@ -145,6 +158,7 @@ impl Front {
     pub(crate) fn repeat_trips(&self) -> f64 {
         match self {
             Front::LinuxCnc(e) => e.repeat_trips(),
+            Front::Sinumerik(_) => 1.0,
             Front::Unread { .. } => 1.0,
         }
     }
@@ -153,6 +167,7 @@ impl Front {
     pub(crate) fn innermost_loop(&self) -> Option<String> {
         match self {
             Front::LinuxCnc(e) => e.innermost_loop(),
+            Front::Sinumerik(s) => s.innermost_loop(),
             Front::Unread { .. } => None,
         }
     }

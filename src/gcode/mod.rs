@@ -48,6 +48,7 @@ pub(crate) mod execution;
 pub(crate) mod front;
 pub(crate) mod language;
 pub(crate) mod machine;
+pub(crate) mod sinumerik;
 pub(crate) mod summary;
 pub(crate) mod syntax;
 pub(crate) mod write;
