@@ -55,6 +55,8 @@ const MAX_LEVELS: usize = 16;
 struct SourceFile {
     /// Its name in messages.
     name: String,
+    /// The name a subprogram was called by (empty for the main program).
+    called_as: String,
     /// The file's bytes.
     text: Vec<u8>,
     /// Each line: start, end (without its ending), ending.
@@ -209,6 +211,7 @@ impl SourceFile {
         }
         let mut f = SourceFile {
             name,
+            called_as: String::new(),
             partner: vec![usize::MAX; lines.len()],
             lines,
             text,
@@ -412,6 +415,7 @@ impl SinumerikFront {
                 load_error.get_or_insert(e);
                 SourceFile {
                     name,
+                    called_as: String::new(),
                     text: Vec::new(),
                     lines: Vec::new(),
                     partner: Vec::new(),
@@ -1487,7 +1491,7 @@ impl SinumerikFront {
                 })?;
                 let mut f = SourceFile::new(path.display().to_string(), text)
                     .map_err(|e| e.with_path(&path))?;
-                f.name = format!("{}#{name}", path.display());
+                f.called_as = name.to_string();
                 self.files.push(f);
                 self.files.len() - 1
             }
@@ -1568,6 +1572,8 @@ impl SinumerikFront {
         let mut suppress = false;
         let mut axis_words = false;
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
+        let mut vector: [Option<f64>; 3] = [None; 3];
+        let mut vector_at = (usize::MAX, 0);
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -1620,6 +1626,10 @@ impl SinumerikFront {
                         repeats = v as u64;
                     }
                     Some(Address::RotPlane) => rpl = Some(v),
+                    Some(Address::Vector(k)) => {
+                        vector[k] = Some(v);
+                        vector_at = (vector_at.0.min(ts), vector_at.1.max(vend));
+                    }
                     Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
                     None => {
                         // An assignment (R parameter or variable).
@@ -1731,8 +1741,10 @@ impl SinumerikFront {
                             out.words.push(word(b'M', v, ts, end, 0, false, false));
                         }
                         17 => {
+                            // The return is flow: a flat copy must not end
+                            // the main program.
                             self.return_from_level(Some(line))?;
-                            out.statements.push(ts..end);
+                            self.flowed = true;
                         }
                         _ => out.statements.push(ts..end),
                     },
@@ -1910,6 +1922,25 @@ impl SinumerikFront {
                     call = Some((name, values, (ts, end)));
                 }
             }
+        }
+        if vector.iter().any(Option::is_some) {
+            // *Job planning*, "Orientation programming: direction vector":
+            // the unit vector's components; unwritten ones are 0.
+            let v = vector.map(|c| c.unwrap_or(0.0));
+            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
+                return Err(self.refused(
+                    line,
+                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
+                    vector_at.0,
+                    vector_at.1,
+                ));
+            }
+            return Err(self.feature(
+                line,
+                "orientation vectors A3= B3= C3=",
+                vector_at.0,
+                vector_at.1,
+            ));
         }
         if let Some((name, args, at)) = call {
             if out.words.iter().any(|w| is_axis(w.letter)) {
@@ -2368,6 +2399,8 @@ enum Address {
     Repeat,
     /// `RPL=`: rotation in the plane.
     RotPlane,
+    /// A component of the orientation vector `A3= B3= C3=`.
+    Vector(usize),
     /// Not read yet (the feature).
     Feature(&'static str),
 }
@@ -2382,7 +2415,9 @@ fn address(name: &str) -> Option<Address> {
         "RPL" => Address::RotPlane,
         "AR" => Address::Feature("AR= (arcs by opening angle)"),
         "I1" | "J1" | "K1" => Address::Feature("CIP intermediate points (I1= J1= K1=)"),
-        "A3" | "B3" | "C3" => Address::Feature("orientation vectors A3= B3= C3="),
+        "A3" => Address::Vector(0),
+        "B3" => Address::Vector(1),
+        "C3" => Address::Vector(2),
         "A2" | "B2" | "C2" => Address::Feature("orientation angles A2= B2= C2="),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
         "TURN" => Address::Feature("helix turns TURN="),
