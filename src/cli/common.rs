@@ -444,6 +444,9 @@ impl ProgramArgs {
         };
         if let Some(m) = machine {
             setup.tools = m.tools.clone();
+            setup.orientation = Some(std::sync::Arc::new(crate::toolpath::ChainOrientation::of(
+                m,
+            )));
         }
         if let Some(path) = &self.tools {
             setup.tools = read_tool_table(path)?;

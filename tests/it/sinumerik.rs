@@ -281,3 +281,66 @@ fn setup_dialect_overrides_detection() {
     }
     assert_eq!(ends, vec![2.0]);
 }
+
+/// Issue 34 "Show": a `CYCLE800` 3+2 program (a raster on a plane swivelled
+/// 30° about X) compensated on the two table-table machines and replayed
+/// through the same model: the tip error is cut by ≥ 90 %; the rotary axes,
+/// which the control holds under the swivelled plane, are not written.
+#[test]
+fn cycle800_closed_loop_on_two_machines() {
+    let original = read("tests/data/sinumerik/plane-3plus2.mpf");
+    for rig in [ref_trt(), crate::machines::rig("bc-trt")] {
+        let name = &rig.0.name;
+        let (text, report) = compensate_on(
+            rig,
+            &original,
+            Frame::Joint,
+            CompensateOptions::default().tolerance_um,
+            true,
+        );
+        assert!(
+            report.blocks_changed >= 25,
+            "{name}: {}",
+            report.blocks_changed
+        );
+        // The first move after CYCLE800 writes where the plane put the
+        // rotary axes (the writer had not seen them move); no other does.
+        for l in text.lines().filter(|l| {
+            (l.contains(" X") || l.contains(" Y")) && !l.starts_with("N60 ") && !l.starts_with(';')
+        }) {
+            assert!(
+                !l.contains(" A") && !l.contains(" B") && !l.contains(" C"),
+                "{name}: {l}"
+            );
+        }
+        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+        assert!(before.max_um > 5.0, "{name}");
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{name}: {} vs {}",
+            after.max_um,
+            before.max_um
+        );
+        assert!(after.rms_um <= 0.1 * before.rms_um, "{name}");
+        eprintln!(
+            "{name}/plane-3plus2.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+            before.max_um, after.max_um, before.rms_um, after.rms_um
+        );
+    }
+}
+
+/// `CYCLE800` needs the machine's chain: without it, a located error.
+#[test]
+fn cycle800_without_a_machine_is_a_located_error() {
+    let out = volcomp()
+        .args(["check", "tests/data/sinumerik/plane-3plus2.mpf"])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("CYCLE800 without the machine") && err.contains("plane-3plus2.mpf:8:5"),
+        "{err}"
+    );
+}

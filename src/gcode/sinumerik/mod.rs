@@ -355,10 +355,10 @@ struct Level {
     moved: bool,
 }
 
-/// The programmable frame's pieces and the settable frame's shift.
+/// The swivelled plane (`CYCLE800`) and the programmable frame.
 #[derive(Clone, Copy, Debug)]
 struct Frames {
-    settable: [f64; 3],
+    swivel: Option<FrameTransform>,
     programmable: FrameTransform,
 }
 
@@ -385,7 +385,10 @@ pub(crate) struct SinumerikFront {
     loop_lines: u64,
     max_loop_lines: u64,
     frames: Frames,
-    origins: [[f64; 3]; 9],
+    /// Tool axis ↔ rotary joints from the machine (`CYCLE800`).
+    orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
+    /// The program switched `TRAORI` on itself.
+    traori: bool,
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
@@ -423,14 +426,6 @@ impl SinumerikFront {
                 }
             }
         };
-        let mut origins = [[0.0; 3]; 9];
-        for (n, o) in origins.iter_mut().enumerate() {
-            for (k, v) in o.iter_mut().enumerate() {
-                *v = setup
-                    .parameters
-                    .get(crate::gcode::language::parameters::numbers::coord(n + 1, k));
-            }
-        }
         SinumerikFront {
             files: vec![main],
             load_error,
@@ -466,10 +461,11 @@ impl SinumerikFront {
             finished: false,
             loop_lines: 0,
             frames: Frames {
-                settable: [0.0; 3],
+                swivel: None,
                 programmable: FrameTransform::IDENTITY,
             },
-            origins,
+            orientation: setup.orientation.clone(),
+            traori: false,
             incremental: false,
             skip_deleted: false,
             motion_set: false,
@@ -565,6 +561,8 @@ impl SinumerikFront {
                 expr: None,
             });
             let _ = interpreter.interpret(&start);
+            // And without a settable frame (G500) until G54–G57.
+            interpreter.set_work_origin(crate::axes::Axes::default());
         }
         self.skip_deleted = interpreter.options().skip_deleted_blocks;
         loop {
@@ -841,7 +839,10 @@ impl SinumerikFront {
             pieces.push((w.start, w.end, Piece::Word(k)));
         }
         for (k, kw) in out.keywords.iter().enumerate() {
-            pieces.push((kw.start, kw.end, Piece::Keyword(k)));
+            // `CYCLE800(…)` switches the frame: its text is the statement's.
+            if !out.statements.contains(&(kw.start..kw.end)) {
+                pieces.push((kw.start, kw.end, Piece::Keyword(k)));
+            }
         }
         for s in &out.statements {
             pieces.push((s.start, s.end, Piece::Statement));
@@ -1570,6 +1571,7 @@ impl SinumerikFront {
         let mut call: Option<(String, Vec<f64>, (usize, usize))> = None;
         let mut repeats: u64 = 1;
         let mut suppress = false;
+        let mut settable_off = false;
         let mut axis_words = false;
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut vector: [Option<f64>; 3] = [None; 3];
@@ -1729,9 +1731,15 @@ impl SinumerikFront {
                 cur.pos += 1;
                 match letter {
                     b'G' => {
-                        if let Some(code) =
-                            self.g_code(line, v, (ts, end), &mut out, &mut dwell, &mut suppress)?
-                        {
+                        if let Some(code) = self.g_code(
+                            line,
+                            v,
+                            (ts, end),
+                            &mut out,
+                            &mut dwell,
+                            &mut suppress,
+                            &mut settable_off,
+                        )? {
                             out.words.push(word(b'G', code, ts, end, 0, false, false));
                         }
                     }
@@ -1833,17 +1841,21 @@ impl SinumerikFront {
                 "TRAORI" => {
                     let (_, end) = args_span(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    self.traori = true;
                     out.keywords.push(KeywordWord {
                         keyword: Keyword::TraOri,
                         start: ts,
                         end,
                     });
                 }
-                "TRAFOOF" => out.keywords.push(KeywordWord {
-                    keyword: Keyword::TraFoof,
-                    start: ts,
-                    end: te,
-                }),
+                "TRAFOOF" => {
+                    self.traori = false;
+                    out.keywords.push(KeywordWord {
+                        keyword: Keyword::TraFoof,
+                        start: ts,
+                        end: te,
+                    });
+                }
                 "SUPA" => {
                     suppress = true;
                     out.words.push(word(b'G', 53.0, ts, te, 0, false, false));
@@ -1851,10 +1863,7 @@ impl SinumerikFront {
                 "CYCLE800" => {
                     let (args, end) = args_span(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                    if !args.is_empty() {
-                        return Err(self.feature(line, "CYCLE800 swivelled planes", ts, end));
-                    }
-                    out.statements.push(ts..end);
+                    self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
                 "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "CIP" | "CT" | "G33" | "OFFN"
                 | "COMPON" | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL"
@@ -1988,12 +1997,14 @@ impl SinumerikFront {
         if self.flush_frame_later {
             self.flush_frame_later = false;
             let p = self.frames.programmable;
-            let t = self.frames.settable;
-            let identity = p == FrameTransform::IDENTITY && t == [0.0; 3];
-            interpreter.set_frame((!identity).then(|| FrameTransform {
-                shift: [p.shift[0] + t[0], p.shift[1] + t[1], p.shift[2] + t[2]],
-                ..p
-            }));
+            let combined = match &self.frames.swivel {
+                Some(s) => s.after(&p),
+                None => p,
+            };
+            interpreter.set_frame((combined != FrameTransform::IDENTITY).then_some(combined));
+        }
+        if settable_off {
+            interpreter.set_work_origin(crate::axes::Axes::default());
         }
         if axis_words {
             self.check_arc_frame(line, &out, interpreter)?;
@@ -2196,6 +2207,135 @@ impl SinumerikFront {
         Ok(())
     }
 
+    /// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1,
+    /// _Y1, _Z1, _DIR, …)`: a swivelled working plane (Siemens, *Job
+    /// planning* / *Milling cycles*, "Swivel plane CYCLE800"). Read: a new
+    /// plane (`_ST` units digit 0), axis by axis (`_MODE` bits 6–7 = 0;
+    /// bits 0–5 the order, two bits a rotation: 01 X, 10 Y, 11 Z, the first
+    /// rotation in the low bits with angle `_A`, then `_B`, `_C`, each about
+    /// the axis as the previous rotations left it). The plane's frame is
+    /// `p ↦ X0 + R·(X1 + p)`; the tool is turned along `R·Z` by the
+    /// machine's chain (`ProgramSetup::orientation`), `_DIR` +1/−1 picking
+    /// the solution whose first rotary axis (letter order) is ≥ 0 / ≤ 0, and
+    /// 0 leaving the rotary axes where they are; positions are then tool-tip
+    /// positions in the part frame, as under `TRAORI`. `CYCLE800()` removes
+    /// the plane (the rotary axes stay).
+    fn cycle800(
+        &mut self,
+        line: &LineRun,
+        args: &[Expr],
+        at: (usize, usize),
+        interpreter: &mut Interpreter,
+        out: &mut Out,
+    ) -> Result<(), GcodeError> {
+        out.statements.push(at.0..at.1);
+        self.flush_frame_later = true;
+        if args.is_empty() {
+            if self.frames.swivel.take().is_some() && !self.traori {
+                out.keywords.push(KeywordWord {
+                    keyword: Keyword::TraFoof,
+                    start: at.0,
+                    end: at.1,
+                });
+            }
+            return Ok(());
+        }
+        let mut v = [0.0f64; 16];
+        for (k, a) in args.iter().enumerate().take(16) {
+            v[k] = match a {
+                Expr::Str(_) => 0.0,
+                e => self.eval(line, e, at)?,
+            };
+        }
+        let mode = v[3] as i64;
+        if mode & 0xC0 != 0 {
+            return Err(self.feature(
+                line,
+                "CYCLE800 swivel modes other than axis by axis (_MODE bits 6-7)",
+                at.0,
+                at.1,
+            ));
+        }
+        if (v[2] as i64) % 10 == 1 {
+            return Err(self.feature(
+                line,
+                "CYCLE800 additive swivel (_ST units digit 1)",
+                at.0,
+                at.1,
+            ));
+        }
+        let mut r = FrameTransform::IDENTITY;
+        for k in 0..3 {
+            let angle = v[7 + k];
+            let m = match (mode >> (2 * k)) & 3 {
+                1 => rpy(angle, 0.0, 0.0),
+                2 => rpy(0.0, angle, 0.0),
+                3 => rpy(0.0, 0.0, angle),
+                _ => continue,
+            };
+            if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                r = r.after(&piece);
+            }
+        }
+        let shift = |t: [f64; 3]| FrameTransform {
+            shift: t,
+            ..FrameTransform::IDENTITY
+        };
+        let mut plane = shift([v[4], v[5], v[6]])
+            .after(&r)
+            .after(&shift([v[10], v[11], v[12]]));
+        plane.holds_rotary = true;
+        let dir = v[13];
+        if dir != 0.0 {
+            let Some(solver) = self.orientation.clone() else {
+                return Err(self.feature(
+                    line,
+                    "CYCLE800 without the machine (give --machine: the plane is solved with its chain)",
+                    at.0,
+                    at.1,
+                ));
+            };
+            let axis = r.apply_vector([0.0, 0.0, 1.0]);
+            let branch = if dir > 0.0 {
+                crate::gcode::Branch::Plus
+            } else {
+                crate::gcode::Branch::Minus
+            };
+            let mut position = interpreter.position();
+            let Some(joints) = solver.joints_for_axis(axis, branch, &position) else {
+                return Err(self.refused(
+                    line,
+                    format!(
+                        "the machine cannot turn the tool along the plane's normal [{:.4}, {:.4}, {:.4}] on the {} branch",
+                        axis[0],
+                        axis[1],
+                        axis[2],
+                        if dir > 0.0 { "+" } else { "-" }
+                    ),
+                    at.0,
+                    at.1,
+                ));
+            };
+            for a in [
+                crate::axes::Axis::A,
+                crate::axes::Axis::B,
+                crate::axes::Axis::C,
+            ] {
+                position.set(a, joints.get(a));
+            }
+            interpreter.set_position(position);
+        }
+        if self.frames.swivel.is_none() && !self.traori {
+            out.keywords.push(KeywordWord {
+                keyword: Keyword::TraOri,
+                start: at.0,
+                end: at.1,
+            });
+        }
+        self.frames.swivel = Some(plane);
+        Ok(())
+    }
+
     /// `AC()`/`IC()` values: an axis word written `=IC(…)` under G90 becomes
     /// the absolute target, `=AC(…)` under G91 the increment (*Fundamentals*,
     /// "Absolute and incremental dimensions: AC, IC"); `I=AC(…)` centres
@@ -2261,6 +2401,7 @@ impl SinumerikFront {
         out: &mut Out,
         dwell: &mut bool,
         suppress: &mut bool,
+        settable_off: &mut bool,
     ) -> Result<Option<f64>, GcodeError> {
         if v.fract() != 0.0 {
             return Err(self.feature(line, &format!("G{v}"), at.0, at.1));
@@ -2274,14 +2415,11 @@ impl SinumerikFront {
                 *suppress = true;
                 Some(53.0)
             }
-            54..=57 | 500 => {
-                self.frames.settable = if code == 500 {
-                    [0.0; 3]
-                } else {
-                    self.origins[(code - 54) as usize]
-                };
+            // G54–G57 are LinuxCNC's systems 1–4 (origins from --offset).
+            54..=57 => Some(v),
+            500 => {
+                *settable_off = true;
                 out.statements.push(at.0..at.1);
-                self.flush_frame_later = true;
                 None
             }
             505..=599 => {
