@@ -396,6 +396,8 @@ pub(crate) struct SinumerikFront {
     flush_frame_later: bool,
     tokens: Vec<Token>,
     text: String,
+    /// The line being run (reused).
+    line_buf: Vec<u8>,
 }
 
 impl SinumerikFront {
@@ -472,6 +474,7 @@ impl SinumerikFront {
             flush_frame_later: false,
             tokens: Vec::new(),
             text: String::new(),
+            line_buf: Vec::new(),
         }
     }
 
@@ -625,14 +628,18 @@ impl SinumerikFront {
             }
         }
         let (s, e, ending) = self.files[file].lines[k];
-        let raw: Vec<u8> = self.files[file].text[s..e].to_vec();
+        let mut raw = std::mem::take(&mut self.line_buf);
+        raw.clear();
+        raw.extend_from_slice(&self.files[file].text[s..e]);
         let mut line = LineRun {
             raw: &raw,
             line: k + 1,
             file,
             first_reading,
         };
-        let handed = self.run_line(&mut line, interpreter)?;
+        let handed = self.run_line(&mut line, interpreter);
+        self.line_buf = raw;
+        let handed = handed?;
         if handed {
             self.block.line = k + 1;
             self.block.offset = s as u64;
@@ -785,7 +792,7 @@ impl SinumerikFront {
             if let Some(s) = Structure::of(&name) {
                 return self.structured(line, &mut cur, s, (first.start, first.end));
             }
-            match name.as_str() {
+            match name.as_ref() {
                 "DEF" => return self.define(line, &mut cur, out, raw),
                 "PROC" => {
                     // The definition line of a program (its parameters are
@@ -1149,7 +1156,7 @@ impl SinumerikFront {
                     ..
                 }),
                 _,
-            ) => (n.clone(), *end),
+            ) => (n.to_string(), *end),
             _ => {
                 return Err(self.refused(
                     line,
@@ -1324,7 +1331,7 @@ impl SinumerikFront {
                 let h = cur.here();
                 return Err(self.refused(line, "a variable name expected".into(), h, h + 1));
             };
-            let (name, nat) = (name.clone(), (*start, *end));
+            let (name, nat) = (name.to_string(), (*start, *end));
             let mut dims = Vec::new();
             if cur.eat_sym("[") {
                 loop {
@@ -1833,9 +1840,9 @@ impl SinumerikFront {
                 }
                 Ok((args, cur.last_end()))
             };
-            match name.as_str() {
+            match name.as_ref() {
                 "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
-                    frame_op = Some((name, (ts, te)));
+                    frame_op = Some((name.to_string(), (ts, te)));
                     out.statements.push(ts..te);
                 }
                 "TRAORI" => {
@@ -1895,7 +1902,7 @@ impl SinumerikFront {
                     let (_, end) = args_span(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     if matches!(
-                        name.as_str(),
+                        name.as_ref(),
                         "PAROT" | "TOROT" | "TOFRAME" | "TCARR" | "TCOFR" | "TCOABS" | "EXTCALL"
                     ) {
                         return Err(self.feature(line, &name, ts, end));
@@ -1928,7 +1935,7 @@ impl SinumerikFront {
                     for a in &args {
                         values.push(self.eval(line, a, (ts, end))?);
                     }
-                    call = Some((name, values, (ts, end)));
+                    call = Some((name.to_string(), values, (ts, end)));
                 }
             }
         }
@@ -2589,7 +2596,7 @@ fn value_expr(cur: &mut Cursor) -> Result<(Expr, Mode), syntax::SyntaxError> {
         }),
     ) = (cur.peek(), cur.peek_at(1))
     {
-        let mode = match n.as_str() {
+        let mode = match n.as_ref() {
             "AC" | "DC" | "ACP" | "ACN" => Some(Mode::Ac),
             "IC" => Some(Mode::Ic),
             _ => None,

@@ -21,13 +21,21 @@ use std::ops::Range;
 pub(crate) enum Tok {
     /// A number: value, decimals written, whether a point was written.
     Num(f64, u8, bool),
-    /// A name or address, upper-cased.
-    Name(String),
+    /// A name or address, upper-cased (a single letter without allocating).
+    Name(Name),
     /// A string literal (`"…"` or `'…'`), without its quotes.
     Str(String),
     /// An operator or punctuation: `= == <> < > <= >= + - * / ( ) [ ] , : <<`.
     Sym(&'static str),
 }
+
+/// A name as a token holds it.
+pub(crate) type Name = std::borrow::Cow<'static, str>;
+
+const LETTERS: [&str; 26] = [
+    "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P", "Q", "R", "S",
+    "T", "U", "V", "W", "X", "Y", "Z",
+];
 
 /// A token and its byte range in the line.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,11 +97,17 @@ pub(crate) fn tokenize(
                 }
                 let extended = k > j && m < n && raw[m] == b'=' && raw.get(m + 1) != Some(&b'=');
                 let end = if extended { k } else { j };
-                tokens.push(Token {
-                    tok: Tok::Name(
-                        (c.to_ascii_uppercase() as char).to_string()
+                let upper = c.to_ascii_uppercase();
+                let tok = if end == j {
+                    Tok::Name(Name::Borrowed(LETTERS[(upper - b'A') as usize]))
+                } else {
+                    Tok::Name(Name::Owned(
+                        (upper as char).to_string()
                             + std::str::from_utf8(&raw[j..end]).unwrap_or(""),
-                    ),
+                    ))
+                };
+                tokens.push(Token {
+                    tok,
                     start,
                     end,
                 });
@@ -105,7 +119,7 @@ pub(crate) fn tokenize(
             }
             let name = String::from_utf8_lossy(&raw[i..j]).to_ascii_uppercase();
             tokens.push(Token {
-                tok: Tok::Name(name),
+                tok: Tok::Name(Name::Owned(name)),
                 start,
                 end: j,
             });
@@ -421,7 +435,7 @@ impl<'a> Cursor<'a> {
                 Ok(e)
             }
             Tok::Name(name) => {
-                let name = name.clone();
+                let name = name.clone().into_owned();
                 if name == "TRUE" {
                     return Ok(Expr::Num(1.0));
                 }
@@ -506,7 +520,7 @@ impl<'a> Cursor<'a> {
 
 fn binop(t: &Tok) -> Option<(BinOp, u8)> {
     Some(match t {
-        Tok::Name(n) => match n.as_str() {
+        Tok::Name(n) => match n.as_ref() {
             "OR" => (BinOp::Or, 1),
             "XOR" => (BinOp::Xor, 2),
             "AND" => (BinOp::And, 3),
