@@ -17,7 +17,9 @@ use crate::gcode::language::{Executed, Executor, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::Interpreter;
 use crate::gcode::syntax::block::Block;
 
-/// The language front of one run.
+/// The language front of one run. The LinuxCNC executor is held inline
+/// (no indirection on its per-block path); there is one front per run.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Front {
     /// LinuxCNC's language layer (O-words, parameters, subroutine files).
     LinuxCnc(Executor),

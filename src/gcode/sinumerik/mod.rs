@@ -1574,11 +1574,10 @@ impl SinumerikFront {
         let mut frame_op: Option<(String, (usize, usize))> = None;
         let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
         let mut rpl: Option<f64> = None;
-        let mut dwell = false;
+        let mut flags = GFlags::default();
         let mut call: Option<(String, Vec<f64>, (usize, usize))> = None;
         let mut repeats: u64 = 1;
-        let mut suppress = false;
-        let mut settable_off = false;
+
         let mut axis_words = false;
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut vector: [Option<f64>; 3] = [None; 3];
@@ -1738,15 +1737,7 @@ impl SinumerikFront {
                 cur.pos += 1;
                 match letter {
                     b'G' => {
-                        if let Some(code) = self.g_code(
-                            line,
-                            v,
-                            (ts, end),
-                            &mut out,
-                            &mut dwell,
-                            &mut suppress,
-                            &mut settable_off,
-                        )? {
+                        if let Some(code) = self.g_code(line, v, (ts, end), &mut out, &mut flags)? {
                             out.words.push(word(b'G', code, ts, end, 0, false, false));
                         }
                     }
@@ -1813,18 +1804,11 @@ impl SinumerikFront {
                 let mut args = Vec::new();
                 if cur.eat_sym("(") && !cur.eat_sym(")") {
                     loop {
+                        // An empty argument (`CYCLE800(1,,0)`) is 0.
                         if matches!(
                             cur.peek(),
                             Some(Token {
-                                tok: Tok::Sym(","),
-                                ..
-                            })
-                        ) {
-                            args.push(Expr::Num(0.0));
-                        } else if matches!(
-                            cur.peek(),
-                            Some(Token {
-                                tok: Tok::Sym(")"),
+                                tok: Tok::Sym("," | ")"),
                                 ..
                             })
                         ) {
@@ -1864,7 +1848,7 @@ impl SinumerikFront {
                     });
                 }
                 "SUPA" => {
-                    suppress = true;
+                    flags.suppress = true;
                     out.words.push(word(b'G', 53.0, ts, te, 0, false, false));
                 }
                 "CYCLE800" => {
@@ -1989,7 +1973,7 @@ impl SinumerikFront {
         } else if rpl.is_some() {
             return Err(self.refused(line, "RPL= belongs to ROT or AROT".into(), 0, raw.len()));
         }
-        if dwell {
+        if flags.dwell {
             // `G4 F…` (seconds) / `G4 S…` (revolutions): not a feed.
             let mut kept = Vec::new();
             for w in out.words.drain(..) {
@@ -2010,14 +1994,14 @@ impl SinumerikFront {
             };
             interpreter.set_frame((combined != FrameTransform::IDENTITY).then_some(combined));
         }
-        if settable_off {
+        if flags.settable_off {
             interpreter.set_work_origin(crate::axes::Axes::default());
         }
         if axis_words {
             self.check_arc_frame(line, &out, interpreter)?;
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
-            self.resolve_modes(&mut out, interpreter, suppress, &centre_abs);
+            self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -2406,9 +2390,7 @@ impl SinumerikFront {
         v: f64,
         at: (usize, usize),
         out: &mut Out,
-        dwell: &mut bool,
-        suppress: &mut bool,
-        settable_off: &mut bool,
+        flags: &mut GFlags,
     ) -> Result<Option<f64>, GcodeError> {
         if v.fract() != 0.0 {
             return Err(self.feature(line, &format!("G{v}"), at.0, at.1));
@@ -2419,13 +2401,13 @@ impl SinumerikFront {
             70 | 700 => Some(20.0),
             71 | 710 => Some(21.0),
             53 | 153 => {
-                *suppress = true;
+                flags.suppress = true;
                 Some(53.0)
             }
             // G54–G57 are LinuxCNC's systems 1–4 (origins from --offset).
             54..=57 => Some(v),
             500 => {
-                *settable_off = true;
+                flags.settable_off = true;
                 out.statements.push(at.0..at.1);
                 None
             }
@@ -2438,7 +2420,7 @@ impl SinumerikFront {
                 ));
             }
             4 => {
-                *dwell = true;
+                flags.dwell = true;
                 out.statements.push(at.0..at.1);
                 None
             }
@@ -2450,6 +2432,17 @@ impl SinumerikFront {
             _ => return Err(self.feature(line, &format!("G{code}"), at.0, at.1)),
         })
     }
+}
+
+/// What a block's G codes ask of the front.
+#[derive(Default)]
+struct GFlags {
+    /// `G4`: F and S are the dwell.
+    dwell: bool,
+    /// `SUPA`/`G53`/`G153`: the frames are suppressed for the block.
+    suppress: bool,
+    /// `G500`: no settable frame.
+    settable_off: bool,
 }
 
 /// Where a line being run comes from.

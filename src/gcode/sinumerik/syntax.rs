@@ -106,11 +106,7 @@ pub(crate) fn tokenize(
                             + std::str::from_utf8(&raw[j..end]).unwrap_or(""),
                     ))
                 };
-                tokens.push(Token {
-                    tok,
-                    start,
-                    end,
-                });
+                tokens.push(Token { tok, start, end });
                 i = end;
                 continue;
             }
@@ -256,11 +252,7 @@ pub(crate) fn tokenize(
 /// The digits of a number (ASCII, `.` allowed at either end).
 fn parse_number(digits: &[u8]) -> f64 {
     let text = std::str::from_utf8(digits).unwrap_or("");
-    let text = if text.ends_with('.') {
-        &text[..text.len() - 1]
-    } else {
-        text
-    };
+    let text = text.strip_suffix('.').unwrap_or(text);
     if text.is_empty() {
         return 0.0;
     }
@@ -394,10 +386,7 @@ impl<'a> Cursor<'a> {
 
     fn binary(&mut self, min: u8) -> Result<Expr, SyntaxError> {
         let mut left = self.unary()?;
-        loop {
-            let Some((op, prec)) = self.peek().and_then(|t| binop(&t.tok)) else {
-                break;
-            };
+        while let Some((op, prec)) = self.peek().and_then(|t| binop(&t.tok)) {
             if prec < min {
                 break;
             }
