@@ -188,6 +188,7 @@ impl<'a> Job<'a> {
         let mut setup = input.setup;
         setup.language.drop_definitions = true;
         let program = crate::gcode::Program::new(input.input, name, setup);
+        super::common::announce_dialect(&program);
         let mut stats = None;
         crate::io::write_atomic(output, |out| -> anyhow::Result<()> {
             stats = Some(crate::gcode::rewrite_stream(
@@ -301,6 +302,9 @@ impl<'a> Job<'a> {
             super::stdout_text(&(serde_json::to_string_pretty(&report)? + "\n"))?;
         }
         let mut text = summary_text(&args.program, &summary, options.initial_frame, &groups);
+        if let Some(dialect) = &summary.dialect {
+            text.push_str(&format!("\n  dialect: {dialect}"));
+        }
         if let Some(stamp) = &stamp {
             text.push_str(&format!("\n  stamp: {}", stamp.summary()));
         }
@@ -357,6 +361,7 @@ pub fn check_stream(
 ) -> anyhow::Result<ProgramSummary> {
     let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
+    summary.dialect = super::common::dialect_note(run.dialect());
     use crate::axes::Axis;
     let letters = options.axes;
     // The contract's columns, plus u v w for a machine that has them.

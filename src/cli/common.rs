@@ -313,6 +313,34 @@ pub struct ProgramArgs {
     /// and calls, canned-cycle and spline expansions) before the run stops.
     #[arg(long, value_name = "N", default_value_t = crate::gcode::language::DEFAULT_MAX_GENERATED_MOVES)]
     pub max_moves: u64,
+    /// The program's language: linuxcnc, sinumerik or heidenhain (default:
+    /// from the program, docs/dialects.md: `.mpf`/`.spf` or a `%_N_…_MPF`
+    /// first line is Sinumerik, `BEGIN PGM` on the first block Heidenhain,
+    /// anything else LinuxCNC).
+    #[arg(long, value_name = "linuxcnc|sinumerik|heidenhain", value_parser = parse_dialect)]
+    pub dialect: Option<crate::gcode::Dialect>,
+}
+
+/// A `--dialect` value.
+fn parse_dialect(text: &str) -> Result<crate::gcode::Dialect, String> {
+    crate::gcode::Dialect::from_key(text).ok_or_else(|| {
+        format!("`{text}` is not a dialect volcomp reads: give linuxcnc, sinumerik or heidenhain")
+    })
+}
+
+/// What a summary says about the dialect: `read as Sinumerik (extension
+/// .MPF)`; nothing for a program read as LinuxCNC's (its outputs stay as
+/// they were before dialects).
+pub fn dialect_note(choice: &crate::gcode::DialectChoice) -> Option<String> {
+    (choice.dialect != crate::gcode::Dialect::LinuxCnc).then(|| choice.describe())
+}
+
+/// Say (on standard error, as the other notes) which dialect `program` is
+/// read in and why, when it is not LinuxCNC's.
+pub fn announce_dialect(program: &crate::gcode::Program) {
+    if let Some(note) = dialect_note(program.dialect()) {
+        eprintln!("note: {}: {note}", program.path().display());
+    }
 }
 
 /// A LinuxCNC tool table file.
@@ -451,6 +479,9 @@ impl ProgramArgs {
         };
         if let Some(m) = machine {
             setup.tools = m.tools.clone();
+            setup.orientation = Some(std::sync::Arc::new(crate::toolpath::ChainOrientation::of(
+                m,
+            )));
         }
         if let Some(path) = &self.tools {
             setup.tools = read_tool_table(path)?;
@@ -492,6 +523,7 @@ impl ProgramArgs {
             }
         }
         setup.language.subroutine_path = self.subroutine_path.clone();
+        setup.dialect = self.dialect;
         setup.language.max_loop_lines = Some(self.max_loop_lines);
         setup.language.max_generated_moves = Some(self.max_moves);
         Ok(setup)
@@ -504,10 +536,9 @@ impl ProgramArgs {
         machine: Option<&crate::machine::Machine>,
     ) -> anyhow::Result<(crate::gcode::Program, Option<crate::stamp::Stamp>)> {
         let (input, stamp) = open_program_with_stamp(path)?;
-        Ok((
-            crate::gcode::Program::new(input, path, self.setup(machine)?),
-            stamp,
-        ))
+        let program = crate::gcode::Program::new(input, path, self.setup(machine)?);
+        announce_dialect(&program);
+        Ok((program, stamp))
     }
 
     /// The program at `path` (`-`: standard input) in the setup of [`Self::setup`].
@@ -516,11 +547,9 @@ impl ProgramArgs {
         path: &Path,
         machine: Option<&crate::machine::Machine>,
     ) -> anyhow::Result<crate::gcode::Program> {
-        Ok(crate::gcode::Program::new(
-            open_program(path)?,
-            path,
-            self.setup(machine)?,
-        ))
+        let program = crate::gcode::Program::new(open_program(path)?, path, self.setup(machine)?);
+        announce_dialect(&program);
+        Ok(program)
     }
 
     /// Interpreter settings for a machine whose G0 rate is `rapid_mm_per_min` and

@@ -257,11 +257,13 @@ Give the original program, or --force to compensate it anyway"
         let options = self.options();
         let (input, total, position) = super::common::track(input)?;
         let program = crate::gcode::Program::new(input, &args.program, setup);
+        super::common::announce_dialect(&program);
+        let dialect = program.dialect().dialect;
         let warnings = program.warnings();
         let bar = Progress::new(&args.program, "compensating", total, position);
         let mut report: Option<CompensateReport> = None;
         write_atomic(output, |out| -> anyhow::Result<()> {
-            let mut out = StampWriter::new(out, stamp);
+            let mut out = StampWriter::new(out, stamp).with_dialect(dialect);
             let r = compensate(program, &mut out, &self.model, &options, |n| {
                 if let Some(b) = &bar {
                     b.update(n);

@@ -1160,9 +1160,12 @@ fn solve_chunks(
                     .iter()
                     .flat_map(|(_, event)| {
                         let model = models.get(&event.tool);
-                        compensated_moves(event).iter().map(move |m| (model, m))
+                        let held = event.origin.holds_rotary();
+                        compensated_moves(event)
+                            .iter()
+                            .map(move |m| (model, m, held))
                     })
-                    .map(|(model, m)| {
+                    .map(|(model, m, held)| {
                         let approach = approaches[k];
                         k += 1;
                         compensate_target(
@@ -1170,7 +1173,7 @@ fn solve_chunks(
                             &m.end_pose(),
                             options.limits.as_ref(),
                             &mut warm,
-                            options.orientation,
+                            options.orientation && !held,
                             &approach,
                         )
                     })
@@ -1256,6 +1259,18 @@ fn solve_chunks(
                 let directions = Directions {
                     incoming: before.as_ref(),
                     end: &end_approach,
+                };
+                // Under a swivelled plane the control holds the rotary axes:
+                // the tip only.
+                let tip_only;
+                let options = if event.origin.holds_rotary() {
+                    tip_only = CompensateOptions {
+                        orientation: false,
+                        ..options.clone()
+                    };
+                    &tip_only
+                } else {
+                    options
                 };
                 let split = plan_motion(model, m, *start, *end, options, directions)?;
                 let uncertainty_um = if uncertain {

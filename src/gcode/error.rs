@@ -198,6 +198,15 @@ pub enum ErrorKind {
     /// A move's target is not finite (an infinite or NaN coordinate).
     #[error("the target is not finite")]
     NonFinite,
+    /// A construct of a controller dialect volcomp does not read yet (the
+    /// dialect's name, the feature as written): never passed over, since it
+    /// may move an axis.
+    #[error("{0} `{1}` is not read by volcomp yet")]
+    DialectFeature(&'static str, String),
+    /// What the control itself refuses (in its words, as its manual gives
+    /// them).
+    #[error("{0}")]
+    DialectRefused(String),
     /// The program executed more lines than the limit (the limit) without
     /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
@@ -326,6 +335,12 @@ impl ErrorKind {
                 "check the arc words, or pass --lenient to treat the arc as a straight move"
             }
             ErrorKind::NonFinite => "check the numbers of the block",
+            ErrorKind::DialectFeature(..) => {
+                "docs/dialects.md lists what volcomp reads of each control's language; rewrite the block without the feature (or post-process it flat)"
+            }
+            ErrorKind::DialectRefused(_) => {
+                "the control refuses this too (docs/dialects.md cites its manual); correct the program"
+            }
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"
             }

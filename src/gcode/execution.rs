@@ -21,9 +21,11 @@
 use std::path::{Path, PathBuf};
 
 use crate::axes::Axes;
+use crate::gcode::dialect::{Dialect, DialectChoice, OrientationSolver};
 use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::front::Front;
 use crate::gcode::language::parameters::{Parameters, numbers};
-use crate::gcode::language::{Executed, Executor, LanguageOptions, ProgramInput};
+use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::{BlockEvent, InterpretOptions, Interpreter};
 use crate::gcode::syntax::block::Block;
 
@@ -46,6 +48,27 @@ pub struct ProgramSetup {
     /// Where the run's warnings are collected (shared: a clone of the setup
     /// adds to the same collection).
     pub warnings: crate::warnings::Warnings,
+    /// The dialect the program is read in (`--dialect`); `None`: detected
+    /// from the program's name and first line ([`crate::gcode::detect_dialect`]).
+    pub dialect: Option<Dialect>,
+    /// Tool axis ↔ rotary joints from the machine's chain, for the blocks of
+    /// a dialect that need it (orientation vectors, swivelled planes);
+    /// `None`: such a block is a located error.
+    pub orientation: Option<std::sync::Arc<dyn OrientationSolver>>,
+}
+
+/// The dialect of a program: `setup`'s `--dialect`, else detected from its
+/// name and the start of `input` (read without being consumed).
+pub(crate) fn resolve_dialect(
+    setup: &ProgramSetup,
+    path: &Path,
+    input: &mut dyn ProgramInput,
+) -> DialectChoice {
+    if let Some(d) = setup.dialect {
+        return DialectChoice::given(d);
+    }
+    let head = input.fill_buf().unwrap_or(&[]);
+    crate::gcode::dialect::detect(path, head)
 }
 
 impl ProgramSetup {
@@ -64,17 +87,25 @@ pub struct Program {
     input: Box<dyn ProgramInput>,
     path: PathBuf,
     setup: ProgramSetup,
+    dialect: DialectChoice,
 }
 
 impl Program {
     /// A program read from `input`, named `path` in messages, run with
     /// `setup`.
-    pub fn new(input: Box<dyn ProgramInput>, path: &Path, setup: ProgramSetup) -> Self {
+    pub fn new(mut input: Box<dyn ProgramInput>, path: &Path, setup: ProgramSetup) -> Self {
+        let dialect = resolve_dialect(&setup, path, input.as_mut());
         Program {
             input,
             path: path.to_path_buf(),
             setup,
+            dialect,
         }
+    }
+
+    /// The dialect it is read in, and why.
+    pub fn dialect(&self) -> &DialectChoice {
+        &self.dialect
     }
 
     /// A program held in memory (tests, examples), with the default setup
@@ -114,13 +145,14 @@ impl Program {
 
     /// Start running it.
     pub fn run(self, options: InterpretOptions) -> Execution {
-        Execution::new(self.input, &self.path, options, &self.setup)
+        Execution::with_dialect(self.input, &self.path, options, &self.setup, self.dialect)
     }
 }
 
 /// A program being run. Call [`Execution::next`] until it returns `None`.
 pub struct Execution {
-    executor: Executor,
+    executor: Front,
+    dialect: DialectChoice,
     interpreter: Interpreter,
     event: BlockEvent,
     path: PathBuf,
@@ -139,12 +171,25 @@ pub struct Execution {
 }
 
 impl Execution {
-    /// Run the program read from `input`, named `path` in messages.
+    /// Run the program read from `input`, named `path` in messages, in the
+    /// dialect `setup` gives or, without one, the one detected.
     pub fn new(
+        mut input: Box<dyn ProgramInput>,
+        path: &Path,
+        options: InterpretOptions,
+        setup: &ProgramSetup,
+    ) -> Self {
+        let dialect = resolve_dialect(setup, path, input.as_mut());
+        Execution::with_dialect(input, path, options, setup, dialect)
+    }
+
+    /// Run the program in the dialect `dialect`.
+    fn with_dialect(
         input: Box<dyn ProgramInput>,
         path: &Path,
         options: InterpretOptions,
         setup: &ProgramSetup,
+        dialect: DialectChoice,
     ) -> Self {
         let language = LanguageOptions {
             lenient: options.lenient,
@@ -152,7 +197,8 @@ impl Execution {
             ..setup.language.clone()
         };
         Execution {
-            executor: Executor::new(input, path, language),
+            executor: Front::new(&dialect, input, path, language, setup),
+            dialect,
             interpreter: {
                 let mut i = Interpreter::with_parameters(options, setup.parameters.clone());
                 i.set_tools(setup.tools.clone());
@@ -255,6 +301,11 @@ impl Execution {
         &self.path
     }
 
+    /// The dialect the program is read in, and why.
+    pub fn dialect(&self) -> &DialectChoice {
+        &self.dialect
+    }
+
     /// The interpreter (its position, origin, parameters).
     pub fn interpreter(&self) -> &Interpreter {
         &self.interpreter
@@ -299,8 +350,7 @@ impl Execution {
             self.ended = true;
             self.executor.end_program();
         }
-        let params = self.interpreter.parameters_mut();
-        match self.executor.next_block(params) {
+        match self.executor.next_block(&mut self.interpreter) {
             None if self.ended || self.executor.percent_ended() => {
                 self.tail = true;
                 self.next()

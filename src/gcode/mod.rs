@@ -42,10 +42,13 @@
 //! assert_eq!(String::from_utf8(out).unwrap(),
 //!            "G21 G90 G93\nG1 X5.0000 F4.000000\nN10 G1 X10 Y0 Z0 A0 C0 F4.000000\n");
 //! ```
+pub(crate) mod dialect;
 pub(crate) mod error;
 pub(crate) mod execution;
+pub(crate) mod front;
 pub(crate) mod language;
 pub(crate) mod machine;
+pub(crate) mod sinumerik;
 pub(crate) mod summary;
 pub(crate) mod syntax;
 pub(crate) mod write;
@@ -57,6 +60,7 @@ pub(crate) use machine::{interpret, motion};
 pub(crate) use syntax::block;
 
 pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
+pub use dialect::{Branch, Dialect, DialectChoice, OrientationSolver, detect as detect_dialect};
 pub use error::{ErrorKind, GcodeError};
 pub use execution::{Execution, Program, ProgramSetup};
 pub use interpret::{
@@ -65,7 +69,7 @@ pub use interpret::{
 };
 pub use language::{Executed, LanguageOptions, ProgramInput};
 pub use machine::modal::{CutterComp, Distance, ModalState, MotionMode, Units};
-pub use machine::origin::Origin;
+pub use machine::origin::{FrameTransform, Origin};
 pub use machine::tools::{CutterShape, ToolEntry, ToolInUse, ToolTable, ToolTableError};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane, Pose};
 pub use parameters::Parameters;

@@ -112,9 +112,17 @@ pub struct ProgramSummary {
     /// How many tool runs the program has (`tools` keeps at most the first
     /// 256, `KEPT_TOOL_RUNS`).
     pub tool_runs: usize,
+    /// The dialect the program was read in and why (`read as Sinumerik
+    /// (extension .MPF)`), for programs not read as LinuxCNC's (whose
+    /// summaries stay as they were).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dialect: Option<String>,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
     passed: BTreeMap<(u8, i32), usize>,
+    /// A dialect's statements passed through, by name (`Block::statements`).
+    #[serde(skip)]
+    statements: BTreeMap<String, usize>,
 }
 
 impl ProgramSummary {
@@ -138,6 +146,9 @@ impl ProgramSummary {
         if !event.skipped {
             for w in &block.words {
                 self.count_word(w.letter, w.code10());
+            }
+            for s in &block.statements {
+                self.count_statement(&block.raw[s.clone()]);
             }
         }
         for m in event.motions() {
@@ -227,6 +238,19 @@ impl ProgramSummary {
         *self.passed.entry(key).or_default() += 1;
     }
 
+    fn count_statement(&mut self, text: &[u8]) {
+        let name: String = text
+            .iter()
+            .take_while(|b| b.is_ascii_alphanumeric() || **b == b'_' || **b == b'$')
+            .map(|b| b.to_ascii_uppercase() as char)
+            .collect();
+        if let Some(n) = self.statements.get_mut(&name) {
+            *n += 1;
+        } else {
+            self.statements.insert(name, 1);
+        }
+    }
+
     /// Codes and words passed through untouched (`G54`, `M3`, `S`, `T`, ...),
     /// with their counts.
     pub fn passed_through(&self) -> BTreeMap<String, usize> {
@@ -240,6 +264,7 @@ impl ProgramSummary {
                 };
                 (name, n)
             })
+            .chain(self.statements.iter().map(|(k, &n)| (k.clone(), n)))
             .collect()
     }
 }

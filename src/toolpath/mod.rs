@@ -6,6 +6,7 @@
 pub(crate) mod contact;
 pub(crate) mod context;
 pub(crate) mod cut;
+pub(crate) mod orientation;
 pub(crate) mod plan_match;
 pub(crate) mod pose;
 pub(crate) mod program;
@@ -14,6 +15,7 @@ pub(crate) mod work_origin;
 
 pub use context::{PointContext, last_time_min};
 pub use cut::{CutError, CutOptions, ProbeTool, probe_context};
+pub use orientation::ChainOrientation;
 pub use plan_match::{PlanMatch, PlanMatcher};
 pub use pose::{joints_of, pose_of};
 pub use program::{WalkSummary, walk_program, walk_program_tracking};

@@ -44,6 +44,7 @@ fn case(
 }
 
 const COMPENSATE: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json";
+const SINUMERIK: &str = "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -286,6 +287,67 @@ fn cases() -> Vec<Case> {
             &[
                 "expression of more than 4096 terms and operations",
                 "{d}/bad.nc:3:",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "an IF without its ENDIF",
+            vec![("bad.mpf", text("G0 X0 Y0 Z10\nIF R1>0\nG1 X1 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["IF is never closed: no ENDIF follows", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a GOTOF to no label",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nGOTOF SKIP\nG1 X1 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "jump destination `SKIP` not found (GOTOF searches forward)",
+                "{d}/bad.mpf:2:1",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a recursive PROC",
+            vec![
+                ("bad.mpf", text("G0 X0 Y0 Z10\nDEEP(1)\nM30\n")),
+                (
+                    "DEEP.SPF",
+                    text("PROC DEEP(REAL N)\nG1 X=N F100\nDEEP(N+1)\nRET\n"),
+                ),
+            ],
+            SINUMERIK,
+            1,
+            &["recursive call of `DEEP`", "DEEP.SPF:3:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a DEF after the first motion block",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nDEF REAL LATE=1\nG1 X=LATE F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["DEF after the first motion block", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "an orientation vector of length 0 (`A3=0 B3=0 C3=0`)",
+            vec![(
+                "bad.mpf",
+                text("TRAORI\nG1 X0 Y0 Z10 A3=0 B3=0 C3=0 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "orientation vector A3 B3 C3 of length 0",
+                "{d}/bad.mpf:2:14",
             ],
         ),
         case(

@@ -59,6 +59,9 @@ pub fn program_on(machine: &Machine, text: &str, name: &str) -> volcomp::gcode::
         std::path::Path::new(name),
         volcomp::gcode::ProgramSetup {
             tools: machine.tools.clone(),
+            orientation: Some(std::sync::Arc::new(
+                volcomp::toolpath::ChainOrientation::of(machine),
+            )),
             ..Default::default()
         },
     )

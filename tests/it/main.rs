@@ -33,6 +33,7 @@ mod reversal;
 mod rs274;
 mod safety;
 mod sample;
+mod sinumerik;
 mod support;
 mod toolpath;
 mod tools;

@@ -767,6 +767,29 @@ impl Interpreter {
         self.origin
     }
 
+    /// Set a dialect's programmable frame (Sinumerik `TRANS`/`ROT`/…, a
+    /// swivelled plane), applied to the X Y Z words of the next blocks
+    /// before the work origin ([`Origin::frame`]); `None` clears it.
+    /// LinuxCNC programs never set one.
+    pub fn set_frame(&mut self, frame: Option<super::origin::FrameTransform>) {
+        self.origin.frame = frame;
+    }
+
+    /// Set the work origin (and clear its XY rotation): a dialect whose
+    /// control starts without a settable frame (Sinumerik's `G500`) or
+    /// switches it off.
+    pub fn set_work_origin(&mut self, work: Axes) {
+        self.origin.work = work;
+        self.origin.rotation_deg = 0.0;
+    }
+
+    /// Set the position (machine coordinates) without a move: a dialect's
+    /// step that moves axes the program does not write as words (a
+    /// swivelled plane turning the rotary axes), reported by the front.
+    pub fn set_position(&mut self, position: Axes) {
+        self.position = position;
+    }
+
     /// The parameter table (the language layer reads and writes it).
     pub fn parameters_mut(&mut self) -> &mut Parameters {
         &mut self.params
@@ -2103,6 +2126,7 @@ impl Interpreter {
                         work: o,
                         g92,
                         rotation_deg: self.params.get(numbers::coord(n as usize, 9)),
+                        frame: None,
                     };
                     let mut wanted = system.to_program(&self.position);
                     for axis in Axis::ALL {
@@ -2161,6 +2185,7 @@ impl Interpreter {
                                 work: self.stored_origin(9),
                                 g92: Axes::default(),
                                 rotation_deg: self.params.get(numbers::coord(9, 9)),
+                                frame: None,
                             }
                             .to_program(&self.position)
                         };

@@ -603,8 +603,14 @@ impl Rewriter {
     /// Replace a word's number; returns the printed value.
     fn replace_number(&mut self, block: &Block, w: &Word, value: f64, dec: u8) -> f64 {
         let from = self.text.len();
-        let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
-        self.text.push(letter);
+        match address_with_equals(block, w) {
+            // A dialect's `X=R1+2`, `CR=5`: the address as written, then the number.
+            Some(prefix) => self.text.push_str(prefix),
+            None => {
+                let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
+                self.text.push(letter);
+            }
+        }
         let printed = push_number(&mut self.text, value, dec);
         self.record(from, w.start, w.end);
         printed
@@ -1093,4 +1099,17 @@ pub(super) fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
         .max(o.min_decimals_feed)
         .max(for_significance)
         .min(12)
+}
+
+/// The address of a dialect's word written with `=` (`X=IC(5)`, `CR=R1`):
+/// its text up to and including the `=`; `None` for a letter and a number
+/// (every LinuxCNC word, whose computed values are bracketed).
+fn address_with_equals<'a>(block: &'a Block, w: &Word) -> Option<&'a str> {
+    let text = block.raw.get(w.start..w.end)?;
+    let k = text.iter().position(|&b| b == b'=')?;
+    text[..k]
+        .iter()
+        .all(|b| b.is_ascii_alphanumeric() || *b == b' ')
+        .then(|| std::str::from_utf8(&text[..=k]).ok())
+        .flatten()
 }
