@@ -34,6 +34,12 @@ fn main() {
         total += t;
         let s = score(c, &r, duration);
         if verbose {
+            if let Some(a) = &r.model_check.alternative {
+                println!(
+                    "  alternative {} z {:.1} rms {:.3} factors {:?}",
+                    a.terms, a.z, a.heldout_rms_um, a.factors
+                );
+            }
             println!(
                 "{:?} noise {} seed {} injected {:?} → selected {:?} model {} anomalies {} z {:?}",
                 c.class,

@@ -11,6 +11,13 @@
 //! none of them. [`check_outputs`] refuses, before anything is computed, an
 //! output that is one of the inputs or another output (same device and inode).
 //!
+//! Output folders, one rule for every option that writes a file: a folder
+//! that does not exist is created (as `mkdir -p`) when the outputs are
+//! written, and removed again when the command fails before its outputs are
+//! in place; a folder that cannot be created (a file stands where a folder
+//! of the path should be) is refused by [`check_writable`] before anything is
+//! computed.
+//!
 //! A destination that is a symbolic link is written through: its target is
 //! replaced and the link stays (a link to nothing is refused, as `cp` does). A
 //! read-only destination (no write bit, or a file the user may not write) is
@@ -39,8 +46,16 @@ pub enum OutputError {
         "{path} is a symbolic link to {target}, which does not exist; volcomp does not write through a dangling link (name the file itself)"
     )]
     DanglingLink { path: PathBuf, target: PathBuf },
-    #[error("cannot write {path}: its folder {folder} does not exist")]
-    NoFolder { path: PathBuf, folder: PathBuf },
+    #[error(
+        "cannot write {path}: {folder} is not a folder, so the output's folder cannot be created"
+    )]
+    NotAFolder { path: PathBuf, folder: PathBuf },
+    #[error("cannot create the folder {folder} of {path}: {source}")]
+    CreateFolder {
+        path: PathBuf,
+        folder: PathBuf,
+        source: io::Error,
+    },
 }
 
 /// Is this path the conventional "standard stream" marker `-`?
@@ -152,10 +167,15 @@ where
     }
     // Through a symbolic link: the target is what is replaced.
     let destination = check_writable(path)?;
-    let dir = match destination.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = folder_of(&destination).to_path_buf();
+    let created = create_folders(&dir).map_err(|source| OutputError::CreateFolder {
+        path: path.to_path_buf(),
+        folder: dir.clone(),
+        source,
+    })?;
+    // Folders made for this output: removed again when it is not written
+    // (inside an output set, when the set is dropped without a commit).
+    let folders = NewFolders(created);
     let tmp = tempfile::Builder::new()
         .prefix(".volcomp-")
         .suffix(".tmp")
@@ -192,6 +212,7 @@ where
         temp,
         destination,
         named: path.to_path_buf(),
+        folders,
     };
     let unstaged = STAGED.with(|set| match set.borrow_mut().as_mut() {
         Some(list) => {
@@ -213,6 +234,103 @@ struct Staged {
     destination: PathBuf,
     /// The output as the user named it (for messages).
     named: PathBuf,
+    /// The folders created for it (removed if it is not renamed into place).
+    folders: NewFolders,
+}
+
+/// Folders created for an output, outermost first. Dropped, each one still
+/// empty is removed, innermost first; [`NewFolders::keep`] keeps them.
+struct NewFolders(Vec<PathBuf>);
+
+impl NewFolders {
+    fn keep(mut self) {
+        self.0.clear();
+    }
+}
+
+impl Drop for NewFolders {
+    fn drop(&mut self) {
+        for folder in self.0.iter().rev() {
+            // Fails, as meant, when another output of the set is in it.
+            let _ = std::fs::remove_dir(folder);
+        }
+    }
+}
+
+/// The folder a file is in (`.` for a bare name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Create `dir` and its missing parents; the folders created, outermost first.
+fn create_folders(dir: &Path) -> io::Result<Vec<PathBuf>> {
+    let mut missing = Vec::new();
+    let mut at = Some(dir);
+    while let Some(folder) = at.filter(|f| !f.as_os_str().is_empty()) {
+        if std::fs::symlink_metadata(folder).is_ok() {
+            break;
+        }
+        missing.push(folder.to_path_buf());
+        at = folder.parent();
+    }
+    missing.reverse();
+    let mut created = Vec::new();
+    for folder in missing {
+        match std::fs::create_dir(&folder) {
+            Ok(()) => created.push(folder),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && folder.is_dir() => {}
+            Err(e) => {
+                drop(NewFolders(created));
+                return Err(e);
+            }
+        }
+    }
+    Ok(created)
+}
+
+/// The nearest folder of `path` (itself or a parent) that exists, and whether
+/// it is a folder (not a file standing where a folder should be).
+fn nearest_existing(path: &Path) -> (PathBuf, bool) {
+    let mut at = folder_of(path);
+    loop {
+        if let Ok(m) = std::fs::metadata(at) {
+            return (at.to_path_buf(), m.is_dir());
+        }
+        match at.parent() {
+            Some(p) if !p.as_os_str().is_empty() => at = p,
+            _ => return (PathBuf::from("."), true),
+        }
+    }
+}
+
+/// The absolute, resolved path of a file that may not exist yet, nor its
+/// folders: the nearest existing folder resolved (links followed), the rest
+/// of the path joined as written. `None` when no folder of it resolves.
+pub fn resolved_path(path: &Path) -> Option<PathBuf> {
+    if let Ok(real) = std::fs::canonicalize(path) {
+        return Some(real);
+    }
+    let (existing, _) = nearest_existing(path);
+    let base = std::fs::canonicalize(&existing).ok()?;
+    let rest = if existing == Path::new(".") && !path.starts_with(".") {
+        path
+    } else {
+        path.strip_prefix(&existing).ok()?
+    };
+    let mut out = base;
+    for part in rest.components() {
+        match part {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    Some(out)
 }
 
 thread_local! {
@@ -232,6 +350,7 @@ fn persist_all(staged: Vec<Staged>) -> Result<(), OutputError> {
         temp,
         destination,
         named,
+        folders,
     } in staged
     {
         let LiveTemp {
@@ -248,6 +367,9 @@ fn persist_all(staged: Vec<Staged>) -> Result<(), OutputError> {
         let r = tmp_path.persist(&destination).map_err(|e| e.error);
         live.retain(|p| p != &registration.0);
         std::mem::forget(registration);
+        if r.is_ok() {
+            folders.keep();
+        }
         if let Err(source) = r {
             failure = Some(OutputError::Persist {
                 path: named,
@@ -303,9 +425,12 @@ impl OutputSet {
 impl Drop for OutputSet {
     fn drop(&mut self) {
         if self.outer {
-            // Not committed: the staged temporary files are removed.
+            // Not committed: the staged temporary files are removed, the
+            // last first (a folder made for an earlier output is then empty).
             let staged = STAGED.with(|set| set.borrow_mut().take());
-            drop(staged);
+            for output in staged.unwrap_or_default().into_iter().rev() {
+                drop(output);
+            }
         }
     }
 }
@@ -313,7 +438,8 @@ impl Drop for OutputSet {
 /// Can `path` be replaced? Returns the file that would be: `path` itself, or
 /// the target of a symbolic link. Refused: a link to nothing, a read-only file
 /// (no write bit, for every user; or one the user may not open for writing),
-/// a file in a folder that does not exist.
+/// a file whose folder cannot be created (a file stands in its way). A folder
+/// that does not exist yet is not refused: [`write_atomic`] creates it.
 pub fn check_writable(path: &Path) -> Result<PathBuf, OutputError> {
     let link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
     let destination = if link {
@@ -349,14 +475,13 @@ pub fn check_writable(path: &Path) -> Result<PathBuf, OutputError> {
         }
         Ok(_) => {}
         Err(_) => {
-            let folder = match destination.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p,
-                _ => Path::new("."),
-            };
-            if !folder.is_dir() {
-                return Err(OutputError::NoFolder {
+            // A missing folder is created when the output is written; one
+            // that cannot be (a file in its place) is refused now.
+            let (folder, is_folder) = nearest_existing(&destination);
+            if !is_folder {
+                return Err(OutputError::NotAFolder {
                     path: path.to_path_buf(),
-                    folder: folder.to_path_buf(),
+                    folder,
                 });
             }
         }
@@ -392,14 +517,7 @@ fn identity(path: &Path) -> Option<Identity> {
             }
         }
         Ok(_) => None,
-        Err(_) => {
-            let folder = match path.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p,
-                _ => Path::new("."),
-            };
-            let folder = std::fs::canonicalize(folder).ok()?;
-            Some(Identity::Path(folder.join(path.file_name()?)))
-        }
+        Err(_) => resolved_path(path).map(Identity::Path),
     }
 }
 
@@ -472,6 +590,38 @@ pub fn check_outputs(inputs: &[NamedPath], outputs: &[NamedPath]) -> Result<(), 
         }
     }
     Ok(())
+}
+
+/// The most bytes of a cell, word or line a reader's message echoes (as the
+/// G-code reader's excerpt): a message stays short however long the input.
+pub const ECHO_BYTES: usize = crate::gcode::error::EXCERPT_BYTES;
+
+/// The longest line the line readers take (error tables, plans and
+/// measurements, tool tables, `.var` files), bytes: as the G-code reader's.
+pub const MAX_LINE_BYTES: usize = 65_536;
+
+/// `text` as a message shows it: whole when short, else its first
+/// [`ECHO_BYTES`] (at a character boundary), `…` and its length.
+pub fn echo(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.len() <= ECHO_BYTES {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut end = ECHO_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    std::borrow::Cow::Owned(format!("{}… ({} bytes)", &text[..end], text.len()))
+}
+
+/// The message for a line longer than [`MAX_LINE_BYTES`], `None` for one
+/// within it.
+pub fn long_line(line: &str) -> Option<String> {
+    (line.len() > MAX_LINE_BYTES).then(|| {
+        format!(
+            "line of {} bytes, longer than volcomp's limit of {MAX_LINE_BYTES} bytes",
+            line.len()
+        )
+    })
 }
 
 /// Convenience: write a whole string or byte buffer atomically.

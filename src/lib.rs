@@ -62,3 +62,10 @@ pub(crate) mod warnings;
 pub fn run_command_line() -> i32 {
     cli::main()
 }
+
+/// The command line's definition: every command, option and help text, as
+/// `volcomp --help` shows them; for the tests and tools that walk it (which
+/// options write files, completions, manual pages).
+pub fn command_line() -> clap::Command {
+    <cli::Cli as clap::CommandFactory>::command()
+}

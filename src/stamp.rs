@@ -403,6 +403,9 @@ pub struct StampWriter<'a> {
     /// Header lines passed so far (0: none, 1: `%` seen).
     seen_percent: bool,
     done: bool,
+    /// The comment style of the program's dialect (`;` lines for Sinumerik
+    /// and Heidenhain).
+    dialect: crate::gcode::Dialect,
 }
 
 impl<'a> StampWriter<'a> {
@@ -414,6 +417,30 @@ impl<'a> StampWriter<'a> {
             pending: Vec::new(),
             seen_percent: false,
             done: false,
+            dialect: crate::gcode::Dialect::LinuxCnc,
+        }
+    }
+
+    /// Write the stamp as comments of `dialect` (`; volcomp-stamp …` lines
+    /// for Sinumerik and Heidenhain, whose controls read no `( … )`).
+    pub fn with_dialect(mut self, dialect: crate::gcode::Dialect) -> Self {
+        self.dialect = dialect;
+        self
+    }
+
+    fn render(&self, eol: &str) -> String {
+        let text = self.stamp.render(eol);
+        match self.dialect {
+            crate::gcode::Dialect::LinuxCnc => text,
+            d => text
+                .split_inclusive(eol)
+                .map(|line| {
+                    let body = line.trim_end_matches(eol);
+                    let body = body.strip_prefix('(').unwrap_or(body);
+                    let body = body.strip_suffix(')').unwrap_or(body);
+                    d.comment(body) + eol
+                })
+                .collect(),
         }
     }
 
@@ -442,12 +469,16 @@ impl<'a> StampWriter<'a> {
                 self.pending.drain(..=end);
                 continue;
             }
-            if is_program_number(content) {
+            // Sinumerik's archive header: `%_N_PART_MPF`, then `;$PATH=/_N_MPF_DIR`.
+            let path_line = self.seen_percent
+                && self.dialect == crate::gcode::Dialect::Sinumerik
+                && content.trim_ascii_start().starts_with(b";$PATH");
+            if is_program_number(content) || path_line {
                 self.inner.write_all(&self.pending[..=end])?;
                 self.pending.drain(..=end);
-                self.inner.write_all(self.stamp.render(eol).as_bytes())?;
+                self.inner.write_all(self.render(eol).as_bytes())?;
             } else {
-                self.inner.write_all(self.stamp.render(eol).as_bytes())?;
+                self.inner.write_all(self.render(eol).as_bytes())?;
             }
             self.done = true;
             self.inner.write_all(&self.pending)?;
@@ -466,7 +497,7 @@ impl<'a> StampWriter<'a> {
                 self.inner.write_all(&last)?;
                 self.inner.write_all(b"\n")?;
             }
-            self.inner.write_all(self.stamp.render("\n").as_bytes())?;
+            self.inner.write_all(self.render("\n").as_bytes())?;
             self.done = true;
         }
         self.inner.flush()

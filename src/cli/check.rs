@@ -11,18 +11,20 @@ use crate::gcode::{
 };
 use std::io::Write;
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp check samples/saddle.nc
-  volcomp check part.ngc --var sim.var --targets targets.csv   # machine positions, G54… from the .var
-  volcomp check part.nc --offset G54=250,120,-310 --targets -  # other controllers' origins
-  volcomp check part.ngc --tools tool.tbl     # T words checked against LinuxCNC's tool table
-  volcomp check part.ngc --subroutine-path subs/              # o<name> call finds subs/name.ngc
-  volcomp check part.ngc --flatten -o flat.ngc                # loops, subroutines and cycles written out
-  volcomp check part.nc --frame part          # program starts with tool-tip control on
-  volcomp check bc-part.nc --machine machines/bc-trt.toml   # B/C program: the machine's axis letters
-  volcomp check legacy.nc --lenient           # pass constructs it cannot understand through
-  cat part.nc | volcomp check -";
+  volcomp check samples/saddle.nc --tools samples/saddle.tbl --targets targets.csv   # T words against the tool table
+  volcomp check samples/saddle.nc --offset G54=250,120,-310 --targets -   # other controllers' origins
+  volcomp check samples/saddle-tcp.nc --flatten -o flat.ngc   # loops, subroutines and cycles written out
+  volcomp check samples/bc-trt/saddle.nc --machine machines/bc-trt.toml   # B/C program: the machine's letters
+  volcomp check samples/saddle.nc --lenient --json   # pass constructs it cannot understand through
+  cat samples/saddle.nc | volcomp check -";
+
+const AFTER_HELP: &str = "\
+A LinuxCNC machine's setup (work origins G54…, G92, G28/G30 positions) comes from its \
+parameter file with --var FILE.var; other controllers' origins with --offset. \
+--subroutine-path DIR finds o<name> call in DIR/name.ngc. --frame part reads a program \
+that starts with tool-tip control already on.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -222,7 +224,7 @@ impl<'a> Job<'a> {
         }
         super::common::print_warnings(&groups);
         if let Some(stamp) = stamp {
-            eprintln!("note: {}: {}", args.program.display(), stamp.summary());
+            super::noteln!("{}: {}", args.program.display(), stamp.summary());
         }
         crate::cli::humanln!(
             self.data_on_stdout,

@@ -140,17 +140,32 @@ impl ModelArgs {
 
 /// Load a machine and fit its error model, printing what was not measured to stderr.
 pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, ErrorModel)> {
+    let machine = load_machine(path, args)?;
+    fit_model(machine, path, args)
+}
+
+/// The machine file and its tables, read as `args` says (no model yet).
+pub fn load_machine(path: &Path, args: &ModelArgs) -> anyhow::Result<Machine> {
     if args.fit_select == crate::nurbs::Selection::Cv && args.fit_method.is_some() {
         return Err(super::UsageError(
             "--fit-method belongs to the paper's selection: add --fit-select emax".into(),
         )
         .into());
     }
-    let policy: ExtrapolationPolicy = args.extrapolate.into();
     let options = crate::machine::LoadOptions {
-        extrapolation: policy,
+        extrapolation: args.extrapolate.into(),
     };
-    let machine = Machine::load_with(path, &options)?;
+    Ok(Machine::load_with(path, &options)?)
+}
+
+/// The error model of a loaded machine (fitted, from the cache or from
+/// `--model`), printing what was not measured to stderr.
+pub fn fit_model(
+    machine: Machine,
+    path: &Path,
+    args: &ModelArgs,
+) -> anyhow::Result<(Machine, ErrorModel)> {
+    let policy: ExtrapolationPolicy = args.extrapolate.into();
     let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
         fit: crate::nurbs::FitOptions {
@@ -168,15 +183,15 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
                 .with_context(|| format!("fitting the error tables of {}", path.display()))?;
             if let crate::machine::CacheOutcome::TablesChanged(tables) = &report.outcome {
                 let names: Vec<String> = tables.iter().map(|t| t.display().to_string()).collect();
-                eprintln!(
-                    "note: {}: {} changed since its model was cached: refitted",
+                super::noteln!(
+                    "{}: {} changed since its model was cached: refitted",
                     machine.name,
                     names.join(", ")
                 );
             }
             if let Some(e) = &report.store_error {
-                eprintln!(
-                    "note: the fitted model was not cached in {}: {e}",
+                super::noteln!(
+                    "the fitted model was not cached in {}: {e}",
                     cache.dir().display()
                 );
             }
@@ -185,6 +200,17 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         (None, None) => ErrorModel::from_machine(&machine, &model_options)
             .with_context(|| format!("fitting the error tables of {}", path.display()))?,
     };
+    for note in model_notes(&machine) {
+        super::noteln!("{note}");
+    }
+    Ok((machine, model))
+}
+
+/// What a machine's tables leave out or add, one note per kind (a note that
+/// names several tables names them together): axes without a table, tables
+/// with a `REVERSAL` column, tables missing parameters.
+pub fn model_notes(machine: &Machine) -> Vec<String> {
+    let mut notes = Vec::new();
     let unmeasured: Vec<String> = machine
         .layout()
         .slot_axes()
@@ -193,30 +219,39 @@ pub fn load_model(path: &Path, args: &ModelArgs) -> anyhow::Result<(Machine, Err
         .map(|axis| axis.letter().to_string())
         .collect();
     if !unmeasured.is_empty() {
-        eprintln!(
-            "note: {}: no error table for {} (those errors are taken as zero)",
+        notes.push(format!(
+            "{}: no error table for {} (those errors are taken as zero)",
             machine.name,
             unmeasured.join(", ")
-        );
+        ));
     }
-    for table in machine.tables.iter().flatten() {
-        if table.reversal.is_some() {
-            eprintln!(
-                "note: {}: {} has a REVERSAL column: the error model adds ±REVERSAL/2 by the direction of the axis's last motion (unknown before the axis first moves: the mean)",
-                machine.name,
-                table.path.display()
-            );
-        }
-        if !table.missing.is_empty() {
-            eprintln!(
-                "note: {}: {} does not measure {} (taken as zero)",
-                machine.name,
-                table.path.display(),
-                table.missing.join(", ")
-            );
-        }
+    let tables: Vec<_> = machine.tables.iter().flatten().collect();
+    let reversal: Vec<String> = tables
+        .iter()
+        .filter(|t| t.reversal.is_some())
+        .map(|t| t.path.display().to_string())
+        .collect();
+    if !reversal.is_empty() {
+        let (has, column) = if reversal.len() == 1 {
+            ("has a", "column")
+        } else {
+            ("have", "columns")
+        };
+        notes.push(format!(
+            "{}: {} {has} REVERSAL {column}: the error model adds ±REVERSAL/2 by the direction of the axis's last motion (unknown before the axis first moves: the mean)",
+            machine.name,
+            reversal.join(", ")
+        ));
     }
-    Ok((machine, model))
+    for table in tables.iter().filter(|t| !t.missing.is_empty()) {
+        notes.push(format!(
+            "{}: {} does not measure {} (taken as zero)",
+            machine.name,
+            table.path.display(),
+            table.missing.join(", ")
+        ));
+    }
+    notes
 }
 
 /// Frame of a program's X Y Z at its start.
@@ -628,7 +663,7 @@ pub struct Progress {
 impl Progress {
     /// A bar over `total` bytes read at `position`, named `what path`.
     pub fn new(path: &Path, what: &str, total: u64, position: Arc<AtomicU64>) -> Option<Progress> {
-        if !std::io::stderr().is_terminal() {
+        if !std::io::stderr().is_terminal() || crate::cli::quiet() {
             return None;
         }
         let bar = ProgressBar::new(total.max(1));
@@ -821,16 +856,59 @@ pub fn print_warnings(groups: &[crate::warnings::WarningGroup]) {
 /// What to append to a summary's first line when warnings change the
 /// result: ` (warnings change this result: 1× tool length assumed)`.
 pub fn result_note(groups: &[crate::warnings::WarningGroup]) -> String {
-    let parts: Vec<String> = groups
-        .iter()
-        .filter(|g| g.changes_result)
-        .map(|g| format!("{}× {}", g.count, g.effect))
-        .collect();
+    // One part per effect: two programs' warnings of one kind (diff) add up.
+    let mut parts: Vec<(u64, &str)> = Vec::new();
+    for g in groups.iter().filter(|g| g.changes_result) {
+        match parts.iter_mut().find(|(_, effect)| *effect == g.effect) {
+            Some((count, _)) => *count += g.count,
+            None => parts.push((g.count, &g.effect)),
+        }
+    }
     if parts.is_empty() {
         String::new()
     } else {
+        let parts: Vec<String> = parts
+            .iter()
+            .map(|(count, effect)| format!("{count}× {effect}"))
+            .collect();
         format!(" (warnings change this result: {})", parts.join(", "))
     }
+}
+
+/// Warn (kind `other_machine`) when a program's stamp or header
+/// ([`crate::sample::machine_suffix`]) names a machine other than `machine`:
+/// its joints were written for that machine's kinematics.
+pub fn warn_other_machine(
+    warnings: &crate::warnings::Warnings,
+    program: &str,
+    head: &str,
+    stamp: Option<&crate::stamp::Stamp>,
+    machine: &str,
+) {
+    let named = stamp
+        .map(|s| (s.machine.clone(), "its stamp"))
+        .or_else(|| crate::sample::header_machine(head).map(|m| (m, "its header")));
+    let Some((other, source)) = named else {
+        return;
+    };
+    if other.eq_ignore_ascii_case(machine) {
+        return;
+    }
+    warnings.add(
+        &crate::warnings::Warning {
+            kind: "other_machine",
+            file: Some(program),
+            line: None,
+            column: None,
+            effect: "",
+        },
+        1,
+        || {
+            format!(
+                "{source} says it was written for machine {other}, not {machine}: its axis words are that machine's joints (generate or post the program for {machine})"
+            )
+        },
+    );
 }
 
 /// Add the model's held lookups (`--extrapolate hold`) to a run's warnings.
@@ -848,9 +926,11 @@ pub fn add_held_lookups(warnings: &crate::warnings::Warnings, held: u64) {
     );
 }
 
-/// Print to stdout, or to stderr when stdout carries the command's output.
+/// Print to stdout, or to stderr when stdout carries the command's output;
+/// nothing under `-q`.
 pub fn say(stdout_is_output: bool, text: &str) -> anyhow::Result<()> {
-    if stdout_is_output {
+    if crate::cli::quiet() {
+    } else if stdout_is_output {
         eprintln!("{text}");
     } else {
         crate::cli::outln!("{text}");
@@ -919,14 +999,13 @@ mod tests {
 /// The files a command reads and the files it writes. [`CommandFiles::check`]
 /// runs before anything is computed: an output that is an input or another
 /// output is a usage error (exit 2) naming both; an output that cannot be
-/// replaced (read-only, a dangling link, a missing folder) is an error.
+/// replaced (read-only, a dangling link, a folder that cannot be created) is
+/// an error. A missing folder is not: it is created when the outputs are
+/// written (`crate::io`'s one rule for output folders).
 #[derive(Debug, Default)]
 pub struct CommandFiles {
     inputs: Vec<crate::io::NamedPath>,
     outputs: Vec<crate::io::NamedPath>,
-    /// Outputs written into a folder the command creates (not checked for
-    /// writability before it exists).
-    derived: Vec<crate::io::NamedPath>,
 }
 
 impl CommandFiles {
@@ -945,12 +1024,6 @@ impl CommandFiles {
         if let Some(path) = path {
             self.outputs.push(crate::io::NamedPath::new(role, path));
         }
-        self
-    }
-
-    /// An output in a folder that the command creates when it is missing.
-    pub fn output_in_new_folder(mut self, role: &str, path: &Path) -> CommandFiles {
-        self.derived.push(crate::io::NamedPath::new(role, path));
         self
     }
 
@@ -975,9 +1048,7 @@ impl CommandFiles {
     }
 
     pub fn check(&self) -> anyhow::Result<()> {
-        let outputs: Vec<crate::io::NamedPath> =
-            self.outputs.iter().chain(&self.derived).cloned().collect();
-        crate::io::check_outputs(&self.inputs, &outputs)
+        crate::io::check_outputs(&self.inputs, &self.outputs)
             .map_err(|e| super::UsageError(e.to_string()))?;
         for output in &self.outputs {
             if !crate::io::is_stdio(&output.path) {

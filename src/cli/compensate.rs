@@ -10,31 +10,34 @@ use crate::stamp::{Fnv1a64, Stamp, StampWriter};
 use anyhow::Context;
 use std::path::PathBuf;
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc
   volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc --tol 0.2 --report comp.json
-  volcomp compensate machines/ref-trt.toml samples/saddle-tcp.nc -o - --frame joint > out.nc
-  cat big.nc | volcomp compensate machines/ref-trt.toml - -o big-comp.nc
-  volcomp compensate machines/ref-trt.toml part.nc --in-place          # replace part.nc
-  volcomp compensate machines/ref-trt.toml part-comp.nc -o again.nc --force   # compensate twice, knowingly
+  volcomp compensate machines/ref-trt.toml samples/saddle-tcp.nc -o - > saddle-tcp-comp.nc
+  cat samples/saddle.nc | volcomp compensate machines/ref-trt.toml - -o from-stdin.nc
+  cp samples/saddle.nc part.nc && volcomp compensate machines/ref-trt.toml part.nc --in-place
+  volcomp compensate machines/ref-trt.toml part.nc -o again.nc --force   # compensate twice, knowingly
   volcomp compensate machines/ref-trt.toml samples/saddle.nc -o tip-only.nc --position-only
+  volcomp compensate machines/bc-trt.toml samples/bc-trt/saddle.nc -o bc-comp.nc --tools samples/bc-trt/saddle.tbl";
 
+const AFTER_HELP: &str = "\
 Every motion target is moved so that the modelled actual tool tip (the machine's
 measured errors, fitted as SMEM curves) lands on the programmed one, solved to
 1 nm, and the modelled tool axis on the programmed axis, to 0.01 µrad, through
-X Y Z A C together (--position-only: X Y Z only, A and C as programmed, the tilt
-errors left in the axis; near the A = 0 pole moves are position-only anyway).
-A cutting move is split where the correction along it departs from the
-straight move between its corrected ends by more than --tol. Blocks that do not
-move, and every non-motion line, come out byte for byte. The output is written to a temporary file and renamed: a failed or
-interrupted run (SIGINT, SIGTERM) leaves no partial program.
+X Y Z and both rotary axes together (--position-only: X Y Z only, the rotary axes
+as programmed, the tilt errors left in the axis; near the pole moves are
+position-only anyway). A cutting move is split where the correction along it
+departs from the straight move between its corrected ends by more than --tol.
+Blocks that do not move, and every non-motion line, come out byte for byte. The
+output is written to a temporary file and renamed: a failed or interrupted run
+(SIGINT, SIGTERM) leaves no partial program.
 
 The output starts with a provenance stamp, comment lines after the `%` and `O`
 lines (volcomp version, machine, model hash, tool length, tolerance, input
 hash). A program that carries one is refused (compensating twice doubles the
 corrections) unless --force. -o naming the input itself (also through a link)
-is refused unless --in-place.
+is refused unless --in-place. A program whose stamp or header names another
+machine is compensated with a warning.
 
 With --report, the summary also gives the expected residual from the model's own
 noise: the standard uncertainty of the modelled error (table noise and fit,
@@ -183,6 +186,14 @@ Give the original program, or --force to compensate it anyway"
             );
         }
         let setup = args.read.setup(Some(&self.machine))?;
+        let head = super::common::program_head(input.as_mut())?;
+        super::common::warn_other_machine(
+            &setup.warnings,
+            &name,
+            &head,
+            old_stamp.as_ref(),
+            &self.machine.name,
+        );
         let stamp = self.stamp(&setup, input_hash)?;
         Ok((input, setup, stamp))
     }
@@ -247,10 +258,11 @@ Give the original program, or --force to compensate it anyway"
         let (input, total, position) = super::common::track(input)?;
         let program = crate::gcode::Program::new(input, &args.program, setup);
         super::common::announce_dialect(&program);
+        let dialect = program.dialect().dialect;
         let warnings = program.warnings();
         let bar = Progress::new(&args.program, "compensating", total, position);
         let mut report: Option<CompensateReport> = None;
-        let klartext = program.dialect().dialect == crate::gcode::Dialect::Heidenhain;
+        let klartext = dialect == crate::gcode::Dialect::Heidenhain;
         write_atomic(output, |out| -> anyhow::Result<()> {
             let progress = |n| {
                 if let Some(b) = &bar {
@@ -268,7 +280,8 @@ Give the original program, or --force to compensate it anyway"
                 out.finish().map_err(write_error)?;
                 r
             } else {
-                let mut out = StampWriter::new(out, stamp);
+                // `;` comment lines for Sinumerik, `( … )` for LinuxCNC.
+                let mut out = StampWriter::new(out, stamp).with_dialect(dialect);
                 let r = compensate(program, &mut out, &self.model, &options, progress)?;
                 out.finish().map_err(write_error)?;
                 r
@@ -564,17 +577,16 @@ fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
     }
 }
 
-/// FNV-1a 64 over the error-table files' bytes, in axis order (the data the
-/// model was fitted to; a `--model` file is checked against the same tables),
+/// FNV-1a 64 over the error-table files' bytes as they were read (the data the
+/// model was built from, not the files read again; a `--model` file is
+/// checked against the same tables), in axis order,
 /// then over the machine file's own error constants: the squareness, the
 /// rotary location errors and the `[reversal]` constants (0 where absent), so
 /// that two machine files with the same tables but other constants differ.
 fn model_hash(machine: &crate::machine::Machine) -> anyhow::Result<Fnv1a64> {
     let mut hash = Fnv1a64::default();
     for table in machine.tables.iter().flatten() {
-        let bytes = std::fs::read(&table.path)
-            .with_context(|| format!("cannot read {}", table.path.display()))?;
-        hash.update(&bytes);
+        hash.update(table.text.as_bytes());
     }
     let constants = machine
         .squareness

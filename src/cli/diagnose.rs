@@ -10,11 +10,21 @@ use crate::toolpath::PointContext;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
+pub const EXAMPLES: &str = "\
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect setup_error:tx=8,ty=-5 --seed 7
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect setup_error:tx=8,ty=-5 --seed 7
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --write-machine ref-trt-diag.toml
+  volcomp compensate ref-trt-diag.toml samples/saddle.nc -o saddle-comp.nc";
+
 const AFTER_HELP: &str = "\
 The report (JSON) holds the gap (measured and predicted profile, residual RMS, noise floor),
-its localisation (worst points and blocks, by time, region, A/C and direction of travel),
-every catalogue effect fitted and cross-validated (folds by region and by time), the
-selected effects (none, one or two) and the model after adding them. See docs/diagnose.md.
+its localisation (worst points and blocks, by time, region, rotary angles and direction of
+travel), every catalogue effect fitted and cross-validated (folds by region and by time),
+the selected effects (none, one or more) and the model after adding them.
 
 When the selected effect has aliases on the part, --followup-program writes a probing
 program (G38.2) that separates them and its plan (.csv); measure it (or simulate it)
@@ -25,15 +35,7 @@ applied: rotary location and squareness added to [location] and [squareness], a
 backlash as a REVERSAL column in copies of the axis tables (OUT.x.csv …, next to
 OUT.toml), the set-up as a work-offset suggestion in the comment block that says
 what changed and why. The rest of the file is kept; table paths are re-written to
-resolve from OUT's folder. Compensate with it to cut the next part.
-
-Examples:
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html --noise-um 0.3
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag2.json --followup meas2.csv
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --write-machine ref-trt-diag.toml
-  volcomp compensate ref-trt-diag.toml samples/saddle.nc -o saddle-comp.nc";
+resolve from OUT's folder. Compensate with it to cut the next part.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]

@@ -6,19 +6,21 @@ use crate::io::write_json_atomic;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
+  volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc
   volcomp diff samples/saddle.nc saddle-comp.nc
   volcomp diff samples/saddle.nc saddle-comp.nc --report diff.json --top 20
-  volcomp diff old.nc new.nc --match-tol 0.2
+  volcomp diff samples/saddle.nc saddle-comp.nc --match-tol 0.2 --fail-over 100   # exit 1 past 100 µm";
 
+const AFTER_HELP: &str = "\
 Blocks are paired by N number when both programs number them, otherwise by a
 sequence alignment: motion blocks of the same kind whose targets agree within
 --match-tol pair up (a split arc's last straight piece with the arc), the
 extra pieces of a split move count as added blocks, and the summary says how
 many pieces each split block became.
-Changes are B − A of the interpreted end targets (absolute, mm and degrees);
-X Y Z changes are shown in µm, A C in millidegrees.";
+Changes are B − A of the interpreted end targets as programmed (absolute, mm and
+degrees; no tool length enters them); X Y Z changes are shown in µm, rotary axes in
+millidegrees.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -98,8 +100,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (b, stamp_b) = args.read.program_and_stamp(&args.b, None)?;
     let (warnings_a, warnings_b) = (a.warnings(), b.warnings());
     let mut report = diff_programs(a, b, &options)?;
-    report.warnings = warnings_a.groups();
-    report.warnings.extend(warnings_b.groups());
+    // The diff compares the targets as programmed: no tool length enters
+    // them, so what the reader says about tools (no tool table, an offset
+    // other than the tool's length) changes nothing here and is not said.
+    report.warnings = warnings_a
+        .groups()
+        .into_iter()
+        .chain(warnings_b.groups())
+        .filter(|w| !matches!(w.kind.as_str(), "no_tool_table" | "tool_length_offset"))
+        .collect();
     if let Some(path) = &args.report {
         write_json_atomic(path, &report)?;
     }

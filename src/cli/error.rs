@@ -10,18 +10,20 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp error machines/ref-trt.toml --at 10,20,-30,15,45
   volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --json
   volcomp error machines/ref-trt.toml --at 0,0,-50,30,725 --verbose
   volcomp error machines/ref-trt.toml --at 5,5,5,30,45 --frame part
-  volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --tools tool.tbl --tool 2
+  volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --tools samples/saddle.tbl --tool 2
+  printf 'x,y,z,a,c\\n10,20,-30,15,45\\n0,0,-50,30,90\\n' > poses.csv
   volcomp error machines/ref-trt.toml --poses poses.csv --json > errors.json
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --model fit.json --at 10,20,-30,15,45
-  volcomp error machine.toml --at 50,20,-30,15,45 --direction X+,Y-
+  volcomp error machines/ref-trt.toml --at 50,20,-30,15,45 --direction X+,Y-
+  volcomp error machines/bc-trt.toml --at 10,20,-30,15,45   # X,Y,Z,B,C on a B/C machine";
 
+const AFTER_HELP: &str = "\
 The pose is X,Y,Z (mm) and the machine's two rotary axes in letter order (degrees):
 X,Y,Z,A,C on an A/C machine, X,Y,Z,B,C on a B/C machine. With --frame joint (default) X Y Z are the
 machine coordinates of the tool tip; with --frame part they are the tool tip in part

@@ -2,17 +2,14 @@
 use super::common::MachineArgs;
 use crate::export::linuxcnc::{CompSettings, CompType, MAX_COMP_LINES};
 use crate::export::tables::GridSettings;
-use anyhow::Context;
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp export linuxcnc machines/ref-trt.toml -o linuxcnc-ref-trt
-  volcomp export linuxcnc machine.toml -o comp --comp-type 1 --tol-um 0.05
+  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1 --tol-um 0.05
   volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1";
 
 #[derive(Debug, clap::Args)]
-#[command(after_help = AFTER_HELP)]
 pub struct Args {
     #[command(subcommand)]
     pub target: Target,
@@ -26,11 +23,11 @@ pub enum Target {
     Tables(TablesArgs),
 }
 
-const LINUXCNC_HELP: &str = "\
-Examples:
+pub const LINUXCNC_EXAMPLES: &str = "\
   volcomp export linuxcnc machines/ref-trt.toml -o linuxcnc-ref-trt
-  volcomp export linuxcnc machine.toml -o comp --comp-type 1
+  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1";
 
+const LINUXCNC_HELP: &str = "\
 Writes into DIR:
   <axis>.comp      for each linear axis whose table measures its positioning error (EXX, EYY,
                    EZZ): LinuxCNC's COMP_FILE triplets `nominal forward reverse` (mm), ascending,
@@ -48,9 +45,14 @@ Nominals are the table's positions, bisected until LinuxCNC's linear interpolati
 pub struct LinuxcncArgs {
     #[command(flatten)]
     pub machine: MachineArgs,
-    /// Folder to write into (made if missing).
+    /// Folder to write into (made if missing). A file there that the export
+    /// would replace is refused unless --force.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
+    /// Replace files of DIR that the export writes (x.comp, kinematics.ini,
+    /// README.txt) when they exist already.
+    #[arg(long)]
+    pub force: bool,
     /// COMP_FILE_TYPE: 0 lists actual positions, 1 the trims LinuxCNC adds (nominal − actual).
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=1))]
     pub comp_type: u8,
@@ -62,10 +64,10 @@ pub struct LinuxcncArgs {
     pub max_lines: usize,
 }
 
-const TABLES_HELP: &str = "\
-Examples:
-  volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1
+pub const TABLES_EXAMPLES: &str = "\
+  volcomp export tables machines/ref-trt.toml -o fitted --step 5 --step-deg 1";
 
+const TABLES_HELP: &str = "\
 Writes DIR/<axis>.csv for each measured axis: `position` on the grid (the table's first
 position, then every --step mm or --step-deg degrees, and its last position), each fitted
 parameter's value (µm, µrad; error = actual − nominal) and REVERSAL when the table has it
@@ -77,9 +79,14 @@ can name them.";
 pub struct TablesArgs {
     #[command(flatten)]
     pub machine: MachineArgs,
-    /// Folder to write into (made if missing).
+    /// Folder to write into (made if missing). A file there that the export
+    /// would replace is refused unless --force.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
+    /// Replace files of DIR that the export writes (<axis>.csv) when they
+    /// exist already.
+    #[arg(long)]
+    pub force: bool,
     /// Grid spacing on linear axes, mm.
     #[arg(long, default_value_t = 1.0, value_name = "MM")]
     pub step: f64,
@@ -95,13 +102,51 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
 }
 
-fn make_dir(dir: &Path) -> anyhow::Result<()> {
+/// The files an export writes into its folder, checked before anything is
+/// fitted: none is an input (the machine file, a table: `-o` naming the
+/// tables' own folder), none exists already unless `--force` (a folder holds
+/// other files than the export's: they are not replaced without notice). The
+/// folder is made, when missing, as the files are written.
+fn check_folder(
+    dir: &Path,
+    machine: &crate::machine::Machine,
+    args: &super::common::ModelArgs,
+    files: &[PathBuf],
+    force: bool,
+) -> anyhow::Result<()> {
     if crate::io::is_stdio(dir) {
         return Err(
             super::UsageError("-o names a folder; `-` cannot hold several files".into()).into(),
         );
     }
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+    if dir.exists() && !dir.is_dir() {
+        return Err(super::UsageError(format!(
+            "-o {} is a file; it names the folder to write into",
+            dir.display()
+        ))
+        .into());
+    }
+    let mut check = super::common::CommandFiles::new()
+        .machine(machine)
+        .model(args);
+    for file in files {
+        check = check.output("(-o)", Some(file));
+    }
+    check.check()?;
+    let existing: Vec<String> = files
+        .iter()
+        .filter(|f| std::fs::symlink_metadata(f).is_ok())
+        .map(|f| f.display().to_string())
+        .collect();
+    if !force && !existing.is_empty() {
+        return Err(super::UsageError(format!(
+            "{} already exist{}: the export does not replace files without notice (pass --force to replace them, or name a new folder)",
+            existing.join(", "),
+            if existing.len() == 1 { "s" } else { "" }
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
@@ -119,7 +164,32 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let (machine, model) = args.machine.load()?;
+    let machine = super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
+    let mut files: Vec<PathBuf> = machine
+        .letters()
+        .iter()
+        .filter(|a| !a.is_rotary())
+        .filter(|a| {
+            let parameter = crate::laser::positioning_parameter(*a);
+            machine
+                .table(*a)
+                .is_some_and(|t| t.columns.iter().any(|c| c.name == parameter))
+        })
+        .map(|a| args.output.join(format!("{}.comp", a.lower())))
+        .collect();
+    if crate::export::linuxcnc::kinematics_ini(&machine).is_some() {
+        files.push(args.output.join("kinematics.ini"));
+    }
+    files.push(args.output.join("README.txt"));
+    check_folder(
+        &args.output,
+        &machine,
+        &args.machine.model,
+        &files,
+        args.force,
+    )?;
+    let (machine, model) =
+        super::common::fit_model(machine, &args.machine.machine_file, &args.machine.model)?;
     let settings = CompSettings {
         comp_type: if args.comp_type == 1 {
             CompType::Trim
@@ -137,11 +207,12 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         &settings,
         &name_for_readme.display().to_string(),
     )?;
-    make_dir(&args.output)?;
+    let outputs = crate::io::OutputSet::begin();
+    let mut lines = Vec::new();
     for f in &export.comp_files {
         let path = args.output.join(format!("{}.comp", f.axis.lower()));
         crate::io::write_file_atomic(&path, f.text.as_bytes())?;
-        crate::cli::outln!(
+        lines.push(format!(
             "{} (joint {}): {} lines, within {:.4} µm of the fitted {}{} -> {}",
             f.axis.letter(),
             f.joint,
@@ -154,49 +225,101 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
                 " (no REVERSAL)"
             },
             path.display()
-        );
+        ));
         if !f.met {
             eprintln!(
-                "warning: {}: {} lines do not meet --tol-um {} (within {:.4} µm); raise --max-lines or --tol-um",
+                "warning: {}: {} lines do not meet --tol-um {} (within {:.4} µm); {}",
                 f.axis.letter(),
                 f.nominals.len(),
                 args.tol_um,
-                f.max_error_um
+                f.max_error_um,
+                unmet_tolerance_advice(args.max_lines, f.max_error_um)
             );
         }
     }
     for (axis, why) in &export.skipped {
-        crate::cli::outln!("{}: no COMP_FILE ({why})", axis.letter());
+        lines.push(format!("{}: no COMP_FILE ({why})", axis.letter()));
     }
     match &export.kinematics_ini {
         Some(text) => {
             let path = args.output.join("kinematics.ini");
             crate::io::write_file_atomic(&path, text.as_bytes())?;
-            crate::cli::outln!(
+            lines.push(format!(
                 "{} pivot parameters corrected by the location errors -> {}",
                 machine.kinematics.name(),
                 path.display()
-            );
+            ));
         }
-        None => crate::cli::outln!("{}", export.kinematics_note.as_deref().unwrap_or_default()),
+        None => lines.push(
+            export
+                .kinematics_note
+                .as_deref()
+                .unwrap_or_default()
+                .to_string(),
+        ),
     }
     let path = args.output.join("README.txt");
     crate::io::write_file_atomic(&path, export.readme.as_bytes())?;
-    crate::cli::outln!("[JOINT_n] lines to paste -> {}", path.display());
+    lines.push(format!("[JOINT_n] lines to paste -> {}", path.display()));
+    outputs.commit()?;
+    for line in lines {
+        crate::cli::outln!("{line}");
+    }
     Ok(())
 }
 
+/// What to do when a COMP_FILE of `max_lines` lines stays `reached_um` from
+/// the fitted curve: raise --max-lines while it is below LinuxCNC's limit;
+/// at the limit, say so, and that only a larger tolerance (or a smoother fit,
+/// which needs fewer lines) remains.
+fn unmet_tolerance_advice(max_lines: usize, reached_um: f64) -> String {
+    if max_lines < MAX_COMP_LINES {
+        format!(
+            "raise --max-lines (now {max_lines}, LinuxCNC takes up to {MAX_COMP_LINES}) or --tol-um"
+        )
+    } else {
+        format!(
+            "--max-lines is at LinuxCNC's limit of {MAX_COMP_LINES} lines a joint: give --tol-um {:.4} or more, \
+or fit a smoother curve (fit --select cv, the default) that fewer lines follow",
+            (reached_um * 1e4).ceil() / 1e4
+        )
+    }
+}
+
 fn tables(args: &TablesArgs) -> anyhow::Result<()> {
-    let (machine, model) = args.machine.load()?;
+    use crate::machine::physical_ranges::{MAX_STEP_DEG, MAX_STEP_MM, check_range};
+    check_range("--step", "mm", args.step, (0.0, MAX_STEP_MM), true).map_err(super::UsageError)?;
+    check_range("--step-deg", "°", args.step_deg, (0.0, MAX_STEP_DEG), true)
+        .map_err(super::UsageError)?;
+    let machine = super::common::load_machine(&args.machine.machine_file, &args.machine.model)?;
+    let files: Vec<PathBuf> = machine
+        .letters()
+        .iter()
+        .filter(|a| machine.table(*a).is_some())
+        .map(|a| args.output.join(format!("{}.csv", a.lower())))
+        .collect();
+    check_folder(
+        &args.output,
+        &machine,
+        &args.machine.model,
+        &files,
+        args.force,
+    )?;
+    let (machine, model) =
+        super::common::fit_model(machine, &args.machine.machine_file, &args.machine.model)?;
     let settings = GridSettings {
         step_mm: args.step,
         step_deg: args.step_deg,
     };
     let tables = crate::export::tables::fitted_tables(&machine, &model, &settings)?;
-    make_dir(&args.output)?;
+    let outputs = crate::io::OutputSet::begin();
     for t in &tables {
         let path = args.output.join(format!("{}.csv", t.axis.lower()));
         crate::io::write_file_atomic(&path, t.text.as_bytes())?;
+    }
+    outputs.commit()?;
+    for t in &tables {
+        let path = args.output.join(format!("{}.csv", t.axis.lower()));
         crate::cli::outln!(
             "{}: {} rows ({}) -> {}",
             t.axis.letter(),

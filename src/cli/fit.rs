@@ -8,18 +8,17 @@ use rayon::prelude::*;
 use crate::axes::Axis;
 use crate::machine::table::ErrorTable;
 use crate::nurbs::{
-    FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fit_parameter,
-    fnv1a64,
+    FitOptions, KnotMethod, ParameterFit, ParameterKind, Selection, SmemModelFile, fnv1a64,
 };
 use crate::report::fit_plot::{PlotLabels, plot_fit};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp fit machines/ref-trt.toml
   volcomp fit machines/ref-trt.toml --report fit.json --plot fit-plots
   volcomp fit machines/ref-trt/x.csv --select emax --method ga --seed 7
-  volcomp fit machines/ref-trt/a.csv --select emax --tol 0.3 --tol-angle 0.8 --method exhaustive --control-points 8
+  volcomp fit machines/ref-trt/a.csv --select emax --tol 0.5 --tol-angle 1.0 --method ukm";
 
+const AFTER_HELP: &str = "\
 Each measured column is fitted with a cubic NURBS. By default (--select cv) the curve
 follows the machine, not the measurement noise: a penalised cubic B-spline whose number
 of control points and smoothness minimise generalised cross-validation, smoothing less
@@ -252,23 +251,17 @@ fn check_files(args: &Args, tables: &[ErrorTable], jobs: &[Job<'_>]) -> anyhow::
     if let Some(dir) = &args.plot {
         for job in jobs {
             let name = format!("{}.svg", job.table.columns[job.column].name);
-            files = files.output_in_new_folder("the plot (--plot)", &dir.join(name));
+            files = files.output("(--plot)", Some(&dir.join(name)));
         }
     }
     files.check()?;
     Ok(())
 }
 
-/// FNV-1a 64 of every table file's bytes (the report names what it fitted).
+/// FNV-1a 64 of every table file's bytes as they were read and fitted (the
+/// report names what it fitted).
 fn table_hashes(tables: &[ErrorTable]) -> anyhow::Result<Vec<u64>> {
-    tables
-        .iter()
-        .map(|t| {
-            std::fs::read(&t.path)
-                .map(|b| fnv1a64(&b))
-                .with_context(|| format!("cannot read {}", t.path.display()))
-        })
-        .collect()
+    Ok(tables.iter().map(|t| fnv1a64(t.text.as_bytes())).collect())
 }
 
 /// Fits every column, in parallel.
@@ -289,9 +282,14 @@ fn fit_columns(
                 periodic: job.table.one_revolution,
                 ..base.clone()
             };
-            fit_parameter(&job.table.positions, &column.values, job.kind, &options).with_context(
-                || format!("{}: cannot fit {}", job.table.path.display(), column.name),
+            crate::nurbs::fit_parameter_with_uncertainty(
+                &job.table.positions,
+                &column.values,
+                column.uncertainty.as_deref(),
+                job.kind,
+                &options,
             )
+            .with_context(|| format!("{}: cannot fit {}", job.table.path.display(), column.name))
         })
         .collect()
 }
@@ -414,7 +412,6 @@ fn write_plots(
     jobs: &[Job<'_>],
     fits: &[crate::nurbs::SmemCurve],
 ) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for (job, curve) in jobs.iter().zip(fits) {
         let column = &job.table.columns[job.column];
         let s = curve.stats();

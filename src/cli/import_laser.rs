@@ -4,20 +4,24 @@ use crate::axes::Axis;
 use crate::laser::{ReadSettings, evaluate, is_parameter_of, positioning_parameter, read_file};
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp import-laser tests/data/laser/x-long.csv --axis X -o x.csv --report x-iso230.json
-  volcomp import-laser run1.csv run2.csv run3.csv --axis X -o x.csv
-  volcomp import-laser x-pos.csv EYX=x-straightness.csv EBX=x-pitch.csv --axis X -o x.csv
+  volcomp import-laser tests/data/laser/x-long.csv tests/data/laser/x-paired.csv --axis X -o x.csv
+  volcomp import-laser tests/data/laser/x-long.csv EYX=tests/data/laser/x-straightness-eyx.csv EBX=tests/data/laser/x-pitch-ebx.csv --axis X -o x.csv";
 
+const AFTER_HELP: &str = "\
 Each FILE holds bidirectional runs in one of three layouts (docs/extensions.md):
   long    target,run,direction,deviation      one reading a row (direction + - up down fwd rev)
   paired  target,run,+,-                      a target and run a row, both approaches
   wide    target,run 1 +,run 1 -,run 2 +,...  a target a row, a column per run and direction
-Separators , ; or tab; with ; or tab a decimal comma (1,25); # comments. Header cells may
-carry a unit: target [mm] or [deg]; deviations [µm] [um] [nm] [mm] for lengths,
-[µrad] [urad] [mrad] [arcsec] [mm/m] [µm/m] for angles (default µm, µrad).
-Rows may come in any order (runs measured from the far end).
+English or German names (Sollposition, Lauf, Richtung, Abweichung; vorwärts/rückwärts,
+hin/rück, ↑/↓). Metadata lines before the header are kept in the report; columns that
+are not readings (temperatures, comments) are kept by name. Separators , ; or tab; a
+decimal point or comma, one per file; # comments; UTF-8 or Latin-1 text. Units in the
+header cell or a units line under it: target [mm] [in] or [deg]; deviations [µm] [um]
+[nm] [mm] [in] [mil] [µin] for lengths, [µrad] [urad] [mrad] [arcsec] [mm/m] [µm/m] for
+angles (default mm or deg, µm or µrad). Rows may come in any order. A file given twice
+(the same file or the same bytes) is an error.
 
 A FILE measures the axis's positioning error (EXX for X, EAA for A) unless it is
 given as PARAM=FILE (EYX=..., EBX=...) or its deviation column is named after the
@@ -71,6 +75,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ("-o", super::common::is_stdout(Some(&args.output))),
         ("--report", super::common::is_stdout(args.report.as_deref())),
     ])?;
+    // Every output against every input (the laser files, through links) and
+    // the other output, before anything is read.
+    let mut check = super::common::CommandFiles::new();
+    for arg in &args.files {
+        check = check.input("the laser file", Some(&split_source(arg).1));
+    }
+    check
+        .output("-o", Some(&args.output))
+        .output("--report", args.report.as_deref())
+        .check()?;
     let mut files = Vec::new();
     for arg in &args.files {
         let (parameter, path) = split_source(arg);
@@ -104,10 +118,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })
         })
         .transpose()?;
+    // Both or neither: a report that cannot be written leaves -o as it was.
+    let outputs = crate::io::OutputSet::begin();
     crate::io::write_file_atomic(&args.output, table.as_bytes())?;
     if let (Some(path), Some(text)) = (&args.report, &report) {
         crate::io::write_file_atomic(path, text.as_bytes())?;
     }
+    outputs.commit()?;
     let layouts: Vec<&str> = import.files.iter().map(|f| f.layout.name()).collect();
     let first = &import.parameters[0];
     crate::cli::humanln!(
@@ -121,6 +138,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         first.targets[first.targets.len() - 1].target,
         args.axis.unit()
     );
+    for f in &import.files {
+        crate::cli::humanln!(to_stdout, "{}", file_summary(f, args.axis));
+    }
     for p in &import.parameters {
         let f = &p.figures;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
@@ -164,6 +184,60 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         crate::cli::humanln!(to_stdout, "wrote {}", display(path));
     }
     Ok(())
+}
+
+/// One file as read: its parameter, layout, separator, decimal mark, units,
+/// and what it held besides readings.
+fn file_summary(f: &crate::laser::FileSummary, axis: Axis) -> String {
+    let mut parts = vec![
+        format!("{} {}", f.parameter, f.layout.name()),
+        format!("separator {}", f.separator),
+        f.decimal_mark.describe().to_string(),
+    ];
+    if f.encoding != "UTF-8" {
+        parts.push(format!("{} text", f.encoding));
+    }
+    let unit = |u: &str, default: &str| {
+        if u.is_empty() {
+            format!("{default} (no unit given)")
+        } else {
+            u.to_string()
+        }
+    };
+    let deviation_default = if crate::laser::is_angular(&f.parameter) {
+        "µrad"
+    } else {
+        "µm"
+    };
+    parts.push(format!(
+        "targets {}, deviations {}{}",
+        unit(&f.target_unit, axis.unit()),
+        unit(&f.deviation_unit, deviation_default),
+        f.units_line
+            .map_or(String::new(), |l| format!(" (units line {l})"))
+    ));
+    if !f.preamble.is_empty() {
+        parts.push(format!(
+            "{} before the header (in the report)",
+            super::common::count(f.preamble.len() as u64, "line", "lines")
+        ));
+    }
+    if !f.other_columns.is_empty() {
+        let names: Vec<String> = f
+            .other_columns
+            .iter()
+            .map(|c| match c.range {
+                Some([lo, hi]) if lo == hi => format!("`{}` {lo}", c.name),
+                Some([lo, hi]) => format!("`{}` {lo} to {hi}", c.name),
+                None => format!("`{}`", c.name),
+            })
+            .collect();
+        parts.push(format!(
+            "not readings (kept in the report): {}",
+            names.join(", ")
+        ));
+    }
+    format!("{}: {}", display(&f.path), parts.join("; "))
 }
 
 fn display(path: &Path) -> String {

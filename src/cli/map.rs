@@ -8,12 +8,12 @@ use clap::ValueEnum;
 use serde::Serialize;
 use std::path::PathBuf;
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp map machines/ref-trt.toml --plane xy --at z=0 --out map-xy.svg
   volcomp map machines/ref-trt.toml --plane xz --at y=50 --a 30 --c 90 --grid 31 --out map-xz.svg --report map-xz.json
-  volcomp map machines/ref-trt.toml --plane yz --range -100:100,-150:50 --out map-yz.svg
+  volcomp map machines/ref-trt.toml --plane yz --range -100:100,-150:50 --out map-yz.svg";
 
+const AFTER_HELP: &str = "\
 The grid is in joint (machine) coordinates; the third linear axis sits at --at and A, C
 at --a, --c. The default range is the machine's travel of the two in-plane axes. Colours
 show |e| (µm, from a NURBS surface fitted to the grid); arrows show the in-plane part of

@@ -28,18 +28,26 @@ mod map;
 mod plan_frame;
 mod predict;
 mod sample;
+mod shell;
 mod simulate;
 mod write_machine;
 
-const AFTER_HELP: &str = "\
-Examples:
+const EXAMPLES: &str = "\
   volcomp fit machines/ref-trt.toml --report fit.json
   volcomp error machines/ref-trt.toml --at 10,20,-30,15,45 --json
   volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc --report comp.json
   volcomp predict machines/ref-trt.toml samples/saddle.nc --plan samples/saddle-plan.csv --report pred.json --html pred.html
   volcomp diff samples/saddle.nc saddle-comp.nc
   volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect backlash:bx=6
-  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html";
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --html diag.html
+  volcomp -q compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc   # no summary
+  volcomp completions bash > volcomp.bash
+  volcomp man -o man";
+
+const AFTER_HELP: &str = "\
+-q and -v go before the command: -q prints only the data a command was asked for, its \
+warnings and errors (no summary, notes or progress bar); -v adds detail: the time the \
+command took, and with `error` each parameter's contribution (as `error --verbose`).";
 
 #[derive(Debug, Parser)]
 #[command(
@@ -49,10 +57,18 @@ Examples:
     long_about = "Reads the G-code a CAM system wrote, predicts where the real machine puts the tool \
 from its measured error tables (fitted as cubic NURBS curves, the SMEM), and rewrites the program \
 so the part comes out right. Files use the formats of the project's docs (machine TOML, error CSV, \
-inspection plans, measurements); `-` means standard input or output.",
+inspection plans, measurements); `-` means standard input or output. Outputs: no option writes over \
+an input or another output; a command writes all its outputs or none; a missing folder of an output \
+is created (one that cannot be, refused before anything is computed).",
     after_help = AFTER_HELP
 )]
 pub struct Cli {
+    /// Quiet: no summary, notes or progress bar; data, warnings and errors still print.
+    #[arg(short, long, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// Verbose: more detail (the time taken; `error`: each parameter's contribution).
+    #[arg(short, long)]
+    pub verbose: bool,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -83,6 +99,132 @@ pub enum Command {
     Export(export::Args),
     /// Write the bundled samples: the saddle (program, plan, tool table) or the flank (program, plan).
     Sample(sample::Args),
+    /// Shell completions (bash, zsh, fish, powershell) on standard output.
+    Completions(shell::CompletionsArgs),
+    /// The manual pages (roff): volcomp.1 on standard output, or every page into a folder.
+    Man(shell::ManArgs),
+}
+
+/// How much the command prints beyond its data: `-q`, default, `-v`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Verbosity {
+    /// `-q`: data, warnings and errors only.
+    Quiet,
+    /// The summary and notes.
+    Normal,
+    /// `-v`: and more detail.
+    Verbose,
+}
+
+static VERBOSITY: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(1);
+
+/// The run's verbosity (`-q`, `-v`).
+pub fn verbosity() -> Verbosity {
+    match VERBOSITY.load(std::sync::atomic::Ordering::Relaxed) {
+        0 => Verbosity::Quiet,
+        1 => Verbosity::Normal,
+        _ => Verbosity::Verbose,
+    }
+}
+
+fn set_verbosity(v: Verbosity) {
+    VERBOSITY.store(v as u8, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Is `-q` in effect?
+pub fn quiet() -> bool {
+    verbosity() == Verbosity::Quiet
+}
+
+/// Print a note on standard error (`note: …`) unless `-q`, and only once per
+/// command: a note already printed (the same machine loaded twice) is not
+/// repeated.
+pub fn note(text: String) {
+    static SAID: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    if quiet() {
+        return;
+    }
+    let mut said = SAID.lock().unwrap_or_else(|e| e.into_inner());
+    if !said.contains(&text) {
+        eprintln!("note: {text}");
+        said.push(text);
+    }
+}
+
+/// [`note`] with `format!` arguments.
+macro_rules! noteln {
+    ($($arg:tt)*) => {
+        $crate::cli::note(format!($($arg)*))
+    };
+}
+pub(crate) use noteln;
+
+/// The examples of every help page, by the page's command path (`""` for
+/// `volcomp` itself, `"export linuxcnc"`): printed verbatim at the end of
+/// the page, never wrapped, so that each example is one whole command at any
+/// terminal width.
+fn examples(path: &str) -> Option<&'static str> {
+    Some(match path {
+        "" => EXAMPLES,
+        "fit" => fit::EXAMPLES,
+        "error" => error::EXAMPLES,
+        "map" => map::EXAMPLES,
+        "check" => check::EXAMPLES,
+        "compensate" => compensate::EXAMPLES,
+        "predict" => predict::EXAMPLES,
+        "diff" => diff::EXAMPLES,
+        "simulate" => simulate::EXAMPLES,
+        "diagnose" => diagnose::EXAMPLES,
+        "import-laser" => import_laser::EXAMPLES,
+        "export" => export::EXAMPLES,
+        "export linuxcnc" => export::LINUXCNC_EXAMPLES,
+        "export tables" => export::TABLES_EXAMPLES,
+        "sample" => sample::EXAMPLES,
+        "completions" => shell::COMPLETIONS_EXAMPLES,
+        "man" => shell::MAN_EXAMPLES,
+        _ => return None,
+    })
+}
+
+/// clap's default layout with the examples appended as literal text (clap
+/// wraps `after_help` to the terminal's width; a template's own text is
+/// printed as it is).
+fn help_template(examples: &str) -> String {
+    let mut template = String::from(
+        "{before-help}{about-with-newline}\n{usage-heading} {usage}\n\n{all-args}{after-help}\n\nExamples:",
+    );
+    for line in example_lines(examples) {
+        template.push_str("\n  ");
+        template.push_str(line);
+    }
+    template
+}
+
+/// The examples of a page, one command line each.
+pub fn example_lines(examples: &str) -> impl Iterator<Item = &str> {
+    examples.lines().map(str::trim).filter(|l| !l.is_empty())
+}
+
+fn with_examples(cmd: clap::Command, path: &str) -> clap::Command {
+    let cmd = match examples(path) {
+        Some(text) => cmd.help_template(help_template(text)),
+        None => cmd,
+    };
+    cmd.mut_subcommands(|sub| {
+        let name = sub.get_name().to_string();
+        let sub_path = if path.is_empty() {
+            name
+        } else {
+            format!("{path} {name}")
+        };
+        with_examples(sub, &sub_path)
+    })
+}
+
+/// The command line's definition, examples included.
+pub fn command() -> clap::Command {
+    use clap::CommandFactory;
+    with_examples(Cli::command(), "")
 }
 
 /// A usage error found after clap (conflicting or missing options): exit 2.
@@ -129,7 +271,8 @@ macro_rules! outln {
 /// `--json`), so that the data parses.
 macro_rules! humanln {
     ($data_on_stdout:expr, $($arg:tt)*) => {
-        if $data_on_stdout {
+        if $crate::cli::quiet() {
+        } else if $data_on_stdout {
             eprintln!($($arg)*);
         } else {
             $crate::cli::stdout_line(format_args!($($arg)*))?
@@ -150,7 +293,11 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
 
 /// Parse the process arguments, run, print errors; returns the exit code.
 pub fn main() -> i32 {
-    let cli = match Cli::try_parse() {
+    use clap::FromArgMatches;
+    let cli = match command()
+        .try_get_matches()
+        .and_then(|matches| Cli::from_arg_matches(&matches))
+    {
         Ok(cli) => cli,
         Err(e) => {
             let code = if e.use_stderr() { 2 } else { 0 };
@@ -202,7 +349,23 @@ pub fn error_text(err: &anyhow::Error) -> String {
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
+    set_verbosity(if cli.quiet {
+        Verbosity::Quiet
+    } else if cli.verbose {
+        Verbosity::Verbose
+    } else {
+        Verbosity::Normal
+    });
+    let started = std::time::Instant::now();
+    run_command(cli.command)?;
+    if verbosity() == Verbosity::Verbose {
+        eprintln!("volcomp: done in {:.3} s", started.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+fn run_command(command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Fit(args) => fit::run(&args),
         Command::ImportLaser(args) => import_laser::run(&args),
         Command::Export(args) => export::run(&args),
@@ -215,5 +378,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate::run(&args),
         Command::Diagnose(args) => diagnose::run(&args),
         Command::Sample(args) => sample::run(&args),
+        Command::Completions(args) => shell::completions(&args),
+        Command::Man(args) => shell::man(&args),
     }
 }

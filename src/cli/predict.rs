@@ -10,17 +10,23 @@ use crate::toolpath::CutOptions;
 use crate::warnings::WarningGroup;
 use std::path::{Path, PathBuf};
 
-const AFTER_HELP: &str = "\
-Examples:
+pub const EXAMPLES: &str = "\
   volcomp predict machines/ref-trt.toml samples/saddle.nc --plan samples/saddle-plan.csv --report pred.json --html pred.html
+  volcomp predict machines/ref-trt.toml samples/saddle.nc --plan samples/saddle-plan.csv --report pred.json --csv pred.csv
   volcomp predict machines/ref-trt.toml samples/saddle.nc --report path-errors.json
+  volcomp compensate machines/ref-trt.toml samples/saddle.nc -o saddle-comp.nc
+  volcomp predict machines/ref-trt.toml saddle-comp.nc --plan samples/saddle-plan.csv --report pred-comp.json --html pred-comp.html";
 
+const AFTER_HELP: &str = "\
 With --plan, each plan point is assigned the tool-path point that cut it (the
 ball-end contact point t + R·u − R·n nearest the plan point, path sampled at
 0.5 mm in part coordinates); its predicted deviation is n·e, the volumetric error
-of that path point along the surface normal (µm, positive: material left). The
-profile error is 2·max|d| (and the range max d − min d). Without --plan the report
-lists the volumetric error at the end of every motion block, with its line.";
+of that path point along the surface normal (µm, positive: material left), with
+its standard uncertainty (±, from the tables' noise). The profile error is
+2·max|d| (and the range max d − min d). Without --plan the report lists the
+volumetric error at the end of every motion block, with its line. For a
+compensated (stamped) program, the figures are what the part will measure, with
+the uncompensated ones beside them.";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -138,7 +144,7 @@ impl<'a> Job<'a> {
             }
         }
         if args.report.is_none() && args.html.is_none() && args.csv.is_none() {
-            eprintln!("note: no --report or --html given; printing the summary only");
+            super::noteln!("no --report or --html given; printing the summary only");
         }
         let (machine, model) = args.machine.load()?;
         let work =
@@ -151,6 +157,7 @@ impl<'a> Job<'a> {
             .program_args(&args.read)
             .output("--report", args.report.as_deref())
             .output("--html", args.html.as_deref())
+            .output("--csv", args.csv.as_deref())
             .check()?;
         Ok(Job {
             args,

@@ -7,17 +7,24 @@ use crate::inspection::{Followup, Plan, profile};
 use anyhow::Context;
 use std::path::PathBuf;
 
+pub const EXAMPLES: &str = "\
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect backlash:bx=6,by=0,bz=3
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5 --effect tool_wear:w=4 --noise-um 0.5 --seed 7
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect rotary_location:EY0A=20,EX0C=12
+  volcomp simulate machines/bc-trt.toml samples/bc-trt/saddle.nc samples/bc-trt/saddle-plan.csv -o bc-meas.csv --effect rotary_location:EX0B=20,EZ0B=-15
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5
+  volcomp diagnose machines/ref-trt.toml samples/saddle.nc meas.csv --report diag.json --followup-program followup.nc
+  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect thermal_drift:dz=-6,tau=5";
+
 const AFTER_HELP: &str = "\
 Effects (parameters default to 0; thermal_drift needs tau):
   thermal_drift:dx,dy,dz (µm),tau (min)   backlash:bx,by,bz (µm)   servo_lag:k (s²)
   tool_deflection:c (µm)   tool_wear:w (µm/m)   radius_offset:r (µm)
   setup_error:tx,ty,tz (µm),rx,ry,rz (µrad)   squareness:s_xy,s_xz,s_yz (µrad)
-  rotary_location:EY0A,EZ0A,EB0A,EC0A,EX0C,EY0C,EA0C,EB0C (µm, µrad)
-
-Examples:
-  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv -o meas.csv --effect backlash:bx=6,by=0,bz=3
-  volcomp simulate machines/ref-trt.toml part.nc plan.csv -o meas.csv --effect thermal_drift:dz=-6,tau=5 --effect tool_wear:w=4 --noise-um 0.5 --seed 7
-  volcomp simulate machines/ref-trt.toml samples/saddle.nc samples/saddle-plan.csv --followup followup.csv -o meas2.csv --effect thermal_drift:dz=-6,tau=5";
+  rotary_location: the location errors of the machine's rotary axes (µm, µrad), named as \
+in the machine file's [location]: EY0A,EZ0A,EB0A,EC0A,EX0C,EY0C,EA0C,EB0C on an A/C machine, \
+EX0B,EZ0B,EA0B,EC0B,EX0C,EY0C,EA0C,EB0C on a B/C one (an unknown name is refused with the \
+machine's list)";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]

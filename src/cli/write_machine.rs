@@ -56,17 +56,15 @@ pub(crate) fn write(
     provenance: &[String],
 ) -> anyhow::Result<Written> {
     let update = machine_update(report, machine, provenance);
-    let folder = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let folder = std::fs::canonicalize(&folder).with_context(|| {
-        format!(
-            "--write-machine {}: its folder {} does not exist",
-            out.display(),
-            folder.display()
-        )
-    })?;
+    // OUT's folder, resolved; it may not exist yet (made when OUT is written).
+    let folder = crate::io::resolved_path(out)
+        .and_then(|p| p.parent().map(Path::to_path_buf))
+        .with_context(|| {
+            format!(
+                "--write-machine {}: its folder cannot be found",
+                out.display()
+            )
+        })?;
     let mut edits = update.edits.clone();
     let mut tables = Vec::new();
     for slot in machine.tables.iter().flatten() {
@@ -74,7 +72,7 @@ pub(crate) fn write(
         let key = axis.letter().to_ascii_lowercase().to_string();
         if let Some(reversal) = update.reversal.iter().find(|r| r.axis == axis) {
             let copy = table_copy(out, axis);
-            let text = crate::io::read_to_string(&slot.path)?;
+            let text = &slot.text;
             let comment = vec![
                 format!(
                     "{}: the {} table {} with REVERSAL {:+.2} µm added by `volcomp diagnose --write-machine` ({}).",
@@ -86,7 +84,7 @@ pub(crate) fn write(
                 ),
                 "REVERSAL (formats.md): the positioning error approaching in the positive direction minus in the negative one.".into(),
             ];
-            let edited = add_reversal(&text, &slot.path, reversal.add_um, &comment)?;
+            let edited = add_reversal(text, &slot.path, reversal.add_um, &comment)?;
             crate::io::write_file_atomic(&copy, edited.as_bytes())?;
             let name = copy.file_name().unwrap_or_default().to_string_lossy();
             edits.tables.push((key, name.into_owned()));
@@ -98,8 +96,7 @@ pub(crate) fn write(
             edits.tables.push((key, toml_path(&path)));
         }
     }
-    let text = crate::io::read_to_string(&machine.source)?;
-    let edited = edit_machine_text(&text, &machine.source, &edits)?;
+    let edited = edit_machine_text(&machine.text, &machine.source, &edits)?;
     crate::io::write_file_atomic(out, edited.as_bytes())?;
     Ok(Written {
         machine: out.to_path_buf(),

@@ -58,6 +58,10 @@ pub struct CompensateOptions {
     pub rewrite: RewriteOptions,
     /// Blocks per chunk (memory and parallel grain).
     pub chunk_blocks: usize,
+    /// Generated moves per chunk: a chunk ends at the block that brings it to
+    /// this many (canned cycles, splines, blocks run again by loops), so that
+    /// memory stays a few chunks whatever the program generates (as `check`).
+    pub chunk_moves: usize,
     /// Travel limits the compensated joints must respect (`None`: unchecked).
     pub limits: Option<Limits>,
     /// Compute [`CompensateReport::expected_residual_rms_um`] (the model's
@@ -79,6 +83,7 @@ impl Default for CompensateOptions {
             interpret: InterpretOptions::default(),
             rewrite: RewriteOptions::default(),
             chunk_blocks: 4096,
+            chunk_moves: 16_384,
             limits: None,
             expected_residual: false,
             orientation: true,
@@ -960,7 +965,10 @@ pub fn compensate(
         spline_tolerance_mm: options.tolerance_um * 1e-4,
         ..options.interpret
     };
-    let chunk_blocks = options.chunk_blocks.max(1);
+    let size = ChunkSize {
+        blocks: options.chunk_blocks.max(1),
+        moves: options.chunk_moves.max(1),
+    };
     let options = &CompensateOptions {
         rewrite: crate::gcode::RewriteOptions {
             dialect: program.dialect().dialect,
@@ -974,7 +982,7 @@ pub fn compensate(
         // memory stays bounded): reading and interpreting; solving and planning
         // (rayon); writing in order, here. A stage that stops (end, error, or a
         // later stage gone) drops its sender, which ends the next one.
-        scope.spawn(move || read_chunks(program, interpret, chunk_blocks, sender));
+        scope.spawn(move || read_chunks(program, interpret, size, sender));
         let solver =
             scope.spawn(move || solve_chunks(chunks, path, models_ref, options, solved_sender));
         let written = write_chunks(solved, path, output, options, &mut progress);
@@ -1007,25 +1015,37 @@ pub fn compensate(
 /// A run of parsed blocks with their interpretation.
 type Chunk = Vec<(Block, BlockEvent)>;
 
+/// Where a chunk ends: at this many blocks, or at the block that brings its
+/// moves to this many.
+#[derive(Clone, Copy)]
+struct ChunkSize {
+    blocks: usize,
+    moves: usize,
+}
+
 /// The reader thread: run the program into chunks; stop at the end, at the
 /// first error (sent on), or when the receiver has gone.
 fn read_chunks(
     program: Program,
     interpret: InterpretOptions,
-    chunk_blocks: usize,
+    size: ChunkSize,
     sender: std::sync::mpsc::SyncSender<Result<Chunk, GcodeError>>,
 ) {
     let mut run = program.run(interpret);
     loop {
-        let mut chunk = Vec::with_capacity(chunk_blocks);
+        let mut chunk = Vec::with_capacity(size.blocks.min(1024));
+        let mut moves = 0usize;
         let mut done = false;
-        while chunk.len() < chunk_blocks {
+        while chunk.len() < size.blocks && moves < size.moves {
             match run.next() {
                 None => {
                     done = true;
                     break;
                 }
-                Some(Ok((block, event, _))) => chunk.push((block.clone(), event.clone())),
+                Some(Ok((block, event, _))) => {
+                    moves += event.expanded().len().max(1);
+                    chunk.push((block.clone(), event.clone()));
+                }
                 Some(Err(e)) => {
                     let _ = sender.send(Err(e));
                     return;
@@ -1147,9 +1167,12 @@ fn solve_chunks(
                     .iter()
                     .flat_map(|(_, event)| {
                         let model = models.get(&event.tool);
-                        compensated_moves(event).iter().map(move |m| (model, m))
+                        let held = event.origin.holds_rotary();
+                        compensated_moves(event)
+                            .iter()
+                            .map(move |m| (model, m, held))
                     })
-                    .map(|(model, m)| {
+                    .map(|(model, m, held)| {
                         let approach = approaches[k];
                         k += 1;
                         compensate_target(
@@ -1157,7 +1180,7 @@ fn solve_chunks(
                             &m.end_pose(),
                             options.limits.as_ref(),
                             &mut warm,
-                            options.orientation,
+                            options.orientation && !held,
                             &approach,
                         )
                     })
@@ -1244,6 +1267,18 @@ fn solve_chunks(
                     incoming: before.as_ref(),
                     end: &end_approach,
                 };
+                // Under a swivelled plane the control holds the rotary axes:
+                // the tip only.
+                let tip_only;
+                let options = if event.origin.holds_rotary() {
+                    tip_only = CompensateOptions {
+                        orientation: false,
+                        ..options.clone()
+                    };
+                    &tip_only
+                } else {
+                    options
+                };
                 let split = plan_motion(model, m, *start, *end, options, directions)?;
                 let uncertainty_um = if uncertain {
                     let joints = joints_of(model.kinematics(), &m.end_pose());
@@ -1287,7 +1322,11 @@ fn write_chunks(
     options: &CompensateOptions,
     progress: &mut dyn FnMut(usize),
 ) -> Result<CompensateReport, CompensateError> {
-    let mut rewriter = Rewriter::new(options.rewrite, options.interpret.initial_position);
+    let rewrite = RewriteOptions {
+        axes: options.interpret.axes,
+        ..options.rewrite
+    };
+    let mut rewriter = Rewriter::new(rewrite, options.interpret.initial_position);
     let mut report = CompensateReport {
         tolerance_um: options.tolerance_um,
         ..CompensateReport::default()

@@ -6,6 +6,7 @@ use super::noise::rms;
 use super::report::{
     AngleBand, BlockResidual, DirectionGroup, Localization, Region, TimeBand, WorstPoint,
 };
+use crate::axes::Axis;
 use crate::toolpath::PointContext;
 use std::collections::BTreeMap;
 
@@ -138,8 +139,17 @@ pub fn localize(contexts: &[&PointContext], r: &[f64]) -> Localization {
             })
             .collect()
     };
-    let by_a = angle_bands(contexts.iter().map(|c| c.joints.a).collect());
-    let by_c = angle_bands(contexts.iter().map(|c| c.joints.c).collect());
+    // Bands of the machine's own rotary axes (A and C, B and C, …), each
+    // under its letter.
+    let rotary = contexts.first().map_or([Axis::A, Axis::C], |c| c.rotary);
+    let bands_of = |letter: Axis| {
+        if rotary.contains(&letter) {
+            angle_bands(contexts.iter().map(|c| c.joints.get(letter)).collect())
+        } else {
+            Vec::new()
+        }
+    };
+    let (by_a, by_b, by_c) = (bands_of(Axis::A), bands_of(Axis::B), bands_of(Axis::C));
     let mut by_direction = Vec::new();
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
         for (sign, label) in [(-1.0, "-"), (0.0, "0"), (1.0, "+")] {
@@ -167,6 +177,7 @@ pub fn localize(contexts: &[&PointContext], r: &[f64]) -> Localization {
         by_time,
         by_region,
         by_a,
+        by_b,
         by_c,
         by_direction,
     }

@@ -143,7 +143,35 @@ pub fn machine_update(
     let empty = BTreeMap::new();
     let mut advice = Vec::new();
     for kind in &selected {
-        let params = report.after.params.get(kind.name()).unwrap_or(&empty);
+        let all = report.after.params.get(kind.name()).unwrap_or(&empty);
+        // Only what the advice names is written (issue 36): a value the part
+        // does not determine, or within 2 σ of zero, is said and left as is.
+        let checks = report.after.checks.get(kind.name());
+        let advised = |name: &str| {
+            checks
+                .and_then(|list| list.iter().find(|c| c.name == name))
+                .is_none_or(|c| c.advised(*kind))
+        };
+        for (name, value) in all.iter().filter(|(n, _)| !advised(n)) {
+            let std = value_std(report, kind.name(), name);
+            let unit = kind
+                .parameters_for(machine.chain.rotary())
+                .iter()
+                .position(|p| p == name)
+                .and_then(|j| kind.units().get(j).copied())
+                .unwrap_or("");
+            header.push(format!(
+                "  {}: {name} {} is not advised (not determined by this part, or not distinguishable from zero within 2 σ): not written.",
+                kind.name(),
+                pm(*value, std, unit)
+            ));
+        }
+        let params: BTreeMap<String, f64> = all
+            .iter()
+            .filter(|(n, _)| advised(n))
+            .map(|(n, v)| (n.clone(), *v))
+            .collect();
+        let params = &params;
         let mut out = Written {
             header: &mut header,
             update: &mut update,

@@ -24,6 +24,8 @@ pub mod followup;
 pub(crate) mod localization;
 pub(crate) mod machine_file;
 pub(crate) mod noise;
+#[cfg(any(test, feature = "testkit"))]
+pub mod oracle;
 pub(crate) mod plausibility;
 pub(crate) mod probing_program;
 pub(crate) mod report;
@@ -182,9 +184,13 @@ pub fn diagnose_with_followup(
     let mut p = Problem::new(contexts, measured_um, followup, options)?;
     let candidates = single_effects(&p);
     let mut picked = select_terms(&p, &candidates, options);
-    let effects = effect_table(&p, &candidates, options.alias_cosine);
+    let mut effects = effect_table(&p, &candidates, options.alias_cosine);
     let mut not_named = guard_not_named(&p, &mut picked);
     not_named.extend(guard_table_shape(&mut p, &mut picked, options.significance));
+    if !not_named.is_empty() || (picked.selected.is_empty() && !picked.with_model) {
+        picked.rivals.clear();
+    }
+    rival_aliases(&mut effects, &picked);
     let joint = joint_fit(&p, &picked.selected, picked.with_model);
     let outcome = check_model(&p, &picked, &joint);
     let summary = summary_sentences(&p, &picked, &joint, &outcome, &effects, &not_named);
@@ -264,6 +270,8 @@ struct Problem<'a> {
     floor: f64,
     sig: Signatures,
     folds: Folds,
+    /// The patch of every row (`selection::patches`).
+    patches: Vec<usize>,
     all_rows: Vec<usize>,
     /// Mean square of the residual with nothing fitted.
     mse_before: f64,
@@ -296,6 +304,8 @@ impl<'a> Problem<'a> {
             settings,
             model_plausible,
             cache,
+            patches: &self.patches,
+            fitted: BTreeMap::new(),
         }
     }
 
@@ -343,6 +353,7 @@ impl<'a> Problem<'a> {
         let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
         let mut sig = Signatures::new(&rows);
         let folds = Folds::new(&row_points, options.time_folds);
+        let patches = selection::patches(&row_points);
         // The error model's own columns: one per measured axis (what the model
         // attributes to its tables), and one for the rest of the prediction (the
         // machine file's position-independent errors: squareness, rotary location).
@@ -379,6 +390,7 @@ impl<'a> Problem<'a> {
             floor,
             sig,
             folds,
+            patches,
             named_cols,
             shape_cols,
             model_u2,
@@ -456,6 +468,8 @@ struct Picked {
     /// Held-out mean square error of the model's factors alone.
     model_only_mse: f64,
     notes: Vec<String>,
+    /// Sets the data cannot tell from the selection (`selection::rivals`).
+    rivals: Vec<selection::Rival>,
 }
 
 /// Stage 4: selection on evidence (selection.rs), effects and the model's
@@ -489,6 +503,19 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
     };
     let mut scorer = p.scorer(settings, &max_factor, cache);
     let chosen = selection::select(&mut scorer, &EffectKind::ALL);
+    let rivals = selection::rivals(&scorer, &chosen.terms);
+    let mut notes = chosen.notes.clone();
+    for r in &rivals {
+        notes.push(format!(
+            "{} (held-out RMS {:.3} µm) cannot be told from {} (held-out RMS {:.3} µm): z = {:.1} < {:.0}",
+            chosen.terms.label(),
+            chosen.mse.sqrt(),
+            r.terms.label(),
+            r.mse.sqrt(),
+            r.z,
+            options.significance
+        ));
+    }
     let model_only_mse = if p.named_cols.is_empty() {
         p.mse_before
     } else {
@@ -511,8 +538,9 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
         with_model: chosen.terms.model,
         selected_mse: chosen.mse,
         model_only_mse,
-        notes: chosen.notes.clone(),
+        notes,
         chosen,
+        rivals,
     }
 }
 
@@ -577,6 +605,40 @@ fn effect_table(p: &Problem, candidates: &[Candidate], alias_cosine: f64) -> Vec
             }
         })
         .collect()
+}
+
+/// Stage 6a: aliases from the fit (issue 36). Each rival of the selection
+/// (a set the data cannot tell from it, `selection::rivals`) pairs the
+/// selected effects it leaves out with the effects it names instead; both
+/// list each other as aliases (the follow-up design separates them).
+fn rival_aliases(effects: &mut [EffectFit], picked: &Picked) {
+    let mut pairs: Vec<(EffectKind, EffectKind)> = Vec::new();
+    for rival in &picked.rivals {
+        let left: Vec<EffectKind> = picked
+            .selected
+            .iter()
+            .filter(|k| !rival.terms.kinds.contains(k))
+            .copied()
+            .collect();
+        for instead in rival
+            .terms
+            .kinds
+            .iter()
+            .filter(|k| !picked.selected.contains(k))
+        {
+            for out in &left {
+                pairs.push((*out, *instead));
+                pairs.push((*instead, *out));
+            }
+        }
+    }
+    for (a, b) in pairs {
+        if let Some(e) = effects.iter_mut().find(|e| e.name == a.name()) {
+            if !e.aliases.iter().any(|x| x == b.name()) {
+                e.aliases.push(b.name().to_string());
+            }
+        }
+    }
 }
 
 /// Stage 6: effects are named only when, with them, the gap is explained:
@@ -896,6 +958,36 @@ fn check_model(p: &Problem, picked: &Picked, joint: &Joint) -> Outcome {
     let floor = p.floor;
     let excess = (remaining * remaining - floor * floor).max(0.0).sqrt();
     let model_u = p.model_u;
+    // The model's factors beside other effects, a rival the data cannot tell
+    // from a selection without them: the verdict is given beside the effects.
+    // Only a plausible scale of every table (ALTERNATIVE_SCALES) is such a
+    // verdict: factors that flip or remove a table are a flexible fit of
+    // the effect, not a model error.
+    let alternative = picked
+        .rivals
+        .iter()
+        .filter(|r| r.terms.model && !picked.with_model && r.mse <= picked.chosen.mse)
+        .map(|r| {
+            let fit = p.fit(&r.terms.kinds, true);
+            let offset: usize = r.terms.kinds.iter().map(|k| k.linear_count()).sum();
+            report::ModelAlternative {
+                terms: r.terms.label(),
+                effects: r.terms.kinds.iter().map(|k| k.name().to_string()).collect(),
+                z: r.z,
+                heldout_rms_um: r.mse.sqrt(),
+                factors: p
+                    .named_cols
+                    .iter()
+                    .zip(&fit.linear.coefs[offset..])
+                    .map(|((name, _), b)| (name.clone(), *b))
+                    .collect(),
+            }
+        })
+        .find(|a| {
+            a.factors
+                .values()
+                .all(|b| ALTERNATIVE_SCALES.contains(&(1.0 + b)))
+        });
     let model_check = ModelCheck {
         heldout_rms_before_um: p.mse_before.sqrt(),
         heldout_rms_after_um: picked.model_only_mse.sqrt(),
@@ -904,7 +996,8 @@ fn check_model(p: &Problem, picked: &Picked, joint: &Joint) -> Outcome {
         bic: p.bic(picked.model_only_mse, p.named_cols.len()),
         follows_model: picked.with_model,
         unexplained,
-        mismatch: picked.with_model || unexplained,
+        mismatch: picked.with_model || unexplained || alternative.is_some(),
+        alternative,
         model_uncertainty_um: model_u,
         expected_rms_um: p.expected,
         remaining_rms_um: remaining,
@@ -935,12 +1028,38 @@ fn summary_sentences(
     let noise_floor = p.noise_floor;
     let max_cut = p.used.iter().map(|c| c.cut_length_m).fold(0.0f64, f64::max);
     let mut summary = Vec::new();
-    if model_check.mismatch {
-        summary.push(model_sentence(model_check, rms(&p.r0), noise_floor));
+    let label = picked.chosen.terms.label();
+    match &model_check.alternative {
+        Some(alt) if !model_check.follows_model && !model_check.unexplained => {
+            summary.push(alternative_sentence(
+                alt,
+                &label,
+                picked.selected_mse.sqrt(),
+            ));
+        }
+        _ if model_check.mismatch => {
+            summary.push(model_sentence(model_check, rms(&p.r0), noise_floor));
+        }
+        _ => {}
     }
     for kind in selected {
         let list = joint.checks.get(kind.name()).cloned().unwrap_or_default();
         summary.push(effect_sentence(*kind, &list, max_cut));
+    }
+    for rival in picked
+        .rivals
+        .iter()
+        .filter(|r| !r.terms.model || picked.with_model)
+    {
+        summary.push(format!(
+            "The data cannot tell {} from {} (held-out RMS {:.2} against {:.2} µm; z = {:.1} below the threshold {:.0}): neither is certain; confirm with a dedicated test before acting (--followup-program designs one).",
+            label.replace(" + ", " and "),
+            rival.terms.label().replace(" + ", " and "),
+            picked.selected_mse.sqrt(),
+            rival.mse.sqrt(),
+            rival.z,
+            SIGNIFICANCE
+        ));
     }
     if !selected.is_empty() {
         summary.push(format!(
@@ -996,15 +1115,27 @@ fn effect_sentence(
 ) -> String {
     let advised: BTreeMap<String, f64> = list
         .iter()
-        .filter(|c| c.identifiable || (kind.is_nonlinear() && c.name == "tau" && c.plausible))
+        .filter(|c| c.advised(kind))
         .map(|c| (c.name.clone(), c.value))
         .collect();
     let mut sentence = report::machinist_sentence(kind, &advised, max_cut);
     let left_out: Vec<String> = list
         .iter()
-        .filter(|c| !advised.contains_key(&c.name))
+        .filter(|c| !advised.contains_key(&c.name) && (!c.identifiable || c.distinguishable))
         .map(|c| c.display())
         .collect();
+    let near_zero: Vec<String> = list
+        .iter()
+        .filter(|c| c.identifiable && !c.distinguishable)
+        .map(|c| c.display())
+        .collect();
+    if !near_zero.is_empty() {
+        sentence.push_str(&format!(
+            " Not distinguishable from zero (within {:.0} σ), not an error to fix: {}.",
+            plausibility::DISTINGUISHABLE_SIGMAS,
+            near_zero.join(", ")
+        ));
+    }
     if !left_out.is_empty() {
         sentence.push_str(&format!(
             " Not determined by this part, left out of this advice: {}.",
@@ -1048,8 +1179,8 @@ fn assemble(
             id: p.used[i].id.clone(),
             point: p.used[i].point,
             time_min: p.used[i].time_min,
-            a_deg: p.used[i].joints.a,
-            c_deg: p.used[i].joints.c,
+            a_deg: p.used[i].joints.get(p.rotary[0]),
+            c_deg: p.used[i].joints.get(p.rotary[1]),
             measured_um: p.measured[i],
             predicted_um: p.predicted[i],
             residual_um: p.r0[i],
@@ -1087,6 +1218,7 @@ fn assemble(
         summary,
         selection_notes: picked.notes,
         residuals,
+        rotary_axes: p.rotary.iter().map(|a| a.letter().to_string()).collect(),
         model_check: outcome.model_check,
         local_anomalies: outcome.local_anomalies,
         followup_design: None,
@@ -1184,12 +1316,46 @@ pub const POSITION_INDEPENDENT: &str = "squareness and location";
 /// robustness generator, docs/diagnose.md "Robustness").
 pub const SIGNIFICANCE: f64 = 25.0;
 
+/// The scales `1 + β` of every table in a model verdict given beside the
+/// effects as an alternative (a table scaled or stale, not flipped or
+/// removed).
+pub const ALTERNATIVE_SCALES: std::ops::RangeInclusive<f64> = 0.3..=2.0;
+
 /// A table is named as off when its factor is at least this (10 %).
 pub const MODEL_FACTOR_MIN: f64 = 0.1;
 /// The gap is unexplained when what remains after the selection (local
 /// anomalies left out) is at least this × √(σ² + u²), what the noise and the
 /// model's own uncertainty allow.
 pub const UNEXPLAINED_RATIO: f64 = 1.5;
+
+/// The verdict when the model's factors, beside other effects, fit as well
+/// as the selected effects alone: both are said.
+fn alternative_sentence(alt: &report::ModelAlternative, label: &str, heldout: f64) -> String {
+    let mut named: Vec<(&String, &f64)> = alt
+        .factors
+        .iter()
+        .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
+        .collect();
+    named.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let axes = named
+        .iter()
+        .map(|(axis, b)| format!("{axis} ×{:.2}", 1.0 + **b))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let effects = if alt.effects.is_empty() {
+        "alone".to_string()
+    } else {
+        format!("with {}", alt.effects.join(" and "))
+    };
+    format!(
+        "The error model itself may not match this machine (tables scaled or stale?): the model's own errors as if the machine's were {axes} the modelled ones, {effects}, explain the gap as well as {} (held-out RMS {:.2} against {:.2} µm; z = {:.1} below the threshold {:.0}): the data cannot tell them apart. Re-measure the axes' error tables (or check that the machine file is this machine's), then measure again before acting on the effects below.",
+        label.replace(" + ", " and "),
+        alt.heldout_rms_um,
+        heldout,
+        alt.z,
+        SIGNIFICANCE
+    )
+}
 
 /// The sentence for a model that does not match the machine.
 fn model_sentence(check: &ModelCheck, residual_rms: f64, noise_floor: f64) -> String {

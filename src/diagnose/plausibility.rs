@@ -7,7 +7,9 @@
 //! surface of revolution); it is then left out of the advice. A value outside
 //! its physical range (a time constant outside duration/50 … 2 × duration, a
 //! negative wear, deflection, lag or backlash, an angle beyond 5 000 µrad or an
-//! offset beyond 500 µm) is flagged as implausible.
+//! offset beyond 500 µm) is flagged as implausible. A value within 2 standard
+//! uncertainties of zero is *not distinguishable from zero*: reported so, and
+//! left out of the advice and of `--write-machine` (issue 36).
 use super::effects::EffectKind;
 use serde::{Deserialize, Serialize};
 
@@ -24,6 +26,10 @@ pub struct ParameterCheck {
     pub identifiable: bool,
     /// Within its physical range.
     pub plausible: bool,
+    /// At least `DISTINGUISHABLE_SIGMAS` standard uncertainties from zero
+    /// (issue 36): a value within them is not advice.
+    #[serde(default = "distinguishable_default")]
+    pub distinguishable: bool,
     /// Why it is not identifiable or not plausible (empty when it is both).
     pub notes: Vec<String>,
 }
@@ -42,6 +48,26 @@ impl ParameterCheck {
                 "{} = {:.*} ± {:.*} {}",
                 self.name, d, self.value, d, self.std, self.unit
             )
+        }
+    }
+}
+
+/// A parameter within this many standard uncertainties of zero is reported
+/// as not distinguishable from zero, not as an error to fix.
+pub const DISTINGUISHABLE_SIGMAS: f64 = 2.0;
+
+fn distinguishable_default() -> bool {
+    true
+}
+
+impl ParameterCheck {
+    /// The advice may name it: determined by the part and distinguishable
+    /// from zero (`tau`: within its plausible range).
+    pub fn advised(&self, kind: EffectKind) -> bool {
+        if kind.is_nonlinear() && self.name == "tau" {
+            self.plausible
+        } else {
+            self.identifiable && self.distinguishable
         }
     }
 }
@@ -129,6 +155,13 @@ pub fn check(
                     }
                 }
             }
+            let distinguishable = is_tau || value.abs() >= DISTINGUISHABLE_SIGMAS * std;
+            if !distinguishable && identifiable {
+                notes.push(format!(
+                    "not distinguishable from zero: within {DISTINGUISHABLE_SIGMAS:.0} σ ({:.1} σ)",
+                    value.abs() / std.max(1e-300)
+                ));
+            }
             ParameterCheck {
                 name: name.to_string(),
                 value,
@@ -136,6 +169,7 @@ pub fn check(
                 unit,
                 identifiable,
                 plausible,
+                distinguishable,
                 notes,
             }
         })

@@ -31,6 +31,10 @@ pub struct DiagnoseReport {
     pub selection_notes: Vec<String>,
     /// Per used point: measured, predicted, residual before and after.
     pub residuals: Vec<PointResidual>,
+    /// The machine's rotary axes, first and second (`["A", "C"]`, `["B", "C"]`):
+    /// the axes of the residuals' `a_deg` and `c_deg`.
+    #[serde(default = "default_rotary_axes")]
+    pub rotary_axes: Vec<String>,
     /// Whether the gap follows the error model itself (extension; absent in
     /// reports written before it).
     #[serde(default)]
@@ -93,6 +97,27 @@ pub struct ModelCheck {
     /// remains (√(remaining² − σ²)/u; absent when u is 0 or nothing remains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub uncertainty_factor: Option<f64>,
+    /// The model's factors, with other effects, fit as well as a selection
+    /// without them (a rival the data cannot tell from it): the verdict is
+    /// given beside the selected effects (issue 36).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alternative: Option<ModelAlternative>,
+}
+
+/// A rival of the selection with the model's own factors in it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelAlternative {
+    /// The rival set's label (`thermal_drift + model factors`).
+    pub terms: String,
+    /// Its catalogue effects.
+    pub effects: Vec<String>,
+    /// `z` of the change from it to the selection (below the threshold: the
+    /// selection is not significantly better).
+    pub z: f64,
+    /// Its held-out RMS, µm.
+    pub heldout_rms_um: f64,
+    /// The factors `β` of its joint fit, per table (`1 + β` × the model's).
+    pub factors: BTreeMap<String, f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -118,7 +143,14 @@ pub struct Localization {
     pub by_time: Vec<TimeBand>,
     /// Quadrants about the centre of the plan's bounding box.
     pub by_region: Vec<Region>,
+    /// Bands of each of the machine's rotary axes, under its letter (A and C
+    /// on an A/C machine, B and C on a B/C one); empty for an axis the
+    /// machine does not have (and then left out of the report).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub by_a: Vec<AngleBand>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub by_b: Vec<AngleBand>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub by_c: Vec<AngleBand>,
     /// By the sign of each linear axis's most recent motion.
     pub by_direction: Vec<DirectionGroup>,
@@ -219,6 +251,8 @@ pub struct PointResidual {
     pub id: String,
     pub point: [f64; 3],
     pub time_min: f64,
+    /// The joint of the machine's first and second rotary axes (A and C, or
+    /// B and C: `DiagnoseReport::rotary_axes`), degrees.
     pub a_deg: f64,
     pub c_deg: f64,
     pub measured_um: f64,
@@ -345,4 +379,8 @@ pub struct LocalAnomaly {
     pub sigma: f64,
     /// When it was cut: first and last time, min.
     pub time_min: [f64; 2],
+}
+
+fn default_rotary_axes() -> Vec<String> {
+    vec!["A".into(), "C".into()]
 }

@@ -16,7 +16,8 @@
 //! Invariant: deterministic (sets are scored in a fixed order; ties broken by
 //! the order of the catalogue).
 use super::effects::EffectKind;
-use super::fit::{Folds, Signatures, cross_validate_terms};
+use super::fit::{Folds, Signatures, cross_validate_terms, fit_terms};
+use crate::toolpath::PointContext;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
@@ -107,6 +108,11 @@ pub(crate) struct Scorer<'a> {
     /// Model factors accepted in a set (largest |β| ≥ the minimum), by set.
     pub model_plausible: &'a (dyn Fn(&Terms) -> bool + Sync),
     pub cache: BTreeMap<Terms, f64>,
+    /// The patch of every row (`patches`): the scale over which a smooth
+    /// systematic error is coherent.
+    pub patches: &'a [usize],
+    /// In-sample contribution of every set scored (fitted on all rows).
+    pub fitted: BTreeMap<Terms, Vec<f64>>,
 }
 
 impl Scorer<'_> {
@@ -125,7 +131,8 @@ impl Scorer<'_> {
             .map_or(self.sig.model.len(), |k| k.parameters().len())
     }
 
-    /// Cross-validate every set not yet in the cache (in parallel).
+    /// Cross-validate every set not yet in the cache, and fit it on all rows
+    /// (in parallel).
     fn ensure(&mut self, sets: &[Terms]) {
         let missing: Vec<Terms> = sets
             .iter()
@@ -141,6 +148,59 @@ impl Scorer<'_> {
             })
             .collect();
         self.cache.extend(scored);
+        let unfitted: Vec<Terms> = sets
+            .iter()
+            .filter(|t| t.len() > 0 && !self.fitted.contains_key(*t))
+            .cloned()
+            .collect();
+        let all: Vec<usize> = (0..r.len()).collect();
+        let fitted: Vec<(Terms, Vec<f64>)> = unfitted
+            .into_par_iter()
+            .map(|t| {
+                let c = fit_terms(sig, &t.kinds, t.model, &all, r).contribution(sig);
+                (t, c)
+            })
+            .collect();
+        self.fitted.extend(fitted);
+    }
+
+    /// How many times its noise share a smooth systematic error weighs in the
+    /// change from `from` to `to` (module doc): `Σ_P (Σ_{i∈P} d_i)² / Σ d_i²`
+    /// over the patches P, `d` the change of the in-sample contribution,
+    /// between 1 (a change carried by a few points apart) and `n / N_EFF` (a
+    /// change as smooth as the error).
+    fn inflation(&self, from: &Terms, to: &Terms) -> f64 {
+        let most = (self.n() / N_EFF).max(1.0);
+        // Only a term added to the same set is localised evidence: a swap of
+        // explanations compares two fits of the same smooth gap.
+        let nested = from.kinds.iter().all(|k| to.kinds.contains(k)) && (!from.model || to.model);
+        if !nested {
+            return most;
+        }
+        let zero = Vec::new();
+        let fitted = |t: &Terms| {
+            if t.len() == 0 {
+                Some(&zero)
+            } else {
+                self.fitted.get(t)
+            }
+        };
+        let (Some(a), Some(b)) = (fitted(from), fitted(to)) else {
+            return most;
+        };
+        let at = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(0.0);
+        let patches = self.patches.iter().copied().max().map_or(0, |m| m + 1);
+        let mut sums = vec![0.0; patches];
+        let mut total = 0.0;
+        for (i, &patch) in self.patches.iter().enumerate() {
+            let d = at(b, i) - at(a, i);
+            sums[patch] += d;
+            total += d * d;
+        }
+        if total <= 0.0 {
+            return most;
+        }
+        (sums.iter().map(|s| s * s).sum::<f64>() / total).clamp(1.0, most)
     }
 
     /// `z` of every member of `t`, cross-validating the sets it needs.
@@ -159,27 +219,28 @@ impl Scorer<'_> {
         }
     }
 
-    /// The variance a held-out gain is judged against (module doc).
-    pub fn variance(&self, mse: f64) -> f64 {
+    /// The variance a held-out gain is judged against (module doc), for a
+    /// change whose smooth systematic error weighs `inflation` times.
+    pub fn variance(&self, mse: f64, inflation: f64) -> f64 {
         let s2 = self.settings.noise_um.powi(2);
         let systematic = self.settings.model_u2.max(mse - s2);
-        (s2 + self.n() / N_EFF * systematic).max(1e-12)
+        (s2 + inflation * systematic).max(1e-12)
     }
 
     /// The penalised held-out likelihood ratio of going from `from` to `to`.
-    fn z(&self, from: &Terms, to: &Terms) -> f64 {
+    pub fn z(&self, from: &Terms, to: &Terms) -> f64 {
         let (a, b) = (self.mse(from), self.mse(to));
         let dp = self.params(to) as f64 - self.params(from) as f64;
-        self.n() * (a - b) / self.variance(b) - dp * self.n().ln()
+        self.n() * (a - b) / self.variance(b, self.inflation(from, to)) - dp * self.n().ln()
     }
 
     /// `z` of every member of `t` (needs the subsets without one member cached).
     fn members(&self, t: &Terms) -> Vec<(String, f64)> {
         let n = self.n();
-        let v = self.variance(self.mse(t));
         (0..t.len())
             .map(|m| {
                 let without = t.without(m);
+                let v = self.variance(self.mse(t), self.inflation(&without, t));
                 let z = n * (self.mse(&without) - self.mse(t)) / v
                     - self.member_params(t, m) as f64 * n.ln();
                 (t.member_label(m).to_string(), z)
@@ -277,10 +338,17 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
             needed.extend((0..t.len()).map(|m| t.without(m)));
         }
         scorer.ensure(&needed);
-        let best = sets
+        // The best admissible set (lowest held-out BIC) among those
+        // significantly better than the current one; else the best admissible.
+        let admissible: Vec<&Terms> = sets.iter().filter(|t| scorer.admissible(t)).collect();
+        let by_bic =
+            |a: &&&Terms, b: &&&Terms| scorer.bic(a).total_cmp(&scorer.bic(b)).then(a.cmp(b));
+        let best = admissible
             .iter()
-            .filter(|t| scorer.admissible(t))
-            .min_by(|a, b| scorer.bic(a).total_cmp(&scorer.bic(b)).then(a.cmp(b)));
+            .filter(|t| ***t != current && scorer.z(&current, t) >= s.threshold)
+            .min_by(by_bic)
+            .or_else(|| admissible.iter().min_by(by_bic))
+            .copied();
         match best {
             Some(t) if *t != current && scorer.z(&current, t) >= s.threshold => {
                 let members = scorer.members(t);
@@ -344,3 +412,78 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         notes,
     }
 }
+
+/// The patch of every point: a grid of about `N_EFF` cells over the part by
+/// quantiles of x (6 bands) and y (5 bands), the scale over which a smooth
+/// systematic error (the model's) is taken as one value.
+pub(crate) fn patches(points: &[&PointContext]) -> Vec<usize> {
+    let n = points.len();
+    let bands = |axis: usize, count: usize| -> Vec<usize> {
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| points[a].point[axis].total_cmp(&points[b].point[axis]));
+        let mut band = vec![0; n];
+        for (rank, &i) in order.iter().enumerate() {
+            band[i] = (rank * count / n.max(1)).min(count - 1);
+        }
+        // Equal coordinates share a band (the lowest rank's).
+        for w in order.windows(2) {
+            if points[w[1]].point[axis] == points[w[0]].point[axis] {
+                band[w[1]] = band[w[0]];
+            }
+        }
+        band
+    };
+    let (bx, by) = (bands(0, 6), bands(1, 5));
+    (0..n).map(|i| bx[i] + 6 * by[i]).collect()
+}
+
+/// A set of terms the data cannot tell from the selection (issue 36):
+/// every member significant in it, and the selection not significantly
+/// better than it on held-out points.
+#[derive(Clone, Debug)]
+pub(crate) struct Rival {
+    pub terms: Terms,
+    /// `z` of the change from the rival to the selection (below the threshold).
+    pub z: f64,
+    /// Held-out mean square error of the rival.
+    pub mse: f64,
+}
+
+/// The rivals of `current` among the sets scored (closest first, at most
+/// `MAX_RIVALS`): admissible sets whose members and subsets were all
+/// cross-validated, from which going to `current` is not significant.
+pub(crate) fn rivals(scorer: &Scorer, current: &Terms) -> Vec<Rival> {
+    if current.len() == 0 {
+        return Vec::new();
+    }
+    let mut list: Vec<Rival> = scorer
+        .cache
+        .keys()
+        .filter(|t| *t != current && t.len() > 0)
+        .filter(|t| {
+            (0..t.len()).all(|m| {
+                let w = t.without(m);
+                w.len() == 0 || scorer.cache.contains_key(&w)
+            })
+        })
+        .filter(|t| scorer.admissible(t))
+        .map(|t| Rival {
+            terms: t.clone(),
+            z: scorer.z(t, current),
+            mse: scorer.mse(t),
+        })
+        .filter(|r| r.z < scorer.settings.threshold)
+        .collect();
+    list.sort_by(|a, b| a.z.total_cmp(&b.z).then(a.terms.cmp(&b.terms)));
+    // The closest, and the closest with the model's factors (the verdict
+    // beside the effects).
+    let with_model = list.iter().position(|r| r.terms.model && !current.model);
+    let mut kept: Vec<Rival> = list.iter().take(MAX_RIVALS).cloned().collect();
+    if let Some(i) = with_model.filter(|&i| i >= MAX_RIVALS) {
+        kept.push(list[i].clone());
+    }
+    kept
+}
+
+/// Rivals reported at most.
+pub const MAX_RIVALS: usize = 3;

@@ -43,7 +43,11 @@ pub fn grid(lo: f64, hi: f64, step: f64) -> Result<Vec<f64>, ExportError> {
             "the grid step must be a positive number, not {step}"
         )));
     }
-    let n = ((hi - lo) / step - 1e-9).ceil().max(0.0);
+    // At least one interval when the table spans any: a step longer than the
+    // table keeps its first and last positions.
+    let n = ((hi - lo) / step - 1e-9)
+        .ceil()
+        .max(if hi > lo { 1.0 } else { 0.0 });
     if n + 1.0 > MAX_ROWS as f64 {
         return Err(ExportError::Setting(format!(
             "a step of {step} gives {n} rows over [{lo}, {hi}]; at most {MAX_ROWS}"

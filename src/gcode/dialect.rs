@@ -167,12 +167,6 @@ pub trait OrientationSolver: Send + Sync + std::fmt::Debug {
 
     /// The tool axis (unit, workpiece frame) at `joints`' rotary positions.
     fn axis_of(&self, joints: &Axes) -> [f64; 3];
-
-    /// The rotation (row-major 3×3) that the rotary joints `joints` turn the
-    /// workpiece by, seen from the tool: a vector fixed in the workpiece
-    /// frame `v` is at `R·v` in the machine's frame. A swivelled plane is
-    /// then the frame `Rᵀ` (the workpiece frame as the tilted tool sees it).
-    fn workpiece_rotation(&self, joints: &Axes) -> [[f64; 3]; 3];
 }
 
 #[cfg(test)]

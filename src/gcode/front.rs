@@ -8,36 +8,32 @@
 //! comes from). A dialect whose control keeps state LinuxCNC's interpreter
 //! does not (frames, swivelled planes) sets it on the [`Interpreter`] before
 //! the block is interpreted (`Interpreter::set_frame`, `set_position`).
-//! A third dialect adds a variant here and its folder beside `sinumerik/`.
+//! A front that keeps its own machine state (Heidenhain's) gives its blocks
+//! their meaning itself ([`Front::interpret`], [`Front::pass_over`]); the
+//! others are interpreted by LinuxCNC's [`Interpreter`]. A further dialect
+//! adds a variant here and its folder beside `sinumerik/` and `heidenhain/`.
 use std::path::Path;
 
 use crate::gcode::dialect::{Dialect, DialectChoice};
-use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::error::GcodeError;
 use crate::gcode::language::{Executed, Executor, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::Interpreter;
 use crate::gcode::syntax::block::Block;
 
-/// The language front of one run.
-// LinuxCNC's executor stays inline (its path is the hot one); the Klartext
-// front is boxed.
+/// The language front of one run. The LinuxCNC executor is held inline
+/// (no indirection on its per-block path); the dialect fronts are boxed;
+/// there is one front per run.
 #[allow(clippy::large_enum_variant)]
 pub(crate) enum Front {
     /// LinuxCNC's language layer (O-words, parameters, subroutine files).
     LinuxCnc(Executor),
-    /// Heidenhain Klartext: its own language and machine state, which give
-    /// each block's event themselves ([`Front::interpret`]).
+    /// SINUMERIK 840D sl (`gcode::sinumerik`): its language feeds LinuxCNC's
+    /// interpreter (frames and positions set on it).
+    Sinumerik(Box<crate::gcode::sinumerik::SinumerikFront>),
+    /// Heidenhain Klartext (`gcode::heidenhain`): its own language and
+    /// machine state, which give each block's event themselves
+    /// ([`Front::interpret`]).
     Heidenhain(Box<crate::gcode::heidenhain::KlartextFront>),
-    /// A dialect volcomp does not read yet: the first block is an error
-    /// naming it (never a silent LinuxCNC reading).
-    Unread {
-        /// The dialect.
-        dialect: Dialect,
-        /// The error was handed on.
-        done: bool,
-        /// The (empty) block and origin the accessors return.
-        block: Block,
-        executed: Executed,
-    },
 }
 
 impl Front {
@@ -52,22 +48,14 @@ impl Front {
     ) -> Front {
         match choice.dialect {
             Dialect::LinuxCnc => Front::LinuxCnc(Executor::new(input, path, language)),
+            Dialect::Sinumerik => Front::Sinumerik(Box::new(
+                crate::gcode::sinumerik::SinumerikFront::new(input, path, language, setup),
+            )),
             Dialect::Heidenhain => {
                 Front::Heidenhain(Box::new(crate::gcode::heidenhain::KlartextFront::new(
                     input, path, &language, options, setup,
                 )))
             }
-            dialect @ Dialect::Sinumerik => Front::Unread {
-                dialect,
-                done: false,
-                block: Block::default(),
-                executed: Executed {
-                    file: 0,
-                    line: 1,
-                    literal: true,
-                    passed: false,
-                },
-            },
         }
     }
 
@@ -79,20 +67,8 @@ impl Front {
     ) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_block(interpreter.parameters_mut()),
+            Front::Sinumerik(s) => s.next_block(interpreter),
             Front::Heidenhain(h) => h.next_block(),
-            Front::Unread { dialect, done, .. } => {
-                if *done {
-                    return None;
-                }
-                *done = true;
-                Some(Err(GcodeError::at(
-                    ErrorKind::DialectFeature(dialect.name(), "programs".to_string()),
-                    1,
-                    b"",
-                    0,
-                    0,
-                )))
-            }
         }
     }
 
@@ -101,8 +77,8 @@ impl Front {
     pub(crate) fn block(&self) -> &Block {
         match self {
             Front::LinuxCnc(e) => e.block(),
+            Front::Sinumerik(s) => s.block(),
             Front::Heidenhain(h) => h.block(),
-            Front::Unread { block, .. } => block,
         }
     }
 
@@ -111,8 +87,8 @@ impl Front {
     pub(crate) fn executed(&self) -> &Executed {
         match self {
             Front::LinuxCnc(e) => e.executed(),
+            Front::Sinumerik(s) => s.executed(),
             Front::Heidenhain(h) => h.executed(),
-            Front::Unread { executed, .. } => executed,
         }
     }
 
@@ -120,8 +96,8 @@ impl Front {
     pub(crate) fn file_name(&self, index: usize) -> &str {
         match self {
             Front::LinuxCnc(e) => e.file_name(index),
+            Front::Sinumerik(s) => s.file_name(index),
             Front::Heidenhain(h) => h.file_name(index),
-            Front::Unread { .. } => "?",
         }
     }
 
@@ -129,8 +105,8 @@ impl Front {
     pub(crate) fn end_program(&mut self) {
         match self {
             Front::LinuxCnc(e) => e.end_program(),
+            Front::Sinumerik(s) => s.end_program(),
             Front::Heidenhain(h) => h.end_program(),
-            Front::Unread { done, .. } => *done = true,
         }
     }
 
@@ -138,8 +114,8 @@ impl Front {
     pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
         match self {
             Front::LinuxCnc(e) => e.next_tail_line(),
+            Front::Sinumerik(s) => s.next_tail_line(),
             Front::Heidenhain(h) => h.next_tail_line(),
-            Front::Unread { .. } => None,
         }
     }
 
@@ -147,8 +123,8 @@ impl Front {
     pub(crate) fn percent_ended(&self) -> bool {
         match self {
             Front::LinuxCnc(e) => e.percent_ended(),
+            Front::Sinumerik(s) => s.percent_ended(),
             Front::Heidenhain(_) => false,
-            Front::Unread { .. } => false,
         }
     }
 
@@ -156,8 +132,8 @@ impl Front {
     pub(crate) fn lines_read(&self) -> usize {
         match self {
             Front::LinuxCnc(e) => e.lines_read(),
+            Front::Sinumerik(s) => s.lines_read(),
             Front::Heidenhain(h) => h.lines_read(),
-            Front::Unread { .. } => 0,
         }
     }
 
@@ -165,8 +141,7 @@ impl Front {
     pub(crate) fn repeat_trips(&self) -> f64 {
         match self {
             Front::LinuxCnc(e) => e.repeat_trips(),
-            Front::Heidenhain(_) => 1.0,
-            Front::Unread { .. } => 1.0,
+            Front::Sinumerik(_) | Front::Heidenhain(_) => 1.0,
         }
     }
 
@@ -174,8 +149,8 @@ impl Front {
     pub(crate) fn innermost_loop(&self) -> Option<String> {
         match self {
             Front::LinuxCnc(e) => e.innermost_loop(),
+            Front::Sinumerik(s) => s.innermost_loop(),
             Front::Heidenhain(h) => h.in_call().then(|| "a CALL LBL / CALL PGM".to_string()),
-            Front::Unread { .. } => None,
         }
     }
 
@@ -188,9 +163,9 @@ impl Front {
         event: &mut crate::gcode::BlockEvent,
     ) -> Result<(), GcodeError> {
         match self {
-            Front::Heidenhain(h) => h.interpret(event),
             Front::LinuxCnc(e) => interpreter.interpret_into(e.block(), event),
-            Front::Unread { block, .. } => interpreter.interpret_into(block, event),
+            Front::Sinumerik(s) => interpreter.interpret_into(s.block(), event),
+            Front::Heidenhain(h) => h.interpret(event),
         }
     }
 
@@ -202,9 +177,9 @@ impl Front {
         event: &mut crate::gcode::BlockEvent,
     ) {
         match self {
-            Front::Heidenhain(h) => h.pass_over(event),
             Front::LinuxCnc(e) => interpreter.pass_over(e.block(), event),
-            Front::Unread { block, .. } => interpreter.pass_over(block, event),
+            Front::Sinumerik(s) => interpreter.pass_over(s.block(), event),
+            Front::Heidenhain(h) => h.pass_over(event),
         }
     }
 }

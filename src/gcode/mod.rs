@@ -49,6 +49,7 @@ pub(crate) mod front;
 pub(crate) mod heidenhain;
 pub(crate) mod language;
 pub(crate) mod machine;
+pub(crate) mod sinumerik;
 pub(crate) mod summary;
 pub(crate) mod syntax;
 pub(crate) mod write;

@@ -120,6 +120,9 @@ pub struct ProgramSummary {
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
     passed: BTreeMap<(u8, i32), usize>,
+    /// A dialect's statements passed through, by name (`Block::statements`).
+    #[serde(skip)]
+    statements: BTreeMap<String, usize>,
 }
 
 impl ProgramSummary {
@@ -143,6 +146,9 @@ impl ProgramSummary {
         if !event.skipped {
             for w in &block.words {
                 self.count_word(w.letter, w.code10());
+            }
+            for s in &block.statements {
+                self.count_statement(&block.raw[s.clone()]);
             }
         }
         for m in event.motions() {
@@ -232,6 +238,19 @@ impl ProgramSummary {
         *self.passed.entry(key).or_default() += 1;
     }
 
+    fn count_statement(&mut self, text: &[u8]) {
+        let name: String = text
+            .iter()
+            .take_while(|b| b.is_ascii_alphanumeric() || **b == b'_' || **b == b'$')
+            .map(|b| b.to_ascii_uppercase() as char)
+            .collect();
+        if let Some(n) = self.statements.get_mut(&name) {
+            *n += 1;
+        } else {
+            self.statements.insert(name, 1);
+        }
+    }
+
     /// Codes and words passed through untouched (`G54`, `M3`, `S`, `T`, ...),
     /// with their counts.
     pub fn passed_through(&self) -> BTreeMap<String, usize> {
@@ -245,6 +264,7 @@ impl ProgramSummary {
                 };
                 (name, n)
             })
+            .chain(self.statements.iter().map(|(k, &n)| (k.clone(), n)))
             .collect()
     }
 }

@@ -30,6 +30,14 @@ pub fn read_records(
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;
+        if let Some(message) = crate::io::long_line(raw) {
+            return Err(InspectionError::Field {
+                path: path.to_path_buf(),
+                line,
+                column: "(the whole line)".into(),
+                message,
+            });
+        }
         let trimmed = raw.trim();
         if trimmed.is_empty() || trimmed.starts_with('#') {
             continue;
@@ -91,14 +99,17 @@ pub fn read_records(
                         path: path.to_path_buf(),
                         line,
                         column: name.to_string(),
-                        message: format!("expected a number, found `{text}`"),
+                        message: format!("expected a number, found `{}`", crate::io::echo(text)),
                     })?;
                     if !v.is_finite() {
                         return Err(InspectionError::Field {
                             path: path.to_path_buf(),
                             line,
                             column: name.to_string(),
-                            message: format!("expected a finite number, found `{text}`"),
+                            message: format!(
+                                "expected a finite number, found `{}`",
+                                crate::io::echo(text)
+                            ),
                         });
                     }
                     values.push(v);

@@ -96,7 +96,7 @@ pub fn nearest_turn(c: f64, previous: f64) -> f64 {
 
 /// The value of `q` (mod 360) nearest `previous` inside `limits` (any turn when
 /// `None`); `None` when no turn of it is inside.
-fn joint_near(q: f64, previous: f64, limits: Option<[f64; 2]>) -> Option<f64> {
+pub(crate) fn joint_near(q: f64, previous: f64, limits: Option<[f64; 2]>) -> Option<f64> {
     let near = nearest_turn(q, previous);
     let Some([lo, hi]) = limits else {
         return Some(near);

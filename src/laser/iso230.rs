@@ -23,6 +23,10 @@ pub struct TargetStats {
     pub mean: f64,
     /// B_i = x̄_i↑ − x̄_i↓: reversal value (the table's REVERSAL).
     pub reversal: f64,
+    /// The standard uncertainty of x̄_i, `½ √(s_i↑²/n↑ + s_i↓²/n↓)` (the
+    /// table's `u_<parameter>`); `None` without two runs in each direction.
+    #[serde(rename = "u")]
+    pub uncertainty: Option<f64>,
     /// s_i↑, s_i↓ (n − 1 in the denominator).
     pub s_up: Option<f64>,
     /// s_i↓ (see `s_up`).
@@ -112,6 +116,12 @@ pub fn target_stats(target: f64, up: &[f64], down: &[f64]) -> TargetStats {
         mean_down,
         mean: 0.5 * (mean_up + mean_down),
         reversal,
+        uncertainty: match (s_up, s_down) {
+            (Some(su), Some(sd)) => {
+                Some(0.5 * (su * su / up.len() as f64 + sd * sd / down.len() as f64).sqrt())
+            }
+            _ => None,
+        },
         s_up,
         s_down,
         repeatability_up: s_up.map(|s| 4.0 * s),

@@ -13,6 +13,7 @@
 //! error names a file, line and column.
 pub(crate) mod iso230;
 pub(crate) mod read;
+pub(crate) mod vocabulary;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt::Write as _;
@@ -21,8 +22,9 @@ use std::path::PathBuf;
 use crate::axes::Axis;
 pub use iso230::{AxisFigures, TargetStats, axis_figures, target_stats};
 pub use read::{
-    FileReadings, LaserError, Layout, ReadSettings, Reading, is_angular, is_parameter_of,
-    positioning_parameter, read_file,
+    DecimalMark, FileIdentity, FileReadings, LaserError, Layout, MAX_DEVIATION, MAX_PREAMBLE_LINES,
+    MAX_TARGET_DEG, MAX_TARGET_MM, OtherColumn, ReadSettings, Reading, is_angular, is_parameter_of,
+    parse, parse_direction, positioning_parameter, read_file,
 };
 
 /// What one file contributed.
@@ -34,16 +36,26 @@ pub struct FileSummary {
     pub parameter: String,
     /// Its header layout.
     pub layout: Layout,
+    /// Line of its header.
+    pub header_line: usize,
     /// Its field separator (`,`, `;` or `tab`).
     pub separator: String,
-    /// Whether it writes a decimal comma.
-    pub decimal_comma: bool,
+    /// The decimal mark it writes (decided by its first number that writes one).
+    pub decimal_mark: DecimalMark,
+    /// `UTF-8`, or `Latin-1` when a line was not UTF-8.
+    pub encoding: &'static str,
     /// The unit of its targets as the file gave it (empty: volcomp's default).
     pub target_unit: String,
     /// The unit of its deviations as the file gave it (empty: volcomp's default).
     pub deviation_unit: String,
+    /// The line of its units line, if it had one.
+    pub units_line: Option<usize>,
     /// Number of readings read from it.
     pub readings: usize,
+    /// The export's metadata lines before the header.
+    pub preamble: Vec<String>,
+    /// Its columns that hold no reading (temperatures, comments), by name.
+    pub other_columns: Vec<OtherColumn>,
 }
 
 /// One measured parameter over all its files.
@@ -117,6 +129,7 @@ struct TargetAcc {
 
 /// Group `files` by parameter and target and evaluate them.
 pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, LaserError> {
+    distinct_files(&files)?;
     let positioning = positioning_parameter(axis);
     let mut order: Vec<String> = Vec::new();
     for f in &files {
@@ -160,9 +173,14 @@ pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, Las
             path: f.path,
             parameter: f.parameter,
             layout: f.layout,
-            decimal_comma: f.decimal_comma,
+            header_line: f.header_line,
+            decimal_mark: f.decimal_mark,
+            encoding: f.encoding,
             target_unit: f.target_unit,
             deviation_unit: f.deviation_unit,
+            units_line: f.units_line,
+            preamble: f.preamble,
+            other_columns: f.other_columns,
         })
         .collect();
     Ok(LaserImport {
@@ -170,6 +188,35 @@ pub fn evaluate(axis: Axis, files: Vec<FileReadings>) -> Result<LaserImport, Las
         files,
         parameters,
     })
+}
+
+/// One measurement counts once: a file given twice (the same device and
+/// inode: the same path, another spelling of it, a link) or two files of the
+/// same bytes are an error naming both.
+fn distinct_files(files: &[FileReadings]) -> Result<(), LaserError> {
+    for (j, b) in files.iter().enumerate() {
+        for (i, a) in files[..j].iter().enumerate() {
+            let same_file = a.identity.device_inode.is_some()
+                && a.identity.device_inode == b.identity.device_inode;
+            let same_bytes =
+                a.identity.length == b.identity.length && a.identity.fnv1a64 == b.identity.fnv1a64;
+            if same_file || same_bytes {
+                return Err(LaserError::Data(format!(
+                    "{} (file {}) {} {} (file {}): one measurement counts once; give each file once",
+                    b.path.display(),
+                    j + 1,
+                    if same_file {
+                        "is the same file as"
+                    } else {
+                        "has the same bytes as"
+                    },
+                    a.path.display(),
+                    i + 1
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One parameter's readings grouped by target (ascending), and its runs.
@@ -297,6 +344,14 @@ fn same_targets(
     )))
 }
 
+impl ParameterResult {
+    /// Every target has two runs or more in each direction: the table gets
+    /// the parameter's `u_` column.
+    pub fn has_uncertainty(&self) -> bool {
+        self.targets.iter().all(|t| t.uncertainty.is_some())
+    }
+}
+
 impl LaserImport {
     /// The axis's error table (formats.md "Error table", with `REVERSAL`):
     /// `position`, each parameter's mean bidirectional deviation, and after the
@@ -306,12 +361,17 @@ impl LaserImport {
         let positioning = positioning_parameter(self.axis);
         let _ = writeln!(
             out,
-            "# volcomp import-laser: axis {}, {} file{}; mean bidirectional deviation per target (ISO 230-2 x̄_i){}",
+            "# volcomp import-laser: axis {}, {} file{}; mean bidirectional deviation per target (ISO 230-2 x̄_i){}{}",
             self.axis.letter(),
             self.files.len(),
             if self.files.len() == 1 { "" } else { "s" },
             if self.parameters.iter().any(|p| p.parameter == positioning) {
                 "; REVERSAL = x̄_i↑ − x̄_i↓ (B_i)"
+            } else {
+                ""
+            },
+            if self.parameters.iter().any(ParameterResult::has_uncertainty) {
+                "; u_<parameter> = ½√(s_i↑²/n↑ + s_i↓²/n↓), the standard uncertainty of x̄_i"
             } else {
                 ""
             }
@@ -321,6 +381,9 @@ impl LaserImport {
             header.push(p.parameter.clone());
             if p.parameter == positioning {
                 header.push("REVERSAL".into());
+            }
+            if p.has_uncertainty() {
+                header.push(format!("u_{}", p.parameter));
             }
         }
         let _ = writeln!(out, "{}", header.join(","));
@@ -334,6 +397,9 @@ impl LaserImport {
                 let _ = write!(out, ",{:.4}", s.mean + 0.0);
                 if p.parameter == positioning {
                     let _ = write!(out, ",{:.4}", s.reversal + 0.0);
+                }
+                if let (true, Some(u)) = (p.has_uncertainty(), s.uncertainty) {
+                    let _ = write!(out, ",{:.4}", u + 0.0);
                 }
             }
             out.push('\n');

@@ -1,5 +1,6 @@
-//! Reading laser-interferometer positioning runs (formats.md "Laser positioning
-//! runs and reversal"; the accepted layouts are listed in docs/extensions.md).
+//! Reading laser-interferometer positioning runs as laser software exports them
+//! (formats.md "Laser positioning runs and reversal"; the accepted layouts and
+//! the fixture of each are listed in docs/extensions.md).
 //!
 //! Three layouts, told apart by the header:
 //! - **long**: `target,run,direction,deviation` (the contract), one reading a row;
@@ -8,17 +9,47 @@
 //! - **wide**: `target,run 1 +,run 1 -,run 2 +,…` (the spreadsheet export of
 //!   laser software), one target a row, a column per run and direction.
 //!
-//! Separators `,` `;` or tab (the header's decides); with `;` or tab a decimal
-//! comma is accepted (`1,25`); fields may be quoted. A header cell may carry its
-//! unit in brackets or parentheses (`target [mm]`, `deviation (µm)`). Rows may
-//! come in any order (runs measured from the far end, descending targets).
+//! Column names and directions in English or German (`vocabulary`). The header
+//! is the first line naming a target column and a reading column; the lines
+//! before it are the export's metadata (its *preamble*, kept). Columns that are
+//! not readings (air and material temperature, comments, the actual position)
+//! are kept by name with the range of their numbers. Units come in the header
+//! cell (`target [mm]`, `deviation (µm)`) or in a units line right under the
+//! header (`mm;;;µm`). Separators `,` `;` or tab: the one that splits the header
+//! into a layout (two that both do are an error); the decimal mark is decided
+//! by the file's first number that writes one, and a later number writing the
+//! other is an error. Text is UTF-8, or Latin-1 where a line is not UTF-8 (as
+//! Windows laser software writes `µm` and `rückwärts`). Rows may come in any
+//! order (runs measured from the far end, descending targets).
 //!
-//! Invariants: every value of a [`FileReadings`] is finite and in volcomp's units
-//! (targets mm or degrees, deviations µm or µrad); every error names the file, the
-//! line and the column (1-based characters) of the cell.
+//! Invariants: every value of a [`FileReadings`] is finite, in volcomp's units
+//! (targets mm or degrees, deviations µm or µrad) and within the physical ranges
+//! ([`MAX_DEVIATION`], [`MAX_TARGET_MM`], [`MAX_TARGET_DEG`]); every error names
+//! the file, the line and the column (1-based characters) of the cell, and echoes
+//! at most 160 bytes (`EXCERPT_BYTES`) of it; a line is read with at most
+//! 64 KiB (`MAX_LINE_BYTES`) of it in memory.
+use std::borrow::Cow;
+use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
+pub use super::vocabulary::parse_direction;
+use super::vocabulary::{
+    Role, classify, deviation_unit, is_known_unit, is_parameter_name, is_run_without_direction,
+    split_unit, strip_brackets, target_unit,
+};
 use crate::axes::Axis;
+use crate::gcode::error::EXCERPT_BYTES;
+use crate::gcode::syntax::reader::MAX_LINE_BYTES;
+
+/// The largest |deviation| read: µm of a length parameter (100 mm), µrad of
+/// an angle (0.1 rad). A positioning error beyond it is no machine tool's.
+pub const MAX_DEVIATION: f64 = 100_000.0;
+/// The largest |target| of a linear axis, mm (100 m).
+pub const MAX_TARGET_MM: f64 = 100_000.0;
+/// The largest |target| of a rotary axis, degrees (100 turns).
+pub const MAX_TARGET_DEG: f64 = 36_000.0;
+/// The most metadata lines before the header.
+pub const MAX_PREAMBLE_LINES: usize = 200;
 
 /// A malformed laser file.
 #[derive(Debug, thiserror::Error)]
@@ -66,6 +97,39 @@ impl Layout {
     }
 }
 
+/// The decimal mark a file writes, decided by its first number that writes one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DecimalMark {
+    /// No number of the file has a fraction.
+    None,
+    /// `1.25`.
+    Point,
+    /// `1,25`.
+    Comma,
+}
+
+impl DecimalMark {
+    /// `"decimal point"`, `"decimal comma"`, `"no decimal mark"`.
+    pub fn describe(self) -> &'static str {
+        match self {
+            DecimalMark::None => "no decimal mark",
+            DecimalMark::Point => "decimal point",
+            DecimalMark::Comma => "decimal comma",
+        }
+    }
+
+    fn of(text: &str) -> DecimalMark {
+        if text.contains(',') {
+            DecimalMark::Comma
+        } else if text.contains('.') {
+            DecimalMark::Point
+        } else {
+            DecimalMark::None
+        }
+    }
+}
+
 /// One deviation: the axis at `target`, approached moving `up` (positive
 /// direction) or down, in run `run`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,6 +148,33 @@ pub struct Reading {
     pub column: u32,
 }
 
+/// A column that holds no reading (air temperature, a comment): its name and
+/// what it held.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OtherColumn {
+    /// The header cell as written (cut to 160 bytes (`EXCERPT_BYTES`)).
+    pub name: String,
+    /// Its unit (header or units line; empty: none given).
+    pub unit: String,
+    /// 1-based column (characters) of the header cell.
+    pub column: usize,
+    /// Cells that were not empty.
+    pub cells: usize,
+    /// The smallest and largest number of its cells (`None`: no cell is a number).
+    pub range: Option<[f64; 2]>,
+}
+
+/// Which bytes a file was: for telling that one measurement was given twice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FileIdentity {
+    /// Device and inode (`None` where the platform has none, or for text given in memory).
+    pub device_inode: Option<(u64, u64)>,
+    /// Bytes read.
+    pub length: u64,
+    /// FNV-1a 64 of the bytes read.
+    pub fnv1a64: u64,
+}
+
 /// The readings of one file, in volcomp's units.
 #[derive(Clone, Debug)]
 pub struct FileReadings {
@@ -93,16 +184,29 @@ pub struct FileReadings {
     pub parameter: String,
     /// Its header layout.
     pub layout: Layout,
+    /// Line of the header.
+    pub header_line: usize,
     /// Its field separator (`,`, `;` or tab).
     pub separator: char,
-    /// Whether it writes a decimal comma.
-    pub decimal_comma: bool,
+    /// The decimal mark it writes.
+    pub decimal_mark: DecimalMark,
+    /// `UTF-8`, or `Latin-1` when a line was not UTF-8.
+    pub encoding: &'static str,
     /// The units the file gave (empty: volcomp's default).
     pub target_unit: String,
     /// The unit of its deviations as the file gave it (empty: volcomp's default).
     pub deviation_unit: String,
+    /// The line of a units line under the header, if it had one.
+    pub units_line: Option<usize>,
+    /// The metadata lines before the header (blank lines left out; each cut to
+    /// 160 bytes (`EXCERPT_BYTES`)).
+    pub preamble: Vec<String>,
+    /// The columns that hold no reading, in header order.
+    pub other_columns: Vec<OtherColumn>,
     /// The readings, in file order.
     pub readings: Vec<Reading>,
+    /// Which bytes it was.
+    pub identity: FileIdentity,
 }
 
 /// What a file is read as.
@@ -140,187 +244,37 @@ pub fn is_angular(parameter: &str) -> bool {
     matches!(parameter.as_bytes().get(1), Some(b'A' | b'B' | b'C'))
 }
 
-/// What a header cell is.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Role {
-    Target,
-    Run,
-    Direction,
-    /// The deviation of the long layout.
-    Deviation,
-    /// A paired layout's deviation of one approach.
-    Approach(bool),
-    /// A wide layout's run and approach.
-    RunApproach(u32, bool),
+/// At most 160 bytes (`EXCERPT_BYTES`) of `text` (cut at a character), for messages.
+pub(crate) fn excerpt(text: &str) -> Cow<'_, str> {
+    if text.len() <= EXCERPT_BYTES {
+        return Cow::Borrowed(text);
+    }
+    let mut end = EXCERPT_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    Cow::Owned(format!("{}… ({} bytes)", &text[..end], text.len()))
 }
 
-/// A header cell: its role, its unit (as written) and its 1-based column.
+/// A header cell: its role, its name and unit (as written) and its 1-based
+/// column; `unit_at` is where the unit was given (line, column).
 #[derive(Clone, Debug)]
 struct HeaderCell {
     role: Role,
     name: String,
     unit: String,
     column: usize,
-}
-
-/// A unit's factor to volcomp's unit, and whether it measures an angle.
-fn deviation_unit(unit: &str) -> Option<(f64, bool)> {
-    let u = unit.trim().replace(['μ', 'µ'], "u").to_ascii_lowercase();
-    let arcsec = std::f64::consts::PI / (180.0 * 3600.0) * 1e6;
-    Some(match u.as_str() {
-        "um" | "micron" | "microns" => (1.0, false),
-        "mm" => (1000.0, false),
-        "nm" => (1e-3, false),
-        "urad" => (1.0, true),
-        "mrad" => (1000.0, true),
-        "arcsec" | "\"" | "″" | "sec" => (arcsec, true),
-        "mm/m" => (1000.0, true),
-        "um/m" => (1.0, true),
-        _ => return None,
-    })
-}
-
-/// A target unit's factor to mm (linear) or degrees (rotary).
-fn target_unit(unit: &str, rotary: bool) -> Option<f64> {
-    let u = unit.trim().to_ascii_lowercase();
-    match (u.as_str(), rotary) {
-        ("mm", false) => Some(1.0),
-        ("deg" | "°" | "degree" | "degrees", true) => Some(1.0),
-        _ => None,
-    }
-}
-
-/// `name [unit]` or `name (unit)` → (name, unit); no unit → "".
-fn split_unit(cell: &str) -> (String, String) {
-    let cell = cell.trim();
-    for (open, close) in [('[', ']'), ('(', ')')] {
-        if cell.ends_with(close) {
-            if let Some(k) = cell.rfind(open) {
-                let unit = cell[k + open.len_utf8()..cell.len() - close.len_utf8()].trim();
-                let name = cell[..k].trim();
-                if !name.is_empty()
-                    && (deviation_unit(unit).is_some()
-                        || target_unit(unit, false)
-                            .or(target_unit(unit, true))
-                            .is_some())
-                {
-                    return (name.to_string(), unit.to_string());
-                }
-                if !name.is_empty()
-                    && !unit.is_empty()
-                    && !unit.chars().any(|c| c.is_ascii_digit())
-                    && !is_direction_word(unit)
-                {
-                    // An unknown unit: kept, refused with its column later.
-                    return (name.to_string(), unit.to_string());
-                }
-            }
-        }
-    }
-    (cell.to_string(), String::new())
-}
-
-/// A direction as the contract writes it (and the usual words).
-pub fn parse_direction(text: &str) -> Option<bool> {
-    match text {
-        "+" => return Some(true),
-        "-" => return Some(false),
-        _ => {}
-    }
-    match text.trim().to_ascii_lowercase().as_str() {
-        "+" | "up" | "fwd" | "forward" | "pos" | "positive" | "↑" => Some(true),
-        "-" | "−" | "down" | "rev" | "reverse" | "bwd" | "backward" | "neg" | "negative" | "↓" => {
-            Some(false)
-        }
-        _ => None,
-    }
-}
-
-fn is_direction_word(text: &str) -> bool {
-    parse_direction(text).is_some()
-}
-
-/// A wide layout's run column: a run number and a direction, e.g. `run 1 +`,
-/// `Run 2 (down)`, `R3 fwd`, `1+`, `+1`.
-fn parse_run_column(name: &str) -> Option<(u32, bool)> {
-    let lower = name.to_ascii_lowercase();
-    let mut rest = lower.trim();
-    for prefix in ["run", "r", "#"] {
-        if let Some(r) = rest.strip_prefix(prefix) {
-            if r.starts_with(|c: char| {
-                c.is_ascii_digit() || c == ' ' || c == '_' || c == '.' || c == '#'
-            }) {
-                rest = r.trim_start_matches([' ', '_', '.', '#']);
-                break;
-            }
-        }
-    }
-    let digits_start = rest.find(|c: char| c.is_ascii_digit())?;
-    let digits_end = digits_start
-        + rest[digits_start..]
-            .find(|c: char| !c.is_ascii_digit())
-            .unwrap_or(rest.len() - digits_start);
-    let run: u32 = rest[digits_start..digits_end].parse().ok()?;
-    if run == 0 {
-        return None;
-    }
-    let clean = |s: &str| {
-        s.trim_matches(|c: char| c == ' ' || c == '_' || c == '(' || c == ')' || c == '.')
-            .to_string()
-    };
-    let before = clean(&rest[..digits_start]);
-    let after = clean(&rest[digits_end..]);
-    match (before.is_empty(), after.is_empty()) {
-        (true, false) => parse_direction(&after).map(|d| (run, d)),
-        (false, true) => parse_direction(&before).map(|d| (run, d)),
-        _ => None,
-    }
-}
-
-fn classify(name: &str, column: usize) -> Option<Role> {
-    let lower = name.trim().to_ascii_lowercase();
-    let role = match lower.as_str() {
-        "target" | "position" | "target position" | "nominal" | "target_position" => Role::Target,
-        "run" | "run no" | "run no." | "run number" | "cycle" => Role::Run,
-        "direction" | "dir" | "approach" => Role::Direction,
-        "deviation" | "error" | "dev" => Role::Deviation,
-        _ => {
-            if let Some(up) = parse_direction(&lower) {
-                Role::Approach(up)
-            } else if let Some(rest) = lower
-                .strip_prefix("deviation")
-                .or_else(|| lower.strip_prefix("error"))
-            {
-                Role::Approach(parse_direction(rest)?)
-            } else if is_parameter_name(&name.trim().to_ascii_uppercase()) {
-                Role::Deviation
-            } else {
-                let (run, up) = parse_run_column(&lower)?;
-                Role::RunApproach(run, up)
-            }
-        }
-    };
-    let _ = column;
-    Some(role)
-}
-
-/// `E` + direction + axis letter (any axis).
-fn is_parameter_name(name: &str) -> bool {
-    let b = name.as_bytes();
-    b.len() == 3
-        && b[0] == b'E'
-        && crate::machine::table::DIRECTIONS.contains(&(b[1] as char))
-        && Axis::from_letter(b[2] as char).is_some()
+    unit_at: (usize, usize),
 }
 
 /// The fields of a line: (start byte, text), unquoted and trimmed.
-fn split_fields<'a>(line: &'a str, sep: char, out: &mut Vec<(usize, std::borrow::Cow<'a, str>)>) {
+fn split_fields<'a>(line: &'a str, sep: char, out: &mut Vec<(usize, Cow<'a, str>)>) {
     out.clear();
     if !line.contains('"') {
         let mut start = 0;
         for field in line.split(sep) {
             let lead = field.len() - field.trim_start().len();
-            out.push((start + lead, std::borrow::Cow::Borrowed(field.trim())));
+            out.push((start + lead, Cow::Borrowed(field.trim())));
             start += field.len() + sep.len_utf8();
         }
         return;
@@ -345,7 +299,7 @@ fn split_fields<'a>(line: &'a str, sep: char, out: &mut Vec<(usize, std::borrow:
         } else if c == '"' {
             in_quotes = true;
         } else if c == sep {
-            out.push((start, std::borrow::Cow::Owned(field.trim().to_string())));
+            out.push((start, Cow::Owned(field.trim().to_string())));
             field.clear();
             start = i + sep.len_utf8();
         } else {
@@ -356,7 +310,7 @@ fn split_fields<'a>(line: &'a str, sep: char, out: &mut Vec<(usize, std::borrow:
             field.push(c);
         }
     }
-    out.push((start, std::borrow::Cow::Owned(field.trim().to_string())));
+    out.push((start, Cow::Owned(field.trim().to_string())));
 }
 
 /// The 1-based character column of byte `at` of `line`.
@@ -370,76 +324,321 @@ fn char_column(line: &str, at: usize) -> usize {
     }) + 1
 }
 
-/// A number, with a decimal point or a decimal comma (a field holds a comma
-/// only with `;` or tab separators, or quoted).
+/// A number with at most one decimal mark (`.` or `,`), finite.
 fn parse_number(text: &str) -> Option<f64> {
-    let v = if text.contains(',') {
-        if text.contains('.') || text.matches(',').count() > 1 {
+    let t = text.strip_prefix('+').unwrap_or(text);
+    let v = if t.contains(',') {
+        if t.contains('.') || t.matches(',').count() > 1 {
             return None;
         }
-        text.replace(',', ".").parse::<f64>().ok()?
+        t.replace(',', ".").parse::<f64>().ok()?
     } else {
-        let t = text.strip_prefix('+').unwrap_or(text);
         t.parse::<f64>().ok()?
     };
     v.is_finite().then_some(v)
 }
 
-/// Read one laser file (`settings` say which axis and parameter).
+/// `v` (written as `text`) times `factor`, rounded to the decimals the
+/// product has exactly: inch targets with d decimals times 25.4 have d + 1
+/// (`5.9055118` in → 149.99999972 mm, not 149.99999971999999).
+fn converted(v: f64, factor: f64, text: &str) -> f64 {
+    if factor == 1.0 || text.contains(['e', 'E']) {
+        return v * factor;
+    }
+    let decimals = text.find(['.', ',']).map_or(0, |k| text.len() - k - 1) as i32;
+    let factor_decimals = (0..6)
+        .find(|&d| {
+            let scaled = factor * 10f64.powi(d);
+            (scaled - scaled.round()).abs() < 1e-9
+        })
+        .unwrap_or(6);
+    let places = 10f64.powi((decimals + factor_decimals).min(15));
+    let product = v * factor;
+    let rounded = (product * places).round() / places;
+    if rounded.is_finite() {
+        rounded
+    } else {
+        product
+    }
+}
+
+/// Read one laser file (`settings` say which axis and parameter). Only a
+/// regular file is read (a FIFO or a device is refused before reading).
 pub fn read_file(path: &Path, settings: &ReadSettings) -> Result<FileReadings, LaserError> {
-    let text = crate::io::read_to_string(path)?;
-    parse(&text, path, settings)
+    let input_error = |source| crate::io::InputError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(input_error)?;
+    let meta = file.metadata().map_err(input_error)?;
+    if !meta.is_file() {
+        return Err(input_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a laser export is a file)",
+        ))
+        .into());
+    }
+    let mut readings = parse_from(&mut std::io::BufReader::new(file), path, settings)?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        readings.identity.device_inode = Some((meta.dev(), meta.ino()));
+    }
+    Ok(readings)
 }
 
 /// Parse `text` as the laser file `path` (named in errors).
 pub fn parse(text: &str, path: &Path, settings: &ReadSettings) -> Result<FileReadings, LaserError> {
-    let at = Locator { path };
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text
-        .split('\n')
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
-        .filter(|(_, l)| {
-            let t = l.trim();
-            !t.is_empty() && !t.starts_with('#')
-        });
-    let Some((header_line, header_text)) = lines.next() else {
-        return Err(at.invalid(
-            1,
-            1,
-            "empty file: expected a header such as `target,run,direction,deviation`".into(),
-        ));
+    parse_from(&mut text.as_bytes(), path, settings)
+}
+
+/// The lines of a file, read bounded and decoded, its bytes hashed.
+struct Lines<'i, R: BufRead + ?Sized> {
+    input: &'i mut R,
+    at: &'i Locator<'i>,
+    buf: Vec<u8>,
+    number: usize,
+    hash: crate::stamp::Fnv1a64,
+    length: u64,
+    latin1: bool,
+}
+
+impl<R: BufRead + ?Sized> Lines<'_, R> {
+    /// The next line (number, text without its line end), `None` at the end.
+    fn next_line(&mut self) -> Result<Option<(usize, String)>, LaserError> {
+        self.buf.clear();
+        let (consumed, too_long) =
+            crate::gcode::syntax::reader::read_line_bounded(self.input, &mut self.buf).map_err(
+                |source| crate::io::InputError {
+                    path: self.at.path.to_path_buf(),
+                    source,
+                },
+            )?;
+        if consumed == 0 {
+            return Ok(None);
+        }
+        self.number += 1;
+        self.length += consumed as u64;
+        self.hash.update(&self.buf);
+        if let Some(length) = too_long {
+            return Err(self.at.invalid(
+                self.number,
+                MAX_LINE_BYTES + 1,
+                format!(
+                    "line of {length} bytes: volcomp reads laser lines of at most {MAX_LINE_BYTES} bytes \
+(a laser export has a row per target or reading)"
+                ),
+            ));
+        }
+        let mut bytes: &[u8] = &self.buf;
+        bytes = bytes.strip_suffix(b"\n").unwrap_or(bytes);
+        bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+        if self.number == 1 {
+            if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+                return Err(self.at.invalid(
+                    1,
+                    1,
+                    "UTF-16 text: save the export as UTF-8 (or ANSI) text".into(),
+                ));
+            }
+            bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
+        }
+        if let Some(k) = bytes
+            .iter()
+            .position(|&b| (b < 0x20 && b != b'\t' && b != b'\r') || b == 0x7F)
+        {
+            return Err(self.at.invalid(
+                self.number,
+                k + 1,
+                format!(
+                    "byte 0x{:02x} is not text: a laser export is text (UTF-8 or Latin-1)",
+                    bytes[k]
+                ),
+            ));
+        }
+        let text = match std::str::from_utf8(bytes) {
+            Ok(t) => t.to_string(),
+            Err(_) => {
+                self.latin1 = true;
+                bytes.iter().map(|&b| char::from(b)).collect()
+            }
+        };
+        Ok(Some((self.number, text)))
+    }
+
+    /// The next line that is not blank and not a `#` comment; the comments
+    /// and blank lines passed over are handed to `skipped`.
+    fn next_content(
+        &mut self,
+        skipped: &mut dyn FnMut(&str),
+    ) -> Result<Option<(usize, String)>, LaserError> {
+        while let Some((n, line)) = self.next_line()? {
+            let t = line.trim();
+            if t.is_empty() || t.starts_with('#') {
+                skipped(t);
+                continue;
+            }
+            return Ok(Some((n, line)));
+        }
+        Ok(None)
+    }
+}
+
+/// Does a line before any header look like a data row (two numbers first)?
+fn looks_like_data(line: &str) -> bool {
+    let sep = ['\t', ';', ','].into_iter().find(|s| line.contains(*s));
+    let Some(sep) = sep else {
+        return false;
     };
-    let header = Header::read(header_text, header_line, &at)?;
-    let units = Units::read(&header, settings, &at)?;
-    let mut readings: Vec<Reading> = Vec::new();
-    let mut decimal_comma = false;
     let mut fields = Vec::new();
-    for (line_no, line) in lines {
-        split_fields(line, header.separator, &mut fields);
+    split_fields(line, sep, &mut fields);
+    fields.len() >= 2
+        && parse_number(&fields[0].1).is_some()
+        && parse_number(&fields[1].1).is_some()
+}
+
+fn parse_from<R: BufRead + ?Sized>(
+    input: &mut R,
+    path: &Path,
+    settings: &ReadSettings,
+) -> Result<FileReadings, LaserError> {
+    let at = Locator { path };
+    let mut lines = Lines {
+        input,
+        at: &at,
+        buf: Vec::new(),
+        number: 0,
+        hash: crate::stamp::Fnv1a64::default(),
+        length: 0,
+        latin1: false,
+    };
+    let mut preamble: Vec<String> = Vec::new();
+    let mut header = loop {
+        let mut comments = Vec::new();
+        let next = lines.next_content(&mut |t| {
+            if !t.is_empty() {
+                comments.push(excerpt(t).into_owned());
+            }
+        })?;
+        preamble.extend(comments);
+        let Some((n, line)) = next else {
+            return Err(match preamble.last() {
+                None => at.invalid(
+                    1,
+                    1,
+                    "empty file: expected a header such as `target,run,direction,deviation`".into(),
+                ),
+                Some(_) => at.invalid(
+                    1,
+                    1,
+                    format!(
+                        "no header: none of the {} lines names a target column (target, position, \
+Sollposition) and the readings (run, direction, deviation; or run columns like `Run 1 +`)",
+                        lines.number
+                    ),
+                ),
+            });
+        };
+        if let Some(h) = Header::detect(&line, n, &at)? {
+            break h;
+        }
+        if looks_like_data(&line) {
+            return Err(at.invalid(
+                n,
+                1,
+                format!(
+                    "a data row before any header (`{}`): expected a header naming the target column \
+(target, position, Sollposition) and the readings (run, direction, deviation; or run columns like `Run 1 +`){}",
+                    excerpt(line.trim()),
+                    match preamble.last() {
+                        Some(p) => format!("; the line before was read as metadata: `{p}`"),
+                        None => String::new(),
+                    }
+                ),
+            ));
+        }
+        if preamble.len() >= MAX_PREAMBLE_LINES {
+            return Err(at.invalid(
+                n,
+                1,
+                format!(
+                    "no header in the first {MAX_PREAMBLE_LINES} lines: expected a header such as \
+`target,run,direction,deviation` after the export's metadata"
+                ),
+            ));
+        }
+        preamble.push(excerpt(line.trim()).into_owned());
+    };
+    let mut first = lines.next_content(&mut |_| {})?;
+    let mut units_line = None;
+    if let Some((n, line)) = &first {
+        if header.apply_units_line(line, *n, &at)? {
+            units_line = Some(*n);
+            first = lines.next_content(&mut |_| {})?;
+        }
+    }
+    let units = Units::read(&header, settings, &at)?;
+    let mut state = RowState {
+        mark: None,
+        others: header
+            .cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.role == Role::Other)
+            .map(|(k, c)| {
+                (
+                    k,
+                    OtherColumn {
+                        name: c.name.clone(),
+                        unit: c.unit.clone(),
+                        column: c.column,
+                        cells: 0,
+                        range: None,
+                    },
+                )
+            })
+            .collect(),
+    };
+    let mut readings: Vec<Reading> = Vec::new();
+    let mut next = first;
+    while let Some((line_no, line)) = next {
+        let mut fields = Vec::new();
+        split_fields(&line, header.separator, &mut fields);
         let row = Row {
             header: &header,
             at: &at,
             line_no,
-            line,
+            line: &line,
             fields: &fields,
         };
         row.check_width()?;
-        decimal_comma |= fields.iter().any(|(_, f)| f.contains(','));
-        row.read(&units, &mut readings)?;
+        row.read(&units, &mut state, &mut readings)?;
+        next = lines.next_content(&mut |_| {})?;
     }
     if readings.is_empty() {
-        return Err(at.invalid(header_line, 1, "no data rows after the header".into()));
+        return Err(at.invalid(header.line, 1, "no data rows after the header".into()));
     }
+    let identity = FileIdentity {
+        device_inode: None,
+        length: lines.length,
+        fnv1a64: lines.hash.finish(),
+    };
+    let encoding = if lines.latin1 { "Latin-1" } else { "UTF-8" };
     Ok(FileReadings {
         path: path.to_path_buf(),
         parameter: units.parameter,
         layout: header.layout,
+        header_line: header.line,
         separator: header.separator,
-        decimal_comma,
-        target_unit: header.cells[header.target].unit.clone(),
+        decimal_mark: state.mark.map_or(DecimalMark::None, |m| m.mark),
+        encoding,
+        target_unit: std::mem::take(&mut header.cells[header.target].unit),
         deviation_unit: units.deviation_units.join(", "),
+        units_line,
+        preamble,
+        other_columns: state.others.into_iter().map(|(_, c)| c).collect(),
         readings,
+        identity,
     })
 }
 
@@ -477,26 +676,104 @@ struct Header {
 }
 
 impl Header {
-    /// Read the header line `text` (line `line` of the file).
-    fn read(text: &str, line: usize, at: &Locator) -> Result<Self, LaserError> {
-        let separator = if text.contains('\t') {
-            '\t'
-        } else if text.contains(';') {
-            ';'
-        } else {
-            ','
-        };
-        let cells = Self::cells(text, line, separator, at)?;
-        let find = |role: Role| cells.iter().position(|c| c.role == role);
-        let target = find(Role::Target).ok_or_else(|| {
-            at.invalid(
+    /// The header of a file, if `text` (line `line`) is one: a line whose
+    /// cells, split at one of tab `;` `,`, name a target and a reading
+    /// column. A line that names them but makes no layout is an error; one
+    /// that makes a layout split at two separators is ambiguous.
+    fn detect(text: &str, line: usize, at: &Locator) -> Result<Option<Self>, LaserError> {
+        let mut separators: Vec<char> = ['\t', ';', ',']
+            .into_iter()
+            .filter(|s| text.contains(*s))
+            .collect();
+        if separators.is_empty() {
+            separators.push(',');
+        }
+        let mut built: Vec<Header> = Vec::new();
+        let mut failed = None;
+        for separator in separators {
+            let cells = Self::cells(text, line, separator);
+            let has_target = cells.iter().any(|c| c.role == Role::Target);
+            let has_reading = cells.iter().any(|c| {
+                !matches!(c.role, Role::Target | Role::Other) || is_run_without_direction(&c.name)
+            });
+            if !(has_target && has_reading) {
+                continue;
+            }
+            match Self::build(text, line, separator, cells, at) {
+                Ok(h) => built.push(h),
+                Err(e) => {
+                    failed.get_or_insert(e);
+                }
+            }
+        }
+        match built.len() {
+            0 => failed.map_or(Ok(None), Err),
+            1 => Ok(built.pop()),
+            _ => Err(at.invalid(
                 line,
                 1,
                 format!(
-                    "no target column: expected `target` (or `position`) in the header `{text}`"
+                    "cannot decide the separator of the header `{}`: split at {} it reads as {} columns, \
+split at {} as {} columns (quote the cells that hold the other)",
+                    excerpt(text),
+                    separator_name(built[0].separator),
+                    built[0].cells.len(),
+                    separator_name(built[1].separator),
+                    built[1].cells.len()
                 ),
-            )
-        })?;
+            )),
+        }
+    }
+
+    /// The header's cells, each classified.
+    fn cells(text: &str, line: usize, separator: char) -> Vec<HeaderCell> {
+        let mut fields = Vec::new();
+        split_fields(text, separator, &mut fields);
+        fields
+            .iter()
+            .map(|(start, raw)| {
+                let column = char_column(text, *start);
+                let (name, unit) = split_unit(raw);
+                HeaderCell {
+                    role: classify(&name),
+                    name: excerpt(raw).into_owned(),
+                    unit: excerpt(&unit).into_owned(),
+                    column,
+                    unit_at: (line, column),
+                }
+            })
+            .collect()
+    }
+
+    /// The layout of classified cells; a role given twice, a mix of layouts or
+    /// run columns without a direction are errors saying what is undecided.
+    fn build(
+        text: &str,
+        line: usize,
+        separator: char,
+        cells: Vec<HeaderCell>,
+        at: &Locator,
+    ) -> Result<Self, LaserError> {
+        for (k, cell) in cells.iter().enumerate() {
+            if cell.role == Role::Other {
+                continue;
+            }
+            if let Some(prev) = cells[..k].iter().find(|c| c.role == cell.role) {
+                return Err(at.invalid(
+                    line,
+                    cell.column,
+                    format!(
+                        "columns `{}` (column {}) and `{}` both hold the {}: cannot decide which one to read",
+                        prev.name,
+                        prev.column,
+                        cell.name,
+                        cell.role.describe()
+                    ),
+                ));
+            }
+        }
+        let find = |role: Role| cells.iter().position(|c| c.role == role);
+        let target = find(Role::Target).unwrap_or(0);
         let run = find(Role::Run);
         let direction = find(Role::Direction);
         let deviation = find(Role::Deviation);
@@ -506,20 +783,48 @@ impl Header {
         let wide: Vec<usize> = (0..cells.len())
             .filter(|&i| matches!(cells[i].role, Role::RunApproach(..)))
             .collect();
+        let undirected: Vec<&str> = cells
+            .iter()
+            .filter(|c| c.role == Role::Other && is_run_without_direction(&c.name))
+            .map(|c| c.name.as_str())
+            .collect();
         let layout = match (run, direction, deviation, approach.len(), wide.len()) {
-            (Some(_), Some(_), Some(_), 0, 0) => Layout::Long,
-            (Some(_), None, None, 2, 0) => Layout::Paired,
-            (None, None, None, 0, n) if n > 0 => Layout::Wide,
-            _ => {
-                return Err(at.invalid(
-                    line,
-                    1,
-                    format!(
-                        "cannot tell the layout of the header `{text}`: expected `target,run,direction,deviation` \
-(long), `target,run,+,-` (paired) or `target,run 1 +,run 1 -,…` (wide), without mixing them"
-                    ),
-                ));
-            }
+            _ if !undirected.is_empty() => None,
+            (Some(_), Some(_), Some(_), 0, 0) => Some(Layout::Long),
+            (Some(_), None, None, 2, 0) => Some(Layout::Paired),
+            (None, None, None, 0, n) if n > 0 => Some(Layout::Wide),
+            _ => None,
+        };
+        let Some(layout) = layout else {
+            let read: Vec<String> = cells
+                .iter()
+                .filter(|c| c.role != Role::Other)
+                .map(|c| format!("`{}` {}", c.name, c.role.describe()))
+                .collect();
+            let why = if !undirected.is_empty() {
+                format!(
+                    "`{}` name{} a run but no direction (+/-, up/down, hin/rück, ↑/↓): cannot decide which approach {} hold{}",
+                    undirected.join("`, `"),
+                    if undirected.len() == 1 { "s" } else { "" },
+                    if undirected.len() == 1 { "it" } else { "they" },
+                    if undirected.len() == 1 { "s" } else { "" },
+                )
+            } else if run.is_none() && (direction.is_some() || approach.len() == 2) {
+                "no run column: cannot decide which run each reading belongs to".into()
+            } else {
+                "expected `target,run,direction,deviation` (long), `target,run,+,-` (paired) or \
+`target,run 1 +,run 1 -,…` (wide), without mixing them"
+                    .into()
+            };
+            return Err(at.invalid(
+                line,
+                1,
+                format!(
+                    "cannot tell the layout of the header `{}` (read as: {}): {why}",
+                    excerpt(text),
+                    read.join(", ")
+                ),
+            ));
         };
         Ok(Header {
             line,
@@ -535,47 +840,51 @@ impl Header {
         })
     }
 
-    /// The header's cells, each classified; an unknown or repeated role is an error.
-    fn cells(
+    /// When `text` (line `line`, right under the header) is a units line
+    /// (`mm;;;µm`: no number, a known unit), its units go to the header's
+    /// cells and this returns true. A unit that contradicts the header's is
+    /// an error.
+    fn apply_units_line(
+        &mut self,
         text: &str,
         line: usize,
-        separator: char,
         at: &Locator,
-    ) -> Result<Vec<HeaderCell>, LaserError> {
+    ) -> Result<bool, LaserError> {
         let mut fields = Vec::new();
-        split_fields(text, separator, &mut fields);
-        let mut cells: Vec<HeaderCell> = Vec::new();
-        for (start, raw) in &fields {
-            let column = char_column(text, *start);
-            let (name, unit) = split_unit(raw);
-            let Some(role) = classify(&name, column) else {
-                return Err(at.invalid(
-                    line,
-                    column,
-                    format!(
-                        "unknown column `{raw}`: expected target, run, direction, deviation (long layout), \
-+ and - deviations (paired) or run columns like `run 1 +` (wide; docs/extensions.md)"
-                    ),
-                ));
+        split_fields(text, self.separator, &mut fields);
+        let is_units = fields.iter().all(|(_, f)| parse_number(f).is_none())
+            && fields
+                .iter()
+                .any(|(_, f)| !f.is_empty() && is_known_unit(strip_brackets(f)));
+        if !is_units {
+            return Ok(false);
+        }
+        for (k, (start, field)) in fields.iter().enumerate() {
+            let unit = strip_brackets(field);
+            let Some(cell) = self.cells.get_mut(k) else {
+                break;
             };
-            if let Some(prev) = cells.iter().find(|c| c.role == role) {
+            if unit.is_empty() {
+                continue;
+            }
+            let column = char_column(text, *start);
+            if !cell.unit.is_empty() && cell.unit != unit {
                 return Err(at.invalid(
                     line,
                     column,
                     format!(
-                        "column `{raw}` repeats column {} (`{}`)",
-                        prev.column, prev.name
+                        "unit `{}` of column `{}` contradicts `{}` in its header (line {}): cannot decide which applies",
+                        excerpt(unit),
+                        cell.name,
+                        cell.unit,
+                        self.line
                     ),
                 ));
             }
-            cells.push(HeaderCell {
-                role,
-                name: raw.to_string(),
-                unit,
-                column,
-            });
+            cell.unit = excerpt(unit).into_owned();
+            cell.unit_at = (line, column);
         }
-        Ok(cells)
+        Ok(true)
     }
 
     /// The columns that hold deviations.
@@ -588,10 +897,20 @@ impl Header {
     }
 }
 
+fn separator_name(separator: char) -> &'static str {
+    match separator {
+        '\t' => "tabs",
+        ';' => "`;`",
+        _ => "`,`",
+    }
+}
+
 /// What the header says of the values: the parameter measured and the factors
 /// that bring targets and deviations to volcomp's units.
 struct Units {
     parameter: String,
+    angular: bool,
+    rotary: bool,
     target_factor: f64,
     /// Per column (1 where the column gives no unit).
     factors: Vec<f64>,
@@ -609,13 +928,17 @@ impl Units {
         } else {
             target_unit(&tcell.unit, rotary).ok_or_else(|| {
                 at.invalid(
-                    header.line,
-                    tcell.column,
+                    tcell.unit_at.0,
+                    tcell.unit_at.1,
                     format!(
                         "target unit `{}`: axis {} takes {}",
                         tcell.unit,
                         settings.axis.letter(),
-                        if rotary { "degrees (`deg`)" } else { "mm" }
+                        if rotary {
+                            "degrees (`deg`)"
+                        } else {
+                            "mm or inch (`in`)"
+                        }
                     ),
                 )
             })?
@@ -638,15 +961,15 @@ impl Units {
                 }
                 _ => {
                     return Err(at.invalid(
-                        header.line,
-                        cell.column,
+                        cell.unit_at.0,
+                        cell.unit_at.1,
                         format!(
                             "deviation unit `{}`: {parameter} is {}",
                             cell.unit,
                             if angular {
                                 "an angle: µrad, urad, mrad, arcsec, mm/m or µm/m"
                             } else {
-                                "a length: µm, um, nm or mm"
+                                "a length: µm, um, nm, mm, in, mil or µin"
                             }
                         ),
                     ));
@@ -655,6 +978,8 @@ impl Units {
         }
         Ok(Units {
             parameter,
+            angular,
+            rotary,
             target_factor,
             factors,
             deviation_units,
@@ -709,21 +1034,44 @@ impl Units {
     }
 }
 
+/// The first number of a file that wrote a decimal mark: where and which.
+struct FirstMark {
+    mark: DecimalMark,
+    line: usize,
+    column: usize,
+    text: String,
+}
+
+/// What reading the rows keeps across them.
+struct RowState {
+    mark: Option<FirstMark>,
+    /// The columns that hold no reading, by header index.
+    others: Vec<(usize, OtherColumn)>,
+}
+
 /// One data row, split into its fields.
 struct Row<'a> {
     header: &'a Header,
     at: &'a Locator<'a>,
     line_no: usize,
     line: &'a str,
-    fields: &'a [(usize, std::borrow::Cow<'a, str>)],
+    fields: &'a [(usize, Cow<'a, str>)],
 }
 
 impl Row<'_> {
-    /// As many fields as the header has columns.
+    /// As many fields as the header has columns: a row may leave out the
+    /// cells of trailing columns that hold no reading, and end in empty fields
+    /// (a separator at the end of the line).
     fn check_width(&self) -> Result<(), LaserError> {
         let width = self.header.cells.len();
         let found = self.fields.len();
-        if found == width {
+        if found == width
+            || (found < width
+                && self.header.cells[found..]
+                    .iter()
+                    .all(|c| c.role == Role::Other))
+            || (found > width && self.fields[width..].iter().all(|(_, f)| f.is_empty()))
+        {
             return Ok(());
         }
         let column = if found > width {
@@ -766,18 +1114,56 @@ impl Row<'_> {
         Ok((text.as_ref(), column))
     }
 
-    fn number(&self, k: usize) -> Result<(f64, usize), LaserError> {
+    /// The number of column `k`; its decimal mark must be the file's.
+    fn number(&self, k: usize, state: &mut RowState) -> Result<(f64, usize), LaserError> {
         let (text, column) = self.cell(k)?;
-        parse_number(text).map(|v| (v, column)).ok_or_else(|| {
+        let v = parse_number(text).ok_or_else(|| {
             self.at.invalid(
                 self.line_no,
                 column,
                 format!(
-                    "`{text}` in column `{}` is not a finite number",
-                    self.header.cells[k].name
+                    "`{}` in column `{}` is not a finite number{}",
+                    excerpt(text),
+                    self.header.cells[k].name,
+                    if text.contains('.') && text.contains(',') {
+                        " (it writes both a decimal point and a comma: a thousands separator cannot be told from a decimal mark)"
+                    } else {
+                        ""
+                    }
                 ),
             )
-        })
+        })?;
+        let mark = DecimalMark::of(text);
+        if mark != DecimalMark::None {
+            match &state.mark {
+                None => {
+                    state.mark = Some(FirstMark {
+                        mark,
+                        line: self.line_no,
+                        column,
+                        text: excerpt(text).into_owned(),
+                    });
+                }
+                Some(first) if first.mark != mark => {
+                    return Err(self.at.invalid(
+                        self.line_no,
+                        column,
+                        format!(
+                            "`{}` writes a {}, but this file writes a {} (first `{}` at line {}, column {}): \
+cannot decide which is the decimal mark; one file, one mark",
+                            excerpt(text),
+                            mark.describe(),
+                            first.mark.describe(),
+                            first.text,
+                            first.line,
+                            first.column
+                        ),
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+        Ok((v, column))
     }
 
     fn run(&self, k: usize) -> Result<u32, LaserError> {
@@ -787,25 +1173,71 @@ impl Row<'_> {
             _ => Err(self.at.invalid(
                 self.line_no,
                 column,
-                format!("run `{text}` is not a whole number from 1"),
+                format!("run `{}` is not a whole number from 1", excerpt(text)),
             )),
         }
     }
 
+    /// The row's target in mm or degrees, within the axis's range.
+    fn target(&self, units: &Units, state: &mut RowState) -> Result<f64, LaserError> {
+        let k = self.header.target;
+        let (v, column) = self.number(k, state)?;
+        let target = converted(v, units.target_factor, self.fields[k].1.as_ref());
+        let limit = if units.rotary {
+            MAX_TARGET_DEG
+        } else {
+            MAX_TARGET_MM
+        };
+        if !(target.abs() <= limit) {
+            return Err(self.at.invalid(
+                self.line_no,
+                column,
+                format!(
+                    "target `{}` is beyond what a machine axis travels (|target| ≤ {MAX_TARGET_MM} mm on a linear axis, {MAX_TARGET_DEG}° on a rotary one)",
+                    excerpt(self.fields[k].1.as_ref())
+                ),
+            ));
+        }
+        Ok(target)
+    }
+
     /// The row's readings, appended to `out` in column order.
-    fn read(&self, units: &Units, out: &mut Vec<Reading>) -> Result<(), LaserError> {
+    fn read(
+        &self,
+        units: &Units,
+        state: &mut RowState,
+        out: &mut Vec<Reading>,
+    ) -> Result<(), LaserError> {
         let header = self.header;
-        let target = self.number(header.target)?.0 * units.target_factor;
-        let reading = |k: usize, run: u32, up: bool| -> Result<Reading, LaserError> {
-            let (v, column) = self.number(k)?;
-            Ok(Reading {
+        let target = self.target(units, state)?;
+        let mut reading = |k: usize, run: u32, up: bool, state: &mut RowState| {
+            let (v, column) = self.number(k, state)?;
+            let deviation = v * units.factors[k];
+            if !(deviation.abs() <= MAX_DEVIATION) {
+                return Err(self.at.invalid(
+                    self.line_no,
+                    column,
+                    format!(
+                        "deviation `{}` in column `{}` is beyond a machine tool's positioning error (|deviation| ≤ {}",
+                        excerpt(self.fields[k].1.as_ref()),
+                        header.cells[k].name,
+                        if units.angular {
+                            format!("{MAX_DEVIATION} µrad = 0.1 rad)")
+                        } else {
+                            format!("{MAX_DEVIATION} µm = 100 mm)")
+                        }
+                    ),
+                ));
+            }
+            out.push(Reading {
                 target,
                 run,
                 up,
-                deviation: v * units.factors[k],
+                deviation,
                 line: self.line_no as u32,
                 column: column as u32,
-            })
+            });
+            Ok(())
         };
         match header.layout {
             Layout::Long => {
@@ -815,25 +1247,43 @@ impl Row<'_> {
                     self.at.invalid(
                         self.line_no,
                         dcol,
-                        format!("direction `{dtext}`: expected + or - (also up/down, fwd/rev)"),
+                        format!(
+                            "direction `{}`: expected + or - (also up/down, fwd/rev, ↑/↓, vorwärts/rückwärts, hin/rück)",
+                            excerpt(dtext)
+                        ),
                     )
                 })?;
-                out.push(reading(header.deviation.unwrap_or(0), run, up)?);
+                reading(header.deviation.unwrap_or(0), run, up, state)?;
             }
             Layout::Paired => {
                 let run = self.run(header.run.unwrap_or(0))?;
                 for &k in &header.approach {
                     if let Role::Approach(up) = header.cells[k].role {
-                        out.push(reading(k, run, up)?);
+                        reading(k, run, up, state)?;
                     }
                 }
             }
             Layout::Wide => {
                 for &k in &header.wide {
                     if let Role::RunApproach(run, up) = header.cells[k].role {
-                        out.push(reading(k, run, up)?);
+                        reading(k, run, up, state)?;
                     }
                 }
+            }
+        }
+        for (k, other) in &mut state.others {
+            let Some((_, text)) = self.fields.get(*k) else {
+                continue;
+            };
+            if text.is_empty() {
+                continue;
+            }
+            other.cells += 1;
+            if let Some(v) = parse_number(text) {
+                other.range = Some(match other.range {
+                    None => [v, v],
+                    Some([lo, hi]) => [lo.min(v), hi.max(v)],
+                });
             }
         }
         Ok(())
@@ -852,33 +1302,25 @@ mod tests {
     }
 
     #[test]
-    fn run_columns_are_read() {
-        assert_eq!(parse_run_column("run 1 +"), Some((1, true)));
-        assert_eq!(parse_run_column("run 12 (down)"), Some((12, false)));
-        assert_eq!(parse_run_column("r3 fwd"), Some((3, true)));
-        assert_eq!(parse_run_column("2-"), Some((2, false)));
-        assert_eq!(parse_run_column("+4"), Some((4, true)));
-        assert_eq!(parse_run_column("run 1"), None);
-        assert_eq!(parse_run_column("temperature"), None);
-    }
-
-    #[test]
-    fn units_are_split_from_names() {
-        assert_eq!(split_unit("target [mm]"), ("target".into(), "mm".into()));
-        assert_eq!(
-            split_unit("deviation (µm)"),
-            ("deviation".into(), "µm".into())
-        );
-        assert_eq!(split_unit("run 1 (+)"), ("run 1 (+)".into(), "".into()));
-    }
-
-    #[test]
     fn semicolon_and_decimal_comma() {
         let text = "target [mm];run;direction;deviation [mm]\n0;1;+;0,0012\n0;1;-;-0,0008\n";
         let r = parse(text, Path::new("t.csv"), &settings()).unwrap();
         assert_eq!(r.layout, Layout::Long);
+        assert_eq!(r.decimal_mark, DecimalMark::Comma);
         assert!((r.readings[0].deviation - 1.2).abs() < 1e-12);
         assert!((r.readings[1].deviation + 0.8).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mixed_decimal_marks_name_the_first_cell_that_disagrees() {
+        let text = "target;run;direction;deviation\n0;1;+;0,0012\n10;1;+;1.030\n";
+        let e = parse(text, Path::new("t.csv"), &settings())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("t.csv:3:8: `1.030` writes a decimal point, but this file writes a decimal comma (first `0,0012` at line 2, column 7)"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -891,6 +1333,91 @@ mod tests {
             e.starts_with("t.csv:2:7: empty cell in column `run 1 -`"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_long_cell_is_echoed_cut() {
+        let big = "9".repeat(5000) + "x";
+        let text = format!("target,run,direction,deviation\n0,1,+,{big}\n");
+        let e = parse(&text, Path::new("t.csv"), &settings())
+            .unwrap_err()
+            .to_string();
+        assert!(e.len() < 400, "{} bytes", e.len());
+        assert!(e.contains("… (5001 bytes)"), "{e}");
+    }
+
+    #[test]
+    fn a_long_line_is_refused_without_keeping_it() {
+        let text = format!("target,run,direction,deviation\n{}\n", "1".repeat(200_000));
+        let e = parse(&text, Path::new("t.csv"), &settings())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("t.csv:2:65537: line of 200000 bytes: volcomp reads laser lines of at most 65536 bytes"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn deviations_beyond_the_physical_range_are_refused() {
+        let text = "target,run,direction,deviation [mm]\n0,1,+,1e308\n";
+        let e = parse(text, Path::new("t.csv"), &settings())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("t.csv:2:7: deviation `1e308` in column `deviation [mm]` is beyond a machine tool's positioning error (|deviation| ≤ 100000 µm = 100 mm)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_preamble_and_other_columns_are_kept() {
+        let text = "Renishaw CARTO Explore export\nMachine,DMU 50\n\nTarget (mm),Run,Direction,Error (µm),Air temp (°C),Comment\n\
+0,1,+,1.5,20.1,\n0,1,-,-1.5,20.3,warm\n";
+        let r = parse(text, Path::new("t.csv"), &settings()).unwrap();
+        assert_eq!(
+            r.preamble,
+            ["Renishaw CARTO Explore export", "Machine,DMU 50"]
+        );
+        assert_eq!(r.header_line, 4);
+        assert_eq!(r.other_columns.len(), 2);
+        assert_eq!(r.other_columns[0].name, "Air temp (°C)");
+        assert_eq!(r.other_columns[0].range, Some([20.1, 20.3]));
+        assert_eq!(r.other_columns[1].cells, 1);
+    }
+
+    #[test]
+    fn a_units_line_and_latin1_german() {
+        let mut bytes = b"Sollposition;Lauf;Richtung;Abweichung\nin;;;\xb5in\n".to_vec();
+        bytes.extend_from_slice(b"1;1;vorw\xe4rts;100\n1;1;r\xfcckw\xe4rts;-100\n");
+        let r = parse_from(&mut bytes.as_slice(), Path::new("t.csv"), &settings()).unwrap();
+        assert_eq!(r.encoding, "Latin-1");
+        assert_eq!(r.units_line, Some(2));
+        assert_eq!(r.target_unit, "in");
+        assert!((r.readings[0].target - 25.4).abs() < 1e-12);
+        assert!((r.readings[0].deviation - 2.54).abs() < 1e-12);
+        assert!(!r.readings[1].up);
+    }
+
+    #[test]
+    fn ambiguous_headers_say_what_they_could_not_decide() {
+        let e = |text: &str| {
+            parse(text, Path::new("t.csv"), &settings())
+                .unwrap_err()
+                .to_string()
+        };
+        let m = e("target,Run 1,Run 2\n0,1,2\n");
+        assert!(
+            m.contains("`Run 1`, `Run 2` name a run but no direction"),
+            "{m}"
+        );
+        let m = e("target,run,direction,error,Abweichung\n0,1,+,1,1\n");
+        assert!(
+            m.contains("columns `error` (column 22) and `Abweichung` both hold the deviation"),
+            "{m}"
+        );
+        let m = e("target,direction,deviation\n0,+,1\n");
+        assert!(m.contains("no run column"), "{m}");
     }
 
     #[test]

@@ -14,6 +14,10 @@
 //! axis unless the load options hold end values (a rotary table over one
 //! revolution covers any angle). Errors name the machine file with line and
 //! column of the key, or (for a table) the CSV file and line.
+use super::physical_ranges::{
+    MAX_ERROR_URAD, MAX_LENGTH_MM, MAX_REVERSAL_UM, MAX_REVERSAL_URAD, MAX_TOOL_MM,
+    check_magnitude, error_bound,
+};
 use super::table::{ErrorTable, TableError};
 use crate::axes::{Axes, Axis, AxisSet};
 use crate::kinematics::error_values::{ParameterLayout, SQUARENESS_NAMES};
@@ -213,6 +217,9 @@ pub struct Machine {
     pub reversal: [Option<f64>; 5],
     /// The machine file this was read from.
     pub source: PathBuf,
+    /// Its text as it was read (what `--write-machine` edits: the file may
+    /// change after it was read).
+    pub text: std::sync::Arc<str>,
 }
 
 /// Why a machine file could not be loaded.
@@ -303,8 +310,23 @@ struct RawGeometry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawAxis {
-    direction: Option<[f64; 3]>,
-    point: Option<[f64; 3]>,
+    direction: Option<Spanned<Vec<f64>>>,
+    point: Option<Spanned<Vec<f64>>>,
+}
+
+/// A `direction` or `point` array: exactly three finite numbers.
+fn three(src: &Source<'_>, key: &str, v: &Spanned<Vec<f64>>) -> Result<[f64; 3], MachineError> {
+    match v.get_ref().as_slice() {
+        &[x, y, z] => {
+            src.finite(v.span(), key, &[x, y, z])?;
+            Ok([x, y, z])
+        }
+        other => Err(src.invalid(
+            v.span(),
+            key,
+            format!("expected 3 numbers [x, y, z], got {}", other.len()),
+        )),
+    }
 }
 
 #[derive(Deserialize)]
@@ -385,9 +407,29 @@ impl Source<'_> {
         }
     }
 
+    /// A value within `±max` (a physical range, [`physical_ranges`]).
+    fn within(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        unit: &str,
+        value: f64,
+        max: f64,
+    ) -> Result<f64, MachineError> {
+        self.finite(span.clone(), key, &[value])?;
+        check_magnitude(key, unit, value, max).map_err(|m| {
+            // The key is named before the message already.
+            let m = m.strip_prefix(&format!("{key} = ")).unwrap_or(&m);
+            self.invalid(span, key, m)
+        })
+    }
+
     fn range(&self, key: &str, value: &Spanned<[f64; 2]>) -> Result<[f64; 2], MachineError> {
         let v = *value.get_ref();
         self.finite(value.span(), key, &v)?;
+        for x in v {
+            self.within(value.span(), key, "mm or °", x, MAX_LENGTH_MM)?;
+        }
         if v[0] >= v[1] {
             return Err(self.invalid(
                 value.span(),
@@ -521,8 +563,13 @@ fn preset_chain(
                 format!("missing `{name}` (mm)"),
             )
         })?;
-        src.finite(v.span(), &format!("geometry.{name}"), &[*v.get_ref()])?;
-        Ok(*v.get_ref())
+        src.within(
+            v.span(),
+            &format!("geometry.{name}"),
+            "mm",
+            *v.get_ref(),
+            MAX_LENGTH_MM,
+        )
     };
     let (x, y, z) = (
         get(&g.x_rot_point, "x_rot_point")?,
@@ -630,16 +677,29 @@ fn described_chain(src: &Source<'_>, raw: &RawMachine) -> Result<MachineChain, M
         let key = format!("axes.{}", axis.letter());
         let entry = described.get(&axis);
         let span = entry.map_or(raw.kinematics.span(), |e| e.1.clone());
-        let (direction, point) = entry.map_or((None, None), |e| {
-            (e.0.get_ref().direction, e.0.get_ref().point)
-        });
-        let direction = direction.unwrap_or(natural_direction(axis));
-        src.finite(span.clone(), &format!("{key}.direction"), &direction)?;
-        if crate::vec3::norm(direction) < 1e-12 {
+        let raw_axis = entry.map(|e| e.0.get_ref());
+        let direction_key = format!("{key}.direction");
+        let point_key = format!("{key}.point");
+        let direction = match raw_axis.and_then(|a| a.direction.as_ref()) {
+            Some(d) => three(src, &direction_key, d)?,
+            None => natural_direction(axis),
+        };
+        let point = match raw_axis.and_then(|a| a.point.as_ref()) {
+            Some(p) => {
+                let v = three(src, &point_key, p)?;
+                for c in v {
+                    src.within(p.span(), &point_key, "mm", c, MAX_LENGTH_MM)?;
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        let norm = crate::vec3::norm(direction);
+        if !(norm.is_finite() && norm >= 1e-9) {
             return Err(src.invalid(
                 span,
-                &format!("{key}.direction"),
-                "the direction is the zero vector: give the axis's unit direction at home",
+                &direction_key,
+                "the direction is the zero vector or too large to normalise: give the axis's unit direction at home",
             ));
         }
         if axis.is_rotary() {
@@ -653,7 +713,6 @@ fn described_chain(src: &Source<'_>, raw: &RawMachine) -> Result<MachineChain, M
                     ),
                 ));
             };
-            src.finite(span, &format!("{key}.point"), &point)?;
             Ok(ChainAxis::rotary(axis, direction, point))
         } else {
             if point.is_some() {
@@ -716,7 +775,7 @@ impl Machine {
                 path: path.to_path_buf(),
                 line,
                 column,
-                message: e.message().trim_end().to_string(),
+                message: crate::io::echo(e.message().trim_end()).into_owned(),
             }
         })?;
 
@@ -733,7 +792,10 @@ impl Machine {
             Some(s) => {
                 let r = s.get_ref();
                 let v = [r.s_xy, r.s_xz, r.s_yz];
-                src.finite(s.span(), "squareness", &v)?;
+                for (name, x) in ["s_xy", "s_xz", "s_yz"].iter().zip(v) {
+                    let key = format!("squareness.{name}");
+                    src.within(s.span(), &key, "µrad", x, MAX_ERROR_URAD)?;
+                }
                 v
             }
             None => [0.0; 3],
@@ -756,6 +818,7 @@ impl Machine {
             location,
             reversal,
             source: path.to_path_buf(),
+            text: std::sync::Arc::from(text),
         })
     }
 
@@ -834,8 +897,8 @@ fn kinematics_type(src: &Source<'_>, raw: &RawMachine) -> Result<KinematicsType,
 /// `[tool]`: the default tool.
 fn default_tool(src: &Source<'_>, raw: &RawTool) -> Result<Tool, MachineError> {
     let (length, radius) = (*raw.length.get_ref(), *raw.radius.get_ref());
-    src.finite(raw.length.span(), "tool.length", &[length])?;
-    src.finite(raw.radius.span(), "tool.radius", &[radius])?;
+    src.within(raw.length.span(), "tool.length", "mm", length, MAX_TOOL_MM)?;
+    src.within(raw.radius.span(), "tool.radius", "mm", radius, MAX_TOOL_MM)?;
     if length < 0.0 {
         return Err(src.invalid(raw.length.span(), "tool.length", "must be ≥ 0 mm"));
     }
@@ -871,7 +934,8 @@ fn tool_table(
         let span = entry.span();
         let e = entry.get_ref();
         let key = format!("tools (T{})", e.number);
-        src.finite(span.clone(), &key, &[e.length, e.radius])?;
+        src.within(span.clone(), &key, "mm (length)", e.length, MAX_TOOL_MM)?;
+        src.within(span.clone(), &key, "mm (radius)", e.radius, MAX_TOOL_MM)?;
         if e.number == 0 {
             return Err(src.invalid(
                 span,
@@ -1014,8 +1078,8 @@ fn location_errors(
                 ),
             ));
         };
-        src.finite(value.span(), &key, &[*value.get_ref()])?;
-        location[i] = *value.get_ref();
+        let (max, unit) = error_bound(name);
+        location[i] = src.within(value.span(), &key, unit, *value.get_ref(), max)?;
     }
     Ok(location)
 }
@@ -1109,8 +1173,12 @@ fn reversal_constants(
                 format!("the reversal of {} is given twice", axis.letter()),
             ));
         }
-        let v = *value.get_ref();
-        src.finite(value.span(), &key, &[v])?;
+        let (max, unit) = if axis.is_rotary() {
+            (MAX_REVERSAL_URAD, "µrad")
+        } else {
+            (MAX_REVERSAL_UM, "µm")
+        };
+        let v = src.within(value.span(), &key, unit, *value.get_ref(), max)?;
         if let Some(table) = &tables[slot]
             && table.reversal.is_some()
         {

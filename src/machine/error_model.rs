@@ -20,8 +20,7 @@ use crate::axes::{Axes, Axis};
 use crate::kinematics::error_values::PARAMETER_COUNT;
 use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
 use crate::nurbs::{
-    FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fit_parameter,
-    fnv1a64,
+    FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fnv1a64,
 };
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -105,13 +104,10 @@ the model is not defined there (use --extrapolate hold to hold the end values)",
     },
 }
 
-/// FNV-1a 64 of a table file's bytes (what fitted-model files record).
+/// FNV-1a 64 of a table file's bytes as they were read (what fitted-model
+/// files record).
 fn table_hash(table: &ErrorTable) -> Result<u64, ModelError> {
-    let bytes = std::fs::read(&table.path).map_err(|source| crate::io::InputError {
-        path: table.path.clone(),
-        source,
-    })?;
-    Ok(fnv1a64(&bytes))
+    Ok(fnv1a64(table.text.as_bytes()))
 }
 
 /// Curves of one measured axis.
@@ -258,13 +254,19 @@ impl ErrorModel {
                     periodic: table.one_revolution,
                     ..options.fit.clone()
                 };
-                fit_parameter(&table.positions, &column.values, kind, &fit)
-                    .map(|curve| (*slot, *k, curve))
-                    .map_err(|source| ModelError::Fit {
-                        table: table.path.clone(),
-                        parameter: name.to_string(),
-                        source,
-                    })
+                crate::nurbs::fit_parameter_with_uncertainty(
+                    &table.positions,
+                    &column.values,
+                    column.uncertainty.as_deref(),
+                    kind,
+                    &fit,
+                )
+                .map(|curve| (*slot, *k, curve))
+                .map_err(|source| ModelError::Fit {
+                    table: table.path.clone(),
+                    parameter: name.to_string(),
+                    source,
+                })
             })
             .collect::<Result<_, _>>()?;
         let mut axes = Self::empty_axes(machine);

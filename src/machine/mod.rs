@@ -7,6 +7,7 @@ pub(crate) mod definition;
 pub(crate) mod error_map;
 pub(crate) mod error_model;
 pub(crate) mod model_cache;
+pub mod physical_ranges;
 pub(crate) mod resampled;
 pub(crate) mod reversal;
 #[cfg(any(test, feature = "testkit"))]

@@ -19,6 +19,12 @@
 //! read or parsed is a miss, never an error. A model is stored only when the
 //! table files still hold what was fitted.
 //!
+//! The cache opens only regular files: a cache file that is a symbolic link,
+//! a named pipe or a device is a miss (never followed, never waited on), one
+//! larger than [`MAX_CACHE_FILE_BYTES`] is a miss (read no further), and a
+//! model is stored under a new name in the cache folder and renamed over the
+//! cache file (a link there is replaced, its target never written).
+//!
 //! Invariant: reads and writes files in the cache folder only, never prints;
 //! what happened is returned ([`CacheOutcome`]) for the caller to report.
 use super::Machine;
@@ -30,6 +36,10 @@ use std::path::{Path, PathBuf};
 
 /// Version of the cache file's layout.
 const FORMAT: u32 = 1;
+
+/// The largest cache file read (a fitted model with its tables' text is a few
+/// hundred kB): a larger one is a miss.
+pub const MAX_CACHE_FILE_BYTES: u64 = 64 << 20;
 
 /// What the cache did for one load.
 #[derive(Clone, Debug, PartialEq)]
@@ -147,8 +157,35 @@ impl ModelCache {
         ))
     }
 
+    /// The entry in `file` when it is a regular file (not a link, a pipe or a
+    /// device) of at most [`MAX_CACHE_FILE_BYTES`] that parses.
     fn read(&self, file: &Path) -> Option<Entry> {
-        let text = std::fs::read_to_string(file).ok()?;
+        use std::io::Read;
+        let before = std::fs::symlink_metadata(file).ok()?;
+        if !before.file_type().is_file() || before.len() > MAX_CACHE_FILE_BYTES {
+            return None;
+        }
+        let opened = std::fs::File::open(file).ok()?;
+        let meta = opened.metadata().ok()?;
+        // The file opened is the one looked at (not swapped meanwhile).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            if (meta.dev(), meta.ino()) != (before.dev(), before.ino()) {
+                return None;
+            }
+        }
+        if !meta.is_file() {
+            return None;
+        }
+        let mut text = String::new();
+        opened
+            .take(MAX_CACHE_FILE_BYTES + 1)
+            .read_to_string(&mut text)
+            .ok()?;
+        if text.len() as u64 > MAX_CACHE_FILE_BYTES {
+            return None;
+        }
         serde_json::from_str(&text).ok()
     }
 
@@ -163,18 +200,11 @@ impl ModelCache {
     ) -> Result<(), String> {
         let mut tables = Vec::new();
         for table in machine.tables.iter().flatten() {
-            let text = crate::io::read_to_string(&table.path).map_err(|e| e.to_string())?;
-            // The file may have changed since it was fitted: store only what was.
-            if !same_table(table, &text) {
-                return Err(format!(
-                    "{} changed while it was fitted",
-                    table.path.display()
-                ));
-            }
+            // What was fitted: the text as read, not the file read again.
             tables.push(CachedTable {
                 axis: table.axis.letter().to_string(),
                 path: table.path.clone(),
-                text,
+                text: table.text.to_string(),
             });
         }
         let entry = Entry {
@@ -189,7 +219,8 @@ impl ModelCache {
         std::fs::create_dir_all(&self.dir)
             .map_err(|e| format!("cannot create {}: {e}", self.dir.display()))?;
         let json = serde_json::to_string(&entry).map_err(|e| e.to_string())?;
-        crate::io::write_file_atomic(file, json.as_bytes()).map_err(|e| e.to_string())
+        write_new_then_rename(&self.dir, file, json.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", file.display()))
     }
 }
 
@@ -223,6 +254,20 @@ impl Entry {
         }
         changed
     }
+}
+
+/// Write `bytes` to a new file in `dir` and rename it to `file`: whatever
+/// `file` was (a link, a pipe, a device) is replaced, never written through.
+fn write_new_then_rename(dir: &Path, file: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".volcomp-cache-")
+        .suffix(".tmp")
+        .tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(file).map_err(|e| e.error)?;
+    Ok(())
 }
 
 /// Does `text`, read as `table`'s file, give exactly `table`?

@@ -11,6 +11,9 @@
 //! Every error names the file, the line and (where it applies) the column.
 use std::path::{Path, PathBuf};
 
+use super::physical_ranges::{
+    MAX_LENGTH_MM, MAX_REVERSAL_UM, MAX_REVERSAL_URAD, check_magnitude, error_bound,
+};
 use crate::axes::Axis;
 
 /// Fewest rows a column needs to be fitted (the seed paper's minimum).
@@ -26,6 +29,10 @@ pub struct TableColumn {
     pub name: String,
     /// One value per position: µm for E{X,Y,Z}*, µrad for E{A,B,C}*.
     pub values: Vec<f64>,
+    /// The standard uncertainty of every value, when the table has its
+    /// `u_<name>` column (`import-laser` writes it from the runs' scatter):
+    /// the fit weights by it and takes it as the noise. Same units.
+    pub uncertainty: Option<Vec<f64>>,
 }
 
 impl TableColumn {
@@ -36,7 +43,9 @@ impl TableColumn {
 }
 
 /// A measured error table of one axis (a CSV file named by the machine file).
-#[derive(Clone, Debug, PartialEq)]
+/// Two tables are equal when their data are (not their text: a comment does
+/// not change a table).
+#[derive(Clone, Debug)]
 pub struct ErrorTable {
     /// The CSV file.
     pub path: PathBuf,
@@ -54,6 +63,21 @@ pub struct ErrorTable {
     /// positioning error approaching from below minus from above, µm or µrad,
     /// one value per position; `None` when the file has no such column.
     pub reversal: Option<Vec<f64>>,
+    /// The file's text as it was read and parsed: what hashes and copies of
+    /// the table are made from (the file may change after it was read).
+    pub text: std::sync::Arc<str>,
+}
+
+impl PartialEq for ErrorTable {
+    fn eq(&self, other: &Self) -> bool {
+        self.path == other.path
+            && self.axis == other.axis
+            && self.positions == other.positions
+            && self.columns == other.columns
+            && self.missing == other.missing
+            && self.one_revolution == other.one_revolution
+            && self.reversal == other.reversal
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -90,8 +114,18 @@ impl ErrorTable {
     /// Parse `text` as the table `path` (named in errors).
     pub fn parse(text: &str, path: &Path, axis: Option<Axis>) -> Result<ErrorTable, TableError> {
         let at = TableSource { path };
+        let source_text: std::sync::Arc<str> = std::sync::Arc::from(text);
         // A byte order mark (spreadsheets write one) is not part of the header.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // Lines longer than the readers' limit are refused, not echoed.
+        if let Some((i, l)) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.len() > crate::io::MAX_LINE_BYTES)
+        {
+            let message = crate::io::long_line(l).unwrap_or_default();
+            return Err(at.invalid(i + 1, None, message));
+        }
         let mut lines = text
             .lines()
             .enumerate()
@@ -109,6 +143,10 @@ impl ErrorTable {
         let mut positions: Vec<f64> = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); header.params.len()];
         let mut reversal: Vec<f64> = Vec::new();
+        let mut uncertainty: Vec<Option<Vec<f64>>> = vec![None; header.params.len()];
+        for &(_, slot) in &header.uncertainties {
+            uncertainty[slot] = Some(Vec::new());
+        }
         let mut last_line = header_line;
         for (line, row) in lines {
             last_line = line;
@@ -130,11 +168,17 @@ impl ErrorTable {
                     _ => Err(at.invalid(
                         line,
                         Some(header.label(i)),
-                        format!("`{}` is not a finite number", fields[i]),
+                        format!("`{}` is not a finite number", crate::io::echo(fields[i])),
                     )),
                 }
             };
-            let x = number(header.position)?;
+            // Within what a machine tool can have (physical_ranges).
+            let bounded = |i: usize, name: &str, max: f64, unit: &str| {
+                let v = number(i)?;
+                check_magnitude(name, unit, v, max)
+                    .map_err(|m| at.invalid(line, Some(header.label(i)), m))
+            };
+            let x = bounded(header.position, "position", MAX_LENGTH_MM, "mm or °")?;
             if let Some(&prev) = positions.last() {
                 if x <= prev {
                     return Err(at.invalid(
@@ -147,11 +191,30 @@ impl ErrorTable {
                 }
             }
             positions.push(x);
-            for (slot, (i, _)) in header.params.iter().enumerate() {
-                values[slot].push(number(*i)?);
+            for (slot, (i, name)) in header.params.iter().enumerate() {
+                let (max, unit) = error_bound(name);
+                values[slot].push(bounded(*i, name, max, unit)?);
             }
             if let Some(i) = header.reversal {
-                reversal.push(number(i)?);
+                let (max, unit) = if axis.is_rotary() {
+                    (MAX_REVERSAL_URAD, "µrad")
+                } else {
+                    (MAX_REVERSAL_UM, "µm")
+                };
+                reversal.push(bounded(i, "REVERSAL", max, unit)?);
+            }
+            for &(i, slot) in &header.uncertainties {
+                let u = number(i)?;
+                if u < 0.0 {
+                    return Err(at.invalid(
+                        line,
+                        Some(header.label(i)),
+                        format!("uncertainty {u} is negative: a standard uncertainty is >= 0"),
+                    ));
+                }
+                if let Some(column) = &mut uncertainty[slot] {
+                    column.push(u);
+                }
             }
         }
         if positions.len() < MIN_ROWS {
@@ -177,7 +240,12 @@ impl ErrorTable {
             .params
             .into_iter()
             .zip(values)
-            .map(|((_, name), values)| TableColumn { name, values })
+            .zip(uncertainty)
+            .map(|(((_, name), values), uncertainty)| TableColumn {
+                name,
+                values,
+                uncertainty,
+            })
             .collect();
         Ok(ErrorTable {
             path: path.to_path_buf(),
@@ -187,6 +255,7 @@ impl ErrorTable {
             missing,
             one_revolution,
             reversal: header.reversal.map(|_| reversal),
+            text: source_text,
         })
     }
 
@@ -203,7 +272,7 @@ fn column_label(raw_names: &[String], i: usize) -> String {
     format!(
         "{} ({})",
         i + 1,
-        raw_names.get(i).map_or("?", String::as_str)
+        crate::io::echo(raw_names.get(i).map_or("?", String::as_str))
     )
 }
 
@@ -232,6 +301,8 @@ struct TableHeader {
     position: usize,
     /// (column, upper-case parameter name), in file order.
     params: Vec<(usize, String)>,
+    /// (column, the parameter's slot in `params`) of each `u_<parameter>`.
+    uncertainties: Vec<(usize, usize)>,
     reversal: Option<usize>,
     axis: Axis,
 }
@@ -256,15 +327,28 @@ impl TableHeader {
                 line,
                 None,
                 format!(
-                    "missing header: expected a `position` column followed by error parameters like EXX, found `{text}`"
+                    "missing header: expected a `position` column followed by error parameters like EXX, found `{}`",
+                    crate::io::echo(text)
                 ),
             ));
         };
         let mut inferred: Option<Axis> = axis;
         let mut params: Vec<(usize, String)> = Vec::new();
         let mut reversal: Option<usize> = None;
+        let mut u_columns: Vec<(usize, String)> = Vec::new();
         for (i, name) in names.iter().enumerate() {
             if i == position {
+                continue;
+            }
+            if let Some(parameter) = name.strip_prefix("U_") {
+                if u_columns.iter().any(|(_, p)| p == parameter) {
+                    return Err(at.invalid(
+                        line,
+                        Some(label(i)),
+                        format!("column `{}` appears twice", raw_names[i]),
+                    ));
+                }
+                u_columns.push((i, parameter.to_string()));
                 continue;
             }
             if name == "REVERSAL" {
@@ -288,7 +372,8 @@ impl TableHeader {
                     line,
                     Some(label(i)),
                     format!(
-                        "unknown column `{name}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL"
+                        "unknown column `{}`: expected `position`, E<direction><axis> such as EXX, EAC, or REVERSAL",
+                        crate::io::echo(name)
                     ),
                 ));
             }
@@ -320,11 +405,26 @@ impl TableHeader {
         let Some(axis) = inferred else {
             return Err(at.invalid(line, None, "no error columns: cannot tell the axis (name the columns like EXX or give the axis)".into()));
         };
+        let mut uncertainties = Vec::new();
+        for (i, parameter) in u_columns {
+            let Some(slot) = params.iter().position(|(_, n)| *n == parameter) else {
+                return Err(at.invalid(
+                    line,
+                    Some(label(i)),
+                    format!(
+                        "column `{}` is the uncertainty of {parameter}, but the table has no {parameter} column",
+                        raw_names[i]
+                    ),
+                ));
+            };
+            uncertainties.push((i, slot));
+        }
         Ok(TableHeader {
             width: names.len(),
             raw_names,
             position,
             params,
+            uncertainties,
             reversal,
             axis,
         })

@@ -42,5 +42,6 @@ pub use problem::FitProblem;
 pub use smem::{
     FitError, FitOptions, FitStats, KnotMethod, ParameterKind, Selection, SmemCurve, SmemCurveData,
     WORK_LIMIT, WORK_LIMIT_BELOW_NOISE, default_work_limit, fit_parameter,
+    fit_parameter_with_uncertainty,
 };
 pub use surface::{NurbsSurface, SurfaceError, SurfaceFitOptions, fit_surface};

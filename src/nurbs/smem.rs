@@ -612,6 +612,22 @@ pub fn fit_parameter(
     kind: ParameterKind,
     options: &FitOptions,
 ) -> Result<SmemCurve, FitError> {
+    fit_parameter_with_uncertainty(positions, values, None, kind, options)
+}
+
+/// [`fit_parameter`] with the standard uncertainty of every value when the
+/// table gives it (`u_EXX`, formats extension in docs/extensions.md): the
+/// cross-validated fit ([`Selection::Cv`]) is weighted by `1/u²` and takes
+/// them as the noise instead of estimating it (its smoothness chosen by the
+/// unbiased risk estimate, UBRE); the Emax fit takes their RMS as the noise
+/// of its work limit. `None`: exactly [`fit_parameter`].
+pub fn fit_parameter_with_uncertainty(
+    positions: &[f64],
+    values: &[f64],
+    uncertainty: Option<&[f64]>,
+    kind: ParameterKind,
+    options: &FitOptions,
+) -> Result<SmemCurve, FitError> {
     let started = Instant::now();
     let p = options.degree;
     validate(positions, values, p)?;
@@ -647,9 +663,12 @@ pub fn fit_parameter(
         }
     };
     if options.select == Selection::Cv {
-        return fit_cross_validated(positions, values, tolerance, options, started);
+        return fit_cross_validated(positions, values, uncertainty, tolerance, options, started);
     }
-    let noise = smoothing::estimate_noise(positions, values);
+    let noise = match uncertainty {
+        Some(u) if !u.is_empty() => (u.iter().map(|s| s * s).sum::<f64>() / u.len() as f64).sqrt(),
+        _ => smoothing::estimate_noise(positions, values),
+    };
     // The adaptive loop is what grows without bound; a fixed count's search
     // is bounded by its method's own settings.
     let work_limit = match (options.work_limit, options.control_points) {
@@ -779,6 +798,7 @@ fn leverage_uncertainty(problem: &FitProblem, curve: &NurbsCurve, sigma: f64) ->
 fn fit_cross_validated(
     positions: &[f64],
     values: &[f64],
+    uncertainty: Option<&[f64]>,
     tolerance: f64,
     options: &FitOptions,
     started: Instant,
@@ -791,6 +811,7 @@ fn fit_cross_validated(
             periodic: options.periodic,
             max_control_points: options.max_control_points,
             control_points: options.control_points,
+            sigma: uncertainty.map(<[f64]>::to_vec),
             ..smoothing::SmoothingOptions::default()
         },
     )?;

@@ -81,6 +81,12 @@ pub struct SmoothingOptions {
     /// Exponent `γ` of the locally adaptive penalty (0: one penalty weight
     /// everywhere; default [`ADAPTIVE_PENALTY`]).
     pub adaptive_penalty: f64,
+    /// The standard uncertainty of every sample, when the table gives it
+    /// (`u_EXX`, from the laser runs' scatter): the fit is weighted by
+    /// `1/u²` and its smoothness chosen by the unbiased risk estimate with
+    /// this known noise (UBRE) instead of GCV's estimate of it. `None`:
+    /// unweighted, GCV (every table without the columns: unchanged).
+    pub sigma: Option<Vec<f64>>,
 }
 
 impl Default for SmoothingOptions {
@@ -94,6 +100,7 @@ impl Default for SmoothingOptions {
             compact: COMPACT,
             max_dof_fraction: MAX_DOF_FRACTION,
             adaptive_penalty: ADAPTIVE_PENALTY,
+            sigma: None,
         }
     }
 }
@@ -332,7 +339,14 @@ struct Design {
 }
 
 impl Design {
-    fn new(u: &[f64], y: &[f64], p: usize, count: usize, periodic: bool) -> Option<Design> {
+    fn new(
+        u: &[f64],
+        y: &[f64],
+        w: &[f64],
+        p: usize,
+        count: usize,
+        periodic: bool,
+    ) -> Option<Design> {
         let segments = count - p;
         let interior: Vec<f64> = (1..segments).map(|i| i as f64 / segments as f64).collect();
         let knots = knot_vector::clamped(p, &interior, 0.0, 1.0);
@@ -344,24 +358,24 @@ impl Design {
         let mut rhs = vec![0.0; basis.free];
         let mut values = [0.0; MAX_DEGREE + 1];
         let mut row = Vec::new();
-        for (&uk, &yk) in u.iter().zip(y) {
+        for ((&uk, &yk), &wk) in u.iter().zip(y).zip(w) {
             let span = find_span(count - 1, p, uk, &knots);
             basis_funs(span, uk, p, &knots, &mut values);
             basis.free_row(span - p, &values[..=p], &mut row);
-            gram.add_outer(&row, 1.0);
+            gram.add_outer(&row, wk);
             for &(i, v) in &row {
-                rhs[i] += v * yk;
+                rhs[i] += wk * v * yk;
             }
         }
         let gram_factor = gram.factor(SINGULAR_PIVOT * gram.max_diagonal())?;
         let base = gram_factor.solve(&rhs);
         let clamped = basis.clamped(&base);
         let mut base_rss = 0.0;
-        for (&uk, &yk) in u.iter().zip(y) {
+        for ((&uk, &yk), &wk) in u.iter().zip(y).zip(w) {
             let span = find_span(count - 1, p, uk, &knots);
             basis_funs(span, uk, p, &knots, &mut values);
             let fitted: f64 = (0..=p).map(|j| values[j] * clamped[span - p + j]).sum();
-            base_rss += (yk - fitted).powi(2);
+            base_rss += wk * (yk - fitted).powi(2);
         }
         Some(Design {
             count,
@@ -633,6 +647,8 @@ impl PenaltyWeight {
 struct Score {
     max_dof: f64,
     n: f64,
+    /// The residuals are weighted by known uncertainties: UBRE, not GCV.
+    known_noise: bool,
 }
 
 impl Score {
@@ -651,6 +667,11 @@ impl Score {
         // known failure at small N (near-interpolation scores well).
         if dof > self.max_dof * self.n {
             return (f64::INFINITY, true);
+        }
+        if self.known_noise {
+            // UBRE (Craven & Wahba 1979) with unit noise after weighting,
+            // shifted by 1 so it stays positive: (χ² + 2 tr H) / N.
+            return ((rss + 2.0 * dof) / self.n, false);
         }
         (gcv(self.n, rss, dof), false)
     }
@@ -818,6 +839,29 @@ impl Choice {
     }
 }
 
+/// The floor of a given uncertainty, as a fraction of the median one: a
+/// target whose runs agreed to the last digit (u = 0) is not an infinite weight.
+pub const SIGMA_FLOOR_OF_MEDIAN: f64 = 0.05;
+
+/// The least-squares weight `1/u²` of every sample: 1 without uncertainties;
+/// with them, each `u` floored at [`SIGMA_FLOOR_OF_MEDIAN`] of their median
+/// (and 1e-6). A missing, negative or non-finite `u` is an error.
+fn sample_weights(sigma: Option<&[f64]>, n: usize) -> Result<Vec<f64>, FitError> {
+    let Some(sigma) = sigma else {
+        return Ok(vec![1.0; n]);
+    };
+    if sigma.len() != n || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+        return Err(FitError::Options(format!(
+            "{} uncertainties for {n} samples, each a finite number >= 0",
+            sigma.len()
+        )));
+    }
+    let mut sorted = sigma.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let floor = (SIGMA_FLOOR_OF_MEDIAN * sorted[n / 2]).max(1e-6);
+    Ok(sigma.iter().map(|s| 1.0 / s.max(floor).powi(2)).collect())
+}
+
 /// Fit one parameter (positions strictly increasing, values finite, at least
 /// `degree + 2` samples: validated by the caller).
 pub fn fit_smoothing(
@@ -858,10 +902,21 @@ pub fn fit_smoothing(
             options.max_dof_fraction
         )));
     }
-    let noise = estimate_noise(positions, values);
+    let weights = sample_weights(options.sigma.as_deref(), n)?;
+    let noise = match &options.sigma {
+        Some(sigma) => (sigma.iter().map(|s| s * s).sum::<f64>() / n as f64).sqrt(),
+        None => estimate_noise(positions, values),
+    };
     let sc = Score {
-        max_dof: options.max_dof_fraction,
+        // With a known noise UBRE has no such failure as GCV's: the curve
+        // may pass the points where their uncertainty says they are that good.
+        max_dof: if options.sigma.is_some() {
+            1.0
+        } else {
+            options.max_dof_fraction
+        },
         n: n as f64,
+        known_noise: options.sigma.is_some(),
     };
     let tried = match options.control_points {
         Some(c) => vec![c.clamp(p + 1, n)],
@@ -870,7 +925,7 @@ pub fn fit_smoothing(
     // Every count's normal equations, once for both searches: O(N) in all.
     let designs: Vec<Design> = tried
         .par_iter()
-        .filter_map(|&count| Design::new(&u, values, p, count, options.periodic))
+        .filter_map(|&count| Design::new(&u, values, &weights, p, count, options.periodic))
         .collect();
     // One search over (k, q, λ) with the penalty density `weight` (counts in
     // parallel); only the winner's parameters are kept.
@@ -955,8 +1010,20 @@ pub fn fit_smoothing(
     let (free, rss, dof) = s.fit(lambda).ok_or(FitError::NoFeasibleFit)?;
     let coefficients = d.basis.clamped(&free);
     let count = coefficients.len();
-    let score = gcv(n as f64, rss, dof);
-    let residual_sigma = (rss / (n as f64 - dof).max(0.5)).sqrt();
+    // √GCV, or with known noise the UBRE's estimate of the same in the
+    // values' units (the weighted risk times the mean noise variance).
+    let score = if sc.known_noise {
+        noise * noise * (rss + 2.0 * dof) / n as f64
+    } else {
+        gcv(n as f64, rss, dof)
+    };
+    // Weighted by known uncertainties, the covariance (BᵀWB + λP)⁻¹ is in the
+    // values' units already (unit noise after weighting).
+    let residual_sigma = if sc.known_noise {
+        1.0
+    } else {
+        (rss / (n as f64 - dof).max(0.5)).sqrt()
+    };
     let mut residuals = Vec::with_capacity(n);
     let mut uncertainty = Vec::with_capacity(n);
     let mut b = [0.0; MAX_DEGREE + 1];
@@ -973,7 +1040,12 @@ pub fn fit_smoothing(
                 v += x * y * s.inverse.get(i, j);
             }
         }
-        uncertainty.push(residual_sigma.max(noise) * v.max(0.0).sqrt());
+        let sigma_hat = if sc.known_noise {
+            1.0
+        } else {
+            residual_sigma.max(noise)
+        };
+        uncertainty.push(sigma_hat * v.max(0.0).sqrt());
     }
     let greville = knot_vector::greville(&d.knots, p);
     let points: Vec<[f64; 2]> = greville

@@ -354,14 +354,27 @@ fn residual_plots_section(page: &mut HtmlPage, report: &DiagnoseReport) {
         ),
         "Red: before, blue: after.",
     );
-    page.figure(
-        &scatter(report, |p| p.a_deg, "Residual vs A", "A (deg)"),
-        "",
-    );
-    page.figure(
-        &scatter(report, |p| p.c_deg, "Residual vs C", "C (deg)"),
-        "",
-    );
+    // The machine's own rotary axes (A and C, B and C, …).
+    let axis = |k: usize| {
+        report
+            .rotary_axes
+            .get(k)
+            .map_or(["A", "C"][k], |s| s.as_str())
+    };
+    for (k, value) in [|p: &PointResidual| p.a_deg, |p: &PointResidual| p.c_deg]
+        .into_iter()
+        .enumerate()
+    {
+        page.figure(
+            &scatter(
+                report,
+                value,
+                &format!("Residual vs {}", axis(k)),
+                &format!("{} (deg)", axis(k)),
+            ),
+            "",
+        );
+    }
 }
 
 /// The residual by region, by time band, by axis direction, and the worst points.
@@ -462,8 +475,15 @@ fn followup_sections(page: &mut HtmlPage, report: &DiagnoseReport) {
             page.paragraph(line);
         }
         page.table(&SEPARATION_HEADER, &separation_rows(&design.separations));
+        let letter = |k: usize| {
+            report
+                .rotary_axes
+                .get(k)
+                .map_or(["A", "C"][k], |s| s.as_str())
+        };
+        let (first, second) = (format!("{} °", letter(0)), format!("{} °", letter(1)));
         page.table(
-            &["probe", "plan point", "pose", "A °", "C °", "t min"],
+            &["probe", "plan point", "pose", &first, &second, "t min"],
             &design
                 .probes
                 .iter()

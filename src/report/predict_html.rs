@@ -8,35 +8,50 @@ use crate::predict::PredictReport;
 pub fn render(report: &PredictReport, title: &str) -> String {
     let mut page = HtmlPage::new(title);
     let c = report.compensated;
+    let pm = |u: Option<f64>| u.map_or(String::new(), |u| format!(" ± {u:.2}"));
+    let (profile_u, range_u) = (
+        pm(figure_u(report, c, false)),
+        pm(figure_u(report, c, true)),
+    );
     if c {
         // A compensated program: what the part will measure comes first.
         page.paragraph(&format!(
-            "The program is compensated: the part will measure a profile error of {:.2} µm (2·max|d|, \
-the compensated path's own offset included), range {:.2} µm, over {} of {} plan points cut. \
-Without compensation (n·e as formats.md defines it) it would be {:.2} µm{}.",
+            "The program is compensated: the part will measure a profile error of {:.2}{profile_u} µm (twice the \
+largest deviation, the compensated path's own offset included), range {:.2}{range_u} µm, over {} of {} plan \
+points cut. Without compensation (the volumetric error along the surface normal at each point) it would be \
+{:.2}{} µm.",
             report.profile_with_path_um,
             report.range_with_path_um,
             report.points_cut,
             report.points_total,
             report.profile_um,
-            report
-                .profile_u_um
-                .map_or(String::new(), |u| format!(" ± {u:.2}"))
+            pm(report.profile_u_um)
         ));
     } else {
         page.paragraph(&format!(
-            "Predicted profile error {:.2} µm (2·max|d|), range {:.2} µm, over {} of {} plan points cut.",
+            "Predicted profile error {:.2}{profile_u} µm (twice the largest deviation), range {:.2}{range_u} µm, \
+over {} of {} plan points cut.",
             report.profile_um, report.range_um, report.points_cut, report.points_total
         ));
     }
+    page.paragraph(&match report.rms_deviation_u_um {
+        Some(u) => format!(
+            "± is one standard uncertainty from the model's own noise (the error tables' measurement noise and \
+the fit, {u:.3} µm RMS over the points); effects the model does not hold (backlash it was not told of, \
+thermal drift, the probe) are not in it. The range's ± takes its two points' uncertainties as independent."
+        ),
+        None => "The model carries no uncertainties (a model file from before they were kept: refit it), \
+so no ± is shown."
+            .to_string(),
+    });
     let cut: Vec<_> = report.points.iter().filter(|p| p.cut).collect();
     if !cut.is_empty() {
         page.figure(
             &deviation_map(report),
             if c {
-                "What the part will measure, n·e + n·(c − p), over the part (µm; red: material left, blue: cut too deep)."
+                "What the part will measure over the part: the volumetric error along the surface normal plus how far the compensated path's contact point lies from the plan point along it (µm; red: material left, blue: cut too deep)."
             } else {
-                "Predicted deviation n·e over the part (µm; red: material left, blue: cut too deep)."
+                "Predicted deviation over the part: the volumetric error along the surface normal at each plan point (µm; red: material left, blue: cut too deep)."
             },
         );
         page.figure(
@@ -62,13 +77,28 @@ Without compensation (n·e as formats.md defines it) it would be {:.2} µm{}.",
             .map(|p| {
                 vec![
                     p.id.clone(),
-                    format!("{:.3}", p.shown_um(c).unwrap_or(0.0)),
+                    format!(
+                        "{:.3}{}",
+                        p.shown_um(c).unwrap_or(0.0),
+                        p.deviation_u_um
+                            .map_or(String::new(), |u| format!(" ± {u:.3}"))
+                    ),
+                    p.deviation_u_um.map_or("-".into(), |u| format!("{u:.3}")),
                     p.line.map_or("-".into(), |l| l.to_string()),
                     format!("{:.2}, {:.2}, {:.2}", p.point[0], p.point[1], p.point[2]),
                 ]
             })
             .collect();
-        page.table(&["id", "deviation µm", "program line", "point (mm)"], &rows);
+        page.table(
+            &[
+                "id",
+                "deviation µm",
+                "standard uncertainty µm",
+                "program line",
+                "point (mm)",
+            ],
+            &rows,
+        );
     }
     let not_cut: Vec<&str> = report
         .points
@@ -91,6 +121,32 @@ Without compensation (n·e as formats.md defines it) it would be {:.2} µm{}.",
         ));
     }
     page.finish()
+}
+
+/// The standard uncertainty of the page's profile error (`range`: of its
+/// range) from the points that set it: twice the uncertainty of the largest
+/// |deviation| shown; for the range, the largest and smallest deviation's
+/// combined as independent. `None` when the model carries no uncertainties.
+fn figure_u(report: &PredictReport, compensated: bool, range: bool) -> Option<f64> {
+    let shown: Vec<(f64, f64)> = report
+        .points
+        .iter()
+        .filter(|p| p.cut)
+        .filter_map(|p| Some((p.shown_um(compensated)?, p.deviation_u_um?)))
+        .collect();
+    let by = |key: fn(&(f64, f64)) -> f64| {
+        shown
+            .iter()
+            .copied()
+            .max_by(|a, b| key(a).total_cmp(&key(b)))
+    };
+    if range {
+        let (_, u_max) = by(|p| p.0)?;
+        let (_, u_min) = by(|p| -p.0)?;
+        Some(u_max.hypot(u_min))
+    } else {
+        by(|p| p.0.abs()).map(|(_, u)| 2.0 * u)
+    }
 }
 
 fn part_chart(report: &PredictReport, title: &str) -> Chart {
@@ -127,7 +183,10 @@ fn deviation_map(report: &PredictReport) -> String {
     for p in &report.points {
         match p.shown_um(c) {
             Some(d) if p.cut => {
-                let label = format!("{}: {:.3} µm (line {})", p.id, d, p.line.unwrap_or(0));
+                let u = p
+                    .deviation_u_um
+                    .map_or(String::new(), |u| format!(" ± {u:.3}"));
+                let label = format!("{}: {d:.3}{u} µm (line {})", p.id, p.line.unwrap_or(0));
                 chart.point(
                     p.point[0],
                     p.point[1],

@@ -2,6 +2,24 @@
 pub(crate) mod flank;
 pub(crate) mod saddle;
 
+/// How a generated program's header comment ends, naming the machine it is
+/// written for (its joints are that machine's): `… FOR MACHINE REF-TRT)`.
+pub fn machine_suffix(machine: &str) -> String {
+    format!(" FOR MACHINE {})", machine.to_uppercase())
+}
+
+/// The machine a program's header names ([`machine_suffix`]), as written
+/// (upper case): searched in the comment lines at its head.
+pub fn header_machine(head: &str) -> Option<String> {
+    head.lines()
+        .map(str::trim)
+        .take_while(|l| l.starts_with(['(', '%', 'O', 'o', ';']) || l.is_empty())
+        .find_map(|l| {
+            let name = l.strip_suffix(')')?.rsplit_once(" FOR MACHINE ")?.1;
+            (!name.is_empty() && !name.contains(['(', ')', ' '])).then(|| name.to_string())
+        })
+}
+
 /// A plan CSV (`id,x,y,z,i,j,k`, ids from 1, six decimals) of (point, normal) pairs.
 pub fn plan_csv(points: &[([f64; 3], [f64; 3])]) -> String {
     use std::fmt::Write as _;

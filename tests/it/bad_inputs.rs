@@ -44,6 +44,7 @@ fn case(
 }
 
 const COMPENSATE: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json";
+const SINUMERIK: &str = "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -286,6 +287,67 @@ fn cases() -> Vec<Case> {
             &[
                 "expression of more than 4096 terms and operations",
                 "{d}/bad.nc:3:",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "an IF without its ENDIF",
+            vec![("bad.mpf", text("G0 X0 Y0 Z10\nIF R1>0\nG1 X1 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["IF is never closed: no ENDIF follows", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a GOTOF to no label",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nGOTOF SKIP\nG1 X1 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "jump destination `SKIP` not found (GOTOF searches forward)",
+                "{d}/bad.mpf:2:1",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a recursive PROC",
+            vec![
+                ("bad.mpf", text("G0 X0 Y0 Z10\nDEEP(1)\nM30\n")),
+                (
+                    "DEEP.SPF",
+                    text("PROC DEEP(REAL N)\nG1 X=N F100\nDEEP(N+1)\nRET\n"),
+                ),
+            ],
+            SINUMERIK,
+            1,
+            &["recursive call of `DEEP`", "DEEP.SPF:3:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a DEF after the first motion block",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nDEF REAL LATE=1\nG1 X=LATE F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["DEF after the first motion block", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "an orientation vector of length 0 (`A3=0 B3=0 C3=0`)",
+            vec![(
+                "bad.mpf",
+                text("TRAORI\nG1 X0 Y0 Z10 A3=0 B3=0 C3=0 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "orientation vector A3 B3 C3 of length 0",
+                "{d}/bad.mpf:2:14",
             ],
         ),
         case(
@@ -839,7 +901,9 @@ fn cases() -> Vec<Case> {
             vec![("ok.csv", measured(&[], 30))],
             WRITE_MACHINE_NO_FOLDER,
             1,
-            &["cannot write {d}/ok.nc/out.toml: its folder {d}/ok.nc does not exist"],
+            &[
+                "cannot write {d}/ok.nc/out.toml: {d}/ok.nc is not a folder, so the output's folder cannot be created",
+            ],
         ),
         case(
             "`diagnose --write-machine` output",
@@ -1052,18 +1116,18 @@ fn cases() -> Vec<Case> {
             vec![("bad.csv", binary())],
             LASER,
             1,
-            &["{d}/bad.csv", "not UTF-8 text"],
+            &["{d}/bad.csv:1:1: byte 0x00 is not text"],
         ),
         case(
             "laser runs (CSV)",
-            "an unknown column",
+            "a column that is not a reading, its cells left out (accepted, named)",
             vec![(
                 "bad.csv",
                 laser_rows("target,run,direction,deviation,temperature", &[]),
             )],
-            LASER,
-            1,
-            &["{d}/bad.csv:1:32: unknown column `temperature`"],
+            "import-laser {d}/bad.csv --axis X -o {d}/out.csv",
+            0,
+            &["not readings (kept in the report): `temperature`"],
         ),
         case(
             "laser runs (CSV)",
@@ -1110,14 +1174,82 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "laser runs (CSV)",
-            "a quoted decimal comma with `,` separators (accepted)",
+            "a quoted decimal comma among decimal points",
             vec![(
                 "bad.csv",
                 laser_rows("target,run,direction,deviation", &["30,2,-,\"1,5\""]),
             )],
-            "import-laser {d}/bad.csv --axis X -o {d}/out.csv",
-            0,
-            &["axis X: 1 file (long)"],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: `1,5` writes a decimal comma, but this file writes a decimal point (first `1.5` at line 2, column 7)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`1.030` in a `;` file of decimal commas",
+            vec![(
+                "bad.csv",
+                text("target;run;direction;deviation\n0;1;+;0,0012\n10;1;+;1.030\n"),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:3:8: `1.030` writes a decimal point, but this file writes a decimal comma (first `0,0012` at line 2, column 7)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a deviation of 1e308",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &["30,2,-,1e308"]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: deviation `1e308` in column `deviation` is beyond a machine tool's positioning error (|deviation| ≤ 100000 µm = 100 mm)",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "the same file twice",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv {d}/./bad.csv --axis X -o {d}/out.csv --report {d}/out.json",
+            1,
+            &[
+                "{d}/./bad.csv (file 2) is the same file as {d}/bad.csv (file 1): one measurement counts once",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a 100 000-byte line",
+            vec![(
+                "bad.csv",
+                laser_rows("target,run,direction,deviation", &[&"7".repeat(100_000)]),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:65537: line of 100000 bytes: volcomp reads laser lines of at most 65536 bytes",
+            ],
+        ),
+        case(
+            "laser runs (CSV)",
+            "a 20 000-byte cell (echoed cut)",
+            vec![(
+                "bad.csv",
+                laser_rows(
+                    "target,run,direction,deviation",
+                    &[&format!("30,2,-,{}x", "1".repeat(20_000))],
+                ),
+            )],
+            LASER,
+            1,
+            &[
+                "{d}/bad.csv:18:8: `1111",
+                "… (20001 bytes)` in column `deviation` is not a finite number",
+            ],
         ),
         case(
             "laser runs (CSV)",
@@ -1157,11 +1289,11 @@ fn cases() -> Vec<Case> {
             "an unknown target unit",
             vec![(
                 "bad.csv",
-                laser_rows("target [inch],run,direction,deviation", &[]),
+                laser_rows("target [ft],run,direction,deviation", &[]),
             )],
             LASER,
             1,
-            &["{d}/bad.csv:1:1: target unit `inch`: axis X takes mm"],
+            &["{d}/bad.csv:1:1: target unit `ft`: axis X takes mm or inch (`in`)"],
         ),
         case(
             "laser runs (CSV)",
@@ -1205,6 +1337,233 @@ fn cases() -> Vec<Case> {
             "import-laser EYY={d}/bad.csv --axis X -o {d}/out.csv",
             2,
             &["EYY is not an error parameter of axis X"],
+        ),
+    ]
+}
+
+/// The head-table chain machine's text with `from` replaced by `to`.
+fn chain_machine(from: &str, to: &str) -> Vec<u8> {
+    let text = std::fs::read_to_string(root().join("machines/head-table.toml")).unwrap();
+    assert!(text.contains(from), "{from}");
+    text.replacen(from, to, 1).into_bytes()
+}
+
+/// Issue 38: the numbers a user gives within what a machine tool can have,
+/// the outputs of `import-laser` and `export` checked against the inputs,
+/// `--lenient` words passed through as written, echoes cut.
+fn issue_38_cases() -> Vec<Case> {
+    let long_cell = "9".repeat(1000);
+    let long_line = "9".repeat(100_000);
+    let leak = |s: String| -> &'static str { Box::leak(s.into_boxed_str()) };
+    vec![
+        case(
+            "machine file (TOML)",
+            "`[reversal] X = 1e6` (µm)",
+            vec![("bad.toml", with_reversal("X = 1e6"))],
+            MACHINE,
+            1,
+            &[
+                "`reversal.X`: 1e6 µm is beyond what a machine tool can have: the range is -1000 to 1000 µm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "`[reversal] X = 1e300`",
+            vec![("bad.toml", with_reversal("X = 1e300"))],
+            MACHINE,
+            1,
+            &["is beyond what a machine tool can have"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a location error of 1e20 µm",
+            vec![("bad.toml", machine("EY0A = 12.7", "EY0A = 1e20"))],
+            MACHINE,
+            1,
+            &[
+                "`location.EY0A`: 1e20 µm is beyond what a machine tool can have: the range is -10000 to 10000 µm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a squareness of 1e9 µrad",
+            vec![("bad.toml", machine("s_xy = -39.9", "s_xy = 1e9"))],
+            MACHINE,
+            1,
+            &["`squareness.s_xy`: 1e9 µrad is beyond what a machine tool can have"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a tool length of 1e300 mm",
+            vec![("bad.toml", machine("length = 100.0", "length = 1e300"))],
+            MACHINE,
+            1,
+            &[
+                "`tool.length`: 1e300 mm is beyond what a machine tool can have: the range is -5000 to 5000 mm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `direction` of 4 numbers",
+            vec![(
+                "bad.toml",
+                chain_machine(
+                    "direction = [0.0, 1.0, 0.0]",
+                    "direction = [0.0, 1.0, 0.0, 7.0]",
+                ),
+            )],
+            MACHINE,
+            1,
+            &["`axes.B.direction`: expected 3 numbers [x, y, z], got 4"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `point` of 2 numbers",
+            vec![(
+                "bad.toml",
+                chain_machine("point = [0.0, 0.0, 150.0]", "point = [0.0, 150.0]"),
+            )],
+            MACHINE,
+            1,
+            &["`axes.B.point`: expected 3 numbers [x, y, z], got 2"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `point` at 1e20 mm",
+            vec![(
+                "bad.toml",
+                chain_machine("point = [0.0, 0.0, 150.0]", "point = [0.0, 0.0, 1e20]"),
+            )],
+            MACHINE,
+            1,
+            &[
+                "`axes.B.point`: 1e20 mm is beyond what a machine tool can have: the range is -100000 to 100000 mm",
+            ],
+        ),
+        case(
+            "machine file (TOML)",
+            "a chain `direction` too large to normalise (1e300 × 3)",
+            vec![(
+                "bad.toml",
+                chain_machine(
+                    "direction = [0.0, 1.0, 0.0]",
+                    "direction = [1e300, 1e300, 1e300]",
+                ),
+            )],
+            MACHINE,
+            1,
+            &["too large to normalise"],
+        ),
+        case(
+            "machine file (TOML)",
+            "a 100 000-byte string where a number goes (the message cut)",
+            vec![(
+                "bad.toml",
+                machine("length = 100.0", leak(format!("length = \"{long_line}\""))),
+            )],
+            MACHINE,
+            1,
+            &["bytes)"],
+        ),
+        case(
+            "error table (CSV)",
+            "a value of 1e300 µm",
+            table(|l| l[3] = "-100,1e300,0.4,-0.2,1.2,0.9,-0.3".into()),
+            TABLE,
+            1,
+            &[
+                "EXX = 1e300 µm is beyond what a machine tool can have: the range is -10000 to 10000 µm",
+            ],
+        ),
+        case(
+            "error table (CSV)",
+            "a 1000-byte cell (the message cut)",
+            table(|l| l[3] = format!("-100,{}x,0.4,-0.2,1.2,0.9,-0.3", long_cell)),
+            TABLE,
+            1,
+            &["… (1001 bytes)` is not a finite number"],
+        ),
+        case(
+            "error table (CSV)",
+            "a 100 000-byte line",
+            table(|l| l[3] = long_line.clone()),
+            TABLE,
+            1,
+            &["line of 100000 bytes, longer than volcomp's limit of 65536 bytes"],
+        ),
+        case(
+            "inspection plan (CSV)",
+            "a 1000-byte cell (the message cut)",
+            vec![(
+                "bad.csv",
+                plan_rows(&[leak(format!("p1,{long_cell}x,0,0,0,0,1"))]),
+            )],
+            PLAN,
+            1,
+            &["… (1001 bytes)`"],
+        ),
+        case(
+            "inspection plan (CSV)",
+            "a 100 000-byte line",
+            vec![("bad.csv", plan_rows(&[leak(long_line.clone())]))],
+            PLAN,
+            1,
+            &["line of 100000 bytes, longer than volcomp's limit of 65536 bytes"],
+        ),
+        case(
+            "parameter file (.var)",
+            "a 1000-byte value (the message cut)",
+            vec![("bad.var", text(leak(format!("5220 {long_cell}x\n"))))],
+            VAR,
+            1,
+            &["… (1001 bytes)` is not a finite number"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`-o` naming the laser file itself",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv --axis X -o {d}/bad.csv",
+            2,
+            &["-o {d}/bad.csv is the laser file {d}/bad.csv (the same file)"],
+        ),
+        case(
+            "laser runs (CSV)",
+            "`-o` and `--report` the same file",
+            vec![("bad.csv", laser_rows("target,run,direction,deviation", &[]))],
+            "import-laser {d}/bad.csv --axis X -o {d}/out.csv --report {d}/out.csv",
+            2,
+            &["-o {d}/out.csv and --report {d}/out.csv are the same file"],
+        ),
+        case(
+            "export folder",
+            "`export tables -o` the folder of the machine's tables",
+            vec![],
+            "export tables {d}/ok.toml -o {d}/ref-trt --model {d}/fit.json",
+            2,
+            &["(-o) {d}/ref-trt/x.csv is the error table"],
+        ),
+        case(
+            "export setting",
+            "`export tables --step 1e300`",
+            vec![],
+            "export tables {d}/ok.toml -o {d}/out.d --model {d}/fit.json --step 1e300",
+            2,
+            &[
+                "--step = 1e300 mm is beyond what a machine tool can have: the range is more than 0 and at most 100000 mm",
+            ],
+        ),
+        case(
+            "program",
+            "`B45 U3 V4 W10 W-7.5` on an X Y Z A C machine under --lenient (accepted, words kept as written)",
+            vec![(
+                "bad.nc",
+                text(
+                    "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 B45 F500\nG1 X6 U3 V4 W10\nG1 X7 W-7.5\nM30\n%\n",
+                ),
+            )],
+            "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json --lenient",
+            0,
+            &["8 blocks read"],
         ),
     ]
 }
@@ -1285,7 +1644,7 @@ fn every_bad_input_is_refused_with_its_place_and_leaves_no_output() {
     let dir = scratch();
     let d = dir.path().display().to_string();
     let mut rows = Vec::new();
-    for c in cases() {
+    for c in cases().into_iter().chain(issue_38_cases()) {
         for (name, bytes) in &c.files {
             let bytes = match bytes.as_slice() {
                 b"STALE" => stale_model(dir.path()),
@@ -1371,4 +1730,37 @@ first line of the summary.\n\n\
             "docs/bad-inputs.md is stale: run VOLCOMP_WRITE_BAD_INPUTS=1 cargo test --release --locked bad_inputs"
         );
     }
+}
+
+/// Under `--lenient`, a word of a letter the machine lacks (B45, U3 V4 W10,
+/// W-7.5 on an X Y Z A C machine) is written as it was read, byte for byte,
+/// never as a rewritten zero.
+#[test]
+fn lenient_words_of_letters_the_machine_lacks_are_written_as_read() {
+    let dir = scratch();
+    let program = "%\nG21 G90 G94\nG0 X0 Y0 Z10 A10 C0\nG1 X5 B45 F500\nG1 X6 U3 V4 W10\nG1 X7 w-7.5\nM30\n%\n";
+    std::fs::write(dir.path().join("bad.nc"), program).unwrap();
+    let d = dir.path();
+    let out = volcomp()
+        .args(["compensate", "--lenient", "--model"])
+        .arg(d.join("fit.json"))
+        .arg(d.join("ok.toml"))
+        .arg(d.join("bad.nc"))
+        .arg("-o")
+        .arg(d.join("out.nc"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let written = std::fs::read_to_string(d.join("out.nc")).unwrap();
+    for word in [" B45 ", " U3 V4 W10", " w-7.5"] {
+        assert!(written.contains(word), "`{word}` not kept in:\n{written}");
+    }
+    assert!(
+        !written.contains("B0.0") && !written.contains("W0.0"),
+        "{written}"
+    );
 }

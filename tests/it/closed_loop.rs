@@ -202,7 +202,11 @@ fn a_written_machine_cancels_a_diagnosed_location_and_squareness_error() {
     // diagnosed file 2.0 µm (the noise: 2 · max |ε| over 372 points), with
     // the file as it was 40.7 µm.
     assert!((t.measured_1 - 58.07).abs() < 0.5, "{}", t.measured_1);
-    assert!(t.measured_2_diag < 2.5, "{}", t.measured_2_diag);
+    // Only what the advice names is written (issue 36): the location
+    // parameters within 2 σ of zero or not determined by the part are left
+    // as they were, so part 2 keeps what they carried (4.0 µm; 2.1 µm when
+    // every fitted value was written).
+    assert!(t.measured_2_diag < 5.0, "{}", t.measured_2_diag);
     assert!(t.measured_2_file > 30.0, "{}", t.measured_2_file);
     assert!(t.predicted_2_diag < 0.5, "{}", t.predicted_2_diag);
     // Without noise, what the written file leaves of the effects.
@@ -212,7 +216,7 @@ fn a_written_machine_cancels_a_diagnosed_location_and_squareness_error() {
         "0",
         &dir.path().join("m2-exact.csv"),
     );
-    assert!(residual < 0.8, "{residual}");
+    assert!(residual < 4.0, "{residual}");
 }
 
 /// The seed paper's two-part experiment with the diagnosis applied (README
@@ -235,8 +239,11 @@ fn the_two_part_experiment_with_the_diagnosis_applied() {
         t.diagnosis
     );
     let folder = dir.path().join("diag");
+    // bx = 30 ± 16 µm (15 injected) is within 2 σ of zero: not advised, so
+    // X's table is not copied (issue 36: only what the advice names).
+    assert!(!folder.join("ref-trt-diag.x.csv").exists());
     let mut reversal = Vec::new();
-    for axis in ["x", "y", "z"] {
+    for axis in ["y", "z"] {
         let copy: PathBuf = folder.join(format!("ref-trt-diag.{axis}.csv"));
         let text = std::fs::read_to_string(&copy).unwrap();
         let header = text.lines().find(|l| !l.starts_with('#')).unwrap();
@@ -247,14 +254,15 @@ fn the_two_part_experiment_with_the_diagnosis_applied() {
     println!("REVERSAL written: {reversal:?}");
     // bx is found larger than injected (30 of 15 µm): on this part the
     // location takes part of it (the sum of the two matches part 1).
-    assert!((reversal[1] - 12.0).abs() < 1.5, "{reversal:?}");
-    assert!((reversal[2] - 8.0).abs() < 1.5, "{reversal:?}");
-    assert!(reversal[0] > 10.0, "{reversal:?}");
+    assert!((reversal[0] - 12.0).abs() < 1.5, "{reversal:?}");
+    assert!((reversal[1] - 8.0).abs() < 1.5, "{reversal:?}");
     // Measured: part 1 67.36 µm; part 2 1.93 µm from the diagnosed file
     // (location and backlash cancelled: compensate applies REVERSAL by
     // approach direction), 45.49 µm from the file as it was.
     assert!((t.measured_1 - 67.36).abs() < 0.5, "{}", t.measured_1);
-    assert!(t.measured_2_diag < 3.0, "{}", t.measured_2_diag);
+    // Part 2 from the diagnosed file: 28.9 µm (1.9 µm when the
+    // undistinguishable bx and location values were written too).
+    assert!(t.measured_2_diag < 32.0, "{}", t.measured_2_diag);
     assert!(
         t.measured_2_diag < 0.7 * t.measured_2_file,
         "{} vs {}",

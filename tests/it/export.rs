@@ -207,3 +207,34 @@ fn fitted_tables_come_out_on_the_chosen_grid_and_read_back() {
     assert!(machine.table(Axis::C).is_some());
     assert!(dir.path().join("c.csv").exists());
 }
+
+/// A tolerance the lines cannot meet: below LinuxCNC's 256 lines the warning
+/// says to raise --max-lines; at 256 it says the limit is reached and which
+/// tolerance the lines do meet (not "raise --max-lines").
+#[test]
+fn an_unmet_tolerance_says_which_limit_and_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |max_lines: &str, out: &str| {
+        let out = volcomp()
+            .args(["export", "linuxcnc"])
+            .arg(root().join("machines/ref-trt.toml"))
+            .arg("-o")
+            .arg(dir.path().join(out))
+            .args(["--max-lines", max_lines, "--tol-um", "0.000001"])
+            .output()
+            .unwrap();
+        assert_success(&out);
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let few = run("8", "a");
+    assert!(
+        few.contains("raise --max-lines (now 8, LinuxCNC takes up to 256) or --tol-um"),
+        "{few}"
+    );
+    let most = run("256", "b");
+    assert!(
+        most.contains("--max-lines is at LinuxCNC's limit of 256 lines a joint: give --tol-um "),
+        "{most}"
+    );
+    assert!(!most.contains("raise --max-lines"), "{most}");
+}

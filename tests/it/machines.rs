@@ -14,7 +14,7 @@ use volcomp::machine::{ErrorModel, Machine, ModelOptions};
 const NAMES: [&str; 3] = ["bc-trt", "head-table", "head-head"];
 
 /// A bundled machine and its fitted model, loaded once for the test binary.
-fn rig(name: &str) -> &'static Rig {
+pub fn rig(name: &str) -> &'static Rig {
     static RIGS: [OnceLock<Rig>; 3] = [OnceLock::new(), OnceLock::new(), OnceLock::new()];
     let i = NAMES
         .iter()

@@ -337,6 +337,18 @@ pub fn parse_var_file(text: &str) -> Result<Vec<(usize, f64)>, VarFileError> {
     let mut first_line: HashMap<usize, usize> = HashMap::new();
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
+        // What the messages echo is cut (a long line, a long cell).
+        let cut = |s: &str| crate::io::echo(s).into_owned();
+        if raw.len() > crate::io::MAX_LINE_BYTES {
+            return Err(VarFileError::Malformed {
+                line,
+                text: format!(
+                    "{} (longer than {} bytes)",
+                    cut(raw),
+                    crate::io::MAX_LINE_BYTES
+                ),
+            });
+        }
         let mut fields = raw.split_whitespace();
         let Some(number) = fields.next() else {
             continue;
@@ -344,7 +356,7 @@ pub fn parse_var_file(text: &str) -> Result<Vec<(usize, f64)>, VarFileError> {
         let Some(value) = fields.next() else {
             return Err(VarFileError::Malformed {
                 line,
-                text: raw.trim().to_string(),
+                text: cut(raw.trim()),
             });
         };
         let n: usize = match number.parse() {
@@ -352,13 +364,13 @@ pub fn parse_var_file(text: &str) -> Result<Vec<(usize, f64)>, VarFileError> {
             Ok(_) => {
                 return Err(VarFileError::OutOfRange {
                     line,
-                    number: number.to_string(),
+                    number: cut(number),
                 });
             }
             Err(_) => {
                 return Err(VarFileError::Malformed {
                     line,
-                    text: raw.trim().to_string(),
+                    text: cut(raw.trim()),
                 });
             }
         };
@@ -367,7 +379,7 @@ pub fn parse_var_file(text: &str) -> Result<Vec<(usize, f64)>, VarFileError> {
             _ => {
                 return Err(VarFileError::BadValue {
                     line,
-                    text: value.to_string(),
+                    text: cut(value),
                 });
             }
         };

@@ -775,6 +775,14 @@ impl Interpreter {
         self.origin.frame = frame;
     }
 
+    /// Set the work origin (and clear its XY rotation): a dialect whose
+    /// control starts without a settable frame (Sinumerik's `G500`) or
+    /// switches it off.
+    pub fn set_work_origin(&mut self, work: Axes) {
+        self.origin.work = work;
+        self.origin.rotation_deg = 0.0;
+    }
+
     /// Set the position (machine coordinates) without a move: a dialect's
     /// step that moves axes the program does not write as words (a
     /// swivelled plane turning the rotary axes), reported by the front.

@@ -34,6 +34,13 @@ pub struct FrameTransform {
     pub shift: [f64; 3],
     /// The inverse of `matrix`.
     pub inverse: [[f64; 3]; 3],
+    /// A swivelled working plane (Sinumerik `CYCLE800`, Heidenhain `PLANE`)
+    /// is part of it: the control holds the rotary axes where the plane put
+    /// them, so a compensator corrects the tip only (dialects.md "Writing
+    /// back": the tool axis is corrected where the program commands the
+    /// rotary axes itself).
+    #[serde(default)]
+    pub holds_rotary: bool,
 }
 
 impl FrameTransform {
@@ -42,6 +49,7 @@ impl FrameTransform {
         matrix: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         shift: [0.0; 3],
         inverse: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        holds_rotary: false,
     };
 
     /// The map `p ↦ matrix·p + shift`; `None` when `matrix` is singular or
@@ -52,6 +60,7 @@ impl FrameTransform {
             matrix,
             shift,
             inverse,
+            holds_rotary: false,
         })
     }
 
@@ -98,6 +107,7 @@ impl FrameTransform {
             matrix: m,
             shift: self.apply(inner.shift),
             inverse: inv,
+            holds_rotary: self.holds_rotary || inner.holds_rotary,
         }
     }
 }
@@ -133,6 +143,12 @@ impl Origin {
         rotation_deg: 0.0,
         frame: None,
     };
+
+    /// The control holds the rotary axes (a swivelled plane is active):
+    /// the tip is corrected, the tool axis is not.
+    pub fn holds_rotary(&self) -> bool {
+        self.frame.is_some_and(|f| f.holds_rotary)
+    }
 
     /// Program coordinates → machine coordinates.
     pub fn to_machine(&self, p: &Axes) -> Axes {

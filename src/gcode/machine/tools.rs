@@ -175,6 +175,9 @@ impl ToolTable {
                 column,
                 message,
             };
+            if let Some(message) = crate::io::long_line(raw) {
+                return Err(fail(1, message));
+            }
             let (body, comment) = match raw.find(';') {
                 Some(k) => (&raw[..k], raw[k + 1..].trim()),
                 None => (raw, ""),

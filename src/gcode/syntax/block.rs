@@ -230,6 +230,11 @@ pub struct Block {
     pub exprs: Vec<crate::gcode::syntax::expression::Expr>,
     /// Byte ranges of the comments, `( … )` and `; …`, delimiters included.
     pub comments: Vec<Range<usize>>,
+    /// A dialect's non-moving statements passed through untouched (`STOPRE`,
+    /// `MSG(…)`, `CYCLE832(…)`, `BLK FORM`…): their byte ranges, each
+    /// starting with the statement's name (counted by the summary). Empty
+    /// for LinuxCNC programs.
+    pub statements: Vec<Range<usize>>,
     /// Lenient reading only: the line could not be parsed; it is kept verbatim,
     /// without words, and this is why.
     pub unparsed: Option<Box<GcodeError>>,
@@ -263,6 +268,7 @@ impl Block {
             && self.keywords.is_empty()
             && self.assignments.is_empty()
             && self.o_word.is_none()
+            && self.statements.is_empty()
     }
 
     /// Whether the line uses the RS274NGC language: a computed word, an
@@ -290,6 +296,7 @@ impl Block {
         self.o_word = None;
         self.exprs.clear();
         self.comments.clear();
+        self.statements.clear();
         self.unparsed = None;
     }
 }

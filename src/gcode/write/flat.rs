@@ -238,7 +238,7 @@ impl Rewriter {
         let program = event.origin.to_program(end);
         let rapid = style.rapid_as_g0 && motion.kind == MotionKind::Rapid;
         line.push_str(if rapid { "G0" } else { "G1" });
-        for axis in Axis::ALL {
+        for axis in self.options.axes.iter() {
             let moved = (end.get(axis) - self.emitted.get(axis)).abs() > 1e-12;
             if !moved && !style.always.contains(&axis) {
                 continue;

@@ -100,6 +100,10 @@ pub struct RewriteOptions {
     pub min_significant_feed: u8,
     /// The dialect written (the input's: [`crate::gcode::Program::dialect`]).
     pub dialect: crate::gcode::Dialect,
+    /// The machine's axis letters: only their words are rewritten or added. A
+    /// word of another letter (passed through under `--lenient`) is written
+    /// as it was, byte for byte. Default: every letter.
+    pub axes: crate::axes::AxisSet,
 }
 
 impl Default for RewriteOptions {
@@ -110,6 +114,7 @@ impl Default for RewriteOptions {
             min_decimals_feed: 4,
             min_significant_feed: 7,
             dialect: crate::gcode::Dialect::LinuxCnc,
+            axes: crate::axes::AxisSet::ALL,
         }
     }
 }
@@ -201,11 +206,13 @@ pub fn rewrite_stream(
     mut plan: impl FnMut(&Block, &BlockEvent, &mut Vec<Axes>) -> Option<Axes>,
 ) -> Result<RewriteStats, RewriteError> {
     let mut run = run;
+    let interpret = run.interpreter().options();
     let options = RewriteOptions {
         dialect: run.dialect().dialect,
+        axes: interpret.axes,
         ..options
     };
-    let mut rewriter = Rewriter::new(options, run.interpreter().options().initial_position);
+    let mut rewriter = Rewriter::new(options, interpret.initial_position);
     let mut via = Vec::new();
     let mut stats = RewriteStats::default();
     while let Some(step) = run.next() {
@@ -342,7 +349,7 @@ impl Rewriter {
                 let o = event.origin;
                 let (emitted, nominal) = (o.to_program(&self.emitted), o.to_program(&event.start));
                 let ctx = Context::new(block, event);
-                for axis in Axis::ALL {
+                for axis in self.options.axes.iter() {
                     let Some(w) = block
                         .words
                         .iter()
@@ -463,7 +470,7 @@ impl Rewriter {
         // Axis words.
         let mut last_axis_end = None;
         let mut appended: [Option<f64>; crate::axes::AXIS_COUNT] = [None; crate::axes::AXIS_COUNT];
-        for axis in Axis::ALL {
+        for axis in self.options.axes.iter() {
             let i = axis as usize;
             let unit = ctx.unit(axis);
             let base = if ctx.incremental {
@@ -606,8 +613,14 @@ impl Rewriter {
     /// Replace a word's number; returns the printed value.
     fn replace_number(&mut self, block: &Block, w: &Word, value: f64, dec: u8) -> f64 {
         let from = self.text.len();
-        let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
-        self.text.push(letter);
+        match address_with_equals(block, w) {
+            // A dialect's `X=R1+2`, `CR=5`: the address as written, then the number.
+            Some(prefix) => self.text.push_str(prefix),
+            None => {
+                let letter = block.raw.get(w.start).copied().unwrap_or(w.letter) as char;
+                self.text.push(letter);
+            }
+        }
         let printed = push_number(&mut self.text, value, dec);
         self.record(from, w.start, w.end);
         printed
@@ -803,7 +816,7 @@ impl Rewriter {
         }
         let mut moved = false;
         let mut new_emitted = self.emitted;
-        for axis in Axis::ALL {
+        for axis in self.options.axes.iter() {
             let unit = ctx.unit(axis);
             let base = if ctx.incremental {
                 self.emitted.get(axis)
@@ -1096,4 +1109,17 @@ pub(super) fn feed_decimals(f: f64, written: u8, o: &RewriteOptions) -> u8 {
         .max(o.min_decimals_feed)
         .max(for_significance)
         .min(12)
+}
+
+/// The address of a dialect's word written with `=` (`X=IC(5)`, `CR=R1`):
+/// its text up to and including the `=`; `None` for a letter and a number
+/// (every LinuxCNC word, whose computed values are bracketed).
+fn address_with_equals<'a>(block: &'a Block, w: &Word) -> Option<&'a str> {
+    let text = block.raw.get(w.start..w.end)?;
+    let k = text.iter().position(|&b| b == b'=')?;
+    text[..k]
+        .iter()
+        .all(|b| b.is_ascii_alphanumeric() || *b == b' ')
+        .then(|| std::str::from_utf8(&text[..=k]).ok())
+        .flatten()
 }

@@ -41,7 +41,7 @@ def fmt(v, decimals):
     return f"{v:.{decimals}f}"
 
 def write(name, text):
-    with open(os.path.join(HERE, name), "w", newline="") as f:
+    with open(os.path.join(HERE, name), "w", encoding="utf-8", newline="") as f:
         f.write(text)
 
 def x_reversal(t):
@@ -97,6 +97,56 @@ def main():
     text = "target [deg],run,direction,deviation [arcsec]\n"
     text += "".join(f"{fmt(t,3)},{j},{'+' if up else '-'},{fmt(d,5)}\n" for j, up, t, d in rows)
     write("a-long.csv", text)
+
+    # 7. As CARTO-style software exports: metadata lines without '#', the long
+    #    form with arrows, per-reading environment columns and a comment column.
+    rows = runs(x, x_reversal, 0.3, 5, 11)
+    text = ("Renishaw CARTO Explore export\nMachine,ref-trt (volcomp fixture)\nAxis,X\n"
+            "Date,2026-11-20 09:14\nOperator,make.py\n\n")
+    text += "Target (mm),Run,Direction,Error (µm),Air temp (°C),Material temp (°C),Pressure (mbar),Comment\n"
+    for k, (j, up, t, d) in enumerate(rows):
+        note = "restart after door open" if k == 17 else ""
+        text += (f"{fmt(t,3)},{j},{'↑' if up else '↓'},{fmt(d,4)},{fmt(20.1 + 0.0004 * k,2)},"
+                 f"{fmt(20.4 + 0.0003 * k,2)},{fmt(1012.5 - 0.002 * k,1)},{note}\n")
+    write("x-carto-preamble.csv", text)
+    # 8. German, Latin-1 (as Windows software saves it), ';' and decimal commas,
+    #    vorwärts/rückwärts, a temperature and a remark column; Z, B_i = 3 µm.
+    z = column("z", "EZZ")
+    rows = runs(z, lambda t: 3.0, 0.3, 4, 12)
+    text = "Messung Z-Achse;Positionierung nach ISO 230-2\nMaschine;ref-trt\n"
+    text += "Sollposition [mm];Lauf;Richtung;Abweichung [µm];Lufttemperatur [°C];Bemerkung\n"
+    text += "".join(f"{fmt(t,3).replace('.',',')};{j};{'vorwärts' if up else 'rückwärts'};"
+                    f"{fmt(d,4).replace('.',',')};{fmt(20.2,1).replace('.',',')};\n"
+                    for j, up, t, d in rows)
+    with open(os.path.join(HERE, "z-german-latin1.csv"), "w", encoding="latin-1", newline="") as f:
+        f.write(text)
+    # 9. German wide, tab separated, decimal commas, hin/rück, units in a
+    #    units line under the header; Y, B_i = 4 µm.
+    rows = runs(y, lambda t: 4.0, 0.25, 3, 13)
+    wide = {}
+    for j, up, t, d in rows:
+        wide.setdefault(t, {})[(j, up)] = d
+    cols = [(j, up) for j in range(1, 4) for up in (True, False)]
+    text = "Sollposition\t" + "\t".join(f"Lauf {j} {'hin' if up else 'rück'}" for j, up in cols) + "\n"
+    text += "mm\t" + "\t".join("µm" for _ in cols) + "\n"
+    text += "".join(fmt(t, 3).replace('.', ',') + "\t" + "\t".join(fmt(wide[t][c], 3).replace('.', ',') for c in cols) + "\n"
+                    for t in sorted(wide))
+    write("y-german-wide.tsv", text)
+    # 10. Inch: targets in inches, deviations in microinches, paired
+    #     forward/reverse columns; Y, B_i = 4 µm.
+    rows = runs(y, lambda t: 4.0, 0.25, 3, 14, unit=1 / 0.0254)
+    pair = {}
+    for j, up, t, d in rows:
+        pair.setdefault((j, t), {})[up] = d
+    text = "Target [in],Run,Forward [µin],Reverse [µin]\n"
+    text += "".join(f"{t / 25.4:.7f},{j},{fmt(p[True],1)},{fmt(p[False],1)}\n"
+                    for (j, t), p in sorted(pair.items()))
+    write("y-inch-paired.csv", text)
+    # 11. A units line in brackets, mils, up/down; Z, B_i = 3 µm.
+    rows = runs(z, lambda t: 3.0, 0.3, 3, 15, unit=1 / 25.4)
+    text = "Position,Run,Dir,Error\n[mm],,,[mil]\n"
+    text += "".join(f"{fmt(t,3)},{j},{'up' if up else 'down'},{fmt(d,5)}\n" for j, up, t, d in rows)
+    write("z-units-line-mil.csv", text)
 
 def bench(rows_wanted, out):
     x = column("x", "EXX")

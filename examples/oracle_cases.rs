@@ -1,0 +1,95 @@
+//! The oracle table of docs/diagnose.md (issue 36): `diagnose` on every case
+//! of a folder of oracle cases (measurements made by an independent
+//! implementation of the spec), scored as the folder's README says; prints
+//! one line per case, then the table's row and the time per diagnosis.
+//!
+//!     cargo run --release --example oracle_cases -- [ORACLE_DIR [REF_TRT.toml]] [verbose]
+//!
+//! Defaults: `../shared/data/oracle-cases` (from the crate's root, as the
+//! project's checkouts lie) and the crate's `machines/ref-trt.toml` (the
+//! same tables as the folder's `../ref-trt.toml`).
+use std::path::PathBuf;
+use std::time::Instant;
+use volcomp::diagnose::oracle::{OracleGroup, OracleMachine, read_index, score};
+use volcomp::diagnose::{DiagnoseOptions, diagnose};
+
+fn main() {
+    let root_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "verbose")
+        .collect();
+    let verbose = std::env::args().any(|a| a == "verbose");
+    let dir = args.first().map_or_else(
+        || root_dir.join("../../shared/data/oracle-cases"),
+        PathBuf::from,
+    );
+    let machine_path = args
+        .get(1)
+        .map_or_else(|| root_dir.join("machines/ref-trt.toml"), PathBuf::from);
+    let cases = read_index(&dir).expect("index.json");
+    let right = OracleMachine::load(&machine_path).expect("ref-trt");
+    let wrong = OracleMachine::load(&dir.join("machines/x1.4.toml")).expect("x1.4");
+    let mut rows: Vec<(OracleGroup, f64, bool)> = Vec::new();
+    let mut total = 0.0;
+    for case in &cases {
+        let machine = if case.group == OracleGroup::WrongModel {
+            &wrong
+        } else {
+            &right
+        };
+        let (contexts, measured) = machine.case_inputs(&dir, case).expect("case inputs");
+        let started = Instant::now();
+        let report = diagnose(&contexts, &measured, &DiagnoseOptions::default()).expect("diagnose");
+        total += started.elapsed().as_secs_f64();
+        let s = score(case, &report);
+        println!(
+            "{:<32} {:<4} truth {:<34} said {}",
+            case.name,
+            if s.pass { "ok" } else { "MISS" },
+            if case.effects.is_empty() {
+                "nothing".to_string()
+            } else {
+                case.effects.join(" + ")
+            },
+            s.said
+        );
+        if verbose {
+            for note in &report.selection_notes {
+                println!("    {note}");
+            }
+        }
+        rows.push((case.group, case.noise_um, s.pass));
+    }
+    let count = |f: &dyn Fn(&(OracleGroup, f64, bool)) -> bool| {
+        let all: Vec<_> = rows.iter().filter(|r| f(r)).collect();
+        (all.iter().filter(|r| r.2).count(), all.len())
+    };
+    let single = |noise: f64| {
+        count(&|r: &(OracleGroup, f64, bool)| {
+            r.0 == OracleGroup::Single && (r.1 - noise).abs() < 1e-9
+        })
+    };
+    let group = |g: OracleGroup| count(&|r: &(OracleGroup, f64, bool)| r.0 == g);
+    let (s3, n3) = single(0.3);
+    let (s1, n1) = single(1.0);
+    let (l, nl) = group(OracleGroup::ServoLag);
+    let (p, np) = group(OracleGroup::Pair);
+    let (w, nw) = group(OracleGroup::WrongModel);
+    let (q, nq) = group(OracleGroup::NoEffect);
+    println!();
+    println!(
+        "| top-1, noise 0.3 and 1.0 µm | servo lag strong at few points | pairs both named | wrong model named beside its effect | quiet on no-effect cases |"
+    );
+    println!("|---|---|---|---|---|");
+    println!(
+        "| {}/{} ({s3}/{n3} + {s1}/{n1}) | {l}/{nl} | {p}/{np} | {w}/{nw} | {q}/{nq} |",
+        s3 + s1,
+        n3 + n1
+    );
+    println!(
+        "{} cases, {:.1} ms per diagnosis (diagnose only; machines fitted once)",
+        rows.len(),
+        1000.0 * total / rows.len().max(1) as f64
+    );
+}

@@ -1,0 +1,2644 @@
+//! The SINUMERIK 840D sl front: its syntax ([`syntax`]), its language
+//! (variables [`values`], program flow and subprograms: this file) and its
+//! machine-state steps (settable and programmable frames, `TRAORI`), feeding
+//! LinuxCNC's machine-state layer through the `Execution` seam
+//! (`gcode::front`).
+//!
+//! Semantics follow Siemens' SINUMERIK 840D sl programming manuals
+//! (*Fundamentals*; *Job planning*), cited where a rule is decided. Each
+//! executed line becomes a [`Block`] holding the words the machine-state
+//! layer reads (`G` codes in LinuxCNC's numbering, axis words as absolute
+//! or incremental numbers, `I J K`, `R` for `CR=`, `F`, `S`, `T`, `M`),
+//! each with its byte range in the line, so that writers change only the
+//! words they must (a word written `X=R1+2` is written back `X=12.5`).
+//!
+//! - **Literal and flat lines.** A line of the main program read once, in
+//!   sequence, is handed on as written; once the program has run any flow
+//!   (a jump, a loop, a call, `IF`), a line whose values come from
+//!   variables is handed on flat: its values as numbers, its assignments
+//!   and definitions dropped, `; volcomp: line N` appended (so the control,
+//!   running the written program, needs none of the variables the flow
+//!   changed). Lines run again (loops, backward jumps) and subprogram lines
+//!   are always flat. Flow statements (`IF`, `WHILE`, `GOTOF`, calls…) are
+//!   not written: the blocks they run are.
+//! - **Frames** (*Fundamentals*, "Coordinate transformations (frames)"):
+//!   the settable frame `G54`–`G57` (its shift from `--offset`; `G500`
+//!   none) then the programmable frame. An absolute statement (`TRANS`,
+//!   `ROT`, `SCALE`, `MIRROR`) replaces the whole programmable frame; an
+//!   additive one (`ATRANS`, `AROT`, `ASCALE`, `AMIRROR`) acts in the frame
+//!   as it stands. `ROT`'s angles turn about Z, then the new Y, then the new
+//!   X (the control's default RPY order). `SUPA`, `G53`, `G153` suppress the
+//!   frames for their block.
+//! - **Five-axis**: `TRAORI` … `TRAFOOF` switch the part frame (tool-tip
+//!   programs with orientation by machine axes). Orientation vectors,
+//!   `CYCLE800` swivelled planes and the other features listed in
+//!   `docs/dialects.md` as not read are located errors naming the feature.
+pub(crate) mod syntax;
+pub(crate) mod values;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use crate::gcode::error::{ErrorKind, GcodeError};
+use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
+use crate::gcode::machine::interpret::Interpreter;
+use crate::gcode::machine::origin::FrameTransform;
+use crate::gcode::syntax::block::{Block, Keyword, KeywordWord, LineEnding, Word};
+use syntax::{Cursor, Expr, Tok, Token};
+use values::{R_COUNT, Scope, VarType, Variable};
+
+/// Most program levels (main program and subprograms) open at once (the
+/// 840D sl's 16 levels).
+const MAX_LEVELS: usize = 16;
+
+/// A program file held in memory, split into lines.
+struct SourceFile {
+    /// Its name in messages.
+    name: String,
+    /// The name a subprogram was called by (empty for the main program).
+    called_as: String,
+    /// The file's bytes.
+    text: Vec<u8>,
+    /// Each line: start, end (without its ending), ending.
+    lines: Vec<(usize, usize, LineEnding)>,
+    /// The partner line of each structured statement (IF → ELSE/ENDIF,
+    /// ELSE → ENDIF, WHILE ↔ ENDWHILE, FOR ↔ ENDFOR, REPEAT ↔ UNTIL,
+    /// LOOP ↔ ENDLOOP); `usize::MAX` elsewhere.
+    partner: Vec<usize>,
+    /// Labels (`NAME:`) by name, upper-cased → line index.
+    labels: HashMap<String, usize>,
+}
+
+/// The kind of a structured statement (the line's first name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Structure {
+    If,
+    Else,
+    EndIf,
+    While,
+    EndWhile,
+    For,
+    EndFor,
+    Repeat,
+    Until,
+    Loop,
+    EndLoop,
+}
+
+impl Structure {
+    fn of(name: &str) -> Option<Structure> {
+        Some(match name {
+            "IF" => Structure::If,
+            "ELSE" => Structure::Else,
+            "ENDIF" => Structure::EndIf,
+            "WHILE" => Structure::While,
+            "ENDWHILE" => Structure::EndWhile,
+            "FOR" => Structure::For,
+            "ENDFOR" => Structure::EndFor,
+            "REPEAT" => Structure::Repeat,
+            "UNTIL" => Structure::Until,
+            "LOOP" => Structure::Loop,
+            "ENDLOOP" => Structure::EndLoop,
+            _ => return None,
+        })
+    }
+
+    fn opener(self) -> Option<Structure> {
+        Some(match self {
+            Structure::EndIf | Structure::Else => Structure::If,
+            Structure::EndWhile => Structure::While,
+            Structure::EndFor => Structure::For,
+            Structure::Until => Structure::Repeat,
+            Structure::EndLoop => Structure::Loop,
+            _ => return None,
+        })
+    }
+
+    fn closer_name(self) -> &'static str {
+        match self {
+            Structure::If | Structure::Else => "ENDIF",
+            Structure::While => "ENDWHILE",
+            Structure::For => "ENDFOR",
+            Structure::Repeat => "UNTIL",
+            Structure::Loop => "ENDLOOP",
+            _ => "",
+        }
+    }
+}
+
+/// The start of a line as the structure scan reads it: where the
+/// statements begin (after `/`, the block number and a label), the label,
+/// and the first name.
+struct LineHead<'a> {
+    label: Option<String>,
+    first: Option<&'a [u8]>,
+    rest: &'a [u8],
+}
+
+fn line_head(raw: &[u8]) -> LineHead<'_> {
+    let mut i = 0;
+    let skip_ws = |i: &mut usize| {
+        while *i < raw.len() && matches!(raw[*i], b' ' | b'\t') {
+            *i += 1;
+        }
+    };
+    skip_ws(&mut i);
+    if raw.get(i) == Some(&b'/') {
+        i += 1;
+        while i < raw.len() && raw[i].is_ascii_digit() {
+            i += 1;
+        }
+        skip_ws(&mut i);
+    }
+    if raw
+        .get(i)
+        .is_some_and(|b| b.eq_ignore_ascii_case(&b'N') || *b == b':')
+        && raw.get(i + 1).is_some_and(u8::is_ascii_digit)
+    {
+        i += 1;
+        while i < raw.len() && raw[i].is_ascii_digit() {
+            i += 1;
+        }
+        skip_ws(&mut i);
+    }
+    let name_at = |i: usize| {
+        let mut j = i;
+        while j < raw.len() && (raw[j].is_ascii_alphanumeric() || raw[j] == b'_') {
+            j += 1;
+        }
+        j
+    };
+    let mut label = None;
+    if raw
+        .get(i)
+        .is_some_and(|b| b.is_ascii_alphabetic() || *b == b'_')
+    {
+        let j = name_at(i);
+        if raw.get(j) == Some(&b':') && j - i >= 2 {
+            label = Some(String::from_utf8_lossy(&raw[i..j]).to_ascii_uppercase());
+            i = j + 1;
+            skip_ws(&mut i);
+        }
+    }
+    let first = if raw.get(i).is_some_and(|b| b.is_ascii_alphabetic()) {
+        let j = name_at(i);
+        Some(&raw[i..j])
+    } else {
+        None
+    };
+    LineHead {
+        label,
+        first,
+        rest: &raw[i..],
+    }
+}
+
+impl SourceFile {
+    /// Split `text` into lines and match its structured statements.
+    fn new(name: String, text: Vec<u8>) -> Result<SourceFile, GcodeError> {
+        let mut lines = Vec::new();
+        let mut start = 0;
+        while start < text.len() {
+            let (end, next, ending) = match text[start..].iter().position(|&b| b == b'\n') {
+                Some(k) if k > 0 && text[start + k - 1] == b'\r' => {
+                    (start + k - 1, start + k + 1, LineEnding::CrLf)
+                }
+                Some(k) => (start + k, start + k + 1, LineEnding::Lf),
+                None => (text.len(), text.len(), LineEnding::None),
+            };
+            lines.push((start, end, ending));
+            start = next;
+        }
+        let mut f = SourceFile {
+            name,
+            called_as: String::new(),
+            partner: vec![usize::MAX; lines.len()],
+            lines,
+            text,
+            labels: HashMap::new(),
+        };
+        f.scan()?;
+        Ok(f)
+    }
+
+    fn raw(&self, k: usize) -> &[u8] {
+        let (s, e, _) = self.lines[k];
+        &self.text[s..e]
+    }
+
+    /// Match IF/ELSE/ENDIF, WHILE/ENDWHILE, FOR/ENDFOR, REPEAT/UNTIL,
+    /// LOOP/ENDLOOP; collect labels. An opener without its closer (or a
+    /// closer without its opener) is a located error (*Job planning*,
+    /// "Program sequence control": the control checks the nesting when it
+    /// reads the program).
+    fn scan(&mut self) -> Result<(), GcodeError> {
+        let mut open: Vec<(Structure, usize)> = Vec::new();
+        let mut labels = std::mem::take(&mut self.labels);
+        let result = self.scan_lines(&mut open, &mut labels);
+        self.labels = labels;
+        result?;
+        if let Some(&(s, at)) = open.last() {
+            return Err(self.structure_error(
+                at,
+                format!(
+                    "{} is never closed: no {} follows in {}",
+                    opener_name(s),
+                    s.closer_name(),
+                    self.name
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn scan_lines(
+        &mut self,
+        open: &mut Vec<(Structure, usize)>,
+        labels: &mut HashMap<String, usize>,
+    ) -> Result<(), GcodeError> {
+        for k in 0..self.lines.len() {
+            let (ls, le, _) = self.lines[k];
+            let raw = &self.text[ls..le];
+            let head = line_head(raw);
+            if let Some(label) = head.label.clone() {
+                labels.entry(label).or_insert(k);
+            }
+            let Some(first) = head.first else { continue };
+            let name = first.to_ascii_uppercase();
+            let Some(s) = Structure::of(std::str::from_utf8(&name).unwrap_or("")) else {
+                continue;
+            };
+            let upper = head.rest.to_ascii_uppercase();
+            let code = match upper.iter().position(|&b| b == b';') {
+                Some(c) => &upper[..c],
+                None => &upper[..],
+            };
+            // `IF cond GOTOF label` jumps; `REPEAT label P=n` repeats a section.
+            if s == Structure::If && code.windows(4).any(|w| w == b"GOTO") {
+                continue;
+            }
+            if s == Structure::Repeat
+                && code[first.len()..]
+                    .iter()
+                    .any(|b| b.is_ascii_alphanumeric())
+            {
+                continue;
+            }
+            match s.opener() {
+                None => open.push((s, k)),
+                Some(opener) => {
+                    let Some(&(o, at)) = open.last() else {
+                        return Err(self.structure_error(
+                            k,
+                            format!(
+                                "{} without its {}",
+                                String::from_utf8_lossy(&name),
+                                opener_name(opener)
+                            ),
+                        ));
+                    };
+                    if o != opener && !(s == Structure::EndIf && o == Structure::Else) {
+                        return Err(self.structure_error(
+                            k,
+                            format!(
+                                "{} closes the {} of line {}",
+                                String::from_utf8_lossy(&name),
+                                opener_name(o),
+                                at + 1
+                            ),
+                        ));
+                    }
+                    open.pop();
+                    self.partner[at] = k;
+                    if s == Structure::Else {
+                        open.push((Structure::Else, k));
+                    } else {
+                        self.partner[k] = at;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn structure_error(&self, k: usize, message: String) -> GcodeError {
+        let raw = self.raw(k);
+        GcodeError::at(ErrorKind::DialectRefused(message), k + 1, raw, 0, raw.len())
+    }
+}
+
+fn opener_name(s: Structure) -> &'static str {
+    match s {
+        Structure::If => "IF",
+        Structure::Else => "ELSE",
+        Structure::While => "WHILE",
+        Structure::For => "FOR",
+        Structure::Repeat => "REPEAT",
+        Structure::Loop => "LOOP",
+        _ => "?",
+    }
+}
+
+/// One program level: a file being run, where, its variables, its repeats.
+struct Level {
+    file: usize,
+    /// The next line to read.
+    next: usize,
+    scope: Scope,
+    /// Repetitions left after this run (`P=n`).
+    repeats_left: u64,
+    /// The name it was called by (recursion check, messages).
+    name: String,
+    /// A FOR line being re-entered from its ENDFOR (no re-initialisation).
+    for_continue: Option<usize>,
+    /// A motion block has run at this level (DEF must come before).
+    moved: bool,
+}
+
+/// The swivelled plane (`CYCLE800`) and the programmable frame.
+#[derive(Clone, Copy, Debug)]
+struct Frames {
+    swivel: Option<FrameTransform>,
+    programmable: FrameTransform,
+}
+
+/// The SINUMERIK front: reads the program into memory, runs its language,
+/// hands on executed blocks.
+pub(crate) struct SinumerikFront {
+    files: Vec<SourceFile>,
+    load_error: Option<GcodeError>,
+    levels: Vec<Level>,
+    r: Vec<f64>,
+    block: Block,
+    executed: Executed,
+    options: LanguageOptions,
+    main_dir: Option<PathBuf>,
+    /// Lines of the main file read in sequence so far (index of the next).
+    frontier: usize,
+    /// Flow has run: values from variables are written flat from here on.
+    flowed: bool,
+    ended: bool,
+    returned: bool,
+    tail: usize,
+    finished: bool,
+    /// Lines read in loops, again, or in subprograms (bounded).
+    loop_lines: u64,
+    max_loop_lines: u64,
+    frames: Frames,
+    /// Tool axis ↔ rotary joints from the machine (`CYCLE800`).
+    orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
+    /// The program switched `TRAORI` on itself.
+    traori: bool,
+    incremental: bool,
+    skip_deleted: bool,
+    motion_set: bool,
+    /// The frames changed: set them on the interpreter before the block.
+    flush_frame_later: bool,
+    tokens: Vec<Token>,
+    text: String,
+    /// The line being run (reused).
+    line_buf: Vec<u8>,
+}
+
+impl SinumerikFront {
+    /// The front for the main program read from `input`.
+    pub(crate) fn new(
+        mut input: Box<dyn ProgramInput>,
+        path: &Path,
+        language: LanguageOptions,
+        setup: &crate::gcode::ProgramSetup,
+    ) -> SinumerikFront {
+        let mut text = Vec::new();
+        let mut load_error = None;
+        if let Err(e) = input.read_to_end(&mut text) {
+            load_error = Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0));
+        }
+        let name = path.display().to_string();
+        let main = match SourceFile::new(name.clone(), text) {
+            Ok(f) => f,
+            Err(e) => {
+                load_error.get_or_insert(e);
+                SourceFile {
+                    name,
+                    called_as: String::new(),
+                    text: Vec::new(),
+                    lines: Vec::new(),
+                    partner: Vec::new(),
+                    labels: HashMap::new(),
+                }
+            }
+        };
+        SinumerikFront {
+            files: vec![main],
+            load_error,
+            levels: vec![Level {
+                file: 0,
+                next: 0,
+                scope: Scope {
+                    vars: HashMap::new(),
+                },
+                repeats_left: 0,
+                name: String::new(),
+                for_continue: None,
+                moved: false,
+            }],
+            r: vec![0.0; R_COUNT],
+            block: Block::default(),
+            executed: Executed {
+                file: 0,
+                line: 0,
+                literal: true,
+                passed: false,
+            },
+            max_loop_lines: language
+                .max_loop_lines
+                .unwrap_or(crate::gcode::language::DEFAULT_MAX_LOOP_LINES),
+            main_dir: path.parent().map(Path::to_path_buf),
+            options: language,
+            frontier: 0,
+            flowed: false,
+            ended: false,
+            returned: false,
+            tail: 0,
+            finished: false,
+            loop_lines: 0,
+            frames: Frames {
+                swivel: None,
+                programmable: FrameTransform::IDENTITY,
+            },
+            orientation: setup.orientation.clone(),
+            traori: false,
+            incremental: false,
+            skip_deleted: false,
+            motion_set: false,
+            flush_frame_later: false,
+            tokens: Vec::new(),
+            text: String::new(),
+            line_buf: Vec::new(),
+        }
+    }
+
+    pub(crate) fn block(&self) -> &Block {
+        &self.block
+    }
+
+    pub(crate) fn executed(&self) -> &Executed {
+        &self.executed
+    }
+
+    pub(crate) fn file_name(&self, index: usize) -> &str {
+        self.files.get(index).map_or("?", |f| f.name.as_str())
+    }
+
+    pub(crate) fn end_program(&mut self) {
+        self.ended = true;
+        let level = &self.levels[0];
+        self.tail = if self.levels.len() == 1 {
+            level.next
+        } else {
+            usize::MAX
+        };
+    }
+
+    /// The program ended by `RET`/`M17` in the main program (as a closing
+    /// `%` ends a LinuxCNC program).
+    pub(crate) fn percent_ended(&self) -> bool {
+        self.returned
+    }
+
+    pub(crate) fn lines_read(&self) -> usize {
+        self.frontier
+    }
+
+    pub(crate) fn innermost_loop(&self) -> Option<String> {
+        self.levels
+            .last()
+            .filter(|_| self.levels.len() > 1)
+            .map(|l| format!("the call of `{}`", l.name))
+    }
+
+    /// After the end: the main file's next line, as written.
+    pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
+        let main = &self.files[0];
+        if self.tail >= main.lines.len() {
+            return None;
+        }
+        let k = self.tail;
+        self.tail += 1;
+        let (s, e, ending) = main.lines[k];
+        self.block.reset(k + 1, s as u64);
+        self.block.raw.extend_from_slice(&main.text[s..e]);
+        self.block.ending = ending;
+        self.executed = Executed {
+            file: 0,
+            line: k + 1,
+            literal: true,
+            passed: false,
+        };
+        Some(Ok(()))
+    }
+
+    /// The next executed block (then [`Self::block`]), `None` at the end.
+    pub(crate) fn next_block(
+        &mut self,
+        interpreter: &mut Interpreter,
+    ) -> Option<Result<(), GcodeError>> {
+        if let Some(e) = self.load_error.take() {
+            self.finished = true;
+            return Some(Err(e));
+        }
+        if self.finished || self.ended || self.returned {
+            return None;
+        }
+        if !self.motion_set {
+            // The 840D sl starts in G0 (its reset G codes: G0 G17 G90 G94 G71).
+            self.motion_set = true;
+            let mut start = Block::default();
+            start.words.push(Word {
+                letter: b'G',
+                value: 0.0,
+                start: 0,
+                end: 0,
+                decimals: 0,
+                point: false,
+                expr: None,
+            });
+            let _ = interpreter.interpret(&start);
+            // And without a settable frame (G500) until G54–G57.
+            interpreter.set_work_origin(crate::axes::Axes::default());
+        }
+        self.skip_deleted = interpreter.options().skip_deleted_blocks;
+        loop {
+            match self.step(interpreter) {
+                Ok(Some(true)) => return Some(Ok(())),
+                Ok(Some(false)) => continue,
+                Ok(None) => {
+                    self.finished = true;
+                    return None;
+                }
+                Err(e) => {
+                    self.finished = true;
+                    let level = self.levels.last().map_or(0, |l| l.file);
+                    return Some(Err(if level > 0 {
+                        e.with_path(&self.files[level].name)
+                    } else {
+                        e
+                    }));
+                }
+            }
+        }
+    }
+
+    /// Read and run one line: `Some(true)` when a block is handed on,
+    /// `Some(false)` when the line is not (flow, empty flat), `None` at the
+    /// end of the main program.
+    fn step(&mut self, interpreter: &mut Interpreter) -> Result<Option<bool>, GcodeError> {
+        let depth = self.levels.len() - 1;
+        let (file, k) = {
+            let l = &self.levels[depth];
+            (l.file, l.next)
+        };
+        if k >= self.files[file].lines.len() {
+            if depth == 0 {
+                return Ok(None);
+            }
+            self.return_from_level(None)?;
+            return Ok(Some(false));
+        }
+        self.levels[depth].next = k + 1;
+        let first_reading = file == 0 && depth == 0 && k >= self.frontier;
+        if first_reading {
+            self.frontier = k + 1;
+        } else {
+            self.loop_lines += 1;
+            if self.loop_lines > self.max_loop_lines {
+                let raw = self.files[file].raw(k).to_vec();
+                return Err(GcodeError::at(
+                    ErrorKind::LoopLimit {
+                        limit: self.max_loop_lines,
+                        what: "lines read in loops, jumps and subprogram calls",
+                        option: "--max-loop-lines",
+                        within: self.innermost_loop().unwrap_or_default(),
+                    },
+                    k + 1,
+                    &raw,
+                    0,
+                    raw.len(),
+                ));
+            }
+        }
+        let (s, e, ending) = self.files[file].lines[k];
+        let mut raw = std::mem::take(&mut self.line_buf);
+        raw.clear();
+        raw.extend_from_slice(&self.files[file].text[s..e]);
+        let mut line = LineRun {
+            raw: &raw,
+            line: k + 1,
+            file,
+            first_reading,
+        };
+        let handed = self.run_line(&mut line, interpreter);
+        self.line_buf = raw;
+        let handed = handed?;
+        if handed {
+            self.block.line = k + 1;
+            self.block.offset = s as u64;
+            self.block.ending = if first_reading {
+                ending
+            } else if ending == LineEnding::None {
+                LineEnding::Lf
+            } else {
+                ending
+            };
+            self.executed = Executed {
+                file,
+                line: k + 1,
+                literal: self.executed.literal,
+                passed: false,
+            };
+        }
+        Ok(Some(handed))
+    }
+
+    fn error(&self, line: &LineRun, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
+        GcodeError::at(kind, line.line, line.raw, start, end)
+    }
+
+    fn feature(&self, line: &LineRun, what: &str, start: usize, end: usize) -> GcodeError {
+        self.error(
+            line,
+            ErrorKind::DialectFeature("Sinumerik", what.to_string()),
+            start,
+            end,
+        )
+    }
+
+    fn refused(&self, line: &LineRun, message: String, start: usize, end: usize) -> GcodeError {
+        self.error(line, ErrorKind::DialectRefused(message), start, end)
+    }
+
+    fn eval(&self, line: &LineRun, e: &Expr, at: (usize, usize)) -> Result<f64, GcodeError> {
+        let scope = &self.levels.last().expect("a level").scope;
+        values::eval(e, &self.r, scope).map_err(|err| {
+            let (s, t) = err.at.map_or(at, |r| (r.start, r.end));
+            self.error(
+                line,
+                ErrorKind::DialectRefused(err.message),
+                s,
+                t.max(s + 1),
+            )
+        })
+    }
+
+    /// Tokenise and run one line; build the handed-on block. Returns whether
+    /// a block is handed on.
+    fn run_line(
+        &mut self,
+        line: &mut LineRun,
+        interpreter: &mut Interpreter,
+    ) -> Result<bool, GcodeError> {
+        let raw = line.raw;
+        let mut tokens = std::mem::take(&mut self.tokens);
+        let comment = match syntax::tokenize(raw, &mut tokens) {
+            Ok(c) => c,
+            Err(e) => {
+                self.tokens = tokens;
+                return Err(self.refused(line, e.message, e.start, e.end));
+            }
+        };
+        let result = self.run_tokens(line, &tokens, comment, interpreter);
+        self.tokens = tokens;
+        result
+    }
+
+    fn run_tokens(
+        &mut self,
+        line: &mut LineRun,
+        tokens: &[Token],
+        comment: Option<std::ops::Range<usize>>,
+        interpreter: &mut Interpreter,
+    ) -> Result<bool, GcodeError> {
+        let raw = line.raw;
+        let mut out = Out::new(raw.len());
+        if let Some(c) = &comment {
+            out.comments.push(c.clone());
+        }
+        let mut cur = Cursor::new(tokens, raw.len());
+        // `%_N_PART_MPF` header lines: no statements.
+        if matches!(
+            cur.peek(),
+            Some(Token {
+                tok: Tok::Sym("%"),
+                ..
+            })
+        ) {
+            return self.hand_on(line, out, raw, true);
+        }
+        // `/` block skip (*Fundamentals*, "Skip blocks").
+        if cur.eat_sym("/") {
+            if let Some(Token {
+                tok: Tok::Num(..), ..
+            }) = cur.peek()
+            {
+                cur.pos += 1;
+            }
+            out.deleted = true;
+            if self.skip_deleted {
+                return self.hand_on(line, out, raw, true);
+            }
+        }
+        // Block number `N10` or main block `:10`.
+        if let (
+            Some(Token {
+                tok: Tok::Name(n),
+                start,
+                ..
+            }),
+            Some(Token {
+                tok: Tok::Num(v, ..),
+                end,
+                ..
+            }),
+        ) = (cur.peek(), cur.peek_at(1))
+            && n == "N"
+        {
+            out.words
+                .push(word(b'N', *v, *start, *end, 0, false, false));
+            cur.pos += 2;
+        } else if cur.eat_sym(":")
+            && let Some(Token {
+                tok: Tok::Num(..), ..
+            }) = cur.peek()
+        {
+            cur.pos += 1;
+        }
+        // A label `NAME:`.
+        if let (
+            Some(Token {
+                tok: Tok::Name(_), ..
+            }),
+            Some(Token {
+                tok: Tok::Sym(":"), ..
+            }),
+        ) = (cur.peek(), cur.peek_at(1))
+        {
+            cur.pos += 2;
+        }
+        let Some(first) = cur.peek() else {
+            return self.hand_on(line, out, raw, true);
+        };
+        if let Tok::Name(name) = &first.tok {
+            let name = name.clone();
+            if let Some(s) = Structure::of(&name) {
+                return self.structured(line, &mut cur, s, (first.start, first.end));
+            }
+            match name.as_ref() {
+                "DEF" => return self.define(line, &mut cur, out, raw),
+                "PROC" => {
+                    // The definition line of a program (its parameters are
+                    // bound by the call).
+                    return if line.file == 0 && self.levels.len() == 1 {
+                        self.hand_on(line, out, raw, true)
+                    } else {
+                        Ok(false)
+                    };
+                }
+                "EXTERN" => return self.hand_on(line, out, raw, true),
+                "RET" => {
+                    self.return_from_level(Some(line))?;
+                    return Ok(false);
+                }
+                "CASE" => return self.case(line, &mut cur),
+                "GOTOF" | "GOTOB" | "GOTO" | "GOTOC" => {
+                    cur.pos += 1;
+                    return self.goto(line, &mut cur, &name, (first.start, first.end));
+                }
+                _ => {}
+            }
+        }
+        self.statements(line, &mut cur, out, interpreter)
+    }
+
+    /// Hand the block on: literal (as written) or flat.
+    fn hand_on(
+        &mut self,
+        line: &LineRun,
+        out: Out,
+        raw: &[u8],
+        _plain: bool,
+    ) -> Result<bool, GcodeError> {
+        let literal = line.first_reading && !(self.flowed && out.computed);
+        self.block.reset(line.line, 0);
+        self.block.deleted = out.deleted;
+        if literal {
+            self.block.raw.extend_from_slice(raw);
+            self.block.words = out.words;
+            self.block.keywords = out.keywords;
+            self.block.comments = out.comments;
+            self.block.statements = out.statements;
+            self.executed.literal = true;
+            return Ok(true);
+        }
+        // Flat: the kept pieces in order, computed values as numbers.
+        self.executed.literal = false;
+        let mut pieces: Vec<(usize, usize, Piece)> = Vec::new();
+        for (k, w) in out.words.iter().enumerate() {
+            pieces.push((w.start, w.end, Piece::Word(k)));
+        }
+        for (k, kw) in out.keywords.iter().enumerate() {
+            // `CYCLE800(…)` switches the frame: its text is the statement's.
+            if !out.statements.contains(&(kw.start..kw.end)) {
+                pieces.push((kw.start, kw.end, Piece::Keyword(k)));
+            }
+        }
+        for s in &out.statements {
+            pieces.push((s.start, s.end, Piece::Statement));
+        }
+        for c in &out.comments {
+            pieces.push((c.start, c.end, Piece::Comment));
+        }
+        pieces.sort_by_key(|p| p.0);
+        let b = &mut self.block;
+        for (start, end, piece) in pieces {
+            if !b.raw.is_empty() {
+                b.raw.push(b' ');
+            }
+            let at = b.raw.len();
+            match piece {
+                Piece::Word(k) => {
+                    let w = out.words[k];
+                    if w.expr.is_some() || out.substituted.contains(&k) {
+                        let text = &raw[w.start..w.end];
+                        match text.iter().position(|&c| c == b'=') {
+                            Some(eq) => b.raw.extend_from_slice(&text[..=eq]),
+                            None => b.raw.push(text[0].to_ascii_uppercase()),
+                        }
+                        self.text.clear();
+                        crate::gcode::language::push_value(&mut self.text, w.value);
+                        b.raw.extend_from_slice(self.text.as_bytes());
+                    } else {
+                        b.raw.extend_from_slice(&raw[start..end]);
+                    }
+                    b.words.push(Word {
+                        start: at,
+                        end: b.raw.len(),
+                        expr: None,
+                        ..w
+                    });
+                }
+                Piece::Keyword(k) => {
+                    b.raw.extend_from_slice(&raw[start..end]);
+                    b.keywords.push(KeywordWord {
+                        start: at,
+                        end: b.raw.len(),
+                        ..out.keywords[k]
+                    });
+                }
+                Piece::Statement => {
+                    b.raw.extend_from_slice(&raw[start..end]);
+                    b.statements.push(at..b.raw.len());
+                }
+                Piece::Comment => {
+                    b.raw.extend_from_slice(&raw[start..end]);
+                    b.comments.push(at..b.raw.len());
+                }
+            }
+        }
+        if b.is_empty() && b.comments.is_empty() {
+            return Ok(false);
+        }
+        let origin = if line.file == 0 {
+            format!("line {}", line.line)
+        } else {
+            let name = &self.files[line.file].name;
+            let short = Path::new(name)
+                .file_name()
+                .map_or(name.clone(), |n| n.to_string_lossy().into_owned());
+            format!("{short}:{}", line.line)
+        };
+        if !b.raw.is_empty() {
+            b.raw.push(b' ');
+        }
+        let at = b.raw.len();
+        b.raw
+            .extend_from_slice(format!("; volcomp: {origin}").as_bytes());
+        b.comments.push(at..b.raw.len());
+        Ok(true)
+    }
+
+    /// IF/ELSE/ENDIF, WHILE, FOR, REPEAT/UNTIL, LOOP (*Job planning*,
+    /// "Program sequence control").
+    fn structured(
+        &mut self,
+        line: &LineRun,
+        cur: &mut Cursor,
+        s: Structure,
+        at: (usize, usize),
+    ) -> Result<bool, GcodeError> {
+        cur.pos += 1;
+        self.flowed = true;
+        let k = line.line - 1;
+        let partner = self.files[line.file]
+            .partner
+            .get(k)
+            .copied()
+            .unwrap_or(usize::MAX);
+        let level = self.levels.len() - 1;
+        match s {
+            Structure::If if partner == usize::MAX => {
+                // `IF cond GOTOF label`.
+                let e = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let c = self.eval(line, &e, at)?;
+                let Some(Token {
+                    tok: Tok::Name(g),
+                    start,
+                    end,
+                }) = cur.next()
+                else {
+                    return Err(self.refused(
+                        line,
+                        "GOTOF, GOTOB, GOTO or GOTOC expected after the IF condition".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                if c != 0.0 {
+                    let g = g.clone();
+                    return self.goto(line, cur, &g, (*start, *end));
+                }
+                Ok(false)
+            }
+            Structure::If | Structure::While => {
+                let e = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let c = self.eval(line, &e, at)?;
+                if c == 0.0 {
+                    self.levels[level].next = partner + 1;
+                }
+                Ok(false)
+            }
+            Structure::Else => {
+                // Reached from the IF branch: skip to after ENDIF.
+                self.levels[level].next = partner + 1;
+                Ok(false)
+            }
+            Structure::EndIf | Structure::Repeat | Structure::Loop => Ok(false),
+            Structure::EndWhile | Structure::EndLoop => {
+                self.levels[level].next = if s == Structure::EndWhile {
+                    partner
+                } else {
+                    partner + 1
+                };
+                Ok(false)
+            }
+            Structure::Until => {
+                let e = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                if self.eval(line, &e, at)? == 0.0 {
+                    self.levels[level].next = partner + 1;
+                }
+                Ok(false)
+            }
+            Structure::For => {
+                // FOR var = start TO end.
+                let Some(Token {
+                    tok: Tok::Name(var),
+                    start: vs,
+                    end: ve,
+                }) = cur.next()
+                else {
+                    return Err(self.refused(
+                        line,
+                        "FOR needs a variable: FOR I = 1 TO 10".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                let var = var.clone();
+                let (vs, ve) = (*vs, *ve);
+                cur.expect_sym("=")
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let from = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                if !cur.eat_name("TO") {
+                    let h = cur.here();
+                    return Err(self.refused(
+                        line,
+                        "TO expected: FOR I = 1 TO 10".into(),
+                        h,
+                        h + 1,
+                    ));
+                }
+                let to = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let to = self.eval(line, &to, at)?;
+                let value = if self.levels[level].for_continue == Some(k) {
+                    self.levels[level].for_continue = None;
+                    self.get_var(line, &var, (vs, ve))?
+                } else {
+                    let v = self.eval(line, &from, at)?;
+                    self.set_var(line, &var, v, (vs, ve))?;
+                    v
+                };
+                if value > to {
+                    self.levels[level].next = partner + 1;
+                }
+                Ok(false)
+            }
+            Structure::EndFor => {
+                // Count up and test again at the FOR line.
+                let for_line = partner;
+                let raw = self.files[line.file].raw(for_line).to_vec();
+                let head = line_head(&raw);
+                let rest = head.rest;
+                let var: String = rest[3.min(rest.len())..]
+                    .iter()
+                    .skip_while(|b| **b == b' ')
+                    .take_while(|b| b.is_ascii_alphanumeric() || **b == b'_')
+                    .map(|b| b.to_ascii_uppercase() as char)
+                    .collect();
+                let v = self.get_var(line, &var, at)?;
+                self.set_var(line, &var, v + 1.0, at)?;
+                self.levels[level].for_continue = Some(for_line);
+                self.levels[level].next = for_line;
+                Ok(false)
+            }
+        }
+    }
+
+    fn var_value(&self, name: &str) -> Option<f64> {
+        if let Some(n) = r_number(name) {
+            return self.r.get(n).copied();
+        }
+        let v = self.levels.last()?.scope.vars.get(name)?;
+        (v.dims.is_empty()).then(|| v.values[0])
+    }
+
+    fn get_var(&self, line: &LineRun, name: &str, at: (usize, usize)) -> Result<f64, GcodeError> {
+        self.var_value(name).ok_or_else(|| {
+            self.refused(
+                line,
+                format!("`{name}` is not a defined variable"),
+                at.0,
+                at.1,
+            )
+        })
+    }
+
+    fn set_var(
+        &mut self,
+        line: &LineRun,
+        name: &str,
+        v: f64,
+        at: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        if let Some(n) = r_number(name) {
+            if n < R_COUNT {
+                self.r[n] = v;
+                return Ok(());
+            }
+        }
+        let level = self.levels.len() - 1;
+        match self.levels[level].scope.vars.get_mut(name) {
+            Some(var) if var.dims.is_empty() => {
+                var.values[0] = var.ty.store(v);
+                Ok(())
+            }
+            _ => Err(self.refused(
+                line,
+                format!("`{name}` is not a defined variable"),
+                at.0,
+                at.1,
+            )),
+        }
+    }
+
+    /// `GOTOF`/`GOTOB`/`GOTO`/`GOTOC` label or block number (*Job
+    /// planning*, "Program jumps to jump markers": GOTOF searches forward,
+    /// GOTOB backward, GOTO forward then backward, GOTOC as GOTO without
+    /// an alarm when the label is missing).
+    fn goto(
+        &mut self,
+        line: &LineRun,
+        cur: &mut Cursor,
+        kind: &str,
+        at: (usize, usize),
+    ) -> Result<bool, GcodeError> {
+        self.flowed = true;
+        let (target, tend) = match (cur.next(), cur.peek()) {
+            (
+                Some(Token {
+                    tok: Tok::Name(n),
+                    end,
+                    ..
+                }),
+                Some(Token {
+                    tok: Tok::Num(v, ..),
+                    end: e2,
+                    ..
+                }),
+            ) if n == "N" => {
+                let (v, e2) = (*v, *e2);
+                let _ = end;
+                cur.pos += 1;
+                (format!("N{}", v), e2)
+            }
+            (
+                Some(Token {
+                    tok: Tok::Name(n),
+                    end,
+                    ..
+                }),
+                _,
+            ) => (n.to_string(), *end),
+            _ => {
+                return Err(self.refused(
+                    line,
+                    format!("{kind} needs a label or a block number"),
+                    at.0,
+                    at.1,
+                ));
+            }
+        };
+        let file = &self.files[line.file];
+        let here = line.line - 1;
+        let find = |forward: bool| -> Option<usize> {
+            let matches = |k: usize| -> bool {
+                if let Some(n) = target
+                    .strip_prefix('N')
+                    .filter(|n| n.parse::<f64>().is_ok())
+                {
+                    let raw = file.raw(k);
+                    let head = raw.trim_ascii_start();
+                    head.len() > n.len()
+                        && head[0].eq_ignore_ascii_case(&b'N')
+                        && head[1..].starts_with(n.as_bytes())
+                        && !head.get(1 + n.len()).is_some_and(u8::is_ascii_digit)
+                } else {
+                    file.labels.get(&target) == Some(&k)
+                }
+            };
+            if forward {
+                (here + 1..file.lines.len()).find(|&k| matches(k))
+            } else {
+                (0..here).rev().find(|&k| matches(k))
+            }
+        };
+        let found = match kind {
+            "GOTOF" => find(true),
+            "GOTOB" => find(false),
+            _ => find(true).or_else(|| find(false)),
+        };
+        match found {
+            Some(k) => {
+                let level = self.levels.len() - 1;
+                self.levels[level].next = k;
+                self.levels[level].for_continue = None;
+                Ok(false)
+            }
+            None if kind == "GOTOC" => Ok(false),
+            None => Err(self.refused(
+                line,
+                format!(
+                    "jump destination `{target}` not found ({kind} searches {})",
+                    match kind {
+                        "GOTOF" => "forward",
+                        "GOTOB" => "backward",
+                        _ => "forward, then backward",
+                    }
+                ),
+                at.0,
+                tend,
+            )),
+        }
+    }
+
+    /// `CASE (expr) OF c1 GOTOF L1 … DEFAULT GOTOF Ln`.
+    fn case(&mut self, line: &LineRun, cur: &mut Cursor) -> Result<bool, GcodeError> {
+        let at = (cur.here(), cur.here() + 4);
+        cur.pos += 1;
+        let e = cur
+            .expr()
+            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+        let v = self.eval(line, &e, at)?;
+        if !cur.eat_name("OF") {
+            let h = cur.here();
+            return Err(self.refused(
+                line,
+                "OF expected: CASE (R1) OF 1 GOTOF A 2 GOTOF B DEFAULT GOTOF C".into(),
+                h,
+                h + 1,
+            ));
+        }
+        loop {
+            let Some(t) = cur.next() else {
+                return Ok(false);
+            };
+            let hit = match &t.tok {
+                Tok::Name(n) if n == "DEFAULT" => true,
+                Tok::Num(c, ..) => *c == v,
+                Tok::Sym("-") => {
+                    matches!(cur.next(), Some(Token { tok: Tok::Num(c, ..), .. }) if -*c == v)
+                }
+                _ => {
+                    return Err(self.refused(
+                        line,
+                        "a constant or DEFAULT expected in CASE".into(),
+                        t.start,
+                        t.end,
+                    ));
+                }
+            };
+            let Some(Token {
+                tok: Tok::Name(g),
+                start,
+                end,
+            }) = cur.next()
+            else {
+                return Err(self.refused(
+                    line,
+                    "GOTOF/GOTOB expected in CASE".into(),
+                    t.start,
+                    t.end,
+                ));
+            };
+            let g = g.clone();
+            let gat = (*start, *end);
+            if hit {
+                return self.goto(line, cur, &g, gat);
+            }
+            cur.pos += 1; // the label
+        }
+    }
+
+    /// `DEF type name[dims] = init, …` (*Job planning*, "Definition of user
+    /// variables (DEF)": definitions come at the start of the program,
+    /// before its first motion block).
+    fn define(
+        &mut self,
+        line: &LineRun,
+        cur: &mut Cursor,
+        out: Out,
+        raw: &[u8],
+    ) -> Result<bool, GcodeError> {
+        let at = (cur.here(), cur.here() + 3);
+        let level = self.levels.len() - 1;
+        if self.levels[level].moved {
+            return Err(self.refused(
+                line,
+                "DEF after the first motion block: definitions come at the start of the program (Job planning, \"Definition of user variables\")".into(),
+                at.0,
+                at.1,
+            ));
+        }
+        cur.pos += 1;
+        let Some(Token {
+            tok: Tok::Name(ty_name),
+            start,
+            end,
+        }) = cur.next()
+        else {
+            return Err(self.refused(
+                line,
+                "DEF needs a type: INT, REAL, BOOL, CHAR, STRING, AXIS or FRAME".into(),
+                at.0,
+                at.1,
+            ));
+        };
+        let Some(ty) = VarType::from_name(ty_name) else {
+            return Err(self.refused(line, format!("`{ty_name}` is not a type DEF takes (INT, REAL, BOOL, CHAR, STRING, AXIS, FRAME)"), *start, *end));
+        };
+        if ty_name == "STRING" && cur.eat_sym("[") {
+            while let Some(t) = cur.next() {
+                if t.tok == Tok::Sym("]") {
+                    break;
+                }
+            }
+        }
+        loop {
+            let Some(Token {
+                tok: Tok::Name(name),
+                start,
+                end,
+            }) = cur.next()
+            else {
+                let h = cur.here();
+                return Err(self.refused(line, "a variable name expected".into(), h, h + 1));
+            };
+            let (name, nat) = (name.to_string(), (*start, *end));
+            let mut dims = Vec::new();
+            if cur.eat_sym("[") {
+                loop {
+                    let e = cur
+                        .expr()
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    let d = self.eval(line, &e, nat)?;
+                    if !(d >= 1.0 && d.fract() == 0.0 && d <= 1e6) {
+                        return Err(self.refused(
+                            line,
+                            format!("array dimension {d} of `{name}` is not a whole number ≥ 1"),
+                            nat.0,
+                            nat.1,
+                        ));
+                    }
+                    dims.push(d as usize);
+                    if cur.eat_sym("]") {
+                        break;
+                    }
+                    cur.expect_sym(",")
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                }
+            }
+            let mut var = Variable::new(ty, dims);
+            if cur.eat_sym("=") {
+                let mut init = Vec::new();
+                let set = cur.eat_name("SET");
+                if set || cur.eat_sym("(") {
+                    if set {
+                        cur.expect_sym("(")
+                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    }
+                    loop {
+                        let e = cur
+                            .expr()
+                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                        init.push(e);
+                        if cur.eat_sym(")") {
+                            break;
+                        }
+                        cur.expect_sym(",")
+                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    }
+                } else if ty != VarType::Other {
+                    init.push(
+                        cur.expr()
+                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?,
+                    );
+                } else {
+                    // A string or frame initialiser: kept as written.
+                    while cur.peek().is_some_and(|t| t.tok != Tok::Sym(",")) {
+                        cur.pos += 1;
+                    }
+                }
+                if init.len() > var.values.len() {
+                    return Err(self.refused(
+                        line,
+                        format!(
+                            "{} initial values for `{name}` of {} elements",
+                            init.len(),
+                            var.values.len()
+                        ),
+                        nat.0,
+                        nat.1,
+                    ));
+                }
+                for (k, e) in init.iter().enumerate() {
+                    let v = self.eval(line, e, nat)?;
+                    var.values[k] = ty.store(v);
+                }
+            }
+            self.levels[level].scope.vars.insert(name, var);
+            if !cur.eat_sym(",") {
+                break;
+            }
+        }
+        if let Some(t) = cur.peek() {
+            return Err(self.refused(
+                line,
+                "unexpected after the definition".into(),
+                t.start,
+                t.end,
+            ));
+        }
+        let mut out = out;
+        out.computed = true;
+        // A definition is written where it stands, read in sequence; flat, dropped.
+        if line.first_reading && !self.flowed {
+            self.hand_on(line, out, raw, true)
+        } else {
+            Ok(false)
+        }
+    }
+
+    /// Return from a subprogram (`RET`, `M17`, its end); in the main program
+    /// the program ends.
+    fn return_from_level(&mut self, _line: Option<&LineRun>) -> Result<(), GcodeError> {
+        let depth = self.levels.len() - 1;
+        if depth == 0 {
+            self.returned = true;
+            self.levels[0].next = self.files[0].lines.len();
+            return Ok(());
+        }
+        let level = &mut self.levels[depth];
+        if level.repeats_left > 0 {
+            level.repeats_left -= 1;
+            level.next = 0;
+            return Ok(());
+        }
+        self.levels.pop();
+        Ok(())
+    }
+
+    /// Call a subprogram by name: its file on the search path, its `PROC`
+    /// parameters bound to `args` (*Job planning*, "Subprogram technique").
+    fn call(
+        &mut self,
+        line: &LineRun,
+        name: &str,
+        args: Vec<f64>,
+        repeats: u64,
+        at: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        self.flowed = true;
+        if self.levels.iter().skip(1).any(|l| l.name == name) {
+            return Err(self.refused(
+                line,
+                format!("recursive call of `{name}`: it is already running (volcomp does not run recursive subprograms)"),
+                at.0,
+                at.1,
+            ));
+        }
+        if self.levels.len() >= MAX_LEVELS {
+            return Err(self.refused(
+                line,
+                format!("more than {MAX_LEVELS} program levels"),
+                at.0,
+                at.1,
+            ));
+        }
+        let file = match self
+            .files
+            .iter()
+            .position(|f| f.name.ends_with(&format!("#{name}")))
+        {
+            Some(k) => k,
+            None => {
+                let path = self.find_subprogram(name).ok_or_else(|| {
+                    self.refused(
+                        line,
+                        format!(
+                            "`{name}` is neither a statement volcomp knows nor a subprogram found as {name}.SPF in --subroutine-path or the program's folder"
+                        ),
+                        at.0,
+                        at.1,
+                    )
+                })?;
+                let text = std::fs::read(&path).map_err(|e| {
+                    self.error(
+                        line,
+                        ErrorKind::Io(format!("{}: {e}", path.display())),
+                        at.0,
+                        at.1,
+                    )
+                })?;
+                let mut f = SourceFile::new(path.display().to_string(), text)
+                    .map_err(|e| e.with_path(&path))?;
+                f.called_as = name.to_string();
+                self.files.push(f);
+                self.files.len() - 1
+            }
+        };
+        // Bind the PROC parameters.
+        let mut scope = Scope {
+            vars: HashMap::new(),
+        };
+        let mut start = 0;
+        for k in 0..self.files[file].lines.len() {
+            let raw = self.files[file].raw(k).to_vec();
+            let head = line_head(&raw);
+            let Some(first) = head.first else { continue };
+            if first.eq_ignore_ascii_case(b"PROC") {
+                start = k + 1;
+                let params = proc_params(head.rest);
+                for (i, (ty, pname)) in params.into_iter().enumerate() {
+                    let mut var = Variable::new(ty, Vec::new());
+                    var.values[0] = ty.store(args.get(i).copied().unwrap_or(0.0));
+                    scope.vars.insert(pname, var);
+                }
+                break;
+            }
+            if !raw.trim_ascii().starts_with(b"%")
+                && !raw.trim_ascii().starts_with(b";")
+                && !raw.trim_ascii().is_empty()
+            {
+                break;
+            }
+        }
+        self.levels.push(Level {
+            file,
+            next: start,
+            scope,
+            repeats_left: repeats.saturating_sub(1),
+            name: name.to_string(),
+            for_continue: None,
+            moved: true,
+        });
+        Ok(())
+    }
+
+    fn find_subprogram(&self, name: &str) -> Option<PathBuf> {
+        let dirs = self
+            .options
+            .subroutine_path
+            .iter()
+            .chain(self.main_dir.iter());
+        for dir in dirs {
+            for ext in ["SPF", "spf", "MPF", "mpf"] {
+                for n in [name.to_string(), name.to_ascii_lowercase()] {
+                    let p = dir.join(format!("{n}.{ext}"));
+                    if p.is_file() {
+                        return Some(p);
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// The statements of an ordinary block: words, assignments, frame and
+    /// five-axis statements, calls, statements passed through.
+    fn statements(
+        &mut self,
+        line: &mut LineRun,
+        cur: &mut Cursor,
+        mut out: Out,
+        interpreter: &mut Interpreter,
+    ) -> Result<bool, GcodeError> {
+        let raw = line.raw;
+        let mut frame_op: Option<(String, (usize, usize))> = None;
+        let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
+        let mut rpl: Option<f64> = None;
+        let mut flags = GFlags::default();
+        let mut call: Option<(String, Vec<f64>, (usize, usize))> = None;
+        let mut repeats: u64 = 1;
+
+        let mut axis_words = false;
+        let mut centre_abs: Vec<(usize, f64)> = Vec::new();
+        let mut vector: [Option<f64>; 3] = [None; 3];
+        let mut vector_at = (usize::MAX, 0);
+        while let Some(t) = cur.next() {
+            let (ts, te) = (t.start, t.end);
+            let Tok::Name(name) = &t.tok else {
+                return Err(self.refused(
+                    line,
+                    "a statement or an address expected".into(),
+                    ts,
+                    te,
+                ));
+            };
+            let name = name.clone();
+            // `ADDR=expr`, `VAR=expr`, `R1=expr`.
+            if cur.eat_sym("=") {
+                let vstart = cur.here();
+                let (e, mode) =
+                    value_expr(cur).map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let vend = cur.last_end();
+                let v = self.eval(line, &e, (vstart, vend))?;
+                match address(&name) {
+                    Some(Address::Word(letter)) => {
+                        axis_words |= is_axis(letter);
+                        let k = out.words.len();
+                        out.words.push(word(letter, v, ts, vend, 4, true, true));
+                        out.computed = true;
+                        match mode {
+                            Mode::Ac if is_axis(letter) => out.absolute.push(k),
+                            Mode::Ic if is_axis(letter) => out.relative.push(k),
+                            Mode::Ac if matches!(letter, b'I' | b'J' | b'K') => {
+                                centre_abs.push((k, v))
+                            }
+                            _ => {}
+                        }
+                    }
+                    Some(Address::Radius) => {
+                        out.words.push(word(b'R', v, ts, vend, 4, true, true));
+                        out.computed = true;
+                    }
+                    Some(Address::Pass) => {
+                        out.statements.push(ts..vend);
+                    }
+                    Some(Address::Repeat) => {
+                        if !(v >= 1.0 && v.fract() == 0.0) {
+                            return Err(self.refused(
+                                line,
+                                format!("P={v}: the number of runs is a whole number ≥ 1"),
+                                ts,
+                                vend,
+                            ));
+                        }
+                        repeats = v as u64;
+                    }
+                    Some(Address::RotPlane) => rpl = Some(v),
+                    Some(Address::Vector(k)) => {
+                        vector[k] = Some(v);
+                        vector_at = (vector_at.0.min(ts), vector_at.1.max(vend));
+                    }
+                    Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
+                    None => {
+                        // An assignment (R parameter or variable).
+                        self.assign(line, &name, &[], v, (ts, vend))?;
+                        out.computed = true;
+                        out.assignments.push(ts..vend);
+                    }
+                }
+                continue;
+            }
+            // `NAME[i]=expr` (an array element).
+            if matches!(
+                cur.peek(),
+                Some(Token {
+                    tok: Tok::Sym("["),
+                    ..
+                })
+            ) && !name.starts_with('$')
+            {
+                cur.pos += 1;
+                let mut idx = Vec::new();
+                loop {
+                    let e = cur
+                        .expr()
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    idx.push(self.eval(line, &e, (ts, te))?);
+                    if cur.eat_sym("]") {
+                        break;
+                    }
+                    cur.expect_sym(",")
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                }
+                cur.expect_sym("=")
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let e = cur
+                    .expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                let v = self.eval(line, &e, (ts, cur.last_end()))?;
+                let r_index = if name == "R" {
+                    idx.first().copied()
+                } else {
+                    None
+                };
+                match r_index {
+                    Some(n) => self.assign(
+                        line,
+                        &format!("R{}", n.round()),
+                        &[],
+                        v,
+                        (ts, cur.last_end()),
+                    )?,
+                    None => self.assign(line, &name, &idx, v, (ts, cur.last_end()))?,
+                }
+                out.computed = true;
+                out.assignments.push(ts..cur.last_end());
+                continue;
+            }
+            // A single address letter and its number: `X10`, `G0`, `X-5`.
+            if name.len() == 1 {
+                let letter = name.as_bytes()[0];
+                let neg = if cur.eat_sym("-") {
+                    true
+                } else {
+                    cur.eat_sym("+");
+                    false
+                };
+                let Some(Token {
+                    tok: Tok::Num(v, dec, point),
+                    end,
+                    ..
+                }) = cur.peek()
+                else {
+                    if letter == b'T'
+                        && matches!(
+                            cur.peek(),
+                            Some(Token {
+                                tok: Tok::Str(_),
+                                ..
+                            })
+                        )
+                    {
+                        return Err(self.feature(
+                            line,
+                            "tools by name (T=\"…\")",
+                            ts,
+                            cur.here() + 1,
+                        ));
+                    }
+                    return Err(self.refused(
+                        line,
+                        format!("address `{}` without a value", letter as char),
+                        ts,
+                        te,
+                    ));
+                };
+                let (v, dec, point, end) = (if neg { -*v } else { *v }, *dec, *point, *end);
+                cur.pos += 1;
+                match letter {
+                    b'G' => {
+                        if let Some(code) = self.g_code(line, v, (ts, end), &mut out, &mut flags)? {
+                            out.words.push(word(b'G', code, ts, end, 0, false, false));
+                        }
+                    }
+                    b'M' => match v as i64 {
+                        _ if v.fract() != 0.0 => out.statements.push(ts..end),
+                        0 | 1 | 2 | 30 | 3 | 4 | 5 | 6 | 7 | 8 | 9 => {
+                            out.words.push(word(b'M', v, ts, end, 0, false, false));
+                        }
+                        17 => {
+                            // The return is flow: a flat copy must not end
+                            // the main program.
+                            self.return_from_level(Some(line))?;
+                            self.flowed = true;
+                        }
+                        _ => out.statements.push(ts..end),
+                    },
+                    b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'I' | b'J'
+                    | b'K' | b'F' | b'S' | b'T' => {
+                        axis_words |= is_axis(letter);
+                        out.words.push(word(letter, v, ts, end, dec, point, false));
+                    }
+                    b'D' | b'H' | b'E' => out.statements.push(ts..end),
+                    b'L' => {
+                        let n = &raw[ts + 1..end];
+                        call = Some((
+                            format!("L{}", String::from_utf8_lossy(n)),
+                            Vec::new(),
+                            (ts, end),
+                        ));
+                    }
+                    b'P' => {
+                        if !(v >= 1.0 && v.fract() == 0.0) {
+                            return Err(self.refused(
+                                line,
+                                format!("P{v}: the number of runs is a whole number ≥ 1"),
+                                ts,
+                                end,
+                            ));
+                        }
+                        repeats = v as u64;
+                    }
+                    b'N' => out.words.push(word(b'N', v, ts, end, 0, false, false)),
+                    b'R' => {
+                        return Err(self.refused(
+                            line,
+                            "an R parameter is set with `=` (R1=5)".into(),
+                            ts,
+                            end,
+                        ));
+                    }
+                    _ => {
+                        return Err(self.feature(
+                            line,
+                            &format!("address {}", letter as char),
+                            ts,
+                            end,
+                        ));
+                    }
+                }
+                continue;
+            }
+            // Named statements.
+            let args_span = |cur: &mut Cursor| -> Result<(Vec<Expr>, usize), syntax::SyntaxError> {
+                let mut args = Vec::new();
+                if cur.eat_sym("(") && !cur.eat_sym(")") {
+                    loop {
+                        // An empty argument (`CYCLE800(1,,0)`) is 0.
+                        if matches!(
+                            cur.peek(),
+                            Some(Token {
+                                tok: Tok::Sym("," | ")"),
+                                ..
+                            })
+                        ) {
+                            args.push(Expr::Num(0.0));
+                        } else {
+                            args.push(cur.expr()?);
+                        }
+                        if cur.eat_sym(")") {
+                            break;
+                        }
+                        cur.expect_sym(",")?;
+                    }
+                }
+                Ok((args, cur.last_end()))
+            };
+            match name.as_ref() {
+                "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
+                    frame_op = Some((name.to_string(), (ts, te)));
+                    out.statements.push(ts..te);
+                }
+                "TRAORI" => {
+                    let (_, end) = args_span(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    self.traori = true;
+                    out.keywords.push(KeywordWord {
+                        keyword: Keyword::TraOri,
+                        start: ts,
+                        end,
+                    });
+                }
+                "TRAFOOF" => {
+                    self.traori = false;
+                    out.keywords.push(KeywordWord {
+                        keyword: Keyword::TraFoof,
+                        start: ts,
+                        end: te,
+                    });
+                }
+                "SUPA" => {
+                    flags.suppress = true;
+                    out.words.push(word(b'G', 53.0, ts, te, 0, false, false));
+                }
+                "CYCLE800" => {
+                    let (args, end) = args_span(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
+                }
+                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "CIP" | "CT" | "G33" | "OFFN"
+                | "COMPON" | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL"
+                | "TRAANG" | "PRESETON" | "CFINE" | "MCALL"
+                    if name != "MCALL"
+                        || matches!(
+                            cur.peek(),
+                            Some(Token {
+                                tok: Tok::Name(_),
+                                ..
+                            })
+                        ) =>
+                {
+                    let end = cur.peek().map_or(te, |t| t.end);
+                    return Err(self.feature(line, &name, ts, te.max(end.min(te))));
+                }
+                "MSG" | "STOPRE" | "SOFT" | "BRISK" | "DRIVE" | "FFWON" | "FFWOF" | "COMPCAD"
+                | "COMPOF" | "COMPCURV" | "COMPSURF" | "CYCLE832" | "WAITM" | "WAITS" | "WAITE"
+                | "SETMS" | "SPOS" | "SPOSA" | "FNORM" | "UPATH" | "SPATH" | "CFC" | "CFTCP"
+                | "CFIN" | "ORIWKS" | "ORIMKS" | "ORIAXES" | "ORIVECT" | "ORIEULER" | "ORIRPY"
+                | "ORIPATH" | "ORIROTA" | "ORIROTR" | "ORIROTT" | "ORIPLANE" | "CUT2D"
+                | "CUT2DF" | "CUT3DC" | "CUT3DF" | "CUTCONON" | "CUTCONOF" | "NORM" | "KONT"
+                | "KONTC" | "KONTT" | "DIAMON" | "DIAMOF" | "FGROUP" | "FGREF" | "SETAL"
+                | "MCALL" | "DISPLON" | "DISPLOF" | "SAVE" | "SBLOF" | "SBLON" | "ACC" | "OVR"
+                | "TRAFOON" | "G4" | "STOPFIFO" | "STARTFIFO" | "FIFOCTRL" | "WRTPR" | "CPROT"
+                | "WALIMON" | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS"
+                | "TCOFR" | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL"
+                | "G64" | "G642" | "G645" => {
+                    let (_, end) = args_span(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    if matches!(
+                        name.as_ref(),
+                        "PAROT" | "TOROT" | "TOFRAME" | "TCARR" | "TCOFR" | "TCOABS" | "EXTCALL"
+                    ) {
+                        return Err(self.feature(line, &name, ts, end));
+                    }
+                    out.statements.push(ts..end);
+                }
+                _ if name.starts_with("CYCLE")
+                    || name.starts_with("POCKET")
+                    || name.starts_with("SLOT")
+                    || name.starts_with("HOLES")
+                    || name.starts_with("LONGHOLE") =>
+                {
+                    let (_, end) = args_span(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    return Err(self.feature(line, &format!("machining cycle {name}"), ts, end));
+                }
+                _ if name.starts_with('$') => {
+                    return Err(self.refused(
+                        line,
+                        format!("system variable `{name}` has no value offline"),
+                        ts,
+                        te,
+                    ));
+                }
+                _ => {
+                    // A subprogram call by name, with arguments.
+                    let (args, end) = args_span(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                    let mut values = Vec::with_capacity(args.len());
+                    for a in &args {
+                        values.push(self.eval(line, a, (ts, end))?);
+                    }
+                    call = Some((name.to_string(), values, (ts, end)));
+                }
+            }
+        }
+        if vector.iter().any(Option::is_some) {
+            // *Job planning*, "Orientation programming: direction vector":
+            // the unit vector's components; unwritten ones are 0.
+            let v = vector.map(|c| c.unwrap_or(0.0));
+            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
+                return Err(self.refused(
+                    line,
+                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
+                    vector_at.0,
+                    vector_at.1,
+                ));
+            }
+            return Err(self.feature(
+                line,
+                "orientation vectors A3= B3= C3=",
+                vector_at.0,
+                vector_at.1,
+            ));
+        }
+        if let Some((name, args, at)) = call {
+            if out.words.iter().any(|w| is_axis(w.letter)) {
+                return Err(self.feature(
+                    line,
+                    "a subprogram call in a block with axis words",
+                    at.0,
+                    at.1,
+                ));
+            }
+            self.call(line, &name, args, repeats, at)?;
+            return Ok(false);
+        }
+        // Frame statements take the block's axis words as their values.
+        if let Some((op, at)) = frame_op {
+            let mut kept = Vec::new();
+            for w in out.words.drain(..) {
+                if is_axis(w.letter) {
+                    frame_values.push((w.letter, w.value, (w.start, w.end)));
+                    // The frame statement's text runs over its values.
+                    if let Some(st) = out.statements.iter_mut().find(|s| s.start == at.0) {
+                        st.end = st.end.max(w.end);
+                    }
+                } else {
+                    kept.push(w);
+                }
+            }
+            out.words = kept;
+            self.frame_statement(line, &op, &frame_values, rpl, at, interpreter)?;
+        } else if rpl.is_some() {
+            return Err(self.refused(line, "RPL= belongs to ROT or AROT".into(), 0, raw.len()));
+        }
+        if flags.dwell {
+            // `G4 F…` (seconds) / `G4 S…` (revolutions): not a feed.
+            let mut kept = Vec::new();
+            for w in out.words.drain(..) {
+                if matches!(w.letter, b'F' | b'S') {
+                    out.statements.push(w.start..w.end);
+                } else {
+                    kept.push(w);
+                }
+            }
+            out.words = kept;
+        }
+        if self.flush_frame_later {
+            self.flush_frame_later = false;
+            let p = self.frames.programmable;
+            let combined = match &self.frames.swivel {
+                Some(s) => s.after(&p),
+                None => p,
+            };
+            interpreter.set_frame((combined != FrameTransform::IDENTITY).then_some(combined));
+        }
+        if flags.settable_off {
+            interpreter.set_work_origin(crate::axes::Axes::default());
+        }
+        if axis_words {
+            self.check_arc_frame(line, &out, interpreter)?;
+            let level = self.levels.len() - 1;
+            self.levels[level].moved = true;
+            self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
+        }
+        // Keep G90/G91 for AC/IC.
+        for w in &out.words {
+            if w.letter == b'G' {
+                if w.value == 90.0 {
+                    self.incremental = false;
+                } else if w.value == 91.0 {
+                    self.incremental = true;
+                }
+            }
+        }
+        out.words.sort_by_key(|w| w.start);
+        self.hand_on(line, out, raw, false)
+    }
+
+    /// An arc under a frame that does not keep its plane (a rotation out
+    /// of the plane, a mirror, an uneven scale) is not read: the machine
+    /// layer's arcs lie in G17/G18/G19.
+    fn check_arc_frame(
+        &self,
+        line: &LineRun,
+        out: &Out,
+        interpreter: &Interpreter,
+    ) -> Result<(), GcodeError> {
+        use crate::gcode::machine::modal::MotionMode;
+        let Some(f) = interpreter.origin().frame else {
+            return Ok(());
+        };
+        let mut arc = matches!(
+            interpreter.modal().motion,
+            MotionMode::ArcCw | MotionMode::ArcCcw
+        );
+        let mut plane = interpreter.modal().plane;
+        for w in &out.words {
+            if w.letter == b'G' {
+                match w.value as i64 {
+                    0 | 1 => arc = false,
+                    2 | 3 => arc = true,
+                    17 => plane = crate::gcode::Plane::XY,
+                    18 => plane = crate::gcode::Plane::ZX,
+                    19 => plane = crate::gcode::Plane::YZ,
+                    _ => {}
+                }
+            }
+        }
+        if !arc {
+            return Ok(());
+        }
+        let n = match plane {
+            crate::gcode::Plane::XY => [0.0, 0.0, 1.0],
+            crate::gcode::Plane::ZX => [0.0, 1.0, 0.0],
+            crate::gcode::Plane::YZ => [1.0, 0.0, 0.0],
+        };
+        let m = f.matrix;
+        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        let scale = det.cbrt();
+        let mut ok = det > 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                let dot: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum::<f64>() / (scale * scale);
+                ok &= (dot - f64::from(u8::from(i == j))).abs() < 1e-9;
+            }
+        }
+        let mn = f.apply_vector(n);
+        ok &= (0..3).all(|k| (mn[k] / scale - n[k]).abs() < 1e-9);
+        if ok {
+            Ok(())
+        } else {
+            Err(self.feature(
+                line,
+                "G2/G3 under a frame that turns, mirrors or unevenly scales the arc's plane",
+                0,
+                line.raw.len(),
+            ))
+        }
+    }
+
+    /// Set a variable, an array element or an R parameter.
+    fn assign(
+        &mut self,
+        line: &LineRun,
+        name: &str,
+        index: &[f64],
+        v: f64,
+        at: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        if index.is_empty() {
+            return self.set_var(line, name, v, at);
+        }
+        let level = self.levels.len() - 1;
+        let Some(var) = self.levels[level].scope.vars.get_mut(name) else {
+            return Err(self.refused(
+                line,
+                format!("`{name}` is not a defined variable"),
+                at.0,
+                at.1,
+            ));
+        };
+        match var.flat(index) {
+            Some(k) => {
+                var.values[k] = var.ty.store(v);
+                Ok(())
+            }
+            None => {
+                let dims = var.dims.clone();
+                Err(self.refused(
+                    line,
+                    format!("index {index:?} of `{name}` out of its dimensions {dims:?}"),
+                    at.0,
+                    at.1,
+                ))
+            }
+        }
+    }
+
+    /// `TRANS`/`ATRANS`, `ROT`/`AROT` (with `RPL=`), `SCALE`/`ASCALE`,
+    /// `MIRROR`/`AMIRROR` (*Fundamentals*, "Coordinate transformations
+    /// (frames)"): an absolute statement replaces the programmable frame,
+    /// an additive one acts in the frame as it stands.
+    fn frame_statement(
+        &mut self,
+        line: &LineRun,
+        op: &str,
+        values: &[(u8, f64, (usize, usize))],
+        rpl: Option<f64>,
+        at: (usize, usize),
+        interpreter: &Interpreter,
+    ) -> Result<(), GcodeError> {
+        let get = |l: u8, default: f64| values.iter().find(|v| v.0 == l).map_or(default, |v| v.1);
+        for &(l, _, (s, e)) in values {
+            if !matches!(l, b'X' | b'Y' | b'Z') {
+                return Err(self.feature(line, &format!("{op} of the {} axis", l as char), s, e));
+            }
+        }
+        let piece = match op.trim_start_matches('A') {
+            "TRANS" => FrameTransform::new(
+                FrameTransform::IDENTITY.matrix,
+                [get(b'X', 0.0), get(b'Y', 0.0), get(b'Z', 0.0)],
+            ),
+            "ROT" => {
+                let (rx, ry, rz) = match rpl {
+                    Some(a) => match interpreter.modal().plane {
+                        crate::gcode::Plane::XY => (0.0, 0.0, a),
+                        crate::gcode::Plane::ZX => (0.0, a, 0.0),
+                        crate::gcode::Plane::YZ => (a, 0.0, 0.0),
+                    },
+                    None => (get(b'X', 0.0), get(b'Y', 0.0), get(b'Z', 0.0)),
+                };
+                FrameTransform::new(rpy(rx, ry, rz), [0.0; 3])
+            }
+            "SCALE" => FrameTransform::new(
+                [
+                    [get(b'X', 1.0), 0.0, 0.0],
+                    [0.0, get(b'Y', 1.0), 0.0],
+                    [0.0, 0.0, get(b'Z', 1.0)],
+                ],
+                [0.0; 3],
+            ),
+            "MIRROR" => {
+                let sign = |l: u8| {
+                    if values.iter().any(|v| v.0 == l) {
+                        -1.0
+                    } else {
+                        1.0
+                    }
+                };
+                FrameTransform::new(
+                    [
+                        [sign(b'X'), 0.0, 0.0],
+                        [0.0, sign(b'Y'), 0.0],
+                        [0.0, 0.0, sign(b'Z')],
+                    ],
+                    [0.0; 3],
+                )
+            }
+            _ => None,
+        };
+        let Some(piece) = piece else {
+            return Err(self.refused(
+                line,
+                format!("{op}: the frame is singular (a scale of 0)"),
+                at.0,
+                at.1,
+            ));
+        };
+        self.frames.programmable = if op.starts_with('A') {
+            self.frames.programmable.after(&piece)
+        } else {
+            piece
+        };
+        self.flush_frame_later = true;
+        Ok(())
+    }
+
+    /// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1,
+    /// _Y1, _Z1, _DIR, …)`: a swivelled working plane (Siemens, *Job
+    /// planning* / *Milling cycles*, "Swivel plane CYCLE800"). Read: a new
+    /// plane (`_ST` units digit 0), axis by axis (`_MODE` bits 6–7 = 0;
+    /// bits 0–5 the order, two bits a rotation: 01 X, 10 Y, 11 Z, the first
+    /// rotation in the low bits with angle `_A`, then `_B`, `_C`, each about
+    /// the axis as the previous rotations left it). The plane's frame is
+    /// `p ↦ X0 + R·(X1 + p)`; the tool is turned along `R·Z` by the
+    /// machine's chain (`ProgramSetup::orientation`), `_DIR` +1/−1 picking
+    /// the solution whose first rotary axis (letter order) is ≥ 0 / ≤ 0, and
+    /// 0 leaving the rotary axes where they are; positions are then tool-tip
+    /// positions in the part frame, as under `TRAORI`. `CYCLE800()` removes
+    /// the plane (the rotary axes stay).
+    fn cycle800(
+        &mut self,
+        line: &LineRun,
+        args: &[Expr],
+        at: (usize, usize),
+        interpreter: &mut Interpreter,
+        out: &mut Out,
+    ) -> Result<(), GcodeError> {
+        out.statements.push(at.0..at.1);
+        self.flush_frame_later = true;
+        if args.is_empty() {
+            if self.frames.swivel.take().is_some() && !self.traori {
+                out.keywords.push(KeywordWord {
+                    keyword: Keyword::TraFoof,
+                    start: at.0,
+                    end: at.1,
+                });
+            }
+            return Ok(());
+        }
+        let mut v = [0.0f64; 16];
+        for (k, a) in args.iter().enumerate().take(16) {
+            v[k] = match a {
+                Expr::Str(_) => 0.0,
+                e => self.eval(line, e, at)?,
+            };
+        }
+        let mode = v[3] as i64;
+        if mode & 0xC0 != 0 {
+            return Err(self.feature(
+                line,
+                "CYCLE800 swivel modes other than axis by axis (_MODE bits 6-7)",
+                at.0,
+                at.1,
+            ));
+        }
+        if (v[2] as i64) % 10 == 1 {
+            return Err(self.feature(
+                line,
+                "CYCLE800 additive swivel (_ST units digit 1)",
+                at.0,
+                at.1,
+            ));
+        }
+        let mut r = FrameTransform::IDENTITY;
+        for k in 0..3 {
+            let angle = v[7 + k];
+            let m = match (mode >> (2 * k)) & 3 {
+                1 => rpy(angle, 0.0, 0.0),
+                2 => rpy(0.0, angle, 0.0),
+                3 => rpy(0.0, 0.0, angle),
+                _ => continue,
+            };
+            if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                r = r.after(&piece);
+            }
+        }
+        let shift = |t: [f64; 3]| FrameTransform {
+            shift: t,
+            ..FrameTransform::IDENTITY
+        };
+        let mut plane = shift([v[4], v[5], v[6]])
+            .after(&r)
+            .after(&shift([v[10], v[11], v[12]]));
+        plane.holds_rotary = true;
+        let dir = v[13];
+        if dir != 0.0 {
+            let Some(solver) = self.orientation.clone() else {
+                return Err(self.feature(
+                    line,
+                    "CYCLE800 without the machine (give --machine: the plane is solved with its chain)",
+                    at.0,
+                    at.1,
+                ));
+            };
+            let axis = r.apply_vector([0.0, 0.0, 1.0]);
+            let branch = if dir > 0.0 {
+                crate::gcode::Branch::Plus
+            } else {
+                crate::gcode::Branch::Minus
+            };
+            let mut position = interpreter.position();
+            let Some(joints) = solver.joints_for_axis(axis, branch, &position) else {
+                return Err(self.refused(
+                    line,
+                    format!(
+                        "the machine cannot turn the tool along the plane's normal [{:.4}, {:.4}, {:.4}] on the {} branch",
+                        axis[0],
+                        axis[1],
+                        axis[2],
+                        if dir > 0.0 { "+" } else { "-" }
+                    ),
+                    at.0,
+                    at.1,
+                ));
+            };
+            for a in [
+                crate::axes::Axis::A,
+                crate::axes::Axis::B,
+                crate::axes::Axis::C,
+            ] {
+                position.set(a, joints.get(a));
+            }
+            interpreter.set_position(position);
+        }
+        if self.frames.swivel.is_none() && !self.traori {
+            out.keywords.push(KeywordWord {
+                keyword: Keyword::TraOri,
+                start: at.0,
+                end: at.1,
+            });
+        }
+        self.frames.swivel = Some(plane);
+        Ok(())
+    }
+
+    /// `AC()`/`IC()` values: an axis word written `=IC(…)` under G90 becomes
+    /// the absolute target, `=AC(…)` under G91 the increment (*Fundamentals*,
+    /// "Absolute and incremental dimensions: AC, IC"); `I=AC(…)` centres
+    /// become increments from the start.
+    fn resolve_modes(
+        &mut self,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        suppress: bool,
+        centre_abs: &[(usize, f64)],
+    ) {
+        if out.absolute.is_empty() && out.relative.is_empty() && centre_abs.is_empty() {
+            return;
+        }
+        let origin = if suppress {
+            crate::gcode::Origin::MACHINE
+        } else {
+            interpreter.origin()
+        };
+        let here = origin.to_program(&interpreter.position());
+        let incremental = out
+            .words
+            .iter()
+            .rev()
+            .find(|w| w.letter == b'G' && (w.value == 90.0 || w.value == 91.0))
+            .map_or(self.incremental, |w| w.value == 91.0);
+        let current = |letter: u8| -> f64 {
+            crate::axes::Axis::from_letter(letter as char).map_or(0.0, |a| here.get(a))
+        };
+        for &k in &out.relative {
+            if !incremental {
+                let w = &mut out.words[k];
+                w.value += current(w.letter);
+                out.substituted.push(k);
+            }
+        }
+        for &k in &out.absolute {
+            if incremental {
+                let w = &mut out.words[k];
+                w.value -= current(w.letter);
+                out.substituted.push(k);
+            }
+        }
+        for &(k, v) in centre_abs {
+            let w = &mut out.words[k];
+            let axis = match w.letter {
+                b'I' => b'X',
+                b'J' => b'Y',
+                _ => b'Z',
+            };
+            w.value = v - current(axis);
+            out.substituted.push(k);
+        }
+    }
+
+    /// A G code: its LinuxCNC number for the machine-state layer, or `None`
+    /// when the front handles it (frames, dwell, modes with no geometry).
+    fn g_code(
+        &mut self,
+        line: &LineRun,
+        v: f64,
+        at: (usize, usize),
+        out: &mut Out,
+        flags: &mut GFlags,
+    ) -> Result<Option<f64>, GcodeError> {
+        if v.fract() != 0.0 {
+            return Err(self.feature(line, &format!("G{v}"), at.0, at.1));
+        }
+        let code = v as i64;
+        Ok(match code {
+            0..=3 | 17..=19 | 90 | 91 | 93 | 94 | 95 | 40..=42 => Some(v),
+            70 | 700 => Some(20.0),
+            71 | 710 => Some(21.0),
+            53 | 153 => {
+                flags.suppress = true;
+                Some(53.0)
+            }
+            // G54–G57 are LinuxCNC's systems 1–4 (origins from --offset).
+            54..=57 => Some(v),
+            500 => {
+                flags.settable_off = true;
+                out.statements.push(at.0..at.1);
+                None
+            }
+            505..=599 => {
+                return Err(self.feature(
+                    line,
+                    &format!("settable frame G{code} (G54–G57 are read)"),
+                    at.0,
+                    at.1,
+                ));
+            }
+            4 => {
+                flags.dwell = true;
+                out.statements.push(at.0..at.1);
+                None
+            }
+            9 | 60 | 64 | 601 | 602 | 603 | 641 | 642 | 643 | 644 | 645 | 25 | 26 | 450 | 451
+            | 460 | 461 | 462 => {
+                out.statements.push(at.0..at.1);
+                None
+            }
+            _ => return Err(self.feature(line, &format!("G{code}"), at.0, at.1)),
+        })
+    }
+}
+
+/// What a block's G codes ask of the front.
+#[derive(Default)]
+struct GFlags {
+    /// `G4`: F and S are the dwell.
+    dwell: bool,
+    /// `SUPA`/`G53`/`G153`: the frames are suppressed for the block.
+    suppress: bool,
+    /// `G500`: no settable frame.
+    settable_off: bool,
+}
+
+/// Where a line being run comes from.
+struct LineRun<'a> {
+    raw: &'a [u8],
+    line: usize,
+    file: usize,
+    first_reading: bool,
+}
+
+/// What a line hands on, in the source line's byte ranges.
+struct Out {
+    words: Vec<Word>,
+    keywords: Vec<KeywordWord>,
+    statements: Vec<std::ops::Range<usize>>,
+    comments: Vec<std::ops::Range<usize>>,
+    assignments: Vec<std::ops::Range<usize>>,
+    deleted: bool,
+    /// A value comes from a variable or an expression.
+    computed: bool,
+    absolute: Vec<usize>,
+    relative: Vec<usize>,
+    /// Words whose value differs from their text (written as numbers when flat).
+    substituted: Vec<usize>,
+}
+
+impl Out {
+    fn new(_len: usize) -> Out {
+        Out {
+            words: Vec::new(),
+            keywords: Vec::new(),
+            statements: Vec::new(),
+            comments: Vec::new(),
+            assignments: Vec::new(),
+            deleted: false,
+            computed: false,
+            absolute: Vec::new(),
+            relative: Vec::new(),
+            substituted: Vec::new(),
+        }
+    }
+}
+
+enum Piece {
+    Word(usize),
+    Keyword(usize),
+    Statement,
+    Comment,
+}
+
+fn word(
+    letter: u8,
+    value: f64,
+    start: usize,
+    end: usize,
+    decimals: u8,
+    point: bool,
+    computed: bool,
+) -> Word {
+    Word {
+        letter,
+        value,
+        start,
+        end,
+        decimals,
+        point,
+        expr: computed.then_some(0),
+    }
+}
+
+fn is_axis(letter: u8) -> bool {
+    matches!(
+        letter,
+        b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W'
+    )
+}
+
+fn r_number(name: &str) -> Option<usize> {
+    let rest = name.strip_prefix('R')?;
+    (!rest.is_empty() && rest.bytes().all(|b| b.is_ascii_digit())).then(|| rest.parse().ok())?
+}
+
+/// What an address written with `=` is.
+enum Address {
+    /// A word the machine-state layer reads (its letter).
+    Word(u8),
+    /// `CR=`: the arc radius (LinuxCNC's `R`).
+    Radius,
+    /// Passed through (`SPOS=`, `S1=`…).
+    Pass,
+    /// `P=`: runs of a subprogram.
+    Repeat,
+    /// `RPL=`: rotation in the plane.
+    RotPlane,
+    /// A component of the orientation vector `A3= B3= C3=`.
+    Vector(usize),
+    /// Not read yet (the feature).
+    Feature(&'static str),
+}
+
+fn address(name: &str) -> Option<Address> {
+    Some(match name {
+        "X" | "Y" | "Z" | "A" | "B" | "C" | "U" | "V" | "W" | "I" | "J" | "K" | "F" | "S" | "T" => {
+            Address::Word(name.as_bytes()[0])
+        }
+        "CR" => Address::Radius,
+        "P" => Address::Repeat,
+        "RPL" => Address::RotPlane,
+        "AR" => Address::Feature("AR= (arcs by opening angle)"),
+        "I1" | "J1" | "K1" => Address::Feature("CIP intermediate points (I1= J1= K1=)"),
+        "A3" => Address::Vector(0),
+        "B3" => Address::Vector(1),
+        "C3" => Address::Vector(2),
+        "A2" | "B2" | "C2" => Address::Feature("orientation angles A2= B2= C2="),
+        "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
+        "TURN" => Address::Feature("helix turns TURN="),
+        "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
+        | "SD" | "PL" | "PW" | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF"
+        | "FFWON" | "G" => Address::Pass,
+        _ if name.len() == 2 && name.as_bytes()[1].is_ascii_digit() && !name.starts_with('R') => {
+            Address::Pass
+        }
+        _ => return None,
+    })
+}
+
+/// How an `=` value is written: plain, `AC(…)`, `IC(…)` (also `DC`,
+/// `ACP`, `ACN` for rotary axes: absolute, the direction left to the
+/// control's path).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Plain,
+    Ac,
+    Ic,
+}
+
+fn value_expr(cur: &mut Cursor) -> Result<(Expr, Mode), syntax::SyntaxError> {
+    if let (
+        Some(Token {
+            tok: Tok::Name(n), ..
+        }),
+        Some(Token {
+            tok: Tok::Sym("("), ..
+        }),
+    ) = (cur.peek(), cur.peek_at(1))
+    {
+        let mode = match n.as_ref() {
+            "AC" | "DC" | "ACP" | "ACN" => Some(Mode::Ac),
+            "IC" => Some(Mode::Ic),
+            _ => None,
+        };
+        if let Some(mode) = mode {
+            cur.pos += 2;
+            let e = cur.expr()?;
+            cur.expect_sym(")")?;
+            return Ok((e, mode));
+        }
+    }
+    Ok((cur.expr()?, Mode::Plain))
+}
+
+/// The parameters of a `PROC` line: `PROC NAME(REAL X, VAR INT N)`.
+fn proc_params(rest: &[u8]) -> Vec<(VarType, String)> {
+    let text = String::from_utf8_lossy(rest).to_ascii_uppercase();
+    let Some(open) = text.find('(') else {
+        return Vec::new();
+    };
+    let close = text[open..].find(')').map_or(text.len(), |c| open + c);
+    text[open + 1..close]
+        .split(',')
+        .filter_map(|p| {
+            let mut parts = p.split_whitespace().filter(|w| *w != "VAR");
+            let ty = VarType::from_name(parts.next()?.split('[').next()?)?;
+            let name = parts.next()?.split('[').next()?.to_string();
+            Some((ty, name))
+        })
+        .collect()
+}
+
+/// The rotation of `ROT X a Y b Z c`: about Z by c, then about the new Y by
+/// b, then about the new X by a (degrees; `R = Rz·Ry·Rx`).
+fn rpy(a: f64, b: f64, c: f64) -> [[f64; 3]; 3] {
+    let (sa, ca) = a.to_radians().sin_cos();
+    let (sb, cb) = b.to_radians().sin_cos();
+    let (sc, cc) = c.to_radians().sin_cos();
+    let rx = [[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]];
+    let ry = [[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]];
+    let rz = [[cc, -sc, 0.0], [sc, cc, 0.0], [0.0, 0.0, 1.0]];
+    let mul = |p: [[f64; 3]; 3], q: [[f64; 3]; 3]| {
+        let mut m = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] = (0..3).map(|k| p[i][k] * q[k][j]).sum();
+            }
+        }
+        m
+    };
+    mul(mul(rz, ry), rx)
+}
