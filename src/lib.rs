@@ -48,6 +48,7 @@ pub mod laser;
 pub mod machine;
 pub mod nurbs;
 pub mod predict;
+pub mod progress;
 pub(crate) mod report;
 pub(crate) mod sample;
 pub mod stamp;

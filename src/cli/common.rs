@@ -159,13 +159,15 @@ pub fn load_machine(path: &Path, args: &ModelArgs) -> anyhow::Result<Machine> {
 }
 
 /// The error model of a loaded machine (fitted, from the cache or from
-/// `--model`), printing what was not measured to stderr.
+/// `--model`), printing what was not measured to stderr; a progress bar while
+/// it fits on a terminal.
 pub fn fit_model(
     machine: Machine,
     path: &Path,
     args: &ModelArgs,
 ) -> anyhow::Result<(Machine, ErrorModel)> {
     let policy: ExtrapolationPolicy = args.extrapolate.into();
+    let counter = Arc::new(crate::progress::WorkCounter::new());
     let model_options = crate::machine::ModelOptions {
         extrapolation: policy,
         fit: crate::nurbs::FitOptions {
@@ -174,32 +176,37 @@ pub fn fit_model(
             ..Default::default()
         },
         exact_lookups: args.exact_lookups,
+        progress: Some(Arc::clone(&counter)),
     };
-    let model = match (&args.model, args.cache()) {
-        (Some(file), _) => ErrorModel::from_model_file(&machine, file, &model_options)?,
-        (None, Some(cache)) => {
-            let (model, report) = cache
-                .load_or_fit(&machine, path, &model_options)
-                .with_context(|| format!("fitting the error tables of {}", path.display()))?;
-            if let crate::machine::CacheOutcome::TablesChanged(tables) = &report.outcome {
-                let names: Vec<String> = tables.iter().map(|t| t.display().to_string()).collect();
-                super::noteln!(
-                    "{}: {} changed since its model was cached: refitted",
-                    machine.name,
-                    names.join(", ")
-                );
+    let what = format!("fitting {}", crate::io::display_name(path));
+    let model = with_progress(&what, &counter, || -> anyhow::Result<ErrorModel> {
+        Ok(match (&args.model, args.cache()) {
+            (Some(file), _) => ErrorModel::from_model_file(&machine, file, &model_options)?,
+            (None, Some(cache)) => {
+                let (model, report) = cache
+                    .load_or_fit(&machine, path, &model_options)
+                    .with_context(|| format!("fitting the error tables of {}", path.display()))?;
+                if let crate::machine::CacheOutcome::TablesChanged(tables) = &report.outcome {
+                    let names: Vec<String> =
+                        tables.iter().map(|t| t.display().to_string()).collect();
+                    super::noteln!(
+                        "{}: {} changed since its model was cached: refitted",
+                        machine.name,
+                        names.join(", ")
+                    );
+                }
+                if let Some(e) = &report.store_error {
+                    super::noteln!(
+                        "the fitted model was not cached in {}: {e}",
+                        cache.dir().display()
+                    );
+                }
+                model
             }
-            if let Some(e) = &report.store_error {
-                super::noteln!(
-                    "the fitted model was not cached in {}: {e}",
-                    cache.dir().display()
-                );
-            }
-            model
-        }
-        (None, None) => ErrorModel::from_machine(&machine, &model_options)
-            .with_context(|| format!("fitting the error tables of {}", path.display()))?,
-    };
+            (None, None) => ErrorModel::from_machine(&machine, &model_options)
+                .with_context(|| format!("fitting the error tables of {}", path.display()))?,
+        })
+    })?;
     for note in model_notes(&machine) {
         super::noteln!("{note}");
     }
@@ -699,6 +706,66 @@ impl Progress {
 
     pub fn abandon(&self) {
         self.bar.abandon();
+    }
+}
+
+/// How long work runs before [`with_progress`] shows its bar (the
+/// environment's `VOLCOMP_PROGRESS_AFTER_MS` overrides it, for tests).
+const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Runs `work`, which counts its steps on `counter`; once it has run
+/// [`PROGRESS_AFTER`] and standard error is a terminal, a bar with the
+/// percentage and the time left is drawn on it (cleared at the end), named
+/// `what`. Piped, nothing is drawn.
+pub fn with_progress<T>(
+    what: &str,
+    counter: &Arc<crate::progress::WorkCounter>,
+    work: impl FnOnce() -> T,
+) -> T {
+    let after = std::env::var("VOLCOMP_PROGRESS_AFTER_MS")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .map_or(PROGRESS_AFTER, std::time::Duration::from_millis);
+    let finished = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        scope.spawn(|| draw_progress(what, counter, after, &finished));
+        let out = work();
+        finished.store(true, Ordering::Relaxed);
+        out
+    })
+}
+
+/// The bar of [`with_progress`], updated every 100 ms until `finished`.
+fn draw_progress(
+    what: &str,
+    counter: &crate::progress::WorkCounter,
+    after: std::time::Duration,
+    finished: &std::sync::atomic::AtomicBool,
+) {
+    let tick = std::time::Duration::from_millis(50);
+    let started = std::time::Instant::now();
+    let mut bar: Option<ProgressBar> = None;
+    while !finished.load(Ordering::Relaxed) {
+        std::thread::sleep(tick);
+        if bar.is_none() && started.elapsed() >= after && std::io::stderr().is_terminal() {
+            let b = ProgressBar::new(counter.total().max(1));
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{prefix}: {percent:>3}% [{bar:30}] {pos}/{len} ({elapsed}, about {eta} left)",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+            );
+            b.set_prefix(what.to_string());
+            bar = Some(b);
+        }
+        if let Some(b) = &bar {
+            b.set_length(counter.total().max(1));
+            b.set_position(counter.done());
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
     }
 }
 

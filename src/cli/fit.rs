@@ -125,7 +125,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     check_files(args, &tables, &jobs)?;
     let outputs = crate::io::OutputSet::begin();
     let hashes = table_hashes(&tables)?;
-    let fits = fit_columns(args, &base, &jobs)?;
+    let counter = std::sync::Arc::new(crate::progress::WorkCounter::new());
+    counter.add_total(jobs.len() as u64);
+    let what = format!("fitting {}", crate::io::display_name(&args.input));
+    let fits = super::common::with_progress(&what, &counter, || {
+        fit_columns(args, &base, &jobs, &counter)
+    })?;
     let cv = args.select == Selection::Cv;
     let report = report_fits(data_on_stdout, cv, &tables, &jobs, &fits, &hashes)?;
     let missed: Vec<&str> = report
@@ -269,6 +274,7 @@ fn fit_columns(
     args: &Args,
     base: &FitOptions,
     jobs: &[Job<'_>],
+    counter: &crate::progress::WorkCounter,
 ) -> anyhow::Result<Vec<crate::nurbs::SmemCurve>> {
     jobs.par_iter()
         .map(|job| {
@@ -289,6 +295,7 @@ fn fit_columns(
                 job.kind,
                 &options,
             )
+            .inspect(|_| counter.step())
             .with_context(|| format!("{}: cannot fit {}", job.table.path.display(), column.name))
         })
         .collect()

@@ -38,6 +38,8 @@ pub struct ModelOptions {
     /// the verified resampling of `machine::resampled` (within 1e-6 µm/µrad of it,
     /// several times faster).
     pub exact_lookups: bool,
+    /// Counts a step per fitted column (the fit's progress), if given.
+    pub progress: Option<Arc<crate::progress::WorkCounter>>,
 }
 
 /// Why an error model could not be built or read.
@@ -242,6 +244,9 @@ impl ErrorModel {
                 }
             }
         }
+        if let Some(c) = &options.progress {
+            c.add_total(jobs.len() as u64);
+        }
         let fitted: Vec<(usize, usize, SmemCurve)> = jobs
             .par_iter()
             .map(|(slot, k, name, table, column)| {
@@ -261,6 +266,7 @@ impl ErrorModel {
                     kind,
                     &fit,
                 )
+                .inspect(|_| crate::progress::step(options.progress.as_ref()))
                 .map(|curve| (*slot, *k, curve))
                 .map_err(|source| ModelError::Fit {
                     table: table.path.clone(),

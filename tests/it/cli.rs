@@ -192,7 +192,8 @@ fn lenient_pass_through_is_reported() {
         "-o",
         s(&out_path),
         "--lenient",
-        // Read as LinuxCNC's (detected, it reads as the Klartext it is).
+        // `BEGIN PGM` would read it as Heidenhain (docs/dialects.md): this
+        // is LinuxCNC's reader passing unread lines through.
         "--dialect",
         "linuxcnc",
     ]);

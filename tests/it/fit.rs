@@ -303,3 +303,41 @@ fn tolerance_without_emax_selection_is_a_usage_error() {
         "{stderr}"
     );
 }
+
+/// Long work draws a bar (percentage and time left) only on a terminal: with
+/// the bar's delay at 0 ms, the fit piped writes no bar (no `%`, no escape
+/// codes) to either stream; the same run on a pseudo-terminal (`script`, when
+/// the system has it) draws one.
+#[test]
+fn progress_bar_only_on_a_terminal() {
+    let out = volcomp()
+        .env("VOLCOMP_PROGRESS_AFTER_MS", "0")
+        .arg("fit")
+        .arg(root().join("machines/ref-trt.toml"))
+        .output()
+        .unwrap();
+    crate::support::assert_success(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for text in [&stderr, &stdout] {
+        assert!(!text.contains("% ["), "a bar when piped: {text}");
+        assert!(!text.contains('\u{1b}'), "escape codes when piped: {text}");
+    }
+    if Path::new("/usr/bin/script").exists() {
+        let command = format!(
+            "{} fit {}",
+            env!("CARGO_BIN_EXE_volcomp"),
+            root().join("machines/ref-trt.toml").display()
+        );
+        let tty = std::process::Command::new("/usr/bin/script")
+            .env("VOLCOMP_PROGRESS_AFTER_MS", "0")
+            .args(["-qec", &command, "/dev/null"])
+            .output()
+            .unwrap();
+        let shown = String::from_utf8_lossy(&tty.stdout);
+        assert!(
+            shown.contains("fitting ") && shown.contains("% ["),
+            "no bar on a terminal: {shown}"
+        );
+    }
+}

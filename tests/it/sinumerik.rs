@@ -344,3 +344,35 @@ fn cycle800_without_a_machine_is_a_located_error() {
         "{err}"
     );
 }
+
+/// Issue 34 "Real programs": every SINUMERIK program from a public
+/// repository (tests/data/sinumerik/real/, README there) is read, or refused
+/// with an error located at its line and column (docs/dialects.md's table).
+#[test]
+fn every_real_program_is_read_or_refused_at_a_located_line() {
+    let dir = root().join("tests/data/sinumerik/real/cead");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mpf"))
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 32);
+    let mut read = 0;
+    for f in &files {
+        let out = volcomp().arg("check").arg(f).output().unwrap();
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        match out.status.code() {
+            Some(0) => read += 1,
+            Some(1) => {
+                let err = String::from_utf8_lossy(&out.stderr);
+                assert!(
+                    err.contains(&format!("{name}:")) && err.contains("-->"),
+                    "{name}: {err}"
+                );
+            }
+            c => panic!("{name}: exit {c:?}"),
+        }
+    }
+    assert!(read >= 4, "{read}");
+}

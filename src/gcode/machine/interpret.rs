@@ -979,7 +979,10 @@ impl Interpreter {
             return self.fail(block, event, ErrorKind::NeedsLanguage, at.0, at.1);
         }
         self.params.set_line(block.line);
-        let mut decoded = self.read(block, event)?;
+        // Filled in place (`read`) and borrowed (`commit`): these block-sized
+        // values are not moved between frames.
+        let mut decoded = Decoded::default();
+        self.read(block, event, &mut decoded)?;
         let mut next = BlockState {
             modal: decoded.modes(&self.modal),
             origin: self.origin,
@@ -1016,15 +1019,19 @@ impl Interpreter {
         let nurbs_ran = self.convert_nurbs_end(&mut c, &decoded)?;
         self.convert_motion(&mut c, &decoded, nurbs_ran)?;
         self.convert_stop(&mut c, &decoded);
-        self.commit(block, event, &decoded, next);
+        self.commit(block, event, &decoded, &mut next);
         Ok(())
     }
 
     /// LinuxCNC's `read_items` and `enhance_block`: the block's words into a
     /// [`Decoded`] block. Refuses repeated words, two codes of one modal
     /// group, unknown G codes, M98/M99 and axes the machine lacks.
-    fn read(&self, block: &Block, event: &mut BlockEvent) -> Result<Decoded, GcodeError> {
-        let mut d = Decoded::default();
+    fn read(
+        &self,
+        block: &Block,
+        event: &mut BlockEvent,
+        d: &mut Decoded,
+    ) -> Result<(), GcodeError> {
         for kw in &block.keywords {
             d.frame = Some(match kw.keyword {
                 crate::gcode::syntax::block::Keyword::TraOri => Frame::Part,
@@ -1041,12 +1048,12 @@ impl Interpreter {
         let scale = d.units.unwrap_or(self.modal.units).scale();
         for w in &block.words {
             match w.letter {
-                b'G' => self.read_g(block, event, w, &mut d, other_motion)?,
-                b'M' => self.read_m(block, event, w, &mut d)?,
+                b'G' => self.read_g(block, event, w, d, other_motion)?,
+                b'M' => self.read_m(block, event, w, d)?,
                 b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
                     self.read_axis(block, event, w, &mut d.words, scale)?
                 }
-                _ => self.read_other(block, event, w, &mut d, scale),
+                _ => self.read_other(block, event, w, d, scale),
             }
         }
         // G43.1's axis words set the offset and do not move (LinuxCNC's
@@ -1057,7 +1064,7 @@ impl Interpreter {
         {
             d.axis_user = Some((GCode::ToolLengthDynamic, s, e));
         }
-        Ok(d)
+        Ok(())
     }
 
     /// Repeated words and modal-group conflicts (LinuxCNC refuses both);
@@ -1067,7 +1074,8 @@ impl Interpreter {
         let mut m_groups = [false; 11];
         let mut seen_letters = 0u32;
         for w in &block.words {
-            let (conflict, kind) = match w.letter {
+            // The error is built only for a conflict (most blocks have none).
+            let (conflict, kind): (bool, fn(char) -> ErrorKind) = match w.letter {
                 b'G' => {
                     let Some(g) = w.code10().and_then(|code| {
                         // G80 with another motion code is no conflict: the
@@ -1077,7 +1085,7 @@ impl Interpreter {
                         continue;
                     };
                     let seen = std::mem::replace(&mut g_groups[g as usize], true);
-                    (seen, ErrorKind::ModalGroupConflict('G'))
+                    (seen, ErrorKind::ModalGroupConflict)
                 }
                 b'M' => {
                     // LinuxCNC 2.9 allows no two codes of a group, M7 and
@@ -1086,17 +1094,18 @@ impl Interpreter {
                         continue;
                     };
                     let seen = std::mem::replace(&mut m_groups[g as usize], true);
-                    (seen, ErrorKind::ModalGroupConflict('M'))
+                    (seen, ErrorKind::ModalGroupConflict)
                 }
                 letter if letter.is_ascii_uppercase() => {
                     let bit = 1u32 << (letter - b'A');
                     let seen = seen_letters & bit != 0;
                     seen_letters |= bit;
-                    (seen, ErrorKind::RepeatedWord(letter as char))
+                    (seen, ErrorKind::RepeatedWord)
                 }
                 _ => continue,
             };
             if conflict {
+                let kind = kind(w.letter as char);
                 self.fail(block, event, kind, w.start, w.end)?;
             }
         }
@@ -1711,23 +1720,21 @@ impl Interpreter {
 
     /// Make a block that succeeded current: its state, its parameters
     /// (LinuxCNC's `set_probe_data` for a probing move), the time, the tools.
-    fn commit(&mut self, block: &Block, event: &mut BlockEvent, d: &Decoded, next: BlockState) {
-        let BlockState {
-            modal,
-            origin,
-            position,
-            spindle,
-            cycle_memory,
-            mist,
-            flood,
-            dwell_min,
-            tool,
-            store,
-            nurbs,
-            nurbs_order,
-            motion,
-            ended,
-        } = next;
+    fn commit(
+        &mut self,
+        block: &Block,
+        event: &mut BlockEvent,
+        d: &Decoded,
+        next: &mut BlockState,
+    ) {
+        let modal = next.modal;
+        let origin = next.origin;
+        let position = next.position;
+        let (spindle, cycle_memory) = (next.spindle, next.cycle_memory);
+        let (mist, flood, dwell_min, tool) = (next.mist, next.flood, next.dwell_min, next.tool);
+        let store = std::mem::take(&mut next.store);
+        let nurbs = std::mem::take(&mut next.nurbs);
+        let (nurbs_order, motion, ended) = (next.nurbs_order, next.motion.take(), next.ended);
         if modal.frame != self.modal.frame {
             event.frame_switch = Some(modal.frame);
         }

@@ -1157,6 +1157,15 @@ impl SinumerikFront {
                 }),
                 _,
             ) => (n.to_string(), *end),
+            // `GOTOF 90`: a block number without its N.
+            (
+                Some(Token {
+                    tok: Tok::Num(v, ..),
+                    end,
+                    ..
+                }),
+                _,
+            ) => (format!("N{v}"), *end),
             _ => {
                 return Err(self.refused(
                     line,
@@ -1365,9 +1374,19 @@ impl SinumerikFront {
                             .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     }
                     loop {
-                        let e = cur
-                            .expr()
-                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                        // An empty place (`SET(0,,,9)`) leaves its element 0.
+                        let e = if matches!(
+                            cur.peek(),
+                            Some(Token {
+                                tok: Tok::Sym("," | ")"),
+                                ..
+                            })
+                        ) {
+                            Expr::Num(0.0)
+                        } else {
+                            cur.expr()
+                                .map_err(|e| self.refused(line, e.message, e.start, e.end))?
+                        };
                         init.push(e);
                         if cur.eat_sym(")") {
                             break;
@@ -1596,6 +1615,17 @@ impl SinumerikFront {
             // `ADDR=expr`, `VAR=expr`, `R1=expr`.
             if cur.eat_sym("=") {
                 let vstart = cur.here();
+                if name == "T"
+                    && matches!(
+                        cur.peek(),
+                        Some(Token {
+                            tok: Tok::Str(_),
+                            ..
+                        })
+                    )
+                {
+                    return Err(self.feature(line, "tools by name (T=\"…\")", ts, cur.here() + 1));
+                }
                 let (e, mode) =
                     value_expr(cur).map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                 let vend = cur.last_end();
@@ -1646,6 +1676,26 @@ impl SinumerikFront {
                         out.assignments.push(ts..vend);
                     }
                 }
+                continue;
+            }
+            // `ACC[X]=50`, `FGREF[C]=…`: axis settings without motion.
+            if matches!(
+                name.as_ref(),
+                "ACC" | "FGREF" | "OVRA" | "VELOLIM" | "JERKLIM" | "FL" | "POLF"
+            ) && matches!(
+                cur.peek(),
+                Some(Token {
+                    tok: Tok::Sym("["),
+                    ..
+                })
+            ) {
+                while cur.peek().is_some_and(|t| !matches!(t.tok, Tok::Sym("="))) {
+                    cur.pos += 1;
+                }
+                cur.pos += 1;
+                cur.expr()
+                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                out.statements.push(ts..cur.last_end());
                 continue;
             }
             // `NAME[i]=expr` (an array element).
