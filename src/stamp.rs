@@ -406,6 +406,9 @@ pub struct StampWriter<'a> {
     /// The comment style of the program's dialect (`;` lines for Sinumerik
     /// and Heidenhain).
     dialect: crate::gcode::Dialect,
+    /// Heidenhain: the stamp as `;` blocks after `BEGIN PGM`, the blocks
+    /// renumbered (everything passes through it).
+    klartext: Option<crate::gcode::KlartextStamp>,
 }
 
 impl<'a> StampWriter<'a> {
@@ -418,13 +421,19 @@ impl<'a> StampWriter<'a> {
             seen_percent: false,
             done: false,
             dialect: crate::gcode::Dialect::LinuxCnc,
+            klartext: None,
         }
     }
 
     /// Write the stamp as comments of `dialect` (`; volcomp-stamp …` lines
-    /// for Sinumerik and Heidenhain, whose controls read no `( … )`).
+    /// for Sinumerik and Heidenhain, whose controls read no `( … )`). A
+    /// Heidenhain program gets them as `N ; …` blocks after `BEGIN PGM`, the
+    /// blocks after them renumbered (docs/dialects.md).
     pub fn with_dialect(mut self, dialect: crate::gcode::Dialect) -> Self {
         self.dialect = dialect;
+        if dialect == crate::gcode::Dialect::Heidenhain {
+            self.klartext = Some(crate::gcode::KlartextStamp::new(&self.stamp.render("\n")));
+        }
         self
     }
 
@@ -490,6 +499,9 @@ impl<'a> StampWriter<'a> {
     /// Write what is still held (the stamp at the end of a header-only
     /// program) and flush.
     pub fn finish(&mut self) -> io::Result<()> {
+        if let Some(k) = &mut self.klartext {
+            return k.finish(self.inner);
+        }
         if !self.done {
             if !self.pending.is_empty() {
                 // A last header line without a line end.
@@ -506,6 +518,10 @@ impl<'a> StampWriter<'a> {
 
 impl Write for StampWriter<'_> {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if let Some(k) = &mut self.klartext {
+            k.write(self.inner, buf)?;
+            return Ok(buf.len());
+        }
         if self.done {
             return self.inner.write(buf);
         }
@@ -515,6 +531,9 @@ impl Write for StampWriter<'_> {
     }
 
     fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        if let Some(k) = &mut self.klartext {
+            return k.write(self.inner, buf);
+        }
         if self.done {
             return self.inner.write_all(buf);
         }

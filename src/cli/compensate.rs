@@ -262,30 +262,20 @@ Give the original program, or --force to compensate it anyway"
         let warnings = program.warnings();
         let bar = Progress::new(&args.program, "compensating", total, position);
         let mut report: Option<CompensateReport> = None;
-        let klartext = dialect == crate::gcode::Dialect::Heidenhain;
         write_atomic(output, |out| -> anyhow::Result<()> {
-            let progress = |n| {
+            // `( … )` lines for LinuxCNC, `;` lines for Sinumerik, `N ; …`
+            // blocks after BEGIN PGM for Heidenhain (docs/dialects.md).
+            let mut out = StampWriter::new(out, stamp).with_dialect(dialect);
+            let r = compensate(program, &mut out, &self.model, &options, |n| {
                 if let Some(b) = &bar {
                     b.update(n);
                 }
-            };
-            let write_error = |source| crate::io::OutputError::Write {
-                path: output.to_path_buf(),
-                source,
-            };
-            let r = if klartext {
-                // The stamp as `;` blocks after BEGIN PGM (dialects.md).
-                let mut out = crate::gcode::KlartextStampWriter::new(out, &stamp.render("\n"));
-                let r = compensate(program, &mut out, &self.model, &options, progress)?;
-                out.finish().map_err(write_error)?;
-                r
-            } else {
-                // `;` comment lines for Sinumerik, `( … )` for LinuxCNC.
-                let mut out = StampWriter::new(out, stamp).with_dialect(dialect);
-                let r = compensate(program, &mut out, &self.model, &options, progress)?;
-                out.finish().map_err(write_error)?;
-                r
-            };
+            })?;
+            out.finish()
+                .map_err(|source| crate::io::OutputError::Write {
+                    path: output.to_path_buf(),
+                    source,
+                })?;
             report = Some(r);
             Ok(())
         })

@@ -64,7 +64,7 @@ pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
 pub use dialect::{Branch, Dialect, DialectChoice, OrientationSolver, detect as detect_dialect};
 pub use error::{ErrorKind, GcodeError};
 pub use execution::{Execution, Program, ProgramSetup};
-pub use heidenhain::write::KlartextStampWriter;
+pub(crate) use heidenhain::write::KlartextStamp;
 pub use interpret::{
     BlockEvent, InterpretOptions, Interpreter, Moves, Warning, WarningKind, duration_from_lengths,
     duration_min, interpret_program,

@@ -386,11 +386,12 @@ fn trim_number(v: f64) -> String {
     }
 }
 
-/// A writer for a compensated Klartext program's bytes that inserts the
-/// stamp as `;` blocks after the `BEGIN PGM` block and renumbers the blocks
-/// after it, so that the numbers stay consecutive.
-pub struct KlartextStampWriter<'a> {
-    inner: &'a mut dyn Write,
+/// The stamp of a compensated Klartext program, inserted as `;` blocks
+/// after the `BEGIN PGM` block, the blocks after it renumbered so that the
+/// numbers stay consecutive: the Heidenhain mode of
+/// [`crate::stamp::StampWriter`] (`with_dialect`), which hands it the
+/// bytes and its writer.
+pub(crate) struct KlartextStamp {
     stamp: Vec<String>,
     pending: Vec<u8>,
     /// Blocks inserted so far (added to every later block number).
@@ -398,11 +399,10 @@ pub struct KlartextStampWriter<'a> {
     done: bool,
 }
 
-impl<'a> KlartextStampWriter<'a> {
-    /// A writer passing everything to `inner`, with the lines of
-    /// `stamp_text` (one stamp line each, LinuxCNC's `( … )` form) written as
-    /// `N ; …` blocks after `BEGIN PGM`.
-    pub fn new(inner: &'a mut dyn Write, stamp_text: &str) -> Self {
+impl KlartextStamp {
+    /// The lines of `stamp_text` (one stamp line each, LinuxCNC's `( … )`
+    /// form) to be written as `N ; …` blocks after `BEGIN PGM`.
+    pub(crate) fn new(stamp_text: &str) -> Self {
         let stamp = stamp_text
             .lines()
             .map(|l| {
@@ -413,8 +413,7 @@ impl<'a> KlartextStampWriter<'a> {
             })
             .filter(|l| !l.is_empty())
             .collect();
-        KlartextStampWriter {
-            inner,
+        KlartextStamp {
             stamp,
             pending: Vec::new(),
             inserted: 0,
@@ -422,18 +421,17 @@ impl<'a> KlartextStampWriter<'a> {
         }
     }
 
-    fn line(&mut self, line: &[u8]) -> std::io::Result<()> {
+    fn line(&mut self, inner: &mut dyn Write, line: &[u8]) -> std::io::Result<()> {
         let digits = line.iter().take_while(|b| b.is_ascii_digit()).count();
         let number = std::str::from_utf8(&line[..digits])
             .ok()
             .and_then(|s| s.parse::<u64>().ok());
         match number {
             Some(n) if self.inserted > 0 => {
-                self.inner
-                    .write_all((n + self.inserted).to_string().as_bytes())?;
-                self.inner.write_all(&line[digits..])?;
+                inner.write_all((n + self.inserted).to_string().as_bytes())?;
+                inner.write_all(&line[digits..])?;
             }
-            _ => self.inner.write_all(line)?,
+            _ => inner.write_all(line)?,
         }
         let rest = String::from_utf8_lossy(&line[digits..]);
         if !self.done
@@ -451,8 +449,8 @@ impl<'a> KlartextStampWriter<'a> {
             let stamp = std::mem::take(&mut self.stamp);
             for (k, s) in stamp.iter().enumerate() {
                 match number {
-                    Some(n) => write!(self.inner, "{} ; {s}{eol}", n + 1 + k as u64)?,
-                    None => write!(self.inner, "; {s}{eol}")?,
+                    Some(n) => write!(inner, "{} ; {s}{eol}", n + 1 + k as u64)?,
+                    None => write!(inner, "; {s}{eol}")?,
                 }
             }
             if number.is_some() {
@@ -462,28 +460,23 @@ impl<'a> KlartextStampWriter<'a> {
         Ok(())
     }
 
-    /// Write what is held and flush.
-    pub fn finish(&mut self) -> std::io::Result<()> {
-        let rest = std::mem::take(&mut self.pending);
-        if !rest.is_empty() {
-            self.line(&rest)?;
-        }
-        self.inner.flush()
-    }
-}
-
-impl Write for KlartextStampWriter<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+    /// Pass `buf` on to `inner`, its complete lines renumbered.
+    pub(crate) fn write(&mut self, inner: &mut dyn Write, buf: &[u8]) -> std::io::Result<()> {
         self.pending.extend_from_slice(buf);
         while let Some(k) = self.pending.iter().position(|&b| b == b'\n') {
             let line: Vec<u8> = self.pending.drain(..=k).collect();
-            self.line(&line)?;
+            self.line(inner, &line)?;
         }
-        Ok(buf.len())
+        Ok(())
     }
 
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
+    /// Write what is held and flush.
+    pub(crate) fn finish(&mut self, inner: &mut dyn Write) -> std::io::Result<()> {
+        let rest = std::mem::take(&mut self.pending);
+        if !rest.is_empty() {
+            self.line(inner, &rest)?;
+        }
+        inner.flush()
     }
 }
 
@@ -502,11 +495,13 @@ mod tests {
     fn stamp_after_begin_pgm_renumbers() {
         let mut out = Vec::new();
         {
-            let mut w =
-                KlartextStampWriter::new(&mut out, "(volcomp-stamp a: 1)\n(volcomp-stamp b: 2)\n");
-            w.write_all(b"0 BEGIN PGM T MM\n1 L X+1 FMAX\n2 END PGM T MM\n")
-                .unwrap();
-            w.finish().unwrap();
+            let mut w = KlartextStamp::new("(volcomp-stamp a: 1)\n(volcomp-stamp b: 2)\n");
+            w.write(
+                &mut out,
+                b"0 BEGIN PGM T MM\n1 L X+1 FMAX\n2 END PGM T MM\n",
+            )
+            .unwrap();
+            w.finish(&mut out).unwrap();
         }
         assert_eq!(
             String::from_utf8(out).unwrap(),
