@@ -81,8 +81,11 @@ pub fn man(args: &ManArgs) -> anyhow::Result<()> {
                 )
                 .into());
             }
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
+            let mut files = super::common::CommandFiles::new();
+            for (name, _) in &pages {
+                files = files.output("the manual page", Some(&dir.join(name)));
+            }
+            files.check()?;
             let outputs = crate::io::OutputSet::begin();
             for (name, page) in &pages {
                 crate::io::write_file_atomic(&dir.join(name), page.as_bytes())?;
