@@ -1328,12 +1328,13 @@ pub const MODEL_FACTOR_MIN: f64 = 0.1;
 /// model's own uncertainty allow.
 pub const UNEXPLAINED_RATIO: f64 = 1.5;
 
-/// The verdict when the model's factors, beside other effects, fit as well
-/// as the selected effects alone: both are said.
-fn alternative_sentence(alt: &report::ModelAlternative, label: &str, heldout: f64) -> String {
-    let mut named: Vec<(&String, &f64)> = alt
-        .factors
-        .iter()
+/// The model's factors large enough to name (|b| ≥ [`MODEL_FACTOR_MIN`]),
+/// largest first, and their text (`X ×1.42, Z ×0.61`).
+fn named_factors<'a>(
+    factors: impl IntoIterator<Item = (&'a String, &'a f64)>,
+) -> (Vec<(&'a String, &'a f64)>, String) {
+    let mut named: Vec<(&String, &f64)> = factors
+        .into_iter()
         .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
         .collect();
     named.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
@@ -1342,6 +1343,13 @@ fn alternative_sentence(alt: &report::ModelAlternative, label: &str, heldout: f6
         .map(|(axis, b)| format!("{axis} ×{:.2}", 1.0 + **b))
         .collect::<Vec<_>>()
         .join(", ");
+    (named, axes)
+}
+
+/// The verdict when the model's factors, beside other effects, fit as well
+/// as the selected effects alone: both are said.
+fn alternative_sentence(alt: &report::ModelAlternative, label: &str, heldout: f64) -> String {
+    let (_, axes) = named_factors(&alt.factors);
     let effects = if alt.effects.is_empty() {
         "alone".to_string()
     } else {
@@ -1359,17 +1367,7 @@ fn alternative_sentence(alt: &report::ModelAlternative, label: &str, heldout: f6
 
 /// The sentence for a model that does not match the machine.
 fn model_sentence(check: &ModelCheck, residual_rms: f64, noise_floor: f64) -> String {
-    let mut named: Vec<(&String, &f64)> = check
-        .factors
-        .iter()
-        .filter(|(_, b)| b.abs() >= MODEL_FACTOR_MIN)
-        .collect();
-    named.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
-    let axes = named
-        .iter()
-        .map(|(axis, b)| format!("{axis} ×{:.2}", 1.0 + **b))
-        .collect::<Vec<_>>()
-        .join(", ");
+    let (named, axes) = named_factors(&check.factors);
     let plausible = named.iter().all(|(_, b)| (0.0..3.0).contains(&(1.0 + **b)));
     let remaining = check.remaining_rms_um;
     let tail = if check.unexplained {

@@ -96,6 +96,18 @@ struct State {
     begun: bool,
 }
 
+impl State {
+    /// The frame of the X Y Z a move programs: the tool tip in the part
+    /// under `M128`/`FUNCTION TCPM` or a working plane, else the joints.
+    fn frame(&self) -> Frame {
+        if self.tcpm || self.tilt.is_some() {
+            Frame::Part
+        } else {
+            Frame::Joint
+        }
+    }
+}
+
 /// The machine layer.
 pub(crate) struct KlMachine {
     setup: KlartextSetup,
@@ -158,6 +170,31 @@ pub fn spatial(spa: f64, spb: f64, spc: f64) -> Mat3 {
 }
 
 impl KlMachine {
+    /// A straight move (rapid at `F MAX`, else linear) with its duration.
+    fn straight(
+        &self,
+        frame: Frame,
+        machine_coordinates: bool,
+        start: Axes,
+        end: Axes,
+        feed: Feed,
+    ) -> Motion {
+        let mut m = Motion {
+            kind: if feed == Feed::Rapid {
+                MotionKind::Rapid
+            } else {
+                MotionKind::Linear
+            },
+            frame,
+            machine_coordinates,
+            start,
+            end,
+            feed,
+            duration_min: 0.0,
+        };
+        m.duration_min = duration_min(&m, self.setup.rapid_mm_per_min);
+        m
+    }
     pub fn new(setup: KlartextSetup) -> Self {
         let tool = ToolInUse::DEFAULT;
         KlMachine {
@@ -720,20 +757,7 @@ impl KlMachine {
             end.c - self.setup.preset.c,
         ];
         let start = s.position;
-        let mut m = Motion {
-            kind: if feed == Feed::Rapid {
-                MotionKind::Rapid
-            } else {
-                MotionKind::Linear
-            },
-            frame: Frame::Joint,
-            machine_coordinates: true,
-            start,
-            end,
-            feed,
-            duration_min: 0.0,
-        };
-        m.duration_min = duration_min(&m, self.setup.rapid_mm_per_min);
+        let m = self.straight(Frame::Joint, true, start, end, feed);
         event.moves = Moves::Home(vec![m]);
         s.tangent = None;
         self.m_codes(c, s, event, Some(1))
@@ -775,11 +799,7 @@ impl KlMachine {
         }
         let mut m = Motion {
             kind,
-            frame: if s.tcpm || s.tilt.is_some() {
-                Frame::Part
-            } else {
-                Frame::Joint
-            },
+            frame: s.frame(),
             machine_coordinates: false,
             start,
             end,
@@ -1234,25 +1254,7 @@ impl KlMachine {
                 _ => continue,
             };
             let end = self.to_frame(s, p, s.rot);
-            let mut m = Motion {
-                kind: if feed == Feed::Rapid {
-                    MotionKind::Rapid
-                } else {
-                    MotionKind::Linear
-                },
-                frame: if s.tcpm || s.tilt.is_some() {
-                    Frame::Part
-                } else {
-                    Frame::Joint
-                },
-                machine_coordinates: false,
-                start,
-                end,
-                feed,
-                duration_min: 0.0,
-            };
-            m.duration_min = duration_min(&m, self.setup.rapid_mm_per_min);
-            moves.push(m);
+            moves.push(self.straight(s.frame(), false, start, end, feed));
             start = end;
             last = p;
         }
@@ -1404,20 +1406,7 @@ impl KlMachine {
                         None => Feed::Rapid,
                     }
                 };
-                let mut m = Motion {
-                    kind: if feed == Feed::Rapid {
-                        MotionKind::Rapid
-                    } else {
-                        MotionKind::Linear
-                    },
-                    frame: Frame::Joint,
-                    machine_coordinates: false,
-                    start: here,
-                    end,
-                    feed,
-                    duration_min: 0.0,
-                };
-                m.duration_min = duration_min(&m, self.setup.rapid_mm_per_min);
+                let m = self.straight(Frame::Joint, false, here, end, feed);
                 event.moves = Moves::Home(vec![m]);
                 s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
             }

@@ -951,12 +951,7 @@ impl SinumerikFront {
                     .expr()
                     .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                 let c = self.eval(line, &e, at)?;
-                let Some(Token {
-                    tok: Tok::Name(g),
-                    start,
-                    end,
-                }) = cur.next()
-                else {
+                let Some((g, start, end)) = cur.next_name() else {
                     return Err(self.refused(
                         line,
                         "GOTOF, GOTOB, GOTO or GOTOC expected after the IF condition".into(),
@@ -965,8 +960,8 @@ impl SinumerikFront {
                     ));
                 };
                 if c != 0.0 {
-                    let g = g.clone();
-                    return self.goto(line, cur, &g, (*start, *end));
+                    let g = g.to_string();
+                    return self.goto(line, cur, &g, (start, end));
                 }
                 Ok(false)
             }
@@ -1005,12 +1000,7 @@ impl SinumerikFront {
             }
             Structure::For => {
                 // FOR var = start TO end.
-                let Some(Token {
-                    tok: Tok::Name(var),
-                    start: vs,
-                    end: ve,
-                }) = cur.next()
-                else {
+                let Some((var, vs, ve)) = cur.next_name() else {
                     return Err(self.refused(
                         line,
                         "FOR needs a variable: FOR I = 1 TO 10".into(),
@@ -1018,8 +1008,8 @@ impl SinumerikFront {
                         at.1,
                     ));
                 };
-                let var = var.clone();
-                let (vs, ve) = (*vs, *ve);
+                let var = var.to_string();
+                let (vs, ve) = (vs, ve);
                 cur.expect_sym("=")
                     .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                 let from = cur
@@ -1264,12 +1254,7 @@ impl SinumerikFront {
                     ));
                 }
             };
-            let Some(Token {
-                tok: Tok::Name(g),
-                start,
-                end,
-            }) = cur.next()
-            else {
+            let Some((g, start, end)) = cur.next_name() else {
                 return Err(self.refused(
                     line,
                     "GOTOF/GOTOB expected in CASE".into(),
@@ -1277,8 +1262,8 @@ impl SinumerikFront {
                     t.end,
                 ));
             };
-            let g = g.clone();
-            let gat = (*start, *end);
+            let g = g.to_string();
+            let gat = (start, end);
             if hit {
                 return self.goto(line, cur, &g, gat);
             }
@@ -1307,12 +1292,7 @@ impl SinumerikFront {
             ));
         }
         cur.pos += 1;
-        let Some(Token {
-            tok: Tok::Name(ty_name),
-            start,
-            end,
-        }) = cur.next()
-        else {
+        let Some((ty_name, start, end)) = cur.next_name() else {
             return Err(self.refused(
                 line,
                 "DEF needs a type: INT, REAL, BOOL, CHAR, STRING, AXIS or FRAME".into(),
@@ -1321,7 +1301,7 @@ impl SinumerikFront {
             ));
         };
         let Some(ty) = VarType::from_name(ty_name) else {
-            return Err(self.refused(line, format!("`{ty_name}` is not a type DEF takes (INT, REAL, BOOL, CHAR, STRING, AXIS, FRAME)"), *start, *end));
+            return Err(self.refused(line, format!("`{ty_name}` is not a type DEF takes (INT, REAL, BOOL, CHAR, STRING, AXIS, FRAME)"), start, end));
         };
         if ty_name == "STRING" && cur.eat_sym("[") {
             while let Some(t) = cur.next() {
@@ -1331,16 +1311,11 @@ impl SinumerikFront {
             }
         }
         loop {
-            let Some(Token {
-                tok: Tok::Name(name),
-                start,
-                end,
-            }) = cur.next()
-            else {
+            let Some((name, start, end)) = cur.next_name() else {
                 let h = cur.here();
                 return Err(self.refused(line, "a variable name expected".into(), h, h + 1));
             };
-            let (name, nat) = (name.to_string(), (*start, *end));
+            let (name, nat) = (name.to_string(), (start, end));
             let mut dims = Vec::new();
             if cur.eat_sym("[") {
                 loop {

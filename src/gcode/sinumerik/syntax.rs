@@ -336,6 +336,19 @@ impl<'a> Cursor<'a> {
         t
     }
 
+    /// The next token when it is a name: the name and its byte span
+    /// (consumed either way, as [`Cursor::next`]).
+    pub fn next_name(&mut self) -> Option<(&'a str, usize, usize)> {
+        match self.next() {
+            Some(Token {
+                tok: Tok::Name(name),
+                start,
+                end,
+            }) => Some((&name[..], *start, *end)),
+            _ => None,
+        }
+    }
+
     /// The byte offset of the next token (the line's end at the end).
     pub fn here(&self) -> usize {
         self.peek().map_or(self.line_len, |t| t.start)
