@@ -17,6 +17,8 @@ pub const EXAMPLES: &str = "\
   volcomp check samples/saddle.nc --offset G54=250,120,-310 --targets -   # other controllers' origins
   volcomp check samples/saddle-tcp.nc --flatten -o flat.ngc   # loops, subroutines and cycles written out
   volcomp check samples/bc-trt/saddle.nc --machine machines/bc-trt.toml   # B/C program: the machine's letters
+  volcomp check samples/bc-trt/saddle-tcp.nc --machine machines/bc-trt.toml --frame part --targets tip.csv   # tool tip and axis in the workpiece frame
+  printf 'TRAORI\\nG1 X5 Y-5 Z12 A30 C90 F500\\nM30\\n' | volcomp check - --dialect sinumerik --machine machines/ref-trt.toml --frame part --targets -   # any dialect
   volcomp check samples/saddle.nc --lenient --json   # pass constructs it cannot understand through
   cat samples/saddle.nc | volcomp check -";
 
@@ -24,7 +26,13 @@ const AFTER_HELP: &str = "\
 A LinuxCNC machine's setup (work origins G54…, G92, G28/G30 positions) comes from its \
 parameter file with --var FILE.var; other controllers' origins with --offset. \
 --subroutine-path DIR finds o<name> call in DIR/name.ngc. --frame part reads a program \
-that starts with tool-tip control already on.";
+that starts with tool-tip control already on; with --targets it writes \
+`line,motion,x,y,z,i,j,k` instead: every motion end as the tool tip (mm) and the unit tool \
+axis in the workpiece frame (the work offset's / preset's frame, before G92, datum shifts, \
+frames and working planes), for every dialect. --machine turns rotary positions into the \
+axis (without it a rotary position other than 0 is an error at its block); x,y,z stay empty \
+where the reading cannot place the tip (G53/SUPA/M91/M92 moves, a rotary axis away from 0 \
+without tool-tip control).";
 
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -50,7 +58,9 @@ pub struct Args {
     /// (work origin, G92 and units applied; tool length offset not applied;
     /// the columns of rotary axes the machine lacks empty, `u,v,w` added for a
     /// machine that has them; `tool`: the tool in the spindle, 0 before the
-    /// first tool change). `-` for standard output.
+    /// first tool change). With `--frame part`: `line,motion,x,y,z,i,j,k`,
+    /// the tool tip and tool axis in the workpiece frame (below). `-` for
+    /// standard output.
     #[arg(long, value_name = "FILE.csv", conflicts_with = "flatten")]
     pub targets: Option<PathBuf>,
     /// Write the program flat to `-o`, without compensating: every block that
@@ -75,6 +85,8 @@ struct Job<'a> {
     machine: Option<crate::machine::Machine>,
     options: InterpretOptions,
     data_on_stdout: bool,
+    /// `--frame part --targets`: the targets in the workpiece frame.
+    workpiece: Option<crate::toolpath::WorkpieceFrame>,
 }
 
 /// The program to read: its input, the name it is reported under, the
@@ -147,11 +159,14 @@ impl<'a> Job<'a> {
             .output("--targets", args.targets.as_deref())
             .output("-o", args.output.as_deref())
             .check()?;
+        let workpiece = (options.initial_frame == Frame::Part && args.targets.is_some())
+            .then(|| crate::toolpath::WorkpieceFrame::new(machine.as_ref(), letters));
         Ok(Job {
             args,
             machine,
             options,
             data_on_stdout,
+            workpiece,
         })
     }
 
@@ -252,7 +267,7 @@ impl<'a> Job<'a> {
         } = input;
         let warnings = setup.warnings.clone();
         let summary = match &args.targets {
-            None => check_stream(input, &name, options, &setup, None)?,
+            None => check_stream(input, &name, options, &setup, None, None)?,
             Some(path) if crate::io::is_stdio(path) => {
                 let stdout = std::io::stdout();
                 let mut out = std::io::BufWriter::new(stdout.lock());
@@ -262,6 +277,7 @@ impl<'a> Job<'a> {
                     options,
                     &setup,
                     Some((&mut out, "standard output")),
+                    self.workpiece.as_ref(),
                 )?;
                 out.flush()
                     .context("cannot write the targets to standard output")?;
@@ -276,6 +292,7 @@ impl<'a> Job<'a> {
                         options,
                         &setup,
                         Some((out, "the file")),
+                        self.workpiece.as_ref(),
                     )?);
                     Ok(())
                 })
@@ -351,13 +368,15 @@ struct FlattenReport<'a> {
 }
 
 /// Run `input` through both layers, counting as it goes, and write every
-/// motion end point to `targets` when given.
+/// motion end point to `targets` when given: in machine coordinates, or in
+/// the workpiece frame when `workpiece` is given (`--frame part`).
 pub fn check_stream(
     input: Box<dyn crate::gcode::ProgramInput>,
     path: &Path,
     options: InterpretOptions,
     setup: &ProgramSetup,
     mut targets: Option<(&mut dyn Write, &str)>,
+    workpiece: Option<&crate::toolpath::WorkpieceFrame>,
 ) -> anyhow::Result<ProgramSummary> {
     let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
@@ -372,15 +391,37 @@ pub fn check_stream(
             .filter(|a| letters.contains(*a)),
     );
     if let Some((out, to)) = targets.as_mut() {
-        let names: Vec<String> = columns.iter().map(|a| a.lower().to_string()).collect();
-        out.write_all(format!("line,motion,{},tool\n", names.join(",")).as_bytes())
+        let header = match workpiece {
+            Some(_) => "line,motion,x,y,z,i,j,k\n".to_string(),
+            None => {
+                let names: Vec<String> = columns.iter().map(|a| a.lower().to_string()).collect();
+                format!("line,motion,{},tool\n", names.join(","))
+            }
+        };
+        out.write_all(header.as_bytes())
             .with_context(|| format!("cannot write the targets to {to}"))?;
     }
     let mut row = String::new();
-    while let Some(step) = run.next() {
+    // A block `--frame part` cannot turn into a row, and its file.
+    let mut unplaced = None;
+    'blocks: while let Some(step) = run.next() {
         let (block, event, executed) = step.map_err(anyhow::Error::new)?;
         summary.add(block, event);
-        if let Some((out, to)) = targets.as_mut() {
+        if let (Some((out, to)), Some(frame)) = (targets.as_mut(), workpiece) {
+            for m in event.motions() {
+                let target = match frame.target(block, event, m) {
+                    Ok(target) => target,
+                    Err(e) => {
+                        unplaced = Some((e, executed.file));
+                        break 'blocks;
+                    }
+                };
+                row.clear();
+                workpiece_row(&mut row, executed.line, motion_code(m, event), &target);
+                out.write_all(row.as_bytes())
+                    .with_context(|| format!("cannot write the targets to {to}"))?;
+            }
+        } else if let Some((out, to)) = targets.as_mut() {
             for m in event.motions() {
                 row.clear();
                 let code = motion_code(m, event);
@@ -400,7 +441,48 @@ pub fn check_stream(
             }
         }
     }
+    if let Some((e, file)) = unplaced {
+        let file = match file {
+            0 => path.to_path_buf(),
+            n => PathBuf::from(run.file_name(n)),
+        };
+        return Err(anyhow::Error::new(e.with_path(file)));
+    }
     Ok(summary)
+}
+
+/// A row of `--frame part --targets`: `line,motion,x,y,z,i,j,k` (x y z
+/// empty where the tip is not placed), no negative zeros.
+fn workpiece_row(
+    row: &mut String,
+    line: usize,
+    code: &str,
+    target: &crate::toolpath::WorkpieceTarget,
+) {
+    use std::fmt::Write as _;
+    let _ = write!(row, "{line},{code}");
+    match target.tip {
+        Some(tip) => {
+            for v in tip {
+                let _ = write!(row, ",{}", fixed(v, 6));
+            }
+        }
+        None => row.push_str(",,,"),
+    }
+    for v in target.axis {
+        let _ = write!(row, ",{}", fixed(v, 9));
+    }
+    row.push('\n');
+}
+
+/// `v` with `decimals` decimals, `-0.000` written `0.000`.
+fn fixed(v: f64, decimals: usize) -> String {
+    let text = format!("{v:.decimals$}");
+    if text.starts_with('-') && text.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
+        text[1..].to_string()
+    } else {
+        text
+    }
 }
 
 /// The G code of a move as the targets file names it.

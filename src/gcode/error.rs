@@ -207,6 +207,10 @@ pub enum ErrorKind {
     /// them).
     #[error("{0}")]
     DialectRefused(String),
+    /// A block whose reading needs the machine's kinematics, read without
+    /// `--machine` (what it needs it for).
+    #[error("{0} needs the machine's kinematics")]
+    MachineNeeded(&'static str),
     /// The program executed more lines than the limit (the limit) without
     /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
@@ -341,6 +345,7 @@ impl ErrorKind {
             ErrorKind::DialectRefused(_) => {
                 "the control refuses this too (docs/dialects.md cites its manual); correct the program"
             }
+            ErrorKind::MachineNeeded(_) => "give the machine file with --machine MACHINE.toml",
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"
             }

@@ -12,6 +12,7 @@ pub(crate) mod pose;
 pub(crate) mod program;
 pub(crate) mod walk;
 pub(crate) mod work_origin;
+pub(crate) mod workpiece;
 
 pub use context::{PointContext, last_time_min};
 pub use cut::{CutError, CutOptions, ProbeTool, probe_context};
@@ -20,3 +21,4 @@ pub use plan_match::{PlanMatch, PlanMatcher};
 pub use pose::{joints_of, pose_of};
 pub use program::{WalkSummary, walk_program, walk_program_tracking};
 pub use walk::{PathPoint, PathWalker, WalkOptions};
+pub use workpiece::{WorkpieceFrame, WorkpieceTarget};

@@ -39,3 +39,4 @@ mod support;
 mod toolpath;
 mod tools;
 mod work_frame;
+mod workpiece_targets;

@@ -188,6 +188,22 @@ impl Origin {
         }
     }
 
+    /// Machine (part-table) XYZ → the workpiece frame: the frame of the work
+    /// origin itself (its shift and its XY rotation), before G92, datum
+    /// shifts, programmable frames and working planes (dialects.md
+    /// "Positions": where `check --frame part --targets` writes the tip).
+    pub fn xyz_to_workpiece(&self, m: [f64; 3]) -> [f64; 3] {
+        let (x, y) = rotate(m[0] - self.work.x, m[1] - self.work.y, -self.rotation_deg);
+        [x, y, m[2] - self.work.z]
+    }
+
+    /// A machine (part-table) direction → the workpiece frame (the work
+    /// origin's XY rotation undone; a direction has no shift).
+    pub fn vector_to_workpiece(&self, v: [f64; 3]) -> [f64; 3] {
+        let (x, y) = rotate(v[0], v[1], -self.rotation_deg);
+        [x, y, v[2]]
+    }
+
     /// A point given by its X Y Z only (an arc centre) → machine XYZ.
     pub fn xyz_to_machine(&self, p: [f64; 3]) -> [f64; 3] {
         self.to_machine(&Axes::xyzac(p[0], p[1], p[2], 0.0, 0.0))
