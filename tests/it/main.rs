@@ -35,6 +35,7 @@ mod rs274;
 mod safety;
 mod sample;
 mod sinumerik;
+mod sinumerik_differential;
 mod support;
 mod toolpath;
 mod tools;
