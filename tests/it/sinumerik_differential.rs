@@ -97,7 +97,7 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         &["--machine", "machines/ref-trt.toml"],
         AsWritten,
         Differ,
-        "the reference does not model `CYCLE800` (it passes the call over): its positions are the plane's own X Y Z and no rotary axes; volcomp's are the tool tip in the part frame of the plane swivelled 30° about X (`Rx(30°)·p`), with A30 C−180 where ref-trt reaches it (`check --frame part --targets` rows in tests/it/workpiece_targets.rs)",
+        "the reference does not model `CYCLE800` (it passes the call over): its positions are the plane's own X Y Z and no rotary axes; volcomp's are the tool tip in the part frame of the plane swivelled 30° about X (`Rx(30°)·p`), with A30 C−180 where ref-trt reaches it; the test checks, move for move, that volcomp's `check --frame part --targets` tip is `Rx(30°)` of the reference's position",
     ),
     (
         "saddle-traori-ac.mpf",
@@ -475,6 +475,7 @@ fn volcomp_and_ceads_interpreter_read_sinumerik_programs_alike() {
         })
         .collect();
     let reference = reference_readings(&files);
+    let plane = names.iter().position(|n| n == "plane-3plus2.mpf").unwrap();
     let mut comparisons = Vec::new();
     let mut failures = Vec::new();
     for (name, file) in names.iter().zip(&files) {
@@ -516,6 +517,54 @@ fn volcomp_and_ceads_interpreter_read_sinumerik_programs_alike() {
     // over them, and how many positions that is).
     let agreeing: Vec<&Comparison> = comparisons.iter().filter(|c| c.outcome == Agree).collect();
     assert!(agreeing.len() >= 20, "{} programs agree", agreeing.len());
+    the_cycle800_difference_is_the_swivelled_plane(&reference[&files[plane]]);
+}
+
+/// plane-3plus2.mpf's difference is the one its entry gives: the
+/// reference's positions are the plane's coordinates `p`, volcomp's tool tip
+/// in the workpiece frame (`check --frame part --targets`) is `Rx(30°)·p`,
+/// move for move.
+fn the_cycle800_difference_is_the_swivelled_plane(reference: &Reading) {
+    let reference = moving(
+        reference
+            .as_ref()
+            .expect("the reference reads plane-3plus2.mpf"),
+    );
+    let out = crate::support::volcomp()
+        .args([
+            "check",
+            "tests/data/sinumerik/plane-3plus2.mpf",
+            "--machine",
+            "machines/ref-trt.toml",
+            "--frame",
+            "part",
+            "--targets",
+            "-",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    crate::support::assert_success(&out);
+    let tips: Vec<(usize, [f64; 3])> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let n = |k: usize| f[k].parse::<f64>().unwrap();
+            (f[0].parse().unwrap(), [n(2), n(3), n(4)])
+        })
+        .collect();
+    assert_eq!(tips.len(), reference.len());
+    let (s, c) = 30f64.to_radians().sin_cos();
+    for ((line, p), (tip_line, tip)) in reference.iter().zip(&tips) {
+        let rotated = [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]];
+        assert_eq!(line, tip_line);
+        assert!(
+            (0..3).all(|k| (rotated[k] - tip[k]).abs() < TOLERANCE),
+            "line {line}: Rx(30°)·{p:?} = {rotated:?}, volcomp's tip {tip:?}"
+        );
+    }
 }
 
 /// A program's entry in [`EXPECTED`]: volcomp's arguments, how both read
