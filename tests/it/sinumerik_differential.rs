@@ -90,7 +90,7 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         &["--subroutine-path", "tests/data/sinumerik/subprograms"],
         AsWritten,
         ReferenceRefuses,
-        "the reference refuses `Y.5` (line 11: \"expected the end of the program\"), a number the 840D reads (Fundamentals: a leading zero may be left out); the file also calls subprograms (`L12`, `CORNER(7, -3)`), which the reference does not run",
+        "the reference refuses `Y.5` (line 11: \"expected the end of the program\"), a number the 840D reads (a leading zero left out, as CAM output writes `.02`); the file also calls subprograms (`L12`, `CORNER(7, -3)`), which the reference does not run",
     ),
     (
         "plane-3plus2.mpf",
