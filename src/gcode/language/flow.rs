@@ -252,6 +252,26 @@ struct CachedLine {
     next_offset: u64,
 }
 
+/// A source line as [`Executor::read_line`] hands it on: read just now and
+/// owned (when it is executed as written it becomes the executed block, and
+/// the executed block's buffers are kept for the next read: no copy, no
+/// allocation per line), or shared with the line cache.
+enum SourceLine {
+    Read(Block),
+    Cached(Arc<Block>),
+}
+
+impl std::ops::Deref for SourceLine {
+    type Target = Block;
+
+    fn deref(&self) -> &Block {
+        match self {
+            SourceLine::Read(block) => block,
+            SourceLine::Cached(block) => block,
+        }
+    }
+}
+
 /// The language layer. Call [`Executor::next_block`] until it returns `None`.
 pub struct Executor {
     options: LanguageOptions,
@@ -386,7 +406,7 @@ impl Executor {
         }
         match self.read_line() {
             Ok(Some(block)) => {
-                self.emit_source(&block);
+                self.emit_source(block);
                 Some(Ok(()))
             }
             Ok(None) => None,
@@ -474,12 +494,13 @@ impl Executor {
                 {
                     self.control(&block, o, params)?;
                 }
-                self.emit_passed(&block);
+                self.emit_passed(block);
                 return Ok(true);
             }
             let skipping = self.mode != Mode::Run;
             if let Some(err) = &block.unparsed {
                 if skipping {
+                    self.recycle(block);
                     continue;
                 }
                 if !self.options.lenient {
@@ -487,7 +508,7 @@ impl Executor {
                 }
                 // Lenient: pass the line through verbatim (the machine-state
                 // layer warns about it).
-                self.emit_source(&block);
+                self.emit_source(block);
                 return Ok(true);
             }
             // LinuxCNC: the first line that is not blank may be a lone `%`
@@ -502,6 +523,7 @@ impl Executor {
             }
             if block.percent {
                 if skipping {
+                    self.recycle(block);
                     continue;
                 }
                 if self.current == 0 {
@@ -509,7 +531,7 @@ impl Executor {
                     let lone = text.iter().filter(|b| !b.is_ascii_whitespace()).eq(b"%");
                     if self.percent_seen && lone {
                         // The closing `%` ends the program (LinuxCNC).
-                        self.emit_source(&block);
+                        self.emit_source(block);
                         self.ended = true;
                         return Ok(true);
                     }
@@ -525,22 +547,21 @@ impl Executor {
                         ));
                     }
                 }
-                self.emit_source(&block);
+                self.emit_source(block);
                 return Ok(true);
             }
             if let Some(o) = &block.o_word {
                 self.control(&block, o, params)?;
                 if let Mode::Define { passing: true, .. } = self.mode {
                     // The `sub` line of a definition passed over.
-                    self.emit_passed(&block);
+                    self.emit_passed(block);
                     return Ok(true);
                 }
+                self.recycle(block);
                 continue;
             }
-            if skipping {
-                continue;
-            }
-            if block.deleted && self.options.skip_deleted_blocks {
+            if skipping || (block.deleted && self.options.skip_deleted_blocks) {
+                self.recycle(block);
                 continue;
             }
             // An ordinary line: evaluate, then assign.
@@ -549,7 +570,7 @@ impl Executor {
                 && self.frames.is_empty()
                 && self.main_loops == 0;
             if literal {
-                self.emit_source(&block);
+                self.emit_source(block);
             } else {
                 if let Err(e) = self.flatten(&block, params) {
                     if !self.options.lenient {
@@ -561,9 +582,10 @@ impl Executor {
                     verbatim.assignments.clear();
                     verbatim.exprs.clear();
                     verbatim.unparsed = Some(Box::new(e));
-                    self.emit_source(&verbatim);
+                    self.emit_source(SourceLine::Read(verbatim));
                     return Ok(true);
                 }
+                self.recycle(block);
                 if self.out.is_empty() && self.out.comments.is_empty() {
                     // An assignment-only line: nothing to write.
                     continue;
@@ -574,21 +596,39 @@ impl Executor {
     }
 
     /// Hand on a line of a definition passed over, as written.
-    fn emit_passed(&mut self, block: &Block) {
-        self.out.clone_from(block);
+    fn emit_passed(&mut self, block: SourceLine) {
+        self.take_as_out(block);
         self.executed = Executed {
             file: self.current,
-            line: block.line,
+            line: self.out.line,
             literal: true,
             passed: true,
         };
     }
 
-    fn emit_source(&mut self, block: &Block) {
-        self.out.clone_from(block);
+    /// Make a source line the executed block as it is written: a line just
+    /// read is moved there, and the buffers of the block it replaces become
+    /// the next read's.
+    fn take_as_out(&mut self, block: SourceLine) {
+        match block {
+            SourceLine::Read(block) => self.source = std::mem::replace(&mut self.out, block),
+            SourceLine::Cached(block) => self.out.clone_from(&block),
+        }
+    }
+
+    /// Keep the buffers of a line read and not executed as written for the
+    /// next read.
+    fn recycle(&mut self, block: SourceLine) {
+        if let SourceLine::Read(block) = block {
+            self.source = block;
+        }
+    }
+
+    fn emit_source(&mut self, block: SourceLine) {
+        self.take_as_out(block);
         self.executed = Executed {
             file: self.current,
-            line: block.line,
+            line: self.out.line,
             literal: self.current == 0 && self.frames.is_empty() && self.main_loops == 0,
             passed: false,
         };
@@ -767,7 +807,7 @@ impl Executor {
 
     /// Read the next source line of the current file (from the cache when it
     /// was parsed before), `None` at its end.
-    fn read_line(&mut self) -> Result<Option<Arc<Block>>, GcodeError> {
+    fn read_line(&mut self) -> Result<Option<SourceLine>, GcodeError> {
         let file = &mut self.files[self.current];
         let key = (self.current, file.offset);
         if let Some(c) = self.cache.get(&key) {
@@ -775,7 +815,7 @@ impl Executor {
             file.offset = c.next_offset;
             file.line = block.line;
             file.positioned = false;
-            return Ok(Some(block));
+            return Ok(Some(SourceLine::Cached(block)));
         }
         if !file.positioned {
             file.input
@@ -810,9 +850,10 @@ impl Executor {
             self.source.exprs.clear();
             self.source.unparsed = Some(Box::new(e));
         }
-        let block = Arc::new(self.source.clone());
+        let block = std::mem::take(&mut self.source);
         let in_body = !self.frames.is_empty() || self.main_loops > 0 || block.o_word.is_some();
         if in_body && self.cache.len() < LINE_CACHE_LIMIT {
+            let block = Arc::new(block);
             self.cache.insert(
                 key,
                 CachedLine {
@@ -820,8 +861,9 @@ impl Executor {
                     next_offset: self.files[self.current].offset,
                 },
             );
+            return Ok(Some(SourceLine::Cached(block)));
         }
-        Ok(Some(block))
+        Ok(Some(SourceLine::Read(block)))
     }
 
     /// The resolved label of an O-line: global for sub/endsub/call/return,
