@@ -257,7 +257,8 @@ struct CachedLine {
 /// the executed block's buffers are kept for the next read: no copy, no
 /// allocation per line), or shared with the line cache.
 enum SourceLine {
-    Read(Block),
+    /// (Boxed: handing it on moves a pointer, not the block.)
+    Read(Box<Block>),
     Cached(Arc<Block>),
 }
 
@@ -298,8 +299,9 @@ pub struct Executor {
     loop_lines: u64,
     cache: HashMap<(usize, u64), CachedLine>,
     /// The source line being read (reused), and the executed block handed out.
-    source: Block,
-    out: Block,
+    /// The buffers of the next line to read (`None` while they are lent).
+    source: Option<Box<Block>>,
+    out: Box<Block>,
     executed: Executed,
     percent_seen: bool,
     /// A line of the main file that is not blank was read.
@@ -343,8 +345,8 @@ impl Executor {
             open_loops: Vec::new(),
             loop_lines: 0,
             cache: HashMap::new(),
-            source: Block::default(),
-            out: Block::default(),
+            source: None,
+            out: Box::default(),
             executed: Executed {
                 file: 0,
                 line: 0,
@@ -582,7 +584,7 @@ impl Executor {
                     verbatim.assignments.clear();
                     verbatim.exprs.clear();
                     verbatim.unparsed = Some(Box::new(e));
-                    self.emit_source(SourceLine::Read(verbatim));
+                    self.emit_source(SourceLine::Read(Box::new(verbatim)));
                     return Ok(true);
                 }
                 self.recycle(block);
@@ -611,8 +613,8 @@ impl Executor {
     /// the next read's.
     fn take_as_out(&mut self, block: SourceLine) {
         match block {
-            SourceLine::Read(block) => self.source = std::mem::replace(&mut self.out, block),
-            SourceLine::Cached(block) => self.out.clone_from(&block),
+            SourceLine::Read(block) => self.source = Some(std::mem::replace(&mut self.out, block)),
+            SourceLine::Cached(block) => (*self.out).clone_from(&block),
         }
     }
 
@@ -620,7 +622,7 @@ impl Executor {
     /// next read.
     fn recycle(&mut self, block: SourceLine) {
         if let SourceLine::Read(block) = block {
-            self.source = block;
+            self.source = Some(block);
         }
     }
 
@@ -824,36 +826,35 @@ impl Executor {
             file.positioned = true;
         }
         file.line += 1;
-        self.source.reset(file.line, file.offset);
+        let mut block = self.source.take().unwrap_or_default();
+        block.reset(file.line, file.offset);
         let (n, too_long) =
-            crate::gcode::syntax::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
+            crate::gcode::syntax::reader::read_line_bounded(&mut file.input, &mut block.raw)
                 .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
         if let Some(length) = too_long {
             return Err(crate::gcode::syntax::reader::line_too_long(
-                file.line,
-                &self.source.raw,
-                length,
+                file.line, &block.raw, length,
             ));
         }
         if n == 0 {
             file.line -= 1;
+            self.source = Some(block);
             return Ok(None);
         }
         file.offset += n as u64;
-        self.source.ending = LineEnding::take_from(&mut self.source.raw);
-        if let Err(e) = parse_line(&mut self.source) {
-            self.source.words.clear();
-            self.source.keywords.clear();
-            self.source.comments.clear();
-            self.source.assignments.clear();
-            self.source.o_word = None;
-            self.source.exprs.clear();
-            self.source.unparsed = Some(Box::new(e));
+        block.ending = LineEnding::take_from(&mut block.raw);
+        if let Err(e) = parse_line(&mut block) {
+            block.words.clear();
+            block.keywords.clear();
+            block.comments.clear();
+            block.assignments.clear();
+            block.o_word = None;
+            block.exprs.clear();
+            block.unparsed = Some(Box::new(e));
         }
-        let block = std::mem::take(&mut self.source);
         let in_body = !self.frames.is_empty() || self.main_loops > 0 || block.o_word.is_some();
         if in_body && self.cache.len() < LINE_CACHE_LIMIT {
-            let block = Arc::new(block);
+            let block = Arc::new(*block);
             self.cache.insert(
                 key,
                 CachedLine {
