@@ -2016,17 +2016,31 @@ impl Interpreter {
                 .filter(move |w| w.letter == letter)
                 .filter_map(|w| w.code10())
         };
+        // The letters the block holds, one bit each: most blocks hold no G
+        // or M word and none of the words checked below, and skip the scans
+        // of their codes.
+        let bit = |letter: u8| 1u32 << (letter - b'A');
+        let present = block
+            .words
+            .iter()
+            .filter(|w| w.letter.is_ascii_uppercase())
+            .fold(0u32, |mask, w| mask | bit(w.letter));
+        let has = |letter: u8| present & bit(letter) != 0;
         // User M codes (M100–M199) take any word; M98/M99 (refused on
         // their own) their P and L.
-        if codes(b'M').any(|m| (1000..=1990).contains(&m) || m == 980 || m == 990) {
+        if has(b'M') && codes(b'M').any(|m| (1000..=1990).contains(&m) || m == 980 || m == 990) {
             return Ok(());
         }
         let g = |list: &[i32]| codes(b'G').any(|c| list.contains(&c));
         let m = |list: &[i32]| codes(b'M').any(|c| list.contains(&c));
         // The motion the block runs (`motion_to_be`), as code × 10.
-        let block_motion = codes(b'G')
-            .rfind(|c| matches!(classify_g(*c), GCode::Motion(_)))
-            .or_else(|| g(&[800]).then_some(800));
+        let block_motion = if has(b'G') {
+            codes(b'G')
+                .rfind(|c| matches!(classify_g(*c), GCode::Motion(_)))
+                .or_else(|| g(&[800]).then_some(800))
+        } else {
+            None
+        };
         let ijk = words.ijk.iter().any(Option::is_some);
         let modal = self.modal.motion.code10() as i32;
         let motion = match block_motion {
@@ -2054,6 +2068,9 @@ impl Interpreter {
         let is = |list: &[i32]| motion.is_some_and(|c| list.contains(&c));
         let cycle = |c: i32| (810..=890).contains(&c) || c == 730;
         let arc = is(&[20, 30]);
+        if !b"DEHIJKLPQR".iter().any(|l| has(*l)) {
+            return Ok(());
+        }
         let g10 = g(&[100]);
         let comp = g(&[410, 411, 420, 421]);
         let unused = [
