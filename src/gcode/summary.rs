@@ -145,7 +145,13 @@ impl ProgramSummary {
         self.time_min = event.time_min;
         if !event.skipped {
             for w in &block.words {
-                self.count_word(w.letter, w.code10());
+                // (Only G and M words are counted by their code.)
+                let code10 = if matches!(w.letter, b'G' | b'M') {
+                    w.code10()
+                } else {
+                    None
+                };
+                self.count_word(w.letter, code10);
             }
             for s in &block.statements {
                 self.count_statement(&block.raw[s.clone()]);

@@ -9,9 +9,11 @@ pub fn root() -> PathBuf {
 }
 
 /// The `volcomp` binary built for these tests. Its model cache is a folder of
-/// this test run's own in the system's temporary folder (never the user's
-/// `~/.cache/volcomp`), shared by the tests: a model one test fitted is what
-/// another one loads, as for a user running several commands.
+/// this test run's own under cargo's `CARGO_TARGET_TMPDIR` (`target/tmp`,
+/// removed with the build by `cargo clean`; never the user's
+/// `~/.cache/volcomp`, nor the system's temporary folder, where a folder held
+/// by a static is never deleted), shared by the tests: a model one test fitted
+/// is what another one loads, as for a user running several commands.
 pub fn volcomp() -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_volcomp"));
     command.env("VOLCOMP_MODEL_CACHE", model_cache());
@@ -24,8 +26,8 @@ pub fn model_cache() -> &'static std::path::Path {
     DIR.get_or_init(|| {
         tempfile::Builder::new()
             .prefix("volcomp-test-cache-")
-            .tempdir()
-            .expect("a temporary folder")
+            .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+            .expect("a temporary folder under CARGO_TARGET_TMPDIR")
     })
     .path()
 }

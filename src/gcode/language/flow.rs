@@ -252,6 +252,27 @@ struct CachedLine {
     next_offset: u64,
 }
 
+/// A source line as [`Executor::read_line`] hands it on: read just now and
+/// owned (when it is executed as written it becomes the executed block, and
+/// the executed block's buffers are kept for the next read: no copy, no
+/// allocation per line), or shared with the line cache.
+enum SourceLine {
+    /// (Boxed: handing it on moves a pointer, not the block.)
+    Read(Box<Block>),
+    Cached(Arc<Block>),
+}
+
+impl std::ops::Deref for SourceLine {
+    type Target = Block;
+
+    fn deref(&self) -> &Block {
+        match self {
+            SourceLine::Read(block) => block,
+            SourceLine::Cached(block) => block,
+        }
+    }
+}
+
 /// The language layer. Call [`Executor::next_block`] until it returns `None`.
 pub struct Executor {
     options: LanguageOptions,
@@ -278,8 +299,9 @@ pub struct Executor {
     loop_lines: u64,
     cache: HashMap<(usize, u64), CachedLine>,
     /// The source line being read (reused), and the executed block handed out.
-    source: Block,
-    out: Block,
+    /// The buffers of the next line to read (`None` while they are lent).
+    source: Option<Box<Block>>,
+    out: Box<Block>,
     executed: Executed,
     percent_seen: bool,
     /// A line of the main file that is not blank was read.
@@ -323,8 +345,8 @@ impl Executor {
             open_loops: Vec::new(),
             loop_lines: 0,
             cache: HashMap::new(),
-            source: Block::default(),
-            out: Block::default(),
+            source: None,
+            out: Box::default(),
             executed: Executed {
                 file: 0,
                 line: 0,
@@ -386,7 +408,7 @@ impl Executor {
         }
         match self.read_line() {
             Ok(Some(block)) => {
-                self.emit_source(&block);
+                self.emit_source(block);
                 Some(Ok(()))
             }
             Ok(None) => None,
@@ -474,12 +496,13 @@ impl Executor {
                 {
                     self.control(&block, o, params)?;
                 }
-                self.emit_passed(&block);
+                self.emit_passed(block);
                 return Ok(true);
             }
             let skipping = self.mode != Mode::Run;
             if let Some(err) = &block.unparsed {
                 if skipping {
+                    self.recycle(block);
                     continue;
                 }
                 if !self.options.lenient {
@@ -487,7 +510,7 @@ impl Executor {
                 }
                 // Lenient: pass the line through verbatim (the machine-state
                 // layer warns about it).
-                self.emit_source(&block);
+                self.emit_source(block);
                 return Ok(true);
             }
             // LinuxCNC: the first line that is not blank may be a lone `%`
@@ -502,6 +525,7 @@ impl Executor {
             }
             if block.percent {
                 if skipping {
+                    self.recycle(block);
                     continue;
                 }
                 if self.current == 0 {
@@ -509,7 +533,7 @@ impl Executor {
                     let lone = text.iter().filter(|b| !b.is_ascii_whitespace()).eq(b"%");
                     if self.percent_seen && lone {
                         // The closing `%` ends the program (LinuxCNC).
-                        self.emit_source(&block);
+                        self.emit_source(block);
                         self.ended = true;
                         return Ok(true);
                     }
@@ -525,22 +549,21 @@ impl Executor {
                         ));
                     }
                 }
-                self.emit_source(&block);
+                self.emit_source(block);
                 return Ok(true);
             }
             if let Some(o) = &block.o_word {
                 self.control(&block, o, params)?;
                 if let Mode::Define { passing: true, .. } = self.mode {
                     // The `sub` line of a definition passed over.
-                    self.emit_passed(&block);
+                    self.emit_passed(block);
                     return Ok(true);
                 }
+                self.recycle(block);
                 continue;
             }
-            if skipping {
-                continue;
-            }
-            if block.deleted && self.options.skip_deleted_blocks {
+            if skipping || (block.deleted && self.options.skip_deleted_blocks) {
+                self.recycle(block);
                 continue;
             }
             // An ordinary line: evaluate, then assign.
@@ -549,7 +572,7 @@ impl Executor {
                 && self.frames.is_empty()
                 && self.main_loops == 0;
             if literal {
-                self.emit_source(&block);
+                self.emit_source(block);
             } else {
                 if let Err(e) = self.flatten(&block, params) {
                     if !self.options.lenient {
@@ -561,9 +584,10 @@ impl Executor {
                     verbatim.assignments.clear();
                     verbatim.exprs.clear();
                     verbatim.unparsed = Some(Box::new(e));
-                    self.emit_source(&verbatim);
+                    self.emit_source(SourceLine::Read(Box::new(verbatim)));
                     return Ok(true);
                 }
+                self.recycle(block);
                 if self.out.is_empty() && self.out.comments.is_empty() {
                     // An assignment-only line: nothing to write.
                     continue;
@@ -574,21 +598,39 @@ impl Executor {
     }
 
     /// Hand on a line of a definition passed over, as written.
-    fn emit_passed(&mut self, block: &Block) {
-        self.out.clone_from(block);
+    fn emit_passed(&mut self, block: SourceLine) {
+        self.take_as_out(block);
         self.executed = Executed {
             file: self.current,
-            line: block.line,
+            line: self.out.line,
             literal: true,
             passed: true,
         };
     }
 
-    fn emit_source(&mut self, block: &Block) {
-        self.out.clone_from(block);
+    /// Make a source line the executed block as it is written: a line just
+    /// read is moved there, and the buffers of the block it replaces become
+    /// the next read's.
+    fn take_as_out(&mut self, block: SourceLine) {
+        match block {
+            SourceLine::Read(block) => self.source = Some(std::mem::replace(&mut self.out, block)),
+            SourceLine::Cached(block) => (*self.out).clone_from(&block),
+        }
+    }
+
+    /// Keep the buffers of a line read and not executed as written for the
+    /// next read.
+    fn recycle(&mut self, block: SourceLine) {
+        if let SourceLine::Read(block) = block {
+            self.source = Some(block);
+        }
+    }
+
+    fn emit_source(&mut self, block: SourceLine) {
+        self.take_as_out(block);
         self.executed = Executed {
             file: self.current,
-            line: block.line,
+            line: self.out.line,
             literal: self.current == 0 && self.frames.is_empty() && self.main_loops == 0,
             passed: false,
         };
@@ -767,7 +809,7 @@ impl Executor {
 
     /// Read the next source line of the current file (from the cache when it
     /// was parsed before), `None` at its end.
-    fn read_line(&mut self) -> Result<Option<Arc<Block>>, GcodeError> {
+    fn read_line(&mut self) -> Result<Option<SourceLine>, GcodeError> {
         let file = &mut self.files[self.current];
         let key = (self.current, file.offset);
         if let Some(c) = self.cache.get(&key) {
@@ -775,7 +817,7 @@ impl Executor {
             file.offset = c.next_offset;
             file.line = block.line;
             file.positioned = false;
-            return Ok(Some(block));
+            return Ok(Some(SourceLine::Cached(block)));
         }
         if !file.positioned {
             file.input
@@ -784,35 +826,35 @@ impl Executor {
             file.positioned = true;
         }
         file.line += 1;
-        self.source.reset(file.line, file.offset);
+        let mut block = self.source.take().unwrap_or_default();
+        block.reset(file.line, file.offset);
         let (n, too_long) =
-            crate::gcode::syntax::reader::read_line_bounded(&mut file.input, &mut self.source.raw)
+            crate::gcode::syntax::reader::read_line_bounded(&mut file.input, &mut block.raw)
                 .map_err(|e| GcodeError::at(ErrorKind::Io(e.to_string()), file.line, b"", 0, 0))?;
         if let Some(length) = too_long {
             return Err(crate::gcode::syntax::reader::line_too_long(
-                file.line,
-                &self.source.raw,
-                length,
+                file.line, &block.raw, length,
             ));
         }
         if n == 0 {
             file.line -= 1;
+            self.source = Some(block);
             return Ok(None);
         }
         file.offset += n as u64;
-        self.source.ending = LineEnding::take_from(&mut self.source.raw);
-        if let Err(e) = parse_line(&mut self.source) {
-            self.source.words.clear();
-            self.source.keywords.clear();
-            self.source.comments.clear();
-            self.source.assignments.clear();
-            self.source.o_word = None;
-            self.source.exprs.clear();
-            self.source.unparsed = Some(Box::new(e));
+        block.ending = LineEnding::take_from(&mut block.raw);
+        if let Err(e) = parse_line(&mut block) {
+            block.words.clear();
+            block.keywords.clear();
+            block.comments.clear();
+            block.assignments.clear();
+            block.o_word = None;
+            block.exprs.clear();
+            block.unparsed = Some(Box::new(e));
         }
-        let block = Arc::new(self.source.clone());
         let in_body = !self.frames.is_empty() || self.main_loops > 0 || block.o_word.is_some();
         if in_body && self.cache.len() < LINE_CACHE_LIMIT {
+            let block = Arc::new(*block);
             self.cache.insert(
                 key,
                 CachedLine {
@@ -820,8 +862,9 @@ impl Executor {
                     next_offset: self.files[self.current].offset,
                 },
             );
+            return Ok(Some(SourceLine::Cached(block)));
         }
-        Ok(Some(block))
+        Ok(Some(SourceLine::Read(block)))
     }
 
     /// The resolved label of an O-line: global for sub/endsub/call/return,

@@ -630,7 +630,10 @@ impl Decoded {
 /// back.
 struct BlockState {
     modal: ModalState,
-    origin: Origin,
+    /// The origin the block sets (G54…, G10 L2/L20, G52, G92…), `None` while
+    /// it keeps the interpreter's: the origin, with a dialect's frame 328
+    /// bytes, is copied only by the blocks that change it.
+    origin: Option<Origin>,
     /// The position after the block (machine coordinates).
     position: Axes,
     spindle: SpindleDirection,
@@ -651,12 +654,23 @@ struct BlockState {
 }
 
 impl BlockState {
+    /// The block's origin: the one it sets, or `current` (the interpreter's).
+    fn origin<'a>(&'a self, current: &'a Origin) -> &'a Origin {
+        self.origin.as_ref().unwrap_or(current)
+    }
+
+    /// The block's origin to change, from `current` (the interpreter's) on
+    /// the first change.
+    fn origin_mut(&mut self, current: &Origin) -> &mut Origin {
+        self.origin.get_or_insert(*current)
+    }
+
     /// G92/G52 applied: #5210 and the offsets #5211….
-    fn store_g92(&mut self) {
+    fn store_g92(&mut self, current: &Origin) {
+        let g92 = self.origin(current).g92;
         self.store.push((numbers::G92_ENABLED, 1.0));
         for (k, axis) in Axis::ALL.into_iter().enumerate() {
-            self.store
-                .push((numbers::G92_OFFSET + k, self.origin.g92.get(axis)));
+            self.store.push((numbers::G92_OFFSET + k, g92.get(axis)));
         }
     }
 }
@@ -985,7 +999,7 @@ impl Interpreter {
         self.read(block, event, &mut decoded)?;
         let mut next = BlockState {
             modal: decoded.modes(&self.modal),
-            origin: self.origin,
+            origin: None,
             position: self.position,
             spindle: self.spindle,
             cycle_memory: self.cycle_memory,
@@ -1411,8 +1425,9 @@ impl Interpreter {
     fn convert_coord_system(&self, c: &mut Convert<'_>, d: &Decoded) {
         if let Some(n) = d.coord_select {
             c.next.modal.coord_system = n;
-            c.next.origin.work = self.stored_origin(n);
-            c.next.origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
+            let origin = c.next.origin_mut(&self.origin);
+            origin.work = self.stored_origin(n);
+            origin.rotation_deg = self.params.get(numbers::coord(n as usize, 9));
         }
     }
 
@@ -1422,7 +1437,7 @@ impl Interpreter {
     fn convert_modal_0(&self, c: &mut Convert<'_>, d: &Decoded) -> Result<(), GcodeError> {
         let (block, words) = (c.block, c.words);
         // Program coordinates of the current position in the block's origin.
-        let program_now = c.next.origin.to_program(&self.position);
+        let program_now = |c: &Convert<'_>| c.next.origin(&self.origin).to_program(&self.position);
         match d.axis_user {
             Some((GCode::SetData, s, e)) => self.set_data(c, (s, e))?,
             Some((GCode::AxisOffset(520), ..)) => {
@@ -1437,12 +1452,13 @@ impl Interpreter {
                         block.raw.len(),
                     )?;
                 }
+                let origin = c.next.origin_mut(&self.origin);
                 for axis in Axis::ALL {
                     if let Some((v, _)) = words.axes[axis as usize] {
-                        c.next.origin.g92.set(axis, v);
+                        origin.g92.set(axis, v);
                     }
                 }
-                c.next.store_g92();
+                c.next.store_g92(&self.origin);
             }
             Some((GCode::AxisOffset(_), ..)) => {
                 // G92: offsets so that the current position reads as the words.
@@ -1455,15 +1471,19 @@ impl Interpreter {
                         block.raw.len(),
                     )?;
                 }
-                let q = program_now.zip_with(&c.next.origin.g92, |p, g| p + g);
+                let q = program_now(c).zip_with(&c.next.origin(&self.origin).g92, |p, g| p + g);
+                let origin = c.next.origin_mut(&self.origin);
                 for axis in Axis::ALL {
                     if let Some((v, _)) = words.axes[axis as usize] {
-                        c.next.origin.g92.set(axis, q.get(axis) - v);
+                        origin.g92.set(axis, q.get(axis) - v);
                     }
                 }
-                c.next.store_g92();
+                c.next.store_g92(&self.origin);
             }
-            Some((GCode::Home(n), ..)) => self.convert_home(c, n, &program_now),
+            Some((GCode::Home(n), ..)) => {
+                let now = program_now(c);
+                self.convert_home(c, n, &now)
+            }
             _ => {}
         }
         if let Some(n) = d.store_home {
@@ -1478,7 +1498,7 @@ impl Interpreter {
         }
         match d.axis_offset {
             Some(921) | Some(922) => {
-                c.next.origin.g92 = Axes::default();
+                c.next.origin_mut(&self.origin).g92 = Axes::default();
                 c.next.store.push((numbers::G92_ENABLED, 0.0));
                 if d.axis_offset == Some(921) {
                     for k in 0..9 {
@@ -1487,7 +1507,7 @@ impl Interpreter {
                 }
             }
             Some(923) => {
-                c.next.origin.g92 = self.stored_axes(numbers::G92_OFFSET);
+                c.next.origin_mut(&self.origin).g92 = self.stored_axes(numbers::G92_OFFSET);
                 c.next.store.push((numbers::G92_ENABLED, 1.0));
             }
             _ => {}
@@ -1500,7 +1520,7 @@ impl Interpreter {
     /// none is given).
     fn convert_home(&self, c: &mut Convert<'_>, n: u8, program_now: &Axes) {
         let words = c.words;
-        let origin = c.next.origin;
+        let origin = *c.next.origin(&self.origin);
         let mut mid = *program_now;
         let mut given = [false; crate::axes::AXIS_COUNT];
         for (i, a) in words.axes.iter().enumerate() {
@@ -1649,7 +1669,7 @@ impl Interpreter {
         let mut target = if machine_coordinates {
             self.position
         } else {
-            c.next.origin.to_program(&self.position)
+            c.next.origin(&self.origin).to_program(&self.position)
         };
         for axis in Axis::ALL {
             if let Some((v, _)) = words.axes[axis as usize] {
@@ -1673,10 +1693,16 @@ impl Interpreter {
                 self.polar_target(block, c.event, words, &mut target, incremental, (s, e))?;
             }
         }
+        // (Borrowed from the interpreter while the block keeps its origin:
+        // `c` is lent to the move below.)
+        let set_origin = match &c.next.origin {
+            Some(o) if !machine_coordinates => Some(*o),
+            _ => None,
+        };
         let block_origin = if machine_coordinates {
-            Origin::MACHINE
+            &Origin::MACHINE
         } else {
-            c.next.origin
+            set_origin.as_ref().unwrap_or(&self.origin)
         };
         let end_machine = block_origin.to_machine(&target);
         if let MotionMode::Spline(code) = modal.motion
@@ -1694,7 +1720,7 @@ impl Interpreter {
                 c.next.position = self.spline(c, now, &target, code, span)?;
             }
         } else if end_machine.is_finite() {
-            let m = self.motion(c, &block_origin, end_machine, machine_coordinates)?;
+            let m = self.motion(c, block_origin, end_machine, machine_coordinates)?;
             c.next.position = m.end;
             c.next.motion = Some(m);
         } else {
@@ -1728,7 +1754,6 @@ impl Interpreter {
         next: &mut BlockState,
     ) {
         let modal = next.modal;
-        let origin = next.origin;
         let position = next.position;
         let (spindle, cycle_memory) = (next.spindle, next.cycle_memory);
         let (mist, flood, dwell_min, tool) = (next.mist, next.flood, next.dwell_min, next.tool);
@@ -1739,18 +1764,21 @@ impl Interpreter {
             event.frame_switch = Some(modal.frame);
         }
         self.modal = modal;
-        self.origin = origin;
+        // `event.origin` holds the origin the block started with
+        // (`interpret_into`): it changes only with the block's own.
+        if let Some(origin) = &next.origin {
+            self.origin = *origin;
+            event.origin = *origin;
+        }
         self.spindle = spindle;
         self.cycle_memory = cycle_memory;
         self.nurbs = nurbs;
         self.nurbs_order = nurbs_order;
         self.ended |= ended;
         self.unknown_letters_seen |= d.unknown_letters;
-        event.origin = if d.g53.is_some() {
-            Origin::MACHINE
-        } else {
-            origin
-        };
+        if d.g53.is_some() {
+            event.origin = Origin::MACHINE;
+        }
         for (n, v) in store {
             self.params.set(n, v);
         }
@@ -1763,7 +1791,7 @@ impl Interpreter {
             // #5061–#5069 hold the end point in program coordinates and
             // units, #5070 is 0.
             let scale = modal.units.scale();
-            let p = origin.to_program(&m.end);
+            let p = self.origin.to_program(&m.end);
             let mut values = [0.0; 9];
             for (k, axis) in Axis::ALL.into_iter().enumerate() {
                 let v = p.get(axis);
@@ -1988,17 +2016,31 @@ impl Interpreter {
                 .filter(move |w| w.letter == letter)
                 .filter_map(|w| w.code10())
         };
+        // The letters the block holds, one bit each: most blocks hold no G
+        // or M word and none of the words checked below, and skip the scans
+        // of their codes.
+        let bit = |letter: u8| 1u32 << (letter - b'A');
+        let present = block
+            .words
+            .iter()
+            .filter(|w| w.letter.is_ascii_uppercase())
+            .fold(0u32, |mask, w| mask | bit(w.letter));
+        let has = |letter: u8| present & bit(letter) != 0;
         // User M codes (M100–M199) take any word; M98/M99 (refused on
         // their own) their P and L.
-        if codes(b'M').any(|m| (1000..=1990).contains(&m) || m == 980 || m == 990) {
+        if has(b'M') && codes(b'M').any(|m| (1000..=1990).contains(&m) || m == 980 || m == 990) {
             return Ok(());
         }
         let g = |list: &[i32]| codes(b'G').any(|c| list.contains(&c));
         let m = |list: &[i32]| codes(b'M').any(|c| list.contains(&c));
         // The motion the block runs (`motion_to_be`), as code × 10.
-        let block_motion = codes(b'G')
-            .rfind(|c| matches!(classify_g(*c), GCode::Motion(_)))
-            .or_else(|| g(&[800]).then_some(800));
+        let block_motion = if has(b'G') {
+            codes(b'G')
+                .rfind(|c| matches!(classify_g(*c), GCode::Motion(_)))
+                .or_else(|| g(&[800]).then_some(800))
+        } else {
+            None
+        };
         let ijk = words.ijk.iter().any(Option::is_some);
         let modal = self.modal.motion.code10() as i32;
         let motion = match block_motion {
@@ -2026,6 +2068,9 @@ impl Interpreter {
         let is = |list: &[i32]| motion.is_some_and(|c| list.contains(&c));
         let cycle = |c: i32| (810..=890).contains(&c) || c == 730;
         let arc = is(&[20, 30]);
+        if !b"DEHIJKLPQR".iter().any(|l| has(*l)) {
+            return Ok(());
+        }
         let g10 = g(&[100]);
         let comp = g(&[410, 411, 420, 421]);
         let unused = [
@@ -2164,6 +2209,7 @@ impl Interpreter {
                     store.push((numbers::coord(n as usize, 9), r));
                 }
                 if n == modal.coord_system {
+                    let origin = origin.get_or_insert(self.origin);
                     origin.work = o;
                     origin.rotation_deg = rotation;
                 }
@@ -2186,7 +2232,10 @@ impl Interpreter {
                     1 => z,
                     _ => z.map(|z| {
                         let system = if l == 10 {
-                            origin.to_program(&self.position)
+                            origin
+                                .as_ref()
+                                .unwrap_or(&self.origin)
+                                .to_program(&self.position)
                         } else {
                             Origin {
                                 work: self.stored_origin(9),
@@ -2293,7 +2342,7 @@ impl Interpreter {
         span: Span,
     ) -> Result<Axes, GcodeError> {
         let (block, words) = (c.block, c.words);
-        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (c.next.modal, *c.next.origin(&self.origin));
         let (modal, origin) = (&modal, &origin);
         let event = &mut *c.event;
         let scale = modal.units.scale();
@@ -2425,7 +2474,7 @@ impl Interpreter {
         span: Span,
     ) -> Result<(), GcodeError> {
         let (block, words) = (c.block, c.words);
-        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (c.next.modal, *c.next.origin(&self.origin));
         let (modal, origin) = (&modal, &origin);
         let event = &mut *c.event;
         use super::spline::ControlPoint;
@@ -2519,7 +2568,7 @@ impl Interpreter {
         span: Span,
     ) -> Result<Axes, GcodeError> {
         let block = c.block;
-        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (c.next.modal, *c.next.origin(&self.origin));
         let (modal, origin) = (&modal, &origin);
         let event = &mut *c.event;
         let pieces =
@@ -2587,7 +2636,7 @@ impl Interpreter {
     /// machine coordinates. Returns the position after the block.
     fn cycle(&self, c: &mut Convert<'_>, code: u16) -> Result<Axes, GcodeError> {
         let (block, words) = (c.block, c.words);
-        let (modal, origin) = (c.next.modal, c.next.origin);
+        let (modal, origin) = (c.next.modal, *c.next.origin(&self.origin));
         let (modal, origin) = (&modal, &origin);
         let event = &mut *c.event;
         let Some(cycle) = CycleCode::from_code10(code as i32) else {

@@ -45,7 +45,7 @@ pub fn read_line_bounded(
         if available.is_empty() {
             break;
         }
-        let (take, done) = match available.iter().position(|b| *b == b'\n') {
+        let (take, done) = match memchr::memchr(b'\n', available) {
             Some(k) => (k + 1, true),
             None => (available.len(), false),
         };
