@@ -1036,6 +1036,94 @@ mod cli {
         assert!(String::from_utf8_lossy(&out.stderr).contains("missing.csv"));
         assert!(!report.exists(), "nothing written on bad input");
     }
+
+    /// The B/C day (issue 36 "Show"): on bc-trt (B and C on the table),
+    /// head-table (B in the head, C under the part) and head-head (C and B in
+    /// the head), rotary location, squareness and backlash are each simulated
+    /// on the machine's bundled saddle and diagnosed: the effect is named,
+    /// its parameters and the localisation speak B and C (bands of B and of
+    /// C over their real span, no A bands), and the page plots B and C.
+    #[test]
+    fn the_b_c_day_localises_each_effect_on_the_machines_own_axes() {
+        let dir = tempfile::tempdir().unwrap();
+        let effects = [
+            (
+                "rotary_location",
+                "rotary_location:EX0B=10,EZ0B=-8,EA0B=60,EX0C=6,EA0C=40",
+            ),
+            ("squareness", "squareness:s_xy=150,s_xz=-100,s_yz=80"),
+            ("backlash", "backlash:bx=6,by=4,bz=5"),
+        ];
+        for machine in ["bc-trt", "head-table", "head-head"] {
+            let toml = data(&format!("machines/{machine}.toml"));
+            let program = data(&format!("samples/{machine}/saddle.nc"));
+            let plan = data(&format!("samples/{machine}/saddle-plan.csv"));
+            for (name, spec) in effects {
+                let what = format!("{machine} {name}");
+                let measured = dir.path().join(format!("{machine}-{name}.csv"));
+                let args = [
+                    "--effect",
+                    spec,
+                    "--seed",
+                    "36",
+                    "--noise-um",
+                    "0.3",
+                    "-o",
+                    measured.to_str().unwrap(),
+                ];
+                ok(&command("simulate", &[&toml, &program, &plan], &args));
+                let report = dir.path().join(format!("{machine}-{name}.json"));
+                let html = dir.path().join(format!("{machine}-{name}.html"));
+                let args = [
+                    "--report",
+                    report.to_str().unwrap(),
+                    "--html",
+                    html.to_str().unwrap(),
+                ];
+                let stdout = ok(&command("diagnose", &[&toml, &program, &measured], &args));
+                let v: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+                assert_eq!(v["selected"][0], name, "{what}: {stdout}");
+                assert_eq!(v["rotary_axes"], serde_json::json!(["B", "C"]), "{what}");
+                let loc = &v["localization"];
+                assert!(loc.get("by_a").is_none(), "{what}: {loc}");
+                let mut spans = Vec::new();
+                for axis in ["by_b", "by_c"] {
+                    let bands = loc[axis].as_array().unwrap();
+                    assert_eq!(bands.len(), 6, "{what} {axis}");
+                    let lo = bands[0]["from_deg"].as_f64().unwrap();
+                    let hi = bands[5]["to_deg"].as_f64().unwrap();
+                    // The saddle turns B over ≥ 4° and C over ≥ 40°.
+                    assert!(hi - lo > 4.0, "{what} {axis}: {lo}..{hi}");
+                    let points: u64 = bands.iter().map(|b| b["points"].as_u64().unwrap()).sum();
+                    assert_eq!(points, 372, "{what} {axis}");
+                    spans.push(format!("{lo:.1}..{hi:.1}°"));
+                }
+                if name == "rotary_location" {
+                    let params = v["after"]["params"]["rotary_location"].as_object().unwrap();
+                    assert!(
+                        params.keys().all(|k| k.ends_with('B') || k.ends_with('C')),
+                        "{what}: {params:?}"
+                    );
+                }
+                let page = std::fs::read_to_string(&html).unwrap();
+                assert!(
+                    page.contains("Residual vs B") && page.contains("Residual vs C"),
+                    "{what}"
+                );
+                assert!(!page.contains("Residual vs A"), "{what}");
+                println!(
+                    "{what}: selected {} (z {:.0}), residual RMS {:.2} -> {:.2} µm, B {}, C {}",
+                    v["selected"],
+                    v["after"]["significance"][name].as_f64().unwrap_or(f64::NAN),
+                    v["gap"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
+                    v["after"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
+                    spans[0],
+                    spans[1]
+                );
+            }
+        }
+    }
 }
 
 /// A part measured on a machine whose errors are 1.5 × the modelled ones: no
