@@ -1106,7 +1106,11 @@ mod cli {
                     }
                 }
             }
-            assert_eq!(v["model_check"]["mismatch"], what == "stale", "{what}: {stdout}");
+            assert_eq!(
+                v["model_check"]["mismatch"],
+                what == "stale",
+                "{what}: {stdout}"
+            );
             if what == "clean" {
                 assert_eq!(v["selected"], serde_json::json!([]), "{what}: {stdout}");
             }
@@ -1137,7 +1141,13 @@ mod cli {
             }
             let copies = std::fs::read_dir(&out_dir)
                 .unwrap()
-                .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "csv"))
+                .filter(|e| {
+                    e.as_ref()
+                        .unwrap()
+                        .path()
+                        .extension()
+                        .is_some_and(|x| x == "csv")
+                })
                 .count();
             assert_eq!(copies, 0, "{what}: no table copied");
             println!(
@@ -1225,7 +1235,9 @@ mod cli {
                 println!(
                     "{what}: selected {} (z {:.0}), residual RMS {:.2} -> {:.2} µm, B {}, C {}",
                     v["selected"],
-                    v["after"]["significance"][name].as_f64().unwrap_or(f64::NAN),
+                    v["after"]["significance"][name]
+                        .as_f64()
+                        .unwrap_or(f64::NAN),
                     v["gap"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
                     v["after"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
                     spans[0],
