@@ -819,13 +819,24 @@ mod cli {
         assert!(stdout.contains("selected: none"), "{stdout}");
         // Issue 26: a wrong model never ends in "no follow-up is needed".
         assert!(!stdout.contains("No follow-up is needed"), "{stdout}");
-        assert!(stdout.contains("No follow-up is designed"), "{stdout}");
+        // Issue 36: after the verdict a follow-up tells the model's factors
+        // from the effect that explains most alone (re-probes in other poses:
+        // a table error changes with the pose as the tables say).
+        assert!(stdout.contains("To tell model factors from"), "{stdout}");
+        assert!(followup.exists() && followup.with_extension("csv").exists());
         assert!(
             stdout.contains("The error model itself does not match this machine"),
             "{stdout}"
         );
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let design = &v["followup_design"];
+        let expected = design["expected_separation_sigma"].as_f64().unwrap();
+        println!(
+            "follow-up after the verdict: {} vs {}: {expected:.1} σ expected",
+            design["selected"], design["rivals"]
+        );
+        assert!(expected > 3.0, "{design}");
         let factors = v["model_check"]["factors"].as_object().unwrap();
         // Measured: X ×1.48, Y ×1.47, Z ×1.63, A ×1.14, C ×1.41 (truth 1.5).
         for axis in ["X", "Y", "Z", "C"] {
