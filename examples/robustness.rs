@@ -4,7 +4,7 @@
 //! and stale tables for the wrong-model rows), diagnosed blind; prints every
 //! row against its target and the diagnosis time.
 //!
-//!     cargo run --release --example robustness [-- verbose]
+//!     cargo run --release --example robustness [-- verbose [notes]]
 #![allow(clippy::type_complexity)]
 use std::time::Instant;
 use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part, score};
@@ -51,6 +51,11 @@ fn main() {
                 r.local_anomalies.len(),
                 r.after.significance
             );
+            if std::env::args().any(|a| a == "notes") {
+                for note in &r.selection_notes {
+                    println!("    {note}");
+                }
+            }
         }
         rows.push((
             c.class,

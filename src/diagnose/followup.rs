@@ -3,7 +3,9 @@
 //! measurement about as well (its aliases on this part), the cheapest
 //! measurement that separates them is designed here: plan points probed again
 //! on the machine, right after the program, in the cutting pose or at other
-//! A/C angles.
+//! A/C angles. After a model verdict, the same design tells the error
+//! model's own factors (a table error: a function of the axis positions
+//! alone) from the effects (issue 36).
 //!
 //! A probe reading on the machine is `n·(Δ_cut − Δ_probe)`: the cut surface
 //! carries every effect as it was when the point was cut; the probe is moved by
@@ -22,7 +24,7 @@
 //! Invariant: no I/O and no kinematics: candidate probes come with their
 //! contexts (built by `toolpath::cut::probe_context`).
 use super::effects::EffectKind;
-use super::fit::{Row, Signatures, fit_set};
+use super::fit::{Row, SetFit, Signatures, fit_terms};
 use super::{DiagnoseError, DiagnoseReport};
 use crate::toolpath::PointContext;
 use nalgebra::{DMatrix, DVector};
@@ -144,17 +146,98 @@ impl Default for FollowupOptions {
     }
 }
 
-/// One hypothesis: a set of effects with its parameters fitted to the measurement.
+/// A set of terms a follow-up tells apart: catalogue effects, and whether
+/// the error model's own factors are in it (after a model verdict).
+pub type HypothesisTerms = (Vec<EffectKind>, bool);
+
+/// The error model's own columns at a row (as the diagnosis fits them,
+/// docs/diagnose.md step 10): what the model attributes to each measured
+/// axis's tables, and the rest of its prediction. At a probe row, the cut's
+/// less the probe's: a table error cancels in the cutting pose and shows its
+/// change between two poses.
+#[derive(Clone, Debug, Default)]
+struct ModelColumns {
+    axes: Vec<usize>,
+    rest: bool,
+}
+
+impl ModelColumns {
+    /// The columns the measurement's rows carry (an axis whose tables are
+    /// zero on the part has none).
+    fn of(rows: &[Row]) -> ModelColumns {
+        let axes: Vec<usize> = (0..5)
+            .filter(|&k| rows.iter().any(|r| r.axis_deviation_um(k) != 0.0))
+            .collect();
+        let rest: Vec<f64> = rows.iter().map(Self::rest_at).collect();
+        ModelColumns {
+            rest: !axes.is_empty() && super::noise::rms(&rest) > 1e-3,
+            axes,
+        }
+    }
+
+    fn rest_at(row: &Row) -> f64 {
+        row.predicted_um() - (0..5).map(|k| row.axis_deviation_um(k)).sum::<f64>()
+    }
+
+    fn row(&self, row: &Row, out: &mut Vec<f64>) {
+        out.extend(self.axes.iter().map(|&k| row.axis_deviation_um(k)));
+        if self.rest {
+            out.push(Self::rest_at(row));
+        }
+    }
+
+    fn columns(&self, rows: &[Row]) -> Vec<Vec<f64>> {
+        let values: Vec<Vec<f64>> = rows
+            .iter()
+            .map(|r| {
+                let mut v = Vec::new();
+                self.row(r, &mut v);
+                v
+            })
+            .collect();
+        let width = self.axes.len() + usize::from(self.rest);
+        (0..width)
+            .map(|j| values.iter().map(|v| v[j]).collect())
+            .collect()
+    }
+}
+
+/// Fit `kinds` (and the model's columns when `model`) on `rows`.
+fn fit_rows(rows: &[Row], terms: &HypothesisTerms, cols: &ModelColumns, y: &[f64]) -> SetFit {
+    let mut sig = Signatures::new(rows);
+    if terms.1 {
+        sig.model = cols.columns(rows);
+    }
+    let all: Vec<usize> = (0..rows.len()).collect();
+    fit_terms(&sig, &terms.0, terms.1, &all, y)
+}
+
+/// One hypothesis: a set of effects (and the model's factors) with its
+/// parameters fitted to the measurement.
 #[derive(Clone, Debug)]
 struct Hypothesis {
     kinds: Vec<EffectKind>,
+    /// The model's columns when its factors are in the hypothesis.
+    model: Option<ModelColumns>,
     tau: f64,
     coefs: Vec<f64>,
 }
 
 impl Hypothesis {
     fn label(&self) -> String {
-        label(&self.kinds)
+        label(&self.kinds, self.model.is_some())
+    }
+
+    fn terms(&self) -> HypothesisTerms {
+        (self.kinds.clone(), self.model.is_some())
+    }
+
+    /// Every term of `other` is in this one: this one fits any values of
+    /// `other` exactly, so only `other`'s lack of fit under this one
+    /// separates them (e.g. the model's factors with an effect, and alone).
+    fn nests(&self, other: &Hypothesis) -> bool {
+        other.kinds.iter().all(|k| self.kinds.contains(k))
+            && (other.model.is_none() || self.model.is_some())
     }
 
     /// Design row (∂reading/∂θ) at `row`.
@@ -162,6 +245,9 @@ impl Hypothesis {
         let mut out = Vec::with_capacity(self.coefs.len());
         for k in &self.kinds {
             row.signature(*k, self.tau, &mut out);
+        }
+        if let Some(cols) = &self.model {
+            cols.row(row, &mut out);
         }
         out
     }
@@ -175,27 +261,73 @@ impl Hypothesis {
     }
 }
 
-fn label(kinds: &[EffectKind]) -> String {
-    kinds
-        .iter()
-        .map(|k| k.name())
-        .collect::<Vec<_>>()
-        .join(" + ")
+/// The words of the model's factors in a hypothesis (as the selection
+/// notes name them).
+pub const MODEL_FACTORS: &str = "model factors";
+
+fn label(kinds: &[EffectKind], model: bool) -> String {
+    let mut names: Vec<&str> = kinds.iter().map(|k| k.name()).collect();
+    if model {
+        names.push(MODEL_FACTORS);
+    }
+    names.join(" + ")
 }
 
-/// The hypotheses a follow-up must separate: the selection first, then each
-/// selection with one member replaced by one of its aliases. Empty when
-/// nothing is selected or the selection has no alias.
-pub fn hypotheses(report: &DiagnoseReport) -> Vec<Vec<EffectKind>> {
+/// The hypotheses a follow-up must separate: the selection first (with the
+/// model's factors when they are in it), then each selection with one
+/// member replaced by one of its aliases. After a model verdict
+/// (`model_check.mismatch`, issue 36) also the hypotheses it cannot yet be
+/// told from: the model's factors without the effects and the effects
+/// without them; the effects beside the factors when the verdict is that
+/// what remains is unexplained; the verdict's alternative (the model's
+/// factors with other effects) when the verdict is given beside a
+/// selection without them; and, when the verdict names no effect, the
+/// effect that explains most alone. Empty when there is nothing to tell
+/// apart.
+pub fn hypotheses(report: &DiagnoseReport) -> Vec<HypothesisTerms> {
     let selected: Vec<EffectKind> = report
         .selected
         .iter()
         .filter_map(|s| EffectKind::from_name(s))
         .collect();
-    if selected.is_empty() {
+    let check = &report.model_check;
+    let with_model = check.follows_model;
+    if selected.is_empty() && !check.mismatch {
         return Vec::new();
     }
-    let mut out = vec![selected.clone()];
+    let first = (selected.clone(), with_model || selected.is_empty());
+    let mut out: Vec<HypothesisTerms> = vec![first.clone()];
+    let push = |h: HypothesisTerms, out: &mut Vec<HypothesisTerms>| {
+        if (!h.0.is_empty() || h.1) && !out.contains(&h) {
+            out.push(h);
+        }
+    };
+    if check.mismatch {
+        let best_alone = report
+            .effects
+            .first()
+            .and_then(|e| EffectKind::from_name(&e.name));
+        if first.1 {
+            push((Vec::new(), true), &mut out);
+            if selected.is_empty() {
+                if let Some(k) = best_alone {
+                    push((vec![k], false), &mut out);
+                }
+            } else {
+                push((selected.clone(), false), &mut out);
+            }
+        } else {
+            push((selected.clone(), true), &mut out);
+        }
+        if let Some(alt) = &check.alternative {
+            let kinds: Vec<EffectKind> = alt
+                .effects
+                .iter()
+                .filter_map(|s| EffectKind::from_name(s))
+                .collect();
+            push((kinds, true), &mut out);
+        }
+    }
     for (m, kind) in selected.iter().enumerate() {
         let Some(fit) = report.effects.iter().find(|e| e.name == kind.name()) else {
             continue;
@@ -206,9 +338,7 @@ pub fn hypotheses(report: &DiagnoseReport) -> Vec<Vec<EffectKind>> {
             }
             let mut h = selected.clone();
             h[m] = alias;
-            if !out.contains(&h) {
-                out.push(h);
-            }
+            push((h, first.1), &mut out);
         }
     }
     if out.len() == 1 { Vec::new() } else { out }
@@ -301,7 +431,8 @@ pub struct Separation {
     pub if_selected_sigma: f64,
     /// With the follow-up, if the rival is the truth: the selection's lack of fit.
     pub if_rival_sigma: f64,
-    /// The smaller of the two: what the follow-up guarantees.
+    /// The smaller of the two (of nested hypotheses, the lack of fit of the
+    /// smaller one): what the follow-up guarantees.
     pub expected_sigma: f64,
     /// After the follow-up was measured: √|SSE(rival) − SSE(selection)|/σ,
     /// positive when the selection fits better (only in an outcome).
@@ -363,7 +494,7 @@ fn fit_hypotheses<'a>(
     contexts: &'a [PointContext],
     measured_um: &[f64],
     report: &DiagnoseReport,
-    sets: &[Vec<EffectKind>],
+    sets: &[HypothesisTerms],
 ) -> Result<Fitted<'a>, DiagnoseError> {
     if contexts.len() != measured_um.len() {
         return Err(DiagnoseError::LengthMismatch {
@@ -384,14 +515,14 @@ fn fit_hypotheses<'a>(
         .iter()
         .map(|&i| measured_um[i] - contexts[i].predicted_um)
         .collect();
-    let sig = Signatures::new(&rows);
-    let all: Vec<usize> = (0..rows.len()).collect();
+    let cols = ModelColumns::of(&rows);
     let hypotheses = sets
         .iter()
-        .map(|kinds| {
-            let fit = fit_set(&sig, kinds, &all, &r);
+        .map(|terms| {
+            let fit = fit_rows(&rows, terms, &cols, &r);
             Hypothesis {
-                kinds: kinds.clone(),
+                kinds: terms.0.clone(),
+                model: terms.1.then(|| cols.clone()),
                 tau: fit.tau.unwrap_or(1.0),
                 coefs: fit.linear.coefs,
             }
@@ -412,6 +543,9 @@ fn pair_sums(fitted: &Fitted) -> Vec<PairSums> {
     let mut pairs = Vec::new();
     for j in 1..h.len() {
         for (truth, rival) in [(0, j), (j, 0)] {
+            if h[rival].nests(&h[truth]) {
+                continue;
+            }
             let mut s = PairSums::new(truth, rival, h[rival].coefs.len());
             for row in &fitted.rows {
                 s.add(&h[rival].design_row(row), h[truth].value(row));
@@ -427,28 +561,36 @@ fn pair_sums(fitted: &Fitted) -> Vec<PairSums> {
 /// diagnosis does) to the other hypothesis's noise-free values.
 fn separations(fitted: &Fitted, extra: &[Row]) -> Vec<Separation> {
     let h = &fitted.hypotheses;
+    let cols = ModelColumns::of(&fitted.rows);
     let lack = |rows: &[Row], truth: &Hypothesis, rival: &Hypothesis| {
-        let sig = Signatures::new(rows);
         let y: Vec<f64> = rows.iter().map(|r| truth.value(r)).collect();
-        let all: Vec<usize> = (0..rows.len()).collect();
-        fit_set(&sig, &rival.kinds, &all, &y).linear.sse.sqrt() / fitted.noise
+        fit_rows(rows, &rival.terms(), &cols, &y).linear.sse.sqrt() / fitted.noise
     };
     let mut rows = fitted.rows.clone();
     rows.extend_from_slice(extra);
     (1..h.len())
         .map(|j| {
             let (if_selected, if_rival) = (lack(&rows, &h[0], &h[j]), lack(&rows, &h[j], &h[0]));
+            // Of nested hypotheses only the smaller one's lack of fit counts.
+            let guaranteed = |if_selected: f64, if_rival: f64| {
+                if h[0].nests(&h[j]) {
+                    if_selected
+                } else if h[j].nests(&h[0]) {
+                    if_rival
+                } else {
+                    if_selected.min(if_rival)
+                }
+            };
             Separation {
                 selected: h[0].label(),
                 rival: h[j].label(),
-                before_sigma: lack(&fitted.rows, &h[0], &h[j]).min(lack(
-                    &fitted.rows,
-                    &h[j],
-                    &h[0],
-                )),
+                before_sigma: guaranteed(
+                    lack(&fitted.rows, &h[0], &h[j]),
+                    lack(&fitted.rows, &h[j], &h[0]),
+                ),
                 if_selected_sigma: if_selected,
                 if_rival_sigma: if_rival,
-                expected_sigma: if_selected.min(if_rival),
+                expected_sigma: guaranteed(if_selected, if_rival),
                 achieved_sigma: None,
             }
         })
@@ -674,11 +816,10 @@ pub fn outcome(
     rows.extend(probe_rows.iter().copied());
     let mut r = fitted.r.clone();
     r.extend(&probe_r);
-    let sig = Signatures::new(&rows);
-    let all: Vec<usize> = (0..rows.len()).collect();
+    let cols = ModelColumns::of(&fitted.rows);
     let sse: Vec<f64> = sets
         .iter()
-        .map(|kinds| fit_set(&sig, kinds, &all, &r).linear.sse)
+        .map(|terms| fit_rows(&rows, terms, &cols, &r).linear.sse)
         .collect();
     for (j, s) in separations.iter_mut().enumerate() {
         let d = sse[j + 1] - sse[0];

@@ -343,12 +343,40 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         let admissible: Vec<&Terms> = sets.iter().filter(|t| scorer.admissible(t)).collect();
         let by_bic =
             |a: &&&Terms, b: &&&Terms| scorer.bic(a).total_cmp(&scorer.bic(b)).then(a.cmp(b));
-        let best = admissible
+        let better: Vec<&Terms> = admissible
             .iter()
             .filter(|t| ***t != current && scorer.z(&current, t) >= s.threshold)
+            .copied()
+            .collect();
+        let mut best = better
+            .iter()
             .min_by(by_bic)
             .or_else(|| admissible.iter().min_by(by_bic))
             .copied();
+        // The same test among the candidates: the lowest BIC gives way to a
+        // candidate significantly better than it (the held-out BIC counts
+        // every residual as noise, the test weighs the smooth remainder).
+        // Not beside the model's factors: there the remainder is a table
+        // error of unknown shape, and which effect fits it is the question
+        // of the test against a table of another shape (mod.rs, stage 6b).
+        while let Some(b) = best.filter(|b| !b.model) {
+            let Some(over) = better
+                .iter()
+                .filter(|t| !t.model && scorer.z(b, t) >= s.threshold)
+                .max_by(|x, y| scorer.z(b, x).total_cmp(&scorer.z(b, y)).then(y.cmp(x)))
+            else {
+                break;
+            };
+            notes.push(format!(
+                "{} (held-out RMS {:.3} µm) is significantly better than {} (held-out RMS {:.3} µm, the lower BIC): z = {:.1}",
+                over.label(),
+                scorer.mse(over).sqrt(),
+                b.label(),
+                scorer.mse(b).sqrt(),
+                scorer.z(b, over)
+            ));
+            best = Some(over);
+        }
         match best {
             Some(t) if *t != current && scorer.z(&current, t) >= s.threshold => {
                 let members = scorer.members(t);

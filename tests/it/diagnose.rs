@@ -819,13 +819,24 @@ mod cli {
         assert!(stdout.contains("selected: none"), "{stdout}");
         // Issue 26: a wrong model never ends in "no follow-up is needed".
         assert!(!stdout.contains("No follow-up is needed"), "{stdout}");
-        assert!(stdout.contains("No follow-up is designed"), "{stdout}");
+        // Issue 36: after the verdict a follow-up tells the model's factors
+        // from the effect that explains most alone (re-probes in other poses:
+        // a table error changes with the pose as the tables say).
+        assert!(stdout.contains("To tell model factors from"), "{stdout}");
+        assert!(followup.exists() && followup.with_extension("csv").exists());
         assert!(
             stdout.contains("The error model itself does not match this machine"),
             "{stdout}"
         );
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let design = &v["followup_design"];
+        let expected = design["expected_separation_sigma"].as_f64().unwrap();
+        println!(
+            "follow-up after the verdict: {} vs {}: {expected:.1} σ expected",
+            design["selected"], design["rivals"]
+        );
+        assert!(expected > 3.0, "{design}");
         let factors = v["model_check"]["factors"].as_object().unwrap();
         // Measured: X ×1.48, Y ×1.47, Z ×1.63, A ×1.14, C ×1.41 (truth 1.5).
         for axis in ["X", "Y", "Z", "C"] {
@@ -1035,6 +1046,216 @@ mod cli {
         assert_eq!(out.status.code(), Some(1));
         assert!(String::from_utf8_lossy(&out.stderr).contains("missing.csv"));
         assert!(!report.exists(), "nothing written on bad input");
+    }
+
+    /// Issue 36 "Show": a stale-table run and a clean run, each diagnosed
+    /// with `--write-machine`. The part is cut on ref-trt (noise 0.3 µm, no
+    /// effect); the clean run diagnoses it with ref-trt's own file, the stale
+    /// run with a file whose Y table is stale (its values in reverse order
+    /// of position). Neither gives advice within 2 σ of zero, and the
+    /// written file changes nothing the advice does not name: the clean run
+    /// names nothing, the stale one blames the model, so both files are
+    /// their input with a comment block, and no table is copied.
+    #[test]
+    fn a_stale_table_run_and_a_clean_run_write_nothing_they_do_not_advise() {
+        let dir = tempfile::tempdir().unwrap();
+        let stale_dir = dir.path().join("stale");
+        std::fs::create_dir_all(stale_dir.join("ref-trt")).unwrap();
+        for axis in ["x", "y", "z", "a", "c"] {
+            let text =
+                std::fs::read_to_string(data(&format!("machines/ref-trt/{axis}.csv"))).unwrap();
+            let out = if axis == "y" {
+                let lines: Vec<&str> = text.lines().collect();
+                let (header, rows) = lines.split_first().unwrap();
+                let split = |l: &str| -> (String, String) {
+                    let (position, values) = l.split_once(',').unwrap();
+                    (position.to_string(), values.to_string())
+                };
+                let rows: Vec<(String, String)> = rows.iter().map(|l| split(l)).collect();
+                let mut out = vec![header.to_string()];
+                for (i, (position, _)) in rows.iter().enumerate() {
+                    out.push(format!("{position},{}", rows[rows.len() - 1 - i].1));
+                }
+                out.join("\n") + "\n"
+            } else {
+                text
+            };
+            std::fs::write(stale_dir.join(format!("ref-trt/{axis}.csv")), out).unwrap();
+        }
+        let stale = stale_dir.join("ref-trt.toml");
+        std::fs::copy(data("machines/ref-trt.toml"), &stale).unwrap();
+        let right = data("machines/ref-trt.toml");
+        let program = data("samples/saddle.nc");
+        let plan = data("samples/saddle-plan.csv");
+        let measured = dir.path().join("meas.csv");
+        let args = ["--seed", "11", "-o", measured.to_str().unwrap()];
+        ok(&command("simulate", &[&right, &program, &plan], &args));
+        for (what, machine) in [("clean", &right), ("stale", &stale)] {
+            let out_dir = dir.path().join(what);
+            std::fs::create_dir_all(&out_dir).unwrap();
+            let report = out_dir.join("diag.json");
+            let written = out_dir.join("written.toml");
+            let args = [
+                "--report",
+                report.to_str().unwrap(),
+                "--write-machine",
+                written.to_str().unwrap(),
+            ];
+            let stdout = ok(&command("diagnose", &[machine, &program, &measured], &args));
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+            // No advice within 2 σ of zero, whatever is selected.
+            for (effect, list) in v["after"]["checks"].as_object().unwrap() {
+                for c in list.as_array().unwrap() {
+                    let (value, std) = (c["value"].as_f64().unwrap(), c["std"].as_f64().unwrap());
+                    if c["name"] != "tau" && c["identifiable"] == true {
+                        assert_eq!(
+                            c["distinguishable"],
+                            value.abs() >= 2.0 * std,
+                            "{what} {effect} {c}"
+                        );
+                    }
+                }
+            }
+            assert_eq!(
+                v["model_check"]["mismatch"],
+                what == "stale",
+                "{what}: {stdout}"
+            );
+            if what == "clean" {
+                assert_eq!(v["selected"], serde_json::json!([]), "{what}: {stdout}");
+            }
+            // Measured: the stale run names thermal_drift beside the verdict
+            // (dx 14.2 ± 2.5, dz 14.9 ± 1.7 µm, z 147 against the model
+            // factors' 72; against a Y table free in shape its z is -45):
+            // a known limit (docs/diagnose.md). The file still changes
+            // nothing: the model is blamed.
+            assert!(stdout.contains("Nothing changed"), "{what}: {stdout}");
+            // The written file is the input with a comment block on top:
+            // the same keys and values, line for line.
+            let settings = |text: &str| -> Vec<String> {
+                text.lines()
+                    .map(str::trim)
+                    .filter(|l| !l.is_empty() && !l.starts_with('#'))
+                    .map(String::from)
+                    .collect()
+            };
+            let text = std::fs::read_to_string(&written).unwrap();
+            let body = settings(&text);
+            let input = settings(&std::fs::read_to_string(machine).unwrap());
+            assert_eq!(body.len(), input.len(), "{what}:\n{text}");
+            for (a, b) in body.iter().zip(&input) {
+                // Table paths are re-pointed from the new folder; nothing else moves.
+                if !a.contains(".csv") {
+                    assert_eq!(a, b, "{what}");
+                }
+            }
+            let copies = std::fs::read_dir(&out_dir)
+                .unwrap()
+                .filter(|e| {
+                    e.as_ref()
+                        .unwrap()
+                        .path()
+                        .extension()
+                        .is_some_and(|x| x == "csv")
+                })
+                .count();
+            assert_eq!(copies, 0, "{what}: no table copied");
+            println!(
+                "{what}: selected {}, model verdict {}, written file unchanged below its comment",
+                v["selected"], v["model_check"]["mismatch"]
+            );
+        }
+    }
+
+    /// The B/C day (issue 36 "Show"): on bc-trt (B and C on the table),
+    /// head-table (B in the head, C under the part) and head-head (C and B in
+    /// the head), rotary location, squareness and backlash are each simulated
+    /// on the machine's bundled saddle and diagnosed: the effect is named,
+    /// its parameters and the localisation speak B and C (bands of B and of
+    /// C over their real span, no A bands), and the page plots B and C.
+    #[test]
+    fn the_b_c_day_localises_each_effect_on_the_machines_own_axes() {
+        let dir = tempfile::tempdir().unwrap();
+        let effects = [
+            (
+                "rotary_location",
+                "rotary_location:EX0B=10,EZ0B=-8,EA0B=60,EX0C=6,EA0C=40",
+            ),
+            ("squareness", "squareness:s_xy=150,s_xz=-100,s_yz=80"),
+            ("backlash", "backlash:bx=6,by=4,bz=5"),
+        ];
+        for machine in ["bc-trt", "head-table", "head-head"] {
+            let toml = data(&format!("machines/{machine}.toml"));
+            let program = data(&format!("samples/{machine}/saddle.nc"));
+            let plan = data(&format!("samples/{machine}/saddle-plan.csv"));
+            for (name, spec) in effects {
+                let what = format!("{machine} {name}");
+                let measured = dir.path().join(format!("{machine}-{name}.csv"));
+                let args = [
+                    "--effect",
+                    spec,
+                    "--seed",
+                    "36",
+                    "--noise-um",
+                    "0.3",
+                    "-o",
+                    measured.to_str().unwrap(),
+                ];
+                ok(&command("simulate", &[&toml, &program, &plan], &args));
+                let report = dir.path().join(format!("{machine}-{name}.json"));
+                let html = dir.path().join(format!("{machine}-{name}.html"));
+                let args = [
+                    "--report",
+                    report.to_str().unwrap(),
+                    "--html",
+                    html.to_str().unwrap(),
+                ];
+                let stdout = ok(&command("diagnose", &[&toml, &program, &measured], &args));
+                let v: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+                assert_eq!(v["selected"][0], name, "{what}: {stdout}");
+                assert_eq!(v["rotary_axes"], serde_json::json!(["B", "C"]), "{what}");
+                let loc = &v["localization"];
+                assert!(loc.get("by_a").is_none(), "{what}: {loc}");
+                let mut spans = Vec::new();
+                for axis in ["by_b", "by_c"] {
+                    let bands = loc[axis].as_array().unwrap();
+                    assert_eq!(bands.len(), 6, "{what} {axis}");
+                    let lo = bands[0]["from_deg"].as_f64().unwrap();
+                    let hi = bands[5]["to_deg"].as_f64().unwrap();
+                    // The saddle turns B over ≥ 4° and C over ≥ 40°.
+                    assert!(hi - lo > 4.0, "{what} {axis}: {lo}..{hi}");
+                    let points: u64 = bands.iter().map(|b| b["points"].as_u64().unwrap()).sum();
+                    assert_eq!(points, 372, "{what} {axis}");
+                    spans.push(format!("{lo:.1}..{hi:.1}°"));
+                }
+                if name == "rotary_location" {
+                    let params = v["after"]["params"]["rotary_location"].as_object().unwrap();
+                    assert!(
+                        params.keys().all(|k| k.ends_with('B') || k.ends_with('C')),
+                        "{what}: {params:?}"
+                    );
+                }
+                let page = std::fs::read_to_string(&html).unwrap();
+                assert!(
+                    page.contains("Residual vs B") && page.contains("Residual vs C"),
+                    "{what}"
+                );
+                assert!(!page.contains("Residual vs A"), "{what}");
+                println!(
+                    "{what}: selected {} (z {:.0}), residual RMS {:.2} -> {:.2} µm, B {}, C {}",
+                    v["selected"],
+                    v["after"]["significance"][name]
+                        .as_f64()
+                        .unwrap_or(f64::NAN),
+                    v["gap"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
+                    v["after"]["residual_rms_um"].as_f64().unwrap_or(f64::NAN),
+                    spans[0],
+                    spans[1]
+                );
+            }
+        }
     }
 }
 
