@@ -246,9 +246,18 @@ impl KlMachine {
             s.shift[1] + turned[1],
             s.shift[2] + turned[2],
         ];
+        // Under a tilted plane without tool-tip control the control holds
+        // the rotary axes where the plane (or the program's own rotary
+        // block) put them and places the tip through the plane's nominal
+        // transform: a compensator corrects the tip only (dialects.md
+        // "Writing back"), as under Sinumerik's CYCLE800.
         let frame = (s.tilt.is_some() || shift != [0.0; 3])
             .then(|| FrameTransform::new(r, shift))
-            .flatten();
+            .flatten()
+            .map(|mut f| {
+                f.holds_rotary = s.tilt.is_some() && !s.tcpm;
+                f
+            });
         Origin {
             work: self.setup.preset,
             g92: Axes::default(),
