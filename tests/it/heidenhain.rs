@@ -519,3 +519,27 @@ fn closed_loop_plane_turn_and_cycl19_arcs_on_two_machines() {
     }
     insta::assert_snapshot!("heidenhain_closed_loop_tilted", summary);
 }
+
+/// `APPR LT` and `DEP LT` with `R0` (TNC 640 user's manual, "Approaching
+/// and departing a contour": with R0 the control computes the path for a
+/// tool of radius 0): the approach reaches the first contour point X+10
+/// Y+0 from the auxiliary point LEN 5 before it on the first element's
+/// line (X+5 Y+0); the departure goes on LEN 4 along the last element
+/// (from X+30 Y+0 to X+34 Y+0). `APPR LN` and the other forms are refused,
+/// naming the form; `RL` as on any move.
+#[test]
+fn appr_and_dep_lt() {
+    let text = "0 BEGIN PGM A MM\n1 TOOL CALL 1 Z\n2 L X-10 Y+20 Z+0 R0 FMAX\n3 APPR LT X+10 Y+0 LEN5 R0 F300\n4 L X+30\n5 DEP LT LEN4 F600\n6 END PGM A MM\n";
+    let m = motions(text, None).unwrap();
+    let approach: Vec<&Motion> = m.iter().filter(|(l, _)| *l == 4).map(|(_, m)| m).collect();
+    assert_eq!(approach.len(), 2);
+    assert_point(xyz(&approach[0].start), [-10.0, 20.0, 0.0]);
+    assert_point(xyz(&approach[0].end), [5.0, 0.0, 0.0]);
+    assert_point(xyz(&approach[1].end), [10.0, 0.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 6).start), [30.0, 0.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 6).end), [34.0, 0.0, 0.0]);
+    let e = motions(&text.replace("APPR LT", "APPR LN"), None).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("APPR LN"), "{e}");
+    let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
+}

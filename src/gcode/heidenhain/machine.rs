@@ -395,6 +395,7 @@ impl KlMachine {
             }
             "C" | "CR" | "CT" | "CP" => self.circle(c, s, event),
             "RND" | "CHF" => self.corner(c, s, event),
+            "APPR" | "DEP" => self.approach_departure(c, s, event),
             "CYCL" if b.starts_with(&["CYCL", "DEF"]) && cycle_number(b) == Some((19, 0)) => {
                 Ok(Statement::Other)
             }
@@ -862,6 +863,141 @@ impl KlMachine {
         };
         let tangent = [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]];
         Ok((t1, PendingCorner { points, tangent }))
+    }
+
+    /// `APPR LT` / `DEP LT` (TNC 640 user's manual, "Approaching and
+    /// departing a contour"): `APPR LT X Y LEN` moves on a straight line to
+    /// the auxiliary point `LEN` before the first contour point `X Y`, on
+    /// the line tangent to the first contour element, then to that point;
+    /// `DEP LT LEN` moves `LEN` on in the direction of the last contour
+    /// element. With `R0` the control computes them for a tool of radius 0
+    /// (as does volcomp); `RL`/`RR` are refused as on every move. The other
+    /// forms (LN, CT, LCT, the polar PLT, PLN, PCT, PLCT) are refused naming
+    /// the form: not read yet.
+    fn approach_departure(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
+        let b = c.block;
+        let what = format!("{} {}", b.address(0), b.address(1));
+        if b.address(1) != "LT" {
+            return Err(c.unread(&what, Some(1)));
+        }
+        self.compensation(c, s);
+        let feed = self.block_feed(c, s, 2)?;
+        self.refuse_compensation(c, s)?;
+        let scale = if s.inch { 25.4 } else { 1.0 };
+        let len = b
+            .tokens
+            .iter()
+            .position(|t| t.address == "LEN")
+            .map(|k| c.value(k))
+            .transpose()?
+            .ok_or_else(|| c.error(&format!("{what} without its length LEN"), Some(0)))?
+            .abs()
+            * scale;
+        let unit = |d: [f64; 3]| {
+            let n = dot(d, d).sqrt();
+            (n > 1e-12).then(|| d.map(|x| x / n))
+        };
+        let points = if b.address(0) == "APPR" {
+            let mut first = s.pos;
+            for (k, t) in b.tokens.iter().enumerate().skip(2) {
+                let (inc, slot) = match t.address.as_str() {
+                    "X" => (false, 0),
+                    "Y" => (false, 1),
+                    "Z" => (false, 2),
+                    "IX" => (true, 0),
+                    "IY" => (true, 1),
+                    "IZ" => (true, 2),
+                    _ => continue,
+                };
+                let v = c.value(k)? * scale;
+                first[slot] = if inc { s.pos[slot] + v } else { v };
+            }
+            // The first contour element: a straight line after the APPR block.
+            let direction = self
+                .ahead
+                .as_ref()
+                .filter(|(_, next)| next.address(0) == "L")
+                .and_then(|(_, next)| {
+                    let mut end = first;
+                    let ctx = Ctx { block: next, ..*c };
+                    for (k, t) in next.tokens.iter().enumerate().skip(1) {
+                        let (inc, slot) = match t.address.as_str() {
+                            "X" => (false, 0),
+                            "Y" => (false, 1),
+                            "Z" => (false, 2),
+                            "IX" => (true, 0),
+                            "IY" => (true, 1),
+                            "IZ" => (true, 2),
+                            _ => continue,
+                        };
+                        let v = ctx.value(k).ok()? * scale;
+                        end[slot] = if inc { first[slot] + v } else { v };
+                    }
+                    unit([end[0] - first[0], end[1] - first[1], end[2] - first[2]])
+                })
+                .ok_or_else(|| {
+                    c.unread(
+                        &format!(
+                            "{what} before anything but a straight line (L) in the working plane"
+                        ),
+                        Some(0),
+                    )
+                })?;
+            let helper = [
+                first[0] - len * direction[0],
+                first[1] - len * direction[1],
+                first[2] - len * direction[2],
+            ];
+            s.tangent = Some(direction);
+            vec![helper, first]
+        } else {
+            let direction = s.tangent.and_then(unit).ok_or_else(|| {
+                c.error(
+                    &format!("{what} needs a contour element before it (its direction)"),
+                    Some(0),
+                )
+            })?;
+            vec![[
+                s.pos[0] + len * direction[0],
+                s.pos[1] + len * direction[1],
+                s.pos[2] + len * direction[2],
+            ]]
+        };
+        let mut start = s.position;
+        let mut moves = Vec::new();
+        let mut steps = Vec::new();
+        for p in &points {
+            let end = self.to_frame(s, *p, s.rot);
+            if let Feed::PerMinute(f) = feed
+                && f <= 0.0
+            {
+                return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+            }
+            moves.push(self.straight(s.frame(), false, start, end, feed));
+            steps.push(if feed == Feed::Rapid {
+                CycleStep::Rapid(*p)
+            } else {
+                CycleStep::Feed(*p)
+            });
+            start = end;
+        }
+        if !start.is_finite() {
+            return Err(GcodeError::at(
+                ErrorKind::NonFinite,
+                c.line,
+                c.raw,
+                0,
+                c.raw.len(),
+            ));
+        }
+        s.pos = points[points.len() - 1];
+        event.moves = Moves::Cycle { moves, steps };
+        self.m_codes(c, s, event, Some(2))
     }
 
     /// `RND R…` / `CHF …`: the rounding arc (as chords within
@@ -1994,6 +2130,7 @@ fn tangent_centre(s: [f64; 3], e: [f64; 3], t: [f64; 2]) -> Option<([f64; 2], bo
 }
 
 /// A block and what locates its errors.
+#[derive(Clone, Copy)]
 struct Ctx<'a> {
     block: &'a KlBlock,
     raw: &'a [u8],

@@ -320,7 +320,8 @@ impl KlartextFront {
     /// after it and the block after that (the corner the control inserts
     /// needs both lines).
     fn corner_ahead(&self, file: usize, index: usize) -> Option<(KlBlock, KlBlock)> {
-        if self.parsed.address(0) != "L" {
+        let first = self.parsed.address(0);
+        if first != "L" && first != "APPR" {
             return None;
         }
         let source = &self.language.files[file];
@@ -340,6 +341,11 @@ impl KlartextFront {
                 !c.is_empty() && c[0] != b';'
             })
         };
+        if first == "APPR" {
+            // The first contour element after an approach.
+            let k = after(index + 1)?;
+            return Some((self.parsed.clone(), parse_block(source.raw(k))));
+        }
         let k = after(index + 1)?;
         if !(code(k).starts_with(b"RND") || code(k).starts_with(b"CHF")) {
             return None;
