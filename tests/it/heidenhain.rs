@@ -543,3 +543,55 @@ fn appr_and_dep_lt() {
     let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
     assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
 }
+
+/// What `compensate` writes for the new forms (dialects.md "Writing back"):
+/// every block of the input is in the output renumbered, either as it was
+/// (byte for byte after its number), with only its words' values changed,
+/// or written flat (`; volcomp: line N written flat: …` and `L` blocks: an
+/// `RND`, the line before it, an arc in the tilted plane, `APPR`/`DEP`);
+/// the output reads back.
+#[test]
+fn tilted_plane_corner_and_approach_write_back() {
+    let code = |l: &str| l.split_once(' ').map_or("", |x| x.1).to_string();
+    // The addresses of a block's words, in order.
+    let letters = |l: &str| -> Vec<String> {
+        l.split(';')
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|w| w.chars().take_while(|c| c.is_ascii_alphabetic()).collect())
+            .collect()
+    };
+    // `a` within `b` in order (a changed block may gain axis words).
+    let within = |a: &[String], b: &[String]| {
+        let mut it = b.iter();
+        a.iter().all(|x| it.any(|y| y == x))
+    };
+    for (machine, file) in [
+        (
+            "head-table",
+            "tests/data/heidenhain/tilted-arcs-cycl19-32.h",
+        ),
+        ("head-table", "tests/data/heidenhain/rnd-chf-corners.h"),
+    ] {
+        let rig = rig(machine);
+        let original = std::fs::read_to_string(root().join(file)).unwrap();
+        let original = original.replace("14 L X+0\n", "14 L X+0\n15 DEP LT LEN5 F500\n");
+        let original = original.replace("15 END PGM CORNERS", "16 END PGM CORNERS");
+        let (text, _) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
+        let out: Vec<String> = text.lines().map(code).collect();
+        for line in original.lines().skip(1) {
+            let c = code(line);
+            let flat = out
+                .iter()
+                .any(|o| o.contains(&format!("written flat: {}", c.trim())));
+            let same = out.contains(&c);
+            let changed = out.iter().any(|o| within(&letters(&c), &letters(o)));
+            assert!(same || flat || changed, "{file}: {line}");
+        }
+        for (k, line) in text.lines().enumerate() {
+            assert!(line.starts_with(&format!("{k} ")), "{file}: {line}");
+        }
+        motions(&text, Some(&rig.0)).unwrap();
+    }
+}
