@@ -777,26 +777,13 @@ impl KlMachine {
             line: c.line,
             q: c.q,
         };
-        let mut end = s.pos;
-        for (k, t) in next.tokens.iter().enumerate().skip(1) {
-            let (inc, letter) = match t.address.as_bytes() {
-                [b'I', l] => (true, *l),
-                [l] => (false, *l),
-                _ => continue,
-            };
-            if t.value.is_none() {
-                continue;
-            }
-            let slot = match letter {
-                b'X' => 0,
-                b'Y' => 1,
-                b'Z' => 2,
-                b'A' | b'B' | b'C' => return Err(lines_only),
-                _ => continue,
-            };
-            let v = ctx.value(k).map_err(|e| e.to_string())? * scale;
-            end[slot] = if inc { s.pos[slot] + v } else { v };
+        let rotary = next.tokens.iter().any(|t| {
+            t.value.is_some() && matches!(t.address.as_str(), "A" | "B" | "C" | "IA" | "IB" | "IC")
+        });
+        if rotary {
+            return Err(lines_only);
         }
+        let end = xyz_words(&ctx, s.pos, scale, 1).map_err(|e| e.to_string())?;
         let (a, p, e) = (
             to_plane(s.plane, from),
             to_plane(s.plane, s.pos),
@@ -903,41 +890,14 @@ impl KlMachine {
             (n > 1e-12).then(|| d.map(|x| x / n))
         };
         let points = if b.address(0) == "APPR" {
-            let mut first = s.pos;
-            for (k, t) in b.tokens.iter().enumerate().skip(2) {
-                let (inc, slot) = match t.address.as_str() {
-                    "X" => (false, 0),
-                    "Y" => (false, 1),
-                    "Z" => (false, 2),
-                    "IX" => (true, 0),
-                    "IY" => (true, 1),
-                    "IZ" => (true, 2),
-                    _ => continue,
-                };
-                let v = c.value(k)? * scale;
-                first[slot] = if inc { s.pos[slot] + v } else { v };
-            }
+            let first = xyz_words(c, s.pos, scale, 2)?;
             // The first contour element: a straight line after the APPR block.
             let direction = self
                 .ahead
                 .as_ref()
                 .filter(|(_, next)| next.address(0) == "L")
                 .and_then(|(_, next)| {
-                    let mut end = first;
-                    let ctx = Ctx { block: next, ..*c };
-                    for (k, t) in next.tokens.iter().enumerate().skip(1) {
-                        let (inc, slot) = match t.address.as_str() {
-                            "X" => (false, 0),
-                            "Y" => (false, 1),
-                            "Z" => (false, 2),
-                            "IX" => (true, 0),
-                            "IY" => (true, 1),
-                            "IZ" => (true, 2),
-                            _ => continue,
-                        };
-                        let v = ctx.value(k).ok()? * scale;
-                        end[slot] = if inc { first[slot] + v } else { v };
-                    }
+                    let end = xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok()?;
                     unit([end[0] - first[0], end[1] - first[1], end[2] - first[2]])
                 })
                 .ok_or_else(|| {
@@ -968,15 +928,40 @@ impl KlMachine {
                 s.pos[2] + len * direction[2],
             ]]
         };
-        let mut start = s.position;
-        let mut moves = Vec::new();
-        let mut steps = Vec::new();
-        for p in &points {
+        event.moves = self.pieces(c, s, s.position, &points, feed)?;
+        s.pos = points[points.len() - 1];
+        self.m_codes(c, s, event, Some(2))
+    }
+
+    /// Straight moves through `points` (program coordinates) from `start`,
+    /// the pieces of one block that the seam cannot carry as one move
+    /// (`Moves::Cycle`, written back flat as `L` blocks).
+    fn pieces(
+        &self,
+        c: &Ctx<'_>,
+        s: &State,
+        start: Axes,
+        points: &[[f64; 3]],
+        feed: Feed,
+    ) -> Result<Moves, GcodeError> {
+        if let Feed::PerMinute(f) = feed
+            && f <= 0.0
+        {
+            return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+        }
+        let mut start = start;
+        let mut moves = Vec::with_capacity(points.len());
+        let mut steps = Vec::with_capacity(points.len());
+        for p in points {
             let end = self.to_frame(s, *p, s.rot);
-            if let Feed::PerMinute(f) = feed
-                && f <= 0.0
-            {
-                return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+            if !end.is_finite() {
+                return Err(GcodeError::at(
+                    ErrorKind::NonFinite,
+                    c.line,
+                    c.raw,
+                    0,
+                    c.raw.len(),
+                ));
             }
             moves.push(self.straight(s.frame(), false, start, end, feed));
             steps.push(if feed == Feed::Rapid {
@@ -986,18 +971,7 @@ impl KlMachine {
             });
             start = end;
         }
-        if !start.is_finite() {
-            return Err(GcodeError::at(
-                ErrorKind::NonFinite,
-                c.line,
-                c.raw,
-                0,
-                c.raw.len(),
-            ));
-        }
-        s.pos = points[points.len() - 1];
-        event.moves = Moves::Cycle { moves, steps };
-        self.m_codes(c, s, event, Some(2))
+        Ok(Moves::Cycle { moves, steps })
     }
 
     /// `RND R…` / `CHF …`: the rounding arc (as chords within
@@ -1030,16 +1004,7 @@ impl KlMachine {
             return Err(c.error("a feed move without a feed rate (F)", Some(0)));
         }
         self.refuse_compensation(c, s)?;
-        let mut start = s.position;
-        let mut moves = Vec::with_capacity(pending.points.len());
-        let mut steps = Vec::with_capacity(pending.points.len());
-        for p in &pending.points {
-            let end = self.to_frame(s, *p, s.rot);
-            moves.push(self.straight(s.frame(), false, start, end, Feed::PerMinute(feed)));
-            steps.push(CycleStep::Feed(*p));
-            start = end;
-        }
-        event.moves = Moves::Cycle { moves, steps };
+        event.moves = self.pieces(c, s, s.position, &pending.points, Feed::PerMinute(feed))?;
         s.tangent = Some(pending.tangent);
         Ok(Statement::Other)
     }
@@ -1378,32 +1343,12 @@ impl KlMachine {
             } else {
                 feed
             };
-            let mut start = s.position;
-            let mut moves = Vec::new();
-            let mut steps = Vec::new();
-            for q in arc_chords(centre, cur, end, clockwise, turns, CHORD_TOLERANCE_MM) {
-                let p = from_plane(s.plane, q);
-                let e = self.to_frame(s, p, s.rot);
-                let m = self.straight(s.frame(), false, start, e, feed);
-                if let Feed::PerMinute(f) = feed
-                    && f <= 0.0
-                {
-                    return Err(c.error("a feed move without a feed rate (F)", Some(0)));
-                }
-                moves.push(m);
-                steps.push(CycleStep::Feed(p));
-                start = e;
-            }
-            if !start.is_finite() {
-                return Err(GcodeError::at(
-                    ErrorKind::NonFinite,
-                    c.line,
-                    c.raw,
-                    0,
-                    c.raw.len(),
-                ));
-            }
-            event.moves = Moves::Cycle { moves, steps };
+            let points: Vec<[f64; 3]> =
+                arc_chords(centre, cur, end, clockwise, turns, CHORD_TOLERANCE_MM)
+                    .into_iter()
+                    .map(|q| from_plane(s.plane, q))
+                    .collect();
+            event.moves = self.pieces(c, s, s.position, &points, feed)?;
         }
         let centre_prog = from_plane(s.plane, [centre[0], centre[1], cur[2]]);
         let start = s.position;
@@ -2127,6 +2072,30 @@ fn tangent_centre(s: [f64; 3], e: [f64; 3], t: [f64; 2]) -> Option<([f64; 2], bo
     }
     let k = (d[0] * d[0] + d[1] * d[1]) / (2.0 * dn);
     Some(([s[0] + k * n[0], s[1] + k * n[1]], k < 0.0))
+}
+
+/// Where the `X Y Z` / `IX IY IZ` words of `c`'s block (from token
+/// `skip`) put a straight move that starts at `from` (mm, `scale` for the
+/// program's units).
+fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f64; 3], GcodeError> {
+    let mut end = from;
+    for (k, t) in c.block.tokens.iter().enumerate().skip(skip) {
+        let (inc, slot) = match t.address.as_str() {
+            "X" => (false, 0),
+            "Y" => (false, 1),
+            "Z" => (false, 2),
+            "IX" => (true, 0),
+            "IY" => (true, 1),
+            "IZ" => (true, 2),
+            _ => continue,
+        };
+        if t.value.is_none() {
+            continue;
+        }
+        let v = c.value(k)? * scale;
+        end[slot] = if inc { from[slot] + v } else { v };
+    }
+    Ok(end)
 }
 
 /// A block and what locates its errors.
