@@ -203,17 +203,12 @@ fn m128_with_a_c_and_with_ln() {
     );
 }
 
-/// The closed loop (issue 35 "Show"): a five-axis M128 program on bc-trt
-/// and a PLANE SPATIAL 3+2 program on head-table, compensated in Klartext
-/// and replayed through the same model: the tip error is cut by ≥ 90 %
-/// (the program's four decimals leave far less).
-#[test]
-fn closed_loop_m128_and_plane_spatial() {
+/// The closed loop of each (machine, file): compensated in Klartext,
+/// renumbered consecutively, replayed through the same model; the tip
+/// error cut by ≥ 90 %. One summary line each.
+fn closed_loop_rows(cases: &[(&str, &str)]) -> String {
     let mut summary = String::new();
-    for (machine, file) in [
-        ("bc-trt", "tests/data/heidenhain/saddle-tcp-bc.h"),
-        ("head-table", "tests/data/heidenhain/plane-spatial-32.h"),
-    ] {
+    for &(machine, file) in cases {
         let rig = rig(machine);
         let original = std::fs::read_to_string(root().join(file)).unwrap();
         let (text, report) = compensate_on(
@@ -224,7 +219,6 @@ fn closed_loop_m128_and_plane_spatial() {
             true,
         );
         assert!(text.starts_with("0 BEGIN PGM"), "{file}");
-        // Consecutive block numbers, the stamp-free output read back.
         for (k, line) in text.lines().enumerate() {
             assert!(line.starts_with(&format!("{k} ")), "{file}: {line}");
         }
@@ -232,7 +226,7 @@ fn closed_loop_m128_and_plane_spatial() {
         assert!(before.max_um > 5.0, "{file}: nothing to compensate?");
         assert!(
             after.max_um <= 0.1 * before.max_um && after.rms_um <= 0.1 * before.rms_um,
-            "{file}: {before:?} -> {after:?}"
+            "{machine} {file}: {before:?} -> {after:?}"
         );
         summary += &format!(
             "{machine} {file}: blocks changed {}, tip max {:.2} -> {:.3} µm ({:.2} %), rms {:.2} -> {:.3} µm\n",
@@ -244,6 +238,19 @@ fn closed_loop_m128_and_plane_spatial() {
             after.rms_um,
         );
     }
+    summary
+}
+
+/// The closed loop (issue 35 "Show"): a five-axis M128 program on bc-trt
+/// and a PLANE SPATIAL 3+2 program on head-table, compensated in Klartext
+/// and replayed through the same model: the tip error is cut by ≥ 90 %
+/// (the program's four decimals leave far less).
+#[test]
+fn closed_loop_m128_and_plane_spatial() {
+    let summary = closed_loop_rows(&[
+        ("bc-trt", "tests/data/heidenhain/saddle-tcp-bc.h"),
+        ("head-table", "tests/data/heidenhain/plane-spatial-32.h"),
+    ]);
     insta::assert_snapshot!("heidenhain_closed_loop", summary);
 }
 
@@ -480,43 +487,14 @@ fn circle_in_a_tilted_plane_lies_in_it() {
 /// output read back.
 #[test]
 fn closed_loop_plane_turn_and_cycl19_arcs_on_two_machines() {
-    let mut summary = String::new();
-    for (machine, file) in [
+    let summary = closed_loop_rows(&[
         ("bc-trt", "tests/data/heidenhain/plane-spatial-32.h"),
         (
             "head-table",
             "tests/data/heidenhain/tilted-arcs-cycl19-32.h",
         ),
         ("bc-trt", "tests/data/heidenhain/tilted-arcs-cycl19-32.h"),
-    ] {
-        let rig = rig(machine);
-        let original = std::fs::read_to_string(root().join(file)).unwrap();
-        let (text, report) = compensate_on(
-            rig,
-            &original,
-            Frame::Joint,
-            CompensateOptions::default().tolerance_um,
-            true,
-        );
-        for (k, line) in text.lines().enumerate() {
-            assert!(line.starts_with(&format!("{k} ")), "{file}: {line}");
-        }
-        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
-        assert!(before.max_um > 5.0, "{file}: nothing to compensate?");
-        assert!(
-            after.max_um <= 0.1 * before.max_um && after.rms_um <= 0.1 * before.rms_um,
-            "{machine} {file}: {before:?} -> {after:?}"
-        );
-        summary += &format!(
-            "{machine} {file}: blocks changed {}, tip max {:.2} -> {:.3} µm ({:.2} %), rms {:.2} -> {:.3} µm\n",
-            report.blocks_changed,
-            before.max_um,
-            after.max_um,
-            100.0 * after.max_um / before.max_um,
-            before.rms_um,
-            after.rms_um,
-        );
-    }
+    ]);
     insta::assert_snapshot!("heidenhain_closed_loop_tilted", summary);
 }
 

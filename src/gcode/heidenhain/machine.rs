@@ -1841,25 +1841,21 @@ impl KlMachine {
                         }
                     }
                 }
-                PlaneMode::Turn if moves_rotary => {
-                    let end = Axes {
-                        a: j.a,
-                        b: j.b,
-                        c: j.c,
-                        ..here
+                PlaneMode::Turn | PlaneMode::Move { .. } if moves_rotary => {
+                    // TURN: a joint-frame leg (the tip moves with the axes).
+                    // MOVE: about the point DIST below the tip along the tool
+                    // axis, tip' = tip + DIST·(axis' − axis), a part-frame leg.
+                    let frame = match how.mode {
+                        PlaneMode::Move { dist } => {
+                            let solver = self.solver(c)?;
+                            let (a0, a1) = (solver.axis_of(&here), solver.axis_of(&j));
+                            for k in 0..3 {
+                                tip[k] += dist * (a1[k] - a0[k]);
+                            }
+                            Frame::Part
+                        }
+                        _ => Frame::Joint,
                     };
-                    let m = self.straight(Frame::Joint, false, here, end, how.feed);
-                    event.moves = Moves::Home(vec![m]);
-                    s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
-                }
-                PlaneMode::Move { dist } if moves_rotary => {
-                    // About the point DIST below the tip along the tool axis:
-                    // tip' = tip + DIST·(axis' − axis).
-                    let solver = self.solver(c)?;
-                    let (a0, a1) = (solver.axis_of(&here), solver.axis_of(&j));
-                    for k in 0..3 {
-                        tip[k] += dist * (a1[k] - a0[k]);
-                    }
                     let end = Axes {
                         x: tip[0],
                         y: tip[1],
@@ -1869,7 +1865,7 @@ impl KlMachine {
                         c: j.c,
                         ..here
                     };
-                    let m = self.straight(Frame::Part, false, here, end, how.feed);
+                    let m = self.straight(frame, false, here, end, how.feed);
                     event.moves = Moves::Home(vec![m]);
                     s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
                 }
