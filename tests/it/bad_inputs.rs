@@ -561,6 +561,16 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "program",
+            "Heidenhain: RND with a radius too large for its corner",
+            p(
+                "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 L X+0 Y+0 Z+1 R0 F100\n3 L X+10\n4 RND R20\n5 L Y+10\n6 END PGM T MM\n",
+            ),
+            COMPENSATE,
+            1,
+            &["RND 20: too large for the corner", "{d}/bad.nc:5:3"],
+        ),
+        case(
+            "program",
             "Heidenhain: LN with a zero vector",
             p(
                 "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z\n2 M128\n3 LN X+1 Y+1 Z+1 NX+0 NY+0 NZ+0 R0 F100\n4 END PGM T MM\n",

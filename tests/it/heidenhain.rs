@@ -203,17 +203,12 @@ fn m128_with_a_c_and_with_ln() {
     );
 }
 
-/// The closed loop (issue 35 "Show"): a five-axis M128 program on bc-trt
-/// and a PLANE SPATIAL 3+2 program on head-table, compensated in Klartext
-/// and replayed through the same model: the tip error is cut by ≥ 90 %
-/// (the program's four decimals leave far less).
-#[test]
-fn closed_loop_m128_and_plane_spatial() {
+/// The closed loop of each (machine, file): compensated in Klartext,
+/// renumbered consecutively, replayed through the same model; the tip
+/// error cut by ≥ 90 %. One summary line each.
+fn closed_loop_rows(cases: &[(&str, &str)]) -> String {
     let mut summary = String::new();
-    for (machine, file) in [
-        ("bc-trt", "tests/data/heidenhain/saddle-tcp-bc.h"),
-        ("head-table", "tests/data/heidenhain/plane-spatial-32.h"),
-    ] {
+    for &(machine, file) in cases {
         let rig = rig(machine);
         let original = std::fs::read_to_string(root().join(file)).unwrap();
         let (text, report) = compensate_on(
@@ -224,7 +219,6 @@ fn closed_loop_m128_and_plane_spatial() {
             true,
         );
         assert!(text.starts_with("0 BEGIN PGM"), "{file}");
-        // Consecutive block numbers, the stamp-free output read back.
         for (k, line) in text.lines().enumerate() {
             assert!(line.starts_with(&format!("{k} ")), "{file}: {line}");
         }
@@ -232,7 +226,7 @@ fn closed_loop_m128_and_plane_spatial() {
         assert!(before.max_um > 5.0, "{file}: nothing to compensate?");
         assert!(
             after.max_um <= 0.1 * before.max_um && after.rms_um <= 0.1 * before.rms_um,
-            "{file}: {before:?} -> {after:?}"
+            "{machine} {file}: {before:?} -> {after:?}"
         );
         summary += &format!(
             "{machine} {file}: blocks changed {}, tip max {:.2} -> {:.3} µm ({:.2} %), rms {:.2} -> {:.3} µm\n",
@@ -244,6 +238,19 @@ fn closed_loop_m128_and_plane_spatial() {
             after.rms_um,
         );
     }
+    summary
+}
+
+/// The closed loop (issue 35 "Show"): a five-axis M128 program on bc-trt
+/// and a PLANE SPATIAL 3+2 program on head-table, compensated in Klartext
+/// and replayed through the same model: the tip error is cut by ≥ 90 %
+/// (the program's four decimals leave far less).
+#[test]
+fn closed_loop_m128_and_plane_spatial() {
+    let summary = closed_loop_rows(&[
+        ("bc-trt", "tests/data/heidenhain/saddle-tcp-bc.h"),
+        ("head-table", "tests/data/heidenhain/plane-spatial-32.h"),
+    ]);
     insta::assert_snapshot!("heidenhain_closed_loop", summary);
 }
 
@@ -295,4 +302,274 @@ fn written_blocks_change_only_their_words() {
         }
     }
     assert!(changed > 3000);
+}
+
+/// The motions of a fixture in `tests/data/heidenhain/`.
+fn fixture_motions(file: &str, machine: Option<&Machine>) -> Vec<(usize, Motion)> {
+    let text = std::fs::read_to_string(root().join("tests/data/heidenhain").join(file)).unwrap();
+    motions(&text, machine).unwrap()
+}
+
+/// The last motion of source line `line`.
+fn last_of(m: &[(usize, Motion)], line: usize) -> Motion {
+    m.iter()
+        .rev()
+        .find(|(l, _)| *l == line)
+        .map(|(_, m)| *m)
+        .unwrap_or_else(|| panic!("no motion on line {line}"))
+}
+
+/// `RND R5` and `CHF 4` between straight lines (TNC 620 Klartext user's
+/// manual 01/2022, "Corner rounding RND" p. 157, "Chamfer CHF" p. 156):
+/// the line before ends where the rounding or chamfer begins, the arc is
+/// tangent to both lines (chords within 0.5 µm), the chamfer side length is
+/// measured from the corner; a rounding too large for its corner and one
+/// after a circle are located errors.
+#[test]
+fn rnd_and_chf_between_straight_lines() {
+    let m = fixture_motions("rnd-chf-corners.h", None);
+    assert_point(xyz(&last_of(&m, 8).end), [15.0, 0.0, 0.0]);
+    let arc: Vec<&Motion> = m.iter().filter(|(l, _)| *l == 10).map(|(_, m)| m).collect();
+    assert!(arc.len() > 10, "{}", arc.len());
+    for mv in &arc {
+        let p = xyz(&mv.end);
+        assert_abs_diff_eq!((p[0] - 15.0).hypot(p[1] - 5.0), 5.0, epsilon = 1e-9);
+        assert!(p[0] >= 15.0 - 1e-9 && p[1] <= 5.0 + 1e-9, "{p:?}");
+    }
+    assert_point(xyz(&arc.last().unwrap().end), [20.0, 5.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 12).start), [20.0, 5.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 12).end), [20.0, 16.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 14).end), [16.0, 20.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 15).start), [16.0, 20.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 15).end), [0.0, 20.0, 0.0]);
+    let head = "0 BEGIN PGM R MM\n1 TOOL CALL 1 Z\n2 L X+0 Y+0 Z+0 R0 F500\n";
+    let e = motions(
+        &format!("{head}3 L X+20\n4 RND R25\n5 L Y+20\n6 END PGM R MM\n"),
+        None,
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:5:") && e.contains("too large"), "{e}");
+    let e = motions(
+        &format!("{head}3 CC X+10 Y+0\n4 C X+20 Y+0 DR+\n5 RND R2\n6 L Y+20\n7 END PGM R MM\n"),
+        None,
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:6:") && e.contains("straight line"), "{e}");
+}
+
+/// PLANE PROJECTED, EULER, POINTS and RELATIVE (TNC 640 user's manual,
+/// "The PLANE function") defining one plane, solved on head-table's chain:
+/// the same joints and the same tip (worked in the fixture's comments).
+#[test]
+fn plane_forms_projected_euler_points_relative() {
+    let (machine, _) = rig("head-table");
+    let m = fixture_motions("plane-forms-head-table.h", Some(machine));
+    let s = 30f64.to_radians().sin_cos();
+    for line in [12, 15, 18, 22] {
+        let mv = last_of(&m, line);
+        assert_eq!(mv.frame, Frame::Part, "line {line}");
+        assert_near(xyz(&mv.end), [10.0 * s.1, 0.0, -10.0 * s.0], 1e-6);
+        assert_abs_diff_eq!(mv.end.b, 30.0, epsilon = 1e-6);
+        assert_abs_diff_eq!(mv.end.c, 0.0, epsilon = 1e-6);
+    }
+}
+
+/// MOVE DIST (about the point DIST below the tip), STAY with SEQ- and the
+/// Q120–Q122 it leaves, CYCL DEF 19 with spatial angles (TNC 640 user's
+/// manual, "Specifying the positioning behavior of the PLANE function",
+/// "Cycle 19 WORKING PLANE"; worked in the fixture's comments).
+#[test]
+fn plane_move_stay_and_cycl_def_19_position_the_axes() {
+    let (machine, _) = rig("head-table");
+    let m = fixture_motions("plane-move-stay-cycl19.h", Some(machine));
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let turn = last_of(&m, 10);
+    assert_eq!(turn.frame, Frame::Part);
+    assert_point(xyz(&turn.start), [0.0, 0.0, 50.0]);
+    assert_near(xyz(&turn.end), [25.0, 0.0, 50.0 * c], 1e-9);
+    assert_abs_diff_eq!(turn.end.b, 30.0, epsilon = 1e-6);
+    assert_near(xyz(&last_of(&m, 12).end), [10.0 * s, 0.0, 10.0 * c], 1e-6);
+    // STAY: no motion on line 15; the program's own rotary block turns them.
+    assert!(m.iter().all(|(l, _)| *l != 15));
+    let stay = last_of(&m, 16);
+    assert_abs_diff_eq!(stay.end.b, -30.0, epsilon = 1e-6);
+    assert_abs_diff_eq!(stay.end.c.abs(), 180.0, epsilon = 1e-6);
+    let after = last_of(&m, 18);
+    assert_near(xyz(&after.end), [10.0 * c, 0.0, -10.0 * s], 1e-6);
+    assert_abs_diff_eq!(after.end.b, -30.0, epsilon = 1e-6);
+    // CYCL DEF 19: no motion of its own, B+30 through Q121.
+    assert!(m.iter().all(|(l, _)| *l != 22));
+    assert_abs_diff_eq!(last_of(&m, 23).end.b, 30.0, epsilon = 1e-6);
+    let cut = last_of(&m, 25);
+    assert_near(xyz(&cut.end), [10.0 * c, 0.0, -10.0 * s], 1e-6);
+    let back = last_of(&m, 28);
+    assert_abs_diff_eq!(back.end.b, 0.0, epsilon = 1e-9);
+    assert_abs_diff_eq!(back.end.c, 0.0, epsilon = 1e-9);
+    // Without the machine, CYCL DEF 19 cannot be solved: a located error.
+    let text =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/plane-move-stay-cycl19.h"))
+            .unwrap();
+    let e = motions(&text, None).unwrap_err();
+    assert!(e.contains("--machine") && e.contains("t.h:10:"), "{e}");
+}
+
+/// A plane the machine cannot reach (head-table's B travels ±100°; SPA+120
+/// needs 120°), TABLE ROT where the table would take the rotation about
+/// the tool axis (refused, naming it), COORD ROT (the table stays, the
+/// coordinates turn: TNC 640 user's manual, "Transformation type").
+#[test]
+fn plane_refusals_and_coord_rot() {
+    let (machine, _) = rig("head-table");
+    let head = "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S1000\n";
+    let e = motions(
+        &format!("{head}2 PLANE SPATIAL SPA+120 SPB+0 SPC+0 TURN FMAX\n3 END PGM P MM\n"),
+        Some(machine),
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:3:") && e.contains("cannot reach"), "{e}");
+    let e = motions(
+        &format!("{head}2 PLANE SPATIAL SPA+0 SPB+0 SPC+30 TURN FMAX TABLE ROT\n3 END PGM P MM\n"),
+        Some(machine),
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:3:") && e.contains("TABLE ROT"), "{e}");
+    let m = motions(
+        &format!("{head}2 PLANE SPATIAL SPA+0 SPB+0 SPC+30 TURN FMAX COORD ROT\n3 L X+10 Y+0 Z+0 R0 F500\n4 END PGM P MM\n"),
+        Some(machine),
+    )
+    .unwrap();
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let mv = last_of(&m, 4);
+    assert_near(xyz(&mv.end), [10.0 * c, 10.0 * s, 0.0], 1e-9);
+    assert_abs_diff_eq!(mv.end.c, 0.0, epsilon = 1e-9);
+}
+
+/// A circle in a tilted working plane (TNC 640 user's manual, "Tilting the
+/// working plane": contours are programmed in the tilted plane): `CC` and
+/// `C` after `PLANE SPATIAL SPB+30`, the arc in the tilted plane, handed
+/// on as chords within 0.5 µm, each end on the circle of radius 10 about
+/// the pole, in the plane whose normal is (sin 30°, 0, cos 30°).
+#[test]
+fn circle_in_a_tilted_plane_lies_in_it() {
+    let (machine, _) = rig("head-table");
+    let text = "0 BEGIN PGM A MM\n1 TOOL CALL 1 Z S1000\n2 PLANE SPATIAL SPA+0 SPB+30 SPC+0 TURN FMAX\n3 L X+10 Y+0 Z+0 R0 F500\n4 CC X+0 Y+0\n5 C X+0 Y+10 DR+\n6 END PGM A MM\n";
+    let m = motions(text, Some(machine)).unwrap();
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let chords: Vec<&Motion> = m.iter().filter(|(l, _)| *l == 6).map(|(_, m)| m).collect();
+    assert!(chords.len() > 20);
+    for mv in &chords {
+        let p = xyz(&mv.end);
+        assert_abs_diff_eq!(p[0] * s + p[2] * c, 0.0, epsilon = 1e-9);
+        assert_abs_diff_eq!(
+            (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt(),
+            10.0,
+            epsilon = 1e-9
+        );
+        assert_eq!(mv.frame, Frame::Part);
+    }
+    assert_near(xyz(&chords.last().unwrap().end), [0.0, 10.0, 0.0], 1e-9);
+    // The middle of the arc: R·(10 cos 45°, 10 sin 45°, 0).
+    let h = 0.5f64.sqrt();
+    let mid = chords
+        .iter()
+        .map(|mv| xyz(&mv.end))
+        .min_by(|a, b| {
+            let d = |p: &[f64; 3]| (p[1] - 10.0 * h).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    assert_near(mid, [10.0 * h * c, 10.0 * h, -10.0 * h * s], 0.2);
+}
+
+/// The closed loop of 3+2 programs with the working plane tilted by `PLANE
+/// SPATIAL … TURN` and by `CYCL DEF 19` (arcs, a rounding, in the tilted
+/// plane) on two bundled machines each: the tip error cut by ≥ 90 %, the
+/// output read back.
+#[test]
+fn closed_loop_plane_turn_and_cycl19_arcs_on_two_machines() {
+    let summary = closed_loop_rows(&[
+        ("bc-trt", "tests/data/heidenhain/plane-spatial-32.h"),
+        (
+            "head-table",
+            "tests/data/heidenhain/tilted-arcs-cycl19-32.h",
+        ),
+        ("bc-trt", "tests/data/heidenhain/tilted-arcs-cycl19-32.h"),
+    ]);
+    insta::assert_snapshot!("heidenhain_closed_loop_tilted", summary);
+}
+
+/// `APPR LT` and `DEP LT` with `R0` (TNC 640 user's manual, "Approaching
+/// and departing a contour": with R0 the control computes the path for a
+/// tool of radius 0): the approach reaches the first contour point X+10
+/// Y+0 from the auxiliary point LEN 5 before it on the first element's
+/// line (X+5 Y+0); the departure goes on LEN 4 along the last element
+/// (from X+30 Y+0 to X+34 Y+0). `APPR LN` and the other forms are refused,
+/// naming the form; `RL` as on any move.
+#[test]
+fn appr_and_dep_lt() {
+    let text = "0 BEGIN PGM A MM\n1 TOOL CALL 1 Z\n2 L X-10 Y+20 Z+0 R0 FMAX\n3 APPR LT X+10 Y+0 LEN5 R0 F300\n4 L X+30\n5 DEP LT LEN4 F600\n6 END PGM A MM\n";
+    let m = motions(text, None).unwrap();
+    let approach: Vec<&Motion> = m.iter().filter(|(l, _)| *l == 4).map(|(_, m)| m).collect();
+    assert_eq!(approach.len(), 2);
+    assert_point(xyz(&approach[0].start), [-10.0, 20.0, 0.0]);
+    assert_point(xyz(&approach[0].end), [5.0, 0.0, 0.0]);
+    assert_point(xyz(&approach[1].end), [10.0, 0.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 6).start), [30.0, 0.0, 0.0]);
+    assert_point(xyz(&last_of(&m, 6).end), [34.0, 0.0, 0.0]);
+    let e = motions(&text.replace("APPR LT", "APPR LN"), None).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("APPR LN"), "{e}");
+    let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
+}
+
+/// What `compensate` writes for the new forms (dialects.md "Writing back"):
+/// every block of the input is in the output renumbered, either as it was
+/// (byte for byte after its number), with only its words' values changed,
+/// or written flat (`; volcomp: line N written flat: …` and `L` blocks: an
+/// `RND`, the line before it, an arc in the tilted plane, `APPR`/`DEP`);
+/// the output reads back.
+#[test]
+fn tilted_plane_corner_and_approach_write_back() {
+    let code = |l: &str| l.split_once(' ').map_or("", |x| x.1).to_string();
+    // The addresses of a block's words, in order.
+    let letters = |l: &str| -> Vec<String> {
+        l.split(';')
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|w| w.chars().take_while(|c| c.is_ascii_alphabetic()).collect())
+            .collect()
+    };
+    // `a` within `b` in order (a changed block may gain axis words).
+    let within = |a: &[String], b: &[String]| {
+        let mut it = b.iter();
+        a.iter().all(|x| it.any(|y| y == x))
+    };
+    for (machine, file) in [
+        (
+            "head-table",
+            "tests/data/heidenhain/tilted-arcs-cycl19-32.h",
+        ),
+        ("head-table", "tests/data/heidenhain/rnd-chf-corners.h"),
+    ] {
+        let rig = rig(machine);
+        let original = std::fs::read_to_string(root().join(file)).unwrap();
+        let original = original.replace("14 L X+0\n", "14 L X+0\n15 DEP LT LEN5 F500\n");
+        let original = original.replace("15 END PGM CORNERS", "16 END PGM CORNERS");
+        let (text, _) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
+        let out: Vec<String> = text.lines().map(code).collect();
+        for line in original.lines().skip(1) {
+            let c = code(line);
+            let flat = out
+                .iter()
+                .any(|o| o.contains(&format!("written flat: {}", c.trim())));
+            let same = out.contains(&c);
+            let changed = out.iter().any(|o| within(&letters(&c), &letters(o)));
+            assert!(same || flat || changed, "{file}: {line}");
+        }
+        for (k, line) in text.lines().enumerate() {
+            assert!(line.starts_with(&format!("{k} ")), "{file}: {line}");
+        }
+        motions(&text, Some(&rig.0)).unwrap();
+    }
 }

@@ -31,10 +31,10 @@ use crate::gcode::machine::origin::Origin;
 use crate::gcode::machine::tools::{ToolInUse, ToolTable};
 use crate::gcode::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
 
-/// A 3×3 rotation, rows.
-pub type Mat3 = [[f64; 3]; 3];
-
-const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+use super::geometry;
+use super::geometry::{
+    Corner, CornerError, IDENTITY, Mat3, arc_chords, dot, mat_mul, mat_t_vec, mat_vec, rotation,
+};
 
 /// Settings of the machine layer.
 #[derive(Clone, Debug, Default)]
@@ -92,6 +92,11 @@ struct State {
     tangent: Option<[f64; 3]>,
     /// The event frame position after the last block.
     position: Axes,
+    /// Q parameters this block sets (`Q120`–`Q122` after `STAY`).
+    assigned: Vec<(u32, f64)>,
+    /// A `RND`/`CHF` next: what the control inserts there, or why it
+    /// cannot (reported at the `RND`/`CHF` block).
+    corner: Option<Result<PendingCorner, String>>,
     time_min: f64,
     begun: bool,
 }
@@ -112,6 +117,17 @@ impl State {
 pub(crate) struct KlMachine {
     setup: KlartextSetup,
     state: State,
+    /// The `RND`/`CHF` block after the next block and the block after it.
+    ahead: Option<(KlBlock, KlBlock)>,
+}
+
+/// A rounding or chamfer the control inserts at the end of a straight line:
+/// its points (program coordinates, the last where the next line starts),
+/// and the next line's direction.
+#[derive(Clone, Debug)]
+struct PendingCorner {
+    points: Vec<[f64; 3]>,
+    tangent: [f64; 3],
 }
 
 /// What a block says the language should do at the program level.
@@ -123,51 +139,7 @@ pub(crate) enum Statement {
     End,
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
-}
-
-fn mat_t_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
-    [
-        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
-        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
-        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
-    ]
-}
-
-fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    let mut m = [[0.0; 3]; 3];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, v) in row.iter_mut().enumerate() {
-            *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
-}
-
-/// The rotation about X, Y or Z (0, 1, 2) by `deg` degrees, right-handed.
-pub fn rotation(axis: usize, deg: f64) -> Mat3 {
-    let (s, c) = deg.to_radians().sin_cos();
-    match axis {
-        0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
-        1 => [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
-        _ => [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
-    }
-}
-
-/// `PLANE SPATIAL SPA SPB SPC`: the working plane turned about the
-/// workpiece's X by SPA, then its Y by SPB, then its Z by SPC, all about
-/// fixed axes (TNC 640 user's manual, "PLANE SPATIAL"): R = Rz·Ry·Rx.
-pub fn spatial(spa: f64, spb: f64, spc: f64) -> Mat3 {
-    mat_mul(
-        &rotation(2, spc),
-        &mat_mul(&rotation(1, spb), &rotation(0, spa)),
-    )
-}
+pub use super::geometry::{spatial, vector_frame};
 
 impl KlMachine {
     /// A straight move (rapid at `F MAX`, else linear) with its duration.
@@ -216,11 +188,26 @@ impl KlMachine {
                 cycle: None,
                 tangent: None,
                 position: setup.preset,
+                assigned: Vec::new(),
+                corner: None,
                 time_min: 0.0,
                 begun: false,
             },
             setup,
+            ahead: None,
         }
+    }
+
+    /// The two blocks after the next one to interpret, when the first of
+    /// them is `RND`/`CHF` (the corner the next straight line ends in).
+    pub fn set_lookahead(&mut self, ahead: Option<(KlBlock, KlBlock)>) {
+        self.ahead = ahead;
+    }
+
+    /// The Q parameters the last block set (`Q120`–`Q122` after `PLANE …
+    /// STAY` or `CYCL DEF 19`), for the language's table.
+    pub fn take_assigned(&mut self) -> Vec<(u32, f64)> {
+        std::mem::take(&mut self.state.assigned)
     }
 
     /// The event of a block not run (passed over).
@@ -259,9 +246,18 @@ impl KlMachine {
             s.shift[1] + turned[1],
             s.shift[2] + turned[2],
         ];
+        // Under a tilted plane without tool-tip control the control holds
+        // the rotary axes where the plane (or the program's own rotary
+        // block) put them and places the tip through the plane's nominal
+        // transform: a compensator corrects the tip only (dialects.md
+        // "Writing back"), as under Sinumerik's CYCLE800.
         let frame = (s.tilt.is_some() || shift != [0.0; 3])
             .then(|| FrameTransform::new(r, shift))
-            .flatten();
+            .flatten()
+            .map(|mut f| {
+                f.holds_rotary = s.tilt.is_some() && !s.tcpm;
+                f
+            });
         Origin {
             work: self.setup.preset,
             g92: Axes::default(),
@@ -326,6 +322,10 @@ impl KlMachine {
     ) -> Result<Statement, GcodeError> {
         self.fill(event, line);
         let mut s = self.state.clone();
+        s.assigned.clear();
+        if !block.tokens.is_empty() && !matches!(block.address(0), "RND" | "CHF") {
+            s.corner = None;
+        }
         let ctx = Ctx {
             block,
             raw,
@@ -394,7 +394,15 @@ impl KlMachine {
                 Ok(Statement::Other)
             }
             "C" | "CR" | "CT" | "CP" => self.circle(c, s, event),
-            "RND" | "CHF" => Err(c.unread(first, Some(0))),
+            "RND" | "CHF" => self.corner(c, s, event),
+            "APPR" | "DEP" => self.approach_departure(c, s, event),
+            "CYCL" if b.starts_with(&["CYCL", "DEF"]) && cycle_number(b) == Some((19, 0)) => {
+                Ok(Statement::Other)
+            }
+            "CYCL" if b.starts_with(&["CYCL", "DEF"]) && cycle_number(b) == Some((19, 1)) => {
+                self.working_plane_cycle(c, s, event, 1)?;
+                Ok(Statement::Other)
+            }
             "CYCL" if b.starts_with(&["CYCL", "DEF"]) => {
                 self.cycle_def(c, s)?;
                 Ok(Statement::Other)
@@ -711,10 +719,294 @@ impl KlMachine {
         if dot(d, d) > 0.0 {
             s.tangent = Some(d);
         }
+        let from = s.pos;
+        let turned = rot != s.rot;
         s.pos = target;
         s.rot = rot;
         self.push_motion(c, s, event, kind, start, end, feed)?;
+        if let Some((corner, next)) = &self.ahead
+            && !ln
+        {
+            let planned = self.plan_corner(c, s, corner, next, from, turned);
+            if let Ok((t1, _)) = &planned {
+                // The line ends where the rounding or chamfer begins.
+                let end = self.to_frame(s, *t1, rot);
+                let m = self.straight(s.frame(), false, start, end, feed);
+                let step = if feed == Feed::Rapid {
+                    CycleStep::Rapid(*t1)
+                } else {
+                    CycleStep::Feed(*t1)
+                };
+                event.moves = Moves::Cycle {
+                    moves: vec![m],
+                    steps: vec![step],
+                };
+            }
+            s.corner = Some(planned.map(|(_, p)| p));
+        }
         self.m_codes(c, s, event, Some(1))
+    }
+
+    /// The corner at the end of the straight line `from → s.pos` that the
+    /// `RND`/`CHF` block `corner` asks for, with the straight line `next`
+    /// after it: where the line now ends, and what follows (TNC 620
+    /// Klartext user's manual 01/2022, "Corner rounding RND" p. 157: an arc
+    /// tangent to the element before and after; "Chamfer CHF" p. 156: a
+    /// chamfer between two straight lines, its side length from the
+    /// corner). Both lines must lie in the working plane.
+    fn plan_corner(
+        &self,
+        c: &Ctx<'_>,
+        s: &State,
+        corner: &KlBlock,
+        next: &KlBlock,
+        from: [f64; 3],
+        turned: bool,
+    ) -> Result<([f64; 3], PendingCorner), String> {
+        let what = corner.address(0).to_string();
+        let lines_only = format!(
+            "{what}: volcomp reads {what} between two straight lines (L) in the working plane"
+        );
+        if turned || next.address(0) != "L" {
+            return Err(lines_only);
+        }
+        let scale = if s.inch { 25.4 } else { 1.0 };
+        let ctx = Ctx {
+            block: next,
+            raw: c.raw,
+            line: c.line,
+            q: c.q,
+        };
+        let rotary = next.tokens.iter().any(|t| {
+            t.value.is_some() && matches!(t.address.as_str(), "A" | "B" | "C" | "IA" | "IB" | "IC")
+        });
+        if rotary {
+            return Err(lines_only);
+        }
+        let end = xyz_words(&ctx, s.pos, scale, 1).map_err(|e| e.to_string())?;
+        let (a, p, e) = (
+            to_plane(s.plane, from),
+            to_plane(s.plane, s.pos),
+            to_plane(s.plane, end),
+        );
+        if (a[2] - p[2]).abs() > 1e-9 || (e[2] - p[2]).abs() > 1e-9 {
+            return Err(lines_only);
+        }
+        let geometry = Corner {
+            start: [a[0], a[1]],
+            corner: [p[0], p[1]],
+            end: [e[0], e[1]],
+        };
+        let size = corner
+            .tokens
+            .iter()
+            .enumerate()
+            .find(|(k, t)| {
+                (what == "RND" && t.address == "R")
+                    || (what == "CHF" && *k == 0 && t.value.is_some())
+                    || (what == "CHF" && *k == 1 && t.address.is_empty())
+            })
+            .map(|(k, _)| {
+                Ctx {
+                    block: corner,
+                    ..ctx
+                }
+                .value(k)
+                .map_err(|e| e.to_string())
+            })
+            .transpose()?
+            .ok_or_else(|| {
+                if what == "RND" {
+                    "RND without its radius R".to_string()
+                } else {
+                    "CHF without its side length".to_string()
+                }
+            })?
+            * scale;
+        let inserted = if what == "RND" {
+            geometry.round(size)
+        } else {
+            geometry.chamfer(size)
+        }
+        .map_err(|e| match e {
+            CornerError::ZeroLength => format!("{what}: a straight line of zero length meets the corner"),
+            CornerError::Straight => format!("{what}: the two lines make no corner"),
+            CornerError::TooLarge { needed, available } => format!(
+                "{what} {size}: too large for the corner (it needs {needed:.4} mm along each line; the shorter line is {available:.4} mm)"
+            ),
+        })?;
+        let at = |uv: [f64; 2]| from_plane(s.plane, [uv[0], uv[1], p[2]]);
+        let t1 = at(inserted.from);
+        let t2 = at(inserted.to);
+        let points = match inserted.arc {
+            Some((centre, clockwise)) => {
+                let (f, t) = (to_plane(s.plane, t1), to_plane(s.plane, t2));
+                geometry::arc_chords(centre, f, t, clockwise, 0, CHORD_TOLERANCE_MM)
+                    .into_iter()
+                    .map(|q| from_plane(s.plane, q))
+                    .collect()
+            }
+            None => vec![t2],
+        };
+        let tangent = [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]];
+        Ok((t1, PendingCorner { points, tangent }))
+    }
+
+    /// `APPR LT` / `DEP LT` (TNC 640 user's manual, "Approaching and
+    /// departing a contour"): `APPR LT X Y LEN` moves on a straight line to
+    /// the auxiliary point `LEN` before the first contour point `X Y`, on
+    /// the line tangent to the first contour element, then to that point;
+    /// `DEP LT LEN` moves `LEN` on in the direction of the last contour
+    /// element. With `R0` the control computes them for a tool of radius 0
+    /// (as does volcomp); `RL`/`RR` are refused as on every move. The other
+    /// forms (LN, CT, LCT, the polar PLT, PLN, PCT, PLCT) are refused naming
+    /// the form: not read yet.
+    fn approach_departure(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
+        let b = c.block;
+        let what = format!("{} {}", b.address(0), b.address(1));
+        if b.address(1) != "LT" {
+            return Err(c.unread(&what, Some(1)));
+        }
+        self.compensation(c, s);
+        let feed = self.block_feed(c, s, 2)?;
+        self.refuse_compensation(c, s)?;
+        let scale = if s.inch { 25.4 } else { 1.0 };
+        let len = b
+            .tokens
+            .iter()
+            .position(|t| t.address == "LEN")
+            .map(|k| c.value(k))
+            .transpose()?
+            .ok_or_else(|| c.error(&format!("{what} without its length LEN"), Some(0)))?
+            .abs()
+            * scale;
+        let unit = |d: [f64; 3]| {
+            let n = dot(d, d).sqrt();
+            (n > 1e-12).then(|| d.map(|x| x / n))
+        };
+        let points = if b.address(0) == "APPR" {
+            let first = xyz_words(c, s.pos, scale, 2)?;
+            // The first contour element: a straight line after the APPR block.
+            let direction = self
+                .ahead
+                .as_ref()
+                .filter(|(_, next)| next.address(0) == "L")
+                .and_then(|(_, next)| {
+                    let end = xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok()?;
+                    unit([end[0] - first[0], end[1] - first[1], end[2] - first[2]])
+                })
+                .ok_or_else(|| {
+                    c.unread(
+                        &format!(
+                            "{what} before anything but a straight line (L) in the working plane"
+                        ),
+                        Some(0),
+                    )
+                })?;
+            let helper = [
+                first[0] - len * direction[0],
+                first[1] - len * direction[1],
+                first[2] - len * direction[2],
+            ];
+            s.tangent = Some(direction);
+            vec![helper, first]
+        } else {
+            let direction = s.tangent.and_then(unit).ok_or_else(|| {
+                c.error(
+                    &format!("{what} needs a contour element before it (its direction)"),
+                    Some(0),
+                )
+            })?;
+            vec![[
+                s.pos[0] + len * direction[0],
+                s.pos[1] + len * direction[1],
+                s.pos[2] + len * direction[2],
+            ]]
+        };
+        event.moves = self.pieces(c, s, s.position, &points, feed)?;
+        s.pos = points[points.len() - 1];
+        self.m_codes(c, s, event, Some(2))
+    }
+
+    /// Straight moves through `points` (program coordinates) from `start`,
+    /// the pieces of one block that the seam cannot carry as one move
+    /// (`Moves::Cycle`, written back flat as `L` blocks).
+    fn pieces(
+        &self,
+        c: &Ctx<'_>,
+        s: &State,
+        start: Axes,
+        points: &[[f64; 3]],
+        feed: Feed,
+    ) -> Result<Moves, GcodeError> {
+        if let Feed::PerMinute(f) = feed
+            && f <= 0.0
+        {
+            return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+        }
+        let mut start = start;
+        let mut moves = Vec::with_capacity(points.len());
+        let mut steps = Vec::with_capacity(points.len());
+        for p in points {
+            let end = self.to_frame(s, *p, s.rot);
+            if !end.is_finite() {
+                return Err(GcodeError::at(
+                    ErrorKind::NonFinite,
+                    c.line,
+                    c.raw,
+                    0,
+                    c.raw.len(),
+                ));
+            }
+            moves.push(self.straight(s.frame(), false, start, end, feed));
+            steps.push(if feed == Feed::Rapid {
+                CycleStep::Rapid(*p)
+            } else {
+                CycleStep::Feed(*p)
+            });
+            start = end;
+        }
+        Ok(Moves::Cycle { moves, steps })
+    }
+
+    /// `RND R…` / `CHF …`: the rounding arc (as chords within
+    /// [`CHORD_TOLERANCE_MM`]) or the chamfer planned at the line before.
+    fn corner(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<Statement, GcodeError> {
+        let what = c.block.address(0);
+        let pending = match s.corner.take() {
+            Some(Ok(p)) => p,
+            Some(Err(why)) => return Err(c.error(&why, Some(0))),
+            None => {
+                return Err(c.error(
+                    &format!("{what} must follow a straight line (L) in the working plane"),
+                    Some(0),
+                ));
+            }
+        };
+        // `F` here is for the rounding only (then the feed before it again).
+        let mut feed = s.feed;
+        for (k, t) in c.block.tokens.iter().enumerate().skip(1) {
+            if t.address == "F" && t.value.is_some() {
+                feed = self.feed_value(c, s, k)?;
+            }
+        }
+        if feed <= 0.0 {
+            return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+        }
+        self.refuse_compensation(c, s)?;
+        event.moves = self.pieces(c, s, s.position, &pending.points, Feed::PerMinute(feed))?;
+        s.tangent = Some(pending.tangent);
+        Ok(Statement::Other)
     }
 
     /// M91/M92: the words are machine coordinates (not compensated; reported).
@@ -1034,17 +1326,30 @@ impl KlMachine {
                 (pole, clockwise, turns)
             }
         };
-        if s.tilt.is_some_and(|r| {
+        // In a tilted working plane whose normal is not the workpiece's,
+        // the arc lies in the tilted plane: handed on as chords.
+        let tilted = s.tilt.is_some_and(|r| {
             let n = from_plane(s.plane, [0.0, 0.0, 1.0]);
             let rn = mat_vec(&r, n);
             (dot(rn, n) - 1.0).abs() > 1e-9
-        }) {
-            return Err(c.unread("circle in a tilted working plane", Some(0)));
-        }
+        });
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 1)?;
         self.refuse_compensation(c, s)?;
         let target = from_plane(s.plane, end);
+        if tilted {
+            let feed = if feed == Feed::Rapid {
+                Feed::PerMinute(self.setup.rapid_mm_per_min)
+            } else {
+                feed
+            };
+            let points: Vec<[f64; 3]> =
+                arc_chords(centre, cur, end, clockwise, turns, CHORD_TOLERANCE_MM)
+                    .into_iter()
+                    .map(|q| from_plane(s.plane, q))
+                    .collect();
+            event.moves = self.pieces(c, s, s.position, &points, feed)?;
+        }
         let centre_prog = from_plane(s.plane, [centre[0], centre[1], cur[2]]);
         let start = s.position;
         let end_axes = self.to_frame(s, target, s.rot);
@@ -1058,6 +1363,10 @@ impl KlMachine {
         };
         s.tangent = Some(from_plane(s.plane, tan));
         s.pos = target;
+        if tilted {
+            let _ = end_axes;
+            return self.m_codes(c, s, event, Some(1));
+        }
         let kind = MotionKind::Arc {
             clockwise,
             centre: centre_frame,
@@ -1086,7 +1395,7 @@ impl KlMachine {
         let minor = ((n - n.trunc()) * 10.0).round() as u32;
         match major {
             7 => self.datum_shift(c, s, minor),
-            19 => Err(c.unread("CYCL DEF 19", Some(2))),
+            // 19 (the working plane): `working_plane_cycle`.
             // Cycles that do not move: tolerance, and the like.
             32 | 332 | 392 | 9 | 13 | 247 => Ok(()),
             200 => {
@@ -1276,7 +1585,10 @@ impl KlMachine {
         Ok(())
     }
 
-    /// `PLANE …`: the working plane.
+    /// `PLANE …`: the working plane (TNC 640 user's manual, "Multiple-axis
+    /// machining › The PLANE function": SPATIAL, PROJECTED, EULER, VECTOR,
+    /// POINTS, RELATIVE, AXIAL, RESET; "Specifying the positioning behavior
+    /// of the PLANE function": MOVE, TURN, STAY, SEQ, COORD ROT / TABLE ROT).
     fn plane(&self, c: &Ctx<'_>, s: &mut State, event: &mut BlockEvent) -> Result<(), GcodeError> {
         let b = c.block;
         let kind = b.address(1).to_string();
@@ -1286,16 +1598,29 @@ impl KlMachine {
                 None => Ok(None),
             }
         };
+        let v = |n: &str| named(n).map(|x| x.unwrap_or(0.0));
+        let scale = if s.inch { 25.4 } else { 1.0 };
         let (rotation, axes): (Option<Mat3>, Option<[Option<f64>; 3]>) = match kind.as_str() {
             "RESET" => (None, None),
-            "SPATIAL" => {
-                let spa = named("SPA")?.unwrap_or(0.0);
-                let spb = named("SPB")?.unwrap_or(0.0);
-                let spc = named("SPC")?.unwrap_or(0.0);
-                (Some(spatial(spa, spb, spc)), None)
+            "SPATIAL" => (Some(spatial(v("SPA")?, v("SPB")?, v("SPC")?)), None),
+            "PROJECTED" => {
+                let rot = match named("PROROT")? {
+                    Some(r) => r,
+                    None => v("ROT")?,
+                };
+                let r = geometry::projected(v("PROPR")?, v("PROMIN")?, rot).ok_or_else(|| {
+                    c.error(
+                        "PLANE PROJECTED: a projection angle of ±90° or more defines no plane",
+                        Some(1),
+                    )
+                })?;
+                (Some(r), None)
             }
+            "EULER" => (
+                Some(geometry::euler(v("EULPR")?, v("EULNU")?, v("EULROT")?)),
+                None,
+            ),
             "VECTOR" => {
-                let v = |n: &str| named(n).map(|x| x.unwrap_or(0.0));
                 let base = [v("BX")?, v("BY")?, v("BZ")?];
                 let normal = [v("NX")?, v("NY")?, v("NZ")?];
                 (Some(vector_frame(base, normal).ok_or_else(|| {
@@ -1305,33 +1630,40 @@ impl KlMachine {
                     )
                 })?), None)
             }
-            "AXIAL" => {
-                let a = [named("A")?, named("B")?, named("C")?];
-                (None, Some(a))
+            "POINTS" => {
+                let p = |k: u8| -> Result<[f64; 3], GcodeError> {
+                    Ok([
+                        v(&format!("P{k}X"))? * scale,
+                        v(&format!("P{k}Y"))? * scale,
+                        v(&format!("P{k}Z"))? * scale,
+                    ])
+                };
+                let r = geometry::points(p(1)?, p(2)?, p(3)?).ok_or_else(|| {
+                    c.error("PLANE POINTS: the three points lie on one line", Some(1))
+                })?;
+                (Some(r), None)
             }
-            "PROJECTED" | "EULER" | "POINTS" | "RELATIVE" => {
-                return Err(c.unread(&format!("PLANE {kind}"), Some(1)));
+            "RELATIVE" => {
+                // One incremental spatial angle about an axis of the active
+                // (tilted) frame: R = R_active · R_axis.
+                let given: Vec<(usize, f64)> = [("SPA", 0), ("SPB", 1), ("SPC", 2)]
+                    .into_iter()
+                    .filter_map(|(n, k)| named(n).transpose().map(|x| x.map(|x| (k, x))))
+                    .collect::<Result<_, _>>()?;
+                let [(axis, angle)] = given[..] else {
+                    return Err(c.error(
+                        "PLANE RELATIVE: exactly one incremental angle (SPA, SPB or SPC)",
+                        Some(1),
+                    ));
+                };
+                let active = s.tilt.unwrap_or(IDENTITY);
+                (Some(mat_mul(&active, &rotation(axis, angle))), None)
             }
+            "AXIAL" => (None, Some([named("A")?, named("B")?, named("C")?])),
             _ => return Err(c.error("PLANE: expected SPATIAL, PROJECTED, EULER, VECTOR, POINTS, RELATIVE, AXIAL or RESET", Some(1))),
         };
-        let mode = ["MOVE", "TURN", "STAY"]
-            .into_iter()
-            .find(|m| b.tokens.iter().any(|t| t.address == *m));
-        let seq = match b
-            .tokens
-            .iter()
-            .find(|t| t.address == "SEQ")
-            .and_then(|t| t.number())
-        {
-            Some(v) if v > 0.0 => Branch::Plus,
-            Some(_) => Branch::Minus,
-            None => Branch::Nearest,
-        };
-        if b.tokens.iter().any(|t| t.address == "COORD") {
-            return Err(c.unread("PLANE … COORD ROT", Some(1)));
-        }
+        let positioning = self.positioning(c, s, axes.is_some())?;
         let pre = self.setup.preset;
-        // The rotary position the plane asks for.
         let (tilt, joints): (Option<Mat3>, Option<Axes>) = match (rotation, axes) {
             (None, None) => (
                 None,
@@ -1342,17 +1674,7 @@ impl KlMachine {
                     ..s.position
                 }),
             ),
-            (Some(r), _) => {
-                let axis = mat_vec(&r, [0.0, 0.0, 1.0]);
-                let solver = self.solver(c)?;
-                let j = solver.joints_for_axis(axis, seq, &s.position).ok_or_else(|| {
-                    c.error(
-                        "the machine cannot reach this working plane (its rotary axes cannot point the tool along the plane's normal)",
-                        Some(1),
-                    )
-                })?;
-                (Some(r), Some(j))
-            }
+            (Some(r), _) => (Some(r), Some(self.solve_plane(c, s, &r, &positioning)?)),
             (None, Some(a)) => {
                 let mut j = s.position;
                 for (v, axis) in a.iter().zip([Axis::A, Axis::B, Axis::C]) {
@@ -1371,54 +1693,186 @@ impl KlMachine {
                 )
             }
         };
+        self.tilt_to(c, s, event, tilt, joints, &positioning)
+    }
+
+    /// The positioning words of a `PLANE` block (or `CYCL DEF 19`): `MOVE
+    /// [DIST]`, `TURN`, `STAY`, `SEQ±`, `COORD ROT`/`TABLE ROT`, `F`/`FMAX`.
+    fn positioning(&self, c: &Ctx<'_>, s: &State, axial: bool) -> Result<Positioning, GcodeError> {
+        let b = c.block;
+        let has = |name: &str| b.tokens.iter().position(|t| t.address == name);
+        let scale = if s.inch { 25.4 } else { 1.0 };
+        let mode = if has("STAY").is_some() {
+            PlaneMode::Stay
+        } else if let Some(k) = has("MOVE") {
+            // `MOVE DIST+50` (the distance may follow as its own word).
+            let dist = match has("DIST") {
+                Some(d) => c.value(d)? * scale,
+                None => b.tokens[k].number().unwrap_or(0.0) * scale,
+            };
+            PlaneMode::Move { dist }
+        } else {
+            PlaneMode::Turn
+        };
+        if let Some(k) = has("MB")
+            && b.tokens[k].value.is_some()
+            && c.value(k)? != 0.0
+        {
+            return Err(c.unread("PLANE … MB (a retraction before tilting)", Some(k)));
+        }
+        if let Some(k) = has("MB")
+            && b.address(k + 1) == "MAX"
+        {
+            return Err(c.unread("PLANE … MB MAX (a retraction before tilting)", Some(k)));
+        }
+        let seq = match b
+            .tokens
+            .iter()
+            .find(|t| t.address == "SEQ")
+            .and_then(|t| t.number())
+        {
+            Some(v) if v > 0.0 => Branch::Plus,
+            Some(_) => Branch::Minus,
+            None => Branch::Nearest,
+        };
+        let table_rot = b
+            .tokens
+            .iter()
+            .enumerate()
+            .any(|(k, t)| t.address == "TABLE" && b.address(k + 1) == "ROT");
+        let feed = if has("FMAX").is_some() {
+            Feed::Rapid
+        } else {
+            match b
+                .tokens
+                .iter()
+                .position(|t| t.address == "F" && t.value.is_some())
+            {
+                Some(k) => Feed::PerMinute(self.feed_value(c, s, k)?),
+                None => Feed::Rapid,
+            }
+        };
+        let _ = axial;
+        Ok(Positioning {
+            mode,
+            seq,
+            table_rot: table_rot.then(|| has("TABLE").unwrap_or(0)),
+            feed,
+        })
+    }
+
+    /// The rotary joints that put the tool along `r`'s tool axis, on the
+    /// machine's chain, `SEQ`'s branch; a free rotary axis (one parallel
+    /// to the tool axis there, which does not tilt the tool) stays where it
+    /// is (`COORD ROT`: the rotation about the tool axis is the coordinate
+    /// system's).
+    fn solve_plane(
+        &self,
+        c: &Ctx<'_>,
+        s: &State,
+        r: &Mat3,
+        how: &Positioning,
+    ) -> Result<Axes, GcodeError> {
+        let axis = mat_vec(r, [0.0, 0.0, 1.0]);
+        let solver = self.solver(c)?;
+        let mut j = solver
+            .joints_for_axis(axis, how.seq, &s.position)
+            .ok_or_else(|| {
+                c.error(
+                    "the machine cannot reach this working plane (its rotary axes cannot point the tool along the plane's normal within their travel)",
+                    Some(1),
+                )
+            })?;
+        for letter in [Axis::A, Axis::B, Axis::C] {
+            if !self.setup.axes.contains(letter) {
+                continue;
+            }
+            let mut turned = j;
+            turned.set(letter, j.get(letter) + 1.0);
+            let moved = solver.axis_of(&turned);
+            let d = [moved[0] - axis[0], moved[1] - axis[1], moved[2] - axis[2]];
+            if dot(d, d).sqrt() < 1e-9 {
+                if let Some(k) = how.table_rot {
+                    return Err(c.unread(
+                        &format!(
+                            "PLANE … TABLE ROT with the free rotary axis {} (the table would take the rotation about the tool axis)",
+                            letter.letter()
+                        ),
+                        Some(k),
+                    ));
+                }
+                j.set(letter, s.position.get(letter));
+            }
+        }
+        Ok(j)
+    }
+
+    /// Tilt to `tilt` with the rotary axes at `joints`, positioned as `how`
+    /// says: `TURN` turns them (the tip moves with the head or table),
+    /// `MOVE` turns them about a point `DIST` below the tip (the tool keeps
+    /// its distance from it), `STAY` leaves them to the program and sets
+    /// `Q120`–`Q122` (A, B, C) to their values.
+    fn tilt_to(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+        tilt: Option<Mat3>,
+        joints: Option<Axes>,
+        how: &Positioning,
+    ) -> Result<(), GcodeError> {
+        let pre = self.setup.preset;
         let tilt = tilt.filter(|r| *r != IDENTITY);
-        // The position in the new frame: where the tool is.
         let here = s.position;
+        let mut tip = here.xyz();
         s.tilt = tilt;
         if tilt.is_none() {
             s.shift_tilted = [0.0; 3];
         }
-        if let Some(j) = joints
-            && mode != Some("STAY")
-        {
+        if let Some(j) = joints {
             let moves_rotary = (j.a - here.a).abs() > 1e-12
                 || (j.b - here.b).abs() > 1e-12
                 || (j.c - here.c).abs() > 1e-12;
-            if moves_rotary {
-                if mode == Some("MOVE") {
-                    return Err(c.unread("PLANE … MOVE", Some(1)));
-                }
-                let end = Axes {
-                    a: j.a,
-                    b: j.b,
-                    c: j.c,
-                    ..here
-                };
-                let feed = if b.tokens.iter().any(|t| t.address == "FMAX") {
-                    Feed::Rapid
-                } else {
-                    match b
-                        .tokens
-                        .iter()
-                        .position(|t| t.address == "F" && t.value.is_some())
-                    {
-                        Some(k) => Feed::PerMinute(self.feed_value(c, s, k)?),
-                        None => Feed::Rapid,
+            match how.mode {
+                PlaneMode::Stay => {
+                    for (q, axis) in [(120, Axis::A), (121, Axis::B), (122, Axis::C)] {
+                        if self.setup.axes.contains(axis) {
+                            s.assigned.push((q, j.get(axis) - pre.get(axis)));
+                        }
                     }
-                };
-                let m = self.straight(Frame::Joint, false, here, end, feed);
-                event.moves = Moves::Home(vec![m]);
-                s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
+                }
+                PlaneMode::Turn | PlaneMode::Move { .. } if moves_rotary => {
+                    // TURN: a joint-frame leg (the tip moves with the axes).
+                    // MOVE: about the point DIST below the tip along the tool
+                    // axis, tip' = tip + DIST·(axis' − axis), a part-frame leg.
+                    let frame = match how.mode {
+                        PlaneMode::Move { dist } => {
+                            let solver = self.solver(c)?;
+                            let (a0, a1) = (solver.axis_of(&here), solver.axis_of(&j));
+                            for k in 0..3 {
+                                tip[k] += dist * (a1[k] - a0[k]);
+                            }
+                            Frame::Part
+                        }
+                        _ => Frame::Joint,
+                    };
+                    let end = Axes {
+                        x: tip[0],
+                        y: tip[1],
+                        z: tip[2],
+                        a: j.a,
+                        b: j.b,
+                        c: j.c,
+                        ..here
+                    };
+                    let m = self.straight(frame, false, here, end, how.feed);
+                    event.moves = Moves::Home(vec![m]);
+                    s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
+                }
+                _ => {}
             }
-        } else if mode == Some("STAY")
-            && let Some(j) = joints
-        {
-            // Q120–Q122: the axis values STAY leaves for the program's own
-            // rotary block (the language keeps Q parameters; noted here).
-            let _ = j;
         }
-        // The program position in the new frame (the tool has not moved).
-        let tip = here.xyz();
+        // The program position in the new frame: where the tip is.
         let base = [
             tip[0] - pre.x - s.shift[0],
             tip[1] - pre.y - s.shift[1],
@@ -1438,7 +1892,65 @@ impl KlMachine {
             ];
         }
         s.tangent = None;
+        s.corner = None;
         Ok(())
+    }
+
+    /// `CYCL DEF 19.0 WORKING PLANE`, `CYCL DEF 19.1 A… B… C… [F…]`: the
+    /// working plane by spatial angles, as `PLANE SPATIAL` (TNC 640 user's
+    /// manual, "Cycle 19 WORKING PLANE": rotations about the machine-fixed
+    /// axes A, then B, then C; all angles 0 resets it). The control leaves
+    /// the rotary positions in `Q120`–`Q122` for the program's own rotary
+    /// block; with a feed rate `F` in 19.1 (automatic positioning) it turns
+    /// the axes itself, as `TURN`.
+    fn working_plane_cycle(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+        minor: u32,
+    ) -> Result<(), GcodeError> {
+        if minor == 0 {
+            return Ok(());
+        }
+        let b = c.block;
+        let mut angle = [0.0; 3];
+        let mut feed = None;
+        for (k, t) in b.tokens.iter().enumerate().skip(3) {
+            match t.address.as_str() {
+                "A" => angle[0] = c.value(k)?,
+                "B" => angle[1] = c.value(k)?,
+                "C" => angle[2] = c.value(k)?,
+                "F" if t.value.is_some() => feed = Some(Feed::PerMinute(self.feed_value(c, s, k)?)),
+                "FMAX" => feed = Some(Feed::Rapid),
+                _ => {}
+            }
+        }
+        let how = Positioning {
+            mode: if feed.is_some() {
+                PlaneMode::Turn
+            } else {
+                PlaneMode::Stay
+            },
+            seq: Branch::Nearest,
+            table_rot: None,
+            feed: feed.unwrap_or(Feed::Rapid),
+        };
+        let pre = self.setup.preset;
+        let r = spatial(angle[0], angle[1], angle[2]);
+        let joints = if r == IDENTITY || angle == [0.0; 3] {
+            self.solver(c)?;
+            Axes {
+                a: pre.a,
+                b: pre.b,
+                c: pre.c,
+                ..s.position
+            }
+        } else {
+            self.solve_plane(c, s, &r, &how)?
+        };
+        let tilt = (angle != [0.0; 3]).then_some(r);
+        self.tilt_to(c, s, event, tilt, Some(joints), &how)
     }
 
     fn frame_of(&self, s: &State) -> Frame {
@@ -1450,32 +1962,36 @@ impl KlMachine {
     }
 }
 
-/// The frame whose Z is `normal` and whose X is `base` made perpendicular to
-/// it (PLANE VECTOR), as rows of the rotation program → workpiece.
-pub fn vector_frame(base: [f64; 3], normal: [f64; 3]) -> Option<Mat3> {
-    let nn = dot(normal, normal).sqrt();
-    if nn < 1e-12 {
-        return None;
-    }
-    let z = normal.map(|v| v / nn);
-    let bz = dot(base, z);
-    let x = [
-        base[0] - bz * z[0],
-        base[1] - bz * z[1],
-        base[2] - bz * z[2],
-    ];
-    let nx = dot(x, x).sqrt();
-    if nx < 1e-9 {
-        return None;
-    }
-    let x = x.map(|v| v / nx);
-    let y = [
-        z[1] * x[2] - z[2] * x[1],
-        z[2] * x[0] - z[0] * x[2],
-        z[0] * x[1] - z[1] * x[0],
-    ];
-    // Columns are the frame's axes in workpiece coordinates.
-    Some([[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]])
+/// The largest distance of a chord from the arc it stands for, mm: arcs
+/// the seam cannot carry as arcs (in a tilted working plane, `RND`) are
+/// handed on as chords this close.
+pub const CHORD_TOLERANCE_MM: f64 = 0.0005;
+
+/// `CYCL DEF n.m`: (n, m).
+fn cycle_number(b: &KlBlock) -> Option<(u32, u32)> {
+    let n = b.tokens.get(2)?.number()?;
+    Some((n.trunc() as u32, ((n - n.trunc()) * 10.0).round() as u32))
+}
+
+/// How a `PLANE` (or `CYCL DEF 19`) positions the rotary axes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PlaneMode {
+    /// `TURN`: the axes turn; the tip moves with them.
+    Turn,
+    /// `MOVE`: the axes turn about the point `dist` below the tip.
+    Move { dist: f64 },
+    /// `STAY`: the program turns them (Q120–Q122).
+    Stay,
+}
+
+/// The positioning words of a working-plane block.
+#[derive(Clone, Copy, Debug)]
+struct Positioning {
+    mode: PlaneMode,
+    seq: Branch,
+    /// `TABLE ROT` given: its token.
+    table_rot: Option<usize>,
+    feed: Feed,
 }
 
 /// The angle of `a` nearest `previous` among `a + k·360` (M126).
@@ -1554,7 +2070,32 @@ fn tangent_centre(s: [f64; 3], e: [f64; 3], t: [f64; 2]) -> Option<([f64; 2], bo
     Some(([s[0] + k * n[0], s[1] + k * n[1]], k < 0.0))
 }
 
+/// Where the `X Y Z` / `IX IY IZ` words of `c`'s block (from token
+/// `skip`) put a straight move that starts at `from` (mm, `scale` for the
+/// program's units).
+fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f64; 3], GcodeError> {
+    let mut end = from;
+    for (k, t) in c.block.tokens.iter().enumerate().skip(skip) {
+        let (inc, slot) = match t.address.as_str() {
+            "X" => (false, 0),
+            "Y" => (false, 1),
+            "Z" => (false, 2),
+            "IX" => (true, 0),
+            "IY" => (true, 1),
+            "IZ" => (true, 2),
+            _ => continue,
+        };
+        if t.value.is_none() {
+            continue;
+        }
+        let v = c.value(k)? * scale;
+        end[slot] = if inc { from[slot] + v } else { v };
+    }
+    Ok(end)
+}
+
 /// A block and what locates its errors.
+#[derive(Clone, Copy)]
 struct Ctx<'a> {
     block: &'a KlBlock,
     raw: &'a [u8],

@@ -6,6 +6,8 @@
 //!   tokens with byte ranges, Q formulas;
 //! - `language`: Q parameters, `FN` functions and jumps, labels, `CALL LBL`
 //!   repeats and subprograms, `CALL PGM` → executed blocks in order;
+//! - `geometry`: the rotation of each `PLANE` form, `RND`/`CHF` corners,
+//!   arcs as chords (pure functions);
 //! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
 //!   tool-tip control, tools, the drilling cycle) → [`BlockEvent`]s;
 //! - `write`: Klartext written back (renumbered, numbers in the input's
@@ -17,6 +19,7 @@
 //! written (`literal`), blocks run again or from a call as flat copies
 //! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
 //! block, and blocks never run as `passed`, so that a writer loses no byte.
+pub(crate) mod geometry;
 pub(crate) mod language;
 pub(crate) mod machine;
 pub(crate) mod syntax;
@@ -279,6 +282,7 @@ impl KlartextFront {
     /// Interpret the block just handed on.
     pub(crate) fn interpret(&mut self, event: &mut BlockEvent) -> Result<(), GcodeError> {
         let (file, index) = self.current;
+        self.machine.set_lookahead(self.corner_ahead(file, index));
         let raw = self.language.files[file].raw(index);
         let result = self.machine.interpret(
             &self.parsed,
@@ -290,6 +294,13 @@ impl KlartextFront {
         match result {
             Ok(_) => {
                 event.program_end = self.ends_here;
+                for (n, v) in self.machine.take_assigned() {
+                    let p = syntax::Param {
+                        kind: syntax::ParamKind::Q,
+                        number: n,
+                    };
+                    self.language.q.set(p, v);
+                }
                 Ok(())
             }
             Err(e) if self.lenient && !matches!(e.kind, ErrorKind::DialectRefused(_)) => {
@@ -303,6 +314,44 @@ impl KlartextFront {
             }
             Err(e) => Err(self.with_file(e, file)),
         }
+    }
+
+    /// After a straight line `L` at `index`: the `RND`/`CHF` block right
+    /// after it and the block after that (the corner the control inserts
+    /// needs both lines).
+    fn corner_ahead(&self, file: usize, index: usize) -> Option<(KlBlock, KlBlock)> {
+        let first = self.parsed.address(0);
+        if first != "L" && first != "APPR" {
+            return None;
+        }
+        let source = &self.language.files[file];
+        // The next block with code (comment lines between are skipped),
+        // found on its bytes: most lines are not followed by a corner.
+        let code = |k: usize| {
+            let raw = source.raw(k);
+            let at = raw
+                .iter()
+                .position(|b| !b.is_ascii_digit() && !b.is_ascii_whitespace())
+                .unwrap_or(raw.len());
+            &raw[at..]
+        };
+        let after = |from: usize| {
+            (from..source.blocks.len().min(from + 16)).find(|&k| {
+                let c = code(k);
+                !c.is_empty() && c[0] != b';'
+            })
+        };
+        if first == "APPR" {
+            // The first contour element after an approach.
+            let k = after(index + 1)?;
+            return Some((self.parsed.clone(), parse_block(source.raw(k))));
+        }
+        let k = after(index + 1)?;
+        if !(code(k).starts_with(b"RND") || code(k).starts_with(b"CHF")) {
+            return None;
+        }
+        let next = after(k + 1)?;
+        Some((parse_block(source.raw(k)), parse_block(source.raw(next))))
     }
 
     /// The event of a block not run.

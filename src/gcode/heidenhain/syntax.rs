@@ -319,6 +319,15 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
     while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
         k += 1;
     }
+    // `P1X+0` (a point of `PLANE POINTS`): the address is `P1X`.
+    if k == 1
+        && bytes[0].eq_ignore_ascii_case(&b'P')
+        && bytes.len() > 2
+        && matches!(bytes[1], b'1'..=b'3')
+        && matches!(bytes[2].to_ascii_uppercase(), b'X' | b'Y' | b'Z')
+    {
+        k = 3;
+    }
     // `Q200=+2` (a cycle parameter): the address is `Q200`.
     if let Some(eq) = text.find('=')
         && eq > k

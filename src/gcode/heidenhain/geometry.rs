@@ -1,0 +1,418 @@
+//! The geometry of Klartext working planes and contour corners, as pure
+//! functions (no state): the rotation each `PLANE` form defines (TNC 640
+//! user's manual, "Multiple-axis machining › The PLANE function"), and the
+//! rounding arc `RND` and chamfer `CHF` the control inserts between two
+//! straight lines ("Path contours – Cartesian coordinates › Corner rounding
+//! RND", "› Chamfer CHF"; TNC 620 Klartext user's manual 01/2022 pp. 156–157).
+//!
+//! Rotations are 3×3 matrices, rows, mapping the tilted (program) frame's
+//! coordinates to the workpiece frame's: their columns are the tilted X, Y
+//! and Z axes in workpiece coordinates.
+
+/// A 3×3 rotation, rows.
+pub type Mat3 = [[f64; 3]; 3];
+
+/// The identity.
+pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// `a · b`.
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `a × b`.
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(v, v).sqrt();
+    (n > 1e-12 && n.is_finite()).then(|| v.map(|x| x / n))
+}
+
+/// `m · v`.
+pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
+    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
+}
+
+/// `mᵀ · v`.
+pub fn mat_t_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
+    [
+        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
+        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
+        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
+    ]
+}
+
+/// `a · b`.
+pub fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    let mut m = [[0.0; 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    m
+}
+
+/// The rotation whose columns are `x`, `y`, `z`.
+fn from_columns(x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> Mat3 {
+    [[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]]
+}
+
+/// The rotation about X, Y or Z (0, 1, 2) by `deg` degrees, right-handed.
+pub fn rotation(axis: usize, deg: f64) -> Mat3 {
+    let (s, c) = deg.to_radians().sin_cos();
+    match axis {
+        0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
+        1 => [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
+        _ => [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+    }
+}
+
+/// `PLANE SPATIAL SPA SPB SPC` (and `CYCL DEF 19` with spatial angles):
+/// the working plane turned about the workpiece's X by SPA, then its Y by
+/// SPB, then its Z by SPC, all about fixed axes (iTNC 530 user's manual
+/// 340 422, p. 460): `R = Rz·Ry·Rx`.
+pub fn spatial(spa: f64, spb: f64, spc: f64) -> Mat3 {
+    mat_mul(
+        &rotation(2, spc),
+        &mat_mul(&rotation(1, spb), &rotation(0, spa)),
+    )
+}
+
+/// `PLANE PROJECTED PROPR PROMIN ROT`: the tilted plane's trace on the
+/// workpiece's ZX plane makes the angle PROPR with X (turned about Y, as
+/// SPB), its trace on the YZ plane the angle PROMIN with Y (turned about X,
+/// as SPA); the tilted X axis lies along the first trace, and `ROT` turns
+/// the tilted frame about its tool axis (TNC 640 user's manual, "PLANE
+/// PROJECTED": "projection angle on the 1st / 2nd coordinate plane",
+/// "ROT: rotation of the tilted coordinate system about the tilted tool
+/// axis"). `None` when an angle is ±90° or more (the traces are then
+/// undefined).
+pub fn projected(propr: f64, promin: f64, rot: f64) -> Option<Mat3> {
+    if propr.abs() >= 90.0 - 1e-9 || promin.abs() >= 90.0 - 1e-9 {
+        return None;
+    }
+    // The traces: (1, 0, −tan PROPR) in ZX (Ry(PROPR)·X ∥ it), (0, 1, tan PROMIN) in YZ.
+    let u = unit([1.0, 0.0, -propr.to_radians().tan()])?;
+    let v = [0.0, 1.0, promin.to_radians().tan()];
+    let z = unit(cross(u, v))?;
+    let y = cross(z, u);
+    Some(mat_mul(&from_columns(u, y, z), &rotation(2, rot)))
+}
+
+/// `PLANE EULER EULPR EULNU EULROT`: precession about the workpiece's Z,
+/// then nutation about the turned X, then rotation about the turned Z
+/// (TNC 640 user's manual, "PLANE EULER"): `R = Rz(PR)·Rx(NU)·Rz(ROT)`.
+pub fn euler(precession: f64, nutation: f64, rot: f64) -> Mat3 {
+    mat_mul(
+        &rotation(2, precession),
+        &mat_mul(&rotation(0, nutation), &rotation(2, rot)),
+    )
+}
+
+/// `PLANE POINTS P1 P2 P3`: the tilted X axis from P1 to P2, the tilted
+/// tool axis by the right-hand rule with P3 on the side of the tilted Y
+/// (TNC 640 user's manual, "PLANE POINTS"; iTNC 530 user's manual 340 422,
+/// p. 464). `None` when the points are on one line.
+pub fn points(p1: [f64; 3], p2: [f64; 3], p3: [f64; 3]) -> Option<Mat3> {
+    let d = |a: [f64; 3], b: [f64; 3]| [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let x = unit(d(p1, p2))?;
+    let z = unit(cross(d(p1, p2), d(p1, p3)))?;
+    let y = cross(z, x);
+    Some(from_columns(x, y, z))
+}
+
+/// The frame whose Z is `normal` and whose X is `base` made perpendicular to
+/// it (PLANE VECTOR).
+pub fn vector_frame(base: [f64; 3], normal: [f64; 3]) -> Option<Mat3> {
+    let z = unit(normal)?;
+    let bz = dot(base, z);
+    let x = [
+        base[0] - bz * z[0],
+        base[1] - bz * z[1],
+        base[2] - bz * z[2],
+    ];
+    if dot(x, x).sqrt() < 1e-9 {
+        return None;
+    }
+    let x = unit(x)?;
+    Some(from_columns(x, cross(z, x), z))
+}
+
+/// A corner the control rounds or chamfers: the two straight lines
+/// `start → corner → end` (in-plane coordinates u, v).
+#[derive(Clone, Copy, Debug)]
+pub struct Corner {
+    /// Where the first line starts.
+    pub start: [f64; 2],
+    /// Where the two lines meet (the programmed end of the first).
+    pub corner: [f64; 2],
+    /// Where the second line ends.
+    pub end: [f64; 2],
+}
+
+/// What the control inserts at a corner: the points where the first line
+/// now ends and the second begins, and for a rounding its centre and sense.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Inserted {
+    /// The first line's new end.
+    pub from: [f64; 2],
+    /// The second line's new start.
+    pub to: [f64; 2],
+    /// `RND`: the arc's centre and whether it turns clockwise.
+    pub arc: Option<([f64; 2], bool)>,
+}
+
+/// Why a corner cannot be rounded or chamfered (the control's refusal).
+#[derive(Clone, Debug, PartialEq)]
+pub enum CornerError {
+    /// A line of zero length.
+    ZeroLength,
+    /// The two lines go on in one direction (no corner) or turn back.
+    Straight,
+    /// The rounding or chamfer does not fit on the lines: the distance it
+    /// needs from the corner, and the shorter line's length.
+    TooLarge {
+        /// Distance needed along each line from the corner, mm.
+        needed: f64,
+        /// The shorter line's length, mm.
+        available: f64,
+    },
+}
+
+impl Corner {
+    fn legs(&self) -> Result<([f64; 2], [f64; 2], f64, f64), CornerError> {
+        let a = [
+            self.corner[0] - self.start[0],
+            self.corner[1] - self.start[1],
+        ];
+        let b = [self.end[0] - self.corner[0], self.end[1] - self.corner[1]];
+        let (la, lb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+        if la < 1e-9 || lb < 1e-9 {
+            return Err(CornerError::ZeroLength);
+        }
+        Ok(([a[0] / la, a[1] / la], [b[0] / lb, b[1] / lb], la, lb))
+    }
+
+    fn at(&self, u: [f64; 2], d: f64) -> [f64; 2] {
+        [self.corner[0] + u[0] * d, self.corner[1] + u[1] * d]
+    }
+
+    /// `RND R`: the arc of radius `r` tangent to both lines; its tangent
+    /// points lie `r·tan(φ/2)` from the corner, φ the change of direction.
+    pub fn round(&self, r: f64) -> Result<Inserted, CornerError> {
+        let (u, v, la, lb) = self.legs()?;
+        let turn = u[0] * v[1] - u[1] * v[0];
+        let along = u[0] * v[0] + u[1] * v[1];
+        let phi = turn.atan2(along);
+        if turn.abs() < 1e-12 || phi.abs() > std::f64::consts::PI - 1e-9 {
+            return Err(CornerError::Straight);
+        }
+        let r = r.abs();
+        let d = r * (phi.abs() / 2.0).tan();
+        if d > la.min(lb) + 1e-9 {
+            return Err(CornerError::TooLarge {
+                needed: d,
+                available: la.min(lb),
+            });
+        }
+        let from = self.at(u, -d);
+        let to = self.at(v, d);
+        // The centre: r to the inside of the turn from the first tangent point.
+        let side = if turn > 0.0 { 1.0 } else { -1.0 };
+        let normal = [-u[1] * side, u[0] * side];
+        let centre = [from[0] + normal[0] * r, from[1] + normal[1] * r];
+        Ok(Inserted {
+            from,
+            to,
+            arc: Some((centre, turn < 0.0)),
+        })
+    }
+
+    /// `CHF L`: a straight line cutting the corner `l` from it along each
+    /// line ("chamfer side length").
+    pub fn chamfer(&self, l: f64) -> Result<Inserted, CornerError> {
+        let (u, v, la, lb) = self.legs()?;
+        let turn = u[0] * v[1] - u[1] * v[0];
+        if turn.abs() < 1e-12 && u[0] * v[0] + u[1] * v[1] > 0.0 {
+            return Err(CornerError::Straight);
+        }
+        let l = l.abs();
+        if l > la.min(lb) + 1e-9 {
+            return Err(CornerError::TooLarge {
+                needed: l,
+                available: la.min(lb),
+            });
+        }
+        Ok(Inserted {
+            from: self.at(u, -l),
+            to: self.at(v, l),
+            arc: None,
+        })
+    }
+}
+
+/// Points along the arc about `centre` from `from` to `to` (in-plane),
+/// `clockwise` or not, `turns` extra full turns, the third coordinate going
+/// linearly from `w0` to `w1`: chords whose sagitta is at most `tolerance`
+/// mm, excluding the start, including the end.
+pub fn arc_chords(
+    centre: [f64; 2],
+    from: [f64; 3],
+    to: [f64; 3],
+    clockwise: bool,
+    turns: u32,
+    tolerance: f64,
+) -> Vec<[f64; 3]> {
+    let tau = std::f64::consts::TAU;
+    let r0 = (from[0] - centre[0]).hypot(from[1] - centre[1]);
+    let r1 = (to[0] - centre[0]).hypot(to[1] - centre[1]);
+    let a0 = (from[1] - centre[1]).atan2(from[0] - centre[0]);
+    let a1 = (to[1] - centre[1]).atan2(to[0] - centre[0]);
+    let mut sweep = a1 - a0;
+    if clockwise {
+        while sweep >= -1e-12 {
+            sweep -= tau;
+        }
+        sweep -= tau * f64::from(turns);
+    } else {
+        while sweep <= 1e-12 {
+            sweep += tau;
+        }
+        sweep += tau * f64::from(turns);
+    }
+    let r = r0.max(r1);
+    let step = if r > tolerance {
+        2.0 * (1.0 - tolerance / r).acos()
+    } else {
+        tau / 4.0
+    };
+    let n = ((sweep.abs() / step).ceil() as usize).clamp(1, 100_000);
+    (1..=n)
+        .map(|i| {
+            if i == n {
+                return to;
+            }
+            let t = i as f64 / n as f64;
+            let a = a0 + sweep * t;
+            let rr = r0 + (r1 - r0) * t;
+            [
+                centre[0] + rr * a.cos(),
+                centre[1] + rr * a.sin(),
+                from[2] + (to[2] - from[2]) * t,
+            ]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn near(a: [f64; 3], b: [f64; 3]) -> bool {
+        (0..3).all(|k| (a[k] - b[k]).abs() < 1e-9)
+    }
+
+    fn column(m: &Mat3, k: usize) -> [f64; 3] {
+        [m[0][k], m[1][k], m[2][k]]
+    }
+
+    #[test]
+    fn projected_single_angles_are_spatial_ones() {
+        // One projection angle alone: the plane turned about Y (PROPR) or X (PROMIN).
+        let p = projected(30.0, 0.0, 0.0).unwrap();
+        let s = spatial(0.0, 30.0, 0.0);
+        for k in 0..3 {
+            assert!(near(column(&p, k), column(&s, k)), "{p:?} {s:?}");
+        }
+        let p = projected(0.0, 20.0, 0.0).unwrap();
+        let s = spatial(20.0, 0.0, 0.0);
+        for k in 0..3 {
+            assert!(near(column(&p, k), column(&s, k)), "{p:?} {s:?}");
+        }
+        assert!(projected(90.0, 0.0, 0.0).is_none());
+    }
+
+    #[test]
+    fn projected_traces_have_their_angles() {
+        // PROPR+24 PROMIN+24 (the manual's example): the tilted X lies in
+        // ZX at −24° (Ry(24)·X), a vector of the plane lies in YZ at +24°.
+        let r = projected(24.0, 24.0, 0.0).unwrap();
+        let x = column(&r, 0);
+        assert!(x[1].abs() < 1e-12);
+        assert!((x[2].atan2(x[0]).to_degrees() + 24.0).abs() < 1e-9);
+        let z = column(&r, 2);
+        // The YZ trace (0, cos, sin)·24° is perpendicular to the normal.
+        let t = [0.0, 24f64.to_radians().cos(), 24f64.to_radians().sin()];
+        assert!(dot(z, t).abs() < 1e-12);
+    }
+
+    #[test]
+    fn euler_and_points() {
+        // EULPR+90 EULNU+45: Z turned 45° about the turned X (which is Y).
+        let r = euler(90.0, 45.0, 0.0);
+        let h = 0.5f64.sqrt();
+        assert!(near(column(&r, 2), [h, 0.0, h]));
+        assert!(near(column(&r, 0), [0.0, 1.0, 0.0]));
+        // Three points in the plane z = x: X along +X tilted, Z = (−1, 0, 1)/√2.
+        let p = points([0.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 1.0, 0.0]).unwrap();
+        assert!(near(column(&p, 0), [h, 0.0, h]));
+        assert!(near(column(&p, 2), [-h, 0.0, h]));
+        assert!(points([0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn rounding_and_chamfer_at_a_right_angle() {
+        let c = Corner {
+            start: [0.0, 0.0],
+            corner: [10.0, 0.0],
+            end: [10.0, 10.0],
+        };
+        let r = c.round(3.0).unwrap();
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12;
+        assert!(
+            close(r.from, [7.0, 0.0]) && close(r.to, [10.0, 3.0]),
+            "{r:?}"
+        );
+        let (centre, cw) = r.arc.unwrap();
+        assert!((centre[0] - 7.0).abs() < 1e-12 && (centre[1] - 3.0).abs() < 1e-12 && !cw);
+        let k = c.chamfer(2.0).unwrap();
+        assert!(
+            close(k.from, [8.0, 0.0]) && close(k.to, [10.0, 2.0]),
+            "{k:?}"
+        );
+        assert!(matches!(c.round(11.0), Err(CornerError::TooLarge { .. })));
+        let straight = Corner {
+            end: [20.0, 0.0],
+            ..c
+        };
+        assert_eq!(straight.round(1.0), Err(CornerError::Straight));
+    }
+
+    #[test]
+    fn chords_stay_within_the_tolerance() {
+        let pts = arc_chords(
+            [0.0, 0.0],
+            [10.0, 0.0, 0.0],
+            [0.0, 10.0, -1.0],
+            false,
+            0,
+            1e-3,
+        );
+        let last = *pts.last().unwrap();
+        assert_eq!(last, [0.0, 10.0, -1.0]);
+        // sagitta = r(1 − cos(θ/2)) ≤ 1 µm.
+        let theta = std::f64::consts::FRAC_PI_2 / pts.len() as f64;
+        assert!(10.0 * (1.0 - (theta / 2.0).cos()) <= 1e-3);
+        for p in &pts {
+            assert!((p[0].hypot(p[1]) - 10.0).abs() < 1e-9);
+        }
+    }
+}
