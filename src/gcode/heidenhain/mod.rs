@@ -7,7 +7,9 @@
 //! - `language`: Q parameters, `FN` functions and jumps, labels, `CALL LBL`
 //!   repeats and subprograms, `CALL PGM` → executed blocks in order;
 //! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
-//!   tool-tip control, tools, the drilling cycle) → [`BlockEvent`]s;
+//!   tool-tip control, tools, the defined cycle) → [`BlockEvent`]s;
+//! - `cycles`: machining cycles (`CYCL DEF 200 …`, `PATTERN DEF`) expanded
+//!   into the moves the control makes;
 //! - `write`: Klartext written back (renumbered, numbers in the input's
 //!   style).
 //!
@@ -17,6 +19,7 @@
 //! written (`literal`), blocks run again or from a call as flat copies
 //! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
 //! block, and blocks never run as `passed`, so that a writer loses no byte.
+pub(crate) mod cycles;
 pub(crate) mod language;
 pub(crate) mod machine;
 pub(crate) mod syntax;
