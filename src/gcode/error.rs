@@ -207,6 +207,10 @@ pub enum ErrorKind {
     /// them).
     #[error("{0}")]
     DialectRefused(String),
+    /// The program stopped itself with an error number (Klartext `FN 14:
+    /// ERROR = n`: the control shows its error text n and stops).
+    #[error("the program stops with its own error number {0} (FN 14: ERROR)")]
+    ProgramErrorStop(i64),
     /// The program executed more lines than the limit (the limit) without
     /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
@@ -340,6 +344,9 @@ impl ErrorKind {
             }
             ErrorKind::DialectRefused(_) => {
                 "the control refuses this too (docs/dialects.md cites its manual); correct the program"
+            }
+            ErrorKind::ProgramErrorStop(_) => {
+                "the program raised its own error here (a check of its Q parameters before it failed); its error texts say what the number means"
             }
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"
