@@ -338,7 +338,10 @@ fn cycles_expand_at_their_calls() {
     // CYCL CALL POS: over the point at the tool's height, down to its Z, the cycle.
     let pos = z_of(&m, 24);
     assert_eq!(&pos[..3], &[48.0, 0.0, 2.0]);
-    assert_point(xyz(&m.iter().find(|(l, _)| *l == 24).unwrap().1.end), [5.0, 5.0, 48.0]);
+    assert_point(
+        xyz(&m.iter().find(|(l, _)| *l == 24).unwrap().1.end),
+        [5.0, 5.0, 48.0],
+    );
     // M99 on a positioning block: the move, then the cycle; M89 on 26, 27, 28 (M99 ends it).
     assert_eq!(z_of(&m, 25).len(), 1 + drilled.len());
     for line in [26, 27, 28] {
@@ -348,17 +351,21 @@ fn cycles_expand_at_their_calls() {
     // Cycle 1 from Z+2: to -3 (5 from the start), back, to 0.6 above, to -8, back.
     assert_eq!(z_of(&m, 37), vec![-3.0, 2.0, -2.4, -8.0, 2.0]);
     // A cycle volcomp does not expand: refused at its call, named.
-    let bad = text.replace(
-        "21 CYCL CALL\n",
-        "21 CYCL DEF 262 THREAD MILLING Q335=+10\n22 CYCL CALL\n",
-    )
-    .replace("22 END PGM", "23 END PGM");
+    let bad = text
+        .replace(
+            "21 CYCL CALL\n",
+            "21 CYCL DEF 262 THREAD MILLING Q335=+10\n22 CYCL CALL\n",
+        )
+        .replace("22 END PGM", "23 END PGM");
     let e = motions(&bad, None).unwrap_err();
     assert!(e.contains("CYCL DEF 262") && e.contains("t.h:38:"), "{e}");
     // A rotation cycle is refused where it is defined.
     let rot = text.replace("20 L Z+2 FMAX", "20 CYCL DEF 10.0 ROTATION");
     let e = motions(&rot, None).unwrap_err();
-    assert!(e.contains("CYCL DEF 10 ROTATION") && e.contains("t.h:36:"), "{e}");
+    assert!(
+        e.contains("CYCL DEF 10 ROTATION") && e.contains("t.h:36:"),
+        "{e}"
+    );
 }
 
 /// `FN 14: ERROR = n` stops with the number (TNC 640 User's Manual,
@@ -388,8 +395,7 @@ fn fn_functions_stop_pass_or_compute() {
 /// axis error are cut by ≥ 90 %.
 #[test]
 fn closed_loop_ln_vectors() {
-    let original =
-        std::fs::read_to_string(root().join("tests/data/heidenhain/ln-tcp.h")).unwrap();
+    let original = std::fs::read_to_string(root().join("tests/data/heidenhain/ln-tcp.h")).unwrap();
     let mut summary = String::new();
     for machine in ["bc-trt", "ref-trt"] {
         let rig = rig(machine);
@@ -401,24 +407,31 @@ fn closed_loop_ln_vectors() {
             }
             let names = |l: &str| -> Vec<String> {
                 l.split_whitespace()
-                    .map(|w| {
-                        w.chars()
-                            .take_while(|c| c.is_ascii_alphabetic())
-                            .collect()
-                    })
+                    .map(|w| w.chars().take_while(|c| c.is_ascii_alphabetic()).collect())
                     .collect()
             };
             assert_eq!(names(a), names(b), "{a} -> {b}");
-            vectors += usize::from(a.contains(" TX") && a.split(" T").nth(1) != b.split(" T").nth(1));
+            vectors +=
+                usize::from(a.contains(" TX") && a.split(" T").nth(1) != b.split(" T").nth(1));
         }
         assert!(vectors > 100, "{machine}: {vectors} vectors rewritten");
         let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
         let (axis_before, _, n) = replayed_axis_error_on(rig, &original, &original, Frame::Joint);
-        let (axis_after, axis_rms_after, m) = replayed_axis_error_on(rig, &original, &text, Frame::Joint);
+        let (axis_after, axis_rms_after, m) =
+            replayed_axis_error_on(rig, &original, &text, Frame::Joint);
         assert_eq!(n, m);
-        assert!(before.max_um > 5.0 && axis_before > 10.0, "{machine}: {before:?} {axis_before}");
-        assert!(after.max_um <= 0.1 * before.max_um, "{machine}: {before:?} -> {after:?}");
-        assert!(axis_after <= 0.1 * axis_before, "{machine}: {axis_before} -> {axis_after}");
+        assert!(
+            before.max_um > 5.0 && axis_before > 10.0,
+            "{machine}: {before:?} {axis_before}"
+        );
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{machine}: {before:?} -> {after:?}"
+        );
+        assert!(
+            axis_after <= 0.1 * axis_before,
+            "{machine}: {axis_before} -> {axis_after}"
+        );
         summary += &format!(
             "{machine}: blocks changed {}, tip max {:.2} -> {:.3} µm, rms {:.2} -> {:.3} µm; tool axis max {:.1} -> {:.2} µrad (rms after {:.2}), {n} block ends\n",
             report.blocks_changed,

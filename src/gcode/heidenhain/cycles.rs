@@ -711,7 +711,10 @@ pub(crate) fn pattern(
         };
         let inner = &rest[open + 1..open + close];
         let words = parse_block(inner.as_bytes());
-        let kind: String = name.chars().take_while(|c| c.is_ascii_alphabetic()).collect();
+        let kind: String = name
+            .chars()
+            .take_while(|c| c.is_ascii_alphabetic())
+            .collect();
         let get = |a: &str| -> Option<f64> {
             words
                 .tokens
@@ -969,7 +972,13 @@ mod tests {
         let z = z_path(&expand(&d, &c).unwrap());
         assert_eq!(
             z,
-            vec![('f', -3.0), ('r', 2.0), ('r', -2.4), ('f', -8.0), ('r', 2.0)]
+            vec![
+                ('f', -3.0),
+                ('r', 2.0),
+                ('r', -2.4),
+                ('f', -8.0),
+                ('r', 2.0)
+            ]
         );
     }
 

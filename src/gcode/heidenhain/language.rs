@@ -449,7 +449,10 @@ impl Language {
             // SYSREAD, FN 28 TABREAD and FN 37 EXPORT give values known only on
             // the machine: not read.
             17 => Err(self.unread("FN 17: SYSWRITE (writes the control's data)".into(), block)),
-            18 => Err(self.unread("FN 18: SYSREAD (a value known only on the machine)".into(), block)),
+            18 => Err(self.unread(
+                "FN 18: SYSREAD (a value known only on the machine)".into(),
+                block,
+            )),
             _ => Err(self.unread(format!("FN {n}"), block)),
         }
     }

@@ -1110,12 +1110,7 @@ impl KlMachine {
             }
             n if cycles::passes_through(n) => Ok(()),
             _ => {
-                let value = |k: usize| {
-                    b.tokens[k]
-                        .value
-                        .as_ref()
-                        .map_or(0.0, |v| c.q.value(v))
-                };
+                let value = |k: usize| b.tokens[k].value.as_ref().map_or(0.0, |v| c.q.value(v));
                 let def = cycles::define(b, major, minor, c.line, s.cycle.as_ref(), &value)
                     .map_err(|m| c.error(&m, Some(2)))?;
                 s.cycle = Some(def);
@@ -1190,9 +1185,11 @@ impl KlMachine {
         };
         let axis = tool_axis_index(s.plane);
         let feed = |s: &mut State| -> Result<Option<f64>, GcodeError> {
-            let given = c.block.tokens.iter().any(|t| {
-                matches!(t.address.as_str(), "F" | "FMAX" | "FAUTO")
-            });
+            let given = c
+                .block
+                .tokens
+                .iter()
+                .any(|t| matches!(t.address.as_str(), "F" | "FMAX" | "FAUTO"));
             Ok(match self.block_feed(c, s, 2)? {
                 Feed::PerMinute(f) if given => Some(f),
                 _ => None,
@@ -1239,7 +1236,10 @@ impl KlMachine {
                 };
                 let Some((surface, height, up)) = cycles::levels(&cycle, &call) else {
                     return Err(c.unread(
-                        &format!("CYCL CALL POS with CYCL DEF {} (no surface Q203)", cycle.number),
+                        &format!(
+                            "CYCL CALL POS with CYCL DEF {} (no surface Q203)",
+                            cycle.number
+                        ),
                         Some(2),
                     ));
                 };
@@ -1269,7 +1269,10 @@ impl KlMachine {
                     };
                     let Some(height) = cycles::clearance_height(&cycle, &call, s.pos[axis]) else {
                         return Err(c.unread(
-                            &format!("CYCL CALL PAT with CYCL DEF {} (no surface Q203)", cycle.number),
+                            &format!(
+                                "CYCL CALL PAT with CYCL DEF {} (no surface Q203)",
+                                cycle.number
+                            ),
                             Some(2),
                         ));
                     };
@@ -1280,7 +1283,10 @@ impl KlMachine {
                     let mut next = plane_point;
                     next[axis] = height;
                     steps.push(to(next, f));
-                    let call = cycles::Call { start: next, ..call };
+                    let call = cycles::Call {
+                        start: next,
+                        ..call
+                    };
                     let more = expand(&call)?;
                     for st in &more {
                         if let cycles::Step::Rapid(q) | cycles::Step::Feed(q, _) = st {
@@ -1308,7 +1314,13 @@ impl KlMachine {
             };
             let end = self.to_frame(s, p, s.rot);
             if !end.is_finite() {
-                return Err(GcodeError::at(ErrorKind::NonFinite, c.line, c.raw, 0, c.raw.len()));
+                return Err(GcodeError::at(
+                    ErrorKind::NonFinite,
+                    c.line,
+                    c.raw,
+                    0,
+                    c.raw.len(),
+                ));
             }
             moves.push(self.straight(s.frame(), false, start, end, feed));
             done.push(if feed == Feed::Rapid {
