@@ -390,7 +390,8 @@ impl KlMachine {
             }
             "C" | "CR" | "CT" | "CP" => self.circle(c, s, event),
             "RND" | "CHF" => Err(c.unread(first, Some(0))),
-            "CYCL" if b.starts_with(&["CYCL", "DEF"]) => {
+            // `CYCL DEF 200`, and the number written on (`CYCL DEF9.0`, `CYCL DEF9 .0`).
+            "CYCL" if b.address(1) == "DEF" => {
                 self.cycle_def(c, s)?;
                 Ok(Statement::Other)
             }
@@ -1083,11 +1084,26 @@ impl KlMachine {
     /// a machining cycle (defined; expanded or refused at its call).
     fn cycle_def(&self, c: &Ctx<'_>, s: &mut State) -> Result<(), GcodeError> {
         let b = c.block;
-        let Some(t) = b.tokens.get(2) else {
-            return Err(c.error("CYCL DEF without its number", Some(0)));
-        };
-        let Some(n) = t.number() else {
-            return Err(c.error("CYCL DEF without its number", Some(2)));
+        let n = match b.tokens.get(1).and_then(|t| t.number()) {
+            // `DEF9.0`, `DEF9 .0`.
+            Some(v) => {
+                let fraction = b
+                    .tokens
+                    .get(2)
+                    .filter(|t| t.address.is_empty() && c.raw.get(t.span.start) == Some(&b'.'))
+                    .and_then(|t| t.number())
+                    .unwrap_or(0.0);
+                v + fraction
+            }
+            None => {
+                let Some(t) = b.tokens.get(2) else {
+                    return Err(c.error("CYCL DEF without its number", Some(0)));
+                };
+                let Some(n) = t.number() else {
+                    return Err(c.error("CYCL DEF without its number", Some(2)));
+                };
+                n
+            }
         };
         let major = n.trunc() as u32;
         let minor = ((n - n.trunc()) * 10.0).round() as u32;

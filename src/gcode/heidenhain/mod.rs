@@ -54,6 +54,8 @@ pub(crate) struct KlartextFront {
     done: bool,
     path: PathBuf,
     lenient: bool,
+    /// Honour block skip `/` ([`InterpretOptions::skip_deleted_blocks`]).
+    skip_deleted: bool,
 }
 
 impl KlartextFront {
@@ -127,6 +129,7 @@ impl KlartextFront {
             done: false,
             path: path.to_path_buf(),
             lenient: options.lenient,
+            skip_deleted: options.skip_deleted_blocks,
         }
     }
 
@@ -180,6 +183,20 @@ impl KlartextFront {
         let r = lang.files[file].blocks[pc];
         let raw = lang.files[file].raw(pc);
         parse_block_into(raw, &mut self.parsed);
+        if self.parsed.deleted && self.skip_deleted {
+            // Block skip on: not read yet (the block's language effects
+            // would have to be skipped too).
+            return Err(GcodeError::at(
+                ErrorKind::DialectFeature(
+                    "Heidenhain",
+                    "`/` block skip with block delete on".into(),
+                ),
+                r.line,
+                raw,
+                0,
+                1,
+            ));
+        }
         let flat = substituted(&self.parsed, raw, &lang.q);
         let ends_program = self.parsed.starts_with(&["END", "PGM"]);
         let stops =
@@ -211,6 +228,7 @@ impl KlartextFront {
         let raw = self.language.files[file].raw(pc);
         self.block.reset(r.line, r.start as u64);
         self.block.ending = r.ending;
+        self.block.deleted = self.parsed.deleted;
         if control {
             // What the flat copies already did: a comment.
             let number = self.parsed.number.as_ref().map(|n| format!("{} ", n.0));
@@ -386,7 +404,11 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
         if raw.iter().all(|b| b.is_ascii_whitespace()) {
             continue;
         }
-        let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        let mut lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        // A block-skip `/` before the number (`/81 M30`).
+        if raw.get(lead) == Some(&b'/') {
+            lead += 1;
+        }
         let digits = raw[lead..]
             .iter()
             .take_while(|b| b.is_ascii_digit())
