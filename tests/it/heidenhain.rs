@@ -446,3 +446,16 @@ fn closed_loop_ln_vectors() {
     }
     insta::assert_snapshot!("heidenhain_closed_loop_ln", summary);
 }
+
+/// Forms real hyperMILL output uses (the BRK_CNC_CORE programs of
+/// docs/dialects.md "Heidenhain: real programs"): a feed from a parameter
+/// written `FQ2`, the block-skip `/` before the block number (the block is
+/// run, as with block delete off), `CYCL DEF9.0` with the number written on.
+#[test]
+fn hypermill_forms_are_read() {
+    let text = "1 BEGIN PGM H MM\n2 FN 0:Q2=250 ; Z FEED RATE\n3 CYCL DEF9.0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5\n5 L X+10 Y+0 Z+5 R0 F MAX\n6 L Z-1 FQ2\n/7 M30\n8 L Z+50 R0 F MAX\n9 END PGM H MM\n";
+    let m = motions(text, None).unwrap();
+    assert_eq!(m.len(), 2);
+    assert_eq!(m[1].1.feed, volcomp::gcode::Feed::PerMinute(250.0));
+    assert_point(xyz(&m[1].1.end), [10.0, 0.0, -1.0]);
+}
