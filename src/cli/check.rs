@@ -381,6 +381,7 @@ pub fn check_stream(
     let mut run = Execution::new(input, path, options, setup);
     let mut summary = ProgramSummary::default();
     summary.dialect = super::common::dialect_note(run.dialect());
+    summary.read_in = run.dialect().dialect;
     use crate::axes::Axis;
     let letters = options.axes;
     // The contract's columns, plus u v w for a machine that has them.
@@ -558,6 +559,56 @@ fn rotary_ranges(s: &ProgramSummary) -> String {
     text
 }
 
+/// The summary's count of moves, in the words of the program's dialect:
+/// LinuxCNC's G0 G1 G2 G3, G53 and G28/G30; SINUMERIK's G0 … G3, SUPA/G53
+/// (machine coordinates) and G74/G75 (to the reference / fixed point);
+/// Klartext's `L … FMAX`, `L`, `C DR-`/`C DR+`, `M91`/`M92` and the rotary
+/// legs of `PLANE … TURN`.
+fn motion_line(s: &ProgramSummary) -> String {
+    let m = &s.motion;
+    match s.read_in {
+        crate::gcode::Dialect::LinuxCnc => format!(
+            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
+            m.total(),
+            m.rapid,
+            m.linear,
+            m.arc_cw,
+            m.arc_ccw,
+            s.machine_coordinate_motions,
+            s.home_blocks
+        ),
+        crate::gcode::Dialect::Sinumerik => format!(
+            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), SUPA/G53 {}, G74/G75 {}",
+            m.total(),
+            m.rapid,
+            m.linear,
+            m.arc_cw,
+            m.arc_ccw,
+            s.machine_coordinate_motions,
+            s.home_blocks
+        ),
+        crate::gcode::Dialect::Heidenhain => format!(
+            "  moves: {} (L … FMAX {}, L {}, C DR- {}, C DR+ {}), M91/M92 {}, PLANE … TURN {}",
+            m.total(),
+            m.rapid,
+            m.linear,
+            m.arc_cw,
+            m.arc_ccw,
+            s.machine_coordinate_motions,
+            s.home_blocks.saturating_sub(s.machine_coordinate_motions)
+        ),
+    }
+}
+
+/// The summary's inverse-time line: G93 in LinuxCNC's and SINUMERIK's
+/// words; none for Klartext, which has no inverse-time feed (empty).
+fn inverse_time_line(s: &ProgramSummary) -> String {
+    match s.read_in {
+        crate::gcode::Dialect::Heidenhain => String::new(),
+        _ => format!("  G93 inverse-time moves: {}", s.inverse_time_motions),
+    }
+}
+
 /// The human summary: one line about the program, then indented details.
 fn summary_text(
     path: &Path,
@@ -565,7 +616,6 @@ fn summary_text(
     frame: Frame,
     warnings: &[crate::warnings::WarningGroup],
 ) -> String {
-    let m = &s.motion;
     let list = |map: &mut dyn Iterator<Item = (String, usize)>| {
         let v: Vec<String> = map.map(|(k, n)| format!("{k}×{n}")).collect();
         if v.is_empty() {
@@ -584,16 +634,7 @@ fn summary_text(
             s.deleted_blocks,
             super::common::result_note(warnings)
         ),
-        format!(
-            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
-            m.total(),
-            m.rapid,
-            m.linear,
-            m.arc_cw,
-            m.arc_ccw,
-            s.machine_coordinate_motions,
-            s.home_blocks
-        ),
+        motion_line(s),
         format!(
             "  frame: {} at start, {} switches, {} part-frame (tool-tip) moves",
             match frame {
@@ -603,7 +644,7 @@ fn summary_text(
             s.frame_switches,
             s.part_frame_motions
         ),
-        format!("  G93 inverse-time moves: {}", s.inverse_time_motions),
+        inverse_time_line(s),
         format!("  machining time: {:.3} min", s.time_min),
         format!(
             "  X {}  Y {}  Z {} mm",
@@ -622,6 +663,7 @@ fn summary_text(
             list(&mut s.passed_through().into_iter())
         ),
     ];
+    lines.retain(|l| !l.is_empty());
     let total: u64 = warnings.iter().map(|g| g.count).sum();
     lines.push(format!(
         "  warnings: {}",

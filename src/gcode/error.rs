@@ -211,6 +211,10 @@ pub enum ErrorKind {
     /// `--machine` (what it needs it for).
     #[error("{0} needs the machine's kinematics")]
     MachineNeeded(&'static str),
+    /// The program stopped itself with an error number (Klartext `FN 14:
+    /// ERROR = n`: the control shows its error text n and stops).
+    #[error("the program stops with its own error number {0} (FN 14: ERROR)")]
+    ProgramErrorStop(i64),
     /// The program executed more lines than the limit (the limit) without
     /// ending.
     #[error("the program executed {0} lines without ending: an endless loop?")]
@@ -346,6 +350,9 @@ impl ErrorKind {
                 "the control refuses this too (docs/dialects.md cites its manual); correct the program"
             }
             ErrorKind::MachineNeeded(_) => "give the machine file with --machine MACHINE.toml",
+            ErrorKind::ProgramErrorStop(_) => {
+                "the program raised its own error here (a check of its Q parameters before it failed); its error texts say what the number means"
+            }
             ErrorKind::LineTooLong { .. } => {
                 "split the line (a long comment into several comment lines); is this a G-code program?"
             }

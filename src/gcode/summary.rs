@@ -117,6 +117,9 @@ pub struct ProgramSummary {
     /// summaries stay as they were).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dialect: Option<String>,
+    /// The dialect the program was read in (the summary's words follow it).
+    #[serde(skip)]
+    pub read_in: crate::gcode::Dialect,
     /// Passed-through codes by (letter, code × 10); see [`ProgramSummary::passed_through`].
     #[serde(skip)]
     passed: BTreeMap<(u8, i32), usize>,

@@ -2,7 +2,9 @@
 //! the semantics that decide them, each citing the TNC user's manual; the
 //! closed loop of a tool-tip (M128) program and a 3+2 (PLANE SPATIAL)
 //! program on two bundled machines; the written program's form.
-use crate::compensate::{Rig, closed_loop_on, compensate_on, interpret_options_on};
+use crate::compensate::{
+    Rig, closed_loop_on, compensate_on, interpret_options_on, replayed_axis_error_on,
+};
 use crate::support::root;
 use approx::assert_abs_diff_eq;
 use std::sync::{Arc, OnceLock};
@@ -572,4 +574,165 @@ fn tilted_plane_corner_and_approach_write_back() {
         }
         motions(&text, Some(&rig.0)).unwrap();
     }
+}
+
+/// The tool-axis coordinates of the moves of line `line` (rounded to 1e-9).
+fn z_of(m: &[(usize, Motion)], line: usize) -> Vec<f64> {
+    m.iter()
+        .filter(|(l, _)| *l == line)
+        .map(|(_, m)| (m.end.z * 1e9).round() / 1e9)
+        .collect()
+}
+
+/// Machining cycles (TNC 640 Cycle Programming; TNC 320 Cycle Programming
+/// 340 55x-04, chapter 3): cycle 203 UNIVERSAL DRILLING (3.6: plunges of
+/// Q202 less the decrement Q212, not under Q205; a chip break of Q256
+/// before each of Q213 retractions), called by `CYCL CALL`, at each point
+/// of a `PATTERN DEF` by `CYCL CALL PAT` (between points the clearance
+/// height: the greater of the call's Z and Q204 above the surface; a
+/// point's Z shifts the surface), by `CYCL CALL POS` and by `M99`; `M89`
+/// calls it after every positioning block until `M99`; the old cycle 1
+/// PECKING (advanced stop 0.6 mm); a cycle volcomp does not expand is
+/// refused at its call, naming it.
+#[test]
+fn cycles_expand_at_their_calls() {
+    let text = "0 BEGIN PGM C MM\n1 TOOL CALL 1 Z S1000\n2 L Z+100 R0 FMAX\n3 L X+10 Y+10 FMAX\n4 CYCL DEF 203 UNIVERSAL DRILLING ~\n  Q200=+2 ;SET-UP CLEARANCE ~\n  Q201=-10 ;DEPTH ~\n  Q206=+150 ~\n  Q202=+4 ~\n  Q210=+0 ~\n  Q203=+0 ~\n  Q204=+50 ~\n  Q212=+1 ~\n  Q213=+1 ~\n  Q205=+3 ~\n  Q211=+0 ~\n  Q208=+500 ~\n  Q256=+0.5\n5 CYCL CALL\n6 PATTERN DEF ~\n  POS1 (X+30 Y+10 Z+0) ~\n  ROW1 (X+0 Y+40 D+10 NUM2 ROT+0 Z-2)\n7 CYCL CALL PAT FMAX\n8 CYCL CALL POS X+5 Y+5 Z+0 FMAX\n9 L X+50 FMAX M99\n10 L X+60 FMAX M89\n11 L X+70 FMAX\n12 L X+80 FMAX M99\n13 L X+90 FMAX\n14 CYCL DEF 1.0 PECKING\n15 CYCL DEF 1.1 SET UP -2\n16 CYCL DEF 1.2 DEPTH -8\n17 CYCL DEF 1.3 PECKG -5\n18 CYCL DEF 1.4 DWELL 0\n19 CYCL DEF 1.5 F80\n20 L Z+2 FMAX\n21 CYCL CALL\n22 END PGM C MM\n";
+    let m = motions(text, None).unwrap();
+    let drilled = vec![2.0, -4.0, -3.5, -7.0, 2.0, -5.0, -10.0, 2.0, 50.0];
+    assert_eq!(z_of(&m, 19), drilled);
+    // The pattern: up to the clearance height (here the call's Z+50), over,
+    // then the cycle on a surface 2 lower for the row.
+    let pat = z_of(&m, 23);
+    assert_eq!(&pat[..10], &[[50.0].as_slice(), &drilled].concat()[..]);
+    assert_eq!(&pat[10..13], &[50.0, 0.0, -6.0]);
+    let ends: Vec<[f64; 3]> = m
+        .iter()
+        .filter(|(l, _)| *l == 23)
+        .map(|(_, m)| xyz(&m.end))
+        .collect();
+    assert_point(ends[10], [0.0, 40.0, 50.0]);
+    assert_point(*ends.last().unwrap(), [10.0, 40.0, 48.0]);
+    // CYCL CALL POS: over the point at the tool's height, down to its Z, the cycle.
+    let pos = z_of(&m, 24);
+    assert_eq!(&pos[..3], &[48.0, 0.0, 2.0]);
+    assert_point(
+        xyz(&m.iter().find(|(l, _)| *l == 24).unwrap().1.end),
+        [5.0, 5.0, 48.0],
+    );
+    // M99 on a positioning block: the move, then the cycle; M89 on 26, 27, 28 (M99 ends it).
+    assert_eq!(z_of(&m, 25).len(), 1 + drilled.len());
+    for line in [26, 27, 28] {
+        assert_eq!(z_of(&m, line).len(), 1 + drilled.len(), "line {line}");
+    }
+    assert_eq!(z_of(&m, 29), vec![50.0]);
+    // Cycle 1 from Z+2: to -3 (5 from the start), back, to 0.6 above, to -8, back.
+    assert_eq!(z_of(&m, 37), vec![-3.0, 2.0, -2.4, -8.0, 2.0]);
+    // A cycle volcomp does not expand: refused at its call, named.
+    let bad = text
+        .replace(
+            "21 CYCL CALL\n",
+            "21 CYCL DEF 262 THREAD MILLING Q335=+10\n22 CYCL CALL\n",
+        )
+        .replace("22 END PGM", "23 END PGM");
+    let e = motions(&bad, None).unwrap_err();
+    assert!(e.contains("CYCL DEF 262") && e.contains("t.h:38:"), "{e}");
+    // A rotation cycle is refused where it is defined.
+    let rot = text.replace("20 L Z+2 FMAX", "20 CYCL DEF 10.0 ROTATION");
+    let e = motions(&rot, None).unwrap_err();
+    assert!(
+        e.contains("CYCL DEF 10 ROTATION") && e.contains("t.h:36:"),
+        "{e}"
+    );
+}
+
+/// `FN 14: ERROR = n` stops with the number (TNC 640 User's Manual,
+/// "Q parameters › FN 14: ERROR"); `FN 16: F-PRINT` and `FN 20: WAIT FOR`
+/// do not move: passed through; `FN 23: CIRCLE DATA` gives the circle
+/// through three points; `FN 18: SYSREAD` is refused at its block.
+#[test]
+fn fn_functions_stop_pass_or_compute() {
+    let text = "0 BEGIN PGM F MM\n1 Q30 = 10\n2 Q31 = 0\n3 Q32 = 0\n4 Q33 = 10\n5 Q34 = -10\n6 Q35 = 0\n7 FN 23: CIRCLE DATA Q20 = CDATA Q30\n8 FN 16: F-PRINT TNC:\\MASK.A / TNC:\\OUT.TXT\n9 FN 20: WAIT FOR SYNC\n10 L X+Q20 Y+Q21 Z+Q22 R0 F100\n11 FN 14: ERROR = 254\n12 END PGM F MM\n";
+    let e = motions(text, None).unwrap_err();
+    assert!(
+        e.contains("error number 254") && e.contains("t.h:12:"),
+        "{e}"
+    );
+    let ok = text.replace("11 FN 14: ERROR = 254\n", "");
+    let m = motions(&ok, None).unwrap();
+    assert_point(xyz(&m[0].1.end), [0.0, 0.0, 10.0]);
+    let read = text.replace("9 FN 20: WAIT FOR SYNC", "9 FN 18: SYSREAD Q1 = ID20 NR1");
+    let e = motions(&read, None).unwrap_err();
+    assert!(e.contains("FN 18") && e.contains("t.h:10:"), "{e}");
+}
+
+/// `LN` blocks under M128 (TNC 640 User's Manual, "3D tool compensation ›
+/// LN blocks"): compensate writes the tool vector of the corrected joints
+/// back as `TX TY TZ` (no rotary words added), in the input's sign style;
+/// on two machines (B/C and A/C tables) the replayed tip error and tool
+/// axis error are cut by ≥ 90 %.
+#[test]
+fn closed_loop_ln_vectors() {
+    let original = std::fs::read_to_string(root().join("tests/data/heidenhain/ln-tcp.h")).unwrap();
+    let mut summary = String::new();
+    for machine in ["bc-trt", "ref-trt"] {
+        let rig = rig(machine);
+        let (text, report) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
+        let mut vectors = 0;
+        for (a, b) in original.lines().zip(text.lines()) {
+            if a == b {
+                continue;
+            }
+            let names = |l: &str| -> Vec<String> {
+                l.split_whitespace()
+                    .map(|w| w.chars().take_while(|c| c.is_ascii_alphabetic()).collect())
+                    .collect()
+            };
+            assert_eq!(names(a), names(b), "{a} -> {b}");
+            vectors +=
+                usize::from(a.contains(" TX") && a.split(" T").nth(1) != b.split(" T").nth(1));
+        }
+        assert!(vectors > 100, "{machine}: {vectors} vectors rewritten");
+        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+        let (axis_before, _, n) = replayed_axis_error_on(rig, &original, &original, Frame::Joint);
+        let (axis_after, axis_rms_after, m) =
+            replayed_axis_error_on(rig, &original, &text, Frame::Joint);
+        assert_eq!(n, m);
+        assert!(
+            before.max_um > 5.0 && axis_before > 10.0,
+            "{machine}: {before:?} {axis_before}"
+        );
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{machine}: {before:?} -> {after:?}"
+        );
+        assert!(
+            axis_after <= 0.1 * axis_before,
+            "{machine}: {axis_before} -> {axis_after}"
+        );
+        summary += &format!(
+            "{machine}: blocks changed {}, tip max {:.2} -> {:.3} µm, rms {:.2} -> {:.3} µm; tool axis max {:.1} -> {:.2} µrad (rms after {:.2}), {n} block ends\n",
+            report.blocks_changed,
+            before.max_um,
+            after.max_um,
+            before.rms_um,
+            after.rms_um,
+            axis_before,
+            axis_after,
+            axis_rms_after,
+        );
+    }
+    insta::assert_snapshot!("heidenhain_closed_loop_ln", summary);
+}
+
+/// Forms real hyperMILL output uses (the BRK_CNC_CORE programs of
+/// docs/dialects.md "Heidenhain: real programs"): a feed from a parameter
+/// written `FQ2`, the block-skip `/` before the block number (the block is
+/// run, as with block delete off), `CYCL DEF9.0` with the number written on.
+#[test]
+fn hypermill_forms_are_read() {
+    let text = "1 BEGIN PGM H MM\n2 FN 0:Q2=250 ; Z FEED RATE\n3 CYCL DEF9.0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5\n5 L X+10 Y+0 Z+5 R0 F MAX\n6 L Z-1 FQ2\n/7 M30\n8 L Z+50 R0 F MAX\n9 END PGM H MM\n";
+    let m = motions(text, None).unwrap();
+    assert_eq!(m.len(), 2);
+    assert_eq!(m[1].1.feed, volcomp::gcode::Feed::PerMinute(250.0));
+    assert_point(xyz(&m[1].1.end), [10.0, 0.0, -1.0]);
 }

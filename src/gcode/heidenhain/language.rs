@@ -423,12 +423,88 @@ impl Language {
                 Ok(Flow::Next)
             }
             9..=12 => self.conditional_jump(n, &body, block),
-            14 => Err(self.error(
-                format!("FN 14: ERROR: the program stops with an error here (`{body}`)"),
+            // TNC 640 User's Manual (Klartext), "Q parameters › Additional
+            // functions": FN 14 stops the program with an error number.
+            14 => {
+                let Some((_, number)) = body.split_once('=') else {
+                    return Err(self.error("FN 14: ERROR without `= number`".into(), block));
+                };
+                let v = self.formula(number, block)?;
+                let e = self.error(String::new(), block);
+                Err(GcodeError {
+                    kind: ErrorKind::ProgramErrorStop(v.round() as i64),
+                    ..e
+                })
+            }
+            // No motion, nothing a later block reads: FN 15 PRINT, FN 16
+            // F-PRINT (formatted output), FN 19 PLC (values to the PLC), FN 20
+            // WAIT FOR (a wait), FN 26/27 TABOPEN/TABWRITE, FN 29 PLC, FN 38
+            // SEND: passed through.
+            15 | 16 | 19 | 20 | 26 | 27 | 29 | 38 => {
+                self.pc += 1;
+                Ok(Flow::Next)
+            }
+            23 => self.circle_data(&body, block),
+            // FN 17 SYSWRITE and FN 25 PRESET change the control's data, FN 18
+            // SYSREAD, FN 28 TABREAD and FN 37 EXPORT give values known only on
+            // the machine: not read.
+            17 => Err(self.unread("FN 17: SYSWRITE (writes the control's data)".into(), block)),
+            18 => Err(self.unread(
+                "FN 18: SYSREAD (a value known only on the machine)".into(),
                 block,
             )),
             _ => Err(self.unread(format!("FN {n}"), block)),
         }
+    }
+
+    /// `FN 23: CIRCLE DATA Qa = CDATA Qb`: the circle through the three
+    /// points Qb…Qb+5 (X1 Y1 X2 Y2 X3 Y3): its centre in Qa, Qa+1 and its
+    /// radius in Qa+2 (TNC 640 User's Manual (Klartext), "Q parameters ›
+    /// Calculating the circle from three points").
+    fn circle_data(&mut self, body: &str, block: &KlBlock) -> Result<Flow, GcodeError> {
+        let bad = || self.error("FN 23: expected `CIRCLE DATA Qa = CDATA Qb`".into(), block);
+        let (lhs, rhs) = body.split_once('=').ok_or_else(bad)?;
+        let target = lhs
+            .split_whitespace()
+            .last()
+            .and_then(read_param)
+            .ok_or_else(bad)?;
+        let source = rhs
+            .split_whitespace()
+            .last()
+            .and_then(read_param)
+            .ok_or_else(bad)?;
+        let at = |k: u32| {
+            self.q.get(crate::gcode::heidenhain::syntax::Param {
+                number: source.number + k,
+                ..source
+            })
+        };
+        let (x1, y1, x2, y2, x3, y3) = (at(0), at(1), at(2), at(3), at(4), at(5));
+        let d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2));
+        if d.abs() < 1e-12 {
+            return Err(self.error(
+                "FN 23: the three points lie on a line (no circle)".into(),
+                block,
+            ));
+        }
+        let s1 = x1 * x1 + y1 * y1;
+        let s2 = x2 * x2 + y2 * y2;
+        let s3 = x3 * x3 + y3 * y3;
+        let cx = (s1 * (y2 - y3) + s2 * (y3 - y1) + s3 * (y1 - y2)) / d;
+        let cy = (s1 * (x3 - x2) + s2 * (x1 - x3) + s3 * (x2 - x1)) / d;
+        let r = (x1 - cx).hypot(y1 - cy);
+        for (k, v) in [cx, cy, r].into_iter().enumerate() {
+            self.q.set(
+                crate::gcode::heidenhain::syntax::Param {
+                    number: target.number + k as u32,
+                    ..target
+                },
+                v,
+            );
+        }
+        self.pc += 1;
+        Ok(Flow::Next)
     }
 
     /// `IF a op b GOTO LBL n`.

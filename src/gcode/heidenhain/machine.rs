@@ -20,6 +20,7 @@ use std::sync::Arc;
 use crate::gcode::dialect::{Branch, OrientationSolver};
 use crate::gcode::machine::origin::FrameTransform;
 
+use super::cycles::{self, CycleDef, CycleError};
 use super::language::QParameters;
 use super::syntax::{KlBlock, Token};
 use crate::axes::{Axes, Axis};
@@ -52,21 +53,6 @@ pub struct KlartextSetup {
     pub axes: crate::axes::AxisSet,
 }
 
-/// A defined machining cycle (`CYCL DEF n` with its Q parameters).
-#[derive(Clone, Debug, PartialEq)]
-struct CycleDef {
-    number: u32,
-    /// The Q values of its definition (Q200 …).
-    q: Vec<(u32, f64)>,
-    line: usize,
-}
-
-impl CycleDef {
-    fn get(&self, n: u32) -> Option<f64> {
-        self.q.iter().find(|(k, _)| *k == n).map(|(_, v)| *v)
-    }
-}
-
 /// The state a block changes (copied, changed, committed).
 #[derive(Clone, Debug)]
 struct State {
@@ -88,6 +74,12 @@ struct State {
     shortest: bool,
     tool: ToolInUse,
     cycle: Option<CycleDef>,
+    /// The points of the last `PATTERN DEF` (`CYCL CALL PAT`).
+    pattern: Option<Arc<cycles::Pattern>>,
+    /// `M89`: the cycle is called after every positioning block.
+    modal_call: bool,
+    /// The spindle speed of the last `TOOL CALL … S` (rpm).
+    spindle: Option<f64>,
     /// Direction of the last path element's end (program coordinates), for `CT`.
     tangent: Option<[f64; 3]>,
     /// The event frame position after the last block.
@@ -186,6 +178,9 @@ impl KlMachine {
                 shortest: false,
                 tool,
                 cycle: None,
+                pattern: None,
+                modal_call: false,
+                spindle: None,
                 tangent: None,
                 position: setup.preset,
                 assigned: Vec::new(),
@@ -396,22 +391,17 @@ impl KlMachine {
             "C" | "CR" | "CT" | "CP" => self.circle(c, s, event),
             "RND" | "CHF" => self.corner(c, s, event),
             "APPR" | "DEP" => self.approach_departure(c, s, event),
-            "CYCL" if b.starts_with(&["CYCL", "DEF"]) && cycle_number(b) == Some((19, 0)) => {
-                Ok(Statement::Other)
-            }
-            "CYCL" if b.starts_with(&["CYCL", "DEF"]) && cycle_number(b) == Some((19, 1)) => {
-                self.working_plane_cycle(c, s, event, 1)?;
-                Ok(Statement::Other)
-            }
-            "CYCL" if b.starts_with(&["CYCL", "DEF"]) => {
-                self.cycle_def(c, s)?;
+            // `CYCL DEF 200`, and the number written on (`CYCL DEF9.0`, `CYCL DEF9 .0`).
+            "CYCL" if b.address(1) == "DEF" => {
+                self.cycle_def(c, s, event)?;
                 Ok(Statement::Other)
             }
             "CYCL" if b.starts_with(&["CYCL", "CALL"]) => {
-                if b.find("PAT", 2).is_some() || b.find("POS", 2).is_some() {
-                    return Err(c.unread("CYCL CALL PAT/POS", Some(1)));
-                }
-                self.cycle_call(c, s, event)?;
+                self.cycle_call(c, s, event, cycle_call_kind(b))?;
+                self.m_codes(c, s, event, Some(2))
+            }
+            "PATTERN" if b.starts_with(&["PATTERN", "DEF"]) => {
+                self.pattern_def(c, s)?;
                 Ok(Statement::Other)
             }
             "PLANE" => {
@@ -478,6 +468,7 @@ impl KlMachine {
                 "F" => s.tool_feed = self.feed_value(c, s, k)?,
                 "DL" => dl = c.value(k)?,
                 "DR" => dr = c.value(k)?,
+                "S" if t.value.is_some() => s.spindle = Some(c.value(k)?),
                 _ => {}
             }
         }
@@ -1112,6 +1103,7 @@ impl KlMachine {
         from: Option<usize>,
     ) -> Result<Statement, GcodeError> {
         let mut end = Statement::Other;
+        let mut called = false;
         for (k, t) in c.block.tokens.iter().enumerate().skip(from.unwrap_or(0)) {
             if t.address != "M" {
                 continue;
@@ -1123,15 +1115,22 @@ impl KlMachine {
                 127 => s.shortest = false,
                 128 => s.tcpm = true,
                 129 => s.tcpm = false,
-                99 => self.cycle_call(c, s, event)?,
-                89 => {
-                    return Err(c.unread("M89", Some(k)));
+                99 if c.block.address(0) != "CYCL" => {
+                    self.cycle_call(c, s, event, CallKind::Here)?;
+                    s.modal_call = false;
+                    called = true;
                 }
+                89 => s.modal_call = true,
                 140 => {
                     return Err(c.unread("M140", Some(k)));
                 }
                 _ => {}
             }
+        }
+        // M89 (modal cycle call, iTNC 530 User's Manual "Miscellaneous
+        // functions"): the cycle runs after every positioning block.
+        if s.modal_call && !called && matches!(event.moves, Moves::Move(_)) {
+            self.cycle_call(c, s, event, CallKind::Here)?;
         }
         Ok(end)
     }
@@ -1382,48 +1381,75 @@ impl KlMachine {
         self.m_codes(c, s, event, Some(1))
     }
 
-    /// `CYCL DEF n …`.
-    fn cycle_def(&self, c: &Ctx<'_>, s: &mut State) -> Result<(), GcodeError> {
+    /// `CYCL DEF n …`: a datum shift, a cycle that does not move (passed
+    /// through), a transformation volcomp does not read (refused here), or
+    /// a machining cycle (defined; expanded or refused at its call).
+    fn cycle_def(
+        &self,
+        c: &Ctx<'_>,
+        s: &mut State,
+        event: &mut BlockEvent,
+    ) -> Result<(), GcodeError> {
         let b = c.block;
-        let Some(t) = b.tokens.get(2) else {
-            return Err(c.error("CYCL DEF without its number", Some(0)));
-        };
-        let Some(n) = t.number() else {
-            return Err(c.error("CYCL DEF without its number", Some(2)));
+        let n = match b.tokens.get(1).and_then(|t| t.number()) {
+            // `DEF9.0`, `DEF9 .0`.
+            Some(v) => {
+                let fraction = b
+                    .tokens
+                    .get(2)
+                    .filter(|t| t.address.is_empty() && c.raw.get(t.span.start) == Some(&b'.'))
+                    .and_then(|t| t.number())
+                    .unwrap_or(0.0);
+                v + fraction
+            }
+            None => {
+                let Some(t) = b.tokens.get(2) else {
+                    return Err(c.error("CYCL DEF without its number", Some(0)));
+                };
+                let Some(n) = t.number() else {
+                    return Err(c.error("CYCL DEF without its number", Some(2)));
+                };
+                n
+            }
         };
         let major = n.trunc() as u32;
         let minor = ((n - n.trunc()) * 10.0).round() as u32;
         match major {
             7 => self.datum_shift(c, s, minor),
-            // 19 (the working plane): `working_plane_cycle`.
-            // Cycles that do not move: tolerance, and the like.
-            32 | 332 | 392 | 9 | 13 | 247 => Ok(()),
-            200 => {
-                let mut q = Vec::new();
-                for (k, t) in b.tokens.iter().enumerate().skip(3) {
-                    if let Some(p) = super::syntax::read_param(&t.address)
-                        && t.value.is_some()
-                    {
-                        q.push((p.number, c.value(k)?));
-                    }
+            // 19.0 WORKING PLANE, 19.1 its angles.
+            19 if minor <= 1 => self.working_plane_cycle(c, s, event, minor),
+            19 => Err(c.unread("CYCL DEF 19", Some(2))),
+            9 => {
+                // 9.1 DWELL v: effective at its definition (seconds).
+                if minor == 1
+                    && let Some(k) = (3..b.tokens.len())
+                        .rev()
+                        .find(|&k| b.tokens[k].value.is_some())
+                {
+                    s.time_min += c.value(k)?.max(0.0) / 60.0;
                 }
-                s.cycle = Some(CycleDef {
-                    number: major,
-                    q,
-                    line: c.line,
-                });
                 Ok(())
             }
+            n if cycles::transforms(n).is_some() => {
+                Err(c.unread(cycles::transforms(n).unwrap_or("CYCL DEF"), Some(2)))
+            }
+            n if cycles::passes_through(n) => Ok(()),
             _ => {
-                // A machining cycle volcomp does not expand: refused at its call.
-                s.cycle = Some(CycleDef {
-                    number: major,
-                    q: Vec::new(),
-                    line: c.line,
-                });
+                let value = |k: usize| b.tokens[k].value.as_ref().map_or(0.0, |v| c.q.value(v));
+                let def = cycles::define(b, major, minor, c.line, s.cycle.as_ref(), &value)
+                    .map_err(|m| c.error(&m, Some(2)))?;
+                s.cycle = Some(def);
                 Ok(())
             }
         }
+    }
+
+    /// `PATTERN DEF …`: the points of `CYCL CALL PAT`.
+    fn pattern_def(&self, c: &Ctx<'_>, s: &mut State) -> Result<(), GcodeError> {
+        let p = cycles::pattern(c.block, c.line, s.plane, s.inch, &|v| c.q.value(v))
+            .map_err(|e| c.cycle_error(e, Some(0)))?;
+        s.pattern = Some(p);
+        Ok(())
     }
 
     /// `CYCL DEF 7.0 DATUM SHIFT`, `7.1 X…`, `7.2 Y…`, `7.3 Z…`.
@@ -1461,116 +1487,179 @@ impl KlMachine {
         Ok(())
     }
 
-    /// `CYCL CALL`, `M99`: run the defined cycle.
+    /// `CYCL CALL`, `M99`, `CYCL CALL POS`, `CYCL CALL PAT`: run the
+    /// defined cycle ([`cycles::expand`]) here, at a position, or at each
+    /// point of the pattern.
     fn cycle_call(
         &self,
         c: &Ctx<'_>,
         s: &mut State,
         event: &mut BlockEvent,
+        kind: CallKind,
     ) -> Result<(), GcodeError> {
         let Some(cycle) = s.cycle.clone() else {
             return Err(c.error("a cycle call without a cycle defined (CYCL DEF)", Some(0)));
         };
-        if cycle.number != 200 {
-            return Err(c.unread(
-                &format!(
-                    "CYCL DEF {} (defined on line {}) called here",
-                    cycle.number, cycle.line
-                ),
-                Some(0),
-            ));
-        }
         self.refuse_compensation(c, s)?;
-        let get = |n: u32, name: &str| {
-            cycle
-                .get(n)
-                .ok_or_else(|| c.error(&format!("CYCL DEF 200 without Q{n} ({name})"), Some(0)))
+        let base = cycles::Call {
+            start: s.pos,
+            plane: s.plane,
+            inch: s.inch,
+            spindle_rpm: s.spindle,
+            surface_shift: 0.0,
         };
-        let scale = if s.inch { 25.4 } else { 1.0 };
-        let clearance = get(200, "set-up clearance")?.abs() * scale;
-        let depth = get(201, "depth")? * scale;
-        let plunge_feed = get(206, "feed rate for plunging")? * if s.inch { 2.54 } else { 1.0 };
-        let pecking = get(202, "plunging depth")?.abs() * scale;
-        let dwell_top = cycle.get(210).unwrap_or(0.0);
-        let surface = get(203, "surface coordinate")? * scale;
-        let second = cycle.get(204).unwrap_or(0.0) * scale;
-        let dwell_depth = cycle.get(211).unwrap_or(0.0);
-        if depth == 0.0 {
-            // TNC 640: "If you program DEPTH = 0, the cycle is not executed."
-            return Ok(());
-        }
-        // The tool axis coordinate (working plane normal), direction of depth.
-        let axis = match s.plane {
-            Plane::XY => 2,
-            Plane::ZX => 1,
-            Plane::YZ => 0,
+        let axis = tool_axis_index(s.plane);
+        let feed = |s: &mut State| -> Result<Option<f64>, GcodeError> {
+            let given = c
+                .block
+                .tokens
+                .iter()
+                .any(|t| matches!(t.address.as_str(), "F" | "FMAX" | "FAUTO"));
+            Ok(match self.block_feed(c, s, 2)? {
+                Feed::PerMinute(f) if given => Some(f),
+                _ => None,
+            })
         };
-        let dir = depth.signum();
-        let safe = surface - dir * clearance;
-        let bottom = surface + depth;
-        let step = if pecking <= 0.0 || pecking >= depth.abs() {
-            depth.abs()
-        } else {
-            pecking
+        let mut steps: Vec<cycles::Step> = Vec::new();
+        let expand = |call: &cycles::Call| {
+            cycles::expand(&cycle, call).map_err(|e| c.cycle_error(e, Some(0)))
         };
-        let mut steps: Vec<CycleStep> = Vec::new();
-        let at = |v: f64| {
-            let mut p = s.pos;
-            p[axis] = v;
-            p
+        let to = |p: [f64; 3], f: Option<f64>| match f {
+            Some(f) => cycles::Step::Feed(p, f),
+            None => cycles::Step::Rapid(p),
         };
-        steps.push(CycleStep::Rapid(at(safe)));
-        let mut reached = 0.0f64;
-        loop {
-            let next = (reached + step).min(depth.abs());
-            steps.push(CycleStep::Feed(at(surface + dir * next)));
-            reached = next;
-            if reached >= depth.abs() - 1e-12 {
-                break;
+        match kind {
+            CallKind::Here => steps = expand(&base)?,
+            CallKind::Position => {
+                // CYCL CALL POS X Y Z: the three coordinates, the tool-axis one
+                // an additional shift of the surface (TNC 640 Cycle
+                // Programming, "Calling a cycle with CYCL CALL POS").
+                let scale = if s.inch { 25.4 } else { 1.0 };
+                let mut target = [None::<f64>; 3];
+                for (k, t) in c.block.tokens.iter().enumerate().skip(3) {
+                    let (inc, slot) = match t.address.as_str() {
+                        "X" => (false, 0),
+                        "Y" => (false, 1),
+                        "Z" => (false, 2),
+                        "IX" => (true, 0),
+                        "IY" => (true, 1),
+                        "IZ" => (true, 2),
+                        _ => continue,
+                    };
+                    let v = c.value(k)? * scale;
+                    target[slot] = Some(if inc { s.pos[slot] + v } else { v });
+                }
+                let [Some(x), Some(y), Some(z)] = target else {
+                    return Err(c.error("CYCL CALL POS needs all three coordinates X Y Z", Some(2)));
+                };
+                let target = [x, y, z];
+                let f = feed(s)?;
+                let call = cycles::Call {
+                    start: target,
+                    surface_shift: target[axis],
+                    ..base
+                };
+                let Some((surface, height, up)) = cycles::levels(&cycle, &call) else {
+                    return Err(c.unread(
+                        &format!(
+                            "CYCL CALL POS with CYCL DEF {} (no surface Q203)",
+                            cycle.number
+                        ),
+                        Some(2),
+                    ));
+                };
+                let mut at = s.pos;
+                if (at[axis] - surface) * up < 0.0 {
+                    // Below the surface: first up to the clearance height.
+                    at[axis] = height;
+                    steps.push(to(at, f));
+                }
+                let mut over = target;
+                over[axis] = at[axis];
+                steps.push(to(over, f));
+                steps.push(to(target, f));
+                steps.extend(expand(&call)?);
             }
-            steps.push(CycleStep::Rapid(at(safe)));
-            if dwell_top > 0.0 {
-                steps.push(CycleStep::Dwell { seconds: dwell_top });
+            CallKind::Pattern => {
+                let Some(pattern) = s.pattern.clone() else {
+                    return Err(c.error("CYCL CALL PAT without a PATTERN DEF before it", Some(2)));
+                };
+                let f = feed(s)?;
+                let mut at = s.pos;
+                for p in &pattern.points {
+                    let plane_point = from_plane(s.plane, [p[0], p[1], 0.0]);
+                    let call = cycles::Call {
+                        surface_shift: p[2],
+                        ..base
+                    };
+                    let Some(height) = cycles::clearance_height(&cycle, &call, s.pos[axis]) else {
+                        return Err(c.unread(
+                            &format!(
+                                "CYCL CALL PAT with CYCL DEF {} (no surface Q203)",
+                                cycle.number
+                            ),
+                            Some(2),
+                        ));
+                    };
+                    if (at[axis] - height).abs() > 1e-12 {
+                        at[axis] = height;
+                        steps.push(cycles::Step::Rapid(at));
+                    }
+                    let mut next = plane_point;
+                    next[axis] = height;
+                    steps.push(to(next, f));
+                    let call = cycles::Call {
+                        start: next,
+                        ..call
+                    };
+                    let more = expand(&call)?;
+                    for st in &more {
+                        if let cycles::Step::Rapid(q) | cycles::Step::Feed(q, _) = st {
+                            at = *q;
+                        }
+                    }
+                    at = if more.is_empty() { next } else { at };
+                    steps.extend(more);
+                }
             }
-            steps.push(CycleStep::Rapid(at(
-                surface + dir * reached - dir * clearance
-            )));
-            if steps.len() > 100_000 {
-                return Err(c.error("CYCL DEF 200: more than 100000 pecks", Some(0)));
-            }
-        }
-        let _ = bottom;
-        if dwell_depth > 0.0 {
-            steps.push(CycleStep::Dwell {
-                seconds: dwell_depth,
-            });
-        }
-        steps.push(CycleStep::Rapid(at(safe)));
-        if second > clearance {
-            steps.push(CycleStep::Rapid(at(surface - dir * second)));
         }
         let mut moves = Vec::new();
+        let mut done = Vec::new();
         let mut start = s.position;
         let mut last = s.pos;
         for st in &steps {
             let (p, feed) = match *st {
-                CycleStep::Rapid(p) => (p, Feed::Rapid),
-                CycleStep::Feed(p) => (p, Feed::PerMinute(plunge_feed)),
-                CycleStep::Dwell { seconds } => {
+                cycles::Step::Rapid(p) => (p, Feed::Rapid),
+                cycles::Step::Feed(p, f) => (p, Feed::PerMinute(f)),
+                cycles::Step::Dwell(seconds) => {
                     s.time_min += seconds / 60.0;
+                    done.push(CycleStep::Dwell { seconds });
                     continue;
                 }
-                _ => continue,
             };
             let end = self.to_frame(s, p, s.rot);
+            if !end.is_finite() {
+                return Err(GcodeError::at(
+                    ErrorKind::NonFinite,
+                    c.line,
+                    c.raw,
+                    0,
+                    c.raw.len(),
+                ));
+            }
             moves.push(self.straight(s.frame(), false, start, end, feed));
+            done.push(if feed == Feed::Rapid {
+                CycleStep::Rapid(p)
+            } else {
+                CycleStep::Feed(p)
+            });
             start = end;
             last = p;
         }
         // A cycle called with M99 on a positioning block: that move first.
         if let Moves::Move(m) = &event.moves {
             moves.insert(0, *m);
-            steps.insert(
+            done.insert(
                 0,
                 if m.kind == MotionKind::Rapid {
                     CycleStep::Rapid(s.pos)
@@ -1581,7 +1670,7 @@ impl KlMachine {
         }
         s.pos = last;
         s.tangent = None;
-        event.moves = Moves::Cycle { moves, steps };
+        event.moves = Moves::Cycle { moves, steps: done };
         Ok(())
     }
 
@@ -1967,12 +2056,6 @@ impl KlMachine {
 /// handed on as chords this close.
 pub const CHORD_TOLERANCE_MM: f64 = 0.0005;
 
-/// `CYCL DEF n.m`: (n, m).
-fn cycle_number(b: &KlBlock) -> Option<(u32, u32)> {
-    let n = b.tokens.get(2)?.number()?;
-    Some((n.trunc() as u32, ((n - n.trunc()) * 10.0).round() as u32))
-}
-
 /// How a `PLANE` (or `CYCL DEF 19`) positions the rotary axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum PlaneMode {
@@ -2094,6 +2177,34 @@ fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f6
     Ok(end)
 }
 
+/// Where a cycle call runs the cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CallKind {
+    /// `CYCL CALL`, `M99`, `M89`: at the tool's position.
+    Here,
+    /// `CYCL CALL POS X Y Z`.
+    Position,
+    /// `CYCL CALL PAT`: at each point of the `PATTERN DEF`.
+    Pattern,
+}
+
+fn cycle_call_kind(b: &KlBlock) -> CallKind {
+    match b.address(2) {
+        "POS" => CallKind::Position,
+        "PAT" => CallKind::Pattern,
+        _ => CallKind::Here,
+    }
+}
+
+/// The index (0 X, 1 Y, 2 Z) of the tool axis of `plane`.
+fn tool_axis_index(plane: Plane) -> usize {
+    match plane {
+        Plane::XY => 2,
+        Plane::ZX => 1,
+        Plane::YZ => 0,
+    }
+}
+
 /// A block and what locates its errors.
 #[derive(Clone, Copy)]
 struct Ctx<'a> {
@@ -2116,6 +2227,14 @@ impl Ctx<'_> {
             ErrorKind::DialectFeature("Heidenhain", feature.to_string()),
             at,
         )
+    }
+
+    /// A cycle's error, located: refused in the control's words, or not read.
+    fn cycle_error(&self, e: CycleError, at: Option<usize>) -> GcodeError {
+        match e {
+            CycleError::Refused(m) => self.error(&m, at),
+            CycleError::Unread(m) => self.unread(&m, at),
+        }
     }
 
     fn located(&self, kind: ErrorKind, at: Option<usize>) -> GcodeError {

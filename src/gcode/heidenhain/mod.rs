@@ -9,7 +9,9 @@
 //! - `geometry`: the rotation of each `PLANE` form, `RND`/`CHF` corners,
 //!   arcs as chords (pure functions);
 //! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
-//!   tool-tip control, tools, the drilling cycle) → [`BlockEvent`]s;
+//!   tool-tip control, tools, the defined cycle) → [`BlockEvent`]s;
+//! - `cycles`: machining cycles (`CYCL DEF 200 …`, `PATTERN DEF`) expanded
+//!   into the moves the control makes;
 //! - `write`: Klartext written back (renumbered, numbers in the input's
 //!   style).
 //!
@@ -19,6 +21,7 @@
 //! written (`literal`), blocks run again or from a call as flat copies
 //! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
 //! block, and blocks never run as `passed`, so that a writer loses no byte.
+pub(crate) mod cycles;
 pub(crate) mod geometry;
 pub(crate) mod language;
 pub(crate) mod machine;
@@ -54,6 +57,8 @@ pub(crate) struct KlartextFront {
     done: bool,
     path: PathBuf,
     lenient: bool,
+    /// Honour block skip `/` ([`InterpretOptions::skip_deleted_blocks`]).
+    skip_deleted: bool,
 }
 
 impl KlartextFront {
@@ -127,6 +132,7 @@ impl KlartextFront {
             done: false,
             path: path.to_path_buf(),
             lenient: options.lenient,
+            skip_deleted: options.skip_deleted_blocks,
         }
     }
 
@@ -180,6 +186,20 @@ impl KlartextFront {
         let r = lang.files[file].blocks[pc];
         let raw = lang.files[file].raw(pc);
         parse_block_into(raw, &mut self.parsed);
+        if self.parsed.deleted && self.skip_deleted {
+            // Block skip on: not read yet (the block's language effects
+            // would have to be skipped too).
+            return Err(GcodeError::at(
+                ErrorKind::DialectFeature(
+                    "Heidenhain",
+                    "`/` block skip with block delete on".into(),
+                ),
+                r.line,
+                raw,
+                0,
+                1,
+            ));
+        }
         let flat = substituted(&self.parsed, raw, &lang.q);
         let ends_program = self.parsed.starts_with(&["END", "PGM"]);
         let stops =
@@ -211,6 +231,7 @@ impl KlartextFront {
         let raw = self.language.files[file].raw(pc);
         self.block.reset(r.line, r.start as u64);
         self.block.ending = r.ending;
+        self.block.deleted = self.parsed.deleted;
         if control {
             // What the flat copies already did: a comment.
             let number = self.parsed.number.as_ref().map(|n| format!("{} ", n.0));
@@ -432,7 +453,11 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
         if raw.iter().all(|b| b.is_ascii_whitespace()) {
             continue;
         }
-        let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        let mut lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        // A block-skip `/` before the number (`/81 M30`).
+        if raw.get(lead) == Some(&b'/') {
+            lead += 1;
+        }
         let digits = raw[lead..]
             .iter()
             .take_while(|b| b.is_ascii_digit())

@@ -148,6 +148,9 @@ pub struct KlBlock {
     pub number: Option<(u64, Range<usize>)>,
     /// A `*` section line.
     pub section: bool,
+    /// Written with the block-skip `/` before its number (`/81 M30`:
+    /// skipped when the control's block skip is on).
+    pub deleted: bool,
     /// The code tokens, in order (comments and `~` excluded).
     pub tokens: Vec<Token>,
     /// Byte ranges of the comments (from `;` to the end of the physical line
@@ -199,6 +202,7 @@ pub fn parse_block(raw: &[u8]) -> KlBlock {
 pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
     out.number = None;
     out.section = false;
+    out.deleted = false;
     out.tokens.clear();
     out.comments.clear();
     let mut code = std::mem::take(&mut out.code);
@@ -255,6 +259,10 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
     let bytes = code.as_bytes();
     let mut k = 0;
     while k < bytes.len() && bytes[k] == b' ' {
+        k += 1;
+    }
+    if k < bytes.len() && bytes[k] == b'/' {
+        out.deleted = true;
         k += 1;
     }
     let digits_start = k;
@@ -327,6 +335,18 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         && matches!(bytes[2].to_ascii_uppercase(), b'X' | b'Y' | b'Z')
     {
         k = 3;
+    }
+    // `FQ2`, `FQL3` (an address whose value is a parameter, written
+    // without a sign): the address is `F`, the value `Q2`.
+    let letters = &text[..k];
+    if bytes.get(k).is_some_and(u8::is_ascii_digit) {
+        let upper = letters.to_ascii_uppercase();
+        for q in ["QL", "QR", "Q"] {
+            if upper.len() > q.len() && upper.ends_with(q) {
+                k -= q.len();
+                break;
+            }
+        }
     }
     // `Q200=+2` (a cycle parameter): the address is `Q200`.
     if let Some(eq) = text.find('=')

@@ -41,7 +41,13 @@ pub struct KlartextWriter {
     /// The last target written (event frame), for incremental words.
     emitted: Option<Axes>,
     line: Vec<u8>,
+    /// The machine's orientation kinematics: the tool axis of corrected
+    /// joints, written as an `LN` block's `TX TY TZ`.
+    pub(crate) orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
 }
+
+/// Least decimals of a rewritten `LN` vector component (1e-7 rad).
+const VECTOR_DECIMALS: u8 = 7;
 
 const LETTERS: [(&str, usize); 6] = [("X", 0), ("Y", 1), ("Z", 2), ("A", 3), ("B", 4), ("C", 5)];
 
@@ -237,7 +243,17 @@ impl KlartextWriter {
         let mut edits = Vec::new();
         let mut last_axis_end = parsed.tokens.first().map_or(0, |t| t.span.end);
         let polar = parsed.address(0) == "CP" || parsed.address(0) == "LP";
+        // An LN block with a tool vector: its orientation is the vector, not
+        // rotary words (written below).
+        let vector = parsed.address(0) == "LN"
+            && parsed
+                .tokens
+                .iter()
+                .any(|t| matches!(t.address.as_str(), "TX" | "TY" | "TZ"));
         for (letter, slot) in LETTERS {
+            if vector && slot >= 3 {
+                continue;
+            }
             let (n, o) = (
                 unit(slot, slot_value(&new, slot)),
                 unit(slot, slot_value(&old, slot)),
@@ -289,8 +305,83 @@ impl KlartextWriter {
                 None => {}
             }
         }
+        if vector {
+            self.vector_edits(block, parsed, event, m, end, &mut edits)?;
+        }
         edits.sort_by_key(|e| e.0.start);
         Ok(edits)
+    }
+
+    /// The `TX TY TZ` of an `LN` block moved to the tool axis of the
+    /// corrected joints (dialects.md "Writing back": a vector program keeps
+    /// its form, the vector being the nominal tool axis of the solved
+    /// joints), in the program's frame: each component that changes is
+    /// written in the input's sign style with at least 7 decimals (1e-7 rad);
+    /// the others stay as written.
+    fn vector_edits(
+        &self,
+        block: &Block,
+        parsed: &KlBlock,
+        event: &BlockEvent,
+        m: &crate::gcode::Motion,
+        end: &Axes,
+        edits: &mut Vec<(std::ops::Range<usize>, String)>,
+    ) -> Result<(), RewriteError> {
+        let turned = (end.a - m.end.a).abs() > 1e-12
+            || (end.b - m.end.b).abs() > 1e-12
+            || (end.c - m.end.c).abs() > 1e-12;
+        if !turned {
+            return Ok(());
+        }
+        let Some(solver) = &self.orientation else {
+            return Err(RewriteError::CannotFlatten {
+                line: block.line,
+                what: "a corrected LN tool vector without the machine's kinematics",
+            });
+        };
+        let program = |v: [f64; 3]| match &event.origin.frame {
+            Some(f) => {
+                let (o, w) = (f.unapply([0.0; 3]), f.unapply(v));
+                [w[0] - o[0], w[1] - o[1], w[2] - o[2]]
+            }
+            None => v,
+        };
+        let new = program(solver.axis_of(end));
+        let old = program(solver.axis_of(&m.end));
+        if !new.iter().all(|v| v.is_finite()) {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        let mut last = 0;
+        for (k, name) in ["TX", "TY", "TZ"].into_iter().enumerate() {
+            let token = parsed.tokens.iter().find(|t| t.address == name);
+            let d = token.map_or(VECTOR_DECIMALS, |t| t.decimals.max(VECTOR_DECIMALS));
+            let changed = (new[k] - old[k]).abs() >= half_ulp(d);
+            match token {
+                Some(t) => {
+                    last = last.max(t.span.end);
+                    if !changed || t.value_span.is_empty() {
+                        continue;
+                    }
+                    let mut text = signed_number(new[k], d);
+                    if !t.signed && !text.starts_with('-') {
+                        text.remove(0);
+                    }
+                    edits.push((t.value_span.clone(), text));
+                }
+                None if changed => {
+                    let at = parsed
+                        .tokens
+                        .iter()
+                        .filter(|t| matches!(t.address.as_str(), "TX" | "TY" | "TZ"))
+                        .map(|t| t.span.end)
+                        .max()
+                        .unwrap_or(last);
+                    edits.push((at..at, format!(" {name}{}", signed_number(new[k], d))));
+                }
+                None => {}
+            }
+        }
+        Ok(())
     }
 
     /// Whether the emitted start of this move differs from its programmed

@@ -289,6 +289,15 @@ impl Rewriter {
         }
     }
 
+    /// The machine's orientation kinematics, for the tool vectors of
+    /// Klartext `LN` blocks (`TX TY TZ`: the corrected joints' tool axis).
+    pub fn set_orientation(
+        &mut self,
+        orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
+    ) {
+        self.klartext.orientation = orientation;
+    }
+
     /// Emit one block (see the module docs for the contract); says what was written.
     pub fn emit(
         &mut self,
