@@ -9,6 +9,7 @@
 //! Invariants: pure text building from a loaded machine and its model; no I/O,
 //! nothing printed.
 pub(crate) mod linuxcnc;
+pub(crate) mod residual;
 pub(crate) mod tables;
 
 use crate::axes::Axis;
