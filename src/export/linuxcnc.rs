@@ -76,6 +76,9 @@ pub struct CompFile {
     pub max_error_um: f64,
     /// Whether `max_error_um` is within the tolerance.
     pub met: bool,
+    /// The smallest and largest standard uncertainty (µm) of the fitted curve
+    /// at the nominals, when the model carries one.
+    pub uncertainty_um: Option<(f64, f64)>,
     /// The file.
     pub text: String,
 }
@@ -230,6 +233,27 @@ pub fn comp_file(
         "# Read back as LinuxCNC interpolates it, within {:.4} µm of those curves (tolerance {} µm).",
         max_error_um, settings.tolerance_um
     );
+    let uncertainty = pos.uncertainty_range(&nodes);
+    if let Some((lo_u, hi_u)) = uncertainty {
+        let _ = writeln!(
+            text,
+            "# Standard uncertainty of {p} (the fitted curve's, from the table{}): {lo_u:.4} to {hi_u:.4} µm; per nominal (mm µm):",
+            if pos.table_has_uncertainty() {
+                "'s u_ column"
+            } else {
+                "'s noise"
+            },
+            p = pos.parameter
+        );
+        for &p in &nodes {
+            let _ = writeln!(
+                text,
+                "# u {} {:.4}",
+                number(p),
+                pos.uncertainty(p).unwrap_or(0.0) + 0.0
+            );
+        }
+    }
     CompFile {
         axis: pos.axis,
         joint,
@@ -238,6 +262,7 @@ pub fn comp_file(
         nominals: nodes,
         met: max_error_um <= settings.tolerance_um,
         max_error_um,
+        uncertainty_um: uncertainty,
         text,
     }
 }
@@ -549,6 +574,13 @@ pub fn export(
                 )
             }
         );
+        if let Some((lo, hi)) = f.uncertainty_um {
+            let _ = writeln!(
+                readme,
+                "# standard uncertainty of {}: {lo:.4} to {hi:.4} µm (per nominal after the triplets)",
+                f.parameter
+            );
+        }
     }
     for (axis, why) in &skipped {
         let _ = writeln!(readme, "\n{}: no COMP_FILE ({why}).", axis.letter());
