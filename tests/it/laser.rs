@@ -516,11 +516,11 @@ fn sparse_cell(targets: usize, scatter: f64, seeds: u64) -> SparseCell {
 
 /// The sparse-table study of docs/fidelity.md (target counts 6/11/21/41 ×
 /// scatter 0.1/0.35/1 µm, RMS from the truth over 8 generated machines): the
-/// fit weighted by the means' uncertainty passes every mean within 3.5 of its
+/// fit of the means with their uncertainty passes every mean within 3.5 of its
 /// standard uncertainties; it is nearer the truth than today's unweighted fit
 /// at 11 targets (the issue's table) and no farther than linear interpolation
-/// of the means at 41. At 6, 11 and 21 targets linear interpolation is nearer
-/// (the table in docs/fidelity.md; open in the issue's closing note).
+/// of the means in every cell (issue 37: lines where they predict the
+/// left-out means better, and under 8 targets).
 #[test]
 fn a_fit_weighted_by_the_uncertainty_passes_the_means_and_beats_linear_interpolation_on_dense_tables()
  {
