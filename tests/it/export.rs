@@ -314,7 +314,7 @@ fn compensated_block_ends(
                     p.line,
                     p.joints.axes(),
                     directions.approach(),
-                    p.tool.clone(),
+                    p.tool,
                 ));
             }
         },
