@@ -310,12 +310,7 @@ fn compensated_block_ends(
         |p| {
             directions.update(&p.joints);
             if p.block_end && p.cutting {
-                ends.push((
-                    p.line,
-                    p.joints.axes(),
-                    directions.approach(),
-                    p.tool,
-                ));
+                ends.push((p.line, p.joints.axes(), directions.approach(), p.tool));
             }
         },
     )
