@@ -41,6 +41,28 @@ impl WorkCounter {
     }
 }
 
+impl PartialEq for WorkCounter {
+    /// The same counter (settings that carry one compare equal when they
+    /// report to the same watcher).
+    fn eq(&self, other: &Self) -> bool {
+        std::ptr::eq(self, other)
+    }
+}
+
+impl WorkCounter {
+    /// `steps` steps are done at once.
+    pub fn step_by(&self, steps: u64) {
+        self.done.fetch_add(steps, Ordering::Relaxed);
+    }
+
+    /// The work is over: done becomes the total (an estimate the work did not
+    /// need to the end).
+    pub fn finish(&self) {
+        let total = self.total();
+        self.done.fetch_max(total, Ordering::Relaxed);
+    }
+}
+
 /// Counts one step on `counter`, if there is one.
 pub fn step(counter: Option<&std::sync::Arc<WorkCounter>>) {
     if let Some(c) = counter {

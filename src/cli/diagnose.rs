@@ -295,13 +295,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.dump_contexts {
         crate::io::write_json_atomic(path, &contexts)?;
     }
+    let counter = std::sync::Arc::new(crate::progress::WorkCounter::new());
     let options = DiagnoseOptions {
         noise_um: args.noise_um,
+        progress: Some(std::sync::Arc::clone(&counter)),
         ..DiagnoseOptions::default()
     };
     let measured = measurement.deviations_um();
-    let mut report =
-        diagnose(&contexts, &measured, &options).context("diagnosing the measurement")?;
+    let mut report = super::common::with_progress("diagnosing (selection)", &counter, || {
+        diagnose(&contexts, &measured, &options)
+    })
+    .context("diagnosing the measurement")?;
     let mut program_written = None;
     if let (Some(followup), Some(path)) = (&followup_measured, &args.followup) {
         let diagnosis = Diagnosis {
@@ -478,8 +482,17 @@ impl Diagnosis<'_> {
             .collect();
         let outcome = followup::outcome(contexts, measured, first, &readings)
             .context("judging the follow-up")?;
-        let mut report = diagnose_with_followup(contexts, measured, &readings, self.options)
-            .context("diagnosing the measurement with its follow-up")?;
+        let counter = std::sync::Arc::new(crate::progress::WorkCounter::new());
+        let options = DiagnoseOptions {
+            progress: Some(std::sync::Arc::clone(&counter)),
+            ..self.options.clone()
+        };
+        let mut report = super::common::with_progress(
+            "diagnosing with the follow-up (selection)",
+            &counter,
+            || diagnose_with_followup(contexts, measured, &readings, &options),
+        )
+        .context("diagnosing the measurement with its follow-up")?;
         report.summary.push(followup_sentence(
             &first.selected,
             &report.selected,

@@ -25,7 +25,8 @@ pub enum Target {
 
 pub const LINUXCNC_EXAMPLES: &str = "\
   volcomp export linuxcnc machines/ref-trt.toml -o linuxcnc-ref-trt
-  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1";
+  volcomp export linuxcnc machines/bc-trt.toml -o comp --comp-type 1
+  volcomp export linuxcnc machines/ref-trt.toml -o lcnc --residual-machine lcnc/residual.toml";
 
 const LINUXCNC_HELP: &str = "\
 Writes into DIR:
@@ -37,6 +38,10 @@ Writes into DIR:
   kinematics.ini   xyzac-trt / xyzbc-trt: the module's pivot parameters corrected by the machine
                    file's location errors, as [HAL] HALCMD = setp lines.
   README.txt       the [JOINT_n] COMP_FILE and COMP_FILE_TYPE lines to paste.
+With --residual-machine OUT.toml, also the machine file to compensate with on that LinuxCNC
+(no double correction): each exported axis's table as OUT.<axis>.csv with its positioning
+column and REVERSAL replaced by what the COMP_FILE leaves, the location offsets kinematics.ini
+expresses moved into [geometry]; a comment on top says what was removed.
 Nominals are the table's positions, bisected until LinuxCNC's linear interpolation is within
 --tol-um of the fitted curves (or --max-lines is reached: the summary says so).";
 
@@ -62,6 +67,13 @@ pub struct LinuxcncArgs {
     /// Most triplets a file may have (2 to 256, LinuxCNC's limit).
     #[arg(long, default_value_t = MAX_COMP_LINES)]
     pub max_lines: usize,
+    /// Also write the machine file for `volcomp compensate` on a LinuxCNC that
+    /// applies this export: the exported positioning errors (and REVERSAL)
+    /// replaced by what is left after the COMP_FILEs, the location offsets
+    /// moved into [geometry] as in kinematics.ini, the rest kept; its changed
+    /// tables beside it (OUT.x.csv, ...).
+    #[arg(long, value_name = "OUT.toml")]
+    pub residual_machine: Option<PathBuf>,
 }
 
 pub const TABLES_EXAMPLES: &str = "\
@@ -181,6 +193,16 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
         files.push(args.output.join("kinematics.ini"));
     }
     files.push(args.output.join("README.txt"));
+    if let Some(out) = &args.residual_machine {
+        files.push(out.clone());
+        files.extend(
+            machine
+                .letters()
+                .iter()
+                .filter(|a| !a.is_rotary() && machine.table(*a).is_some())
+                .map(|a| super::write_machine::table_copy(out, a)),
+        );
+    }
     check_folder(
         &args.output,
         &machine,
@@ -261,11 +283,72 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
     let path = args.output.join("README.txt");
     crate::io::write_file_atomic(&path, export.readme.as_bytes())?;
     lines.push(format!("[JOINT_n] lines to paste -> {}", path.display()));
+    if let Some(out) = &args.residual_machine {
+        lines.extend(write_residual_machine(
+            out,
+            &machine,
+            &model,
+            &export,
+            &name_for_readme.display().to_string(),
+        )?);
+    }
     outputs.commit()?;
     for line in lines {
         crate::cli::outln!("{line}");
     }
     Ok(())
+}
+
+/// Writes `--residual-machine OUT` (inside the command's output set): the
+/// machine file edited, the exported axes' tables beside it, the other tables
+/// re-pointed from OUT's folder. Returns the summary lines.
+fn write_residual_machine(
+    out: &Path,
+    machine: &crate::machine::Machine,
+    model: &crate::machine::ErrorModel,
+    export: &crate::export::linuxcnc::LinuxCncExport,
+    comp_dir: &str,
+) -> anyhow::Result<Vec<String>> {
+    use crate::machine::update::{edit_machine_text, relative_path, toml_path};
+    use anyhow::Context as _;
+    let residual = crate::export::residual::residual_machine(machine, model, export, comp_dir)?;
+    let folder = crate::io::resolved_path(out)
+        .and_then(|p| p.parent().map(Path::to_path_buf))
+        .with_context(|| {
+            format!(
+                "--residual-machine {}: its folder cannot be found",
+                out.display()
+            )
+        })?;
+    let mut edits = residual.edits.clone();
+    let mut lines = Vec::new();
+    for slot in machine.tables.iter().flatten() {
+        let key = slot.axis.lower().to_string();
+        if let Some(t) = residual.tables.iter().find(|t| t.axis == slot.axis) {
+            let copy = super::write_machine::table_copy(out, slot.axis);
+            crate::io::write_file_atomic(&copy, t.text.as_bytes())?;
+            let name = copy.file_name().unwrap_or_default().to_string_lossy();
+            edits.tables.push((key, name.into_owned()));
+            lines.push(format!(
+                "{}: table with what the COMP_FILE leaves -> {}",
+                slot.axis.letter(),
+                copy.display()
+            ));
+        } else {
+            let at = std::fs::canonicalize(&slot.path)
+                .with_context(|| format!("locating the error table {}", slot.path.display()))?;
+            let path = relative_path(&folder, &at).unwrap_or(at);
+            edits.tables.push((key, toml_path(&path)));
+        }
+    }
+    let text = edit_machine_text(&machine.text, &machine.source, &edits)?;
+    crate::io::write_file_atomic(out, text.as_bytes())?;
+    lines.push(format!(
+        "residual machine (compensate with it on that LinuxCNC) -> {}",
+        out.display()
+    ));
+    lines.extend(residual.removed.iter().map(|r| format!("  removed {r}")));
+    Ok(lines)
 }
 
 /// What to do when a COMP_FILE of `max_lines` lines stays `reached_um` from

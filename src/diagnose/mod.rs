@@ -96,6 +96,8 @@ pub struct DiagnoseOptions {
     pub alias_cosine: f64,
     /// Number of time folds (region folds are a 3 × 3 grid by x and y terciles).
     pub time_folds: usize,
+    /// Counts the selection's scored sets (its progress), if given.
+    pub progress: Option<std::sync::Arc<crate::progress::WorkCounter>>,
 }
 
 impl Default for DiagnoseOptions {
@@ -106,6 +108,7 @@ impl Default for DiagnoseOptions {
             significance: SIGNIFICANCE,
             alias_cosine: 0.98,
             time_folds: 6,
+            progress: None,
         }
     }
 }
@@ -306,6 +309,7 @@ impl<'a> Problem<'a> {
             cache,
             patches: &self.patches,
             fitted: BTreeMap::new(),
+            progress: None,
         }
     }
 
@@ -502,6 +506,7 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
         model_available: !p.named_cols.is_empty(),
     };
     let mut scorer = p.scorer(settings, &max_factor, cache);
+    scorer.progress = options.progress.as_deref();
     let chosen = selection::select(&mut scorer, &EffectKind::ALL);
     let rivals = selection::rivals(&scorer, &chosen.terms);
     let mut notes = chosen.notes.clone();

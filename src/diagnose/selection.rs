@@ -113,6 +113,8 @@ pub(crate) struct Scorer<'a> {
     pub patches: &'a [usize],
     /// In-sample contribution of every set scored (fitted on all rows).
     pub fitted: BTreeMap<Terms, Vec<f64>>,
+    /// Counts each set cross-validated (the selection's progress), if given.
+    pub progress: Option<&'a crate::progress::WorkCounter>,
 }
 
 impl Scorer<'_> {
@@ -139,11 +141,12 @@ impl Scorer<'_> {
             .filter(|t| t.len() > 0 && !self.cache.contains_key(*t))
             .cloned()
             .collect();
-        let (sig, folds, r) = (self.sig, self.folds, self.r);
+        let (sig, folds, r, progress) = (self.sig, self.folds, self.r, self.progress);
         let scored: Vec<(Terms, f64)> = missing
             .into_par_iter()
             .map(|t| {
                 let mse = cross_validate_terms(sig, folds, &t.kinds, t.model, r);
+                progress.inspect(|c| c.step());
                 (t, mse)
             })
             .collect();
@@ -293,6 +296,13 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         terms.push(Terms::new(Vec::new(), true));
     }
     let max_terms = s.max_effects + usize::from(s.model_available);
+    if let Some(c) = scorer.progress {
+        // Sets the search may cross-validate (the single effects come
+        // scored): every pair, then a term added to the current set per
+        // further level, and the model's own set.
+        let t = terms.len() as u64;
+        c.add_total(1 + t * t.saturating_sub(1) / 2 + t * (max_terms as u64).saturating_sub(2));
+    }
     for level in 1..=max_terms {
         let sets: Vec<Terms> = match level {
             1 => terms.clone(),
@@ -433,6 +443,9 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         }
     }
     let significance = scorer.members(&current);
+    if let Some(c) = scorer.progress {
+        c.finish();
+    }
     Selection {
         mse: scorer.mse(&current),
         terms: current,

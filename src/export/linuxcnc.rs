@@ -76,6 +76,9 @@ pub struct CompFile {
     pub max_error_um: f64,
     /// Whether `max_error_um` is within the tolerance.
     pub met: bool,
+    /// The smallest and largest standard uncertainty (µm) of the fitted curve
+    /// at the nominals, when the model carries one.
+    pub uncertainty_um: Option<(f64, f64)>,
     /// The file.
     pub text: String,
 }
@@ -84,6 +87,8 @@ pub struct CompFile {
 #[derive(Clone, Debug)]
 pub struct LinuxCncExport {
     pub comp_files: Vec<CompFile>,
+    /// How the comp files list their values.
+    pub comp_type: CompType,
     /// Axes with a table that get no comp file, and why.
     pub skipped: Vec<(Axis, String)>,
     /// `kinematics.ini`, when the machine is a trt type.
@@ -146,7 +151,7 @@ fn nominals(pos: &Positioning<'_>, settings: &CompSettings) -> Vec<f64> {
 }
 
 /// A number as written in the file: shortest form of a value rounded to 1e-9.
-fn number(v: f64) -> String {
+pub(crate) fn number(v: f64) -> String {
     let s = format!("{:.9}", v + 0.0);
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" { "0".into() } else { s.to_string() }
@@ -228,6 +233,27 @@ pub fn comp_file(
         "# Read back as LinuxCNC interpolates it, within {:.4} µm of those curves (tolerance {} µm).",
         max_error_um, settings.tolerance_um
     );
+    let uncertainty = pos.uncertainty_range(&nodes);
+    if let Some((lo_u, hi_u)) = uncertainty {
+        let _ = writeln!(
+            text,
+            "# Standard uncertainty of {p} (the fitted curve's, from the table{}): {lo_u:.4} to {hi_u:.4} µm; per nominal (mm µm):",
+            if pos.table_has_uncertainty() {
+                "'s u_ column"
+            } else {
+                "'s noise"
+            },
+            p = pos.parameter
+        );
+        for &p in &nodes {
+            let _ = writeln!(
+                text,
+                "# u {} {:.4}",
+                number(p),
+                pos.uncertainty(p).unwrap_or(0.0) + 0.0
+            );
+        }
+    }
     CompFile {
         axis: pos.axis,
         joint,
@@ -236,6 +262,7 @@ pub fn comp_file(
         nominals: nodes,
         met: max_error_um <= settings.tolerance_um,
         max_error_um,
+        uncertainty_um: uncertainty,
         text,
     }
 }
@@ -288,7 +315,7 @@ impl CompTable {
 }
 
 /// The location error `name` of `machine` (µm or µrad; 0 when the machine has no such name).
-fn location(machine: &Machine, name: &str) -> f64 {
+pub(crate) fn location(machine: &Machine, name: &str) -> f64 {
     machine
         .layout()
         .location_names()
@@ -297,10 +324,32 @@ fn location(machine: &Machine, name: &str) -> f64 {
         .map_or(0.0, |k| machine.location[k])
 }
 
-/// `kinematics.ini` for a trt machine: the module's pivot parameters with the
-/// location offsets added (µm → mm); the tilts and zero offsets it cannot express
-/// listed. `None` for a chain machine.
-pub fn kinematics_ini(machine: &Machine) -> Option<String> {
+/// The trt module's pivot parameters, nominal and corrected by the location
+/// offsets the module can express (`kinematics.ini`; the residual machine's
+/// `[geometry]`).
+#[derive(Clone, Debug)]
+pub struct Pivots {
+    /// `xyzac-trt-kins` or `xyzbc-trt-kins`.
+    pub module: &'static str,
+    /// The tilting axis (A or B).
+    pub tilt: Axis,
+    /// The machine file's `[geometry]` keys, in the order of the values.
+    pub names: [&'static str; 5],
+    /// The module's pins (`x-rot-point`, …), in the same order.
+    pub pins: [&'static str; 5],
+    /// The machine file's values (mm).
+    pub nominal: [f64; 5],
+    /// With the location offsets added (mm).
+    pub corrected: [f64; 5],
+    /// The location errors the correction expresses (`EX0C`, `EY0C`, `EY0A`,
+    /// `EZ0A` on an A/C machine): what a controller with these pivots applies.
+    pub expressed: [String; 4],
+    /// The formulas, one line (for the comments).
+    pub formulas: String,
+}
+
+/// The pivots of a trt machine; `None` for a chain machine.
+pub fn pivots(machine: &Machine) -> Option<Pivots> {
     let (module, second, offset_name, offset_axis) = match machine.kinematics {
         KinematicsType::XyzacTrt => ("xyzac-trt-kins", Axis::A, "y-offset", 1),
         KinematicsType::XyzbcTrt => ("xyzbc-trt-kins", Axis::B, "x-offset", 0),
@@ -322,27 +371,54 @@ pub fn kinematics_ini(machine: &Machine) -> Option<String> {
         t[2] - c[2],
     ];
     let um = |name: &str| location(machine, name) * 1e-3;
+    let offset_own = format!("E{off_letter}0{l}");
+    let offset_c = format!("E{off_letter}0C");
+    let z_own = format!("EZ0{l}");
     let corrected = [
         nominal[0] + um("EX0C"),
         nominal[1] + um("EY0C"),
         nominal[2],
-        nominal[3] + um(&format!("E{off_letter}0{l}")) - um(&format!("E{off_letter}0C")),
-        nominal[4] + um(&format!("EZ0{l}")),
+        nominal[3] + um(&offset_own) - um(&offset_c),
+        nominal[4] + um(&z_own),
     ];
-    let pins = [
-        "x-rot-point",
-        "y-rot-point",
-        "z-rot-point",
-        offset_name,
-        "z-offset",
-    ];
-    let names = [
-        "x_rot_point",
-        "y_rot_point",
-        "z_rot_point",
-        off_name,
-        "z_offset",
-    ];
+    Some(Pivots {
+        module,
+        tilt: second,
+        names: [
+            "x_rot_point",
+            "y_rot_point",
+            "z_rot_point",
+            off_name,
+            "z_offset",
+        ],
+        pins: [
+            "x-rot-point",
+            "y-rot-point",
+            "z-rot-point",
+            offset_name,
+            "z-offset",
+        ],
+        nominal,
+        corrected,
+        expressed: [
+            "EX0C".into(),
+            "EY0C".into(),
+            offset_own.clone(),
+            z_own.clone(),
+        ],
+        formulas: format!(
+            "x-rot-point += EX0C; y-rot-point += EY0C; {offset_name} += {offset_own} - {offset_c}; z-offset += {z_own}"
+        ),
+    })
+}
+
+/// `kinematics.ini` for a trt machine: the module's pivot parameters with the
+/// location offsets added (µm → mm); the tilts and zero offsets it cannot express
+/// listed. `None` for a chain machine.
+pub fn kinematics_ini(machine: &Machine) -> Option<String> {
+    let p = pivots(machine)?;
+    let module = p.module;
+    let l = p.tilt.letter();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -354,20 +430,17 @@ pub fn kinematics_ini(machine: &Machine) -> Option<String> {
         s,
         "# corrected by the identified location errors of the machine file (µm -> mm):"
     );
-    let _ = writeln!(
-        s,
-        "#   x-rot-point += EX0C; y-rot-point += EY0C; {offset_name} += E{off_letter}0{l} - E{off_letter}0C; z-offset += EZ0{l}"
-    );
+    let _ = writeln!(s, "#   {}", p.formulas);
     let _ = writeln!(
         s,
         "#   (the C axis line moves by (EX0C, EY0C), the {l} axis line by its two offsets)."
     );
-    for (k, name) in names.iter().enumerate() {
+    for (k, name) in p.names.iter().enumerate() {
         let _ = writeln!(
             s,
             "#   {name}: {} -> {}",
-            number(nominal[k]),
-            number(corrected[k])
+            number(p.nominal[k]),
+            number(p.corrected[k])
         );
     }
     let layout = machine.layout();
@@ -391,8 +464,8 @@ pub fn kinematics_ini(machine: &Machine) -> Option<String> {
         "# Paste into the [HAL] section of the machine's INI (or set the signals these pins are netted to)."
     );
     let _ = writeln!(s, "[HAL]");
-    for (k, pin) in pins.iter().enumerate() {
-        let _ = writeln!(s, "HALCMD = setp {module}.{pin} {}", number(corrected[k]));
+    for (k, pin) in p.pins.iter().enumerate() {
+        let _ = writeln!(s, "HALCMD = setp {module}.{pin} {}", number(p.corrected[k]));
     }
     Some(s)
 }
@@ -501,6 +574,13 @@ pub fn export(
                 )
             }
         );
+        if let Some((lo, hi)) = f.uncertainty_um {
+            let _ = writeln!(
+                readme,
+                "# standard uncertainty of {}: {lo:.4} to {hi:.4} µm (per nominal after the triplets)",
+                f.parameter
+            );
+        }
     }
     for (axis, why) in &skipped {
         let _ = writeln!(readme, "\n{}: no COMP_FILE ({why}).", axis.letter());
@@ -531,6 +611,7 @@ machine file whose tables and location errors are what is left after them."
     );
     Ok(LinuxCncExport {
         comp_files,
+        comp_type: settings.comp_type,
         skipped,
         kinematics_ini,
         kinematics_note,

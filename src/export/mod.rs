@@ -9,6 +9,7 @@
 //! Invariants: pure text building from a loaded machine and its model; no I/O,
 //! nothing printed.
 pub(crate) mod linuxcnc;
+pub(crate) mod residual;
 pub(crate) mod tables;
 
 use crate::axes::Axis;
@@ -90,6 +91,31 @@ impl<'a> Positioning<'a> {
     /// REVERSAL(p) (0 without one), as the error model applies it.
     pub fn reversal(&self, p: f64) -> f64 {
         self.model.reversal_at(self.axis, p).unwrap_or(0.0)
+    }
+
+    /// The standard uncertainty of E at `p` (the fitted curve's), when the
+    /// model carries one.
+    pub fn uncertainty(&self, p: f64) -> Option<f64> {
+        self.curve.uncertainty_at(p)
+    }
+
+    /// The smallest and largest [`Self::uncertainty`] at `positions`.
+    pub fn uncertainty_range(&self, positions: &[f64]) -> Option<(f64, f64)> {
+        let u: Vec<f64> = positions
+            .iter()
+            .filter_map(|&p| self.uncertainty(p))
+            .collect();
+        (!u.is_empty()).then(|| {
+            u.iter()
+                .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)))
+        })
+    }
+
+    /// Whether the table gives the uncertainty of its positioning column (`u_`).
+    pub fn table_has_uncertainty(&self) -> bool {
+        self.table
+            .column(&self.parameter)
+            .is_some_and(|c| c.uncertainty.is_some())
     }
 
     /// The error approaching `p` moving in the positive direction: E + REVERSAL/2.

@@ -85,6 +85,12 @@ pub fn fitted_tables(
             .filter_map(|n| model.curve(&n).map(|c| (n, c)))
             .collect();
         let mut columns: Vec<String> = curves.iter().map(|(n, _)| n.clone()).collect();
+        // The fitted curves' standard uncertainty (formats.md's `u_` columns).
+        let uncertain: Vec<&(String, &crate::nurbs::SmemCurve)> = curves
+            .iter()
+            .filter(|(_, c)| !c.uncertainty().is_empty())
+            .collect();
+        columns.extend(uncertain.iter().map(|(n, _)| format!("u_{n}")));
         if table.reversal.is_some() {
             columns.push("REVERSAL".into());
         }
@@ -98,7 +104,7 @@ pub fn fitted_tables(
         );
         let _ = writeln!(
             text,
-            "# on a grid of {} {} from {} to {}; lengths µm, angles µrad; error = actual - nominal{}",
+            "# on a grid of {} {} from {} to {}; lengths µm, angles µrad; error = actual - nominal; u_: the fitted curve's standard uncertainty{}",
             position(step),
             if axis.is_rotary() { "deg" } else { "mm" },
             position(lo),
@@ -117,6 +123,9 @@ pub fn fitted_tables(
             text.push_str(&position(p));
             for (_, c) in &curves {
                 let _ = write!(text, ",{:.4}", c.value_at(p) + 0.0);
+            }
+            for (_, c) in &uncertain {
+                let _ = write!(text, ",{:.4}", c.uncertainty_at(p).unwrap_or(0.0) + 0.0);
             }
             if let Some(r) = &table.reversal {
                 let _ = write!(text, ",{:.4}", interpolate(&table.positions, r, p) + 0.0);

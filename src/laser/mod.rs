@@ -297,7 +297,7 @@ fn group_targets(files: &[FileReadings], parameter: &str) -> Result<Grouped, Las
             )));
         }
     }
-    if targets.len() < crate::machine::table::MIN_ROWS {
+    if targets.len() < crate::machine::table::MIN_ROWS_WITH_UNCERTAINTY {
         let fi = files
             .iter()
             .position(|f| f.parameter == parameter)
@@ -306,7 +306,7 @@ fn group_targets(files: &[FileReadings], parameter: &str) -> Result<Grouped, Las
             "{}: {parameter} has {} targets, but an error table needs at least {} to be fitted",
             files[fi].path.display(),
             targets.len(),
-            crate::machine::table::MIN_ROWS
+            crate::machine::table::MIN_ROWS_WITH_UNCERTAINTY
         )));
     }
     let runs_up = runs.iter().filter(|r| r.2).count();

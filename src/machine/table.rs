@@ -4,7 +4,8 @@
 //! A `REVERSAL` column (formats.md "Laser positioning runs and reversal", written by
 //! `volcomp import-laser`) is kept in [`ErrorTable::reversal`].
 //!
-//! Invariants of a read [`ErrorTable`]: at least [`MIN_ROWS`] rows, positions
+//! Invariants of a read [`ErrorTable`]: at least [`MIN_ROWS`] rows
+//! ([`MIN_ROWS_WITH_UNCERTAINTY`] when every column has its `u_`), positions
 //! finite and strictly increasing, every value finite; each column is one of the six
 //! parameters `E{X,Y,Z,A,B,C}{axis}` of the table's axis, at most once; the
 //! parameters not in the file are listed in `missing` (not measured: zero).
@@ -18,6 +19,12 @@ use crate::axes::Axis;
 
 /// Fewest rows a column needs to be fitted (the seed paper's minimum).
 pub const MIN_ROWS: usize = 8;
+
+/// Fewest rows of a table whose every column carries its uncertainty (`u_`,
+/// a laser run through `import-laser`): ISO 230-2's five targets a metre; a
+/// sparse table of means is joined by straight lines where that predicts the
+/// means better than a spline (docs/fidelity.md "Sparse laser tables").
+pub const MIN_ROWS_WITH_UNCERTAINTY: usize = 5;
 
 /// The error directions of a table's columns, in the conventional order.
 pub const DIRECTIONS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
@@ -95,6 +102,13 @@ pub enum TableError {
         message: String,
     },
 }
+
+/// What lets a short table be fitted.
+static UNCERTAINTY_HINT: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    format!(
+        " ({MIN_ROWS_WITH_UNCERTAINTY} suffice when every column has its u_ column, as import-laser writes)"
+    )
+});
 
 /// The parameter name of direction `d` on `axis`, e.g. `EXZ`.
 pub fn parameter_name(direction: char, axis: Axis) -> String {
@@ -217,13 +231,26 @@ impl ErrorTable {
                 }
             }
         }
-        if positions.len() < MIN_ROWS {
+        let measured = !uncertainty.is_empty() && uncertainty.iter().all(Option::is_some);
+        let need = if measured {
+            MIN_ROWS_WITH_UNCERTAINTY
+        } else {
+            MIN_ROWS
+        };
+        if positions.len() < need {
             return Err(at.invalid(
                 last_line,
                 None,
                 format!(
-                    "{} rows, but at least {MIN_ROWS} are needed to fit a column",
-                    positions.len()
+                    "{} rows, but at least {need} are needed to fit a column{}",
+                    positions.len(),
+                    if measured {
+                        " (with its uncertainty)"
+                    } else if positions.len() >= MIN_ROWS_WITH_UNCERTAINTY {
+                        &*UNCERTAINTY_HINT
+                    } else {
+                        ""
+                    }
                 ),
             ));
         }

@@ -19,6 +19,12 @@ pub struct MachineEdits {
     pub location: Vec<ValueEdit>,
     /// `[errors]` keys (axis letters, lower case) and the path to write.
     pub tables: Vec<(String, String)>,
+    /// `[geometry]` keys (mm) and their new values, written to 1e-9 mm
+    /// (`export linuxcnc --residual-machine`: the pivots LinuxCNC's module uses).
+    pub geometry: Vec<ValueEdit>,
+    /// Keys removed: (section, key), e.g. `("reversal", "X")` (matched
+    /// without regard to case).
+    pub removed: Vec<(String, String)>,
 }
 
 /// One value of a table of the machine file.
@@ -49,6 +55,12 @@ pub fn rounded(v: f64) -> f64 {
     if r == 0.0 { 0.0 } else { r }
 }
 
+/// A length as written in `[geometry]`: rounded to 1e-9 mm, no `-0`.
+pub fn rounded_mm(v: f64) -> f64 {
+    let r = (v * 1e9).round() / 1e9;
+    if r == 0.0 { 0.0 } else { r }
+}
+
 /// `text` (the machine file read from `path`) with `edits` applied.
 pub fn edit_machine_text(
     text: &str,
@@ -62,9 +74,10 @@ pub fn edit_machine_text(
     let mut doc: toml_edit::DocumentMut = text
         .parse()
         .map_err(|e: toml_edit::TomlError| fail(e.to_string()))?;
-    for (section, values) in [
-        ("squareness", &edits.squareness),
-        ("location", &edits.location),
+    for (section, values, round) in [
+        ("squareness", &edits.squareness, rounded as fn(f64) -> f64),
+        ("location", &edits.location, rounded),
+        ("geometry", &edits.geometry, rounded_mm),
     ] {
         if values.is_empty() {
             continue;
@@ -76,7 +89,7 @@ pub fn edit_machine_text(
             .as_table_like_mut()
             .ok_or_else(|| fail(format!("`{section}` is not a table")))?;
         for edit in values {
-            let mut value = toml_edit::Value::from(rounded(edit.value));
+            let mut value = toml_edit::Value::from(round(edit.value));
             let suffix = if edit.note.is_empty() {
                 String::new()
             } else {
@@ -103,6 +116,17 @@ pub fn edit_machine_text(
                     value.decor_mut().set_suffix(suffix);
                     table.insert(&edit.key, toml_edit::Item::Value(value));
                 }
+            }
+        }
+    }
+    for (section, key) in &edits.removed {
+        if let Some(table) = doc.get_mut(section).and_then(|i| i.as_table_like_mut()) {
+            let found = table
+                .iter()
+                .map(|(k, _)| k.to_string())
+                .find(|k| k.eq_ignore_ascii_case(key));
+            if let Some(k) = found {
+                table.remove(&k);
             }
         }
     }
@@ -273,11 +297,21 @@ mod tests {
                 note: "was 12.7".into(),
             }],
             tables: vec![("x".into(), "../t/x.csv".into())],
+            geometry: vec![ValueEdit {
+                key: "y_offset".into(),
+                value: 0.0048000000004,
+                note: "moved".into(),
+            }],
+            removed: vec![("location".into(), "ez0a".into())],
         };
         let out = edit_machine_text(MACHINE, Path::new("m.toml"), &edits).unwrap();
         assert!(out.starts_with("# written by a test\n#\n\nname = \"m\" # the name\n"));
         assert!(out.contains("EY0A = 32.6  # was 12.7\n"), "{out}");
-        assert!(out.contains("EZ0A = -3.0\n"), "{out}");
+        assert!(!out.contains("EZ0A"), "{out}");
+        assert!(
+            out.contains("[geometry]\ny_offset = 0.0048  # moved\n"),
+            "{out}"
+        );
         assert!(out.contains("x = \"../t/x.csv\"\n"), "{out}");
         assert!(
             out.contains("[squareness]\ns_xy = 40.12  # diagnosed\n"),

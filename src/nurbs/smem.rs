@@ -803,6 +803,134 @@ fn fit_cross_validated(
     options: &FitOptions,
     started: Instant,
 ) -> Result<SmemCurve, FitError> {
+    if let Some(u) = uncertainty
+        && !options.periodic
+        && options.control_points.is_none()
+        && let Some(loo) = linear_predicts_better(positions, values, u, tolerance, options)?
+    {
+        return linear_interpolant(positions, values, u, tolerance, options, started, loo);
+    }
+    smoothing_curve(positions, values, uncertainty, tolerance, options, started)
+}
+
+/// Fewest targets a spline is fitted to a table of means from: the seed
+/// paper's minimum of 8 rows (formats.md "Error table"); a shorter table (5 to
+/// 7 targets, accepted when it carries its uncertainty) is joined by lines.
+const MIN_CROSS_VALIDATED: usize = 8;
+
+/// A table of means with their uncertainty (a laser run, issue 37): is linear
+/// interpolation of the means the better predictor than the weighted spline?
+/// Each interior target is left out in turn and predicted from the others by
+/// both (the spline refitted without it, the straight line between its
+/// neighbours). The spline, the more flexible of the two, is kept only when it
+/// predicts significantly better: its mean squared prediction error plus one
+/// standard error of the mean difference is still below the line's (the
+/// one-standard-error rule, Breiman et al. 1984). `Some(the line's sum of
+/// squared prediction errors)` when the line is kept, and always when the
+/// table is shorter than the seed paper's 8 rows ([`MIN_CROSS_VALIDATED`]). Between targets farther apart than the
+/// machine's features no curve knows more than the means, and a cubic through
+/// them overshoots (docs/fidelity.md "Sparse laser tables").
+fn linear_predicts_better(
+    positions: &[f64],
+    values: &[f64],
+    u: &[f64],
+    tolerance: f64,
+    options: &FitOptions,
+) -> Result<Option<f64>, FitError> {
+    let n = positions.len();
+    let line_error = |i: usize| {
+        let w = (positions[i] - positions[i - 1]) / (positions[i + 1] - positions[i - 1]);
+        values[i - 1] + w * (values[i + 1] - values[i - 1]) - values[i]
+    };
+    let line: f64 = (1..n.saturating_sub(1))
+        .map(|i| line_error(i).powi(2))
+        .sum();
+    if n < MIN_CROSS_VALIDATED {
+        return Ok(Some(line));
+    }
+    let mut differences = Vec::with_capacity(n - 2);
+    for i in 1..n - 1 {
+        let keep = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .enumerate()
+                .filter(|(k, _)| *k != i)
+                .map(|(_, x)| *x)
+                .collect()
+        };
+        let (p, v, s) = (keep(positions), keep(values), keep(u));
+        // A spline that cannot be fitted without one of its targets cannot be
+        // cross-validated: the line is kept.
+        let Ok(fit) = smoothing_curve(&p, &v, Some(&s), tolerance, options, Instant::now()) else {
+            return Ok(Some(line));
+        };
+        let spline = (fit.value_at(positions[i]) - values[i]).powi(2);
+        differences.push(spline - line_error(i).powi(2));
+    }
+    let m = differences.len() as f64;
+    let mean = differences.iter().sum::<f64>() / m;
+    let variance = differences.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (m - 1.0);
+    let standard_error = (variance / m).sqrt();
+    Ok((mean + standard_error >= 0.0).then_some(line))
+}
+
+/// The means joined by straight lines, as a degree-1 NURBS through them
+/// (what [`linear_predicts_better`] chose); its uncertainty at each target is
+/// the mean's own.
+fn linear_interpolant(
+    positions: &[f64],
+    values: &[f64],
+    u: &[f64],
+    tolerance: f64,
+    options: &FitOptions,
+    started: Instant,
+    loo: f64,
+) -> Result<SmemCurve, FitError> {
+    let n = positions.len();
+    let (lo, hi) = (positions[0], positions[n - 1]);
+    let mut knots = vec![0.0];
+    knots.extend(positions.iter().map(|x| (x - lo) / (hi - lo)));
+    knots.push(1.0);
+    let points: Vec<[f64; 2]> = positions
+        .iter()
+        .zip(values)
+        .map(|(&x, &y)| [x, y])
+        .collect();
+    let curve = NurbsCurve::new(1, knots, vec![1.0; n], points)
+        .map_err(|e| FitError::Options(e.to_string()))?;
+    let interior = n.saturating_sub(2).max(1) as f64;
+    let stats = FitStats {
+        samples: n,
+        control_points: n,
+        method: options.method,
+        emax: 0.0,
+        erms: 0.0,
+        tolerance,
+        met: true,
+        grid_segments: None,
+        evaluations: 0,
+        seconds: started.elapsed().as_secs_f64(),
+        select: Selection::Cv,
+        noise: (u.iter().map(|s| s * s).sum::<f64>() / n as f64).sqrt(),
+        dof: n as f64,
+        cv_error: (loo / interior).sqrt(),
+        periodic: false,
+    };
+    let mut curve = SmemCurve::from_curve(curve, stats).map_err(|_| FitError::NoFeasibleFit)?;
+    curve
+        .set_uncertainty(positions.iter().zip(u).map(|(&x, &s)| [x, s]).collect())
+        .map_err(FitError::Options)?;
+    Ok(curve)
+}
+
+/// The noise-aware smoothing spline (weighted by `uncertainty` when given).
+fn smoothing_curve(
+    positions: &[f64],
+    values: &[f64],
+    uncertainty: Option<&[f64]>,
+    tolerance: f64,
+    options: &FitOptions,
+    started: Instant,
+) -> Result<SmemCurve, FitError> {
     let fit = smoothing::fit_smoothing(
         positions,
         values,

@@ -1331,14 +1331,14 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "laser runs (CSV)",
-            "fewer than 8 targets",
+            "fewer than 5 targets",
             vec![(
                 "bad.csv",
                 text("target,run,direction,deviation\n0,1,+,1\n0,1,-,1\n"),
             )],
             LASER,
             1,
-            &["{d}/bad.csv: EXX has 1 targets, but an error table needs at least 8"],
+            &["{d}/bad.csv: EXX has 1 targets, but an error table needs at least 5"],
         ),
         case(
             "laser runs (CSV)",

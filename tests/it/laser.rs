@@ -516,15 +516,16 @@ fn sparse_cell(targets: usize, scatter: f64, seeds: u64) -> SparseCell {
 
 /// The sparse-table study of docs/fidelity.md (target counts 6/11/21/41 ×
 /// scatter 0.1/0.35/1 µm, RMS from the truth over 8 generated machines): the
-/// fit weighted by the means' uncertainty passes every mean within 3.5 of its
+/// fit of the means with their uncertainty passes every mean within 3.5 of its
 /// standard uncertainties; it is nearer the truth than today's unweighted fit
 /// at 11 targets (the issue's table) and no farther than linear interpolation
-/// of the means at 41. At 6, 11 and 21 targets linear interpolation is nearer
-/// (the table in docs/fidelity.md; open in the issue's closing note).
+/// of the means in every cell (issue 37: lines where they predict the
+/// left-out means better, and under 8 targets).
 #[test]
 fn a_fit_weighted_by_the_uncertainty_passes_the_means_and_beats_linear_interpolation_on_dense_tables()
  {
     let mut rows = Vec::new();
+    let mut farther = Vec::new();
     for targets in [6, 11, 21, 41] {
         for scatter in [0.1, 0.35, 1.0] {
             let c = sparse_cell(targets, scatter, 8);
@@ -539,11 +540,52 @@ fn a_fit_weighted_by_the_uncertainty_passes_the_means_and_beats_linear_interpola
                     "not nearer than unweighted: {row}"
                 );
             }
-            if targets == 41 {
-                assert!(c.weighted <= c.linear, "farther than linear: {row}");
+            if c.weighted > c.linear * (1.0 + 1e-9) {
+                farther.push(row.clone());
             }
             rows.push(row);
         }
     }
     println!("{}", rows.join("\n"));
+    assert!(
+        farther.is_empty(),
+        "farther than linear interpolation:\n{}",
+        farther.join("\n")
+    );
+}
+
+/// Issue 37: a 6-target run (5 to 7 targets: below the seed paper's 8 rows) is
+/// imported and fitted: its means, which carry their uncertainty, are joined by
+/// straight lines (a curve through every mean, one control point each).
+#[test]
+fn a_six_target_run_is_imported_and_fitted_as_lines_through_its_means() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut runs = String::from("target,run,direction,deviation\n");
+    for (k, t) in [0.0, 40.0, 80.0, 120.0, 160.0, 200.0].iter().enumerate() {
+        for run in 1..=2 {
+            let v = 3.0 * (t / 50.0f64).sin() + 0.1 * run as f64 + 0.01 * k as f64;
+            runs.push_str(&format!("{t},{run},+,{v}\n{t},{run},-,{}\n", v - 2.0));
+        }
+    }
+    std::fs::write(dir.path().join("six.csv"), runs).unwrap();
+    let out = volcomp()
+        .current_dir(dir.path())
+        .args(["import-laser", "six.csv", "--axis", "X", "-o", "x.csv"])
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let out = volcomp()
+        .current_dir(dir.path())
+        .args(["fit", "x.csv", "--report", "fit.json"])
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("fit.json")).unwrap())
+            .unwrap();
+    let exx = &report["parameters"][0];
+    assert_eq!(exx["parameter"], "EXX");
+    assert_eq!(exx["samples"], 6);
+    assert_eq!(exx["control_points"], 6);
+    assert!(exx["emax"].as_f64().unwrap() < 1e-9, "{exx}");
 }

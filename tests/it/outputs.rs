@@ -834,6 +834,20 @@ const WRITING_OPTIONS: &[Writer] = &[
         names: ["existing/README.txt", "--force"],
     },
     Writer {
+        command: "export linuxcnc",
+        option: "residual_machine",
+        args: &[
+            "export",
+            "linuxcnc",
+            "m.toml",
+            "-o",
+            "new",
+            "--residual-machine",
+            "m.toml",
+        ],
+        names: ["(-o) m.toml", "the machine file m.toml"],
+    },
+    Writer {
         command: "export tables",
         option: "output",
         args: &["export", "tables", "m.toml", "-o", "ref-trt"],
