@@ -977,6 +977,7 @@ pub fn compensate(
         ..options.clone()
     };
     let models_ref = &mut models;
+    let orientation = program.setup().orientation.clone();
     std::thread::scope(|scope| {
         // Three stages, each a chunk or two ahead of the next (bounded channels:
         // memory stays bounded): reading and interpreting; solving and planning
@@ -985,7 +986,7 @@ pub fn compensate(
         scope.spawn(move || read_chunks(program, interpret, size, sender));
         let solver =
             scope.spawn(move || solve_chunks(chunks, path, models_ref, options, solved_sender));
-        let written = write_chunks(solved, path, output, options, &mut progress);
+        let written = write_chunks(solved, path, output, options, orientation, &mut progress);
         let axes = match solver.join() {
             Ok(axes) => axes,
             Err(panic) => std::panic::resume_unwind(panic),
@@ -1320,13 +1321,15 @@ fn write_chunks(
     path: &Path,
     output: &mut dyn Write,
     options: &CompensateOptions,
+    orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<CompensateReport, CompensateError> {
     let rewrite = RewriteOptions {
         axes: options.interpret.axes,
         ..options.rewrite
     };
-    let mut rewriter = Rewriter::new(rewrite, options.interpret.initial_position);
+    let mut rewriter =
+        Rewriter::new(rewrite, options.interpret.initial_position).with_orientation(orientation);
     let mut report = CompensateReport {
         tolerance_um: options.tolerance_um,
         ..CompensateReport::default()

@@ -144,7 +144,15 @@ impl ProgramSummary {
         }
         self.time_min = event.time_min;
         if !event.skipped {
-            for w in &block.words {
+            // A word a dialect front solved (zero width: no text, e.g. the
+            // rotary joints of a SINUMERIK orientation vector) or an
+            // orientation component (a digit letter) is not a word written
+            // as such: not counted.
+            for w in block
+                .words
+                .iter()
+                .filter(|w| w.start < w.end && !w.letter.is_ascii_digit())
+            {
                 self.count_word(w.letter, w.code10());
             }
             for s in &block.statements {

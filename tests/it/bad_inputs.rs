@@ -351,6 +351,14 @@ fn cases() -> Vec<Case> {
             ],
         ),
         case(
+            "SINUMERIK program",
+            "an orientation vector without `TRAORI` (`A3= B3= C3=`)",
+            vec![("bad.mpf", text("G1 X0 Y0 Z10 A3=0 B3=0.5 C3=1 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["needs TRAORI", "{d}/bad.mpf:1:14"],
+        ),
+        case(
             "program",
             "an endless `while [1]` (--max-loop-lines 100000)",
             p(

@@ -389,6 +389,9 @@ pub(crate) struct SinumerikFront {
     orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
     /// The program switched `TRAORI` on itself.
     traori: bool,
+    /// How orientations are given and interpolated (`ORIEULER`/`ORIRPY`,
+    /// `ORIWKS`/`ORIMKS`, `ORIVECT`/`ORIAXES`).
+    ori: OriModes,
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
@@ -468,6 +471,7 @@ impl SinumerikFront {
             },
             orientation: setup.orientation.clone(),
             traori: false,
+            ori: OriModes::default(),
             incremental: false,
             skip_deleted: false,
             motion_set: false,
@@ -860,6 +864,20 @@ impl SinumerikFront {
         pieces.sort_by_key(|p| p.0);
         let b = &mut self.block;
         for (start, end, piece) in pieces {
+            if let Piece::Word(k) = piece
+                && start == end
+            {
+                // A word the front solved (the rotary joints of an
+                // orientation vector): it has no text.
+                let at = b.raw.len();
+                b.words.push(Word {
+                    start: at,
+                    end: at,
+                    expr: None,
+                    ..out.words[k]
+                });
+                continue;
+            }
             if !b.raw.is_empty() {
                 b.raw.push(b' ');
             }
@@ -1574,8 +1592,8 @@ impl SinumerikFront {
 
         let mut axis_words = false;
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
-        let mut vector: [Option<f64>; 3] = [None; 3];
-        let mut vector_at = (usize::MAX, 0);
+        let mut orientation = Orientation::default();
+        let mut tool_edge: Option<(f64, usize)> = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -1640,8 +1658,12 @@ impl SinumerikFront {
                     }
                     Some(Address::RotPlane) => rpl = Some(v),
                     Some(Address::Vector(k)) => {
-                        vector[k] = Some(v);
-                        vector_at = (vector_at.0.min(ts), vector_at.1.max(vend));
+                        orientation.vector[k] = Some((v, ts, vend));
+                        out.computed = true;
+                    }
+                    Some(Address::Angle(k)) => {
+                        orientation.angles[k] = Some((v, ts, vend));
+                        out.computed = true;
                     }
                     Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
                     None => {
@@ -1784,7 +1806,11 @@ impl SinumerikFront {
                         axis_words |= is_axis(letter);
                         out.words.push(word(letter, v, ts, end, dec, point, false));
                     }
-                    b'D' | b'H' | b'E' => out.statements.push(ts..end),
+                    b'D' => {
+                        tool_edge = Some((v, end));
+                        out.statements.push(ts..end);
+                    }
+                    b'H' | b'E' => out.statements.push(ts..end),
                     b'L' => {
                         let n = &raw[ts + 1..end];
                         call = Some((
@@ -1896,18 +1922,26 @@ impl SinumerikFront {
                     let end = cur.peek().map_or(te, |t| t.end);
                     return Err(self.feature(line, &name, ts, te.max(end.min(te))));
                 }
+                "ORIWKS" | "ORIMKS" | "ORIAXES" | "ORIVECT" | "ORIPLANE" | "ORIEULER"
+                | "ORIRPY" => {
+                    self.ori.set(&name);
+                    out.statements.push(ts..te);
+                }
+                "ORIVIRT1" | "ORIVIRT2" | "ORIAXPOS" | "ORIRPY2" | "ORIPATH" | "ORIPATHS"
+                | "ORICONIO" | "ORICONTO" => {
+                    return Err(self.feature(line, &name, ts, te));
+                }
                 "MSG" | "STOPRE" | "SOFT" | "BRISK" | "DRIVE" | "FFWON" | "FFWOF" | "COMPCAD"
                 | "COMPOF" | "COMPCURV" | "COMPSURF" | "CYCLE832" | "WAITM" | "WAITS" | "WAITE"
                 | "SETMS" | "SPOS" | "SPOSA" | "FNORM" | "UPATH" | "SPATH" | "CFC" | "CFTCP"
-                | "CFIN" | "ORIWKS" | "ORIMKS" | "ORIAXES" | "ORIVECT" | "ORIEULER" | "ORIRPY"
-                | "ORIPATH" | "ORIROTA" | "ORIROTR" | "ORIROTT" | "ORIPLANE" | "CUT2D"
-                | "CUT2DF" | "CUT3DC" | "CUT3DF" | "CUTCONON" | "CUTCONOF" | "NORM" | "KONT"
-                | "KONTC" | "KONTT" | "DIAMON" | "DIAMOF" | "FGROUP" | "FGREF" | "SETAL"
-                | "MCALL" | "DISPLON" | "DISPLOF" | "SAVE" | "SBLOF" | "SBLON" | "ACC" | "OVR"
-                | "TRAFOON" | "G4" | "STOPFIFO" | "STARTFIFO" | "FIFOCTRL" | "WRTPR" | "CPROT"
-                | "WALIMON" | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS"
-                | "TCOFR" | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL"
-                | "G64" | "G642" | "G645" => {
+                | "CFIN" | "ORIROTA" | "ORIROTR" | "ORIROTT" | "CUT2D" | "CUT2DF" | "CUT3DC"
+                | "CUT3DF" | "CUTCONON" | "CUTCONOF" | "NORM" | "KONT" | "KONTC" | "KONTT"
+                | "DIAMON" | "DIAMOF" | "FGROUP" | "FGREF" | "SETAL" | "MCALL" | "DISPLON"
+                | "DISPLOF" | "SAVE" | "SBLOF" | "SBLON" | "ACC" | "OVR" | "TRAFOON" | "G4"
+                | "STOPFIFO" | "STARTFIFO" | "FIFOCTRL" | "WRTPR" | "CPROT" | "WALIMON"
+                | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS" | "TCOFR"
+                | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL" | "G64"
+                | "G642" | "G645" => {
                     let (_, end) = args_span(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     if matches!(
@@ -1947,25 +1981,6 @@ impl SinumerikFront {
                     call = Some((name.to_string(), values, (ts, end)));
                 }
             }
-        }
-        if vector.iter().any(Option::is_some) {
-            // *Job planning*, "Orientation programming: direction vector":
-            // the unit vector's components; unwritten ones are 0.
-            let v = vector.map(|c| c.unwrap_or(0.0));
-            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
-                return Err(self.refused(
-                    line,
-                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
-                    vector_at.0,
-                    vector_at.1,
-                ));
-            }
-            return Err(self.feature(
-                line,
-                "orientation vectors A3= B3= C3=",
-                vector_at.0,
-                vector_at.1,
-            ));
         }
         if let Some((name, args, at)) = call {
             if out.words.iter().any(|w| is_axis(w.letter)) {
@@ -2012,15 +2027,16 @@ impl SinumerikFront {
         }
         if self.flush_frame_later {
             self.flush_frame_later = false;
-            let p = self.frames.programmable;
-            let combined = match &self.frames.swivel {
-                Some(s) => s.after(&p),
-                None => p,
-            };
+            let combined = self.combined_frame();
             interpreter.set_frame((combined != FrameTransform::IDENTITY).then_some(combined));
         }
         if flags.settable_off {
             interpreter.set_work_origin(crate::axes::Axes::default());
+        }
+        self.tool_length(&mut out, tool_edge);
+        if orientation.given() {
+            self.orientation_words(line, &orientation, &mut out, interpreter)?;
+            axis_words = true;
         }
         if axis_words {
             self.check_arc_frame(line, &out, interpreter)?;
@@ -2040,6 +2056,162 @@ impl SinumerikFront {
         }
         out.words.sort_by_key(|w| w.start);
         self.hand_on(line, out, raw, false)
+    }
+
+    /// `A3= B3= C3=` (the tool direction as a vector) or `A2= B2= C2=`
+    /// (Euler angles under `ORIEULER`, the control's default, or RPY angles
+    /// under `ORIRPY`) under `TRAORI` (*Job planning*, "Three, four and five
+    /// axis transformation (TRAORI)": orientation programming in the
+    /// workpiece coordinate system). The direction is in the workpiece frame
+    /// as the active frames leave it (it turns with `ROT`/`AROT` and a
+    /// `CYCLE800` plane); unwritten vector components are 0 and the
+    /// vector's length does not matter. The rotary joints come from the
+    /// machine's chain ([`crate::gcode::OrientationSolver`]), on the branch
+    /// nearest the previous joints (dialects.md "Tool-tip programs": the
+    /// control's branch rule); they ride in the block as zero-width axis
+    /// words, the orientation words under
+    /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`] (vector) and
+    /// [`ORIENTATION_ANGLE_LETTERS`] (angles) for the rewriter.
+    fn orientation_words(
+        &mut self,
+        line: &LineRun,
+        o: &Orientation,
+        out: &mut Out,
+        interpreter: &mut Interpreter,
+    ) -> Result<(), GcodeError> {
+        let (start, end) = o.span();
+        let by_vector = o.vector.iter().any(Option::is_some);
+        if by_vector && o.angles.iter().any(Option::is_some) {
+            return Err(self.refused(
+                line,
+                "the orientation is given twice: a vector A3 B3 C3 and angles A2 B2 C2".into(),
+                start,
+                end,
+            ));
+        }
+        if !self.traori {
+            return Err(self.refused(
+                line,
+                "an orientation by vector (A3 B3 C3) or angles (A2 B2 C2) needs TRAORI: without the transformation the control has no tool direction to turn".into(),
+                start,
+                end,
+            ));
+        }
+        let rotary: Vec<crate::axes::Axis> = interpreter
+            .options()
+            .axes
+            .iter()
+            .filter(|a| a.is_rotary())
+            .collect();
+        if let Some(w) = out.words.iter().find(|w| {
+            crate::axes::Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
+        }) {
+            return Err(self.refused(
+                line,
+                "the orientation is given twice: rotary axis words and A3 B3 C3 / A2 B2 C2".into(),
+                w.start,
+                w.end,
+            ));
+        }
+        let v = if by_vector {
+            let v = o.vector.map(|c| c.map_or(0.0, |c| c.0));
+            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
+                return Err(self.refused(
+                    line,
+                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
+                    start,
+                    end,
+                ));
+            }
+            v
+        } else {
+            let [a, b, c] = o.angles.map(|c| c.map_or(0.0, |c| c.0));
+            angles_direction(self.ori.rpy, a, b, c)
+        };
+        let Some(solver) = self.orientation.clone() else {
+            return Err(self.feature(
+                line,
+                "an orientation by vector or angles without the machine (give --machine: the rotary joints come from its chain)",
+                start,
+                end,
+            ));
+        };
+        let frame = self.combined_frame();
+        let mut axis = frame.apply_vector(v);
+        let norm = axis.iter().map(|c| c * c).sum::<f64>().sqrt();
+        axis = axis.map(|c| c / norm);
+        let previous = interpreter.position();
+        let Some(joints) = solver.joints_for_axis(axis, crate::gcode::Branch::Nearest, &previous)
+        else {
+            return Err(self.refused(
+                line,
+                format!(
+                    "the machine cannot point the tool along [{:.4}, {:.4}, {:.4}] within its rotary travel",
+                    axis[0], axis[1], axis[2]
+                ),
+                start,
+                end,
+            ));
+        };
+        let program = interpreter.origin().to_program(&joints);
+        for a in rotary {
+            out.absolute.push(out.words.len());
+            out.words.push(word(
+                a.letter() as u8,
+                program.get(a),
+                end,
+                end,
+                4,
+                true,
+                true,
+            ));
+        }
+        let letters = if by_vector {
+            crate::gcode::ORIENTATION_VECTOR_LETTERS
+        } else if self.ori.rpy {
+            ORIENTATION_RPY_LETTERS
+        } else {
+            ORIENTATION_ANGLE_LETTERS
+        };
+        let given = if by_vector { &o.vector } else { &o.angles };
+        for (k, c) in given.iter().enumerate() {
+            if let Some((value, s, e)) = *c {
+                out.words.push(word(letters[k], value, s, e, 4, true, true));
+            }
+        }
+        Ok(())
+    }
+
+    /// The tool length compensation: on the 840D sl a tool change (`M6`)
+    /// activates the new tool's first cutting edge (`D1`, the reset setting
+    /// of `$MC_CUTTING_EDGE_DEFAULT`), and `D1`…`D9` select an edge of the
+    /// active tool, each with its length; `D0` switches the compensation off
+    /// (*Fundamentals*, "Tool offsets"). For the machine-state layer that is
+    /// LinuxCNC's `G43` (the loaded tool's length) or `G49`, handed on as a
+    /// zero-width word (the block's text does not change), so that its
+    /// tool-length check sees what the control does.
+    fn tool_length(&self, out: &mut Out, edge: Option<(f64, usize)>) {
+        let m6 = out
+            .words
+            .iter()
+            .find(|w| w.letter == b'M' && w.value == 6.0)
+            .map(|w| w.end);
+        let (code, at) = match (edge, m6) {
+            (Some((d, at)), _) => (if d == 0.0 { 49.0 } else { 43.0 }, at),
+            (None, Some(at)) => (43.0, at),
+            (None, None) => return,
+        };
+        out.words.push(word(b'G', code, at, at, 0, false, false));
+    }
+
+    /// The settable-plane and programmable frames as one (`CYCLE800`'s
+    /// plane after the programmable frame).
+    fn combined_frame(&self) -> FrameTransform {
+        let p = self.frames.programmable;
+        match &self.frames.swivel {
+            Some(s) => s.after(&p),
+            None => p,
+        }
     }
 
     /// An arc under a frame that does not keep its plane (a rotation out
@@ -2459,6 +2631,99 @@ impl SinumerikFront {
     }
 }
 
+/// Letters of the Euler angle words `A2= B2= C2=` under `ORIEULER` in a
+/// handed-on block (not axis letters; the rewriter reads them).
+pub(crate) const ORIENTATION_ANGLE_LETTERS: [u8; 3] = [b'4', b'5', b'6'];
+/// Letters of the RPY angle words `A2= B2= C2=` under `ORIRPY`.
+pub(crate) const ORIENTATION_RPY_LETTERS: [u8; 3] = [b'7', b'8', b'9'];
+
+/// The orientation words of a block: each component's value and span.
+#[derive(Default)]
+struct Orientation {
+    vector: [Option<(f64, usize, usize)>; 3],
+    angles: [Option<(f64, usize, usize)>; 3],
+}
+
+impl Orientation {
+    fn given(&self) -> bool {
+        self.vector.iter().chain(&self.angles).any(Option::is_some)
+    }
+
+    /// From the first orientation word's start to the last one's end.
+    fn span(&self) -> (usize, usize) {
+        self.vector
+            .iter()
+            .chain(&self.angles)
+            .flatten()
+            .fold((usize::MAX, 0), |(s, e), c| (s.min(c.1), e.max(c.2)))
+    }
+}
+
+/// The orientation modes of the control (*Job planning*, "Orientation
+/// programming"; the G groups 50 and 51 and `ORIWKS`/`ORIMKS`).
+#[derive(Clone, Copy, Debug, Default)]
+struct OriModes {
+    /// `ORIRPY` (else `ORIEULER`, the reset setting): how `A2 B2 C2` read.
+    rpy: bool,
+    /// `ORIMKS` (else `ORIWKS`, the basic setting): the orientation turns
+    /// in the machine's coordinate system, the rotary axes interpolated
+    /// linearly.
+    machine: bool,
+    /// `ORIAXES` (else `ORIVECT`/`ORIPLANE`, the reset setting): the rotary
+    /// axes interpolated linearly.
+    axes: bool,
+}
+
+impl OriModes {
+    fn set(&mut self, name: &str) {
+        match name {
+            "ORIEULER" => self.rpy = false,
+            "ORIRPY" => self.rpy = true,
+            "ORIWKS" => self.machine = false,
+            "ORIMKS" => self.machine = true,
+            "ORIAXES" => self.axes = true,
+            "ORIVECT" | "ORIPLANE" => self.axes = false,
+            _ => {}
+        }
+    }
+}
+
+/// The tool direction of orientation angles: Euler (`ORIEULER`, Z–X–Z:
+/// `Rz(A2)·Rx(B2)·Rz(C2)·Z`, C2 turning about the tool itself) or RPY
+/// (`ORIRPY`, `Rz(C2)·Ry(B2)·Rx(A2)·Z`, the order of `ROT`).
+pub(crate) fn angles_direction(rpy_angles: bool, a: f64, b: f64, c: f64) -> [f64; 3] {
+    let m = if rpy_angles {
+        rpy(a, b, c)
+    } else {
+        let (sa, ca) = a.to_radians().sin_cos();
+        let (sb, cb) = b.to_radians().sin_cos();
+        return [sa * sb, -ca * sb, cb];
+    };
+    [m[0][2], m[1][2], m[2][2]]
+}
+
+/// The angles of direction `v` as `angles_direction` reads them, the third
+/// angle `c` kept (Euler: C2 does not turn the direction; RPY: A2 and B2
+/// for the given C2).
+pub(crate) fn direction_angles(rpy_angles: bool, v: [f64; 3], c: f64) -> [f64; 3] {
+    if rpy_angles {
+        let (sc, cc) = c.to_radians().sin_cos();
+        // u = Rz(−c)·v = (cos a sin b, −sin a, cos a cos b).
+        let u = [cc * v[0] + sc * v[1], -sc * v[0] + cc * v[1], v[2]];
+        let a = (-u[1]).atan2((u[0] * u[0] + u[2] * u[2]).sqrt());
+        let b = u[0].atan2(u[2]);
+        [a.to_degrees(), b.to_degrees(), c]
+    } else {
+        let b = v[2].clamp(-1.0, 1.0).acos();
+        let a = if (v[0] * v[0] + v[1] * v[1]).sqrt() < 1e-12 {
+            0.0
+        } else {
+            v[0].atan2(-v[1])
+        };
+        [a.to_degrees(), b.to_degrees(), c]
+    }
+}
+
 /// What a block's G codes ask of the front.
 #[derive(Default)]
 struct GFlags {
@@ -2564,6 +2829,8 @@ enum Address {
     RotPlane,
     /// A component of the orientation vector `A3= B3= C3=`.
     Vector(usize),
+    /// An orientation angle `A2= B2= C2=` (Euler or RPY, `ORIEULER`/`ORIRPY`).
+    Angle(usize),
     /// Not read yet (the feature).
     Feature(&'static str),
 }
@@ -2581,7 +2848,9 @@ fn address(name: &str) -> Option<Address> {
         "A3" => Address::Vector(0),
         "B3" => Address::Vector(1),
         "C3" => Address::Vector(2),
-        "A2" | "B2" | "C2" => Address::Feature("orientation angles A2= B2= C2="),
+        "A2" => Address::Angle(0),
+        "B2" => Address::Angle(1),
+        "C2" => Address::Angle(2),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
         "TURN" => Address::Feature("helix turns TURN="),
         "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
@@ -2666,4 +2935,109 @@ fn rpy(a: f64, b: f64, c: f64) -> [[f64; 3]; 3] {
         m
     };
     mul(mul(rz, ry), rx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::axes::Axes;
+    use crate::gcode::{Branch, InterpretOptions, OrientationSolver, Program, ProgramSetup};
+
+    /// A head that tilts the tool by A from Z, then turns it about Z by C:
+    /// axis = (sin A sin C, −sin A cos C, cos A).
+    #[derive(Debug)]
+    struct TiltTurn;
+
+    impl OrientationSolver for TiltTurn {
+        fn joints_for_axis(&self, axis: [f64; 3], _: Branch, previous: &Axes) -> Option<Axes> {
+            let mut j = *previous;
+            j.a = axis[2].clamp(-1.0, 1.0).acos().to_degrees();
+            j.c = axis[0].atan2(-axis[1]).to_degrees();
+            Some(j)
+        }
+        fn axis_of(&self, j: &Axes) -> [f64; 3] {
+            let (sa, ca) = j.a.to_radians().sin_cos();
+            let (sc, cc) = j.c.to_radians().sin_cos();
+            [sa * sc, -sa * cc, ca]
+        }
+    }
+
+    /// The move ends of `text` read with the [`TiltTurn`] head.
+    fn ends(text: &str) -> Result<Vec<Axes>, GcodeError> {
+        let setup = ProgramSetup {
+            dialect: Some(crate::gcode::Dialect::Sinumerik),
+            orientation: Some(std::sync::Arc::new(TiltTurn)),
+            ..Default::default()
+        };
+        let p = Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.mpf"),
+            setup,
+        );
+        let mut run = p.run(InterpretOptions::default());
+        let mut out = Vec::new();
+        while let Some(step) = run.next() {
+            let (_, event, _) = step?;
+            out.extend(event.motions().map(|m| m.end));
+        }
+        Ok(out)
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-9
+    }
+
+    #[test]
+    fn a_vector_turns_the_rotary_joints_through_the_chain() {
+        let s = 0.5f64.sqrt();
+        let e = ends(&format!(
+            "TRAORI\nG1 X1 Y2 Z3 A3={s} B3=0 C3={s} F100\nG1 X2 B3=-1 C3=1\nM30\n"
+        ))
+        .unwrap();
+        // (s, 0, s): tilted 45° towards +X → A 45, C 90.
+        assert!(close(e[0].a, 45.0) && close(e[0].c, 90.0), "{:?}", e[0]);
+        assert_eq!([e[0].x, e[0].y, e[0].z], [1.0, 2.0, 3.0]);
+        // A3 unwritten is 0; the length does not matter: (0, −1, 1) → A 45, C 0.
+        assert!(close(e[1].a, 45.0) && close(e[1].c, 0.0), "{:?}", e[1]);
+    }
+
+    #[test]
+    fn a_vector_turns_with_the_frame() {
+        // ROT Z90: the frame's X is the part's Y; (1, 0, 1) → (0, 1, 1).
+        let e = ends("TRAORI\nROT Z90\nG1 X0 Y0 Z0 A3=1 C3=1 F100\nM30\n").unwrap();
+        assert!(close(e[0].a, 45.0) && close(e[0].c, 180.0), "{:?}", e[0]);
+    }
+
+    #[test]
+    fn euler_and_rpy_angles_give_the_vector_they_stand_for() {
+        // ORIEULER (the reset setting): A2 about Z, B2 tilting about the new X.
+        let e = ends("TRAORI\nG1 X0 Y0 Z0 A2=90 B2=30 C2=77 F100\nM30\n").unwrap();
+        let v = TiltTurn.axis_of(&e[0]);
+        let want = [0.5, 0.0, 0.75f64.sqrt()];
+        assert!((0..3).all(|k| close(v[k], want[k])), "{v:?}");
+        // ORIRPY: Rz(C2)·Ry(B2)·Rx(A2)·Z; B2 = 30 alone tilts towards +X.
+        let e = ends("TRAORI ORIRPY\nG1 X0 Y0 Z0 B2=30 F100\nM30\n").unwrap();
+        let v = TiltTurn.axis_of(&e[0]);
+        assert!((0..3).all(|k| close(v[k], want[k])), "{v:?}");
+        for rpy_angles in [false, true] {
+            for (a, b, c) in [(10.0, 20.0, 30.0), (-40.0, 65.0, 5.0), (0.0, 0.0, 0.0)] {
+                let v = angles_direction(rpy_angles, a, b, c);
+                let back = direction_angles(rpy_angles, v, c);
+                let w = angles_direction(rpy_angles, back[0], back[1], back[2]);
+                assert!((0..3).all(|k| (v[k] - w[k]).abs() < 1e-12), "{v:?} {w:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn orientation_words_the_control_refuses_are_located() {
+        let err = |t: &str| ends(t).unwrap_err().to_string();
+        assert!(err("G1 X0 A3=1 F100\nM30\n").contains("needs TRAORI"));
+        let e = err("TRAORI\nG1 X0 A10 A3=1 F100\nM30\n");
+        assert!(e.contains("given twice") && e.contains(":2:"), "{e}");
+        let e = err("TRAORI\nG1 X0 A3=1 B2=4 F100\nM30\n");
+        assert!(e.contains("given twice"), "{e}");
+        let e = err("TRAORI\nG1 X0 A3=0 F100\nM30\n");
+        assert!(e.contains("length 0"), "{e}");
+    }
 }
