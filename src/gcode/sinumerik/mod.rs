@@ -392,6 +392,11 @@ pub(crate) struct SinumerikFront {
     /// How orientations are given and interpolated (`ORIEULER`/`ORIRPY`,
     /// `ORIWKS`/`ORIMKS`, `ORIVECT`/`ORIAXES`).
     ori: OriModes,
+    /// The modal `CIP` or `CT` (motion group 1 with G0–G3).
+    arc_form: Option<ArcForm>,
+    /// The last move's start and, for an arc whose centre is known, its
+    /// centre and sense (`CT` continues tangentially from it).
+    last_move: Option<LastMove>,
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
@@ -472,6 +477,8 @@ impl SinumerikFront {
             orientation: setup.orientation.clone(),
             traori: false,
             ori: OriModes::default(),
+            arc_form: None,
+            last_move: None,
             incremental: false,
             skip_deleted: false,
             motion_set: false,
@@ -831,7 +838,7 @@ impl SinumerikFront {
         raw: &[u8],
         _plain: bool,
     ) -> Result<bool, GcodeError> {
-        let literal = line.first_reading && !(self.flowed && out.computed);
+        let literal = line.first_reading && !(self.flowed && out.computed) && !out.flat;
         self.block.reset(line.line, 0);
         self.block.deleted = out.deleted;
         if literal {
@@ -866,6 +873,7 @@ impl SinumerikFront {
         for (start, end, piece) in pieces {
             if let Piece::Word(k) = piece
                 && start == end
+                && !out.synthetic.contains(&k)
             {
                 // A word the front solved (the rotary joints of an
                 // orientation vector): it has no text.
@@ -885,7 +893,18 @@ impl SinumerikFront {
             match piece {
                 Piece::Word(k) => {
                     let w = out.words[k];
-                    if w.expr.is_some() || out.substituted.contains(&k) {
+                    if out.synthetic.contains(&k) {
+                        // A word the front worked out (a CIP/CT/AR= arc's
+                        // G code, centre or end): written as LETTERvalue.
+                        b.raw.push(w.letter);
+                        if w.letter == b'G' {
+                            b.raw.extend_from_slice(format!("{}", w.value).as_bytes());
+                        } else {
+                            self.text.clear();
+                            crate::gcode::language::push_value(&mut self.text, w.value);
+                            b.raw.extend_from_slice(self.text.as_bytes());
+                        }
+                    } else if w.expr.is_some() || out.substituted.contains(&k) {
                         let text = &raw[w.start..w.end];
                         match text.iter().position(|&c| c == b'=') {
                             Some(eq) => b.raw.extend_from_slice(&text[..=eq]),
@@ -1594,6 +1613,7 @@ impl SinumerikFront {
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
+        let mut arc = ArcWords::default();
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -1665,6 +1685,9 @@ impl SinumerikFront {
                         orientation.angles[k] = Some((v, ts, vend));
                         out.computed = true;
                     }
+                    Some(Address::ArcAngle) => arc.angle = Some((v, ts, vend)),
+                    Some(Address::Turns) => arc.turns = Some((v, ts, vend)),
+                    Some(Address::Intermediate(k)) => arc.inter[k] = Some((v, mode)),
                     Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
                     None => {
                         // An assignment (R parameter or variable).
@@ -1907,9 +1930,17 @@ impl SinumerikFront {
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
-                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "CIP" | "CT" | "G33" | "OFFN"
-                | "COMPON" | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL"
-                | "TRAANG" | "PRESETON" | "CFINE" | "MCALL"
+                "CIP" | "CT" => {
+                    arc.form = Some(if name == "CIP" {
+                        ArcForm::Intermediate
+                    } else {
+                        ArcForm::Tangential
+                    });
+                    arc.at = (ts, te);
+                }
+                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON"
+                | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG"
+                | "PRESETON" | "CFINE" | "MCALL"
                     if name != "MCALL"
                         || matches!(
                             cur.peek(),
@@ -2038,11 +2069,33 @@ impl SinumerikFront {
             self.orientation_words(line, &orientation, &mut out, interpreter)?;
             axis_words = true;
         }
-        if axis_words {
+        // The modal CIP / CT: a block with G0–G3 ends it.
+        if out
+            .words
+            .iter()
+            .any(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3))
+        {
+            self.arc_form = None;
+        }
+        if arc.form.is_some() {
+            self.arc_form = arc.form;
+        } else if axis_words {
+            arc.form = self.arc_form;
+        }
+        let arc_words = arc.form.is_some() || arc.angle.is_some() || arc.turns.is_some();
+        if axis_words || arc_words {
             self.check_arc_frame(line, &out, interpreter)?;
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
+            let start = interpreter
+                .origin()
+                .to_program(&interpreter.position())
+                .xyz();
+            if arc_words {
+                self.arc(line, &arc, &mut out, interpreter, start)?;
+            }
+            self.last_move = self.move_of(&out, interpreter, start);
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -2054,7 +2107,7 @@ impl SinumerikFront {
                 }
             }
         }
-        out.words.sort_by_key(|w| w.start);
+        out.sort_words();
         self.hand_on(line, out, raw, false)
     }
 
@@ -2202,6 +2255,372 @@ impl SinumerikFront {
             (None, None) => return,
         };
         out.words.push(word(b'G', code, at, at, 0, false, false));
+    }
+
+    /// The plane's coordinate indices (u, v, normal) as LinuxCNC's arcs
+    /// read them (G17: X Y Z, G18: Z X Y, G19: Y Z X), the block's sense
+    /// (`Some(true)` G2, `Some(false)` G3, `None` no circle) and whether its
+    /// axis words are increments.
+    fn arc_context(
+        &self,
+        out: &Out,
+        interpreter: &Interpreter,
+    ) -> ([usize; 3], crate::gcode::Plane, Option<bool>, bool) {
+        use crate::gcode::machine::modal::MotionMode;
+        let mut plane = interpreter.modal().plane;
+        let mut sense = match interpreter.modal().motion {
+            MotionMode::ArcCw => Some(true),
+            MotionMode::ArcCcw => Some(false),
+            _ => None,
+        };
+        let mut incremental = self.incremental;
+        for w in out.words.iter().filter(|w| w.letter == b'G') {
+            match w.value as i64 {
+                0 | 1 => sense = None,
+                2 => sense = Some(true),
+                3 => sense = Some(false),
+                17 => plane = crate::gcode::Plane::XY,
+                18 => plane = crate::gcode::Plane::ZX,
+                19 => plane = crate::gcode::Plane::YZ,
+                90 => incremental = false,
+                91 => incremental = true,
+                _ => {}
+            }
+        }
+        let idx = match plane {
+            crate::gcode::Plane::XY => [0, 1, 2],
+            crate::gcode::Plane::ZX => [2, 0, 1],
+            crate::gcode::Plane::YZ => [1, 2, 0],
+        };
+        (idx, plane, sense, incremental)
+    }
+
+    /// Circles the machine-state layer does not take as written, turned
+    /// into its centre form (*Fundamentals*, "Circular interpolation"):
+    /// `CIP` through the intermediate point `I1= J1= K1=` (absolute or
+    /// incremental as the axes, `AC`/`IC` allowed), `CT` tangential to the
+    /// previous move, `AR=` with a centre (the end worked out) or with an
+    /// end (the centre worked out: the shorter side for `AR` < 180°),
+    /// `TURN=` full turns of a helix (LinuxCNC's `P` = turns + 1). The block
+    /// is written flat: `G2`/`G3` with `I J K` (incremental, as both
+    /// dialects read them) and, where the end was worked out, its axis
+    /// words; `TURN=` stays.
+    fn arc(
+        &mut self,
+        line: &LineRun,
+        arc: &ArcWords,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        start: [f64; 3],
+    ) -> Result<(), GcodeError> {
+        let ([iu, iv, iw], plane, sense, incremental) = self.arc_context(out, interpreter);
+        let at = if arc.at.1 > 0 {
+            arc.at
+        } else if let Some((_, s, e)) = arc.angle.or(arc.turns) {
+            (s, e)
+        } else {
+            (0, line.raw.len())
+        };
+        let find = |out: &Out, letter: u8| out.words.iter().rposition(|w| w.letter == letter);
+        let mut end = start;
+        for k in 0..3 {
+            if let Some(i) = find(out, b"XYZ"[k]) {
+                let v = out.words[i].value;
+                end[k] = if incremental { start[k] + v } else { v };
+            }
+        }
+        let has_end = [iu, iv].iter().any(|&k| find(out, b"XYZ"[k]).is_some());
+        let has_centre = [iu, iv].iter().any(|&k| find(out, b"IJK"[k]).is_some());
+        let has_radius = find(out, b'R').is_some();
+        let turns = match arc.turns {
+            None => None,
+            Some((n, s, e)) => {
+                if !(n >= 0.0 && n.fract() == 0.0 && n <= 1e6) {
+                    return Err(self.refused(
+                        line,
+                        format!("TURN={n}: the number of full turns is a whole number ≥ 0"),
+                        s,
+                        e,
+                    ));
+                }
+                if arc.form.is_some() || sense.is_none() {
+                    return Err(self.refused(
+                        line,
+                        "TURN= belongs to a circle programmed with G2/G3".into(),
+                        s,
+                        e,
+                    ));
+                }
+                Some((n, s, e))
+            }
+        };
+        let u = |p: [f64; 3]| [p[iu], p[iv]];
+        let (s2, e2) = (u(start), u(end));
+        let (cw, centre) = match arc.form {
+            Some(ArcForm::Intermediate) => {
+                let mut inter = start;
+                for k in 0..3 {
+                    inter[k] = match arc.inter[k] {
+                        Some((v, Mode::Ac)) => v,
+                        Some((v, Mode::Ic)) => start[k] + v,
+                        Some((v, Mode::Plain)) if incremental => start[k] + v,
+                        Some((v, Mode::Plain)) => v,
+                        None if k == iw => 0.5 * (start[k] + end[k]),
+                        None => start[k],
+                    };
+                }
+                if (end[iw] - start[iw]).abs() > 1e-6 || (inter[iw] - start[iw]).abs() > 1e-6 {
+                    return Err(self.feature(
+                        line,
+                        "CIP through points not in a plane parallel to the working plane (a circle in space)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let m2 = u(inter);
+                let Some(c) = circumcentre(s2, m2, e2) else {
+                    return Err(self.refused(
+                        line,
+                        "CIP: the start, the intermediate point (I1 J1 K1) and the end lie on one line: no circle passes through them".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                let cross = (m2[0] - s2[0]) * (e2[1] - m2[1]) - (m2[1] - s2[1]) * (e2[0] - m2[0]);
+                (cross < 0.0, c)
+            }
+            Some(ArcForm::Tangential) => {
+                let Some(t) = self.tangent(line, plane, start, at)? else {
+                    return Err(self.refused(
+                        line,
+                        "CT: the move before has no direction to continue tangentially".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                let d = [e2[0] - s2[0], e2[1] - s2[1]];
+                let n = [-t[1], t[0]];
+                let nd = n[0] * d[0] + n[1] * d[1];
+                let dd = d[0] * d[0] + d[1] * d[1];
+                if nd.abs() <= 1e-9 * dd.sqrt().max(1e-9) {
+                    return Err(self.refused(
+                        line,
+                        "CT: the end lies on the tangent of the move before (or is the start): no circle leaves tangentially to it".into(),
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let r = dd / (2.0 * nd);
+                (nd < 0.0, [s2[0] + n[0] * r, s2[1] + n[1] * r])
+            }
+            None => {
+                let Some((ar, s, e)) = arc.angle else {
+                    // TURN= alone: the circle as written, its turns added.
+                    self.push_turns(out, turns);
+                    out.flat = true;
+                    return Ok(());
+                };
+                let Some(cw) = sense else {
+                    return Err(self.refused(
+                        line,
+                        "AR= belongs to a circle programmed with G2/G3".into(),
+                        s,
+                        e,
+                    ));
+                };
+                if !(ar > 0.0 && ar <= 360.0) {
+                    return Err(self.refused(
+                        line,
+                        format!(
+                            "AR={ar}: a circle's opening angle is more than 0° and at most 360°"
+                        ),
+                        s,
+                        e,
+                    ));
+                }
+                if has_radius || (has_centre && has_end) {
+                    return Err(self.refused(
+                        line,
+                        "AR= with CR= or with both a centre (I J K) and an end: the circle is over-determined".into(),
+                        s,
+                        e,
+                    ));
+                }
+                if has_centre {
+                    let ci = |k: usize| find(out, b"IJK"[k]).map_or(0.0, |i| out.words[i].value);
+                    let c = [s2[0] + ci(iu), s2[1] + ci(iv)];
+                    let a = if cw { -ar } else { ar }.to_radians();
+                    let (sa, ca) = a.sin_cos();
+                    let r = [s2[0] - c[0], s2[1] - c[1]];
+                    end[iu] = c[0] + ca * r[0] - sa * r[1];
+                    end[iv] = c[1] + sa * r[0] + ca * r[1];
+                    self.push_end(out, [iu, iv], end, start, incremental, at);
+                    self.push_turns(out, turns);
+                    out.flat = true;
+                    return Ok(());
+                }
+                if !has_end {
+                    return Err(self.refused(
+                        line,
+                        "AR= needs the circle's centre (I J K) or its end".into(),
+                        s,
+                        e,
+                    ));
+                }
+                let d = [e2[0] - s2[0], e2[1] - s2[1]];
+                let chord = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                let half = (0.5 * ar).to_radians();
+                if chord < 1e-9 || half.sin() < 1e-12 {
+                    return Err(self.refused(
+                        line,
+                        format!("AR={ar} with an end {chord:.4} mm from the start: no circle of that opening angle joins them"),
+                        s,
+                        e,
+                    ));
+                }
+                let r = chord / (2.0 * half.sin());
+                let h = r * half.cos() * if cw { -1.0 } else { 1.0 };
+                let n = [-d[1] / chord, d[0] / chord];
+                (
+                    cw,
+                    [
+                        0.5 * (s2[0] + e2[0]) + n[0] * h,
+                        0.5 * (s2[1] + e2[1]) + n[1] * h,
+                    ],
+                )
+            }
+        };
+        if has_radius || has_centre {
+            return Err(self.refused(
+                line,
+                "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                at.0,
+                at.1,
+            ));
+        }
+        let anchor = out
+            .words
+            .iter()
+            .map(|w| w.end)
+            .max()
+            .unwrap_or(at.1)
+            .max(at.1);
+        if arc.form.is_some() {
+            out.synthetic.push(out.words.len());
+            out.words.push(word(
+                b'G',
+                if cw { 2.0 } else { 3.0 },
+                at.0,
+                at.0,
+                0,
+                false,
+                false,
+            ));
+        }
+        for (k, c) in [(iu, centre[0]), (iv, centre[1])] {
+            out.synthetic.push(out.words.len());
+            out.words
+                .push(word(b"IJK"[k], c - start[k], anchor, anchor, 4, true, true));
+        }
+        self.push_turns(out, turns);
+        out.flat = true;
+        Ok(())
+    }
+
+    /// The end words of a circle whose end was worked out (`AR=` with a
+    /// centre), replacing none: the block had none in the plane.
+    fn push_end(
+        &self,
+        out: &mut Out,
+        axes: [usize; 2],
+        end: [f64; 3],
+        start: [f64; 3],
+        incremental: bool,
+        at: (usize, usize),
+    ) {
+        for k in axes {
+            out.synthetic.push(out.words.len());
+            let v = if incremental {
+                end[k] - start[k]
+            } else {
+                end[k]
+            };
+            out.words
+                .push(word(b"XYZ"[k], v, at.0, at.0, 4, true, true));
+        }
+    }
+
+    /// `TURN=n`: LinuxCNC's `P` = n + 1 for the machine-state layer, over
+    /// the `TURN=` text (written as it is; a straightened circle loses it
+    /// with its other circle words).
+    fn push_turns(&self, out: &mut Out, turns: Option<(f64, usize, usize)>) {
+        if let Some((n, s, e)) = turns {
+            out.words.push(word(b'P', n + 1.0, s, e, 0, false, false));
+        }
+    }
+
+    /// The unit tangent (in the plane's u v) at the end of the last move,
+    /// for `CT`; `None` when it has no direction.
+    fn tangent(
+        &self,
+        line: &LineRun,
+        plane: crate::gcode::Plane,
+        end: [f64; 3],
+        at: (usize, usize),
+    ) -> Result<Option<[f64; 2]>, GcodeError> {
+        let Some(last) = self.last_move else {
+            return Ok(None);
+        };
+        let idx = match plane {
+            crate::gcode::Plane::XY => [0, 1],
+            crate::gcode::Plane::ZX => [2, 0],
+            crate::gcode::Plane::YZ => [1, 2],
+        };
+        let t = match last.kind {
+            LastKind::Straight => [
+                end[idx[0]] - last.start[idx[0]],
+                end[idx[1]] - last.start[idx[1]],
+            ],
+            LastKind::Arc {
+                centre,
+                cw,
+                plane: p,
+            } if p == plane => {
+                let r = [end[idx[0]] - centre[idx[0]], end[idx[1]] - centre[idx[1]]];
+                if cw { [r[1], -r[0]] } else { [-r[1], r[0]] }
+            }
+            _ => {
+                return Err(self.feature(
+                    line,
+                    "CT after a circle given by CR= or in another plane",
+                    at.0,
+                    at.1,
+                ));
+            }
+        };
+        let n = (t[0] * t[0] + t[1] * t[1]).sqrt();
+        Ok((n > 1e-12).then(|| [t[0] / n, t[1] / n]))
+    }
+
+    /// What `CT` needs of this block's move: its start and, for a circle
+    /// whose centre the block gives (I J K) or the front worked out, the
+    /// centre, sense and plane.
+    fn move_of(&self, out: &Out, interpreter: &Interpreter, start: [f64; 3]) -> Option<LastMove> {
+        let ([iu, iv, _], plane, sense, _) = self.arc_context(out, interpreter);
+        let kind = match sense {
+            None => LastKind::Straight,
+            Some(_) if out.words.iter().any(|w| w.letter == b'R') => LastKind::Unknown,
+            Some(cw) => {
+                let mut centre = start;
+                for k in [iu, iv] {
+                    if let Some(w) = out.words.iter().rev().find(|w| w.letter == b"IJK"[k]) {
+                        centre[k] += w.value;
+                    }
+                }
+                LastKind::Arc { centre, cw, plane }
+            }
+        };
+        Some(LastMove { start, kind })
     }
 
     /// The settable-plane and programmable frames as one (`CYCLE800`'s
@@ -2631,6 +3050,65 @@ impl SinumerikFront {
     }
 }
 
+/// `CIP` or `CT` (modal, motion group 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ArcForm {
+    Intermediate,
+    Tangential,
+}
+
+/// A block's circle words the machine-state layer does not read.
+#[derive(Default)]
+struct ArcWords {
+    form: Option<ArcForm>,
+    /// The `CIP`/`CT` name's span (0, 0: not in this block).
+    at: (usize, usize),
+    angle: Option<(f64, usize, usize)>,
+    turns: Option<(f64, usize, usize)>,
+    inter: [Option<(f64, Mode)>; 3],
+}
+
+/// The last move as `CT` continues it.
+#[derive(Clone, Copy, Debug)]
+struct LastMove {
+    start: [f64; 3],
+    kind: LastKind,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum LastKind {
+    Straight,
+    Arc {
+        centre: [f64; 3],
+        cw: bool,
+        plane: crate::gcode::Plane,
+    },
+    /// A circle by `CR=`: its centre is the machine-state layer's.
+    Unknown,
+}
+
+/// The centre of the circle through `a`, `b`, `c` (2-D); `None` when they
+/// lie on one line (or two coincide).
+fn circumcentre(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
+    let d = 2.0 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]));
+    let size = [b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]]
+        .iter()
+        .map(|v| v.abs())
+        .fold(0.0f64, f64::max);
+    if !(d.abs() > 1e-9 * size * size) || size < 1e-9 {
+        return None;
+    }
+    let (aa, bb, cc) = (
+        a[0] * a[0] + a[1] * a[1],
+        b[0] * b[0] + b[1] * b[1],
+        c[0] * c[0] + c[1] * c[1],
+    );
+    Some([
+        (aa * (b[1] - c[1]) + bb * (c[1] - a[1]) + cc * (a[1] - b[1])) / d,
+        (aa * (c[0] - b[0]) + bb * (a[0] - c[0]) + cc * (b[0] - a[0])) / d,
+    ])
+}
+
 /// Letters of the Euler angle words `A2= B2= C2=` under `ORIEULER` in a
 /// handed-on block (not axis letters; the rewriter reads them).
 pub(crate) const ORIENTATION_ANGLE_LETTERS: [u8; 3] = [b'4', b'5', b'6'];
@@ -2757,9 +3235,40 @@ struct Out {
     relative: Vec<usize>,
     /// Words whose value differs from their text (written as numbers when flat).
     substituted: Vec<usize>,
+    /// Words the front worked out, with no text in the line (zero width at
+    /// their place): written `LETTERvalue` in the flat block.
+    synthetic: Vec<usize>,
+    /// The block is written flat even when read once in sequence (its text
+    /// says what the machine-state layer cannot read: `CIP`, `CT`, `AR=`).
+    flat: bool,
 }
 
 impl Out {
+    /// The words in the order of the line (the ones the front worked out
+    /// at their place), the index lists following them.
+    fn sort_words(&mut self) {
+        let mut order: Vec<usize> = (0..self.words.len()).collect();
+        order.sort_by_key(|&i| self.words[i].start);
+        if order.iter().enumerate().all(|(k, &i)| k == i) {
+            return;
+        }
+        let mut at = vec![0; order.len()];
+        for (k, &i) in order.iter().enumerate() {
+            at[i] = k;
+        }
+        self.words = order.iter().map(|&i| self.words[i]).collect();
+        for list in [
+            &mut self.absolute,
+            &mut self.relative,
+            &mut self.substituted,
+            &mut self.synthetic,
+        ] {
+            for i in list.iter_mut() {
+                *i = at[*i];
+            }
+        }
+    }
+
     fn new(_len: usize) -> Out {
         Out {
             words: Vec::new(),
@@ -2772,6 +3281,8 @@ impl Out {
             absolute: Vec::new(),
             relative: Vec::new(),
             substituted: Vec::new(),
+            synthetic: Vec::new(),
+            flat: false,
         }
     }
 }
@@ -2831,6 +3342,12 @@ enum Address {
     Vector(usize),
     /// An orientation angle `A2= B2= C2=` (Euler or RPY, `ORIEULER`/`ORIRPY`).
     Angle(usize),
+    /// `AR=`: an arc's opening angle.
+    ArcAngle,
+    /// `TURN=`: a helix's full turns beyond the first.
+    Turns,
+    /// `I1= J1= K1=`: `CIP`'s intermediate point.
+    Intermediate(usize),
     /// Not read yet (the feature).
     Feature(&'static str),
 }
@@ -2843,8 +3360,10 @@ fn address(name: &str) -> Option<Address> {
         "CR" => Address::Radius,
         "P" => Address::Repeat,
         "RPL" => Address::RotPlane,
-        "AR" => Address::Feature("AR= (arcs by opening angle)"),
-        "I1" | "J1" | "K1" => Address::Feature("CIP intermediate points (I1= J1= K1=)"),
+        "AR" => Address::ArcAngle,
+        "I1" => Address::Intermediate(0),
+        "J1" => Address::Intermediate(1),
+        "K1" => Address::Intermediate(2),
         "A3" => Address::Vector(0),
         "B3" => Address::Vector(1),
         "C3" => Address::Vector(2),
@@ -2852,7 +3371,7 @@ fn address(name: &str) -> Option<Address> {
         "B2" => Address::Angle(1),
         "C2" => Address::Angle(2),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
-        "TURN" => Address::Feature("helix turns TURN="),
+        "TURN" => Address::Turns,
         "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
         | "SD" | "PL" | "PW" | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF"
         | "FFWON" | "G" => Address::Pass,
