@@ -30,9 +30,12 @@
 //!   X (the control's default RPY order). `SUPA`, `G53`, `G153` suppress the
 //!   frames for their block.
 //! - **Five-axis**: `TRAORI` … `TRAFOOF` switch the part frame (tool-tip
-//!   programs with orientation by machine axes). Orientation vectors,
-//!   `CYCLE800` swivelled planes and the other features listed in
+//!   programs with orientation by machine axes, by vector `A3= B3= C3=` or
+//!   by angles `A2= B2= C2=`, solved on the machine's chain);
+//!   `CYCLE800` swivelled planes axis by axis. The features listed in
 //!   `docs/dialects.md` as not read are located errors naming the feature.
+//! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
+//!   out into the centre form and handed on flat.
 pub(crate) mod syntax;
 pub(crate) mod values;
 

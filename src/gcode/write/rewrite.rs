@@ -624,7 +624,8 @@ impl Rewriter {
     }
 
     /// A block whose orientation is a vector (SINUMERIK `A3= B3= C3=`,
-    /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`]): when the target's
+    /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`]; angles `A2= B2=` are
+    /// rewritten likewise, `C2` kept): when the target's
     /// rotary joints differ from the programmed ones, the vector words are
     /// rewritten to the nominal tool axis of the target's joints (the
     /// machine's chain, [`Rewriter::with_orientation`]), in the block's frame,
