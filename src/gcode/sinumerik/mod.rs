@@ -2820,7 +2820,7 @@ impl SinumerikFront {
     /// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1,
     /// _Y1, _Z1, _DIR, …)`: a swivelled working plane (Siemens, *Job
     /// planning* / *Milling cycles*, "Swivel plane CYCLE800"). Read: a new
-    /// plane (`_ST` units digit 0), axis by axis (`_MODE` bits 6–7 = 0;
+    /// plane (`_ST` units digit 0) or an additive one (1), axis by axis (`_MODE` bits 6–7 = 0;
     /// bits 0–5 the order, two bits a rotation: 01 X, 10 Y, 11 Z, the first
     /// rotation in the low bits with angle `_A`, then `_B`, `_C`, each about
     /// the axis as the previous rotations left it). The plane's frame is
@@ -2828,8 +2828,9 @@ impl SinumerikFront {
     /// machine's chain (`ProgramSetup::orientation`), `_DIR` +1/−1 picking
     /// the solution whose first rotary axis (letter order) is ≥ 0 / ≤ 0, and
     /// 0 leaving the rotary axes where they are; positions are then tool-tip
-    /// positions in the part frame, as under `TRAORI`. `CYCLE800()` removes
-    /// the plane (the rotary axes stay).
+    /// positions in the part frame, as under `TRAORI`. `_ST` units digit 1
+    /// (additive) swivels on from the plane already active. `CYCLE800()`
+    /// removes the plane (the rotary axes stay).
     fn cycle800(
         &mut self,
         line: &LineRun,
@@ -2866,14 +2867,7 @@ impl SinumerikFront {
                 at.1,
             ));
         }
-        if (v[2] as i64) % 10 == 1 {
-            return Err(self.feature(
-                line,
-                "CYCLE800 additive swivel (_ST units digit 1)",
-                at.0,
-                at.1,
-            ));
-        }
+        let additive = (v[2] as i64) % 10 == 1;
         let mut r = FrameTransform::IDENTITY;
         for k in 0..3 {
             let angle = v[7 + k];
@@ -2894,6 +2888,16 @@ impl SinumerikFront {
         let mut plane = shift([v[4], v[5], v[6]])
             .after(&r)
             .after(&shift([v[10], v[11], v[12]]));
+        // Additive (`_ST` units digit 1): the new swivel acts in the plane
+        // the previous one left (its shifts and rotations in that frame).
+        if additive && let Some(old) = self.frames.swivel {
+            plane = old.after(&plane);
+            r = FrameTransform {
+                shift: [0.0; 3],
+                ..old
+            }
+            .after(&r);
+        }
         plane.holds_rotary = true;
         let dir = v[13];
         if dir != 0.0 {
@@ -3549,6 +3553,24 @@ mod tests {
                 assert!((0..3).all(|k| (v[k] - w[k]).abs() < 1e-12), "{v:?} {w:?}");
             }
         }
+    }
+
+    #[test]
+    fn an_additive_cycle800_swivels_on_from_the_active_plane() {
+        // 30° about X, then 30° more (additive, _ST 1) = one 60° plane; the
+        // direction 0 leaves the rotary axes (no chain needed).
+        let two = ends(
+            "CYCLE800(1,\"T\",0,57,0,0,0,30,0,0,0,0,0,0)\nCYCLE800(1,\"T\",1,57,0,0,0,30,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n",
+        )
+        .unwrap();
+        let one =
+            ends("CYCLE800(1,\"T\",0,57,0,0,0,60,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n").unwrap();
+        let (a, b) = (two[0].xyz(), one[0].xyz());
+        assert!((0..3).all(|k| close(a[k], b[k])), "{a:?} vs {b:?}");
+        // Not the same as a fresh 30° plane.
+        let fresh =
+            ends("CYCLE800(1,\"T\",0,57,0,0,0,30,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n").unwrap();
+        assert!(!close(fresh[0].y, b[1]));
     }
 
     #[test]
