@@ -635,6 +635,11 @@ impl Rewriter {
     /// Without a solver the vector stays as written.
     fn orientation_vector(&mut self, block: &Block, event: &BlockEvent, end: Axes) -> bool {
         use crate::gcode::sinumerik::{ORIENTATION_ANGLE_LETTERS, ORIENTATION_RPY_LETTERS};
+        // Only a SINUMERIK block has orientation words (LinuxCNC's path
+        // pays one comparison).
+        if self.options.dialect != crate::gcode::Dialect::Sinumerik {
+            return false;
+        }
         // The vector's components; Euler angles; RPY angles.
         let sets = [
             (crate::gcode::ORIENTATION_VECTOR_LETTERS, None),
