@@ -977,7 +977,7 @@ pub fn compensate(
         ..options.clone()
     };
     let models_ref = &mut models;
-    // The chain's orientation, for the tool vectors a writer writes (LN).
+    // The chain's orientation, for the tool vectors a writer writes (A3= B3= C3=, LN).
     let orientation = program.setup().orientation.clone();
     std::thread::scope(|scope| {
         // Three stages, each a chunk or two ahead of the next (bounded channels:
@@ -1329,8 +1329,8 @@ fn write_chunks(
         axes: options.interpret.axes,
         ..options.rewrite
     };
-    let mut rewriter = Rewriter::new(rewrite, options.interpret.initial_position);
-    rewriter.set_orientation(orientation);
+    let mut rewriter =
+        Rewriter::new(rewrite, options.interpret.initial_position).with_orientation(orientation);
     let mut report = CompensateReport {
         tolerance_um: options.tolerance_um,
         ..CompensateReport::default()

@@ -60,7 +60,7 @@ pub(crate) use language::parameters;
 pub(crate) use machine::{interpret, motion};
 pub(crate) use syntax::block;
 
-pub use block::{Block, Keyword, KeywordWord, LineEnding, Word};
+pub use block::{Block, Keyword, KeywordWord, LineEnding, ORIENTATION_VECTOR_LETTERS, Word};
 pub use dialect::{Branch, Dialect, DialectChoice, OrientationSolver, detect as detect_dialect};
 pub use error::{ErrorKind, GcodeError};
 pub use execution::{Execution, Program, ProgramSetup};

@@ -147,8 +147,16 @@ impl ProgramSummary {
         }
         self.time_min = event.time_min;
         if !event.skipped {
-            for w in &block.words {
-                // (Only G and M words are counted by their code.)
+            // A word a dialect front solved (zero width: no text, e.g. the
+            // rotary joints of a SINUMERIK orientation vector) or an
+            // orientation component (a digit letter) is not a word written
+            // as such: not counted. (Only G and M words are counted by
+            // their code.)
+            for w in block
+                .words
+                .iter()
+                .filter(|w| w.start < w.end && !w.letter.is_ascii_digit())
+            {
                 let code10 = if matches!(w.letter, b'G' | b'M') {
                     w.code10()
                 } else {

@@ -351,6 +351,33 @@ fn cases() -> Vec<Case> {
             ],
         ),
         case(
+            "SINUMERIK program",
+            "an orientation vector without `TRAORI` (`A3= B3= C3=`)",
+            vec![("bad.mpf", text("G1 X0 Y0 Z10 A3=0 B3=0.5 C3=1 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["needs TRAORI", "{d}/bad.mpf:1:14"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a `CIP` whose intermediate point is on the line from start to end",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nCIP X10 Y0 I1=5 J1=0 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["lie on one line: no circle passes", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a circle of opening angle 0 (`AR=0`)",
+            vec![("bad.mpf", text("G0 X0 Y0 Z10\nG2 X10 Y0 AR=0 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["AR=0: a circle's opening angle", "{d}/bad.mpf:2:11"],
+        ),
+        case(
             "program",
             "an endless `while [1]` (--max-loop-lines 100000)",
             p(

@@ -262,6 +262,155 @@ fn traori_closed_loop_on_two_machines() {
     }
 }
 
+/// Issue 34 "Show", orientation by vector: a `TRAORI` program whose tool
+/// direction is `A3= B3= C3=` (a saddle raster, the axis leaning from the
+/// surface normal) compensated on the A/C and B/C table-table machines and
+/// replayed through the same model: the tip error is cut by ≥ 90 % (the
+/// RMS by ≥ 95 %). The output keeps the vector form: every rewritten block
+/// still says its orientation as `A3= B3= C3=` (the nominal tool axis of the
+/// compensated joints), and the untouched lines are byte for byte.
+#[test]
+fn traori_vector_closed_loop_on_two_machines() {
+    let file = "tests/data/sinumerik/saddle-traori-vector.mpf";
+    let original = read(file);
+    for rig in [ref_trt(), crate::machines::rig("bc-trt")] {
+        let name = &rig.0.name;
+        let (text, report) = compensate_on(
+            rig,
+            &original,
+            Frame::Joint,
+            CompensateOptions::default().tolerance_um,
+            true,
+        );
+        assert!(
+            report.blocks_changed > 500,
+            "{name}: {}",
+            report.blocks_changed
+        );
+        for (o, c) in original
+            .lines()
+            .filter(|l| l.contains("A3="))
+            .zip(text.lines().filter(|l| l.contains("A3=")))
+        {
+            assert_eq!(o.split(' ').next(), c.split(' ').next(), "{name}: {c}");
+            assert!(
+                c.contains(" B3=")
+                    && c.contains(" C3=")
+                    && !c.contains(" A-")
+                    && !c.contains(" C-"),
+                "{name}: {c}"
+            );
+        }
+        for l in original
+            .lines()
+            .filter(|l| !l.starts_with('N') || l.contains("TRAORI"))
+        {
+            assert!(text.lines().any(|t| t == l), "{name}: {l} not kept");
+        }
+        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+        eprintln!(
+            "{name}/saddle-traori-vector.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+            before.max_um, after.max_um, before.rms_um, after.rms_um
+        );
+        assert!(before.max_um > 5.0, "{name}");
+        assert!(
+            after.samples > before.samples,
+            "{name}: replay sampled densely"
+        );
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{name}: {} vs {}",
+            after.max_um,
+            before.max_um
+        );
+        assert!(after.rms_um <= 0.05 * before.rms_um, "{name}");
+    }
+}
+
+/// `CIP`, `CT`, `AR=` (with an end, with a centre) and `TURN=`: each
+/// circle ends where the fixture's comments work out by hand, and is
+/// written flat in the centre form (`G2`/`G3` with `I J`) that both the
+/// control and volcomp read back.
+#[test]
+fn circles_without_a_centre_are_read_and_written_in_the_centre_form() {
+    let got = targets(&["check", "tests/data/sinumerik/arcs.mpf", "--targets", "-"]);
+    #[rustfmt::skip]
+    let want: Vec<(usize, [f64; 3])> = vec![
+        (6, [10.0, 0.0, 0.0]),
+        (7, [0.0, 10.0, 0.0]),     // CIP
+        (9, [-10.0, 10.0, 0.0]),
+        (10, [-20.0, 0.0, 0.0]),   // CT
+        (12, [-10.0, -10.0, 0.0]), // G2 X Y AR=90
+        (14, [10.0, -10.0, 0.0]),  // G3 I J AR=180: the end worked out
+        (16, [10.0, -10.0, -6.0]), // TURN=2
+        (18, [20.0, 0.0, -6.0]),   // G91 CIP
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for ((gl, g), (wl, w)) in got.iter().zip(&want) {
+        assert_eq!(gl, wl, "{got:?}");
+        for k in 0..3 {
+            assert!((g[k] - w[k]).abs() < 1e-6, "line {gl}: {g:?} vs {w:?}");
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let flat = dir.path().join("flat.mpf");
+    let out = volcomp()
+        .args(["check", "tests/data/sinumerik/arcs.mpf", "--flatten", "-o"])
+        .arg(&flat)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&flat).unwrap();
+    for line in [
+        "N30 G3 X0 Y10 I-10 J0 ; volcomp: line 7",
+        "N50 G3 X-20 Y0 I0 J-10 ; volcomp: line 10",
+        "N60 G2 X-10 Y-10 I0 J-10 ; volcomp: line 12",
+        "N70 G3 I10 J0 X10 Y-10 ; volcomp: line 14",
+        "N80 G3 X10 Y-10 I-10 J0 TURN=2 Z-6 ; volcomp: line 16",
+        "N90 G91 G3 X10 Y10 I0 J10 ; volcomp: line 18",
+        "N40 G1 X-10 Y10",
+    ] {
+        assert!(text.lines().any(|l| l == line), "{line}\n{text}");
+    }
+    // The flat program moves through the same ends.
+    let again = targets(&["check", flat.to_str().unwrap(), "--targets", "-"]);
+    assert_eq!(again.len(), got.len());
+    for ((_, a), (_, b)) in again.iter().zip(&got) {
+        assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-6), "{a:?} {b:?}");
+    }
+    // Compensated: the circles in the centre form, untouched lines byte for
+    // byte, and the output reads back.
+    let compensated = dir.path().join("c.mpf");
+    let out = volcomp()
+        .args([
+            "compensate",
+            "machines/ref-trt.toml",
+            "tests/data/sinumerik/arcs.mpf",
+            "-o",
+        ])
+        .arg(&compensated)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&compensated).unwrap();
+    let original = read("tests/data/sinumerik/arcs.mpf");
+    for l in original
+        .lines()
+        .filter(|l| l.starts_with(';') || l.starts_with("N10 ") || l.starts_with("N100 "))
+    {
+        assert!(text.lines().any(|t| t == l), "{l} not kept");
+    }
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("N30 G3 X") && l.ends_with("; volcomp: line 7")),
+        "{text}"
+    );
+    let out = volcomp().arg("check").arg(&compensated).output().unwrap();
+    assert_success(&out);
+}
+
 #[test]
 fn setup_dialect_overrides_detection() {
     let setup = ProgramSetup {

@@ -30,9 +30,12 @@
 //!   X (the control's default RPY order). `SUPA`, `G53`, `G153` suppress the
 //!   frames for their block.
 //! - **Five-axis**: `TRAORI` … `TRAFOOF` switch the part frame (tool-tip
-//!   programs with orientation by machine axes). Orientation vectors,
-//!   `CYCLE800` swivelled planes and the other features listed in
+//!   programs with orientation by machine axes, by vector `A3= B3= C3=` or
+//!   by angles `A2= B2= C2=`, solved on the machine's chain);
+//!   `CYCLE800` swivelled planes axis by axis. The features listed in
 //!   `docs/dialects.md` as not read are located errors naming the feature.
+//! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
+//!   out into the centre form and handed on flat.
 pub(crate) mod syntax;
 pub(crate) mod values;
 
@@ -389,6 +392,14 @@ pub(crate) struct SinumerikFront {
     orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
     /// The program switched `TRAORI` on itself.
     traori: bool,
+    /// How orientations are given and interpolated (`ORIEULER`/`ORIRPY`,
+    /// `ORIWKS`/`ORIMKS`, `ORIVECT`/`ORIAXES`).
+    ori: OriModes,
+    /// The modal `CIP` or `CT` (motion group 1 with G0–G3).
+    arc_form: Option<ArcForm>,
+    /// The last move's start and, for an arc whose centre is known, its
+    /// centre and sense (`CT` continues tangentially from it).
+    last_move: Option<LastMove>,
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
@@ -468,6 +479,9 @@ impl SinumerikFront {
             },
             orientation: setup.orientation.clone(),
             traori: false,
+            ori: OriModes::default(),
+            arc_form: None,
+            last_move: None,
             incremental: false,
             skip_deleted: false,
             motion_set: false,
@@ -827,7 +841,7 @@ impl SinumerikFront {
         raw: &[u8],
         _plain: bool,
     ) -> Result<bool, GcodeError> {
-        let literal = line.first_reading && !(self.flowed && out.computed);
+        let literal = line.first_reading && !(self.flowed && out.computed) && !out.flat;
         self.block.reset(line.line, 0);
         self.block.deleted = out.deleted;
         if literal {
@@ -860,6 +874,21 @@ impl SinumerikFront {
         pieces.sort_by_key(|p| p.0);
         let b = &mut self.block;
         for (start, end, piece) in pieces {
+            if let Piece::Word(k) = piece
+                && start == end
+                && !out.synthetic.contains(&k)
+            {
+                // A word the front solved (the rotary joints of an
+                // orientation vector): it has no text.
+                let at = b.raw.len();
+                b.words.push(Word {
+                    start: at,
+                    end: at,
+                    expr: None,
+                    ..out.words[k]
+                });
+                continue;
+            }
             if !b.raw.is_empty() {
                 b.raw.push(b' ');
             }
@@ -867,7 +896,18 @@ impl SinumerikFront {
             match piece {
                 Piece::Word(k) => {
                     let w = out.words[k];
-                    if w.expr.is_some() || out.substituted.contains(&k) {
+                    if out.synthetic.contains(&k) {
+                        // A word the front worked out (a CIP/CT/AR= arc's
+                        // G code, centre or end): written as LETTERvalue.
+                        b.raw.push(w.letter);
+                        if w.letter == b'G' {
+                            b.raw.extend_from_slice(format!("{}", w.value).as_bytes());
+                        } else {
+                            self.text.clear();
+                            crate::gcode::language::push_value(&mut self.text, w.value);
+                            b.raw.extend_from_slice(self.text.as_bytes());
+                        }
+                    } else if w.expr.is_some() || out.substituted.contains(&k) {
                         let text = &raw[w.start..w.end];
                         match text.iter().position(|&c| c == b'=') {
                             Some(eq) => b.raw.extend_from_slice(&text[..=eq]),
@@ -1574,8 +1614,9 @@ impl SinumerikFront {
 
         let mut axis_words = false;
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
-        let mut vector: [Option<f64>; 3] = [None; 3];
-        let mut vector_at = (usize::MAX, 0);
+        let mut orientation = Orientation::default();
+        let mut tool_edge: Option<(f64, usize)> = None;
+        let mut arc = ArcWords::default();
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -1640,9 +1681,16 @@ impl SinumerikFront {
                     }
                     Some(Address::RotPlane) => rpl = Some(v),
                     Some(Address::Vector(k)) => {
-                        vector[k] = Some(v);
-                        vector_at = (vector_at.0.min(ts), vector_at.1.max(vend));
+                        orientation.vector[k] = Some((v, ts, vend));
+                        out.computed = true;
                     }
+                    Some(Address::Angle(k)) => {
+                        orientation.angles[k] = Some((v, ts, vend));
+                        out.computed = true;
+                    }
+                    Some(Address::ArcAngle) => arc.angle = Some((v, ts, vend)),
+                    Some(Address::Turns) => arc.turns = Some((v, ts, vend)),
+                    Some(Address::Intermediate(k)) => arc.inter[k] = Some((v, mode)),
                     Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
                     None => {
                         // An assignment (R parameter or variable).
@@ -1784,7 +1832,11 @@ impl SinumerikFront {
                         axis_words |= is_axis(letter);
                         out.words.push(word(letter, v, ts, end, dec, point, false));
                     }
-                    b'D' | b'H' | b'E' => out.statements.push(ts..end),
+                    b'D' => {
+                        tool_edge = Some((v, end));
+                        out.statements.push(ts..end);
+                    }
+                    b'H' | b'E' => out.statements.push(ts..end),
                     b'L' => {
                         let n = &raw[ts + 1..end];
                         call = Some((
@@ -1881,9 +1933,17 @@ impl SinumerikFront {
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
-                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "CIP" | "CT" | "G33" | "OFFN"
-                | "COMPON" | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL"
-                | "TRAANG" | "PRESETON" | "CFINE" | "MCALL"
+                "CIP" | "CT" => {
+                    arc.form = Some(if name == "CIP" {
+                        ArcForm::Intermediate
+                    } else {
+                        ArcForm::Tangential
+                    });
+                    arc.at = (ts, te);
+                }
+                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON"
+                | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG"
+                | "PRESETON" | "CFINE" | "MCALL"
                     if name != "MCALL"
                         || matches!(
                             cur.peek(),
@@ -1896,18 +1956,26 @@ impl SinumerikFront {
                     let end = cur.peek().map_or(te, |t| t.end);
                     return Err(self.feature(line, &name, ts, te.max(end.min(te))));
                 }
+                "ORIWKS" | "ORIMKS" | "ORIAXES" | "ORIVECT" | "ORIPLANE" | "ORIEULER"
+                | "ORIRPY" => {
+                    self.ori.set(&name);
+                    out.statements.push(ts..te);
+                }
+                "ORIVIRT1" | "ORIVIRT2" | "ORIAXPOS" | "ORIRPY2" | "ORIPATH" | "ORIPATHS"
+                | "ORICONIO" | "ORICONTO" => {
+                    return Err(self.feature(line, &name, ts, te));
+                }
                 "MSG" | "STOPRE" | "SOFT" | "BRISK" | "DRIVE" | "FFWON" | "FFWOF" | "COMPCAD"
                 | "COMPOF" | "COMPCURV" | "COMPSURF" | "CYCLE832" | "WAITM" | "WAITS" | "WAITE"
                 | "SETMS" | "SPOS" | "SPOSA" | "FNORM" | "UPATH" | "SPATH" | "CFC" | "CFTCP"
-                | "CFIN" | "ORIWKS" | "ORIMKS" | "ORIAXES" | "ORIVECT" | "ORIEULER" | "ORIRPY"
-                | "ORIPATH" | "ORIROTA" | "ORIROTR" | "ORIROTT" | "ORIPLANE" | "CUT2D"
-                | "CUT2DF" | "CUT3DC" | "CUT3DF" | "CUTCONON" | "CUTCONOF" | "NORM" | "KONT"
-                | "KONTC" | "KONTT" | "DIAMON" | "DIAMOF" | "FGROUP" | "FGREF" | "SETAL"
-                | "MCALL" | "DISPLON" | "DISPLOF" | "SAVE" | "SBLOF" | "SBLON" | "ACC" | "OVR"
-                | "TRAFOON" | "G4" | "STOPFIFO" | "STARTFIFO" | "FIFOCTRL" | "WRTPR" | "CPROT"
-                | "WALIMON" | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS"
-                | "TCOFR" | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL"
-                | "G64" | "G642" | "G645" => {
+                | "CFIN" | "ORIROTA" | "ORIROTR" | "ORIROTT" | "CUT2D" | "CUT2DF" | "CUT3DC"
+                | "CUT3DF" | "CUTCONON" | "CUTCONOF" | "NORM" | "KONT" | "KONTC" | "KONTT"
+                | "DIAMON" | "DIAMOF" | "FGROUP" | "FGREF" | "SETAL" | "MCALL" | "DISPLON"
+                | "DISPLOF" | "SAVE" | "SBLOF" | "SBLON" | "ACC" | "OVR" | "TRAFOON" | "G4"
+                | "STOPFIFO" | "STARTFIFO" | "FIFOCTRL" | "WRTPR" | "CPROT" | "WALIMON"
+                | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS" | "TCOFR"
+                | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL" | "G64"
+                | "G642" | "G645" => {
                     let (_, end) = args_span(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     if matches!(
@@ -1947,25 +2015,6 @@ impl SinumerikFront {
                     call = Some((name.to_string(), values, (ts, end)));
                 }
             }
-        }
-        if vector.iter().any(Option::is_some) {
-            // *Job planning*, "Orientation programming: direction vector":
-            // the unit vector's components; unwritten ones are 0.
-            let v = vector.map(|c| c.unwrap_or(0.0));
-            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
-                return Err(self.refused(
-                    line,
-                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
-                    vector_at.0,
-                    vector_at.1,
-                ));
-            }
-            return Err(self.feature(
-                line,
-                "orientation vectors A3= B3= C3=",
-                vector_at.0,
-                vector_at.1,
-            ));
         }
         if let Some((name, args, at)) = call {
             if out.words.iter().any(|w| is_axis(w.letter)) {
@@ -2012,21 +2061,44 @@ impl SinumerikFront {
         }
         if self.flush_frame_later {
             self.flush_frame_later = false;
-            let p = self.frames.programmable;
-            let combined = match &self.frames.swivel {
-                Some(s) => s.after(&p),
-                None => p,
-            };
+            let combined = self.combined_frame();
             interpreter.set_frame((combined != FrameTransform::IDENTITY).then_some(combined));
         }
         if flags.settable_off {
             interpreter.set_work_origin(crate::axes::Axes::default());
         }
-        if axis_words {
+        self.tool_length(&mut out, tool_edge);
+        if orientation.given() {
+            self.orientation_words(line, &orientation, &mut out, interpreter)?;
+            axis_words = true;
+        }
+        // The modal CIP / CT: a block with G0–G3 ends it.
+        if out
+            .words
+            .iter()
+            .any(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3))
+        {
+            self.arc_form = None;
+        }
+        if arc.form.is_some() {
+            self.arc_form = arc.form;
+        } else if axis_words {
+            arc.form = self.arc_form;
+        }
+        let arc_words = arc.form.is_some() || arc.angle.is_some() || arc.turns.is_some();
+        if axis_words || arc_words {
             self.check_arc_frame(line, &out, interpreter)?;
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
+            let start = interpreter
+                .origin()
+                .to_program(&interpreter.position())
+                .xyz();
+            if arc_words {
+                self.arc(line, &arc, &mut out, interpreter, start)?;
+            }
+            self.last_move = self.move_of(&out, interpreter, start);
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -2038,8 +2110,530 @@ impl SinumerikFront {
                 }
             }
         }
-        out.words.sort_by_key(|w| w.start);
+        out.sort_words();
         self.hand_on(line, out, raw, false)
+    }
+
+    /// `A3= B3= C3=` (the tool direction as a vector) or `A2= B2= C2=`
+    /// (Euler angles under `ORIEULER`, the control's default, or RPY angles
+    /// under `ORIRPY`) under `TRAORI` (*Job planning*, "Three, four and five
+    /// axis transformation (TRAORI)": orientation programming in the
+    /// workpiece coordinate system). The direction is in the workpiece frame
+    /// as the active frames leave it (it turns with `ROT`/`AROT` and a
+    /// `CYCLE800` plane); unwritten vector components are 0 and the
+    /// vector's length does not matter. The rotary joints come from the
+    /// machine's chain ([`crate::gcode::OrientationSolver`]), on the branch
+    /// nearest the previous joints (dialects.md "Tool-tip programs": the
+    /// control's branch rule); they ride in the block as zero-width axis
+    /// words, the orientation words under
+    /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`] (vector) and
+    /// [`ORIENTATION_ANGLE_LETTERS`] (angles) for the rewriter.
+    fn orientation_words(
+        &mut self,
+        line: &LineRun,
+        o: &Orientation,
+        out: &mut Out,
+        interpreter: &mut Interpreter,
+    ) -> Result<(), GcodeError> {
+        let (start, end) = o.span();
+        let by_vector = o.vector.iter().any(Option::is_some);
+        if by_vector && o.angles.iter().any(Option::is_some) {
+            return Err(self.refused(
+                line,
+                "the orientation is given twice: a vector A3 B3 C3 and angles A2 B2 C2".into(),
+                start,
+                end,
+            ));
+        }
+        if !self.traori {
+            return Err(self.refused(
+                line,
+                "an orientation by vector (A3 B3 C3) or angles (A2 B2 C2) needs TRAORI: without the transformation the control has no tool direction to turn".into(),
+                start,
+                end,
+            ));
+        }
+        let rotary: Vec<crate::axes::Axis> = interpreter
+            .options()
+            .axes
+            .iter()
+            .filter(|a| a.is_rotary())
+            .collect();
+        if let Some(w) = out.words.iter().find(|w| {
+            crate::axes::Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
+        }) {
+            return Err(self.refused(
+                line,
+                "the orientation is given twice: rotary axis words and A3 B3 C3 / A2 B2 C2".into(),
+                w.start,
+                w.end,
+            ));
+        }
+        let v = if by_vector {
+            let v = o.vector.map(|c| c.map_or(0.0, |c| c.0));
+            if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
+                return Err(self.refused(
+                    line,
+                    "orientation vector A3 B3 C3 of length 0: it gives no tool direction".into(),
+                    start,
+                    end,
+                ));
+            }
+            v
+        } else {
+            let [a, b, c] = o.angles.map(|c| c.map_or(0.0, |c| c.0));
+            angles_direction(self.ori.rpy, a, b, c)
+        };
+        let Some(solver) = self.orientation.clone() else {
+            return Err(self.feature(
+                line,
+                "an orientation by vector or angles without the machine (give --machine: the rotary joints come from its chain)",
+                start,
+                end,
+            ));
+        };
+        let frame = self.combined_frame();
+        let mut axis = frame.apply_vector(v);
+        let norm = axis.iter().map(|c| c * c).sum::<f64>().sqrt();
+        axis = axis.map(|c| c / norm);
+        let previous = interpreter.position();
+        let Some(joints) = solver.joints_for_axis(axis, crate::gcode::Branch::Nearest, &previous)
+        else {
+            return Err(self.refused(
+                line,
+                format!(
+                    "the machine cannot point the tool along [{:.4}, {:.4}, {:.4}] within its rotary travel",
+                    axis[0], axis[1], axis[2]
+                ),
+                start,
+                end,
+            ));
+        };
+        let program = interpreter.origin().to_program(&joints);
+        for a in rotary {
+            out.absolute.push(out.words.len());
+            out.words.push(word(
+                a.letter() as u8,
+                program.get(a),
+                end,
+                end,
+                4,
+                true,
+                true,
+            ));
+        }
+        let letters = if by_vector {
+            crate::gcode::ORIENTATION_VECTOR_LETTERS
+        } else if self.ori.rpy {
+            ORIENTATION_RPY_LETTERS
+        } else {
+            ORIENTATION_ANGLE_LETTERS
+        };
+        let given = if by_vector { &o.vector } else { &o.angles };
+        for (k, c) in given.iter().enumerate() {
+            if let Some((value, s, e)) = *c {
+                out.words.push(word(letters[k], value, s, e, 4, true, true));
+            }
+        }
+        Ok(())
+    }
+
+    /// The tool length compensation: on the 840D sl a tool change (`M6`)
+    /// activates the new tool's first cutting edge (`D1`, the reset setting
+    /// of `$MC_CUTTING_EDGE_DEFAULT`), and `D1`…`D9` select an edge of the
+    /// active tool, each with its length; `D0` switches the compensation off
+    /// (*Fundamentals*, "Tool offsets"). For the machine-state layer that is
+    /// LinuxCNC's `G43` (the loaded tool's length) or `G49`, handed on as a
+    /// zero-width word (the block's text does not change), so that its
+    /// tool-length check sees what the control does.
+    fn tool_length(&self, out: &mut Out, edge: Option<(f64, usize)>) {
+        let m6 = out
+            .words
+            .iter()
+            .find(|w| w.letter == b'M' && w.value == 6.0)
+            .map(|w| w.end);
+        let (code, at) = match (edge, m6) {
+            (Some((d, at)), _) => (if d == 0.0 { 49.0 } else { 43.0 }, at),
+            (None, Some(at)) => (43.0, at),
+            (None, None) => return,
+        };
+        out.words.push(word(b'G', code, at, at, 0, false, false));
+    }
+
+    /// The plane's coordinate indices (u, v, normal) as LinuxCNC's arcs
+    /// read them (G17: X Y Z, G18: Z X Y, G19: Y Z X), the block's sense
+    /// (`Some(true)` G2, `Some(false)` G3, `None` no circle) and whether its
+    /// axis words are increments.
+    fn arc_context(
+        &self,
+        out: &Out,
+        interpreter: &Interpreter,
+    ) -> ([usize; 3], crate::gcode::Plane, Option<bool>, bool) {
+        use crate::gcode::machine::modal::MotionMode;
+        let mut plane = interpreter.modal().plane;
+        let mut sense = match interpreter.modal().motion {
+            MotionMode::ArcCw => Some(true),
+            MotionMode::ArcCcw => Some(false),
+            _ => None,
+        };
+        let mut incremental = self.incremental;
+        for w in out.words.iter().filter(|w| w.letter == b'G') {
+            match w.value as i64 {
+                0 | 1 => sense = None,
+                2 => sense = Some(true),
+                3 => sense = Some(false),
+                17 => plane = crate::gcode::Plane::XY,
+                18 => plane = crate::gcode::Plane::ZX,
+                19 => plane = crate::gcode::Plane::YZ,
+                90 => incremental = false,
+                91 => incremental = true,
+                _ => {}
+            }
+        }
+        let idx = match plane {
+            crate::gcode::Plane::XY => [0, 1, 2],
+            crate::gcode::Plane::ZX => [2, 0, 1],
+            crate::gcode::Plane::YZ => [1, 2, 0],
+        };
+        (idx, plane, sense, incremental)
+    }
+
+    /// Circles the machine-state layer does not take as written, turned
+    /// into its centre form (*Fundamentals*, "Circular interpolation"):
+    /// `CIP` through the intermediate point `I1= J1= K1=` (absolute or
+    /// incremental as the axes, `AC`/`IC` allowed), `CT` tangential to the
+    /// previous move, `AR=` with a centre (the end worked out) or with an
+    /// end (the centre worked out: the shorter side for `AR` < 180°),
+    /// `TURN=` full turns of a helix (LinuxCNC's `P` = turns + 1). The block
+    /// is written flat: `G2`/`G3` with `I J K` (incremental, as both
+    /// dialects read them) and, where the end was worked out, its axis
+    /// words; `TURN=` stays.
+    fn arc(
+        &mut self,
+        line: &LineRun,
+        arc: &ArcWords,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        start: [f64; 3],
+    ) -> Result<(), GcodeError> {
+        let ([iu, iv, iw], plane, sense, incremental) = self.arc_context(out, interpreter);
+        let at = if arc.at.1 > 0 {
+            arc.at
+        } else if let Some((_, s, e)) = arc.angle.or(arc.turns) {
+            (s, e)
+        } else {
+            (0, line.raw.len())
+        };
+        let find = |out: &Out, letter: u8| out.words.iter().rposition(|w| w.letter == letter);
+        let mut end = start;
+        for k in 0..3 {
+            if let Some(i) = find(out, b"XYZ"[k]) {
+                let v = out.words[i].value;
+                end[k] = if incremental { start[k] + v } else { v };
+            }
+        }
+        let has_end = [iu, iv].iter().any(|&k| find(out, b"XYZ"[k]).is_some());
+        let has_centre = [iu, iv].iter().any(|&k| find(out, b"IJK"[k]).is_some());
+        let has_radius = find(out, b'R').is_some();
+        let turns = match arc.turns {
+            None => None,
+            Some((n, s, e)) => {
+                if !(n >= 0.0 && n.fract() == 0.0 && n <= 1e6) {
+                    return Err(self.refused(
+                        line,
+                        format!("TURN={n}: the number of full turns is a whole number ≥ 0"),
+                        s,
+                        e,
+                    ));
+                }
+                if arc.form.is_some() || sense.is_none() {
+                    return Err(self.refused(
+                        line,
+                        "TURN= belongs to a circle programmed with G2/G3".into(),
+                        s,
+                        e,
+                    ));
+                }
+                Some((n, s, e))
+            }
+        };
+        let u = |p: [f64; 3]| [p[iu], p[iv]];
+        let (s2, e2) = (u(start), u(end));
+        let (cw, centre) = match arc.form {
+            Some(ArcForm::Intermediate) => {
+                let mut inter = start;
+                for k in 0..3 {
+                    inter[k] = match arc.inter[k] {
+                        Some((v, Mode::Ac)) => v,
+                        Some((v, Mode::Ic)) => start[k] + v,
+                        Some((v, Mode::Plain)) if incremental => start[k] + v,
+                        Some((v, Mode::Plain)) => v,
+                        None if k == iw => 0.5 * (start[k] + end[k]),
+                        None => start[k],
+                    };
+                }
+                if (end[iw] - start[iw]).abs() > 1e-6 || (inter[iw] - start[iw]).abs() > 1e-6 {
+                    return Err(self.feature(
+                        line,
+                        "CIP through points not in a plane parallel to the working plane (a circle in space)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let m2 = u(inter);
+                let Some(c) = circumcentre(s2, m2, e2) else {
+                    return Err(self.refused(
+                        line,
+                        "CIP: the start, the intermediate point (I1 J1 K1) and the end lie on one line: no circle passes through them".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                let cross = (m2[0] - s2[0]) * (e2[1] - m2[1]) - (m2[1] - s2[1]) * (e2[0] - m2[0]);
+                (cross < 0.0, c)
+            }
+            Some(ArcForm::Tangential) => {
+                let Some(t) = self.tangent(line, plane, start, at)? else {
+                    return Err(self.refused(
+                        line,
+                        "CT: the move before has no direction to continue tangentially".into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                let d = [e2[0] - s2[0], e2[1] - s2[1]];
+                let n = [-t[1], t[0]];
+                let nd = n[0] * d[0] + n[1] * d[1];
+                let dd = d[0] * d[0] + d[1] * d[1];
+                if nd.abs() <= 1e-9 * dd.sqrt().max(1e-9) {
+                    return Err(self.refused(
+                        line,
+                        "CT: the end lies on the tangent of the move before (or is the start): no circle leaves tangentially to it".into(),
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let r = dd / (2.0 * nd);
+                (nd < 0.0, [s2[0] + n[0] * r, s2[1] + n[1] * r])
+            }
+            None => {
+                let Some((ar, s, e)) = arc.angle else {
+                    // TURN= alone: the circle as written, its turns added.
+                    self.push_turns(out, turns);
+                    out.flat = true;
+                    return Ok(());
+                };
+                let Some(cw) = sense else {
+                    return Err(self.refused(
+                        line,
+                        "AR= belongs to a circle programmed with G2/G3".into(),
+                        s,
+                        e,
+                    ));
+                };
+                if !(ar > 0.0 && ar <= 360.0) {
+                    return Err(self.refused(
+                        line,
+                        format!(
+                            "AR={ar}: a circle's opening angle is more than 0° and at most 360°"
+                        ),
+                        s,
+                        e,
+                    ));
+                }
+                if has_radius || (has_centre && has_end) {
+                    return Err(self.refused(
+                        line,
+                        "AR= with CR= or with both a centre (I J K) and an end: the circle is over-determined".into(),
+                        s,
+                        e,
+                    ));
+                }
+                if has_centre {
+                    let ci = |k: usize| find(out, b"IJK"[k]).map_or(0.0, |i| out.words[i].value);
+                    let c = [s2[0] + ci(iu), s2[1] + ci(iv)];
+                    let a = if cw { -ar } else { ar }.to_radians();
+                    let (sa, ca) = a.sin_cos();
+                    let r = [s2[0] - c[0], s2[1] - c[1]];
+                    end[iu] = c[0] + ca * r[0] - sa * r[1];
+                    end[iv] = c[1] + sa * r[0] + ca * r[1];
+                    self.push_end(out, [iu, iv], end, start, incremental, at);
+                    self.push_turns(out, turns);
+                    out.flat = true;
+                    return Ok(());
+                }
+                if !has_end {
+                    return Err(self.refused(
+                        line,
+                        "AR= needs the circle's centre (I J K) or its end".into(),
+                        s,
+                        e,
+                    ));
+                }
+                let d = [e2[0] - s2[0], e2[1] - s2[1]];
+                let chord = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                let half = (0.5 * ar).to_radians();
+                if chord < 1e-9 || half.sin() < 1e-12 {
+                    return Err(self.refused(
+                        line,
+                        format!("AR={ar} with an end {chord:.4} mm from the start: no circle of that opening angle joins them"),
+                        s,
+                        e,
+                    ));
+                }
+                let r = chord / (2.0 * half.sin());
+                let h = r * half.cos() * if cw { -1.0 } else { 1.0 };
+                let n = [-d[1] / chord, d[0] / chord];
+                (
+                    cw,
+                    [
+                        0.5 * (s2[0] + e2[0]) + n[0] * h,
+                        0.5 * (s2[1] + e2[1]) + n[1] * h,
+                    ],
+                )
+            }
+        };
+        if has_radius || has_centre {
+            return Err(self.refused(
+                line,
+                "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                at.0,
+                at.1,
+            ));
+        }
+        let anchor = out
+            .words
+            .iter()
+            .map(|w| w.end)
+            .max()
+            .unwrap_or(at.1)
+            .max(at.1);
+        if arc.form.is_some() {
+            out.synthetic.push(out.words.len());
+            out.words.push(word(
+                b'G',
+                if cw { 2.0 } else { 3.0 },
+                at.0,
+                at.0,
+                0,
+                false,
+                false,
+            ));
+        }
+        for (k, c) in [(iu, centre[0]), (iv, centre[1])] {
+            out.synthetic.push(out.words.len());
+            out.words
+                .push(word(b"IJK"[k], c - start[k], anchor, anchor, 4, true, true));
+        }
+        self.push_turns(out, turns);
+        out.flat = true;
+        Ok(())
+    }
+
+    /// The end words of a circle whose end was worked out (`AR=` with a
+    /// centre), replacing none: the block had none in the plane.
+    fn push_end(
+        &self,
+        out: &mut Out,
+        axes: [usize; 2],
+        end: [f64; 3],
+        start: [f64; 3],
+        incremental: bool,
+        at: (usize, usize),
+    ) {
+        for k in axes {
+            out.synthetic.push(out.words.len());
+            let v = if incremental {
+                end[k] - start[k]
+            } else {
+                end[k]
+            };
+            out.words
+                .push(word(b"XYZ"[k], v, at.0, at.0, 4, true, true));
+        }
+    }
+
+    /// `TURN=n`: LinuxCNC's `P` = n + 1 for the machine-state layer, over
+    /// the `TURN=` text (written as it is; a straightened circle loses it
+    /// with its other circle words).
+    fn push_turns(&self, out: &mut Out, turns: Option<(f64, usize, usize)>) {
+        if let Some((n, s, e)) = turns {
+            out.words.push(word(b'P', n + 1.0, s, e, 0, false, false));
+        }
+    }
+
+    /// The unit tangent (in the plane's u v) at the end of the last move,
+    /// for `CT`; `None` when it has no direction.
+    fn tangent(
+        &self,
+        line: &LineRun,
+        plane: crate::gcode::Plane,
+        end: [f64; 3],
+        at: (usize, usize),
+    ) -> Result<Option<[f64; 2]>, GcodeError> {
+        let Some(last) = self.last_move else {
+            return Ok(None);
+        };
+        let idx = match plane {
+            crate::gcode::Plane::XY => [0, 1],
+            crate::gcode::Plane::ZX => [2, 0],
+            crate::gcode::Plane::YZ => [1, 2],
+        };
+        let t = match last.kind {
+            LastKind::Straight => [
+                end[idx[0]] - last.start[idx[0]],
+                end[idx[1]] - last.start[idx[1]],
+            ],
+            LastKind::Arc {
+                centre,
+                cw,
+                plane: p,
+            } if p == plane => {
+                let r = [end[idx[0]] - centre[idx[0]], end[idx[1]] - centre[idx[1]]];
+                if cw { [r[1], -r[0]] } else { [-r[1], r[0]] }
+            }
+            _ => {
+                return Err(self.feature(
+                    line,
+                    "CT after a circle given by CR= or in another plane",
+                    at.0,
+                    at.1,
+                ));
+            }
+        };
+        let n = (t[0] * t[0] + t[1] * t[1]).sqrt();
+        Ok((n > 1e-12).then(|| [t[0] / n, t[1] / n]))
+    }
+
+    /// What `CT` needs of this block's move: its start and, for a circle
+    /// whose centre the block gives (I J K) or the front worked out, the
+    /// centre, sense and plane.
+    fn move_of(&self, out: &Out, interpreter: &Interpreter, start: [f64; 3]) -> Option<LastMove> {
+        let ([iu, iv, _], plane, sense, _) = self.arc_context(out, interpreter);
+        let kind = match sense {
+            None => LastKind::Straight,
+            Some(_) if out.words.iter().any(|w| w.letter == b'R') => LastKind::Unknown,
+            Some(cw) => {
+                let mut centre = start;
+                for k in [iu, iv] {
+                    if let Some(w) = out.words.iter().rev().find(|w| w.letter == b"IJK"[k]) {
+                        centre[k] += w.value;
+                    }
+                }
+                LastKind::Arc { centre, cw, plane }
+            }
+        };
+        Some(LastMove { start, kind })
+    }
+
+    /// The settable-plane and programmable frames as one (`CYCLE800`'s
+    /// plane after the programmable frame).
+    fn combined_frame(&self) -> FrameTransform {
+        let p = self.frames.programmable;
+        match &self.frames.swivel {
+            Some(s) => s.after(&p),
+            None => p,
+        }
     }
 
     /// An arc under a frame that does not keep its plane (a rotation out
@@ -2226,7 +2820,7 @@ impl SinumerikFront {
     /// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1,
     /// _Y1, _Z1, _DIR, …)`: a swivelled working plane (Siemens, *Job
     /// planning* / *Milling cycles*, "Swivel plane CYCLE800"). Read: a new
-    /// plane (`_ST` units digit 0), axis by axis (`_MODE` bits 6–7 = 0;
+    /// plane (`_ST` units digit 0) or an additive one (1), axis by axis (`_MODE` bits 6–7 = 0;
     /// bits 0–5 the order, two bits a rotation: 01 X, 10 Y, 11 Z, the first
     /// rotation in the low bits with angle `_A`, then `_B`, `_C`, each about
     /// the axis as the previous rotations left it). The plane's frame is
@@ -2234,8 +2828,9 @@ impl SinumerikFront {
     /// machine's chain (`ProgramSetup::orientation`), `_DIR` +1/−1 picking
     /// the solution whose first rotary axis (letter order) is ≥ 0 / ≤ 0, and
     /// 0 leaving the rotary axes where they are; positions are then tool-tip
-    /// positions in the part frame, as under `TRAORI`. `CYCLE800()` removes
-    /// the plane (the rotary axes stay).
+    /// positions in the part frame, as under `TRAORI`. `_ST` units digit 1
+    /// (additive) swivels on from the plane already active. `CYCLE800()`
+    /// removes the plane (the rotary axes stay).
     fn cycle800(
         &mut self,
         line: &LineRun,
@@ -2272,14 +2867,7 @@ impl SinumerikFront {
                 at.1,
             ));
         }
-        if (v[2] as i64) % 10 == 1 {
-            return Err(self.feature(
-                line,
-                "CYCLE800 additive swivel (_ST units digit 1)",
-                at.0,
-                at.1,
-            ));
-        }
+        let additive = (v[2] as i64) % 10 == 1;
         let mut r = FrameTransform::IDENTITY;
         for k in 0..3 {
             let angle = v[7 + k];
@@ -2300,6 +2888,16 @@ impl SinumerikFront {
         let mut plane = shift([v[4], v[5], v[6]])
             .after(&r)
             .after(&shift([v[10], v[11], v[12]]));
+        // Additive (`_ST` units digit 1): the new swivel acts in the plane
+        // the previous one left (its shifts and rotations in that frame).
+        if additive && let Some(old) = self.frames.swivel {
+            plane = old.after(&plane);
+            r = FrameTransform {
+                shift: [0.0; 3],
+                ..old
+            }
+            .after(&r);
+        }
         plane.holds_rotary = true;
         let dir = v[13];
         if dir != 0.0 {
@@ -2459,6 +3057,158 @@ impl SinumerikFront {
     }
 }
 
+/// `CIP` or `CT` (modal, motion group 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ArcForm {
+    Intermediate,
+    Tangential,
+}
+
+/// A block's circle words the machine-state layer does not read.
+#[derive(Default)]
+struct ArcWords {
+    form: Option<ArcForm>,
+    /// The `CIP`/`CT` name's span (0, 0: not in this block).
+    at: (usize, usize),
+    angle: Option<(f64, usize, usize)>,
+    turns: Option<(f64, usize, usize)>,
+    inter: [Option<(f64, Mode)>; 3],
+}
+
+/// The last move as `CT` continues it.
+#[derive(Clone, Copy, Debug)]
+struct LastMove {
+    start: [f64; 3],
+    kind: LastKind,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum LastKind {
+    Straight,
+    Arc {
+        centre: [f64; 3],
+        cw: bool,
+        plane: crate::gcode::Plane,
+    },
+    /// A circle by `CR=`: its centre is the machine-state layer's.
+    Unknown,
+}
+
+/// The centre of the circle through `a`, `b`, `c` (2-D); `None` when they
+/// lie on one line (or two coincide).
+fn circumcentre(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
+    let d = 2.0 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]));
+    let size = [b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]]
+        .iter()
+        .map(|v| v.abs())
+        .fold(0.0f64, f64::max);
+    if !(d.abs() > 1e-9 * size * size) || size < 1e-9 {
+        return None;
+    }
+    let (aa, bb, cc) = (
+        a[0] * a[0] + a[1] * a[1],
+        b[0] * b[0] + b[1] * b[1],
+        c[0] * c[0] + c[1] * c[1],
+    );
+    Some([
+        (aa * (b[1] - c[1]) + bb * (c[1] - a[1]) + cc * (a[1] - b[1])) / d,
+        (aa * (c[0] - b[0]) + bb * (a[0] - c[0]) + cc * (b[0] - a[0])) / d,
+    ])
+}
+
+/// Letters of the Euler angle words `A2= B2= C2=` under `ORIEULER` in a
+/// handed-on block (not axis letters; the rewriter reads them).
+pub(crate) const ORIENTATION_ANGLE_LETTERS: [u8; 3] = [b'4', b'5', b'6'];
+/// Letters of the RPY angle words `A2= B2= C2=` under `ORIRPY`.
+pub(crate) const ORIENTATION_RPY_LETTERS: [u8; 3] = [b'7', b'8', b'9'];
+
+/// The orientation words of a block: each component's value and span.
+#[derive(Default)]
+struct Orientation {
+    vector: [Option<(f64, usize, usize)>; 3],
+    angles: [Option<(f64, usize, usize)>; 3],
+}
+
+impl Orientation {
+    fn given(&self) -> bool {
+        self.vector.iter().chain(&self.angles).any(Option::is_some)
+    }
+
+    /// From the first orientation word's start to the last one's end.
+    fn span(&self) -> (usize, usize) {
+        self.vector
+            .iter()
+            .chain(&self.angles)
+            .flatten()
+            .fold((usize::MAX, 0), |(s, e), c| (s.min(c.1), e.max(c.2)))
+    }
+}
+
+/// The orientation modes of the control (*Job planning*, "Orientation
+/// programming"; the G groups 50 and 51 and `ORIWKS`/`ORIMKS`).
+#[derive(Clone, Copy, Debug, Default)]
+struct OriModes {
+    /// `ORIRPY` (else `ORIEULER`, the reset setting): how `A2 B2 C2` read.
+    rpy: bool,
+    /// `ORIMKS` (else `ORIWKS`, the basic setting): the orientation turns
+    /// in the machine's coordinate system, the rotary axes interpolated
+    /// linearly.
+    machine: bool,
+    /// `ORIAXES` (else `ORIVECT`/`ORIPLANE`, the reset setting): the rotary
+    /// axes interpolated linearly.
+    axes: bool,
+}
+
+impl OriModes {
+    fn set(&mut self, name: &str) {
+        match name {
+            "ORIEULER" => self.rpy = false,
+            "ORIRPY" => self.rpy = true,
+            "ORIWKS" => self.machine = false,
+            "ORIMKS" => self.machine = true,
+            "ORIAXES" => self.axes = true,
+            "ORIVECT" | "ORIPLANE" => self.axes = false,
+            _ => {}
+        }
+    }
+}
+
+/// The tool direction of orientation angles: Euler (`ORIEULER`, Z–X–Z:
+/// `Rz(A2)·Rx(B2)·Rz(C2)·Z`, C2 turning about the tool itself) or RPY
+/// (`ORIRPY`, `Rz(C2)·Ry(B2)·Rx(A2)·Z`, the order of `ROT`).
+pub(crate) fn angles_direction(rpy_angles: bool, a: f64, b: f64, c: f64) -> [f64; 3] {
+    let m = if rpy_angles {
+        rpy(a, b, c)
+    } else {
+        let (sa, ca) = a.to_radians().sin_cos();
+        let (sb, cb) = b.to_radians().sin_cos();
+        return [sa * sb, -ca * sb, cb];
+    };
+    [m[0][2], m[1][2], m[2][2]]
+}
+
+/// The angles of direction `v` as `angles_direction` reads them, the third
+/// angle `c` kept (Euler: C2 does not turn the direction; RPY: A2 and B2
+/// for the given C2).
+pub(crate) fn direction_angles(rpy_angles: bool, v: [f64; 3], c: f64) -> [f64; 3] {
+    if rpy_angles {
+        let (sc, cc) = c.to_radians().sin_cos();
+        // u = Rz(−c)·v = (cos a sin b, −sin a, cos a cos b).
+        let u = [cc * v[0] + sc * v[1], -sc * v[0] + cc * v[1], v[2]];
+        let a = (-u[1]).atan2((u[0] * u[0] + u[2] * u[2]).sqrt());
+        let b = u[0].atan2(u[2]);
+        [a.to_degrees(), b.to_degrees(), c]
+    } else {
+        let b = v[2].clamp(-1.0, 1.0).acos();
+        let a = if (v[0] * v[0] + v[1] * v[1]).sqrt() < 1e-12 {
+            0.0
+        } else {
+            v[0].atan2(-v[1])
+        };
+        [a.to_degrees(), b.to_degrees(), c]
+    }
+}
+
 /// What a block's G codes ask of the front.
 #[derive(Default)]
 struct GFlags {
@@ -2492,9 +3242,40 @@ struct Out {
     relative: Vec<usize>,
     /// Words whose value differs from their text (written as numbers when flat).
     substituted: Vec<usize>,
+    /// Words the front worked out, with no text in the line (zero width at
+    /// their place): written `LETTERvalue` in the flat block.
+    synthetic: Vec<usize>,
+    /// The block is written flat even when read once in sequence (its text
+    /// says what the machine-state layer cannot read: `CIP`, `CT`, `AR=`).
+    flat: bool,
 }
 
 impl Out {
+    /// The words in the order of the line (the ones the front worked out
+    /// at their place), the index lists following them.
+    fn sort_words(&mut self) {
+        let mut order: Vec<usize> = (0..self.words.len()).collect();
+        order.sort_by_key(|&i| self.words[i].start);
+        if order.iter().enumerate().all(|(k, &i)| k == i) {
+            return;
+        }
+        let mut at = vec![0; order.len()];
+        for (k, &i) in order.iter().enumerate() {
+            at[i] = k;
+        }
+        self.words = order.iter().map(|&i| self.words[i]).collect();
+        for list in [
+            &mut self.absolute,
+            &mut self.relative,
+            &mut self.substituted,
+            &mut self.synthetic,
+        ] {
+            for i in list.iter_mut() {
+                *i = at[*i];
+            }
+        }
+    }
+
     fn new(_len: usize) -> Out {
         Out {
             words: Vec::new(),
@@ -2507,6 +3288,8 @@ impl Out {
             absolute: Vec::new(),
             relative: Vec::new(),
             substituted: Vec::new(),
+            synthetic: Vec::new(),
+            flat: false,
         }
     }
 }
@@ -2564,6 +3347,14 @@ enum Address {
     RotPlane,
     /// A component of the orientation vector `A3= B3= C3=`.
     Vector(usize),
+    /// An orientation angle `A2= B2= C2=` (Euler or RPY, `ORIEULER`/`ORIRPY`).
+    Angle(usize),
+    /// `AR=`: an arc's opening angle.
+    ArcAngle,
+    /// `TURN=`: a helix's full turns beyond the first.
+    Turns,
+    /// `I1= J1= K1=`: `CIP`'s intermediate point.
+    Intermediate(usize),
     /// Not read yet (the feature).
     Feature(&'static str),
 }
@@ -2576,14 +3367,18 @@ fn address(name: &str) -> Option<Address> {
         "CR" => Address::Radius,
         "P" => Address::Repeat,
         "RPL" => Address::RotPlane,
-        "AR" => Address::Feature("AR= (arcs by opening angle)"),
-        "I1" | "J1" | "K1" => Address::Feature("CIP intermediate points (I1= J1= K1=)"),
+        "AR" => Address::ArcAngle,
+        "I1" => Address::Intermediate(0),
+        "J1" => Address::Intermediate(1),
+        "K1" => Address::Intermediate(2),
         "A3" => Address::Vector(0),
         "B3" => Address::Vector(1),
         "C3" => Address::Vector(2),
-        "A2" | "B2" | "C2" => Address::Feature("orientation angles A2= B2= C2="),
+        "A2" => Address::Angle(0),
+        "B2" => Address::Angle(1),
+        "C2" => Address::Angle(2),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
-        "TURN" => Address::Feature("helix turns TURN="),
+        "TURN" => Address::Turns,
         "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
         | "SD" | "PL" | "PW" | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF"
         | "FFWON" | "G" => Address::Pass,
@@ -2666,4 +3461,127 @@ fn rpy(a: f64, b: f64, c: f64) -> [[f64; 3]; 3] {
         m
     };
     mul(mul(rz, ry), rx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::axes::Axes;
+    use crate::gcode::{Branch, InterpretOptions, OrientationSolver, Program, ProgramSetup};
+
+    /// A head that tilts the tool by A from Z, then turns it about Z by C:
+    /// axis = (sin A sin C, −sin A cos C, cos A).
+    #[derive(Debug)]
+    struct TiltTurn;
+
+    impl OrientationSolver for TiltTurn {
+        fn joints_for_axis(&self, axis: [f64; 3], _: Branch, previous: &Axes) -> Option<Axes> {
+            let mut j = *previous;
+            j.a = axis[2].clamp(-1.0, 1.0).acos().to_degrees();
+            j.c = axis[0].atan2(-axis[1]).to_degrees();
+            Some(j)
+        }
+        fn axis_of(&self, j: &Axes) -> [f64; 3] {
+            let (sa, ca) = j.a.to_radians().sin_cos();
+            let (sc, cc) = j.c.to_radians().sin_cos();
+            [sa * sc, -sa * cc, ca]
+        }
+    }
+
+    /// The move ends of `text` read with the [`TiltTurn`] head.
+    fn ends(text: &str) -> Result<Vec<Axes>, GcodeError> {
+        let setup = ProgramSetup {
+            dialect: Some(crate::gcode::Dialect::Sinumerik),
+            orientation: Some(std::sync::Arc::new(TiltTurn)),
+            ..Default::default()
+        };
+        let p = Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.mpf"),
+            setup,
+        );
+        let mut run = p.run(InterpretOptions::default());
+        let mut out = Vec::new();
+        while let Some(step) = run.next() {
+            let (_, event, _) = step?;
+            out.extend(event.motions().map(|m| m.end));
+        }
+        Ok(out)
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-9
+    }
+
+    #[test]
+    fn a_vector_turns_the_rotary_joints_through_the_chain() {
+        let s = 0.5f64.sqrt();
+        let e = ends(&format!(
+            "TRAORI\nG1 X1 Y2 Z3 A3={s} B3=0 C3={s} F100\nG1 X2 B3=-1 C3=1\nM30\n"
+        ))
+        .unwrap();
+        // (s, 0, s): tilted 45° towards +X → A 45, C 90.
+        assert!(close(e[0].a, 45.0) && close(e[0].c, 90.0), "{:?}", e[0]);
+        assert_eq!([e[0].x, e[0].y, e[0].z], [1.0, 2.0, 3.0]);
+        // A3 unwritten is 0; the length does not matter: (0, −1, 1) → A 45, C 0.
+        assert!(close(e[1].a, 45.0) && close(e[1].c, 0.0), "{:?}", e[1]);
+    }
+
+    #[test]
+    fn a_vector_turns_with_the_frame() {
+        // ROT Z90: the frame's X is the part's Y; (1, 0, 1) → (0, 1, 1).
+        let e = ends("TRAORI\nROT Z90\nG1 X0 Y0 Z0 A3=1 C3=1 F100\nM30\n").unwrap();
+        assert!(close(e[0].a, 45.0) && close(e[0].c, 180.0), "{:?}", e[0]);
+    }
+
+    #[test]
+    fn euler_and_rpy_angles_give_the_vector_they_stand_for() {
+        // ORIEULER (the reset setting): A2 about Z, B2 tilting about the new X.
+        let e = ends("TRAORI\nG1 X0 Y0 Z0 A2=90 B2=30 C2=77 F100\nM30\n").unwrap();
+        let v = TiltTurn.axis_of(&e[0]);
+        let want = [0.5, 0.0, 0.75f64.sqrt()];
+        assert!((0..3).all(|k| close(v[k], want[k])), "{v:?}");
+        // ORIRPY: Rz(C2)·Ry(B2)·Rx(A2)·Z; B2 = 30 alone tilts towards +X.
+        let e = ends("TRAORI ORIRPY\nG1 X0 Y0 Z0 B2=30 F100\nM30\n").unwrap();
+        let v = TiltTurn.axis_of(&e[0]);
+        assert!((0..3).all(|k| close(v[k], want[k])), "{v:?}");
+        for rpy_angles in [false, true] {
+            for (a, b, c) in [(10.0, 20.0, 30.0), (-40.0, 65.0, 5.0), (0.0, 0.0, 0.0)] {
+                let v = angles_direction(rpy_angles, a, b, c);
+                let back = direction_angles(rpy_angles, v, c);
+                let w = angles_direction(rpy_angles, back[0], back[1], back[2]);
+                assert!((0..3).all(|k| (v[k] - w[k]).abs() < 1e-12), "{v:?} {w:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_additive_cycle800_swivels_on_from_the_active_plane() {
+        // 30° about X, then 30° more (additive, _ST 1) = one 60° plane; the
+        // direction 0 leaves the rotary axes (no chain needed).
+        let two = ends(
+            "CYCLE800(1,\"T\",0,57,0,0,0,30,0,0,0,0,0,0)\nCYCLE800(1,\"T\",1,57,0,0,0,30,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n",
+        )
+        .unwrap();
+        let one =
+            ends("CYCLE800(1,\"T\",0,57,0,0,0,60,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n").unwrap();
+        let (a, b) = (two[0].xyz(), one[0].xyz());
+        assert!((0..3).all(|k| close(a[k], b[k])), "{a:?} vs {b:?}");
+        // Not the same as a fresh 30° plane.
+        let fresh =
+            ends("CYCLE800(1,\"T\",0,57,0,0,0,30,0,0,0,0,0,0)\nG1 X1 Y2 Z3 F100\nM30\n").unwrap();
+        assert!(!close(fresh[0].y, b[1]));
+    }
+
+    #[test]
+    fn orientation_words_the_control_refuses_are_located() {
+        let err = |t: &str| ends(t).unwrap_err().to_string();
+        assert!(err("G1 X0 A3=1 F100\nM30\n").contains("needs TRAORI"));
+        let e = err("TRAORI\nG1 X0 A10 A3=1 F100\nM30\n");
+        assert!(e.contains("given twice") && e.contains(":2:"), "{e}");
+        let e = err("TRAORI\nG1 X0 A3=1 B2=4 F100\nM30\n");
+        assert!(e.contains("given twice"), "{e}");
+        let e = err("TRAORI\nG1 X0 A3=0 F100\nM30\n");
+        assert!(e.contains("length 0"), "{e}");
+    }
 }

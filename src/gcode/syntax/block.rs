@@ -182,6 +182,14 @@ pub struct OWord {
     pub end: usize,
 }
 
+/// The letters of a dialect's orientation-vector words (SINUMERIK `A3=`
+/// `B3=` `C3=`, the tool direction's X Y Z components in the block's frame):
+/// not axis letters, so the machine-state layer passes them over; the rotary
+/// joints the front solved from them ride in the same block as zero-width
+/// axis words, and the rewriter writes a changed orientation back as a
+/// vector (`Rewriter::with_orientation`).
+pub const ORIENTATION_VECTOR_LETTERS: [u8; 3] = [b'1', b'2', b'3'];
+
 /// Bare keywords that switch the frame (Siemens ISO mode).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Keyword {

@@ -270,6 +270,9 @@ pub struct Rewriter {
     via_program: Vec<Axes>,
     /// The writer of Heidenhain programs (`options.dialect`).
     pub(super) klartext: crate::gcode::heidenhain::write::KlartextWriter,
+    /// Tool axis ↔ rotary joints: writes a changed orientation vector back
+    /// as a vector ([`Rewriter::with_orientation`]).
+    orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
 }
 
 impl Rewriter {
@@ -286,16 +289,22 @@ impl Rewriter {
             line: Vec::new(),
             via_program: Vec::new(),
             klartext: Default::default(),
+            orientation: None,
         }
     }
 
-    /// The machine's orientation kinematics, for the tool vectors of
-    /// Klartext `LN` blocks (`TX TY TZ`: the corrected joints' tool axis).
-    pub fn set_orientation(
-        &mut self,
+    /// The machine's tool axis ↔ rotary joints (the program's
+    /// `ProgramSetup::orientation`): a block whose orientation is a vector
+    /// (SINUMERIK `A3= B3= C3=`, Klartext `LN … TX TY TZ`) and whose rotary
+    /// joints change is written with the nominal tool axis of its new
+    /// joints as its vector.
+    pub fn with_orientation(
+        mut self,
         orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
-    ) {
-        self.klartext.orientation = orientation;
+    ) -> Self {
+        self.klartext.orientation.clone_from(&orientation);
+        self.orientation = orientation;
+        self
     }
 
     /// Emit one block (see the module docs for the contract); says what was written.
@@ -476,11 +485,19 @@ impl Rewriter {
             }
         }
 
+        // An orientation given as a vector: the rotary joints are said by
+        // its words (see `orientation_vector`).
+        let vector = self.orientation_vector(block, event, end);
+
         // Axis words.
         let mut last_axis_end = None;
         let mut appended: [Option<f64>; crate::axes::AXIS_COUNT] = [None; crate::axes::AXIS_COUNT];
         for axis in self.options.axes.iter() {
             let i = axis as usize;
+            if vector && axis.is_rotary() {
+                new_emitted.set(axis, end.get(axis));
+                continue;
+            }
             let unit = ctx.unit(axis);
             let base = if ctx.incremental {
                 self.emitted.get(axis)
@@ -606,6 +623,106 @@ impl Rewriter {
         self.emitted = origin.to_machine(&new_emitted);
         let rewritten = self.write_edited(block, out)?;
         Ok(Emitted { rewritten, pieces })
+    }
+
+    /// A block whose orientation is a vector (SINUMERIK `A3= B3= C3=`,
+    /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`]; angles `A2= B2=` are
+    /// rewritten likewise, `C2` kept): when the target's
+    /// rotary joints differ from the programmed ones, the vector words are
+    /// rewritten to the nominal tool axis of the target's joints (the
+    /// machine's chain, [`Rewriter::with_orientation`]), in the block's frame,
+    /// at least 7 decimals; a component the block does not write is added
+    /// after its last vector word. Returns whether the block is such a block
+    /// (its rotary joints are then said by the vector, not by axis words).
+    /// Without a solver the vector stays as written.
+    fn orientation_vector(&mut self, block: &Block, event: &BlockEvent, end: Axes) -> bool {
+        use crate::gcode::sinumerik::{ORIENTATION_ANGLE_LETTERS, ORIENTATION_RPY_LETTERS};
+        // Only a SINUMERIK block has orientation words (LinuxCNC's path
+        // pays one comparison).
+        if self.options.dialect != crate::gcode::Dialect::Sinumerik {
+            return false;
+        }
+        // The vector's components; Euler angles; RPY angles.
+        let sets = [
+            (crate::gcode::ORIENTATION_VECTOR_LETTERS, None),
+            (ORIENTATION_ANGLE_LETTERS, Some(false)),
+            (ORIENTATION_RPY_LETTERS, Some(true)),
+        ];
+        let Some((words, angles)) = sets.iter().find_map(|(letters, angles)| {
+            let words = letters.map(|l| block.words.iter().find(|w| w.letter == l));
+            words
+                .iter()
+                .any(Option::is_some)
+                .then_some((words, *angles))
+        }) else {
+            return false;
+        };
+        let Some(solver) = self.orientation.clone() else {
+            return true;
+        };
+        let changed = self.options.axes.iter().filter(|a| a.is_rotary()).any(|a| {
+            block
+                .words
+                .iter()
+                .rev()
+                .find(|w| w.letter == a.letter() as u8)
+                .is_some_and(|w| (w.value - end.get(a)).abs() > half_ulp(4))
+        });
+        if !changed {
+            return true;
+        }
+        let origin = event.origin;
+        let axis = solver.axis_of(&origin.to_machine(&end));
+        let mut v = match &origin.frame {
+            Some(f) => {
+                let m = &f.inverse;
+                [0, 1, 2].map(|i| (0..3).map(|k| m[i][k] * axis[k]).sum::<f64>())
+            }
+            None => axis,
+        };
+        let norm = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if norm > 0.0 && norm.is_finite() {
+            v = v.map(|c| c / norm);
+        }
+        let (values, names, least) = match angles {
+            None => (v, [" A3=", " B3=", " C3="], 7),
+            Some(rpy) => {
+                let c = words[2].map_or(0.0, |w| w.value);
+                (
+                    crate::gcode::sinumerik::direction_angles(rpy, v, c),
+                    [" A2=", " B2=", " C2="],
+                    6,
+                )
+            }
+        };
+        let last = words.iter().flatten().map(|w| w.end).max().unwrap_or(0);
+        let mut added = String::new();
+        for (k, w) in words.iter().enumerate() {
+            // An angle C2 is kept: it does not turn the direction
+            // (Euler) or it is the one the others were solved for (RPY).
+            if angles.is_some() && k == 2 {
+                continue;
+            }
+            match w {
+                Some(w) => {
+                    let dec = w.decimals.max(least);
+                    if (values[k] - w.value).abs() > half_ulp(dec) {
+                        self.replace_number(block, w, values[k], dec);
+                    }
+                }
+                None if values[k].abs() > half_ulp(least) => {
+                    added.push_str(names[k]);
+                    push_number(&mut added, values[k], least);
+                }
+                None => {}
+            }
+        }
+        if !added.is_empty() {
+            let from = self.text.len();
+            self.text.push_str(&added);
+            self.record(from, last, last);
+        }
+        true
     }
 
     /// Record that `raw[start..end]` becomes the text written since `from`.
