@@ -93,6 +93,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         "the reference refuses `Y.5` (line 11: \"expected the end of the program\"), a number the 840D reads (a leading zero left out, as CAM output writes `.02`); the file also calls subprograms (`L12`, `CORNER(7, -3)`), which the reference does not run",
     ),
     (
+        "arcs.mpf",
+        &[],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `CIP … I1= J1=` (line 7: \"expected a comment (;...), or a statement\"), nor the other circles written without a centre (`CT`, `AR=`, `TURN=`); volcomp works each out into the centre form (the fixture's comments check them by hand)",
+    ),
+    (
         "plane-3plus2.mpf",
         &["--machine", "machines/ref-trt.toml"],
         AsWritten,
@@ -112,6 +119,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         AsWritten,
         Agree,
         "as saddle-traori-ac.mpf, on a B/C machine",
+    ),
+    (
+        "saddle-traori-vector.mpf",
+        &["--machine", "machines/ref-trt.toml"],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read orientation vectors `A3= B3= C3=` (line 10: \"expected a comment (;...), or a statement\"); volcomp turns them into ref-trt's rotary joints on its chain (tests/it/sinumerik.rs checks the closed loop)",
     ),
     // CEAD's example programs.
     (
