@@ -566,38 +566,32 @@ fn rotary_ranges(s: &ProgramSummary) -> String {
 /// legs of `PLANE … TURN`.
 fn motion_line(s: &ProgramSummary) -> String {
     let m = &s.motion;
-    match s.read_in {
-        crate::gcode::Dialect::LinuxCnc => format!(
-            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), G53 {}, G28/G30 {}",
-            m.total(),
-            m.rapid,
-            m.linear,
-            m.arc_cw,
-            m.arc_ccw,
-            s.machine_coordinate_motions,
-            s.home_blocks
-        ),
-        crate::gcode::Dialect::Sinumerik => format!(
-            "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), SUPA/G53 {}, G74/G75 {}",
-            m.total(),
-            m.rapid,
-            m.linear,
-            m.arc_cw,
-            m.arc_ccw,
-            s.machine_coordinate_motions,
-            s.home_blocks
-        ),
-        crate::gcode::Dialect::Heidenhain => format!(
-            "  moves: {} (L … FMAX {}, L {}, C DR- {}, C DR+ {}), M91/M92 {}, PLANE … TURN {}",
-            m.total(),
-            m.rapid,
-            m.linear,
-            m.arc_cw,
-            m.arc_ccw,
-            s.machine_coordinate_motions,
-            s.home_blocks.saturating_sub(s.machine_coordinate_motions)
-        ),
-    }
+    let (machine, home) = match s.read_in {
+        crate::gcode::Dialect::LinuxCnc => ("G53", "G28/G30"),
+        crate::gcode::Dialect::Sinumerik => ("SUPA/G53", "G74/G75"),
+        crate::gcode::Dialect::Heidenhain => {
+            return format!(
+                "  moves: {} (L … FMAX {}, L {}, C DR- {}, C DR+ {}), M91/M92 {}, PLANE … TURN {}",
+                m.total(),
+                m.rapid,
+                m.linear,
+                m.arc_cw,
+                m.arc_ccw,
+                s.machine_coordinate_motions,
+                s.home_blocks.saturating_sub(s.machine_coordinate_motions)
+            );
+        }
+    };
+    format!(
+        "  motion blocks: {} (G0 {}, G1 {}, G2 {}, G3 {}), {machine} {}, {home} {}",
+        m.total(),
+        m.rapid,
+        m.linear,
+        m.arc_cw,
+        m.arc_ccw,
+        s.machine_coordinate_motions,
+        s.home_blocks
+    )
 }
 
 /// The summary's inverse-time line: G93 in LinuxCNC's and SINUMERIK's

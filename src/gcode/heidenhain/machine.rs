@@ -944,25 +944,40 @@ impl KlMachine {
         let mut moves = Vec::with_capacity(points.len());
         let mut steps = Vec::with_capacity(points.len());
         for p in points {
-            let end = self.to_frame(s, *p, s.rot);
-            if !end.is_finite() {
-                return Err(GcodeError::at(
-                    ErrorKind::NonFinite,
-                    c.line,
-                    c.raw,
-                    0,
-                    c.raw.len(),
-                ));
-            }
-            moves.push(self.straight(s.frame(), false, start, end, feed));
-            steps.push(if feed == Feed::Rapid {
-                CycleStep::Rapid(*p)
-            } else {
-                CycleStep::Feed(*p)
-            });
-            start = end;
+            let (motion, step) = self.piece(c, s, start, *p, feed)?;
+            start = motion.end;
+            moves.push(motion);
+            steps.push(step);
         }
         Ok(Moves::Cycle { moves, steps })
+    }
+
+    /// One straight piece from `start` to `p` (program coordinates) at
+    /// `feed`, and the step a writer writes it as.
+    fn piece(
+        &self,
+        c: &Ctx<'_>,
+        s: &State,
+        start: Axes,
+        p: [f64; 3],
+        feed: Feed,
+    ) -> Result<(Motion, CycleStep), GcodeError> {
+        let end = self.to_frame(s, p, s.rot);
+        if !end.is_finite() {
+            return Err(GcodeError::at(
+                ErrorKind::NonFinite,
+                c.line,
+                c.raw,
+                0,
+                c.raw.len(),
+            ));
+        }
+        let step = if feed == Feed::Rapid {
+            CycleStep::Rapid(p)
+        } else {
+            CycleStep::Feed(p)
+        };
+        Ok((self.straight(s.frame(), false, start, end, feed), step))
     }
 
     /// `RND R…` / `CHF …`: the rounding arc (as chords within
@@ -1537,14 +1552,8 @@ impl KlMachine {
                 let scale = if s.inch { 25.4 } else { 1.0 };
                 let mut target = [None::<f64>; 3];
                 for (k, t) in c.block.tokens.iter().enumerate().skip(3) {
-                    let (inc, slot) = match t.address.as_str() {
-                        "X" => (false, 0),
-                        "Y" => (false, 1),
-                        "Z" => (false, 2),
-                        "IX" => (true, 0),
-                        "IY" => (true, 1),
-                        "IZ" => (true, 2),
-                        _ => continue,
+                    let Some((inc, slot)) = xyz_address(t.address.as_str()) else {
+                        continue;
                     };
                     let v = c.value(k)? * scale;
                     target[slot] = Some(if inc { s.pos[slot] + v } else { v });
@@ -1637,23 +1646,10 @@ impl KlMachine {
                     continue;
                 }
             };
-            let end = self.to_frame(s, p, s.rot);
-            if !end.is_finite() {
-                return Err(GcodeError::at(
-                    ErrorKind::NonFinite,
-                    c.line,
-                    c.raw,
-                    0,
-                    c.raw.len(),
-                ));
-            }
-            moves.push(self.straight(s.frame(), false, start, end, feed));
-            done.push(if feed == Feed::Rapid {
-                CycleStep::Rapid(p)
-            } else {
-                CycleStep::Feed(p)
-            });
-            start = end;
+            let (motion, step) = self.piece(c, s, start, p, feed)?;
+            start = motion.end;
+            moves.push(motion);
+            done.push(step);
             last = p;
         }
         // A cycle called with M99 on a positioning block: that move first.
@@ -2153,20 +2149,27 @@ fn tangent_centre(s: [f64; 3], e: [f64; 3], t: [f64; 2]) -> Option<([f64; 2], bo
     Some(([s[0] + k * n[0], s[1] + k * n[1]], k < 0.0))
 }
 
+/// A straight move's coordinate address: (incremental, 0 X / 1 Y / 2 Z).
+fn xyz_address(address: &str) -> Option<(bool, usize)> {
+    match address {
+        "X" => Some((false, 0)),
+        "Y" => Some((false, 1)),
+        "Z" => Some((false, 2)),
+        "IX" => Some((true, 0)),
+        "IY" => Some((true, 1)),
+        "IZ" => Some((true, 2)),
+        _ => None,
+    }
+}
+
 /// Where the `X Y Z` / `IX IY IZ` words of `c`'s block (from token
 /// `skip`) put a straight move that starts at `from` (mm, `scale` for the
 /// program's units).
 fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f64; 3], GcodeError> {
     let mut end = from;
     for (k, t) in c.block.tokens.iter().enumerate().skip(skip) {
-        let (inc, slot) = match t.address.as_str() {
-            "X" => (false, 0),
-            "Y" => (false, 1),
-            "Z" => (false, 2),
-            "IX" => (true, 0),
-            "IY" => (true, 1),
-            "IZ" => (true, 2),
-            _ => continue,
+        let Some((inc, slot)) = xyz_address(t.address.as_str()) else {
+            continue;
         };
         if t.value.is_none() {
             continue;
