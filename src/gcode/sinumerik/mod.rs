@@ -196,10 +196,10 @@ fn line_head(raw: &[u8]) -> LineHead<'_> {
 impl SourceFile {
     /// Split `text` into lines and match its structured statements.
     fn new(name: String, text: Vec<u8>) -> Result<SourceFile, GcodeError> {
-        let mut lines = Vec::new();
+        let mut lines = Vec::with_capacity(memchr::memchr_iter(b'\n', &text).count() + 1);
         let mut start = 0;
         while start < text.len() {
-            let (end, next, ending) = match text[start..].iter().position(|&b| b == b'\n') {
+            let (end, next, ending) = match memchr::memchr(b'\n', &text[start..]) {
                 Some(k) if k > 0 && text[start + k - 1] == b'\r' => {
                     (start + k - 1, start + k + 1, LineEnding::CrLf)
                 }
@@ -264,10 +264,19 @@ impl SourceFile {
                 labels.entry(label).or_insert(k);
             }
             let Some(first) = head.first else { continue };
-            let name = first.to_ascii_uppercase();
-            let Some(s) = Structure::of(std::str::from_utf8(&name).unwrap_or("")) else {
+            // The longest structure name is 8 letters: a longer first name (or
+            // a motion word such as `G1`) is none, without allocating.
+            let mut buf = [0u8; 8];
+            let Some(upper_first) = buf.get_mut(..first.len()) else {
                 continue;
             };
+            for (u, b) in upper_first.iter_mut().zip(first) {
+                *u = b.to_ascii_uppercase();
+            }
+            let Some(s) = Structure::of(std::str::from_utf8(upper_first).unwrap_or("")) else {
+                continue;
+            };
+            let name = first.to_ascii_uppercase();
             let upper = head.rest.to_ascii_uppercase();
             let code = match upper.iter().position(|&b| b == b';') {
                 Some(c) => &upper[..c],

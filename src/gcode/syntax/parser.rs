@@ -47,6 +47,33 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// `digits [. digits]` (no sign, no spaces) converted as the hot path of
+/// [`scan_number`] converts it: `mantissa / 10^decimals` when both are exact
+/// doubles (bit-identical to `str::parse::<f64>`); `None` for any other
+/// text, which the caller parses the slow way. Shared by the SINUMERIK and
+/// Heidenhain tokenisers.
+pub(crate) fn exact_decimal(text: &[u8]) -> Option<f64> {
+    let mut mantissa: u64 = 0;
+    let mut ndigits = 0usize;
+    let mut decimals = 0usize;
+    let mut point = false;
+    for &b in text {
+        if b.is_ascii_digit() {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add((b - b'0') as u64);
+            ndigits += 1;
+            if point {
+                decimals += 1;
+            }
+        } else if b == b'.' && !point {
+            point = true;
+        } else {
+            return None;
+        }
+    }
+    (ndigits > 0 && ndigits <= 19 && mantissa < (1u64 << 53) && decimals < POW10.len())
+        .then(|| mantissa as f64 / POW10[decimals])
+}
+
 /// A scanned number: value, decimals, point, and the end of its last digit or point.
 struct Number {
     value: f64,
