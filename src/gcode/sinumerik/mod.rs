@@ -407,6 +407,8 @@ pub(crate) struct SinumerikFront {
     text: String,
     /// The line being run (reused).
     line_buf: Vec<u8>,
+    /// The words buffer of the block handed on before (reused by the next line).
+    spare_words: Vec<Word>,
 }
 
 impl SinumerikFront {
@@ -484,6 +486,7 @@ impl SinumerikFront {
             tokens: Vec::new(),
             text: String::new(),
             line_buf: Vec::new(),
+            spare_words: Vec::new(),
         }
     }
 
@@ -729,6 +732,7 @@ impl SinumerikFront {
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
         let mut out = Out::new(raw.len());
+        out.words = std::mem::take(&mut self.spare_words);
         if let Some(c) = &comment {
             out.comments.push(c.clone());
         }
@@ -841,7 +845,8 @@ impl SinumerikFront {
         self.block.deleted = out.deleted;
         if literal {
             self.block.raw.extend_from_slice(raw);
-            self.block.words = out.words;
+            // The previous block's words buffer (cleared by reset) serves the next line.
+            self.spare_words = std::mem::replace(&mut self.block.words, out.words);
             self.block.keywords = out.keywords;
             self.block.comments = out.comments;
             self.block.statements = out.statements;
