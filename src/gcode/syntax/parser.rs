@@ -507,6 +507,36 @@ mod tests {
     }
 
     #[test]
+    fn exact_decimal_is_str_parse_or_none() {
+        for text in [
+            "0",
+            "12.",
+            ".5",
+            "30070.6535",
+            "9007199254740991",
+            "0.1",
+            "123.4567890123",
+        ] {
+            let v = super::exact_decimal(text.as_bytes());
+            let t = text.strip_suffix('.').unwrap_or(text);
+            assert_eq!(v, Some(t.parse::<f64>().unwrap()), "{text}");
+        }
+        // Longer mantissas, signs, commas, exponents, two points: the slow path.
+        for text in [
+            "",
+            ".",
+            "9007199254740993",
+            "-1",
+            "1,5",
+            "1e3",
+            "1.2.3",
+            "12345678901234567890",
+        ] {
+            assert_eq!(super::exact_decimal(text.as_bytes()), None, "{text}");
+        }
+    }
+
+    #[test]
     fn numbers_in_every_spelling() {
         assert_eq!(
             words("x.5 X5. X+1 x-0.5 F30070.6535"),
