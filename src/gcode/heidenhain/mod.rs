@@ -222,7 +222,10 @@ impl KlartextFront {
                 && (self.parsed.starts_with(&["LBL"])
                     || self.parsed.starts_with(&["BEGIN", "PGM"])
                     || ends_program));
-        let origin = if file == 0 {
+        // The origin comment is written by flat and control blocks only.
+        let origin = if !control && reach != Reach::Flat {
+            String::new()
+        } else if file == 0 {
             format!("line {}", r.line)
         } else {
             format!("{}:{}", self.language.files[file].name, r.line)

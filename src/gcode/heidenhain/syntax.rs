@@ -101,13 +101,13 @@ impl std::fmt::Display for Address {
 
 impl PartialEq<str> for Address {
     fn eq(&self, other: &str) -> bool {
-        self.as_str() == other
+        &self.bytes[..self.len as usize] == other.as_bytes()
     }
 }
 
 impl PartialEq<&str> for Address {
     fn eq(&self, other: &&str) -> bool {
-        self.as_str() == *other
+        &self.bytes[..self.len as usize] == other.as_bytes()
     }
 }
 
@@ -349,7 +349,7 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         }
     }
     // `Q200=+2` (a cycle parameter): the address is `Q200`.
-    if let Some(eq) = text.find('=')
+    if let Some(eq) = memchr::memchr(b'=', bytes)
         && eq > k
         && read_param(&text[..eq]).is_some()
     {
@@ -399,6 +399,15 @@ fn read_value(v: &str) -> (Option<Value>, u8, bool) {
     if let Some(param) = read_param(body) {
         return (Some(Value::Param { param, negate }), 0, signed);
     }
+    if let Some(x) = crate::gcode::syntax::parser::exact_decimal(body.as_bytes()) {
+        let decimals = memchr::memchr(b'.', body.as_bytes())
+            .map_or(0, |p| (body.len() - p - 1).min(255) as u8);
+        return (
+            Some(Value::Number(if negate { -x } else { x })),
+            decimals,
+            signed,
+        );
+    }
     if body
         .bytes()
         .all(|b| b.is_ascii_digit() || b == b'.' || b == b',')
@@ -423,6 +432,10 @@ fn read_value(v: &str) -> (Option<Value>, u8, bool) {
 
 /// `Q12`, `QL3`, `QR100` (upper or lower case).
 pub fn read_param(text: &str) -> Option<Param> {
+    // Only `Q…` is a parameter: anything else is refused before upper-casing.
+    if !text.starts_with(['Q', 'q']) {
+        return None;
+    }
     let upper = text.to_ascii_uppercase();
     let (kind, digits) = if let Some(d) = upper.strip_prefix("QL") {
         (ParamKind::Ql, d)

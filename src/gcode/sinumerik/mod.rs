@@ -199,10 +199,10 @@ fn line_head(raw: &[u8]) -> LineHead<'_> {
 impl SourceFile {
     /// Split `text` into lines and match its structured statements.
     fn new(name: String, text: Vec<u8>) -> Result<SourceFile, GcodeError> {
-        let mut lines = Vec::new();
+        let mut lines = Vec::with_capacity(memchr::memchr_iter(b'\n', &text).count() + 1);
         let mut start = 0;
         while start < text.len() {
-            let (end, next, ending) = match text[start..].iter().position(|&b| b == b'\n') {
+            let (end, next, ending) = match memchr::memchr(b'\n', &text[start..]) {
                 Some(k) if k > 0 && text[start + k - 1] == b'\r' => {
                     (start + k - 1, start + k + 1, LineEnding::CrLf)
                 }
@@ -267,10 +267,19 @@ impl SourceFile {
                 labels.entry(label).or_insert(k);
             }
             let Some(first) = head.first else { continue };
-            let name = first.to_ascii_uppercase();
-            let Some(s) = Structure::of(std::str::from_utf8(&name).unwrap_or("")) else {
+            // The longest structure name is 8 letters: a longer first name (or
+            // a motion word such as `G1`) is none, without allocating.
+            let mut buf = [0u8; 8];
+            let Some(upper_first) = buf.get_mut(..first.len()) else {
                 continue;
             };
+            for (u, b) in upper_first.iter_mut().zip(first) {
+                *u = b.to_ascii_uppercase();
+            }
+            let Some(s) = Structure::of(std::str::from_utf8(upper_first).unwrap_or("")) else {
+                continue;
+            };
+            let name = first.to_ascii_uppercase();
             let upper = head.rest.to_ascii_uppercase();
             let code = match upper.iter().position(|&b| b == b';') {
                 Some(c) => &upper[..c],
@@ -409,6 +418,8 @@ pub(crate) struct SinumerikFront {
     text: String,
     /// The line being run (reused).
     line_buf: Vec<u8>,
+    /// The words buffer of the block handed on before (reused by the next line).
+    spare_words: Vec<Word>,
 }
 
 impl SinumerikFront {
@@ -489,6 +500,7 @@ impl SinumerikFront {
             tokens: Vec::new(),
             text: String::new(),
             line_buf: Vec::new(),
+            spare_words: Vec::new(),
         }
     }
 
@@ -734,6 +746,7 @@ impl SinumerikFront {
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
         let mut out = Out::new(raw.len());
+        out.words = std::mem::take(&mut self.spare_words);
         if let Some(c) = &comment {
             out.comments.push(c.clone());
         }
@@ -846,7 +859,8 @@ impl SinumerikFront {
         self.block.deleted = out.deleted;
         if literal {
             self.block.raw.extend_from_slice(raw);
-            self.block.words = out.words;
+            // The previous block's words buffer (cleared by reset) serves the next line.
+            self.spare_words = std::mem::replace(&mut self.block.words, out.words);
             self.block.keywords = out.keywords;
             self.block.comments = out.comments;
             self.block.statements = out.statements;

@@ -251,6 +251,9 @@ pub(crate) fn tokenize(
 
 /// The digits of a number (ASCII, `.` allowed at either end).
 fn parse_number(digits: &[u8]) -> f64 {
+    if let Some(v) = crate::gcode::syntax::parser::exact_decimal(digits) {
+        return v;
+    }
     let text = std::str::from_utf8(digits).unwrap_or("");
     let text = text.strip_suffix('.').unwrap_or(text);
     if text.is_empty() {

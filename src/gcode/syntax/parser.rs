@@ -47,6 +47,33 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// `digits [. digits]` (no sign, no spaces) converted as the hot path of
+/// [`scan_number`] converts it: `mantissa / 10^decimals` when both are exact
+/// doubles (bit-identical to `str::parse::<f64>`); `None` for any other
+/// text, which the caller parses the slow way. Shared by the SINUMERIK and
+/// Heidenhain tokenisers.
+pub(crate) fn exact_decimal(text: &[u8]) -> Option<f64> {
+    let mut mantissa: u64 = 0;
+    let mut ndigits = 0usize;
+    let mut decimals = 0usize;
+    let mut point = false;
+    for &b in text {
+        if b.is_ascii_digit() {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add((b - b'0') as u64);
+            ndigits += 1;
+            if point {
+                decimals += 1;
+            }
+        } else if b == b'.' && !point {
+            point = true;
+        } else {
+            return None;
+        }
+    }
+    (ndigits > 0 && ndigits <= 19 && mantissa < (1u64 << 53) && decimals < POW10.len())
+        .then(|| mantissa as f64 / POW10[decimals])
+}
+
 /// A scanned number: value, decimals, point, and the end of its last digit or point.
 struct Number {
     value: f64,
@@ -477,6 +504,36 @@ mod tests {
             .iter()
             .map(|w| (w.letter as char, w.value, w.decimals))
             .collect()
+    }
+
+    #[test]
+    fn exact_decimal_is_str_parse_or_none() {
+        for text in [
+            "0",
+            "12.",
+            ".5",
+            "30070.6535",
+            "9007199254740991",
+            "0.1",
+            "123.4567890123",
+        ] {
+            let v = super::exact_decimal(text.as_bytes());
+            let t = text.strip_suffix('.').unwrap_or(text);
+            assert_eq!(v, Some(t.parse::<f64>().unwrap()), "{text}");
+        }
+        // Longer mantissas, signs, commas, exponents, two points: the slow path.
+        for text in [
+            "",
+            ".",
+            "9007199254740993",
+            "-1",
+            "1,5",
+            "1e3",
+            "1.2.3",
+            "12345678901234567890",
+        ] {
+            assert_eq!(super::exact_decimal(text.as_bytes()), None, "{text}");
+        }
     }
 
     #[test]
