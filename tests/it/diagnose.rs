@@ -768,6 +768,65 @@ mod cli {
         String::from_utf8_lossy(&out.stdout).into_owned()
     }
 
+    /// The diagnosis selection draws a bar (percentage and time left) only
+    /// on a terminal (issue 37 item 4): with the bar's delay at 0 ms,
+    /// `diagnose` piped writes no bar and no escape codes; the same run on
+    /// a pseudo-terminal (`script`, when the system has it) draws the
+    /// selection's bar.
+    #[test]
+    fn the_selection_shows_progress_only_on_a_terminal() {
+        let dir = tempfile::tempdir().unwrap();
+        let machine = nominal_machine(dir.path());
+        let program = data("samples/saddle.nc");
+        let plan = data("samples/saddle-plan.csv");
+        let measured = dir.path().join("meas.csv");
+        let args = [
+            "--effect",
+            "backlash:bx=15,by=12,bz=8",
+            "--seed",
+            "5",
+            "-o",
+            measured.to_str().unwrap(),
+        ];
+        ok(&command("simulate", &[&machine, &program, &plan], &args));
+        let report = dir.path().join("diag.json");
+        let out = volcomp()
+            .env("VOLCOMP_PROGRESS_AFTER_MS", "0")
+            .arg("diagnose")
+            .args([&machine, &program, &measured])
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .unwrap();
+        ok(&out);
+        for text in [&out.stdout, &out.stderr] {
+            let text = String::from_utf8_lossy(text);
+            assert!(!text.contains("% ["), "a bar when piped: {text}");
+            assert!(!text.contains('\u{1b}'), "escape codes when piped: {text}");
+        }
+        if Path::new("/usr/bin/script").exists() {
+            let command = format!(
+                "{} diagnose {} {} {} --report {}",
+                env!("CARGO_BIN_EXE_volcomp"),
+                machine.display(),
+                program.display(),
+                measured.display(),
+                report.display()
+            );
+            let tty = std::process::Command::new("/usr/bin/script")
+                .env("VOLCOMP_PROGRESS_AFTER_MS", "0")
+                .env("VOLCOMP_MODEL_CACHE", crate::support::model_cache())
+                .args(["-qec", &command, "/dev/null"])
+                .output()
+                .unwrap();
+            let shown = String::from_utf8_lossy(&tty.stdout);
+            assert!(
+                shown.contains("diagnosing (selection)") && shown.contains("% ["),
+                "no selection bar on a terminal: {shown}"
+            );
+        }
+    }
+
     /// A part cut on a machine whose tables are 1.5 × ref-trt's, diagnosed with
     /// ref-trt's model: the model is named, no effect is selected.
     #[test]

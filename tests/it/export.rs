@@ -484,3 +484,73 @@ fn one_axis_round_trips_through_the_comp_file_and_the_residual_machine() {
     // Without the residual machine's share the full curve would be applied twice.
     assert!(left_worst < 0.02, "{left_worst}");
 }
+
+/// The uncertainty travels into the exports (issue 37): from a laser import
+/// with `u_EXX` (the runs' scatter), `export tables` writes `u_EXX` beside
+/// `EXX`, equal to the fitted curve's standard uncertainty at each grid
+/// position (to its 4 written decimals), and `export linuxcnc` writes after
+/// the triplets one `# u NOMINAL µm` line per triplet with the same values,
+/// which LinuxCNC's reader never reaches (it stops at the first line that is
+/// not three numbers). Tables without `u_` columns get none (the bundled
+/// ref-trt in `fitted_tables_come_out_on_the_chosen_grid_and_read_back`).
+#[test]
+fn the_uncertainty_of_a_laser_table_reaches_both_exports() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine_path = machine_with_reversal(dir.path());
+    let machine = Machine::load(&machine_path).unwrap();
+    let model = ErrorModel::from_machine(&machine, &ModelOptions::default()).unwrap();
+    let curve = model.curve("EXX").unwrap();
+    assert!(!curve.uncertainty().is_empty(), "the import gives u_EXX");
+
+    let tables = dir.path().join("tables");
+    let out = volcomp()
+        .args(["export", "tables"])
+        .arg(&machine_path)
+        .arg("-o")
+        .arg(&tables)
+        .args(["--step", "10"])
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let x = ErrorTable::read(&tables.join("x.csv"), None).unwrap();
+    let exx = x.column("EXX").unwrap();
+    let u = exx.uncertainty.as_ref().expect("u_EXX written beside EXX");
+    assert_eq!(u.len(), x.positions.len());
+    for (p, u) in x.positions.iter().zip(u) {
+        let want = curve.uncertainty_at(*p).unwrap();
+        assert!(want > 0.0 && want.is_finite(), "{p}: {want}");
+        assert!((u - want).abs() <= 5e-5 + 1e-12, "{p}: {u} vs {want}");
+    }
+
+    let lcnc = dir.path().join("lcnc");
+    let out = volcomp()
+        .args(["export", "linuxcnc"])
+        .arg(&machine_path)
+        .arg("-o")
+        .arg(&lcnc)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(lcnc.join("x.comp")).unwrap();
+    let triplets = linuxcnc_load(&text, 0);
+    assert!(
+        text.contains(
+            "# Standard uncertainty of EXX (the fitted curve's, from the table's u_ column)"
+        ),
+        "{text}"
+    );
+    let lines: Vec<(f64, f64)> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("# u "))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            (v[0], v[1])
+        })
+        .collect();
+    assert_eq!(lines.len(), triplets.len(), "one # u line per triplet");
+    for ((nominal, u), t) in lines.iter().zip(&triplets) {
+        assert_eq!(*nominal, t.0);
+        let want = curve.uncertainty_at(*nominal).unwrap();
+        assert!((u - want).abs() <= 5e-5 + 1e-12, "{nominal}: {u} vs {want}");
+    }
+}
