@@ -1854,7 +1854,8 @@ impl KlMachine {
     /// machine's chain, `SEQ`'s branch; a free rotary axis (one parallel
     /// to the tool axis there, which does not tilt the tool) stays where it
     /// is (`COORD ROT`: the rotation about the tool axis is the coordinate
-    /// system's).
+    /// system's), or, with `TABLE ROT` and the tool vertical, goes to the
+    /// plane's rotation about the tool axis when that is 0° or 180°.
     fn solve_plane(
         &self,
         c: &Ctx<'_>,
