@@ -736,3 +736,30 @@ fn hypermill_forms_are_read() {
     assert_eq!(m[1].1.feed, volcomp::gcode::Feed::PerMinute(250.0));
     assert_point(xyz(&m[1].1.end), [10.0, 0.0, -1.0]);
 }
+
+/// hyperMILL's `PLANE SPATIAL SPA0 SPB0 SPC0|SPC180 STAY SEQ+ TABLE ROT`
+/// on a table C axis (free there: the tool is along it): the table takes
+/// the plane's rotation about the tool axis (TNC 640 user's manual,
+/// "Specifying the positioning behavior of the PLANE function", TABLE ROT),
+/// so `Q122` is 0 or 180 and the program's `L B+Q121 C+Q122` turns it
+/// there; `CP … DR+F2777` (the feed written on the sign) is `DR+ F2777`.
+#[test]
+fn table_rot_free_axis_and_dr_with_feed() {
+    let (machine, _) = rig("bc-trt");
+    let text = "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z S1000\n2 L X+0 Y+0 Z+50 B+0 C+30 R0 FMAX\n3 PLANE SPATIAL SPA0 SPB0 SPC180 STAY SEQ+ TABLE ROT\n4 L B+Q121 C+Q122 R0 FMAX\n5 PLANE SPATIAL SPA0 SPB0 SPC0 STAY SEQ+ TABLE ROT\n6 L B+Q121 C+Q122 R0 FMAX\n7 PLANE RESET STAY\n8 L X+10 Y+0 Z+0 R0 FMAX\n9 CC X+0 Y+0\n10 CP IPA+90 IZ-2 DR+F2777\n11 END PGM T MM\n";
+    let m = motions(text, Some(machine)).unwrap();
+    let turned = last_of(&m, 5);
+    assert_abs_diff_eq!(turned.end.c.abs(), 180.0, epsilon = 1e-9);
+    assert_abs_diff_eq!(turned.end.b, 0.0, epsilon = 1e-9);
+    assert_abs_diff_eq!(last_of(&m, 7).end.c, 0.0, epsilon = 1e-9);
+    let helix = last_of(&m, 11);
+    assert_eq!(helix.feed, volcomp::gcode::Feed::PerMinute(2777.0));
+    assert_near(xyz(&helix.end), [0.0, 10.0, -2.0], 1e-6);
+    // Another rotation about the tool axis stays refused (its sense).
+    let e = motions(
+        "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z S1000\n2 PLANE SPATIAL SPA0 SPB0 SPC90 STAY SEQ+ TABLE ROT\n3 END PGM T MM\n",
+        Some(machine),
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:3:") && e.contains("TABLE ROT"), "{e}");
+}

@@ -1850,7 +1850,8 @@ impl KlMachine {
     /// machine's chain, `SEQ`'s branch; a free rotary axis (one parallel
     /// to the tool axis there, which does not tilt the tool) stays where it
     /// is (`COORD ROT`: the rotation about the tool axis is the coordinate
-    /// system's).
+    /// system's), or, with `TABLE ROT` and the tool vertical, goes to the
+    /// plane's rotation about the tool axis when that is 0° or 180°.
     fn solve_plane(
         &self,
         c: &Ctx<'_>,
@@ -1878,13 +1879,30 @@ impl KlMachine {
             let d = [moved[0] - axis[0], moved[1] - axis[1], moved[2] - axis[2]];
             if dot(d, d).sqrt() < 1e-9 {
                 if let Some(k) = how.table_rot {
-                    return Err(c.unread(
-                        &format!(
-                            "PLANE … TABLE ROT with the free rotary axis {} (the table would take the rotation about the tool axis)",
-                            letter.letter()
-                        ),
-                        Some(k),
-                    ));
+                    // TABLE ROT: the table takes the plane's rotation about
+                    // the tool axis (TNC 640 user's manual, "Specifying the
+                    // positioning behavior of the PLANE function", COORD
+                    // ROT / TABLE ROT). Read where that rotation is 0° or
+                    // 180° (the same table angle in either sense); another
+                    // angle needs the table's sense, not confirmed here.
+                    let x = mat_vec(r, [1.0, 0.0, 0.0]);
+                    let gamma = x[1].atan2(x[0]).to_degrees();
+                    let vertical = (axis[2] - 1.0).abs() < 1e-9;
+                    let turn = if vertical && gamma.abs() < 1e-9 {
+                        0.0
+                    } else if vertical && (gamma.abs() - 180.0).abs() < 1e-9 {
+                        180.0
+                    } else {
+                        return Err(c.unread(
+                            &format!(
+                                "PLANE … TABLE ROT with the free rotary axis {} turning the table by an angle other than 0° or 180° (its sense is not confirmed)",
+                                letter.letter()
+                            ),
+                            Some(k),
+                        ));
+                    };
+                    j.set(letter, self.setup.preset.get(letter) + turn);
+                    continue;
                 }
                 j.set(letter, s.position.get(letter));
             }

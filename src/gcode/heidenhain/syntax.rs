@@ -310,9 +310,21 @@ fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
             }
             k += 1;
         }
-        let mut t = token(&code[start..k], map, start);
-        t.text = start - from..k - from;
-        tokens.push(t);
+        // `DR+F2777`, `DR+FQ1`: a direction sign with the feed written on
+        // (hyperMILL writes it so): two words, `DR+` and `F…`.
+        let w = &bytes[start..k];
+        let split = (w.len() > 4
+            && w[..2].eq_ignore_ascii_case(b"DR")
+            && matches!(w[2], b'+' | b'-')
+            && w[3].eq_ignore_ascii_case(&b'F'))
+        .then_some(start + 3);
+        for (a, b) in split.map_or([(start, k), (k, k)], |m| [(start, m), (m, k)]) {
+            if a < b {
+                let mut t = token(&code[a..b], map, a);
+                t.text = a - from..b - from;
+                tokens.push(t);
+            }
+        }
     }
 }
 
