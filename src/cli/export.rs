@@ -118,14 +118,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// fitted: none is an input (the machine file, a table: `-o` naming the
 /// tables' own folder), none exists already unless `--force` (a folder holds
 /// other files than the export's: they are not replaced without notice). The
-/// folder is made, when missing, as the files are written.
-fn check_folder(
+/// folder is made, when missing, as the files are written. Then the model
+/// is fitted (or loaded): the machine and its model.
+fn checked_model(
     dir: &Path,
-    machine: &crate::machine::Machine,
-    args: &super::common::ModelArgs,
+    machine: crate::machine::Machine,
+    args: &MachineArgs,
     files: &[PathBuf],
     force: bool,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<(crate::machine::Machine, crate::machine::ErrorModel)> {
     if crate::io::is_stdio(dir) {
         return Err(
             super::UsageError("-o names a folder; `-` cannot hold several files".into()).into(),
@@ -139,8 +140,8 @@ fn check_folder(
         .into());
     }
     let mut check = super::common::CommandFiles::new()
-        .machine(machine)
-        .model(args);
+        .machine(&machine)
+        .model(&args.model);
     for file in files {
         check = check.output("(-o)", Some(file));
     }
@@ -158,7 +159,7 @@ fn check_folder(
         ))
         .into());
     }
-    Ok(())
+    super::common::fit_model(machine, &args.machine_file, &args.model)
 }
 
 fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
@@ -203,15 +204,7 @@ fn linuxcnc(args: &LinuxcncArgs) -> anyhow::Result<()> {
                 .map(|a| super::write_machine::table_copy(out, a)),
         );
     }
-    check_folder(
-        &args.output,
-        &machine,
-        &args.machine.model,
-        &files,
-        args.force,
-    )?;
-    let (machine, model) =
-        super::common::fit_model(machine, &args.machine.machine_file, &args.machine.model)?;
+    let (machine, model) = checked_model(&args.output, machine, &args.machine, &files, args.force)?;
     let settings = CompSettings {
         comp_type: if args.comp_type == 1 {
             CompType::Trim
@@ -381,15 +374,7 @@ fn tables(args: &TablesArgs) -> anyhow::Result<()> {
         .filter(|a| machine.table(*a).is_some())
         .map(|a| args.output.join(format!("{}.csv", a.lower())))
         .collect();
-    check_folder(
-        &args.output,
-        &machine,
-        &args.machine.model,
-        &files,
-        args.force,
-    )?;
-    let (machine, model) =
-        super::common::fit_model(machine, &args.machine.machine_file, &args.machine.model)?;
+    let (machine, model) = checked_model(&args.output, machine, &args.machine, &files, args.force)?;
     let settings = GridSettings {
         step_mm: args.step,
         step_deg: args.step_deg,
