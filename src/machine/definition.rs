@@ -348,6 +348,7 @@ struct RawToolEntry {
     length: f64,
     radius: f64,
     pocket: Option<u32>,
+    name: Option<String>,
     shape: Option<String>,
     corner_radius: Option<f64>,
     flute_length: Option<f64>,
@@ -962,6 +963,7 @@ fn tool_table(
             .insert(crate::gcode::ToolEntry {
                 number: e.number,
                 pocket: e.pocket,
+                name: e.name.clone(),
                 length_mm: e.length,
                 diameter_mm: 2.0 * e.radius,
                 shape,
@@ -969,11 +971,13 @@ fn tool_table(
                 origin: format!("{}:{line}", path.display()),
             })
             .map_err(|first| {
-                src.invalid(
-                    span,
-                    &key,
-                    format!("tool {} is listed twice (first at {first})", e.number),
-                )
+                let what = match &e.name {
+                    Some(name) if tools.get(e.number).is_none() => {
+                        format!("the tool name \"{name}\" is listed twice (first at {first})")
+                    }
+                    _ => format!("tool {} is listed twice (first at {first})", e.number),
+                };
+                src.invalid(span, &key, what)
             })?;
     }
     Ok(tools)

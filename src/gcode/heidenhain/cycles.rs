@@ -22,6 +22,8 @@
 //! panic, never a non-finite step (the caller checks positions).
 use std::sync::Arc;
 
+use super::geometry::arc_chords;
+use super::machine::CHORD_TOLERANCE_MM;
 use super::syntax::{KlBlock, Value, parse_block, read_param};
 use crate::gcode::motion::{Plane, from_plane, to_plane};
 
@@ -70,6 +72,9 @@ pub(crate) struct Call {
     pub inch: bool,
     /// The spindle speed of the last `TOOL CALL … S` (rpm), for tapping.
     pub spindle_rpm: Option<f64>,
+    /// The radius of the tool in the spindle (with `DR`), when the tool
+    /// table gives it, for the cycles that mill about a centre (208).
+    pub tool_radius: Option<f64>,
     /// Added to the surface coordinate Q203 (the tool-axis coordinate of
     /// `CYCL CALL POS` and of a `PATTERN DEF` point, mm).
     pub surface_shift: f64,
@@ -85,7 +90,7 @@ pub(crate) enum CycleError {
 }
 
 /// The cycles [`expand`] expands.
-pub(crate) const EXPANDED: [u32; 8] = [1, 200, 201, 202, 203, 205, 207, 240];
+pub(crate) const EXPANDED: [u32; 12] = [1, 200, 201, 202, 203, 205, 206, 207, 208, 209, 240, 241];
 
 /// Cycles that do not move the tool and do not change where later blocks
 /// go: passed through, counted. 9 (dwell, the dwell counted at its
@@ -169,8 +174,19 @@ pub(crate) fn expand(def: &CycleDef, call: &Call) -> Result<Vec<Step>, CycleErro
         202 => x.boring()?,
         203 => x.universal_drilling()?,
         205 => x.universal_pecking()?,
+        206 => x.tapping()?,
         207 => x.rigid_tapping()?,
+        208 => x.bore_milling()?,
+        209 => x.tapping_chip_breaking()?,
         240 => x.centering()?,
+        241 => x.single_lip_drilling()?,
+        n if not_expanded(n).is_some() => {
+            return Err(CycleError::Unread(format!(
+                "CYCL DEF {n} (defined on line {}) called here: {}",
+                def.line,
+                not_expanded(n).unwrap_or_default()
+            )));
+        }
         n => {
             return Err(CycleError::Unread(format!(
                 "CYCL DEF {n} (defined on line {}) called here: volcomp expands cycles {}",
@@ -576,6 +592,247 @@ impl<'a> Expander<'a> {
         Ok(())
     }
 
+    /// The tapping feed: the spindle speed of the `TOOL CALL` times the
+    /// pitch Q239 (mm/min), for the rigid tapping cycles.
+    fn tapping_feed(&self) -> Result<f64, CycleError> {
+        let pitch = self.length(239, "pitch")?.abs();
+        let Some(rpm) = self.call.spindle_rpm.filter(|s| *s > 0.0) else {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF {} needs the spindle speed (TOOL CALL … S)",
+                self.def.number
+            )));
+        };
+        let feed = rpm * pitch;
+        if feed <= 0.0 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF {}: the pitch Q239 must not be 0",
+                self.def.number
+            )));
+        }
+        Ok(feed)
+    }
+
+    /// Cycle 206 TAPPING with a floating tap holder (TNC 640 Cycle
+    /// Programming, "TAPPING with a floating tap holder (Cycle 206)"):
+    /// FMAX to the set-up clearance, to the depth in one move at Q206, the
+    /// spindle reversed after the dwell Q211, back to the set-up clearance
+    /// at Q206, FMAX to the 2nd set-up clearance. (The manual's text of
+    /// this cycle was not found by `search` here: this is volcomp's
+    /// reading of the cycle run, see docs/dialects.md.)
+    fn tapping(&mut self) -> Result<(), CycleError> {
+        let g = self.geometry()?;
+        let feed = self.feed(206, "feed rate for plunging")?;
+        if g.depth == 0.0 {
+            return Ok(());
+        }
+        self.rapid_to(g.above(g.clearance));
+        self.feed_to(g.below(g.depth), feed);
+        self.dwell(self.optional(211));
+        self.leave(&g, Some(feed));
+        Ok(())
+    }
+
+    /// Cycle 209 TAPPING WITH CHIP BREAKING (TNC 640 Cycle Programming,
+    /// "TAPPING WITH CHIP BREAKING (Cycle 209)"; TNC 320 340 55x-03, 8.2,
+    /// whose parameter page was read: Q257 "depth at which the TNC carries
+    /// out chip breaking"): FMAX to the set-up clearance; infeeds of Q257
+    /// at F = S · pitch; after each, the spindle reversed and the tool
+    /// retracted by Q256 × the pitch (Q256 = 0: to the set-up clearance)
+    /// at Q403 × that feed, then on to the next infeed; at the depth back
+    /// to the set-up clearance at Q403 × the feed, FMAX to the 2nd set-up
+    /// clearance. Q336 (the spindle angle) does not move an axis. The
+    /// text of Q256 (a multiple of the pitch) and of the retraction feed
+    /// was not found by `search` here: volcomp's reading.
+    fn tapping_chip_breaking(&mut self) -> Result<(), CycleError> {
+        let g = self.geometry()?;
+        let feed = self.tapping_feed()?;
+        if g.depth == 0.0 {
+            return Ok(());
+        }
+        let pitch = self.length(239, "pitch")?.abs();
+        let infeed = self.optional(257).abs() * self.scale;
+        let retract = self.optional(256).abs() * pitch;
+        let factor = self.def.get(403).filter(|f| *f > 0.0).unwrap_or(1.0);
+        let out = feed * factor;
+        self.rapid_to(g.above(g.clearance));
+        let step = if infeed <= 0.0 { g.depth } else { infeed };
+        let mut reached = 0.0f64;
+        loop {
+            reached = (reached + step).min(g.depth);
+            self.feed_to(g.below(reached), feed);
+            if reached >= g.depth - 1e-12 || self.steps.len() > MAX_STEPS {
+                break;
+            }
+            if retract > 0.0 {
+                self.feed_to(g.below(reached - retract), out);
+            } else {
+                self.feed_to(g.above(g.clearance), out);
+            }
+        }
+        self.leave(&g, Some(out));
+        Ok(())
+    }
+
+    /// Cycle 241 SINGLE-LIP DEEP-HOLE DRILLING (TNC 640 Cycle
+    /// Programming, "SINGLE-LIP DEEP-HOLE DRILLING (Cycle 241)"): FMAX to
+    /// the set-up clearance; with a deepened starting point Q379, at the
+    /// pre-positioning feed Q253 to the set-up clearance above it; at Q206
+    /// to the depth; dwell Q211; back at Q208 (0: Q206) to the set-up
+    /// clearance, FMAX to the 2nd set-up clearance. The spindle speeds and
+    /// directions (Q426–Q428) and the coolant M functions (Q429, Q430) do
+    /// not move an axis. A dwell depth Q435 and the pecking of the newer
+    /// cycle (Q202 shorter than the depth) are refused: their motion was
+    /// not read. The manual's text of this cycle was not found by `search`
+    /// here: volcomp's reading of its cycle run (docs/dialects.md).
+    fn single_lip_drilling(&mut self) -> Result<(), CycleError> {
+        let g = self.geometry()?;
+        let feed = self.feed(206, "feed rate for plunging")?;
+        if self.optional(435) != 0.0 {
+            return Err(CycleError::Unread(format!(
+                "CYCL DEF 241 (line {}) with a dwell depth Q435 (where the tool dwells on the way)",
+                self.def.line
+            )));
+        }
+        let peck = self.optional(202).abs() * self.scale;
+        if peck > 0.0 && peck < g.depth {
+            return Err(CycleError::Unread(format!(
+                "CYCL DEF 241 (line {}) with a plunging depth Q202 shorter than the depth (pecking)",
+                self.def.line
+            )));
+        }
+        if g.depth == 0.0 {
+            return Ok(());
+        }
+        let deepened = (self.optional(379).abs() * self.scale).min(g.depth);
+        let back = self.retraction(feed);
+        self.rapid_to(g.above(g.clearance));
+        if deepened > 0.0 {
+            let pre = self.feed(253, "feed rate for pre-positioning")?;
+            self.feed_to(g.below(deepened - g.clearance), pre);
+        }
+        self.feed_to(g.below(g.depth), feed);
+        self.dwell(self.optional(211));
+        self.leave(&g, Some(back));
+        Ok(())
+    }
+
+    /// Cycle 208 BORE MILLING (TNC 640 Cycle Programming, "BORE MILLING
+    /// (Cycle 208)"): FMAX to the set-up clearance over the centre; to
+    /// the bore circumference on a rounded arc; a helix at Q206 down to
+    /// the depth, Q334 per turn, on the circle of radius Q335/2 − the tool
+    /// radius (the tool table's R + DR); at the depth one more full circle;
+    /// back to the centre; FMAX to the set-up clearance and the 2nd. A
+    /// nominal diameter equal to the tool's: straight down at Q206, no
+    /// helix. Q351 +1 (or 0, or absent) climb milling, counter-clockwise
+    /// (DR+) about the tool axis with M3; −1 up-cut, clockwise. Q342 (the
+    /// roughing diameter) only lifts the control's check of the ratio of
+    /// the nominal to the tool diameter: it does not move the tool.
+    ///
+    /// The manual's text of this cycle was not found by `search` here, so
+    /// these readings are volcomp's, listed in docs/dialects.md: the
+    /// rounded approach arc is a semicircle from the centre, tangent to the
+    /// helix at its start on the working plane's first axis (+u), at Q206
+    /// at the set-up clearance (in the air); the helix starts at the set-up
+    /// clearance; the way back to the centre is a straight line at Q206.
+    fn bore_milling(&mut self) -> Result<(), CycleError> {
+        let g = self.geometry()?;
+        let feed = self.feed(206, "feed rate for plunging")?;
+        let per_turn = self.length(334, "plunging depth per helix")?.abs();
+        let diameter = self.length(335, "nominal diameter")?.abs();
+        let Some(tool) = self.call.tool_radius else {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 208 (line {}) needs the tool radius: the tool in the spindle is not in the tool table (a tool called by name needs `name` in the machine file's [[tools]])",
+                self.def.line
+            )));
+        };
+        let r = diameter / 2.0 - tool;
+        if r < -1e-9 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 208: the nominal diameter Q335 ({diameter} mm) is smaller than the tool's ({} mm)",
+                2.0 * tool
+            )));
+        }
+        if g.depth == 0.0 {
+            return Ok(());
+        }
+        let ccw = self.optional(351) >= 0.0;
+        self.rapid_to(g.above(g.clearance));
+        let centre = self.at;
+        if r <= 1e-9 {
+            self.feed_to(g.below(g.depth), feed);
+            self.rapid_to(g.above(g.clearance));
+            self.leave(&g, None);
+            return Ok(());
+        }
+        if per_turn <= 0.0 {
+            return Err(CycleError::Refused(
+                "CYCL DEF 208: the plunging depth per helix Q334 must be greater than 0".into(),
+            ));
+        }
+        let c = to_plane(self.call.plane, centre);
+        let w_top = c[2];
+        let w_bottom = to_plane(self.call.plane, self.point(g.below(g.depth)))[2];
+        let sense = if ccw { 1.0 } else { -1.0 };
+        // The approach: a semicircle of diameter r from the centre to (u + r, v).
+        let half = [c[0] + r / 2.0, c[1]];
+        let first = [c[0] + r, c[1], w_top];
+        self.arc_in_plane(half, [c[0], c[1], w_top], first, !ccw, 0, feed);
+        // The helix: (travel / Q334) turns from the set-up clearance, turn
+        // by turn (each turn's chords within the tolerance).
+        let tau = std::f64::consts::TAU;
+        let turns = (w_top - w_bottom).abs() / per_turn;
+        if turns > MAX_STEPS as f64 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 208: more than {MAX_STEPS} helix turns"
+            )));
+        }
+        let drop = (w_bottom - w_top) / turns;
+        let whole = (turns + 1e-9).floor();
+        let mut from = first;
+        for k in 1..=whole as u64 {
+            let to = [first[0], first[1], w_top + drop * k as f64];
+            self.arc_in_plane([c[0], c[1]], from, to, !ccw, 0, feed);
+            from = to;
+        }
+        let rest = turns - whole;
+        let end = if rest > 1e-9 {
+            let a = sense * rest * tau;
+            let to = [c[0] + r * a.cos(), c[1] + r * a.sin(), w_bottom];
+            self.arc_in_plane([c[0], c[1]], from, to, !ccw, 0, feed);
+            to
+        } else {
+            from
+        };
+        // One more full circle at the depth, then back to the centre.
+        self.arc_in_plane([c[0], c[1]], end, end, !ccw, 0, feed);
+        let bottom_centre = from_plane(self.call.plane, [c[0], c[1], w_bottom]);
+        self.push(Step::Feed(bottom_centre, feed));
+        self.rapid_to(g.above(g.clearance));
+        self.leave(&g, None);
+        Ok(())
+    }
+
+    /// An arc (or helix) in the working plane about `centre` (u, v) from
+    /// `from` to `to` (u, v, w), `turns` extra full turns, as chords within
+    /// the Klartext reader's chord tolerance (`geometry::arc_chords`).
+    fn arc_in_plane(
+        &mut self,
+        centre: [f64; 2],
+        from: [f64; 3],
+        to: [f64; 3],
+        clockwise: bool,
+        turns: u32,
+        feed: f64,
+    ) {
+        let plane = self.call.plane;
+        for q in arc_chords(centre, from, to, clockwise, turns, CHORD_TOLERANCE_MM) {
+            if self.steps.len() > MAX_STEPS {
+                break;
+            }
+            self.push(Step::Feed(from_plane(plane, q), feed));
+        }
+    }
+
     /// The old cycle 1 PECKING (`CYCL DEF 1.0 PECKING`, `1.1 SET UP`, `1.2
     /// DEPTH`, `1.3 PECKG`, `1.4 DWELL`, `1.5 F`; iTNC 530 User's Manual,
     /// "PECKING (Cycle 1)"; TNC 426 User's Manual 8.2): from the call
@@ -630,6 +887,23 @@ impl<'a> Expander<'a> {
         self.rapid_to(start);
         Ok(())
     }
+}
+
+/// Why a machining cycle volcomp knows of is not expanded: the detail of
+/// its motion the manual's text (as read here) does not give exactly.
+fn not_expanded(number: u32) -> Option<&'static str> {
+    Some(match number {
+        204 => {
+            "BACK BORING is not expanded: the off-centre move through the hole depends on the tool's edge geometry (Q250-Q252) and the spindle orientation, which volcomp does not read"
+        }
+        251 | 252 | 253 | 254 | 256 | 257 => {
+            "the pocket, slot and stud cycles (251-257) are not expanded: their roughing path (the stepover from Q370, the plunging strategy Q366, the finishing passes) is not given exactly enough by the manual's text as read here"
+        }
+        262..=267 => {
+            "thread milling (262-267) is not expanded: the starting plane (from the pitch's sign, Q351 and Q355) and the tangential helical approach are not given exactly enough by the manual's text as read here"
+        }
+        _ => return None,
+    })
 }
 
 /// The next plunge: `step` less `decrement`, not under `minimum` (nor 0).
@@ -876,6 +1150,7 @@ mod tests {
             plane: Plane::XY,
             inch: false,
             spindle_rpm: Some(500.0),
+            tool_radius: Some(4.0),
             surface_shift: 0.0,
         }
     }

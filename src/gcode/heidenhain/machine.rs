@@ -80,6 +80,10 @@ struct State {
     modal_call: bool,
     /// The spindle speed of the last `TOOL CALL … S` (rpm).
     spindle: Option<f64>,
+    /// The radius of the tool in the spindle (with `DR`) when the tool
+    /// table gives it (a tool called by a number or name it lists), for the
+    /// cycles that mill about a centre (208 …).
+    tool_radius: Option<f64>,
     /// Direction of the last path element's end (program coordinates), for `CT`.
     tangent: Option<[f64; 3]>,
     /// The event frame position after the last block.
@@ -181,6 +185,7 @@ impl KlMachine {
                 pattern: None,
                 modal_call: false,
                 spindle: None,
+                tool_radius: None,
                 tangent: None,
                 position: setup.preset,
                 assigned: Vec::new(),
@@ -473,7 +478,25 @@ impl KlMachine {
             }
         }
         let default = ToolInUse::DEFAULT;
+        // `TOOL CALL "NAME"`: the tool table's entry of that name (its NAME
+        // column; the machine file's `[[tools]] name`).
+        let named = match b.tokens.get(2) {
+            Some(t) if number.is_none() && t.address.is_empty() => {
+                super::language::token_text(b, t)
+                    .map(|x| x.trim().trim_matches('"'))
+                    .and_then(|name| self.setup.tools.by_name(name))
+            }
+            _ => None,
+        };
+        let known = match number {
+            Some(n) => self.setup.tools.get(n).is_some(),
+            None if b.tokens.get(2).is_some_and(|t| t.address.is_empty()) => named.is_some(),
+            None => s.tool_radius.is_some(),
+        };
         let mut tool = match number {
+            None if named.is_some() => named.map_or(default, |e| {
+                self.setup.tools.in_use(e.number, default)
+            }),
             Some(n) if n != 0 => {
                 if self.setup.tools.is_given() && !self.setup.tools.knows(n) {
                     return Err(GcodeError::at(
@@ -500,6 +523,7 @@ impl KlMachine {
         tool.length_mm += dl;
         tool.radius_mm += dr;
         s.tool = tool;
+        s.tool_radius = known.then_some(tool.radius_mm);
         Ok(())
     }
 
@@ -1521,6 +1545,7 @@ impl KlMachine {
             plane: s.plane,
             inch: s.inch,
             spindle_rpm: s.spindle,
+            tool_radius: s.tool_radius,
             surface_shift: 0.0,
         };
         let axis = tool_axis_index(s.plane);

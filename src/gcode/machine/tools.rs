@@ -25,6 +25,11 @@ pub struct ToolEntry {
     pub number: u32,
     /// The pocket (the table's `P`), when given.
     pub pocket: Option<u32>,
+    /// The tool's name, for controls that call tools by name (Heidenhain's
+    /// `TOOL CALL "NAME"`: the `NAME` column of the TNC's tool table; the
+    /// machine file's `[[tools]] name`). LinuxCNC's tables name no tools.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Gauge point to tip (the table's `Z`), mm.
     pub length_mm: f64,
     /// Cutter diameter (`D`; 0 when the table has none), mm.
@@ -144,6 +149,8 @@ pub struct ToolTableError {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ToolTable {
     entries: BTreeMap<u32, ToolEntry>,
+    /// Tool numbers by name (the entries with a name).
+    names: BTreeMap<String, u32>,
     /// The file (or machine file) it was read from.
     source: Option<String>,
     /// A table was given (`parse`, `insert`): programs may select only its
@@ -162,6 +169,7 @@ impl ToolTable {
     pub fn parse(text: &str, name: &str) -> Result<ToolTable, ToolTableError> {
         let mut table = ToolTable {
             entries: BTreeMap::new(),
+            names: BTreeMap::new(),
             source: Some(name.to_string()),
             given: true,
         };
@@ -298,6 +306,7 @@ impl ToolTable {
             let entry = ToolEntry {
                 number,
                 pocket,
+                name: None,
                 shape: None,
                 length_mm: length,
                 diameter_mm: diameter,
@@ -314,10 +323,17 @@ impl ToolTable {
         Ok(table)
     }
 
-    /// Add an entry; `Err(origin of the first)` when the number is taken.
+    /// Add an entry; `Err(origin of the first)` when the number, or the
+    /// name, is taken.
     pub fn insert(&mut self, entry: ToolEntry) -> Result<(), String> {
         if let Some(first) = self.entries.get(&entry.number) {
             return Err(first.origin.clone());
+        }
+        if let Some(name) = &entry.name {
+            if let Some(first) = self.names.get(name).and_then(|n| self.entries.get(n)) {
+                return Err(first.origin.clone());
+            }
+            self.names.insert(name.clone(), entry.number);
         }
         self.given = true;
         self.entries.insert(entry.number, entry);
@@ -354,6 +370,12 @@ impl ToolTable {
         self.entries.get(&number)
     }
 
+    /// The tool called `name` (Heidenhain's `TOOL CALL "NAME"`), when the
+    /// table names it. Names are compared exactly, as the TNC compares them.
+    pub fn by_name(&self, name: &str) -> Option<&ToolEntry> {
+        self.names.get(name).and_then(|n| self.entries.get(n))
+    }
+
     /// The tools, by increasing number.
     pub fn entries(&self) -> impl Iterator<Item = &ToolEntry> {
         self.entries.values()
@@ -377,6 +399,7 @@ impl ToolTable {
         let entry = self.entries.entry(number).or_insert_with(|| ToolEntry {
             number,
             pocket: None,
+            name: None,
             length_mm: 0.0,
             diameter_mm: 0.0,
             shape: None,
