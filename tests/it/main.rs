@@ -18,6 +18,7 @@ mod export;
 mod fit;
 mod gcode;
 mod heidenhain;
+mod heidenhain_cycles;
 mod inspection;
 mod kinematics;
 mod laser;

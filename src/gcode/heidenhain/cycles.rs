@@ -760,7 +760,6 @@ impl<'a> Expander<'a> {
         let centre = self.at;
         if r <= 1e-9 {
             self.feed_to(g.below(g.depth), feed);
-            self.rapid_to(g.above(g.clearance));
             self.leave(&g, None);
             return Ok(());
         }
@@ -807,7 +806,6 @@ impl<'a> Expander<'a> {
         self.arc_in_plane([c[0], c[1]], end, end, !ccw, 0, feed);
         let bottom_centre = from_plane(self.call.plane, [c[0], c[1], w_bottom]);
         self.push(Step::Feed(bottom_centre, feed));
-        self.rapid_to(g.above(g.clearance));
         self.leave(&g, None);
         Ok(())
     }

@@ -451,6 +451,26 @@ mod tests {
     }
 
     #[test]
+    fn finds_tools_by_name_and_refuses_a_name_twice() {
+        let entry = |number: u32, name: &str, origin: &str| ToolEntry {
+            number,
+            pocket: None,
+            name: Some(name.to_string()),
+            length_mm: 50.0,
+            diameter_mm: 8.0,
+            shape: None,
+            comment: String::new(),
+            origin: origin.to_string(),
+        };
+        let mut t = ToolTable::new();
+        t.insert(entry(7, "SA077", "m.toml:1")).unwrap();
+        assert_eq!(t.by_name("SA077").map(|e| e.number), Some(7));
+        assert_eq!(t.by_name("sa077"), None);
+        assert_eq!(t.insert(entry(8, "SA077", "m.toml:9")), Err("m.toml:1".into()));
+        assert!(t.get(8).is_none());
+    }
+
+    #[test]
     fn refuses_bad_lines_with_their_place() {
         let e = ToolTable::parse("T1 Z10\nT2 Z-5 D6\n", "t.tbl").unwrap_err();
         assert_eq!((e.line, e.column), (2, 4));
