@@ -150,10 +150,17 @@ pub(crate) fn define(
     }
     let mut q = Vec::new();
     for (k, t) in block.tokens.iter().enumerate().skip(3) {
-        if let Some(p) = read_param(&t.address)
-            && t.value.is_some()
-        {
+        let Some(p) = read_param(&t.address) else {
+            continue;
+        };
+        if t.value.is_some() {
             q.push((p.number, value(k)));
+        } else if let Some(next) = block.tokens.get(k + 1)
+            && next.address.is_empty()
+            && next.value.is_some()
+        {
+            // `Q201= -48`: the value after spaces (hyperMILL pads them).
+            q.push((p.number, value(k + 1)));
         }
     }
     Ok(CycleDef {
@@ -1280,6 +1287,17 @@ mod tests {
                 assert!((a[k] - b[k]).abs() < 1e-9, "{a:?} vs {b:?}");
             }
         }
+    }
+
+    #[test]
+    fn values_after_spaces_are_read() {
+        let b = parse_block(b"CYCL DEF 209 TAPPING W/ CHIP BRKG~\n Q200=  3 ;A~\n Q201= -48 ;B~\n Q239=+2");
+        let d = define(&b, 209, 0, 1, None, &|k| match &b.tokens[k].value {
+            Some(Value::Number(x)) => *x,
+            _ => f64::NAN,
+        })
+        .unwrap();
+        assert_eq!(d.q, vec![(200, 3.0), (201, -48.0), (239, 2.0)]);
     }
 
     #[test]
