@@ -73,7 +73,10 @@ fn fixture() -> String {
 
 /// The motions of source line `line`.
 fn of(m: &[(usize, Motion)], line: usize) -> Vec<Motion> {
-    m.iter().filter(|(l, _)| *l == line).map(|(_, m)| *m).collect()
+    m.iter()
+        .filter(|(l, _)| *l == line)
+        .map(|(_, m)| *m)
+        .collect()
 }
 
 fn end(m: &Motion) -> [f64; 3] {
@@ -88,7 +91,10 @@ fn assert_at(got: [f64; 3], want: [f64; 3]) {
 
 /// The tool-axis coordinates of the ends of `moves`, rounded to 1e-9.
 fn zs(moves: &[Motion]) -> Vec<f64> {
-    moves.iter().map(|m| (m.end.z * 1e9).round() / 1e9).collect()
+    moves
+        .iter()
+        .map(|m| (m.end.z * 1e9).round() / 1e9)
+        .collect()
 }
 
 fn feed(m: &Motion) -> Option<f64> {

@@ -4,7 +4,11 @@
 //! patterns of `PATTERN DEF`, and each cycle expanded into the moves the
 //! control makes, in program coordinates, as the TNC's cycle programming
 //! manuals define them. A cycle this module does not expand is refused at
-//! its call, naming it; cycles that do not move pass through.
+//! its call, naming it (204, 251–257 and 262–267 also name the detail of
+//! their motion the manual's text as read here does not give); cycles that
+//! do not move pass through. Where `search` did not return the manual's
+//! text of a cycle run (206, 208, 209, 241), the cycle's doc comment says
+//! so and docs/dialects.md lists the readings volcomp made.
 //!
 //! Semantics (the manuals are the contract, cited per cycle): HEIDENHAIN
 //! *TNC 640 User's Manual Cycle Programming* (NC software 34059x), chapter
@@ -1291,7 +1295,9 @@ mod tests {
 
     #[test]
     fn values_after_spaces_are_read() {
-        let b = parse_block(b"CYCL DEF 209 TAPPING W/ CHIP BRKG~\n Q200=  3 ;A~\n Q201= -48 ;B~\n Q239=+2");
+        let b = parse_block(
+            b"CYCL DEF 209 TAPPING W/ CHIP BRKG~\n Q200=  3 ;A~\n Q201= -48 ;B~\n Q239=+2",
+        );
         let d = define(&b, 209, 0, 1, None, &|k| match &b.tokens[k].value {
             Some(Value::Number(x)) => *x,
             _ => f64::NAN,

@@ -494,9 +494,9 @@ impl KlMachine {
             None => s.tool_radius.is_some(),
         };
         let mut tool = match number {
-            None if named.is_some() => named.map_or(default, |e| {
-                self.setup.tools.in_use(e.number, default)
-            }),
+            None if named.is_some() => {
+                named.map_or(default, |e| self.setup.tools.in_use(e.number, default))
+            }
             Some(n) if n != 0 => {
                 if self.setup.tools.is_given() && !self.setup.tools.knows(n) {
                     return Err(GcodeError::at(

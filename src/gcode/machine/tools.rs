@@ -466,7 +466,10 @@ mod tests {
         t.insert(entry(7, "SA077", "m.toml:1")).unwrap();
         assert_eq!(t.by_name("SA077").map(|e| e.number), Some(7));
         assert_eq!(t.by_name("sa077"), None);
-        assert_eq!(t.insert(entry(8, "SA077", "m.toml:9")), Err("m.toml:1".into()));
+        assert_eq!(
+            t.insert(entry(8, "SA077", "m.toml:9")),
+            Err("m.toml:1".into())
+        );
         assert!(t.get(8).is_none());
     }
 
