@@ -1585,7 +1585,9 @@ impl SinumerikFront {
             repeats_left: repeats.saturating_sub(1),
             name: name.to_string(),
             for_continue: None,
-            moved: true,
+            // A subprogram's definitions come at its own start (Job
+            // planning, "Definition of user variables": in each program).
+            moved: false,
         });
         Ok(())
     }
@@ -1646,15 +1648,17 @@ impl SinumerikFront {
             if cur.eat_sym("=") {
                 let vstart = cur.here();
                 if name == "T"
-                    && matches!(
-                        cur.peek(),
-                        Some(Token {
-                            tok: Tok::Str(_),
-                            ..
-                        })
-                    )
+                    && let Some(Token {
+                        tok: Tok::Str(tool),
+                        end,
+                        ..
+                    }) = cur.peek()
                 {
-                    return Err(self.feature(line, "tools by name (T=\"…\")", ts, cur.here() + 1));
+                    let (tool, end) = (tool.clone(), *end);
+                    cur.pos += 1;
+                    let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
+                    out.words.push(word(b'T', number, ts, end, 0, false, false));
+                    continue;
                 }
                 let (e, mode) =
                     value_expr(cur).map_err(|e| self.refused(line, e.message, e.start, e.end))?;
@@ -1798,20 +1802,17 @@ impl SinumerikFront {
                 }) = cur.peek()
                 else {
                     if letter == b'T'
-                        && matches!(
-                            cur.peek(),
-                            Some(Token {
-                                tok: Tok::Str(_),
-                                ..
-                            })
-                        )
+                        && let Some(Token {
+                            tok: Tok::Str(tool),
+                            end,
+                            ..
+                        }) = cur.peek()
                     {
-                        return Err(self.feature(
-                            line,
-                            "tools by name (T=\"…\")",
-                            ts,
-                            cur.here() + 1,
-                        ));
+                        let (tool, end) = (tool.clone(), *end);
+                        cur.pos += 1;
+                        let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
+                        out.words.push(word(b'T', number, ts, end, 0, false, false));
+                        continue;
                     }
                     return Err(self.refused(
                         line,
@@ -2250,6 +2251,50 @@ impl SinumerikFront {
             }
         }
         Ok(())
+    }
+
+    /// `T="name"`: the tool managed by name (*Fundamentals*, "Tool change",
+    /// with tool management the tool is selected by its name). volcomp's tool
+    /// table (LinuxCNC's format) numbers its tools; a tool is named by its
+    /// entry's comment (`T7 P7 Z95.2 D8.5 ;DRILL 8.5`), compared exactly
+    /// (case and spaces kept, the comment trimmed). Without a tool table
+    /// every tool is the default tool (the machine file's `[tool]`), so a
+    /// name selects it, as a number does; with a table, a name no entry
+    /// carries is a located error, as a number the table lacks is. The
+    /// number rides in the block as the `T` word's value (its text stays
+    /// `T="name"`).
+    fn tool_by_name(
+        &self,
+        line: &LineRun,
+        tool: &str,
+        interpreter: &Interpreter,
+        at: (usize, usize),
+    ) -> Result<f64, GcodeError> {
+        let table = interpreter.tools();
+        if !table.is_given() {
+            return Ok(0.0);
+        }
+        let mut found = table.entries().filter(|e| e.comment == tool);
+        match (found.next(), found.next()) {
+            (Some(e), None) => Ok(f64::from(e.number)),
+            (Some(a), Some(b)) => Err(self.refused(
+                line,
+                format!(
+                    "tool \"{tool}\" names two tools of the tool table (T{} and T{}): a name must name one tool",
+                    a.number, b.number
+                ),
+                at.0,
+                at.1,
+            )),
+            (None, _) => Err(self.refused(
+                line,
+                format!(
+                    "tool \"{tool}\" is not in the tool table: a tool is named by its entry's comment (T1 P1 Z100 D8 ;{tool})"
+                ),
+                at.0,
+                at.1,
+            )),
+        }
     }
 
     /// The tool length compensation: on the 840D sl a tool change (`M6`)
