@@ -527,10 +527,9 @@ fn every_real_program_is_read_or_refused_at_a_located_line() {
 }
 
 /// The arguments that read `sections-tools-frames.mpf`: its subprogram, the
-/// work origins of `G54`, `G505`, `G599` and a tool table naming its tools.
-fn sections_args(dir: &std::path::Path) -> Vec<String> {
-    let table = dir.join("named.tbl");
-    std::fs::write(&table, "T1 P1 Z100 D6 ;MILL 6\nT2 P2 Z120 D8.5 ;DRILL 8.5\n").unwrap();
+/// work origins of `G54`, `G505`, `G599` and the tool table naming its tools
+/// (`named-tools.tbl`: `T2 P2 Z120 D8.5 ;DRILL 8.5`).
+fn sections_args() -> Vec<String> {
     [
         "--subroutine-path",
         "tests/data/sinumerik/subprograms",
@@ -541,10 +540,10 @@ fn sections_args(dir: &std::path::Path) -> Vec<String> {
         "--offset",
         "G599=-10,-20,-30",
         "--tools",
+        "tests/data/sinumerik/named-tools.tbl",
     ]
     .iter()
     .map(|s| s.to_string())
-    .chain([table.display().to_string()])
     .collect()
 }
 
@@ -578,7 +577,7 @@ fn rows_with_tool(program: &str, args: &[String]) -> Vec<(usize, [f64; 3], u32)>
 #[test]
 fn sections_var_references_named_tools_and_settable_frames_move_where_the_manual_says() {
     let dir = tempfile::tempdir().unwrap();
-    let args = sections_args(dir.path());
+    let args = sections_args();
     let program = "tests/data/sinumerik/sections-tools-frames.mpf";
     let got = rows_with_tool(program, &args);
     // G54 = (1, 2, 3): program (x, y, z) is machine (x+1, y+2, z+3).

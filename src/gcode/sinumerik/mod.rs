@@ -2137,11 +2137,44 @@ impl SinumerikFront {
                     }
                     b'H' | b'E' => out.statements.push(ts..end),
                     b'L' => {
+                        // `L123`, and `L123(args)`: a program named L123
+                        // whose PROC takes parameters (*Job planning*,
+                        // "Subprogram call": the name is L and a number).
                         let n = &raw[ts + 1..end];
+                        let mut args = Vec::new();
+                        let mut call_end = end;
+                        if cur.eat_sym("(") && !cur.eat_sym(")") {
+                            loop {
+                                let e = if matches!(
+                                    cur.peek(),
+                                    Some(Token {
+                                        tok: Tok::Sym("," | ")"),
+                                        ..
+                                    })
+                                ) {
+                                    Expr::Num(0.0)
+                                } else {
+                                    cur.expr().map_err(|e| {
+                                        self.refused(line, e.message, e.start, e.end)
+                                    })?
+                                };
+                                let v = self.eval(line, &e, (ts, end))?;
+                                args.push((v, self.target_of(line, &e, (ts, end))?));
+                                if cur.eat_sym(")") {
+                                    break;
+                                }
+                                cur.expect_sym(",").map_err(|e| {
+                                    self.refused(line, e.message, e.start, e.end)
+                                })?;
+                            }
+                            call_end = cur.last_end();
+                        } else if cur.tokens.get(cur.pos.wrapping_sub(1)).is_some_and(|t| t.tok == Tok::Sym(")")) {
+                            call_end = cur.last_end();
+                        }
                         call = Some((
                             format!("L{}", String::from_utf8_lossy(n)),
-                            Vec::new(),
-                            (ts, end),
+                            args,
+                            (ts, call_end),
                         ));
                     }
                     b'P' => {
