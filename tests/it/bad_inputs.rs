@@ -45,8 +45,10 @@ fn case(
 
 const COMPENSATE: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json";
 const SINUMERIK: &str = "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json";
-const SINUMERIK_TOOLS: &str = "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json --tools {d}/named.tbl";
-const SINUMERIK_OFFSET: &str = "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G600=1,2,3";
+const SINUMERIK_TOOLS: &str =
+    "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json --tools {d}/named.tbl";
+const SINUMERIK_OFFSET: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G600=1,2,3";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -422,10 +424,7 @@ fn cases() -> Vec<Case> {
             "SINUMERIK program",
             "a tool by name (`T=\"…\"`) that no tool table entry names",
             vec![
-                (
-                    "bad.mpf",
-                    text("G0 X0 Y0 Z10\nT=\"DRILL 9\" M6\nM30\n"),
-                ),
+                ("bad.mpf", text("G0 X0 Y0 Z10\nT=\"DRILL 9\" M6\nM30\n")),
                 ("named.tbl", text("T1 P1 Z100 D6 ;MILL 6\n")),
             ],
             SINUMERIK_TOOLS,

@@ -563,7 +563,11 @@ fn rows_with_tool(program: &str, args: &[String]) -> Vec<(usize, [f64; 3], u32)>
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
             let n = |k: usize| f[k].parse::<f64>().unwrap();
-            (f[0].parse().unwrap(), [n(2), n(3), n(4)], f[8].parse().unwrap())
+            (
+                f[0].parse().unwrap(),
+                [n(2), n(3), n(4)],
+                f[8].parse().unwrap(),
+            )
         })
         .collect()
 }
@@ -614,7 +618,11 @@ fn sections_var_references_named_tools_and_settable_frames_move_where_the_manual
     for (g, w) in got.iter().zip(&want) {
         assert_eq!((g.0, g.2), (w.0, w.2), "{got:?}");
         for k in 0..3 {
-            assert!((g.1[k] - w.1[k]).abs() < 1e-9, "line {}: {g:?} vs {w:?}", g.0);
+            assert!(
+                (g.1[k] - w.1[k]).abs() < 1e-9,
+                "line {}: {g:?} vs {w:?}",
+                g.0
+            );
         }
     }
     // Written flat (`--flatten`), it moves the same; the REPEAT statements
@@ -658,7 +666,10 @@ fn sections_var_references_named_tools_and_settable_frames_move_where_the_manual
     let back = rows_with_tool(compensated.to_str().unwrap(), &args);
     let ends: Vec<_> = back
         .iter()
-        .filter(|r| want.iter().any(|w| (0..3).all(|k| (r.1[k] - w.1[k]).abs() < 0.02)))
+        .filter(|r| {
+            want.iter()
+                .any(|w| (0..3).all(|k| (r.1[k] - w.1[k]).abs() < 0.02))
+        })
         .collect();
     assert!(ends.len() >= want.len(), "{back:?}");
     // Without a tool table a name is the default tool; a settable frame
@@ -681,7 +692,12 @@ fn sections_var_references_named_tools_and_settable_frames_move_where_the_manual
 #[test]
 fn the_cam_output_and_the_warm_up_routines_are_read() {
     let check = |args: &[&str]| {
-        let out = volcomp().arg("check").args(args).current_dir(root()).output().unwrap();
+        let out = volcomp()
+            .arg("check")
+            .args(args)
+            .current_dir(root())
+            .output()
+            .unwrap();
         assert_success(&out);
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
@@ -691,7 +707,10 @@ fn the_cam_output_and_the_warm_up_routines_are_read() {
         "machines/xyzac-trt.toml",
     ]);
     assert!(cam.contains("996 lines executed"), "{cam}");
-    assert!(cam.contains("motion blocks: 978 (G0 89, G1 445, G2 199, G3 245)"), "{cam}");
+    assert!(
+        cam.contains("motion blocks: 978 (G0 89, G1 445, G2 199, G3 245)"),
+        "{cam}"
+    );
     for (name, lines) in [
         ("DAILY", 1233),
         ("FIRST_SPINDLE_RUN_IN", 7387),
@@ -702,6 +721,36 @@ fn the_cam_output_and_the_warm_up_routines_are_read() {
         let text = check(&[&format!(
             "tests/data/sinumerik/real/syil-x7-warmup/{name}.MPF"
         )]);
-        assert!(text.contains(&format!("{lines} lines executed")), "{name}: {text}");
+        assert!(
+            text.contains(&format!("{lines} lines executed")),
+            "{name}: {text}"
+        );
+    }
+}
+
+/// `L123(args)` (*Job planning*, "Subprogram call"): a program named `L`
+/// and a number whose `PROC` takes parameters is called with arguments, as
+/// a program called by name is (three of the shop programs found call
+/// `L140(1)`); a `VAR` parameter of it writes back.
+#[test]
+fn an_l_program_takes_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("L13.SPF"),
+        "PROC L13(REAL D, VAR REAL SEEN)\nG1 X=D Z=-D F100\nSEEN=D*2\nRET\n",
+    )
+    .unwrap();
+    let main = dir.path().join("main.mpf");
+    std::fs::write(&main, "R7=0\nG0 X0 Y0 Z5\nL13(4, R7)\nG1 Y=R7\nM30\n").unwrap();
+    let got = targets(&["check", main.to_str().unwrap(), "--targets", "-"]);
+    let want = [
+        (2, [0.0, 0.0, 5.0]),
+        (2, [4.0, 0.0, -4.0]),
+        (4, [4.0, 8.0, -4.0]),
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g.0, w.0, "{got:?}");
+        assert!((0..3).all(|k| (g.1[k] - w.1[k]).abs() < 1e-9), "{got:?}");
     }
 }

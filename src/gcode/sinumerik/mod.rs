@@ -372,6 +372,10 @@ struct Level {
     by_ref: Vec<(String, Target)>,
 }
 
+/// A subprogram call of a block: the program's name, the arguments (each
+/// with the variable it names, for `VAR` parameters), the call's span.
+type Call = (String, Vec<(f64, Option<Target>)>, (usize, usize));
+
 /// A caller's variable a `VAR` parameter refers to: an `R` parameter, or
 /// an element (flat index; 0 for a scalar) of a variable of the caller.
 #[derive(Clone, Debug)]
@@ -1086,9 +1090,7 @@ impl SinumerikFront {
                 self.levels[level].next = partner + 1;
                 Ok(false)
             }
-            Structure::Repeat if partner == usize::MAX => {
-                self.repeat_section(line, cur, false, at)
-            }
+            Structure::Repeat if partner == usize::MAX => self.repeat_section(line, cur, false, at),
             Structure::EndIf | Structure::Repeat | Structure::Loop => Ok(false),
             Structure::EndWhile | Structure::EndLoop => {
                 self.levels[level].next = if s == Structure::EndWhile {
@@ -1394,11 +1396,7 @@ impl SinumerikFront {
                 line,
                 format!(
                     "{what} needs {}, then P=n",
-                    if single {
-                        "a label"
-                    } else {
-                        "a label or two"
-                    }
+                    if single { "a label" } else { "a label or two" }
                 ),
                 at.0,
                 at.1,
@@ -1427,7 +1425,7 @@ impl SinumerikFront {
         let end = if single {
             start
         } else if let Some((second, ss, se)) = names.get(1) {
-            let end = (start..file.lines.len())
+            (start..file.lines.len())
                 .find(|&k| line_head(file.raw(k)).label.as_deref() == Some(second.as_str()))
                 .ok_or_else(|| {
                     self.refused(
@@ -1436,8 +1434,7 @@ impl SinumerikFront {
                         *ss,
                         *se,
                     )
-                })?;
-            end
+                })?
         } else {
             let endlabel = (start..file.lines.len())
                 .find(|&k| line_head(file.raw(k)).label.as_deref() == Some("ENDLABEL"));
@@ -1909,7 +1906,7 @@ impl SinumerikFront {
         let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
         let mut rpl: Option<f64> = None;
         let mut flags = GFlags::default();
-        let mut call: Option<(String, Vec<(f64, Option<Target>)>, (usize, usize))> = None;
+        let mut call: Option<Call> = None;
         let mut repeats: u64 = 1;
 
         let mut axis_words = false;
@@ -2163,12 +2160,15 @@ impl SinumerikFront {
                                 if cur.eat_sym(")") {
                                     break;
                                 }
-                                cur.expect_sym(",").map_err(|e| {
-                                    self.refused(line, e.message, e.start, e.end)
-                                })?;
+                                cur.expect_sym(",")
+                                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                             }
                             call_end = cur.last_end();
-                        } else if cur.tokens.get(cur.pos.wrapping_sub(1)).is_some_and(|t| t.tok == Tok::Sym(")")) {
+                        } else if cur
+                            .tokens
+                            .get(cur.pos.wrapping_sub(1))
+                            .is_some_and(|t| t.tok == Tok::Sym(")"))
+                        {
                             call_end = cur.last_end();
                         }
                         call = Some((
