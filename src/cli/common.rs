@@ -298,7 +298,8 @@ pub struct ProgramArgs {
     pub var: Option<PathBuf>,
     /// A work origin for other controllers, mm and degrees, e.g.
     /// `--offset G54=100,50,-200` or `--offset G55=0,0,0,0,90` (X,Y,Z[,A,C]);
-    /// repeatable; overrides `--var` for that system.
+    /// repeatable; overrides `--var` for that system. SINUMERIK programs:
+    /// G54–G57 and the settable frames G505–G599; Heidenhain: PRESET.
     #[arg(long, value_name = "G54=X,Y,Z[,A,C]")]
     pub offset: Vec<String>,
     /// Folder searched for `NAME.ngc` when the program calls `o<NAME>` without
@@ -385,7 +386,8 @@ pub fn select_tool(
 
 /// Parse `G54=X,Y,Z[,R1,R2]` (plain numbers: X Y Z and then the machine's two
 /// rotary axes in letter order, `rotary`) or `G54=X100,Y50,B10` (letter-prefixed
-/// values, any letters) into (system number 1 … 9, origin). A letter given twice,
+/// values, any letters) into (system number 1 … 9, or 505 … 599 for the
+/// SINUMERIK settable frames `G505` … `G599`, origin). A letter given twice,
 /// or a letter the machine lacks (`letters`), is an error.
 pub fn parse_offset(
     text: &str,
@@ -409,9 +411,19 @@ pub fn parse_offset(
     } else {
         name.as_str()
     };
-    let Some(n) = SYSTEMS.iter().position(|s| *s == key) else {
+    // `G505` … `G599`: the SINUMERIK settable frames beyond G54–G57.
+    let sinumerik_frame = key
+        .strip_prefix('G')
+        .and_then(|n| n.parse::<usize>().ok())
+        .filter(|n| (505..=599).contains(n) && key.len() == 4);
+    let Some(n) = SYSTEMS
+        .iter()
+        .position(|s| *s == key)
+        .map(|k| k + 1)
+        .or(sinumerik_frame)
+    else {
         return Err(format!(
-            "--offset `{text}`: `{name}` is not a work coordinate system (G54 … G59, G59.1 … G59.3, or PRESET for Heidenhain programs)"
+            "--offset `{text}`: `{name}` is not a work coordinate system (G54 … G59, G59.1 … G59.3, G505 … G599 for SINUMERIK programs, or PRESET for Heidenhain programs)"
         ));
     };
     let fields: Vec<&str> = values.split(',').map(str::trim).collect();
@@ -455,7 +467,7 @@ pub fn parse_offset(
                 }
             }
         }
-        return Ok((n + 1, origin));
+        return Ok((n, origin));
     }
     let numbers: Result<Vec<f64>, _> = fields.iter().map(|v| v.parse::<f64>()).collect();
     let numbers = match numbers {
@@ -474,7 +486,7 @@ pub fn parse_offset(
         origin.set(rotary[0], numbers[3]);
         origin.set(rotary[1], numbers[4]);
     }
-    Ok((n + 1, origin))
+    Ok((n, origin))
 }
 
 impl ProgramArgs {
@@ -514,16 +526,16 @@ impl ProgramArgs {
                 crate::axes::AxisSet::RS274,
             ),
         };
-        let mut given: [Option<&str>; 10] = [None; 10];
+        let mut given: std::collections::BTreeMap<usize, &str> = Default::default();
         for text in &self.offset {
             let (n, origin) = parse_offset(text, rotary, letters).map_err(super::UsageError)?;
-            if let Some(first) = given[n] {
+            if let Some(first) = given.get(&n) {
                 return Err(super::UsageError(format!(
                     "--offset `{text}`: that work coordinate system is already given (--offset `{first}`); give each system once"
                 ))
                 .into());
             }
-            given[n] = Some(text);
+            given.insert(n, text);
             setup.set_origin(n, &origin);
         }
         for dir in &self.subroutine_path {

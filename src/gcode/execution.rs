@@ -55,6 +55,10 @@ pub struct ProgramSetup {
     /// a dialect that need it (orientation vectors, swivelled planes);
     /// `None`: such a block is a located error.
     pub orientation: Option<std::sync::Arc<dyn OrientationSolver>>,
+    /// The SINUMERIK settable frames `G505`–`G599` (`--offset G505=…`), by
+    /// their G number: X Y Z and rotary offsets, mm and degrees. `G54`–`G57`
+    /// are LinuxCNC's systems 1–4 in [`Self::parameters`].
+    pub settable_frames: std::collections::BTreeMap<u16, Axes>,
 }
 
 /// The dialect of a program: `setup`'s `--dialect`, else detected from its
@@ -72,9 +76,14 @@ pub(crate) fn resolve_dialect(
 }
 
 impl ProgramSetup {
-    /// Set the origin of work coordinate system `n` (1 = G54 … 9 = G59.3),
-    /// mm and degrees.
+    /// Set the origin of work coordinate system `n` (1 = G54 … 9 = G59.3;
+    /// 505 … 599: the SINUMERIK settable frame `G505` … `G599`), mm and
+    /// degrees.
     pub fn set_origin(&mut self, n: usize, origin: &Axes) {
+        if let Ok(g @ 505..=599) = u16::try_from(n) {
+            self.settable_frames.insert(g, *origin);
+            return;
+        }
         for (k, v) in origin.to_array().into_iter().enumerate() {
             self.parameters.set(numbers::coord(n, k), v);
         }

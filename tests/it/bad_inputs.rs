@@ -45,6 +45,10 @@ fn case(
 
 const COMPENSATE: &str = "compensate {d}/ok.toml {d}/bad.nc -o {d}/out.nc --model {d}/fit.json";
 const SINUMERIK: &str = "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json";
+const SINUMERIK_TOOLS: &str =
+    "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json --tools {d}/named.tbl";
+const SINUMERIK_OFFSET: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G600=1,2,3";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -376,6 +380,67 @@ fn cases() -> Vec<Case> {
             SINUMERIK,
             1,
             &["AR=0: a circle's opening angle", "{d}/bad.mpf:2:11"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a `REPEAT` to no label",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nG1 X1 F100\nREPEAT START P=2\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["REPEAT: the label `START` is not in", "{d}/bad.mpf:3:8"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a `REPEAT` of a later label with no `ENDLABEL`",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nREPEAT LATER P=2\nLATER: G1 X1 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "the label follows the statement, and no ENDLABEL closes the section",
+                "{d}/bad.mpf:2:8",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a value passed to a `VAR` parameter",
+            vec![
+                ("bad.mpf", text("G0 X0 Y0 Z10\nDOWN(2)\nM30\n")),
+                (
+                    "DOWN.SPF",
+                    text("PROC DOWN(VAR REAL DEPTH)\nG1 Z=DEPTH F100\nRET\n"),
+                ),
+            ],
+            SINUMERIK,
+            1,
+            &["`DEPTH` of DOWN is a VAR parameter", "{d}/bad.mpf:2:1"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a tool by name (`T=\"…\"`) that no tool table entry names",
+            vec![
+                ("bad.mpf", text("G0 X0 Y0 Z10\nT=\"DRILL 9\" M6\nM30\n")),
+                ("named.tbl", text("T1 P1 Z100 D6 ;MILL 6\n")),
+            ],
+            SINUMERIK_TOOLS,
+            1,
+            &[
+                "tool \"DRILL 9\" is not in the tool table",
+                "{d}/bad.mpf:2:1",
+            ],
+        ),
+        case(
+            "SINUMERIK settable frame",
+            "`--offset G600=…` (G505–G599 are the settable frames)",
+            vec![],
+            SINUMERIK_OFFSET,
+            2,
+            &["`G600` is not a work coordinate system"],
         ),
         case(
             "program",

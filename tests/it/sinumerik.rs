@@ -525,3 +525,232 @@ fn every_real_program_is_read_or_refused_at_a_located_line() {
     }
     assert!(read >= 4, "{read}");
 }
+
+/// The arguments that read `sections-tools-frames.mpf`: its subprogram, the
+/// work origins of `G54`, `G505`, `G599` and the tool table naming its tools
+/// (`named-tools.tbl`: `T2 P2 Z120 D8.5 ;DRILL 8.5`).
+fn sections_args() -> Vec<String> {
+    [
+        "--subroutine-path",
+        "tests/data/sinumerik/subprograms",
+        "--offset",
+        "G54=1,2,3",
+        "--offset",
+        "G505=50,60,70",
+        "--offset",
+        "G599=-10,-20,-30",
+        "--tools",
+        "tests/data/sinumerik/named-tools.tbl",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+/// `check --targets` rows (line, x, y, z, tool) of `program` with `args`.
+fn rows_with_tool(program: &str, args: &[String]) -> Vec<(usize, [f64; 3], u32)> {
+    let out = volcomp()
+        .args(["check", program, "--targets", "-"])
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let n = |k: usize| f[k].parse::<f64>().unwrap();
+            (
+                f[0].parse().unwrap(),
+                [n(2), n(3), n(4)],
+                f[8].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// Issue 34 items 2–3 as the 840D reads them (*Job planning*, "Program
+/// section repetition (REPEAT, REPEATB, ENDLABEL, P)", "Subprograms with
+/// parameter transfer (PROC, VAR)"; *Fundamentals*, "Settable zero offset
+/// (G54 to G57, G505 to G599)", tool management by name): every move end of
+/// `sections-tools-frames.mpf`, worked out by hand; written flat it moves
+/// the same, and compensated it reads back.
+#[test]
+fn sections_var_references_named_tools_and_settable_frames_move_where_the_manual_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = sections_args();
+    let program = "tests/data/sinumerik/sections-tools-frames.mpf";
+    let got = rows_with_tool(program, &args);
+    // G54 = (1, 2, 3): program (x, y, z) is machine (x+1, y+2, z+3).
+    #[rustfmt::skip]
+    let want: Vec<(usize, [f64; 3], u32)> = vec![
+        (7, [1.0, 2.0, 8.0], 1),        // T="MILL 6" M6: tool 1 of the table
+        (8, [11.0, 2.0, 8.0], 1),       // SQ: … N50, read in sequence
+        (9, [11.0, 12.0, 8.0], 1),
+        (10, [1.0, 12.0, 8.0], 1),
+        (8, [11.0, 2.0, 8.0], 1),       // REPEAT SQ P=2: SQ to the block before, twice more
+        (9, [11.0, 12.0, 8.0], 1),
+        (10, [1.0, 12.0, 8.0], 1),
+        (8, [11.0, 2.0, 8.0], 1),
+        (9, [11.0, 12.0, 8.0], 1),
+        (10, [1.0, 12.0, 8.0], 1),
+        (12, [2.0, 12.0, 8.0], 1),      // ONE: G91 X1, then REPEATB ONE P=3: three more
+        (12, [3.0, 12.0, 8.0], 1),
+        (12, [4.0, 12.0, 8.0], 1),
+        (12, [5.0, 12.0, 8.0], 1),
+        (14, [21.0, 22.0, 8.0], 1),     // N90 G90 X20 Y20
+        (17, [21.0, 32.0, 8.0], 1),     // REPEAT FWD ENDLABEL P=1: the later section once…
+        (18, [32.0, 32.0, 8.0], 1),
+        (16, [31.0, 32.0, 8.0], 1),     // …then on after the REPEAT: N110, FWD, ENDLABEL again
+        (17, [31.0, 32.0, 8.0], 1),
+        (18, [32.0, 32.0, 8.0], 1),
+        (6, [32.0, 32.0, 1.5], 1),      // STEPDOWN(ZD, 1.5, R5): DEPTH = ZD − 1.5 = −1.5
+        (6, [32.0, 32.0, 0.0], 1),      // again from ZD = −1.5 (VAR wrote it back): −3
+        (21, [3.0, -1.0, 0.0], 1),      // X=R5 (2: COUNT by reference) Y=ZD (−3)
+        (22, [50.0, 60.0, 70.0], 1),    // G505 from --offset G505=50,60,70
+        (24, [-10.0, -20.0, -30.0], 2), // T="DRILL 8.5": tool 2; G599
+        (25, [1.0, 2.0, 3.0], 2),       // G54 again
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!((g.0, g.2), (w.0, w.2), "{got:?}");
+        for k in 0..3 {
+            assert!(
+                (g.1[k] - w.1[k]).abs() < 1e-9,
+                "line {}: {g:?} vs {w:?}",
+                g.0
+            );
+        }
+    }
+    // Written flat (`--flatten`), it moves the same; the REPEAT statements
+    // and the call are not written, the tool names are.
+    let flat = dir.path().join("flat.mpf");
+    let out = volcomp()
+        .args(["check", program, "--flatten", "-o"])
+        .arg(&flat)
+        .args(&args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&flat).unwrap();
+    assert!(
+        !text
+            .lines()
+            .any(|l| l.starts_with("REPEAT") || l.contains("STEPDOWN(")),
+        "{text}"
+    );
+    assert!(text.contains("T=\"DRILL 8.5\" M6"), "{text}");
+    assert!(text.contains("; volcomp: STEPDOWN.SPF:6"), "{text}");
+    let moves = |rows: &[(usize, [f64; 3], u32)]| -> Vec<([f64; 3], u32)> {
+        rows.iter().map(|r| (r.1, r.2)).collect()
+    };
+    assert_eq!(
+        moves(&rows_with_tool(flat.to_str().unwrap(), &args)),
+        moves(&got)
+    );
+    // Compensated on ref-trt, the output reads back and moves within the
+    // corrections (a few µm) of the original.
+    let compensated = dir.path().join("out.mpf");
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml", program, "-o"])
+        .arg(&compensated)
+        .args(&args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let back = rows_with_tool(compensated.to_str().unwrap(), &args);
+    let ends: Vec<_> = back
+        .iter()
+        .filter(|r| {
+            want.iter()
+                .any(|w| (0..3).all(|k| (r.1[k] - w.1[k]).abs() < 0.02))
+        })
+        .collect();
+    assert!(ends.len() >= want.len(), "{back:?}");
+    // Without a tool table a name is the default tool; a settable frame
+    // without --offset is zero, as G54's is.
+    let plain = rows_with_tool(
+        program,
+        &[
+            "--subroutine-path".to_string(),
+            "tests/data/sinumerik/subprograms".to_string(),
+        ],
+    );
+    assert_eq!(plain[0].2, 0);
+    assert_eq!(plain[23].1, [0.0, 0.0, 0.0]);
+}
+
+/// The real programs with a licence that allows copying, beyond CEAD's
+/// examples (tests/data/sinumerik/real/README.md): CAM output of an A/C
+/// five-axis machine (tools by name) and a 828D's warm-up routines (PROC
+/// with parameters, DEF in the subprogram, WHILE): all read.
+#[test]
+fn the_cam_output_and_the_warm_up_routines_are_read() {
+    let check = |args: &[&str]| {
+        let out = volcomp()
+            .arg("check")
+            .args(args)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        assert_success(&out);
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let cam = check(&[
+        "tests/data/sinumerik/real/cas-package/CAM_TEST.MPF",
+        "--machine",
+        "machines/xyzac-trt.toml",
+    ]);
+    assert!(cam.contains("996 lines executed"), "{cam}");
+    assert!(
+        cam.contains("motion blocks: 978 (G0 89, G1 445, G2 199, G3 245)"),
+        "{cam}"
+    );
+    for (name, lines) in [
+        ("DAILY", 1233),
+        ("FIRST_SPINDLE_RUN_IN", 7387),
+        ("IDLE_2_WEEKS", 1837),
+        ("IDLE_72_HOURS", 3645),
+        ("TEST", 40),
+    ] {
+        let text = check(&[&format!(
+            "tests/data/sinumerik/real/syil-x7-warmup/{name}.MPF"
+        )]);
+        assert!(
+            text.contains(&format!("{lines} lines executed")),
+            "{name}: {text}"
+        );
+    }
+}
+
+/// `L123(args)` (*Job planning*, "Subprogram call"): a program named `L`
+/// and a number whose `PROC` takes parameters is called with arguments, as
+/// a program called by name is (three of the shop programs found call
+/// `L140(1)`); a `VAR` parameter of it writes back.
+#[test]
+fn an_l_program_takes_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("L13.SPF"),
+        "PROC L13(REAL D, VAR REAL SEEN)\nG1 X=D Z=-D F100\nSEEN=D*2\nRET\n",
+    )
+    .unwrap();
+    let main = dir.path().join("main.mpf");
+    std::fs::write(&main, "R7=0\nG0 X0 Y0 Z5\nL13(4, R7)\nG1 Y=R7\nM30\n").unwrap();
+    let got = targets(&["check", main.to_str().unwrap(), "--targets", "-"]);
+    let want = [
+        (2, [0.0, 0.0, 5.0]),
+        (2, [4.0, 0.0, -4.0]),
+        (4, [4.0, 8.0, -4.0]),
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g.0, w.0, "{got:?}");
+        assert!((0..3).all(|k| (g.1[k] - w.1[k]).abs() < 1e-9), "{got:?}");
+    }
+}

@@ -127,6 +127,24 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         ReferenceRefuses,
         "the reference does not read orientation vectors `A3= B3= C3=` (line 10: \"expected a comment (;...), or a statement\"); volcomp turns them into ref-trt's rotary joints on its chain (tests/it/sinumerik.rs checks the closed loop)",
     ),
+    (
+        "sections-tools-frames.mpf",
+        &[
+            "--subroutine-path",
+            "tests/data/sinumerik/subprograms",
+            "--offset",
+            "G54=1,2,3",
+            "--offset",
+            "G505=50,60,70",
+            "--offset",
+            "G599=-10,-20,-30",
+            "--tools",
+            "tests/data/sinumerik/named-tools.tbl",
+        ],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read section repeats `REPEAT label [label2] P=n` (it takes `REPEAT` for the opener of `REPEAT … UNTIL`: \"REPEAT is never closed\" at line 15), nor runs calls (`STEPDOWN` with `VAR` parameters), tools by name or `G505`–`G599`; volcomp's reading is checked by hand, move for move, in tests/it/sinumerik.rs",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",
@@ -240,9 +258,9 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
     (
         "real/cead/tool.mpf",
         &[],
-        AsWritten,
-        VolcompRefuses,
-        "`T=\"BALL_MILL_8MM_SHORT\"`: tools by name are not read by volcomp yet",
+        Fragment,
+        Agree,
+        "`T=\"BALL_MILL_8MM_SHORT\" M6` and no move (before tools by name were read, volcomp refused it)",
     ),
     ("real/cead/trans.mpf", &[], Fragment, Agree, ""),
     ("real/cead/trans2.mpf", &[], Fragment, Agree, ""),

@@ -365,6 +365,35 @@ struct Level {
     for_continue: Option<usize>,
     /// A motion block has run at this level (DEF must come before).
     moved: bool,
+    /// Program sections being repeated (`REPEAT`, `REPEATB`), innermost last.
+    sections: Vec<Section>,
+    /// `VAR` parameters (by reference): the parameter and the caller's
+    /// variable it stands for, written back when the level returns.
+    by_ref: Vec<(String, Target)>,
+}
+
+/// A subprogram call of a block: the program's name, the arguments (each
+/// with the variable it names, for `VAR` parameters), the call's span.
+type Call = (String, Vec<(f64, Option<Target>)>, (usize, usize));
+
+/// A caller's variable a `VAR` parameter refers to: an `R` parameter, or
+/// an element (flat index; 0 for a scalar) of a variable of the caller.
+#[derive(Clone, Debug)]
+enum Target {
+    R(usize),
+    Var(String, usize),
+}
+
+/// A program section `REPEAT label [label2] P=n` / `REPEATB label P=n` runs
+/// (*Job planning*, "Program section repetition (REPEAT, REPEATB, ENDLABEL,
+/// P)"): lines `start..=end` of the level's file, `left` more runs, then on
+/// at `resume` (the line after the `REPEAT`).
+#[derive(Clone, Copy, Debug)]
+struct Section {
+    start: usize,
+    end: usize,
+    left: u64,
+    resume: usize,
 }
 
 /// The swivelled plane (`CYCLE800`) and the programmable frame.
@@ -397,6 +426,8 @@ pub(crate) struct SinumerikFront {
     loop_lines: u64,
     max_loop_lines: u64,
     frames: Frames,
+    /// The origins of the settable frames `G505`–`G599` (`--offset`).
+    settable_frames: std::collections::BTreeMap<u16, crate::axes::Axes>,
     /// Tool axis ↔ rotary joints from the machine (`CYCLE800`).
     orientation: Option<std::sync::Arc<dyn crate::gcode::OrientationSolver>>,
     /// The program switched `TRAORI` on itself.
@@ -463,6 +494,8 @@ impl SinumerikFront {
                 name: String::new(),
                 for_continue: None,
                 moved: false,
+                sections: Vec::new(),
+                by_ref: Vec::new(),
             }],
             r: vec![0.0; R_COUNT],
             block: Block::default(),
@@ -489,6 +522,7 @@ impl SinumerikFront {
                 programmable: FrameTransform::IDENTITY,
             },
             orientation: setup.orientation.clone(),
+            settable_frames: setup.settable_frames.clone(),
             traori: false,
             ori: OriModes::default(),
             arc_form: None,
@@ -620,6 +654,23 @@ impl SinumerikFront {
     /// end of the main program.
     fn step(&mut self, interpreter: &mut Interpreter) -> Result<Option<bool>, GcodeError> {
         let depth = self.levels.len() - 1;
+        // The end of a repeated section: again from its start, or on after
+        // its `REPEAT`.
+        {
+            let l = &mut self.levels[depth];
+            if let Some(sec) = l.sections.last_mut()
+                && l.next == sec.end + 1
+            {
+                if sec.left > 1 {
+                    sec.left -= 1;
+                    l.next = sec.start;
+                } else {
+                    l.next = sec.resume;
+                    l.sections.pop();
+                }
+                l.for_continue = None;
+            }
+        }
         let (file, k) = {
             let l = &self.levels[depth];
             (l.file, l.next)
@@ -836,6 +887,11 @@ impl SinumerikFront {
                     return Ok(false);
                 }
                 "CASE" => return self.case(line, &mut cur),
+                "REPEATB" => {
+                    cur.pos += 1;
+                    self.flowed = true;
+                    return self.repeat_section(line, &mut cur, true, (first.start, first.end));
+                }
                 "GOTOF" | "GOTOB" | "GOTO" | "GOTOC" => {
                     cur.pos += 1;
                     return self.goto(line, &mut cur, &name, (first.start, first.end));
@@ -1034,6 +1090,7 @@ impl SinumerikFront {
                 self.levels[level].next = partner + 1;
                 Ok(false)
             }
+            Structure::Repeat if partner == usize::MAX => self.repeat_section(line, cur, false, at),
             Structure::EndIf | Structure::Repeat | Structure::Loop => Ok(false),
             Structure::EndWhile | Structure::EndLoop => {
                 self.levels[level].next = if s == Structure::EndWhile {
@@ -1272,6 +1329,156 @@ impl SinumerikFront {
         }
     }
 
+    /// `REPEAT label P=n`, `REPEAT label label2 P=n`, `REPEATB label P=n`
+    /// (*Job planning*, "Program section repetition (REPEAT, REPEATB,
+    /// ENDLABEL, P)"): the statement runs a section of the program `n` times
+    /// (`P` omitted: once), then the program goes on after the statement.
+    /// The section: `REPEATB` the block with the label; one label the
+    /// blocks from the label to the next block labelled `ENDLABEL`, or,
+    /// without one before the statement, to the block before the `REPEAT`;
+    /// two labels the blocks from the first to the second, both included.
+    /// A label is looked for backward from the statement, then forward; a
+    /// label that is missing, a second label before the first, or a
+    /// section that would contain its own `REPEAT` is a located error.
+    fn repeat_section(
+        &mut self,
+        line: &LineRun,
+        cur: &mut Cursor,
+        single: bool,
+        at: (usize, usize),
+    ) -> Result<bool, GcodeError> {
+        let what = if single { "REPEATB" } else { "REPEAT" };
+        let mut names: Vec<(String, usize, usize)> = Vec::new();
+        while let Some(Token {
+            tok: Tok::Name(n),
+            start,
+            end,
+        }) = cur.peek()
+        {
+            if n == "P"
+                && cur
+                    .peek_at(1)
+                    .is_some_and(|t| matches!(t.tok, Tok::Sym("=") | Tok::Num(..)))
+            {
+                break;
+            }
+            names.push((n.to_string(), *start, *end));
+            cur.pos += 1;
+        }
+        let mut runs = 1.0;
+        if cur.eat_name("P") {
+            cur.eat_sym("=");
+            let h = cur.here();
+            let e = cur
+                .expr()
+                .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+            runs = self.eval(line, &e, (h, cur.last_end()))?;
+            if !(runs >= 1.0 && runs.fract() == 0.0) {
+                return Err(self.refused(
+                    line,
+                    format!("P={runs}: the number of runs is a whole number ≥ 1"),
+                    h,
+                    cur.last_end().max(h + 1),
+                ));
+            }
+        }
+        if let Some(t) = cur.peek() {
+            return Err(self.refused(
+                line,
+                format!("unexpected after {what} label P=n"),
+                t.start,
+                t.end,
+            ));
+        }
+        let most = if single { 1 } else { 2 };
+        if names.is_empty() || names.len() > most {
+            return Err(self.refused(
+                line,
+                format!(
+                    "{what} needs {}, then P=n",
+                    if single { "a label" } else { "a label or two" }
+                ),
+                at.0,
+                at.1,
+            ));
+        }
+        let here = line.line - 1;
+        let file = &self.files[line.file];
+        let label_line = |name: &str, from: usize| -> Option<usize> {
+            // Backward from `from`, then forward.
+            let matches = |k: usize| line_head(file.raw(k)).label.as_deref() == Some(name);
+            (0..from)
+                .rev()
+                .find(|&k| matches(k))
+                .or_else(|| (from + 1..file.lines.len()).find(|&k| matches(k)))
+        };
+        let missing = |name: &str, s: usize, e: usize| {
+            self.refused(
+                line,
+                format!("{what}: the label `{name}` is not in {}", file.name),
+                s,
+                e,
+            )
+        };
+        let (first, fs, fe) = &names[0];
+        let start = label_line(first, here).ok_or_else(|| missing(first, *fs, *fe))?;
+        let end = if single {
+            start
+        } else if let Some((second, ss, se)) = names.get(1) {
+            (start..file.lines.len())
+                .find(|&k| line_head(file.raw(k)).label.as_deref() == Some(second.as_str()))
+                .ok_or_else(|| {
+                    self.refused(
+                        line,
+                        format!("{what}: no label `{second}` after the label `{first}`"),
+                        *ss,
+                        *se,
+                    )
+                })?
+        } else {
+            let endlabel = (start..file.lines.len())
+                .find(|&k| line_head(file.raw(k)).label.as_deref() == Some("ENDLABEL"));
+            match endlabel {
+                Some(e) if start > here || e < here => e,
+                _ if start < here => here - 1,
+                _ => {
+                    return Err(self.refused(
+                        line,
+                        format!(
+                            "{what} {first}: the label follows the statement, and no ENDLABEL closes the section"
+                        ),
+                        *fs,
+                        *fe,
+                    ));
+                }
+            }
+        };
+        if (start..=end).contains(&here) {
+            return Err(self.refused(
+                line,
+                format!(
+                    "{what}: the section (lines {}–{}) contains the statement itself",
+                    start + 1,
+                    end + 1
+                ),
+                at.0,
+                at.1,
+            ));
+        }
+        self.flowed = true;
+        let level = self.levels.len() - 1;
+        let l = &mut self.levels[level];
+        l.sections.push(Section {
+            start,
+            end,
+            left: runs as u64,
+            resume: here + 1,
+        });
+        l.next = start;
+        l.for_continue = None;
+        Ok(false)
+    }
+
     /// `CASE (expr) OF c1 GOTOF L1 … DEFAULT GOTOF Ln`.
     fn case(&mut self, line: &LineRun, cur: &mut Cursor) -> Result<bool, GcodeError> {
         let at = (cur.here(), cur.here() + 4);
@@ -1489,7 +1696,22 @@ impl SinumerikFront {
             level.next = 0;
             return Ok(());
         }
-        self.levels.pop();
+        let done = self.levels.pop().expect("a subprogram level");
+        // `VAR` parameters: the caller's variables take their last values.
+        for (param, target) in &done.by_ref {
+            let Some(v) = done.scope.vars.get(param).map(|v| v.values[0]) else {
+                continue;
+            };
+            match target {
+                Target::R(k) => self.r[*k] = v,
+                Target::Var(name, k) => {
+                    let caller = self.levels.last_mut().expect("the caller's level");
+                    if let Some(var) = caller.scope.vars.get_mut(name) {
+                        var.values[*k] = var.ty.store(v);
+                    }
+                }
+            }
+        }
         Ok(())
     }
 
@@ -1499,7 +1721,7 @@ impl SinumerikFront {
         &mut self,
         line: &LineRun,
         name: &str,
-        args: Vec<f64>,
+        args: Vec<(f64, Option<Target>)>,
         repeats: u64,
         at: (usize, usize),
     ) -> Result<(), GcodeError> {
@@ -1557,6 +1779,7 @@ impl SinumerikFront {
             vars: HashMap::new(),
         };
         let mut start = 0;
+        let mut by_ref = Vec::new();
         for k in 0..self.files[file].lines.len() {
             let raw = self.files[file].raw(k).to_vec();
             let head = line_head(&raw);
@@ -1564,10 +1787,36 @@ impl SinumerikFront {
             if first.eq_ignore_ascii_case(b"PROC") {
                 start = k + 1;
                 let params = proc_params(head.rest);
-                for (i, (ty, pname)) in params.into_iter().enumerate() {
-                    let mut var = Variable::new(ty, Vec::new());
-                    var.values[0] = ty.store(args.get(i).copied().unwrap_or(0.0));
-                    scope.vars.insert(pname, var);
+                for (i, param) in params.into_iter().enumerate() {
+                    let arg = args.get(i);
+                    if param.by_ref {
+                        // *Job planning*, "Subprograms with parameter
+                        // transfer (PROC, VAR)": the call passes a variable,
+                        // whose value the subprogram's writes change.
+                        if param.array {
+                            return Err(self.feature(
+                                line,
+                                &format!("VAR array parameter `{}` of {name}", param.name),
+                                at.0,
+                                at.1,
+                            ));
+                        }
+                        let Some((_, Some(target))) = arg else {
+                            return Err(self.refused(
+                                line,
+                                format!(
+                                    "`{}` of {name} is a VAR parameter: the call must pass a variable (an R parameter or a DEF variable), not a value",
+                                    param.name
+                                ),
+                                at.0,
+                                at.1,
+                            ));
+                        };
+                        by_ref.push((param.name.clone(), target.clone()));
+                    }
+                    let mut var = Variable::new(param.ty, Vec::new());
+                    var.values[0] = param.ty.store(arg.map_or(0.0, |a| a.0));
+                    scope.vars.insert(param.name, var);
                 }
                 break;
             }
@@ -1585,9 +1834,43 @@ impl SinumerikFront {
             repeats_left: repeats.saturating_sub(1),
             name: name.to_string(),
             for_continue: None,
-            moved: true,
+            // A subprogram's definitions come at its own start (Job
+            // planning, "Definition of user variables": in each program).
+            moved: false,
+            sections: Vec::new(),
+            by_ref,
         });
         Ok(())
+    }
+
+    /// The variable an argument names (for a `VAR` parameter): `R12`,
+    /// `R[expr]`, `NAME`, `NAME[i, j]`; `None` for any other expression.
+    fn target_of(
+        &self,
+        line: &LineRun,
+        e: &Expr,
+        at: (usize, usize),
+    ) -> Result<Option<Target>, GcodeError> {
+        Ok(match e {
+            Expr::R(i) => {
+                let k = values::round_half_away(self.eval(line, i, at)?);
+                (0.0..R_COUNT as f64)
+                    .contains(&k)
+                    .then_some(Target::R(k as usize))
+            }
+            Expr::Var(name, index, _) => {
+                let scope = &self.levels.last().expect("a level").scope;
+                let Some(var) = scope.vars.get(name) else {
+                    return Ok(None);
+                };
+                let mut idx = Vec::with_capacity(index.len());
+                for i in index {
+                    idx.push(self.eval(line, i, at)?);
+                }
+                var.flat(&idx).map(|k| Target::Var(name.clone(), k))
+            }
+            _ => None,
+        })
     }
 
     fn find_subprogram(&self, name: &str) -> Option<PathBuf> {
@@ -1623,7 +1906,7 @@ impl SinumerikFront {
         let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
         let mut rpl: Option<f64> = None;
         let mut flags = GFlags::default();
-        let mut call: Option<(String, Vec<f64>, (usize, usize))> = None;
+        let mut call: Option<Call> = None;
         let mut repeats: u64 = 1;
 
         let mut axis_words = false;
@@ -1646,15 +1929,17 @@ impl SinumerikFront {
             if cur.eat_sym("=") {
                 let vstart = cur.here();
                 if name == "T"
-                    && matches!(
-                        cur.peek(),
-                        Some(Token {
-                            tok: Tok::Str(_),
-                            ..
-                        })
-                    )
+                    && let Some(Token {
+                        tok: Tok::Str(tool),
+                        end,
+                        ..
+                    }) = cur.peek()
                 {
-                    return Err(self.feature(line, "tools by name (T=\"…\")", ts, cur.here() + 1));
+                    let (tool, end) = (tool.clone(), *end);
+                    cur.pos += 1;
+                    let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
+                    out.words.push(word(b'T', number, ts, end, 0, false, false));
+                    continue;
                 }
                 let (e, mode) =
                     value_expr(cur).map_err(|e| self.refused(line, e.message, e.start, e.end))?;
@@ -1798,20 +2083,17 @@ impl SinumerikFront {
                 }) = cur.peek()
                 else {
                     if letter == b'T'
-                        && matches!(
-                            cur.peek(),
-                            Some(Token {
-                                tok: Tok::Str(_),
-                                ..
-                            })
-                        )
+                        && let Some(Token {
+                            tok: Tok::Str(tool),
+                            end,
+                            ..
+                        }) = cur.peek()
                     {
-                        return Err(self.feature(
-                            line,
-                            "tools by name (T=\"…\")",
-                            ts,
-                            cur.here() + 1,
-                        ));
+                        let (tool, end) = (tool.clone(), *end);
+                        cur.pos += 1;
+                        let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
+                        out.words.push(word(b'T', number, ts, end, 0, false, false));
+                        continue;
                     }
                     return Err(self.refused(
                         line,
@@ -1852,11 +2134,47 @@ impl SinumerikFront {
                     }
                     b'H' | b'E' => out.statements.push(ts..end),
                     b'L' => {
+                        // `L123`, and `L123(args)`: a program named L123
+                        // whose PROC takes parameters (*Job planning*,
+                        // "Subprogram call": the name is L and a number).
                         let n = &raw[ts + 1..end];
+                        let mut args = Vec::new();
+                        let mut call_end = end;
+                        if cur.eat_sym("(") && !cur.eat_sym(")") {
+                            loop {
+                                let e = if matches!(
+                                    cur.peek(),
+                                    Some(Token {
+                                        tok: Tok::Sym("," | ")"),
+                                        ..
+                                    })
+                                ) {
+                                    Expr::Num(0.0)
+                                } else {
+                                    cur.expr().map_err(|e| {
+                                        self.refused(line, e.message, e.start, e.end)
+                                    })?
+                                };
+                                let v = self.eval(line, &e, (ts, end))?;
+                                args.push((v, self.target_of(line, &e, (ts, end))?));
+                                if cur.eat_sym(")") {
+                                    break;
+                                }
+                                cur.expect_sym(",")
+                                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                            }
+                            call_end = cur.last_end();
+                        } else if cur
+                            .tokens
+                            .get(cur.pos.wrapping_sub(1))
+                            .is_some_and(|t| t.tok == Tok::Sym(")"))
+                        {
+                            call_end = cur.last_end();
+                        }
                         call = Some((
                             format!("L{}", String::from_utf8_lossy(n)),
-                            Vec::new(),
-                            (ts, end),
+                            args,
+                            (ts, call_end),
                         ));
                     }
                     b'P' => {
@@ -2024,7 +2342,8 @@ impl SinumerikFront {
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     let mut values = Vec::with_capacity(args.len());
                     for a in &args {
-                        values.push(self.eval(line, a, (ts, end))?);
+                        let v = self.eval(line, a, (ts, end))?;
+                        values.push((v, self.target_of(line, a, (ts, end))?));
                     }
                     call = Some((name.to_string(), values, (ts, end)));
                 }
@@ -2080,6 +2399,9 @@ impl SinumerikFront {
         }
         if flags.settable_off {
             interpreter.set_work_origin(crate::axes::Axes::default());
+        }
+        if let Some(origin) = flags.settable {
+            interpreter.set_work_origin(origin);
         }
         self.tool_length(&mut out, tool_edge);
         if orientation.given() {
@@ -2250,6 +2572,50 @@ impl SinumerikFront {
             }
         }
         Ok(())
+    }
+
+    /// `T="name"`: the tool managed by name (*Fundamentals*, "Tool change",
+    /// with tool management the tool is selected by its name). volcomp's tool
+    /// table (LinuxCNC's format) numbers its tools; a tool is named by its
+    /// entry's comment (`T7 P7 Z95.2 D8.5 ;DRILL 8.5`), compared exactly
+    /// (case and spaces kept, the comment trimmed). Without a tool table
+    /// every tool is the default tool (the machine file's `[tool]`), so a
+    /// name selects it, as a number does; with a table, a name no entry
+    /// carries is a located error, as a number the table lacks is. The
+    /// number rides in the block as the `T` word's value (its text stays
+    /// `T="name"`).
+    fn tool_by_name(
+        &self,
+        line: &LineRun,
+        tool: &str,
+        interpreter: &Interpreter,
+        at: (usize, usize),
+    ) -> Result<f64, GcodeError> {
+        let table = interpreter.tools();
+        if !table.is_given() {
+            return Ok(0.0);
+        }
+        let mut found = table.entries().filter(|e| e.comment == tool);
+        match (found.next(), found.next()) {
+            (Some(e), None) => Ok(f64::from(e.number)),
+            (Some(a), Some(b)) => Err(self.refused(
+                line,
+                format!(
+                    "tool \"{tool}\" names two tools of the tool table (T{} and T{}): a name must name one tool",
+                    a.number, b.number
+                ),
+                at.0,
+                at.1,
+            )),
+            (None, _) => Err(self.refused(
+                line,
+                format!(
+                    "tool \"{tool}\" is not in the tool table: a tool is named by its entry's comment (T1 P1 Z100 D8 ;{tool})"
+                ),
+                at.0,
+                at.1,
+            )),
+        }
     }
 
     /// The tool length compensation: on the 840D sl a tool change (`M6`)
@@ -3048,13 +3414,18 @@ impl SinumerikFront {
                 out.statements.push(at.0..at.1);
                 None
             }
+            // The settable frames beyond G54–G57 (*Fundamentals*, "Settable
+            // zero offset (G54 to G57, G505 to G599)"): their origins from
+            // `--offset G505=…`; one not given is zero, as G54's is.
             505..=599 => {
-                return Err(self.feature(
-                    line,
-                    &format!("settable frame G{code} (G54–G57 are read)"),
-                    at.0,
-                    at.1,
-                ));
+                let origin = self
+                    .settable_frames
+                    .get(&(code as u16))
+                    .copied()
+                    .unwrap_or_default();
+                flags.settable = Some(origin);
+                out.statements.push(at.0..at.1);
+                None
             }
             4 => {
                 flags.dwell = true;
@@ -3232,6 +3603,8 @@ struct GFlags {
     suppress: bool,
     /// `G500`: no settable frame.
     settable_off: bool,
+    /// `G505`–`G599`: this settable frame's origin.
+    settable: Option<crate::axes::Axes>,
 }
 
 /// Where a line being run comes from.
@@ -3439,7 +3812,17 @@ fn value_expr(cur: &mut Cursor) -> Result<(Expr, Mode), syntax::SyntaxError> {
 }
 
 /// The parameters of a `PROC` line: `PROC NAME(REAL X, VAR INT N)`.
-fn proc_params(rest: &[u8]) -> Vec<(VarType, String)> {
+/// One formal parameter of a `PROC` line.
+struct ProcParam {
+    ty: VarType,
+    name: String,
+    /// `VAR`: by reference.
+    by_ref: bool,
+    /// An array (`VAR REAL A[]`).
+    array: bool,
+}
+
+fn proc_params(rest: &[u8]) -> Vec<ProcParam> {
     let text = String::from_utf8_lossy(rest).to_ascii_uppercase();
     let Some(open) = text.find('(') else {
         return Vec::new();
@@ -3448,10 +3831,17 @@ fn proc_params(rest: &[u8]) -> Vec<(VarType, String)> {
     text[open + 1..close]
         .split(',')
         .filter_map(|p| {
+            let by_ref = p.split_whitespace().next() == Some("VAR");
             let mut parts = p.split_whitespace().filter(|w| *w != "VAR");
             let ty = VarType::from_name(parts.next()?.split('[').next()?)?;
-            let name = parts.next()?.split('[').next()?.to_string();
-            Some((ty, name))
+            let word = parts.next()?;
+            let name = word.split('[').next()?.to_string();
+            Some(ProcParam {
+                ty,
+                name,
+                by_ref,
+                array: p.contains('['),
+            })
         })
         .collect()
 }
