@@ -3,7 +3,10 @@
 //! implementation of the spec), scored as the folder's README says; prints
 //! one line per case, then the table's row and the time per diagnosis.
 //!
-//!     cargo run --release --example oracle_cases -- [ORACLE_DIR [REF_TRT.toml]] [verbose]
+//!     cargo run --release --example oracle_cases -- [ORACLE_DIR [REF_TRT.toml]] [verbose] [only=PREFIX]
+//!
+//! `only=PREFIX` runs the cases whose name starts with PREFIX (the table's
+//! row then counts those only).
 //!
 //! Defaults: `../shared/data/oracle-cases` (from the crate's root, as the
 //! project's checkouts lie) and the crate's `machines/ref-trt.toml` (the
@@ -17,8 +20,10 @@ fn main() {
     let root_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let args: Vec<String> = std::env::args()
         .skip(1)
-        .filter(|a| a != "verbose")
+        .filter(|a| a != "verbose" && !a.starts_with("only="))
         .collect();
+    let only: Option<String> =
+        std::env::args().find_map(|a| a.strip_prefix("only=").map(String::from));
     let verbose = std::env::args().any(|a| a == "verbose");
     let dir = args.first().map_or_else(
         || root_dir.join("../../shared/data/oracle-cases"),
@@ -32,7 +37,10 @@ fn main() {
     let wrong = OracleMachine::load(&dir.join("machines/x1.4.toml")).expect("x1.4");
     let mut rows: Vec<(OracleGroup, f64, bool)> = Vec::new();
     let mut total = 0.0;
-    for case in &cases {
+    for case in cases
+        .iter()
+        .filter(|c| only.as_ref().is_none_or(|o| c.name.starts_with(o.as_str())))
+    {
         let machine = if case.group == OracleGroup::WrongModel {
             &wrong
         } else {

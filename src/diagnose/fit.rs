@@ -61,12 +61,20 @@ pub(crate) struct Signatures {
     /// machine file's position-independent errors): the "model" term of the
     /// selection (a table `k` that is `(1 + β_k)` × the machine's).
     pub model: Vec<Vec<f64>>,
+    /// Per effect, the RMS over the rows of each linear column at the
+    /// parameter's largest plausible value (`plausible_reach`): the most
+    /// that parameter can move the readings on this part, µm.
+    reach: Vec<(EffectKind, Vec<f64>)>,
 }
 
 impl Signatures {
     pub fn new(rows: &[Row]) -> Signatures {
         let n = rows.len();
         let mut linear = Vec::new();
+        let reach = EffectKind::ALL
+            .iter()
+            .map(|&kind| (kind, plausible_reach(rows, kind)))
+            .collect();
         for kind in EffectKind::ALL {
             if kind.is_nonlinear() {
                 continue;
@@ -113,7 +121,41 @@ impl Signatures {
             probe_time,
             tau_range: ((t_max / 200.0).max(1e-3), 20.0 * t_max),
             model: Vec::new(),
+            reach,
         }
+    }
+
+    /// Fix at 0 every linear parameter that the part cannot see: one whose
+    /// largest plausible effect on the readings could not pay for itself in
+    /// the likelihood ratio, `n·reach² / σ² < ln n` (`reach` the RMS of its
+    /// column at the parameter's largest plausible value, `σ` the noise
+    /// floor). Such a column (a rotation about the axis of a surface of
+    /// revolution: zero up to the plan's rounding) would otherwise be scaled
+    /// to unit RMS and fitted, giving its effect a free column of noise. Its
+    /// column is zeroed (the fit leaves it at 0). The penalty still counts
+    /// it (`SetFit::parameter_count`): the price of a hypothesis is what the
+    /// catalogue lets it vary, so that it does not jump by `ln n` with the
+    /// side of the cut a column falls on. Returns the parameters dropped.
+    pub fn drop_invisible(&mut self, noise_um: f64) -> Vec<(EffectKind, usize)> {
+        let n = self.n as f64;
+        let price = n.max(1.0).ln();
+        let mut dropped = Vec::new();
+        for (kind, reach) in &self.reach {
+            for (j, r) in reach.iter().enumerate() {
+                if n * r * r < price * noise_um * noise_um {
+                    dropped.push((*kind, j));
+                }
+            }
+        }
+        for &(kind, j) in &dropped {
+            if kind.is_nonlinear() {
+                self.thermal_direction[j].iter_mut().for_each(|v| *v = 0.0);
+                self.probe_direction[j].iter_mut().for_each(|v| *v = 0.0);
+            } else if let Some((_, cols)) = self.linear.iter_mut().find(|(k, _)| *k == kind) {
+                cols[j].iter_mut().for_each(|v| *v = 0.0);
+            }
+        }
+        dropped
     }
 
     pub fn len(&self) -> usize {
@@ -491,6 +533,47 @@ pub(crate) fn column_independence(cols: &[Vec<f64>]) -> Vec<f64> {
             }
             let fit = least_squares(&others, &rows, &cols[j]);
             (fit.sse.max(0.0) / own).sqrt()
+        })
+        .collect()
+}
+
+/// The RMS over `rows` of each linear column of `kind` at its parameter's
+/// largest plausible value (µm): an angle at `MAX_ANGLE_URAD`, an offset at
+/// `MAX_OFFSET_UM` (`plausibility`); a parameter of another unit (servo lag's
+/// `k`, wear's `w`) at the value whose displacement reaches `MAX_OFFSET_UM`
+/// at some point of the part. For `thermal_drift`, the drift directions at
+/// full growth (`tau` → 0).
+fn plausible_reach(rows: &[Row], kind: EffectKind) -> Vec<f64> {
+    use super::plausibility::{MAX_ANGLE_URAD, MAX_OFFSET_UM};
+    let count = kind.linear_count();
+    let mut sum2 = vec![0.0; count];
+    let mut largest = vec![0.0f64; count];
+    let (mut basis, mut values) = (Vec::with_capacity(8), Vec::with_capacity(8));
+    for row in rows {
+        basis.clear();
+        values.clear();
+        // τ → 0: the drift at full growth (1 − e^(−t/τ) = 1 for t > 0).
+        let tau = 1e-9;
+        kind.basis(row.cut, tau, &mut basis);
+        row.signature(kind, tau, &mut values);
+        for j in 0..count {
+            let b = basis.get(j).copied().unwrap_or([0.0; 3]);
+            largest[j] = largest[j].max(crate::vec3::dot(b, b).sqrt());
+            let v = values.get(j).copied().unwrap_or(0.0);
+            sum2[j] += v * v;
+        }
+    }
+    let n = rows.len().max(1) as f64;
+    let units = kind.units();
+    (0..count)
+        .map(|j| {
+            let bound = match units.get(j).copied() {
+                Some("µrad") => MAX_ANGLE_URAD,
+                Some("µm") => MAX_OFFSET_UM,
+                _ if largest[j] > 0.0 => MAX_OFFSET_UM / largest[j],
+                _ => 0.0,
+            };
+            bound * (sum2[j] / n).sqrt()
         })
         .collect()
 }

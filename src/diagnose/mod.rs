@@ -187,6 +187,19 @@ pub fn diagnose_with_followup(
     let mut p = Problem::new(contexts, measured_um, followup, options)?;
     let candidates = single_effects(&p);
     let mut picked = select_terms(&p, &candidates, options);
+    if !p.invisible.is_empty() {
+        picked.notes.insert(
+            0,
+            format!(
+                "fixed at 0, not seen by this part (their largest plausible effect explains less than a parameter costs, n·reach² < σ²·ln n): {}",
+                p.invisible
+                    .iter()
+                    .map(|(k, j)| format!("{} of {}", k.parameters_for(p.rotary)[*j], k.name()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        );
+    }
     let mut effects = effect_table(&p, &candidates, options.alias_cosine);
     let mut not_named = guard_not_named(&p, &mut picked);
     not_named.extend(guard_table_shape(&mut p, &mut picked, options.significance));
@@ -289,6 +302,8 @@ struct Problem<'a> {
     model_u: f64,
     /// √(σ² + u²): what the noise and the model's uncertainty allow.
     expected: f64,
+    /// Parameters the part cannot see, fixed at 0 (`Signatures::drop_invisible`).
+    invisible: Vec<(EffectKind, usize)>,
 }
 
 impl<'a> Problem<'a> {
@@ -356,6 +371,7 @@ impl<'a> Problem<'a> {
         let n = r.len();
         let row_points: Vec<&PointContext> = rows.iter().map(|row| row.cut).collect();
         let mut sig = Signatures::new(&rows);
+        let invisible = sig.drop_invisible(floor);
         let folds = Folds::new(&row_points, options.time_folds);
         let patches = selection::patches(&row_points);
         // The error model's own columns: one per measured axis (what the model
@@ -399,6 +415,7 @@ impl<'a> Problem<'a> {
             shape_cols,
             model_u2,
             model_u,
+            invisible,
         })
     }
 

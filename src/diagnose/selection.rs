@@ -251,6 +251,25 @@ impl Scorer<'_> {
             .collect()
     }
 
+    /// Mean square of the residual after the set's fit on all rows (the
+    /// mean square before when it was not fitted).
+    fn fitted_mse(&self, t: &Terms) -> f64 {
+        self.fitted.get(t).map_or(self.mse_before, |c| {
+            self.r
+                .iter()
+                .zip(c)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                / self.n()
+        })
+    }
+
+    /// `n·ln(MSE) + p·ln n` of the set's fit on all rows.
+    fn fitted_bic(&self, t: &Terms) -> f64 {
+        let n = self.n();
+        n * self.fitted_mse(t).max(1e-300).ln() + self.params(t) as f64 * n.ln()
+    }
+
     fn bic(&self, t: &Terms) -> f64 {
         let n = self.n();
         n * self.mse(t).max(1e-300).ln() + self.params(t) as f64 * n.ln()
@@ -386,6 +405,46 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
                 scorer.z(b, over)
             ));
             best = Some(over);
+        }
+        // Between candidates the held-out test cannot tell apart (neither is
+        // significantly better than the other), the likelihood on all points
+        // decides: the lowest BIC of the in-sample fit (`fitted_bic`). The
+        // held-out BIC charges a flexible set twice (its held-out error
+        // already carries its extrapolation, then `p·ln n`), and a
+        // time-dependent effect whose folds extrapolate in time (thermal
+        // drift) more still; the test has already guarded both against
+        // over-fitting. Not beside the model's factors (as above).
+        if let Some(b) = best.filter(|b| !b.model && level == 1) {
+            let tied = better
+                .iter()
+                .filter(|t| {
+                    !t.model
+                        && **t != b
+                        && scorer.z(t, b) < s.threshold
+                        && scorer.z(b, t) < s.threshold
+                })
+                .min_by(|x, y| {
+                    scorer
+                        .fitted_bic(x)
+                        .total_cmp(&scorer.fitted_bic(y))
+                        .then(x.cmp(y))
+                });
+            if let Some(t) = tied.filter(|t| scorer.fitted_bic(t) < scorer.fitted_bic(b)) {
+                notes.push(format!(
+                    "{} and {} cannot be told apart on held-out points (z = {:.1} and {:.1} < {:.0}); on all points {} fits with the lower BIC (RMS {:.3} µm, {} parameters, against {:.3} µm, {}): named first",
+                    t.label(),
+                    b.label(),
+                    scorer.z(b, t),
+                    scorer.z(t, b),
+                    s.threshold,
+                    t.label(),
+                    scorer.fitted_mse(t).sqrt(),
+                    scorer.params(t),
+                    scorer.fitted_mse(b).sqrt(),
+                    scorer.params(b)
+                ));
+                best = Some(t);
+            }
         }
         match best {
             Some(t) if *t != current && scorer.z(&current, t) >= s.threshold => {
