@@ -72,7 +72,7 @@ pub use interpret::{
 pub use language::{Executed, LanguageOptions, ProgramInput};
 pub use machine::modal::{CutterComp, Distance, ModalState, MotionMode, Units};
 pub use machine::origin::{FrameTransform, Origin};
-pub use machine::tools::{CutterShape, ToolEntry, ToolInUse, ToolTable, ToolTableError};
+pub use machine::tools::{CutterShape, NamedTool, ToolEntry, ToolInUse, ToolTable, ToolTableError};
 pub use motion::{Feed, Frame, Motion, MotionKind, Plane, Pose};
 pub use parameters::Parameters;
 pub use summary::ProgramSummary;

@@ -29,7 +29,7 @@ use crate::gcode::machine::cycles::CycleStep;
 use crate::gcode::machine::interpret::{BlockEvent, Moves, duration_min};
 use crate::gcode::machine::modal::{CutterComp, ModalState, MotionMode, Units};
 use crate::gcode::machine::origin::Origin;
-use crate::gcode::machine::tools::{ToolInUse, ToolTable};
+use crate::gcode::machine::tools::{NamedTool, ToolInUse, ToolTable};
 use crate::gcode::motion::{Feed, Frame, Motion, MotionKind, Plane, from_plane, to_plane};
 
 use super::geometry;
@@ -478,13 +478,34 @@ impl KlMachine {
             }
         }
         let default = ToolInUse::DEFAULT;
-        // `TOOL CALL "NAME"`: the tool table's entry of that name (its NAME
-        // column; the machine file's `[[tools]] name`).
+        // `TOOL CALL "NAME"`: the entry of that name, found as
+        // `ToolTable::named` says for every dialect (a table that names no
+        // tool keeps the default tool, said in the summary).
         let named = match b.tokens.get(2) {
             Some(t) if number.is_none() && t.address.is_empty() => {
-                super::language::token_text(b, t)
-                    .map(|x| x.trim().trim_matches('"'))
-                    .and_then(|name| self.setup.tools.by_name(name))
+                match super::language::token_text(b, t).map(|x| x.trim().trim_matches('"')) {
+                    Some(name) => match self.setup.tools.named(name) {
+                        NamedTool::One(e) => Some(e),
+                        NamedTool::None if !self.setup.tools.names_tools() => None,
+                        NamedTool::Two(x, y) => {
+                            return Err(c.error(
+                                &format!(
+                                    "tool \"{name}\" names two tools of the tool table ({x} and {y}): a name must name one tool"
+                                ),
+                                Some(2),
+                            ));
+                        }
+                        NamedTool::None => {
+                            return Err(c.error(
+                                &format!(
+                                    "tool \"{name}\" is not in the tool table: a tool is named by the machine file's [[tools]] name"
+                                ),
+                                Some(2),
+                            ));
+                        }
+                    },
+                    None => None,
+                }
             }
             _ => None,
         };

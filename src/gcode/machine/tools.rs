@@ -145,6 +145,17 @@ pub struct ToolTableError {
     pub message: String,
 }
 
+/// What a tool name finds in a table ([`ToolTable::named`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NamedTool<'a> {
+    /// The one tool of that name.
+    One(&'a ToolEntry),
+    /// Two tools carry the name (their numbers): a name must name one tool.
+    Two(u32, u32),
+    /// No tool carries it.
+    None,
+}
+
 /// A tool table: tools by number.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ToolTable {
@@ -153,6 +164,8 @@ pub struct ToolTable {
     names: BTreeMap<String, u32>,
     /// The file (or machine file) it was read from.
     source: Option<String>,
+    /// A LinuxCNC table (`parse`): its comments name its tools.
+    comments_are_names: bool,
     /// A table was given (`parse`, `insert`): programs may select only its
     /// tools. Without one any tool may be selected (the default tool is used).
     given: bool,
@@ -171,6 +184,7 @@ impl ToolTable {
             entries: BTreeMap::new(),
             names: BTreeMap::new(),
             source: Some(name.to_string()),
+            comments_are_names: true,
             given: true,
         };
         // A UTF-8 byte order mark is not part of the first line.
@@ -370,10 +384,34 @@ impl ToolTable {
         self.entries.get(&number)
     }
 
-    /// The tool called `name` (Heidenhain's `TOOL CALL "NAME"`), when the
-    /// table names it. Names are compared exactly, as the TNC compares them.
-    pub fn by_name(&self, name: &str) -> Option<&ToolEntry> {
-        self.names.get(name).and_then(|n| self.entries.get(n))
+    /// The tool a program calls by name (Heidenhain's `TOOL CALL "NAME"`,
+    /// SINUMERIK's `T="NAME"`). A tool's name is the machine file's
+    /// `[[tools]] name`; a LinuxCNC tool table has no name column, so there
+    /// an entry's comment is its name (`T7 P7 Z95.2 D8.5 ;DRILL 8.5`).
+    /// Names are compared exactly (case and inner spaces kept), as the
+    /// controls compare them. Both dialects read the answer alike: one tool
+    /// is taken; two are a located error; none is a located error when the
+    /// table names any tool, and the default tool (said in `check`'s
+    /// summary) when it names none.
+    pub fn named(&self, name: &str) -> NamedTool<'_> {
+        if let Some(e) = self.names.get(name).and_then(|n| self.entries.get(n)) {
+            return NamedTool::One(e);
+        }
+        if !self.comments_are_names {
+            return NamedTool::None;
+        }
+        let mut found = self.entries.values().filter(|e| e.comment == name);
+        match (found.next(), found.next()) {
+            (Some(e), None) => NamedTool::One(e),
+            (Some(a), Some(b)) => NamedTool::Two(a.number, b.number),
+            (None, _) => NamedTool::None,
+        }
+    }
+
+    /// Whether the table names any tool (see [`ToolTable::named`]).
+    pub fn names_tools(&self) -> bool {
+        !self.names.is_empty()
+            || (self.comments_are_names && self.entries.values().any(|e| !e.comment.is_empty()))
     }
 
     /// The tools, by increasing number.
@@ -464,8 +502,23 @@ mod tests {
         };
         let mut t = ToolTable::new();
         t.insert(entry(7, "SA077", "m.toml:1")).unwrap();
-        assert_eq!(t.by_name("SA077").map(|e| e.number), Some(7));
-        assert_eq!(t.by_name("sa077"), None);
+        assert_eq!(t.named("SA077"), NamedTool::One(t.get(7).unwrap()));
+        assert_eq!(t.named("sa077"), NamedTool::None);
+        assert!(t.names_tools());
+        // A machine file's comments describe; they do not name.
+        let mut described = ToolTable::new();
+        let mut e = entry(3, "x", "m.toml:3");
+        e.name = None;
+        e.comment = "ball end R3".into();
+        described.insert(e).unwrap();
+        assert_eq!(described.named("ball end R3"), NamedTool::None);
+        assert!(!described.names_tools());
+        // A LinuxCNC table's comments are its names; one name, one tool.
+        let tbl = ToolTable::parse("T1 Z10 ;DRILL 8.5\nT2 Z20 ;MILL\nT3 Z30 ;MILL\n", "t.tbl")
+            .unwrap();
+        assert_eq!(tbl.named("DRILL 8.5"), NamedTool::One(tbl.get(1).unwrap()));
+        assert_eq!(tbl.named("MILL"), NamedTool::Two(2, 3));
+        assert_eq!(tbl.named("drill 8.5"), NamedTool::None);
         assert_eq!(
             t.insert(entry(8, "SA077", "m.toml:9")),
             Err("m.toml:1".into())

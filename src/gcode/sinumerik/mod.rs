@@ -47,6 +47,7 @@ use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::Interpreter;
 use crate::gcode::machine::origin::FrameTransform;
 use crate::gcode::syntax::block::{Block, Keyword, KeywordWord, LineEnding, Word};
+use crate::gcode::NamedTool;
 use syntax::{Cursor, Expr, Tok, Token};
 use values::{R_COUNT, Scope, VarType, Variable};
 
@@ -2575,15 +2576,14 @@ impl SinumerikFront {
     }
 
     /// `T="name"`: the tool managed by name (*Fundamentals*, "Tool change",
-    /// with tool management the tool is selected by its name). volcomp's tool
-    /// table (LinuxCNC's format) numbers its tools; a tool is named by its
-    /// entry's comment (`T7 P7 Z95.2 D8.5 ;DRILL 8.5`), compared exactly
-    /// (case and spaces kept, the comment trimmed). Without a tool table
-    /// every tool is the default tool (the machine file's `[tool]`), so a
-    /// name selects it, as a number does; with a table, a name no entry
-    /// carries is a located error, as a number the table lacks is. The
-    /// number rides in the block as the `T` word's value (its text stays
-    /// `T="name"`).
+    /// with tool management the tool is selected by its name), found as
+    /// [`crate::gcode::ToolTable::named`] says (the machine file's
+    /// `[[tools]] name`, or a LinuxCNC table's comment, `T7 P7 Z95.2 D8.5
+    /// ;DRILL 8.5`). A table that names no tool gives the default tool (the
+    /// machine file's `[tool]`, said in the summary); a name that table
+    /// names twice or not at all is a located error, as a number the table
+    /// lacks is. The number rides in the block as the `T` word's value (its
+    /// text stays `T="name"`).
     fn tool_by_name(
         &self,
         line: &LineRun,
@@ -2592,25 +2592,21 @@ impl SinumerikFront {
         at: (usize, usize),
     ) -> Result<f64, GcodeError> {
         let table = interpreter.tools();
-        if !table.is_given() {
-            return Ok(0.0);
-        }
-        let mut found = table.entries().filter(|e| e.comment == tool);
-        match (found.next(), found.next()) {
-            (Some(e), None) => Ok(f64::from(e.number)),
-            (Some(a), Some(b)) => Err(self.refused(
+        match table.named(tool) {
+            NamedTool::One(e) => Ok(f64::from(e.number)),
+            NamedTool::None if !table.names_tools() => Ok(0.0),
+            NamedTool::Two(a, b) => Err(self.refused(
                 line,
                 format!(
-                    "tool \"{tool}\" names two tools of the tool table (T{} and T{}): a name must name one tool",
-                    a.number, b.number
+                    "tool \"{tool}\" names two tools of the tool table (T{a} and T{b}): a name must name one tool"
                 ),
                 at.0,
                 at.1,
             )),
-            (None, _) => Err(self.refused(
+            NamedTool::None => Err(self.refused(
                 line,
                 format!(
-                    "tool \"{tool}\" is not in the tool table: a tool is named by its entry's comment (T1 P1 Z100 D8 ;{tool})"
+                    "tool \"{tool}\" is not in the tool table: a tool is named by the machine file's [[tools]] name, or a tool table entry's comment (T1 P1 Z100 D8 ;{tool})"
                 ),
                 at.0,
                 at.1,
