@@ -197,16 +197,18 @@ fn bore_milling_208_senses_radii_and_refusals() {
     let call = of(&motions(&plunge, Some(&rig.0)).unwrap(), 18);
     assert_eq!(zs(&call), vec![2.0, -3.0, 2.0, 50.0]);
     assert_eq!(feed(&call[1]), Some(150.0));
-    for unknown in [
-        motions(&text.replace("\"MILL_D8\"", "\"OTHER\""), Some(&rig.0)),
-        motions(&text, None),
-    ] {
-        let e = unknown.unwrap_err();
-        assert!(
-            e.contains("CYCL DEF 208") && e.contains("tool radius") && e.contains("t.h:18:"),
-            "{e}"
-        );
-    }
+    // A table that names tools: a name it lacks is refused at the call.
+    let e = motions(&text.replace("\"MILL_D8\"", "\"OTHER\""), Some(&rig.0)).unwrap_err();
+    assert!(
+        e.contains("tool \"OTHER\" is not in the tool table") && e.contains("TOOL CALL"),
+        "{e}"
+    );
+    // No table: the default tool, whose radius 208 cannot know.
+    let e = motions(&text, None).unwrap_err();
+    assert!(
+        e.contains("CYCL DEF 208") && e.contains("tool radius") && e.contains("t.h:18:"),
+        "{e}"
+    );
     let e = motions(&text.replace("Q335=+12", "Q335=+6"), Some(&rig.0)).unwrap_err();
     assert!(e.contains("smaller than the tool"), "{e}");
 }
