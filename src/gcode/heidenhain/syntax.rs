@@ -209,13 +209,16 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
     let mut map = std::mem::take(&mut out.code_map);
     code.clear();
     map.clear();
+    // The block number is read on the first physical line's code, before
+    // the code is gathered (so the code starts after it); a first line with
+    // no code (the number could come from the next line) is read on the
+    // gathered code.
+    let mut prefix_done = false;
     // Split physical lines; cut comments and trailing `~`.
     let mut line_start = 0;
     while line_start <= raw.len() {
-        let line_end = raw[line_start..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(raw.len(), |k| line_start + k);
+        let line_end =
+            memchr::memchr(b'\n', &raw[line_start..]).map_or(raw.len(), |k| line_start + k);
         let mut content_end = line_end;
         if content_end > line_start && raw[content_end - 1] == b'\r' {
             content_end -= 1;
@@ -236,59 +239,79 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
         if line_start > 0 && from < content_end && raw[from] == b'~' {
             from += 1;
         }
+        // The code runs to a `;` outside quotes.
+        let mut cut = content_end;
         let mut in_quote = false;
-        let mut k = from;
-        while k < content_end {
-            let b = raw[k];
+        for (k, &b) in raw[from..content_end].iter().enumerate() {
             if b == b'"' {
                 in_quote = !in_quote;
-            }
-            if b == b';' && !in_quote {
-                out.comments.push(k..content_end);
+            } else if b == b';' && !in_quote {
+                cut = from + k;
+                out.comments.push(cut..content_end);
                 break;
             }
-            code.push(if b.is_ascii() { b as char } else { '?' });
-            map.push(k);
-            k += 1;
         }
+        if line_start == 0 && from < cut {
+            let rest = block_number(&raw[from..cut], from, out);
+            from += rest;
+            prefix_done = true;
+        }
+        let piece = &raw[from..cut];
+        if piece.is_ascii() {
+            code.push_str(std::str::from_utf8(piece).unwrap_or_default());
+        } else {
+            code.extend(piece.iter().map(|&b| if b.is_ascii() { b as char } else { '?' }));
+        }
+        map.extend(from..cut);
         code.push(' ');
         map.push(content_end.min(raw.len().saturating_sub(1)));
         line_start = line_end + 1;
     }
-    // The block number.
-    let bytes = code.as_bytes();
+    if !prefix_done {
+        let rest = block_number(code.as_bytes(), 0, out);
+        if let Some((_, span)) = &mut out.number {
+            *span = map[span.start]..map[span.end - 1] + 1;
+        }
+        code.drain(..rest);
+        map.drain(..rest);
+    }
+    if code.trim_start().starts_with('*') {
+        out.section = true;
+    }
+    if !out.section {
+        tokenize(&code, &map, 0, &mut out.tokens);
+    }
+    out.code = code;
+    out.code_map = map;
+}
+
+/// The block number at the start of `code` (a `/` block skip before it),
+/// set on `out` with its span (offsets in `code` plus `at`); returns where
+/// the rest of the code starts.
+fn block_number(code: &[u8], at: usize, out: &mut KlBlock) -> usize {
     let mut k = 0;
-    while k < bytes.len() && bytes[k] == b' ' {
+    while k < code.len() && code[k] == b' ' {
         k += 1;
     }
-    if k < bytes.len() && bytes[k] == b'/' {
+    if k < code.len() && code[k] == b'/' {
         out.deleted = true;
         k += 1;
     }
     let digits_start = k;
-    while k < bytes.len() && bytes[k].is_ascii_digit() {
+    while k < code.len() && code[k].is_ascii_digit() {
         k += 1;
     }
-    if k > digits_start && (k == bytes.len() || !bytes[k].is_ascii_alphabetic()) {
-        if let Ok(n) = code[digits_start..k].parse::<u64>() {
-            let start = map[digits_start];
-            out.number = Some((n, start..map[k - 1] + 1));
+    if k > digits_start && (k == code.len() || !code[k].is_ascii_alphabetic()) {
+        if let Some(n) = std::str::from_utf8(&code[digits_start..k])
+            .ok()
+            .and_then(|d| d.parse::<u64>().ok())
+        {
+            out.number = Some((n, at + digits_start..at + k));
         }
+        k
     } else {
-        k = digits_start;
+        digits_start
     }
-    let rest_start = k;
-    if code[rest_start..].trim_start().starts_with('*') {
-        out.section = true;
-    }
-    if !out.section {
-        tokenize(&code, &map, rest_start, &mut out.tokens);
-    }
-    // The code after the block number (its byte map likewise).
-    code.drain(..rest_start);
-    map.drain(..rest_start);
-    out.code = code;
-    out.code_map = map;
 }
 
 /// Split `code[from..]` into tokens at spaces (quoted names stay whole).

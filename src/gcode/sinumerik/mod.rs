@@ -420,6 +420,8 @@ pub(crate) struct SinumerikFront {
     line_buf: Vec<u8>,
     /// The words buffer of the block handed on before (reused by the next line).
     spare_words: Vec<Word>,
+    /// The words of a plain line (reused).
+    plain: Vec<syntax::PlainWord>,
 }
 
 impl SinumerikFront {
@@ -501,6 +503,7 @@ impl SinumerikFront {
             text: String::new(),
             line_buf: Vec::new(),
             spare_words: Vec::new(),
+            plain: Vec::new(),
         }
     }
 
@@ -724,6 +727,9 @@ impl SinumerikFront {
         interpreter: &mut Interpreter,
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
+        if let Some(handed) = self.run_plain_line(line, interpreter)? {
+            return Ok(handed);
+        }
         let mut tokens = std::mem::take(&mut self.tokens);
         let comment = match syntax::tokenize(raw, &mut tokens) {
             Ok(c) => c,
@@ -735,6 +741,61 @@ impl SinumerikFront {
         let result = self.run_tokens(line, &tokens, comment, interpreter);
         self.tokens = tokens;
         result
+    }
+
+    /// A plain line ([`syntax::plain_words`]: address words only, most
+    /// lines of a CAM program) read without tokens: its words are what the
+    /// statement layer's address path makes of them (the same [`word`]s, G
+    /// codes through [`Self::g_code`]), then the statement layer finishes the
+    /// block. `None`: not a plain line (or a G code that asks more of the
+    /// front than a word), to be tokenised.
+    fn run_plain_line(
+        &mut self,
+        line: &mut LineRun,
+        interpreter: &mut Interpreter,
+    ) -> Result<Option<bool>, GcodeError> {
+        let raw = line.raw;
+        let mut plain = std::mem::take(&mut self.plain);
+        let comment = match syntax::plain_words(raw, &mut plain) {
+            // A lone block number is handed on by the line layer, not the statements.
+            Some(c) if plain.iter().any(|w| w.letter != b'N') => c,
+            _ => {
+                self.plain = plain;
+                return Ok(None);
+            }
+        };
+        let mut out = Out::new(raw.len());
+        out.words = std::mem::take(&mut self.spare_words);
+        if let Some(c) = comment {
+            out.comments.push(c);
+        }
+        for w in &plain {
+            let code = if w.letter == b'G' {
+                let mut flags = GFlags::default();
+                let code = self.g_code(line, w.value, (w.start, w.end), &mut out, &mut flags);
+                match code {
+                    Ok(Some(code)) if flags == GFlags::default() => code,
+                    Ok(_) | Err(_) => {
+                        // Read by the statement layer (dwell, frames, errors).
+                        out.words.clear();
+                        self.spare_words = out.words;
+                        self.plain = plain;
+                        return Ok(None);
+                    }
+                }
+            } else {
+                w.value
+            };
+            let (decimals, point) = match w.letter {
+                b'N' | b'G' => (0, false),
+                _ => (w.decimals, w.point),
+            };
+            out.words
+                .push(word(w.letter, code, w.start, w.end, decimals, point, false));
+        }
+        self.plain = plain;
+        let mut cur = Cursor::new(&[], raw.len());
+        self.statements(line, &mut cur, out, interpreter).map(Some)
     }
 
     fn run_tokens(
@@ -1626,7 +1687,8 @@ impl SinumerikFront {
         let mut call: Option<(String, Vec<f64>, (usize, usize))> = None;
         let mut repeats: u64 = 1;
 
-        let mut axis_words = false;
+        // A plain line's words come in `out` (`run_plain_line`).
+        let mut axis_words = out.words.iter().any(|w| is_axis(w.letter));
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
@@ -3224,7 +3286,7 @@ pub(crate) fn direction_angles(rpy_angles: bool, v: [f64; 3], c: f64) -> [f64; 3
 }
 
 /// What a block's G codes ask of the front.
-#[derive(Default)]
+#[derive(Default, PartialEq)]
 struct GFlags {
     /// `G4`: F and S are the dwell.
     dwell: bool,
@@ -3268,6 +3330,10 @@ impl Out {
     /// The words in the order of the line (the ones the front worked out
     /// at their place), the index lists following them.
     fn sort_words(&mut self) {
+        // Most lines: already in order (no allocation).
+        if self.words.is_sorted_by_key(|w| w.start) {
+            return;
+        }
         let mut order: Vec<usize> = (0..self.words.len()).collect();
         order.sort_by_key(|&i| self.words[i].start);
         if order.iter().enumerate().all(|(k, &i)| k == i) {

@@ -249,6 +249,101 @@ pub(crate) fn tokenize(
     Ok(None)
 }
 
+/// An address word of a plain line (see [`plain_words`]): its letter
+/// (upper case), value (sign included), decimals written, whether a point
+/// was written, and its byte range (letter to last digit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PlainWord {
+    pub letter: u8,
+    pub value: f64,
+    pub decimals: u8,
+    pub point: bool,
+    pub start: usize,
+    pub end: usize,
+}
+
+/// The letters a plain line is made of: the block number, G codes, axes,
+/// centres and the feed (the words of almost every line a CAM system
+/// writes).
+const PLAIN_LETTERS: &[u8] = b"NGXYZABCUVWIJKF";
+
+/// The words of a *plain* line: nothing but address words of
+/// [`PLAIN_LETTERS`], each written `LETTER[+|-]number` without spaces
+/// inside (`N10 G1 Y.5 F800`, `G0X10`), before an optional `;`
+/// comment (whose range is returned). `None` for any other line: the
+/// tokeniser and the statement layer read it. A plain line's tokens would
+/// be, word by word, the name, the sign and the number this gives, so
+/// reading it here (without tokens) hands on the same words.
+pub(crate) fn plain_words(
+    raw: &[u8],
+    words: &mut Vec<PlainWord>,
+) -> Option<Option<Range<usize>>> {
+    words.clear();
+    let n = raw.len();
+    let mut i = 0;
+    let mut comment = None;
+    while i < n {
+        let c = raw[i];
+        if c == b' ' || c == b'\t' || c == b'\r' || c == 0x0c {
+            i += 1;
+            continue;
+        }
+        if c == b';' {
+            comment = Some(i..n);
+            break;
+        }
+        let letter = c.to_ascii_uppercase();
+        if !PLAIN_LETTERS.contains(&letter) {
+            return None;
+        }
+        let start = i;
+        i += 1;
+        let negative = match raw.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let digits = i;
+        while i < n && raw[i].is_ascii_digit() {
+            i += 1;
+        }
+        let mut point = false;
+        let mut decimals = 0u8;
+        if i < n && raw[i] == b'.' {
+            point = true;
+            i += 1;
+            while i < n && raw[i].is_ascii_digit() {
+                i += 1;
+                decimals = decimals.saturating_add(1);
+            }
+        }
+        // A number has a digit (what follows it is read as the next word:
+        // a name, an exponent `EX`, `=` or `[` are not plain).
+        if !raw[digits..i].iter().any(u8::is_ascii_digit) {
+            return None;
+        }
+        let v = parse_number(&raw[digits..i]);
+        if !v.is_finite() {
+            return None;
+        }
+        words.push(PlainWord {
+            letter,
+            value: if negative { -v } else { v },
+            decimals,
+            point,
+            start,
+            end: i,
+        });
+    }
+    Some(comment)
+}
+
 /// The digits of a number (ASCII, `.` allowed at either end).
 fn parse_number(digits: &[u8]) -> f64 {
     if let Some(v) = crate::gcode::syntax::parser::exact_decimal(digits) {
