@@ -74,9 +74,19 @@ impl Address {
         a
     }
 
-    /// It as text.
+    /// It as text (a one-letter address, most of a program's words,
+    /// without a UTF-8 check).
     pub fn as_str(&self) -> &str {
-        std::str::from_utf8(&self.bytes[..self.len as usize]).unwrap_or("")
+        match self.bytes[..self.len as usize] {
+            [b @ b'A'..=b'Z'] => crate::gcode::syntax::parser::LETTERS[(b - b'A') as usize],
+            ref bytes => std::str::from_utf8(bytes).unwrap_or(""),
+        }
+    }
+
+    /// Whether it is `other` (the first byte compared before the rest).
+    fn is(&self, other: &[u8]) -> bool {
+        let n = self.len as usize;
+        n == other.len() && (n == 0 || self.bytes[0] == other[0]) && self.bytes[..n] == *other
     }
 }
 
@@ -101,13 +111,13 @@ impl std::fmt::Display for Address {
 
 impl PartialEq<str> for Address {
     fn eq(&self, other: &str) -> bool {
-        &self.bytes[..self.len as usize] == other.as_bytes()
+        self.is(other.as_bytes())
     }
 }
 
 impl PartialEq<&str> for Address {
     fn eq(&self, other: &&str) -> bool {
-        &self.bytes[..self.len as usize] == other.as_bytes()
+        self.is(other.as_bytes())
     }
 }
 

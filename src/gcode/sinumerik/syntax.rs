@@ -16,6 +16,8 @@
 //! - numbers may start with the point (`.02`) or end with it (`5.`).
 use std::ops::Range;
 
+use crate::gcode::syntax::parser::LETTERS;
+
 /// A token of a line.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Tok {
@@ -31,11 +33,6 @@ pub(crate) enum Tok {
 
 /// A name as a token holds it.
 pub(crate) type Name = std::borrow::Cow<'static, str>;
-
-const LETTERS: [&str; 26] = [
-    "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P", "Q", "R", "S",
-    "T", "U", "V", "W", "X", "Y", "Z",
-];
 
 /// A token and its byte range in the line.
 #[derive(Clone, Debug, PartialEq)]
