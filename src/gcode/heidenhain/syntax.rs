@@ -368,6 +368,9 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         .get(at + text.len().saturating_sub(1))
         .map_or(raw_start, |e| e + 1);
     let bytes = text.as_bytes();
+    if let Some(t) = signed_number_word(bytes, map, at, raw_start..raw_end) {
+        return t;
+    }
     let mut k = 0;
     while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
         k += 1;
@@ -422,6 +425,32 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         decimals,
         signed,
     }
+}
+
+/// The most common token, a letter and a signed number (`X+12.5`,
+/// `C-3`), read in one pass: what [`token`]'s general path gives it (a
+/// one-letter address, the number as [`read_value`] converts it); `None`
+/// for any other token.
+fn signed_number_word(bytes: &[u8], map: &[usize], at: usize, span: Range<usize>) -> Option<Token> {
+    let (&[letter, sign], body) = bytes.split_first_chunk::<2>()?;
+    if !letter.is_ascii_alphabetic() || !(sign == b'+' || sign == b'-') {
+        return None;
+    }
+    let point = body.iter().position(|&b| b == b'.');
+    let x = crate::gcode::syntax::parser::exact_decimal(body)?;
+    let decimals = point.map_or(0, |p| (body.len() - p - 1).min(255) as u8);
+    let mut address = Address::default();
+    address.bytes[0] = letter.to_ascii_uppercase();
+    address.len = 1;
+    Some(Token {
+        value_span: map.get(at + 1).copied().unwrap_or(span.end)..span.end,
+        span,
+        text: 0..0,
+        address,
+        value: Some(Value::Number(if sign == b'-' { -x } else { x })),
+        decimals,
+        signed: true,
+    })
 }
 
 /// A value as written: `+12.5`, `-3`, `7`, `+Q1`, `-QL3`, `+`, `-`.

@@ -62,12 +62,14 @@ struct SourceFile {
     called_as: String,
     /// The file's bytes.
     text: Vec<u8>,
-    /// Each line: start, end (without its ending), ending.
-    lines: Vec<(usize, usize, LineEnding)>,
+    /// Where each line starts (its end and ending are read from the text
+    /// at the next line's start: [`SourceFile::line`]).
+    lines: Vec<usize>,
     /// The partner line of each structured statement (IF → ELSE/ENDIF,
     /// ELSE → ENDIF, WHILE ↔ ENDWHILE, FOR ↔ ENDFOR, REPEAT ↔ UNTIL,
-    /// LOOP ↔ ENDLOOP); `usize::MAX` elsewhere.
-    partner: Vec<usize>,
+    /// LOOP ↔ ENDLOOP), by line (only those lines: a program of moves
+    /// has none).
+    partner: HashMap<usize, usize>,
     /// Labels (`NAME:`) by name, upper-cased → line index.
     labels: HashMap<String, usize>,
 }
@@ -202,20 +204,13 @@ impl SourceFile {
         let mut lines = Vec::with_capacity(memchr::memchr_iter(b'\n', &text).count() + 1);
         let mut start = 0;
         while start < text.len() {
-            let (end, next, ending) = match memchr::memchr(b'\n', &text[start..]) {
-                Some(k) if k > 0 && text[start + k - 1] == b'\r' => {
-                    (start + k - 1, start + k + 1, LineEnding::CrLf)
-                }
-                Some(k) => (start + k, start + k + 1, LineEnding::Lf),
-                None => (text.len(), text.len(), LineEnding::None),
-            };
-            lines.push((start, end, ending));
-            start = next;
+            lines.push(start);
+            start = memchr::memchr(b'\n', &text[start..]).map_or(text.len(), |k| start + k + 1);
         }
         let mut f = SourceFile {
             name,
             called_as: String::new(),
-            partner: vec![usize::MAX; lines.len()],
+            partner: HashMap::new(),
             lines,
             text,
             labels: HashMap::new(),
@@ -224,8 +219,24 @@ impl SourceFile {
         Ok(f)
     }
 
+    /// Line `k`: its start, its end (without its ending) and its ending.
+    fn line(&self, k: usize) -> (usize, usize, LineEnding) {
+        let start = self.lines[k];
+        let next = self.lines.get(k + 1).copied().unwrap_or(self.text.len());
+        if next > start && self.text[next - 1] == b'\n' {
+            let eol = next - 1;
+            if eol > start && self.text[eol - 1] == b'\r' {
+                (start, eol - 1, LineEnding::CrLf)
+            } else {
+                (start, eol, LineEnding::Lf)
+            }
+        } else {
+            (start, next, LineEnding::None)
+        }
+    }
+
     fn raw(&self, k: usize) -> &[u8] {
-        let (s, e, _) = self.lines[k];
+        let (s, e, _) = self.line(k);
         &self.text[s..e]
     }
 
@@ -260,7 +271,7 @@ impl SourceFile {
         labels: &mut HashMap<String, usize>,
     ) -> Result<(), GcodeError> {
         for k in 0..self.lines.len() {
-            let (ls, le, _) = self.lines[k];
+            let (ls, le, _) = self.line(k);
             let raw = &self.text[ls..le];
             let head = line_head(raw);
             if let Some(label) = head.label.clone() {
@@ -321,11 +332,11 @@ impl SourceFile {
                         ));
                     }
                     open.pop();
-                    self.partner[at] = k;
+                    self.partner.insert(at, k);
                     if s == Structure::Else {
                         open.push((Structure::Else, k));
                     } else {
-                        self.partner[k] = at;
+                        self.partner.insert(k, at);
                     }
                 }
             }
@@ -447,7 +458,7 @@ impl SinumerikFront {
                     called_as: String::new(),
                     text: Vec::new(),
                     lines: Vec::new(),
-                    partner: Vec::new(),
+                    partner: HashMap::new(),
                     labels: HashMap::new(),
                 }
             }
@@ -554,7 +565,7 @@ impl SinumerikFront {
         }
         let k = self.tail;
         self.tail += 1;
-        let (s, e, ending) = main.lines[k];
+        let (s, e, ending) = main.line(k);
         self.block.reset(k + 1, s as u64);
         self.block.raw.extend_from_slice(&main.text[s..e]);
         self.block.ending = ending;
@@ -656,7 +667,7 @@ impl SinumerikFront {
                 ));
             }
         }
-        let (s, e, ending) = self.files[file].lines[k];
+        let (s, e, ending) = self.files[file].line(k);
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
         raw.extend_from_slice(&self.files[file].text[s..e]);
@@ -1055,7 +1066,7 @@ impl SinumerikFront {
         let k = line.line - 1;
         let partner = self.files[line.file]
             .partner
-            .get(k)
+            .get(&k)
             .copied()
             .unwrap_or(usize::MAX);
         let level = self.levels.len() - 1;
