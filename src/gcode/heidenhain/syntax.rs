@@ -312,10 +312,10 @@ fn block_number(code: &[u8], at: usize, out: &mut KlBlock) -> usize {
         k += 1;
     }
     if k > digits_start && (k == code.len() || !code[k].is_ascii_alphabetic()) {
-        if let Some(n) = std::str::from_utf8(&code[digits_start..k])
-            .ok()
-            .and_then(|d| d.parse::<u64>().ok())
-        {
+        // The digits as `u64` (none past its range, as `str::parse`).
+        if let Some(n) = code[digits_start..k].iter().try_fold(0u64, |n, &d| {
+            n.checked_mul(10)?.checked_add(u64::from(d - b'0'))
+        }) {
             out.number = Some((n, at + digits_start..at + k));
         }
         k
