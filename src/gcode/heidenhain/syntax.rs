@@ -270,7 +270,11 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
         if piece.is_ascii() {
             code.push_str(std::str::from_utf8(piece).unwrap_or_default());
         } else {
-            code.extend(piece.iter().map(|&b| if b.is_ascii() { b as char } else { '?' }));
+            code.extend(
+                piece
+                    .iter()
+                    .map(|&b| if b.is_ascii() { b as char } else { '?' }),
+            );
         }
         map.extend(from..cut);
         code.push(' ');
@@ -312,16 +316,25 @@ fn block_number(code: &[u8], at: usize, out: &mut KlBlock) -> usize {
         k += 1;
     }
     if k > digits_start && (k == code.len() || !code[k].is_ascii_alphabetic()) {
-        // The digits as `u64` (none past its range, as `str::parse`).
-        if let Some(n) = code[digits_start..k].iter().try_fold(0u64, |n, &d| {
-            n.checked_mul(10)?.checked_add(u64::from(d - b'0'))
-        }) {
+        if let Some(n) = digits_u64(&code[digits_start..k]) {
             out.number = Some((n, at + digits_start..at + k));
         }
         k
     } else {
         digits_start
     }
+}
+
+/// ASCII digits as a `u64`, `None` past its range (as `str::parse`, without
+/// a UTF-8 check).
+pub(crate) fn digits_u64(digits: &[u8]) -> Option<u64> {
+    if digits.is_empty() {
+        return None;
+    }
+    digits.iter().try_fold(0u64, |n, &d| {
+        n.checked_mul(10)?
+            .checked_add(u64::from(d.checked_sub(b'0').filter(|d| *d < 10)?))
+    })
 }
 
 /// Split `code[from..]` into tokens at spaces (quoted names stay whole).
@@ -900,6 +913,24 @@ impl FormulaParser<'_> {
 
 #[cfg(test)]
 mod tests {
+    /// Block numbers are read as `str::parse` reads them.
+    #[test]
+    fn digits_are_read_as_str_parse_reads_them() {
+        for d in [
+            "",
+            "0",
+            "0012",
+            "18446744073709551615",
+            "18446744073709551616",
+        ] {
+            assert_eq!(
+                super::digits_u64(d.as_bytes()),
+                d.parse::<u64>().ok(),
+                "{d}"
+            );
+        }
+    }
+
     use super::*;
 
     #[test]

@@ -271,10 +271,7 @@ const PLAIN_LETTERS: &[u8] = b"NGXYZABCUVWIJKF";
 /// tokeniser and the statement layer read it. A plain line's tokens would
 /// be, word by word, the name, the sign and the number this gives, so
 /// reading it here (without tokens) hands on the same words.
-pub(crate) fn plain_words(
-    raw: &[u8],
-    words: &mut Vec<PlainWord>,
-) -> Option<Option<Range<usize>>> {
+pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Option<Range<usize>>> {
     words.clear();
     let n = raw.len();
     let mut i = 0;
@@ -342,6 +339,7 @@ pub(crate) fn plain_words(
 }
 
 /// The digits of a number (ASCII, `.` allowed at either end).
+#[inline]
 fn parse_number(digits: &[u8]) -> f64 {
     if let Some(v) = crate::gcode::syntax::parser::exact_decimal(digits) {
         return v;
@@ -671,5 +669,52 @@ mod tests {
         assert_eq!(names("R12 = 1")[0], Tok::Name("R12".into()));
         let mut t = Vec::new();
         assert_eq!(tokenize(b"G1 ; x", &mut t).unwrap(), Some(3..6));
+    }
+
+    /// A plain line's words are its tokens' address, sign and number; any
+    /// other line is left to the tokeniser.
+    #[test]
+    fn plain_lines_give_their_tokens_words() {
+        let plain = |line: &str| {
+            let mut w = Vec::new();
+            plain_words(line.as_bytes(), &mut w).map(|c| (w, c))
+        };
+        let (words, comment) = plain("n10 G1X-5.2 Y.5 F800. ; c").unwrap();
+        assert_eq!(comment, Some(22..25));
+        let got: Vec<_> = words
+            .iter()
+            .map(|w| (w.letter, w.value, w.decimals, w.point, w.start, w.end))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (b'N', 10.0, 0, false, 0, 3),
+                (b'G', 1.0, 0, false, 4, 6),
+                (b'X', -5.2, 1, true, 6, 11),
+                (b'Y', 0.5, 1, true, 12, 15),
+                (b'F', 800.0, 0, true, 16, 21),
+            ]
+        );
+        // Each word as the tokeniser sees it: name, sign, number.
+        let mut t = Vec::new();
+        tokenize(b"X-5.2", &mut t).unwrap();
+        assert_eq!(t[2].tok, Tok::Num(5.2, 1, true));
+        for other in [
+            "X=1",
+            "A3=1",
+            "X 5",
+            "X- 5",
+            "X1.5EX3",
+            "R1=2",
+            "M30",
+            "G1 X",
+            "CYCLE800()",
+            "X.",
+            "/N10 X1",
+            "LABEL: X1",
+            "X1 Y\"a\"",
+        ] {
+            assert!(plain(other).is_none(), "{other}");
+        }
     }
 }
