@@ -120,20 +120,7 @@ pub(crate) fn tokenize(
             continue;
         }
         if c.is_ascii_digit() || (c == b'.' && raw.get(i + 1).is_some_and(u8::is_ascii_digit)) {
-            let mut j = i;
-            while j < n && raw[j].is_ascii_digit() {
-                j += 1;
-            }
-            let mut point = false;
-            let mut decimals = 0u8;
-            if j < n && raw[j] == b'.' {
-                point = true;
-                j += 1;
-                while j < n && raw[j].is_ascii_digit() {
-                    j += 1;
-                    decimals = decimals.saturating_add(1);
-                }
-            }
+            let (j, point, decimals) = scan_digits(raw, i);
             // Siemens' exponent `EX` (`1.5EX3`).
             if j + 2 < n + 1
                 && raw.get(j).is_some_and(|b| b.eq_ignore_ascii_case(&b'E'))
@@ -304,19 +291,8 @@ pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Opti
             _ => false,
         };
         let digits = i;
-        while i < n && raw[i].is_ascii_digit() {
-            i += 1;
-        }
-        let mut point = false;
-        let mut decimals = 0u8;
-        if i < n && raw[i] == b'.' {
-            point = true;
-            i += 1;
-            while i < n && raw[i].is_ascii_digit() {
-                i += 1;
-                decimals = decimals.saturating_add(1);
-            }
-        }
+        let (end, point, decimals) = scan_digits(raw, i);
+        i = end;
         // A number has a digit (what follows it is read as the next word:
         // a name, an exponent `EX`, `=` or `[` are not plain).
         if !raw[digits..i].iter().any(u8::is_ascii_digit) {
@@ -336,6 +312,27 @@ pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Opti
         });
     }
     Some(comment)
+}
+
+/// The digits of a number from `i`: `digits [. digits]` (either part may
+/// be empty): its end, whether a point was written, the decimals written.
+#[inline]
+fn scan_digits(raw: &[u8], mut i: usize) -> (usize, bool, u8) {
+    let n = raw.len();
+    while i < n && raw[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut point = false;
+    let mut decimals = 0u8;
+    if i < n && raw[i] == b'.' {
+        point = true;
+        i += 1;
+        while i < n && raw[i].is_ascii_digit() {
+            i += 1;
+            decimals = decimals.saturating_add(1);
+        }
+    }
+    (i, point, decimals)
 }
 
 /// The digits of a number (ASCII, `.` allowed at either end).
