@@ -97,7 +97,8 @@ impl Source {
     /// Split `text` into logical blocks (a line ending in `~` continues) and
     /// find its labels.
     pub fn new(name: String, path: Option<PathBuf>, text: Vec<u8>) -> Result<Source, GcodeError> {
-        let mut blocks = Vec::new();
+        // At most one block a line (a table sized once, not grown).
+        let mut blocks = Vec::with_capacity(memchr::memchr_iter(b'\n', &text).count() + 1);
         let mut labels = HashMap::new();
         let mut at = 0;
         let mut line = 0;
@@ -107,10 +108,7 @@ impl Source {
             let (end, ending) = loop {
                 line += 1;
                 let line_start = at;
-                let eol = text[at..]
-                    .iter()
-                    .position(|&b| b == b'\n')
-                    .map_or(text.len(), |k| at + k);
+                let eol = memchr::memchr(b'\n', &text[at..]).map_or(text.len(), |k| at + k);
                 let (content_end, ending) = if eol == text.len() {
                     (eol, LineEnding::None)
                 } else if eol > line_start && text[eol - 1] == b'\r' {
@@ -138,7 +136,7 @@ impl Source {
             });
             // Labels: `N LBL …` (cheap test before parsing).
             let raw = &text[start..end];
-            if raw.windows(4).take(16).any(|w| w == b"LBL ") {
+            if memchr::memmem::find(&raw[..raw.len().min(19)], b"LBL ").is_some() {
                 let b = parse_block(raw);
                 if b.starts_with(&["LBL"])
                     && let Some(label) = label_at(&b, 1)

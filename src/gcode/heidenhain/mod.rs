@@ -478,9 +478,7 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
                 lead + 1,
             ));
         }
-        let n: Option<u64> = std::str::from_utf8(&raw[lead..lead + digits])
-            .ok()
-            .and_then(|s| s.parse().ok());
+        let n = syntax::digits_u64(&raw[lead..lead + digits]);
         let Some(n) = n else { continue };
         if let Some(p) = previous
             && n <= p

@@ -74,9 +74,19 @@ impl Address {
         a
     }
 
-    /// It as text.
+    /// It as text (a one-letter address, most of a program's words,
+    /// without a UTF-8 check).
     pub fn as_str(&self) -> &str {
-        std::str::from_utf8(&self.bytes[..self.len as usize]).unwrap_or("")
+        match self.bytes[..self.len as usize] {
+            [b @ b'A'..=b'Z'] => crate::gcode::syntax::parser::LETTERS[(b - b'A') as usize],
+            ref bytes => std::str::from_utf8(bytes).unwrap_or(""),
+        }
+    }
+
+    /// Whether it is `other` (the first byte compared before the rest).
+    fn is(&self, other: &[u8]) -> bool {
+        let n = self.len as usize;
+        n == other.len() && (n == 0 || self.bytes[0] == other[0]) && self.bytes[..n] == *other
     }
 }
 
@@ -101,13 +111,13 @@ impl std::fmt::Display for Address {
 
 impl PartialEq<str> for Address {
     fn eq(&self, other: &str) -> bool {
-        &self.bytes[..self.len as usize] == other.as_bytes()
+        self.is(other.as_bytes())
     }
 }
 
 impl PartialEq<&str> for Address {
     fn eq(&self, other: &&str) -> bool {
-        &self.bytes[..self.len as usize] == other.as_bytes()
+        self.is(other.as_bytes())
     }
 }
 
@@ -209,13 +219,16 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
     let mut map = std::mem::take(&mut out.code_map);
     code.clear();
     map.clear();
+    // The block number is read on the first physical line's code, before
+    // the code is gathered (so the code starts after it); a first line with
+    // no code (the number could come from the next line) is read on the
+    // gathered code.
+    let mut prefix_done = false;
     // Split physical lines; cut comments and trailing `~`.
     let mut line_start = 0;
     while line_start <= raw.len() {
-        let line_end = raw[line_start..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(raw.len(), |k| line_start + k);
+        let line_end =
+            memchr::memchr(b'\n', &raw[line_start..]).map_or(raw.len(), |k| line_start + k);
         let mut content_end = line_end;
         if content_end > line_start && raw[content_end - 1] == b'\r' {
             content_end -= 1;
@@ -236,59 +249,92 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
         if line_start > 0 && from < content_end && raw[from] == b'~' {
             from += 1;
         }
+        // The code runs to a `;` outside quotes.
+        let mut cut = content_end;
         let mut in_quote = false;
-        let mut k = from;
-        while k < content_end {
-            let b = raw[k];
+        for (k, &b) in raw[from..content_end].iter().enumerate() {
             if b == b'"' {
                 in_quote = !in_quote;
-            }
-            if b == b';' && !in_quote {
-                out.comments.push(k..content_end);
+            } else if b == b';' && !in_quote {
+                cut = from + k;
+                out.comments.push(cut..content_end);
                 break;
             }
-            code.push(if b.is_ascii() { b as char } else { '?' });
-            map.push(k);
-            k += 1;
         }
+        if line_start == 0 && from < cut {
+            let rest = block_number(&raw[from..cut], from, out);
+            from += rest;
+            prefix_done = true;
+        }
+        let piece = &raw[from..cut];
+        if piece.is_ascii() {
+            code.push_str(std::str::from_utf8(piece).unwrap_or_default());
+        } else {
+            code.extend(
+                piece
+                    .iter()
+                    .map(|&b| if b.is_ascii() { b as char } else { '?' }),
+            );
+        }
+        map.extend(from..cut);
         code.push(' ');
         map.push(content_end.min(raw.len().saturating_sub(1)));
         line_start = line_end + 1;
     }
-    // The block number.
-    let bytes = code.as_bytes();
+    if !prefix_done {
+        let rest = block_number(code.as_bytes(), 0, out);
+        if let Some((_, span)) = &mut out.number {
+            *span = map[span.start]..map[span.end - 1] + 1;
+        }
+        code.drain(..rest);
+        map.drain(..rest);
+    }
+    if code.trim_start().starts_with('*') {
+        out.section = true;
+    }
+    if !out.section {
+        tokenize(&code, &map, 0, &mut out.tokens);
+    }
+    out.code = code;
+    out.code_map = map;
+}
+
+/// The block number at the start of `code` (a `/` block skip before it),
+/// set on `out` with its span (offsets in `code` plus `at`); returns where
+/// the rest of the code starts.
+fn block_number(code: &[u8], at: usize, out: &mut KlBlock) -> usize {
     let mut k = 0;
-    while k < bytes.len() && bytes[k] == b' ' {
+    while k < code.len() && code[k] == b' ' {
         k += 1;
     }
-    if k < bytes.len() && bytes[k] == b'/' {
+    if k < code.len() && code[k] == b'/' {
         out.deleted = true;
         k += 1;
     }
     let digits_start = k;
-    while k < bytes.len() && bytes[k].is_ascii_digit() {
+    while k < code.len() && code[k].is_ascii_digit() {
         k += 1;
     }
-    if k > digits_start && (k == bytes.len() || !bytes[k].is_ascii_alphabetic()) {
-        if let Ok(n) = code[digits_start..k].parse::<u64>() {
-            let start = map[digits_start];
-            out.number = Some((n, start..map[k - 1] + 1));
+    if k > digits_start && (k == code.len() || !code[k].is_ascii_alphabetic()) {
+        if let Some(n) = digits_u64(&code[digits_start..k]) {
+            out.number = Some((n, at + digits_start..at + k));
         }
+        k
     } else {
-        k = digits_start;
+        digits_start
     }
-    let rest_start = k;
-    if code[rest_start..].trim_start().starts_with('*') {
-        out.section = true;
+}
+
+/// ASCII digits as a `u64`, `None` past its range (as `str::parse`, without
+/// a UTF-8 check).
+pub(crate) fn digits_u64(digits: &[u8]) -> Option<u64> {
+    if digits.is_empty() {
+        return None;
     }
-    if !out.section {
-        tokenize(&code, &map, rest_start, &mut out.tokens);
-    }
-    // The code after the block number (its byte map likewise).
-    code.drain(..rest_start);
-    map.drain(..rest_start);
-    out.code = code;
-    out.code_map = map;
+    digits.iter().try_fold(0u64, |n, &d| {
+        n.checked_mul(10)?
+            .checked_add(u64::from(d.checked_sub(b'0').filter(|d| *d < 10)?))
+    })
 }
 
 /// Split `code[from..]` into tokens at spaces (quoted names stay whole).
@@ -335,6 +381,9 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         .get(at + text.len().saturating_sub(1))
         .map_or(raw_start, |e| e + 1);
     let bytes = text.as_bytes();
+    if let Some(t) = signed_number_word(bytes, map, at, raw_start..raw_end) {
+        return t;
+    }
     let mut k = 0;
     while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
         k += 1;
@@ -389,6 +438,32 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
         decimals,
         signed,
     }
+}
+
+/// The most common token, a letter and a signed number (`X+12.5`,
+/// `C-3`), read in one pass: what [`token`]'s general path gives it (a
+/// one-letter address, the number as [`read_value`] converts it); `None`
+/// for any other token.
+fn signed_number_word(bytes: &[u8], map: &[usize], at: usize, span: Range<usize>) -> Option<Token> {
+    let (&[letter, sign], body) = bytes.split_first_chunk::<2>()?;
+    if !letter.is_ascii_alphabetic() || !(sign == b'+' || sign == b'-') {
+        return None;
+    }
+    let point = body.iter().position(|&b| b == b'.');
+    let x = crate::gcode::syntax::parser::exact_decimal(body)?;
+    let decimals = point.map_or(0, |p| (body.len() - p - 1).min(255) as u8);
+    let mut address = Address::default();
+    address.bytes[0] = letter.to_ascii_uppercase();
+    address.len = 1;
+    Some(Token {
+        value_span: map.get(at + 1).copied().unwrap_or(span.end)..span.end,
+        span,
+        text: 0..0,
+        address,
+        value: Some(Value::Number(if sign == b'-' { -x } else { x })),
+        decimals,
+        signed: true,
+    })
 }
 
 /// A value as written: `+12.5`, `-3`, `7`, `+Q1`, `-QL3`, `+`, `-`.
@@ -838,6 +913,24 @@ impl FormulaParser<'_> {
 
 #[cfg(test)]
 mod tests {
+    /// Block numbers are read as `str::parse` reads them.
+    #[test]
+    fn digits_are_read_as_str_parse_reads_them() {
+        for d in [
+            "",
+            "0",
+            "0012",
+            "18446744073709551615",
+            "18446744073709551616",
+        ] {
+            assert_eq!(
+                super::digits_u64(d.as_bytes()),
+                d.parse::<u64>().ok(),
+                "{d}"
+            );
+        }
+    }
+
     use super::*;
 
     #[test]

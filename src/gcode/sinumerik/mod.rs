@@ -63,12 +63,14 @@ struct SourceFile {
     called_as: String,
     /// The file's bytes.
     text: Vec<u8>,
-    /// Each line: start, end (without its ending), ending.
-    lines: Vec<(usize, usize, LineEnding)>,
+    /// Where each line starts (its end and ending are read from the text
+    /// at the next line's start: [`SourceFile::line`]).
+    lines: Vec<usize>,
     /// The partner line of each structured statement (IF → ELSE/ENDIF,
     /// ELSE → ENDIF, WHILE ↔ ENDWHILE, FOR ↔ ENDFOR, REPEAT ↔ UNTIL,
-    /// LOOP ↔ ENDLOOP); `usize::MAX` elsewhere.
-    partner: Vec<usize>,
+    /// LOOP ↔ ENDLOOP), by line (only those lines: a program of moves
+    /// has none).
+    partner: HashMap<usize, usize>,
     /// Labels (`NAME:`) by name, upper-cased → line index.
     labels: HashMap<String, usize>,
 }
@@ -203,20 +205,13 @@ impl SourceFile {
         let mut lines = Vec::with_capacity(memchr::memchr_iter(b'\n', &text).count() + 1);
         let mut start = 0;
         while start < text.len() {
-            let (end, next, ending) = match memchr::memchr(b'\n', &text[start..]) {
-                Some(k) if k > 0 && text[start + k - 1] == b'\r' => {
-                    (start + k - 1, start + k + 1, LineEnding::CrLf)
-                }
-                Some(k) => (start + k, start + k + 1, LineEnding::Lf),
-                None => (text.len(), text.len(), LineEnding::None),
-            };
-            lines.push((start, end, ending));
-            start = next;
+            lines.push(start);
+            start = memchr::memchr(b'\n', &text[start..]).map_or(text.len(), |k| start + k + 1);
         }
         let mut f = SourceFile {
             name,
             called_as: String::new(),
-            partner: vec![usize::MAX; lines.len()],
+            partner: HashMap::new(),
             lines,
             text,
             labels: HashMap::new(),
@@ -225,8 +220,24 @@ impl SourceFile {
         Ok(f)
     }
 
+    /// Line `k`: its start, its end (without its ending) and its ending.
+    fn line(&self, k: usize) -> (usize, usize, LineEnding) {
+        let start = self.lines[k];
+        let next = self.lines.get(k + 1).copied().unwrap_or(self.text.len());
+        if next > start && self.text[next - 1] == b'\n' {
+            let eol = next - 1;
+            if eol > start && self.text[eol - 1] == b'\r' {
+                (start, eol - 1, LineEnding::CrLf)
+            } else {
+                (start, eol, LineEnding::Lf)
+            }
+        } else {
+            (start, next, LineEnding::None)
+        }
+    }
+
     fn raw(&self, k: usize) -> &[u8] {
-        let (s, e, _) = self.lines[k];
+        let (s, e, _) = self.line(k);
         &self.text[s..e]
     }
 
@@ -261,7 +272,7 @@ impl SourceFile {
         labels: &mut HashMap<String, usize>,
     ) -> Result<(), GcodeError> {
         for k in 0..self.lines.len() {
-            let (ls, le, _) = self.lines[k];
+            let (ls, le, _) = self.line(k);
             let raw = &self.text[ls..le];
             let head = line_head(raw);
             if let Some(label) = head.label.clone() {
@@ -322,11 +333,11 @@ impl SourceFile {
                         ));
                     }
                     open.pop();
-                    self.partner[at] = k;
+                    self.partner.insert(at, k);
                     if s == Structure::Else {
                         open.push((Structure::Else, k));
                     } else {
-                        self.partner[k] = at;
+                        self.partner.insert(k, at);
                     }
                 }
             }
@@ -452,6 +463,8 @@ pub(crate) struct SinumerikFront {
     line_buf: Vec<u8>,
     /// The words buffer of the block handed on before (reused by the next line).
     spare_words: Vec<Word>,
+    /// The words of a plain line (reused).
+    plain: Vec<syntax::PlainWord>,
 }
 
 impl SinumerikFront {
@@ -477,7 +490,7 @@ impl SinumerikFront {
                     called_as: String::new(),
                     text: Vec::new(),
                     lines: Vec::new(),
-                    partner: Vec::new(),
+                    partner: HashMap::new(),
                     labels: HashMap::new(),
                 }
             }
@@ -536,6 +549,7 @@ impl SinumerikFront {
             text: String::new(),
             line_buf: Vec::new(),
             spare_words: Vec::new(),
+            plain: Vec::new(),
         }
     }
 
@@ -586,7 +600,7 @@ impl SinumerikFront {
         }
         let k = self.tail;
         self.tail += 1;
-        let (s, e, ending) = main.lines[k];
+        let (s, e, ending) = main.line(k);
         self.block.reset(k + 1, s as u64);
         self.block.raw.extend_from_slice(&main.text[s..e]);
         self.block.ending = ending;
@@ -705,7 +719,7 @@ impl SinumerikFront {
                 ));
             }
         }
-        let (s, e, ending) = self.files[file].lines[k];
+        let (s, e, ending) = self.files[file].line(k);
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
         raw.extend_from_slice(&self.files[file].text[s..e]);
@@ -776,6 +790,9 @@ impl SinumerikFront {
         interpreter: &mut Interpreter,
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
+        if let Some(handed) = self.run_plain_line(line, interpreter)? {
+            return Ok(handed);
+        }
         let mut tokens = std::mem::take(&mut self.tokens);
         let comment = match syntax::tokenize(raw, &mut tokens) {
             Ok(c) => c,
@@ -787,6 +804,61 @@ impl SinumerikFront {
         let result = self.run_tokens(line, &tokens, comment, interpreter);
         self.tokens = tokens;
         result
+    }
+
+    /// A plain line ([`syntax::plain_words`]: address words only, most
+    /// lines of a CAM program) read without tokens: its words are what the
+    /// statement layer's address path makes of them (the same [`word`]s, G
+    /// codes through [`Self::g_code`]), then the statement layer finishes the
+    /// block. `None`: not a plain line (or a G code that asks more of the
+    /// front than a word), to be tokenised.
+    fn run_plain_line(
+        &mut self,
+        line: &mut LineRun,
+        interpreter: &mut Interpreter,
+    ) -> Result<Option<bool>, GcodeError> {
+        let raw = line.raw;
+        let mut plain = std::mem::take(&mut self.plain);
+        let comment = match syntax::plain_words(raw, &mut plain) {
+            // A lone block number is handed on by the line layer, not the statements.
+            Some(c) if plain.iter().any(|w| w.letter != b'N') => c,
+            _ => {
+                self.plain = plain;
+                return Ok(None);
+            }
+        };
+        let mut out = Out::new(raw.len());
+        out.words = std::mem::take(&mut self.spare_words);
+        if let Some(c) = comment {
+            out.comments.push(c);
+        }
+        for w in &plain {
+            let code = if w.letter == b'G' {
+                let mut flags = GFlags::default();
+                let code = self.g_code(line, w.value, (w.start, w.end), &mut out, &mut flags);
+                match code {
+                    Ok(Some(code)) if flags == GFlags::default() => code,
+                    Ok(_) | Err(_) => {
+                        // Read by the statement layer (dwell, frames, errors).
+                        out.words.clear();
+                        self.spare_words = out.words;
+                        self.plain = plain;
+                        return Ok(None);
+                    }
+                }
+            } else {
+                w.value
+            };
+            let (decimals, point) = match w.letter {
+                b'N' | b'G' => (0, false),
+                _ => (w.decimals, w.point),
+            };
+            out.words
+                .push(word(w.letter, code, w.start, w.end, decimals, point, false));
+        }
+        self.plain = plain;
+        let mut cur = Cursor::new(&[], raw.len());
+        self.statements(line, &mut cur, out, interpreter).map(Some)
     }
 
     fn run_tokens(
@@ -1051,7 +1123,7 @@ impl SinumerikFront {
         let k = line.line - 1;
         let partner = self.files[line.file]
             .partner
-            .get(k)
+            .get(&k)
             .copied()
             .unwrap_or(usize::MAX);
         let level = self.levels.len() - 1;
@@ -1910,7 +1982,8 @@ impl SinumerikFront {
         let mut call: Option<Call> = None;
         let mut repeats: u64 = 1;
 
-        let mut axis_words = false;
+        // A plain line's words come in `out` (`run_plain_line`).
+        let mut axis_words = out.words.iter().any(|w| is_axis(w.letter));
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
@@ -3591,7 +3664,7 @@ pub(crate) fn direction_angles(rpy_angles: bool, v: [f64; 3], c: f64) -> [f64; 3
 }
 
 /// What a block's G codes ask of the front.
-#[derive(Default)]
+#[derive(Default, PartialEq)]
 struct GFlags {
     /// `G4`: F and S are the dwell.
     dwell: bool,
@@ -3637,6 +3710,10 @@ impl Out {
     /// The words in the order of the line (the ones the front worked out
     /// at their place), the index lists following them.
     fn sort_words(&mut self) {
+        // Most lines: already in order (no allocation).
+        if self.words.is_sorted_by_key(|w| w.start) {
+            return;
+        }
         let mut order: Vec<usize> = (0..self.words.len()).collect();
         order.sort_by_key(|&i| self.words[i].start);
         if order.iter().enumerate().all(|(k, &i)| k == i) {

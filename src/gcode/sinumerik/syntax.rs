@@ -16,6 +16,8 @@
 //! - numbers may start with the point (`.02`) or end with it (`5.`).
 use std::ops::Range;
 
+use crate::gcode::syntax::parser::LETTERS;
+
 /// A token of a line.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Tok {
@@ -31,11 +33,6 @@ pub(crate) enum Tok {
 
 /// A name as a token holds it.
 pub(crate) type Name = std::borrow::Cow<'static, str>;
-
-const LETTERS: [&str; 26] = [
-    "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P", "Q", "R", "S",
-    "T", "U", "V", "W", "X", "Y", "Z",
-];
 
 /// A token and its byte range in the line.
 #[derive(Clone, Debug, PartialEq)]
@@ -123,20 +120,7 @@ pub(crate) fn tokenize(
             continue;
         }
         if c.is_ascii_digit() || (c == b'.' && raw.get(i + 1).is_some_and(u8::is_ascii_digit)) {
-            let mut j = i;
-            while j < n && raw[j].is_ascii_digit() {
-                j += 1;
-            }
-            let mut point = false;
-            let mut decimals = 0u8;
-            if j < n && raw[j] == b'.' {
-                point = true;
-                j += 1;
-                while j < n && raw[j].is_ascii_digit() {
-                    j += 1;
-                    decimals = decimals.saturating_add(1);
-                }
-            }
+            let (j, point, decimals) = scan_digits(raw, i);
             // Siemens' exponent `EX` (`1.5EX3`).
             if j + 2 < n + 1
                 && raw.get(j).is_some_and(|b| b.eq_ignore_ascii_case(&b'E'))
@@ -249,7 +233,110 @@ pub(crate) fn tokenize(
     Ok(None)
 }
 
+/// An address word of a plain line (see [`plain_words`]): its letter
+/// (upper case), value (sign included), decimals written, whether a point
+/// was written, and its byte range (letter to last digit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PlainWord {
+    pub letter: u8,
+    pub value: f64,
+    pub decimals: u8,
+    pub point: bool,
+    pub start: usize,
+    pub end: usize,
+}
+
+/// The letters a plain line is made of: the block number, G codes, axes,
+/// centres and the feed (the words of almost every line a CAM system
+/// writes).
+const PLAIN_LETTERS: &[u8] = b"NGXYZABCUVWIJKF";
+
+/// The words of a *plain* line: nothing but address words of
+/// [`PLAIN_LETTERS`], each written `LETTER[+|-]number` without spaces
+/// inside (`N10 G1 Y.5 F800`, `G0X10`), before an optional `;`
+/// comment (whose range is returned). `None` for any other line: the
+/// tokeniser and the statement layer read it. A plain line's tokens would
+/// be, word by word, the name, the sign and the number this gives, so
+/// reading it here (without tokens) hands on the same words.
+pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Option<Range<usize>>> {
+    words.clear();
+    let n = raw.len();
+    let mut i = 0;
+    let mut comment = None;
+    while i < n {
+        let c = raw[i];
+        if c == b' ' || c == b'\t' || c == b'\r' || c == 0x0c {
+            i += 1;
+            continue;
+        }
+        if c == b';' {
+            comment = Some(i..n);
+            break;
+        }
+        let letter = c.to_ascii_uppercase();
+        if !PLAIN_LETTERS.contains(&letter) {
+            return None;
+        }
+        let start = i;
+        i += 1;
+        let negative = match raw.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let digits = i;
+        let (end, point, decimals) = scan_digits(raw, i);
+        i = end;
+        // A number has a digit (what follows it is read as the next word:
+        // a name, an exponent `EX`, `=` or `[` are not plain).
+        if !raw[digits..i].iter().any(u8::is_ascii_digit) {
+            return None;
+        }
+        let v = parse_number(&raw[digits..i]);
+        if !v.is_finite() {
+            return None;
+        }
+        words.push(PlainWord {
+            letter,
+            value: if negative { -v } else { v },
+            decimals,
+            point,
+            start,
+            end: i,
+        });
+    }
+    Some(comment)
+}
+
+/// The digits of a number from `i`: `digits [. digits]` (either part may
+/// be empty): its end, whether a point was written, the decimals written.
+#[inline]
+fn scan_digits(raw: &[u8], mut i: usize) -> (usize, bool, u8) {
+    let n = raw.len();
+    while i < n && raw[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut point = false;
+    let mut decimals = 0u8;
+    if i < n && raw[i] == b'.' {
+        point = true;
+        i += 1;
+        while i < n && raw[i].is_ascii_digit() {
+            i += 1;
+            decimals = decimals.saturating_add(1);
+        }
+    }
+    (i, point, decimals)
+}
+
 /// The digits of a number (ASCII, `.` allowed at either end).
+#[inline]
 fn parse_number(digits: &[u8]) -> f64 {
     if let Some(v) = crate::gcode::syntax::parser::exact_decimal(digits) {
         return v;
@@ -579,5 +666,52 @@ mod tests {
         assert_eq!(names("R12 = 1")[0], Tok::Name("R12".into()));
         let mut t = Vec::new();
         assert_eq!(tokenize(b"G1 ; x", &mut t).unwrap(), Some(3..6));
+    }
+
+    /// A plain line's words are its tokens' address, sign and number; any
+    /// other line is left to the tokeniser.
+    #[test]
+    fn plain_lines_give_their_tokens_words() {
+        let plain = |line: &str| {
+            let mut w = Vec::new();
+            plain_words(line.as_bytes(), &mut w).map(|c| (w, c))
+        };
+        let (words, comment) = plain("n10 G1X-5.2 Y.5 F800. ; c").unwrap();
+        assert_eq!(comment, Some(22..25));
+        let got: Vec<_> = words
+            .iter()
+            .map(|w| (w.letter, w.value, w.decimals, w.point, w.start, w.end))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (b'N', 10.0, 0, false, 0, 3),
+                (b'G', 1.0, 0, false, 4, 6),
+                (b'X', -5.2, 1, true, 6, 11),
+                (b'Y', 0.5, 1, true, 12, 15),
+                (b'F', 800.0, 0, true, 16, 21),
+            ]
+        );
+        // Each word as the tokeniser sees it: name, sign, number.
+        let mut t = Vec::new();
+        tokenize(b"X-5.2", &mut t).unwrap();
+        assert_eq!(t[2].tok, Tok::Num(5.2, 1, true));
+        for other in [
+            "X=1",
+            "A3=1",
+            "X 5",
+            "X- 5",
+            "X1.5EX3",
+            "R1=2",
+            "M30",
+            "G1 X",
+            "CYCLE800()",
+            "X.",
+            "/N10 X1",
+            "LABEL: X1",
+            "X1 Y\"a\"",
+        ] {
+            assert!(plain(other).is_none(), "{other}");
+        }
     }
 }

@@ -47,6 +47,13 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// The one-letter addresses as text (a token or an address of a dialect
+/// front without allocating or checking UTF-8).
+pub(crate) const LETTERS: [&str; 26] = [
+    "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P", "Q", "R", "S",
+    "T", "U", "V", "W", "X", "Y", "Z",
+];
+
 /// `digits [. digits]` (no sign, no spaces) converted as the hot path of
 /// [`scan_number`] converts it: `mantissa / 10^decimals` when both are exact
 /// doubles (bit-identical to `str::parse::<f64>`); `None` for any other
