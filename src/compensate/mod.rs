@@ -500,7 +500,7 @@ fn axis_error_urad(
     let errors = model
         .errors_toward(joints, approach)
         .map_err(|e| PointError::Solve(SolveError::Lookup(e)))?;
-    let actual = crate::vec3::normalise(kin.actual_tip_and_axis(joints, &errors).axis);
+    let actual = crate::vec3::normalise(model.actual_tip_and_axis(joints, &errors).axis);
     let programmed = kin.nominal_tool_axis(nominal);
     Ok(1e6 * crate::vec3::norm(crate::vec3::cross(actual, programmed)))
 }
@@ -1035,7 +1035,7 @@ fn read_chunks(
 ) {
     let mut run = program.run(interpret);
     loop {
-        let mut chunk = Vec::with_capacity(size.blocks.min(1024));
+        let mut chunk = Vec::with_capacity(size.blocks.min(4096));
         let mut moves = 0usize;
         let mut done = false;
         while chunk.len() < size.blocks && moves < size.moves {

@@ -18,7 +18,7 @@ pub(crate) mod jacobian;
 pub(crate) mod transform;
 
 use crate::axes::{Axes, Axis};
-pub use chain::{ChainAxis, ChainError, MachineChain, Side};
+pub use chain::{ChainAxis, ChainConstants, ChainError, MachineChain, Side};
 pub use error_values::{
     COMPONENT_NAMES, ErrorValues, LOCATION_NAMES, PARAMETER_COUNT, PARAMETER_NAMES,
     ParameterLayout, SQUARENESS_NAMES, UnknownParameter,
@@ -464,6 +464,20 @@ impl Kinematics {
     #[inline]
     pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {
         let (tip, axis) = chain::tip_and_axis(&self.chain, self.tool_length, joints, errors, false);
+        TipAndAxis { tip, axis }
+    }
+
+    /// [`Kinematics::actual_tip_and_axis`] with the [`ChainConstants`] of the
+    /// values' squareness and location computed beforehand: the same numbers.
+    #[inline]
+    pub fn actual_tip_and_axis_with(
+        &self,
+        joints: &Axes,
+        errors: &ErrorValues,
+        constants: &ChainConstants,
+    ) -> TipAndAxis {
+        let (tip, axis) =
+            chain::tip_and_axis_with(&self.chain, self.tool_length, joints, errors, constants);
         TipAndAxis { tip, axis }
     }
 
