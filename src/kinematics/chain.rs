@@ -16,6 +16,7 @@ use super::transform::{
     Affine, IDENTITY3, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub,
 };
 use crate::axes::{Axes, Axis, AxisSet};
+use std::cell::Cell;
 
 /// µm → mm.
 const UM: f64 = 1e-3;
@@ -534,12 +535,57 @@ struct Evaluation<'a> {
     constants: Option<&'a ChainConstants>,
 }
 
+/// Arguments [`sin_cos`] remembers, per thread.
+const RECENT_ANGLES: usize = 8;
+
+/// The last [`RECENT_ANGLES`] arguments of [`sin_cos`] on this thread (their
+/// bits) and their sines and cosines, replaced in turn.
+struct RecentSinCos {
+    arguments: [Cell<u64>; RECENT_ANGLES],
+    values: [Cell<(f64, f64)>; RECENT_ANGLES],
+    next: Cell<usize>,
+}
+
+thread_local! {
+    static RECENT_SIN_COS: RecentSinCos = const {
+        RecentSinCos {
+            // A NaN's bits, with NaN values: what `sin_cos` gives it.
+            arguments: [const { Cell::new(u64::MAX) }; RECENT_ANGLES],
+            values: [const { Cell::new((f64::NAN, f64::NAN)) }; RECENT_ANGLES],
+            next: Cell::new(0),
+        }
+    };
+}
+
+/// `x.sin_cos()` (`x` in radians), remembered for the last few arguments of
+/// the thread: a solve asks for the same pose's angles several times (its
+/// residual, its Jacobian, the axis rows, the pole angle; the split test's
+/// first-order step at the turned joints of the map it just made). The same
+/// bits as `x.sin_cos()`.
+#[inline]
+pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
+    let bits = x.to_bits();
+    RECENT_SIN_COS.with(|recent| {
+        for (argument, value) in recent.arguments.iter().zip(&recent.values) {
+            if argument.get() == bits {
+                return value.get();
+            }
+        }
+        let value = x.sin_cos();
+        let k = recent.next.get();
+        recent.arguments[k].set(bits);
+        recent.values[k].set(value);
+        recent.next.set((k + 1) % RECENT_ANGLES);
+        value
+    })
+}
+
 /// `(sin, cos)` of each rotary joint angle of `q` (letter order).
 #[inline]
 fn joint_trig(chain: &MachineChain, q: &Axes) -> [(f64, f64); 2] {
     chain.rotary.map(|r| {
         let a = chain.axis(r);
-        (a.joint_sign * q.get(r)).to_radians().sin_cos()
+        sin_cos((a.joint_sign * q.get(r)).to_radians())
     })
 }
 
@@ -887,8 +933,8 @@ pub fn nominal_axis_derivatives(chain: &MachineChain, q: &Axes) -> [[f64; 3]; 2]
     let [(o1, s1), (o2, s2)] = chain.orientation();
     let (a1, a2) = (chain.axis(o1), chain.axis(o2));
     let (k1, k2) = (s1 * a1.joint_sign, s2 * a2.joint_sign);
-    let (sn2, cs2) = (k2 * q.get(o2)).to_radians().sin_cos();
-    let (sn1, cs1) = (k1 * q.get(o1)).to_radians().sin_cos();
+    let (sn2, cs2) = sin_cos((k2 * q.get(o2)).to_radians());
+    let (sn1, cs1) = sin_cos((k1 * q.get(o1)).to_radians());
     let r1 = rotation(a1.direction, sn1, cs1);
     let v = mat_vec(&rotation(a2.direction, sn2, cs2), chain.tool_axis);
     let u = mat_vec(&r1, v);
@@ -1099,7 +1145,7 @@ pub fn nominal_orientation(chain: &MachineChain, q: &Axes) -> Mat3 {
     for (axis, sign) in chain.orientation() {
         let a = chain.axis(axis);
         let theta = (sign * a.joint_sign * q.get(axis)).to_radians();
-        let (s, c) = theta.sin_cos();
+        let (s, c) = sin_cos(theta);
         m = mat_mul(&m, &rotation(a.direction, s, c));
     }
     m

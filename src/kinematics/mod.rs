@@ -450,7 +450,7 @@ impl Kinematics {
         let [(outer, _), (inner, sign)] = self.chain.orientation();
         let (e1, a2) = (self.chain.axis(outer).direction, self.chain.axis(inner));
         let theta = (sign * a2.joint_sign * joints.get(inner)).to_radians();
-        let (s, c) = theta.sin_cos();
+        let (s, c) = chain::sin_cos(theta);
         let v = transform::mat_vec(&chain::rotation(a2.direction, s, c), self.chain.tool_axis());
         transform::dot(v, e1).abs().min(1.0).acos().to_degrees()
     }
