@@ -288,7 +288,7 @@ impl PoseTarget {
         q: &Axes,
         errors: &ErrorValues,
     ) -> nalgebra::Matrix5<f64> {
-        let jt = model.kinematics().tip_jacobian(q, errors);
+        let jt = model.tip_jacobian(q, errors);
         let axis = self.axis_rows(model, q);
         let mut j = nalgebra::Matrix5::<f64>::zeros();
         for row in 0..3 {

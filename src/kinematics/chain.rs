@@ -998,7 +998,33 @@ impl<'a> ChainPose<'a> {
         errors: &'a ErrorValues,
         nominal: bool,
     ) -> ChainPose<'a> {
-        let eval = Evaluation::new(chain, tool_length, q, errors, nominal);
+        ChainPose::of(Evaluation::new(chain, tool_length, q, errors, nominal))
+    }
+
+    /// [`ChainPose::new`] with errors and a model's [`ChainConstants`] (the same
+    /// numbers; the constants are used when they serve `errors`).
+    pub fn with_constants(
+        chain: &'a MachineChain,
+        tool_length: f64,
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        constants: &'a ChainConstants,
+    ) -> ChainPose<'a> {
+        let trig = joint_trig(chain, q);
+        ChainPose::of(Evaluation::with_constants(
+            chain,
+            tool_length,
+            q,
+            errors,
+            false,
+            trig,
+            Some(constants),
+        ))
+    }
+
+    /// The pose of one evaluation.
+    fn of(eval: Evaluation<'a>) -> ChainPose<'a> {
+        let chain = eval.chain;
         let mut work = [Affine::IDENTITY; MAX_SIDE + 1];
         let mut work_factors = [Affine::IDENTITY; MAX_SIDE];
         for (k, a) in chain.workpiece_side().iter().enumerate() {

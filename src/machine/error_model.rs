@@ -774,6 +774,13 @@ impl ErrorModel {
             .actual_tip_and_axis_with(joints, errors, &self.constants)
     }
 
+    /// [`Kinematics::tip_jacobian`] with this model's chain constants (the same
+    /// numbers).
+    pub fn tip_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 5]; 3] {
+        self.kinematics
+            .tip_jacobian_with(joints, errors, &self.constants)
+    }
+
     /// [`Self::errors_at`] for a pose approached as `approach` says: each axis
     /// with a reversal and a known direction adds ±REVERSAL/2 to its
     /// positioning parameter (formats.md "Laser positioning runs and
