@@ -440,12 +440,12 @@ pub fn first_order_joints_at(
     turned.set(r2, rotary[1]);
     let tip = kin.nominal_tip(nominal);
     let map = kin.tip_to_joints(&turned);
+    let start = map.joints(tip);
     let target = Target {
         tip,
-        machine: map.linear_joints(tip),
+        machine: start.xyz(),
         map,
     };
-    let start = target.map.joints(target.tip);
     let mut errors = ErrorValues::ZERO;
     let (next, _) = target.newton_step(model, approach, &start, &mut errors)?;
     Ok(Joints::new(next))

@@ -423,9 +423,9 @@ pub struct ChainConstants {
     /// What they were made from: the chain's rotary letters and X Y Z
     /// directions, and the values' squareness and location (compared bit for bit).
     rotary: [Axis; 2],
-    directions: [[u64; 3]; 3],
-    squareness: [u64; 3],
-    location: [u64; 10],
+    directions: [[f64; 3]; 3],
+    squareness: [f64; 3],
+    location: [f64; 10],
     d_y: [f64; 3],
     d_z: [f64; 3],
     /// `L` of each rotary (letter order).
@@ -444,9 +444,9 @@ impl ChainConstants {
             [0, 1].map(|r| location_matrix(chain.rotary[r], &errors.location[5 * r..5 * r + 5]));
         ChainConstants {
             rotary: chain.rotary,
-            directions: chain.directions.map(|d| d.map(f64::to_bits)),
-            squareness: errors.squareness.map(f64::to_bits),
-            location: errors.location.map(f64::to_bits),
+            directions: chain.directions,
+            squareness: errors.squareness,
+            location: errors.location,
             d_y,
             d_z,
             location_matrix,
@@ -458,10 +458,18 @@ impl ChainConstants {
     /// Whether they are those of `chain` and `errors`.
     #[inline]
     fn serve(&self, chain: &MachineChain, errors: &ErrorValues) -> bool {
+        /// Bit for bit (a −0 is not a 0).
+        #[inline(always)]
+        fn same(a: &[f64], b: &[f64]) -> bool {
+            a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        }
         self.rotary == chain.rotary
-            && self.squareness == errors.squareness.map(f64::to_bits)
-            && self.location == errors.location.map(f64::to_bits)
-            && self.directions == chain.directions.map(|d| d.map(f64::to_bits))
+            && same(&self.location, &errors.location)
+            && same(&self.squareness, &errors.squareness)
+            && same(
+                self.directions.as_flattened(),
+                chain.directions.as_flattened(),
+            )
     }
 }
 
@@ -803,7 +811,7 @@ impl<'a> Evaluation<'a> {
 
     /// Calls `visit(letter, factor)` for every factor of the tool side in order,
     /// `Trans(g)` included (letter `None`).
-    #[inline]
+    #[inline(always)]
     fn tool_factors(&self, mut visit: impl FnMut(Option<&ChainAxis>, Affine)) {
         let chain = self.chain;
         if chain.gauge_after == Some(0) {
