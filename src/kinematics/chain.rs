@@ -415,7 +415,7 @@ fn component(errors: &ErrorValues, slot: usize) -> Affine {
 /// values alone (squareness and location), computed once per model: the actual
 /// directions of Y and Z, each rotary axis' location matrix `L` and its inverse,
 /// and the sine and cosine of its zero offset. An evaluation given them
-/// ([`tip_and_axis_with`]) computes the same numbers as one without, bit for
+/// ([`Kinematics::actual_tip_and_axis_with`](crate::kinematics::Kinematics::actual_tip_and_axis_with)) computes the same numbers as one without, bit for
 /// bit, when they were made for its chain and its values (checked: otherwise
 /// they are computed afresh).
 #[derive(Clone, Copy, Debug, PartialEq)]
