@@ -150,7 +150,7 @@ pub struct StampScan {
 impl StampScan {
     /// Feeds the next bytes of the program.
     pub fn update(&mut self, mut bytes: &[u8]) {
-        while let Some(end) = bytes.iter().position(|&b| b == b'\n') {
+        while let Some(end) = memchr::memchr(b'\n', bytes) {
             self.line += 1;
             if self.found.is_none() {
                 let line = if self.partial.is_empty() {
@@ -184,9 +184,13 @@ impl StampScan {
         self.found
     }
 
-    /// A quick test before the full one: the line mentions `stamp` in any case.
+    /// A quick test before the full one: the line mentions `stamp` in any case
+    /// (only where an `s` starts it: most lines of a program have none).
     fn may_hold(line: &[u8]) -> bool {
-        line.windows(5).any(|w| w.eq_ignore_ascii_case(b"stamp"))
+        memchr::memchr2_iter(b's', b'S', line).any(|i| {
+            line.get(i..i + 5)
+                .is_some_and(|w| w.eq_ignore_ascii_case(b"stamp"))
+        })
     }
 }
 

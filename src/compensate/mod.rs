@@ -500,7 +500,7 @@ fn axis_error_urad(
     let errors = model
         .errors_toward(joints, approach)
         .map_err(|e| PointError::Solve(SolveError::Lookup(e)))?;
-    let actual = crate::vec3::normalise(kin.actual_tip_and_axis(joints, &errors).axis);
+    let actual = crate::vec3::normalise(model.actual_tip_and_axis(joints, &errors).axis);
     let programmed = kin.nominal_tool_axis(nominal);
     Ok(1e6 * crate::vec3::norm(crate::vec3::cross(actual, programmed)))
 }
@@ -807,9 +807,12 @@ fn plan_motion(
     // Recursive halving on [t0, t1] with compensated ends c0, c1.
     let mut split = Split::default();
     split.via.extend(take_up);
-    let mut stack = vec![(t_start, 1.0f64, start_comp, end_comp, 0u32)];
-    // Depth-first, left first, so `via` comes out in order.
-    while let Some((t0, t1, c0, c1, depth)) = stack.pop() {
+    // Depth-first, left first, so `via` comes out in order: the left half is
+    // taken next, the right half waits on the stack (which a move that is not
+    // split never allocates).
+    let mut stack = Vec::new();
+    let mut next = Some((t_start, 1.0f64, start_comp, end_comp, 0u32));
+    while let Some((t0, t1, c0, c1, depth)) = next.take().or_else(|| stack.pop()) {
         let n0 = motion.point_at(arc.as_ref(), t0);
         let n1 = motion.point_at(arc.as_ref(), t1);
         let (a, b, na, nb) = (c0.to_array(), c1.to_array(), n0.to_array(), n1.to_array());
@@ -857,9 +860,8 @@ fn plan_motion(
             )?
             .target
             .axes();
-            // Right half first on the stack so the left half is processed first.
             stack.push((tm, t1, cm, c1, depth + 1));
-            stack.push((t0, tm, c0, cm, depth + 1));
+            next = Some((t0, tm, c0, cm, depth + 1));
             continue;
         }
         if gap > tol_mm {
@@ -1035,7 +1037,7 @@ fn read_chunks(
 ) {
     let mut run = program.run(interpret);
     loop {
-        let mut chunk = Vec::with_capacity(size.blocks.min(1024));
+        let mut chunk = Vec::with_capacity(size.blocks.min(4096));
         let mut moves = 0usize;
         let mut done = false;
         while chunk.len() < size.blocks && moves < size.moves {
@@ -1195,7 +1197,10 @@ fn solve_chunks(
         let mut ends = ends.into_iter();
         for (block, event) in chunk.iter() {
             let moves = compensated_moves(event);
-            let mut mine = Vec::with_capacity(moves.len());
+            // A motion's end, or a cycle's ends (only a cycle allocates).
+            let single = event.motion().is_some();
+            let mut first = None;
+            let mut mine = Vec::new();
             for _ in moves {
                 match ends.next() {
                     Some(Ok(c)) => {
@@ -1206,7 +1211,11 @@ fn solve_chunks(
                         if let Some(end) = c.beyond_table {
                             axes.record_table_end(block.line, end);
                         }
-                        mine.push((c.target.axes(), c.residual_mm));
+                        let end = (c.target.axes(), c.residual_mm);
+                        first = first.or(Some(end));
+                        if !single {
+                            mine.push(end);
+                        }
                     }
                     Some(Err(e)) => {
                         let _ = solved.send(Err(point_error(path, block.line, e)));
@@ -1215,8 +1224,8 @@ fn solve_chunks(
                     None => unreachable!("one end per move"),
                 }
             }
-            if event.motion().is_some() {
-                resolved.push(mine.first().copied());
+            if single {
+                resolved.push(first);
                 cycles.push(None);
             } else {
                 resolved.push(None);

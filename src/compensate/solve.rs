@@ -29,7 +29,7 @@
 //! to the position-only solve, and counted. Joint vectors are `(x, y, z, r₁, r₂)`
 //! with the machine's rotary letters in letter order.
 use crate::axes::{Axes, Joints};
-use crate::kinematics::Kinematics;
+use crate::kinematics::{ErrorValues, Kinematics};
 use crate::machine::{Approach, ErrorModel, LookupError};
 
 /// Residual at which the solve stops, mm (1 nm).
@@ -178,8 +178,9 @@ pub fn solve_pose_toward(
     let mut fresh = false;
     let mut steps = 0;
     let mut before_urad = f64::NAN;
+    let mut errors = ErrorValues::ZERO;
     for iteration in 0..=MAX_ITERATIONS {
-        let (r, errors) = target.residual(model, approach, &q)?;
+        let r = target.residual(model, approach, &q, &mut errors)?;
         let residual_mm = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
         let residual_urad = 1e6 * (r[3] * r[3] + r[4] * r[4]).sqrt();
         let kept = match warm.jacobian.take() {
@@ -257,28 +258,26 @@ impl PoseTarget {
         })
     }
 
-    /// Tip residual (mm) and axis residual along the two normals (rad) at `q`,
-    /// and the error values there.
+    /// Tip residual (mm) and axis residual along the two normals (rad) at `q`;
+    /// the error values there are left in `errors`.
     fn residual(
         &self,
         model: &ErrorModel,
         approach: &Approach,
         q: &Axes,
-    ) -> Result<([f64; 5], crate::kinematics::ErrorValues), SolveError> {
-        let errors = model.errors_toward(q, approach)?;
-        let actual = model.kinematics().actual_tip_and_axis(q, &errors);
+        errors: &mut ErrorValues,
+    ) -> Result<[f64; 5], SolveError> {
+        model.errors_toward_into(q, approach, errors)?;
+        let actual = model.actual_tip_and_axis(q, errors);
         let du = crate::vec3::sub(crate::vec3::normalise(actual.axis), self.axis);
         let [e1, e2] = self.normals;
-        Ok((
-            [
-                actual.tip[0] - self.tip[0],
-                actual.tip[1] - self.tip[1],
-                actual.tip[2] - self.tip[2],
-                crate::vec3::dot(du, e1),
-                crate::vec3::dot(du, e2),
-            ],
-            errors,
-        ))
+        Ok([
+            actual.tip[0] - self.tip[0],
+            actual.tip[1] - self.tip[1],
+            actual.tip[2] - self.tip[2],
+            crate::vec3::dot(du, e1),
+            crate::vec3::dot(du, e2),
+        ])
     }
 
     /// ∂(residual)/∂(x, y, z mm; r₁, r₂ degrees): the analytic tip Jacobian and
@@ -287,9 +286,9 @@ impl PoseTarget {
         &self,
         model: &ErrorModel,
         q: &Axes,
-        errors: &crate::kinematics::ErrorValues,
+        errors: &ErrorValues,
     ) -> nalgebra::Matrix5<f64> {
-        let jt = model.kinematics().tip_jacobian(q, errors);
+        let jt = model.tip_jacobian(q, errors);
         let axis = self.axis_rows(model, q);
         let mut j = nalgebra::Matrix5::<f64>::zeros();
         for row in 0..3 {
@@ -383,8 +382,9 @@ pub fn solve_joints_toward(
         q.z += guess[2];
     }
     let mut residual = f64::INFINITY;
+    let mut errors = ErrorValues::ZERO;
     for iteration in 0..=MAX_ITERATIONS {
-        let (next, r) = target.newton_step(model, approach, &q)?;
+        let (next, r) = target.newton_step(model, approach, &q, &mut errors)?;
         residual = r;
         if residual < RESIDUAL_MM {
             return Ok(Solved {
@@ -414,7 +414,9 @@ pub fn first_order_joints(
     nominal: &Joints,
     approach: &Approach,
 ) -> Result<Joints, SolveError> {
-    let (next, _) = Target::of(model, nominal)?.newton_step(model, approach, nominal)?;
+    let mut errors = ErrorValues::ZERO;
+    let (next, _) =
+        Target::of(model, nominal)?.newton_step(model, approach, nominal, &mut errors)?;
     Ok(Joints::new(next))
 }
 
@@ -438,13 +440,14 @@ pub fn first_order_joints_at(
     turned.set(r2, rotary[1]);
     let tip = kin.nominal_tip(nominal);
     let map = kin.tip_to_joints(&turned);
+    let start = map.joints(tip);
     let target = Target {
         tip,
-        machine: map.linear_joints(tip),
+        machine: start.xyz(),
         map,
     };
-    let start = target.map.joints(target.tip);
-    let (next, _) = target.newton_step(model, approach, &start)?;
+    let mut errors = ErrorValues::ZERO;
+    let (next, _) = target.newton_step(model, approach, &start, &mut errors)?;
     Ok(Joints::new(next))
 }
 
@@ -472,16 +475,17 @@ impl Target {
         })
     }
 
-    /// One step from `q`: the next joints and the current residual |r_act(q) − tip| (mm).
+    /// One step from `q`: the next joints and the current residual |r_act(q) − tip|
+    /// (mm); `errors` is the buffer of the lookup.
     fn newton_step(
         &self,
         model: &ErrorModel,
         approach: &Approach,
         q: &Axes,
+        errors: &mut ErrorValues,
     ) -> Result<(Axes, f64), SolveError> {
-        let kinematics = model.kinematics();
-        let errors = model.errors_toward(q, approach)?;
-        let actual = kinematics.actual_tip_and_axis(q, &errors).tip;
+        model.errors_toward_into(q, approach, errors)?;
+        let actual = model.actual_tip_and_axis(q, errors).tip;
         let residual = crate::vec3::dist(actual, self.tip);
         let m_actual = self.map.linear_joints(actual);
         let next = Axes {

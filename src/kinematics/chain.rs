@@ -16,6 +16,7 @@ use super::transform::{
     Affine, IDENTITY3, Mat3, add, cross, dot, mat_mul, mat_vec, norm, scale, sub,
 };
 use crate::axes::{Axes, Axis, AxisSet};
+use std::cell::Cell;
 
 /// µm → mm.
 const UM: f64 = 1e-3;
@@ -355,8 +356,25 @@ impl MachineChain {
 }
 
 /// The transform `R(d, θ)`, right-handed about the unit `d`, from `sin θ`, `cos θ`.
+/// About X, Y or Z (the usual axis) the same formula with `d`'s entries as
+/// constants: the compiler drops the products by 1 (exact) and keeps those by 0
+/// (their signs of zero), so the numbers are the general formula's, bit for bit.
 #[inline]
 pub fn rotation(d: [f64; 3], s: f64, c: f64) -> Mat3 {
+    const X: [u64; 3] = [1f64.to_bits(), 0, 0];
+    const Y: [u64; 3] = [0, 1f64.to_bits(), 0];
+    const Z: [u64; 3] = [0, 0, 1f64.to_bits()];
+    match d.map(f64::to_bits) {
+        X => rotation_formula([1.0, 0.0, 0.0], s, c),
+        Y => rotation_formula([0.0, 1.0, 0.0], s, c),
+        Z => rotation_formula([0.0, 0.0, 1.0], s, c),
+        _ => rotation_formula(d, s, c),
+    }
+}
+
+/// The formula of [`rotation`] (inlined where `d` is a constant).
+#[inline(always)]
+fn rotation_formula(d: [f64; 3], s: f64, c: f64) -> Mat3 {
     let k = 1.0 - c;
     let [x, y, z] = d;
     [
@@ -390,6 +408,82 @@ fn component(errors: &ErrorValues, slot: usize) -> Affine {
     Affine::small(
         [c[0] * UM, c[1] * UM, c[2] * UM],
         [c[3] * URAD, c[4] * URAD, c[5] * URAD],
+    )
+}
+
+/// What an evaluation with errors computes from the position-independent error
+/// values alone (squareness and location), computed once per model: the actual
+/// directions of Y and Z, each rotary axis' location matrix `L` and its inverse,
+/// and the sine and cosine of its zero offset. An evaluation given them
+/// ([`Kinematics::actual_tip_and_axis_with`](crate::kinematics::Kinematics::actual_tip_and_axis_with)) computes the same numbers as one without, bit for
+/// bit, when they were made for its chain and its values (checked: otherwise
+/// they are computed afresh).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainConstants {
+    /// What they were made from: the chain's rotary letters and X Y Z
+    /// directions, and the values' squareness and location (compared bit for bit).
+    rotary: [Axis; 2],
+    directions: [[f64; 3]; 3],
+    squareness: [f64; 3],
+    location: [f64; 10],
+    d_y: [f64; 3],
+    d_z: [f64; 3],
+    /// `L` of each rotary (letter order).
+    location_matrix: [Affine; 2],
+    /// `L⁻¹`, the exact inverse.
+    location_inverse: [Affine; 2],
+    /// `(sin δ, cos δ)` of each rotary's zero offset `δ`, `None` when it is 0.
+    zero_offset: [Option<(f64, f64)>; 2],
+}
+
+impl ChainConstants {
+    /// The constants of `chain` with the squareness and location of `errors`.
+    pub fn new(chain: &MachineChain, errors: &ErrorValues) -> ChainConstants {
+        let (d_y, d_z) = actual_directions(chain, &errors.squareness);
+        let location_matrix =
+            [0, 1].map(|r| location_matrix(chain.rotary[r], &errors.location[5 * r..5 * r + 5]));
+        ChainConstants {
+            rotary: chain.rotary,
+            directions: chain.directions,
+            squareness: errors.squareness,
+            location: errors.location,
+            d_y,
+            d_z,
+            location_matrix,
+            location_inverse: location_matrix.map(|l| l.inverse()),
+            zero_offset: [0, 1].map(|r| offset_sin_cos(errors.location[5 * r + 4] * URAD)),
+        }
+    }
+
+    /// Whether they are those of `chain` and `errors`.
+    #[inline]
+    fn serve(&self, chain: &MachineChain, errors: &ErrorValues) -> bool {
+        /// Bit for bit (a −0 is not a 0).
+        #[inline(always)]
+        fn same(a: &[f64], b: &[f64]) -> bool {
+            a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        }
+        self.rotary == chain.rotary
+            && same(&self.location, &errors.location)
+            && same(&self.squareness, &errors.squareness)
+            && same(
+                self.directions.as_flattened(),
+                chain.directions.as_flattened(),
+            )
+    }
+}
+
+/// The actual directions of Y and Z with the squareness values `s` (µrad).
+#[inline]
+fn actual_directions(chain: &MachineChain, s: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let (dx, dy, dz) = (
+        chain.directions[0],
+        chain.directions[1],
+        chain.directions[2],
+    );
+    (
+        sub(dy, scale(dx, s[0] * URAD)),
+        sub(sub(dz, scale(dx, s[1] * URAD)), scale(dy, s[2] * URAD)),
     )
 }
 
@@ -445,6 +539,53 @@ struct Evaluation<'a> {
     /// `(sin, cos)` of each rotary joint's angle `joint_sign·q` (letter order),
     /// before the zero offset.
     trig: [(f64, f64); 2],
+    /// The model's constants, when given and made for these values.
+    constants: Option<&'a ChainConstants>,
+}
+
+/// Arguments [`sin_cos`] remembers, per thread.
+const RECENT_ANGLES: usize = 8;
+
+/// The last [`RECENT_ANGLES`] arguments of [`sin_cos`] on this thread (their
+/// bits) and their sines and cosines, replaced in turn.
+struct RecentSinCos {
+    arguments: [Cell<u64>; RECENT_ANGLES],
+    values: [Cell<(f64, f64)>; RECENT_ANGLES],
+    next: Cell<usize>,
+}
+
+thread_local! {
+    static RECENT_SIN_COS: RecentSinCos = const {
+        RecentSinCos {
+            // A NaN's bits, with NaN values: what `sin_cos` gives it.
+            arguments: [const { Cell::new(u64::MAX) }; RECENT_ANGLES],
+            values: [const { Cell::new((f64::NAN, f64::NAN)) }; RECENT_ANGLES],
+            next: Cell::new(0),
+        }
+    };
+}
+
+/// `x.sin_cos()` (`x` in radians), remembered for the last few arguments of
+/// the thread: a solve asks for the same pose's angles several times (its
+/// residual, its Jacobian, the axis rows, the pole angle; the split test's
+/// first-order step at the turned joints of the map it just made). The same
+/// bits as `x.sin_cos()`.
+#[inline]
+pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
+    let bits = x.to_bits();
+    RECENT_SIN_COS.with(|recent| {
+        for (argument, value) in recent.arguments.iter().zip(&recent.values) {
+            if argument.get() == bits {
+                return value.get();
+            }
+        }
+        let value = x.sin_cos();
+        let k = recent.next.get();
+        recent.arguments[k].set(bits);
+        recent.values[k].set(value);
+        recent.next.set((k + 1) % RECENT_ANGLES);
+        value
+    })
 }
 
 /// `(sin, cos)` of each rotary joint angle of `q` (letter order).
@@ -452,7 +593,7 @@ struct Evaluation<'a> {
 fn joint_trig(chain: &MachineChain, q: &Axes) -> [(f64, f64); 2] {
     chain.rotary.map(|r| {
         let a = chain.axis(r);
-        (a.joint_sign * q.get(r)).to_radians().sin_cos()
+        sin_cos((a.joint_sign * q.get(r)).to_radians())
     })
 }
 
@@ -460,11 +601,18 @@ fn joint_trig(chain: &MachineChain, q: &Axes) -> [(f64, f64); 2] {
 /// angle-sum formulas, with the Taylor series of `δ` where it is small (µrad
 /// offsets: the series is exact in double precision below 1e-3).
 #[inline]
-fn plus_offset((s, c): (f64, f64), delta: f64) -> (f64, f64) {
+fn plus_offset(trig: (f64, f64), delta: f64) -> (f64, f64) {
+    plus_offset_sin_cos(trig, offset_sin_cos(delta))
+}
+
+/// `(sin δ, cos δ)` of a zero offset `δ` (rad) as [`plus_offset`] takes them,
+/// `None` for 0.
+#[inline]
+fn offset_sin_cos(delta: f64) -> Option<(f64, f64)> {
     if delta == 0.0 {
-        return (s, c);
+        return None;
     }
-    let (sd, cd) = if delta.abs() < 1e-3 {
+    Some(if delta.abs() < 1e-3 {
         let d2 = delta * delta;
         (
             delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0)),
@@ -472,8 +620,16 @@ fn plus_offset((s, c): (f64, f64), delta: f64) -> (f64, f64) {
         )
     } else {
         delta.sin_cos()
-    };
-    (s * cd + c * sd, c * cd - s * sd)
+    })
+}
+
+/// [`plus_offset`] from the offset's sine and cosine.
+#[inline(always)]
+fn plus_offset_sin_cos((s, c): (f64, f64), offset: Option<(f64, f64)>) -> (f64, f64) {
+    match offset {
+        None => (s, c),
+        Some((sd, cd)) => (s * cd + c * sd, c * cd - s * sd),
+    }
 }
 
 impl<'a> Evaluation<'a> {
@@ -498,19 +654,26 @@ impl<'a> Evaluation<'a> {
         nominal: bool,
         trig: [(f64, f64); 2],
     ) -> Evaluation<'a> {
-        let s = &errors.squareness;
-        let (dx, dy, dz) = (
-            chain.directions[0],
-            chain.directions[1],
-            chain.directions[2],
-        );
-        let (d_y, d_z) = if nominal {
-            (dy, dz)
-        } else {
-            (
-                sub(dy, scale(dx, s[0] * URAD)),
-                sub(sub(dz, scale(dx, s[1] * URAD)), scale(dy, s[2] * URAD)),
-            )
+        Evaluation::with_constants(chain, tool_length, q, errors, nominal, trig, None)
+    }
+
+    /// [`Evaluation::with_trig`] with the model's constants (used when they
+    /// serve these values).
+    #[inline(always)]
+    fn with_constants(
+        chain: &'a MachineChain,
+        tool_length: f64,
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        nominal: bool,
+        trig: [(f64, f64); 2],
+        constants: Option<&'a ChainConstants>,
+    ) -> Evaluation<'a> {
+        let constants = constants.filter(|c| !nominal && c.serve(chain, errors));
+        let (d_y, d_z) = match constants {
+            _ if nominal => (chain.directions[1], chain.directions[2]),
+            Some(c) => (c.d_y, c.d_z),
+            None => actual_directions(chain, &errors.squareness),
         };
         Evaluation {
             chain,
@@ -521,6 +684,7 @@ impl<'a> Evaluation<'a> {
             d_z,
             gauge: scale(chain.tool_axis, tool_length),
             trig,
+            constants,
         }
     }
 
@@ -548,16 +712,34 @@ impl<'a> Evaluation<'a> {
     }
 
     /// `R(d, θ + zero offset)` of rotary `a`.
-    #[inline]
+    #[inline(always)]
     fn rotation_of(&self, a: &ChainAxis) -> Mat3 {
         let (loc, r) = self.location(a);
-        let offset = if self.nominal { 0.0 } else { loc[4] * URAD };
-        let (sn, cs) = plus_offset(self.trig[r], offset);
+        let (sn, cs) = match self.constants {
+            Some(c) => plus_offset_sin_cos(self.trig[r], c.zero_offset[r]),
+            None => {
+                let offset = if self.nominal { 0.0 } else { loc[4] * URAD };
+                plus_offset(self.trig[r], offset)
+            }
+        };
         rotation(a.direction, sn, cs)
     }
 
+    /// `L` and `L⁻¹` of rotary `a`.
+    #[inline(always)]
+    fn location_pair(&self, a: &ChainAxis) -> (Affine, Affine) {
+        let (loc, r) = self.location(a);
+        match self.constants {
+            Some(c) => (c.location_matrix[r], c.location_inverse[r]),
+            None => {
+                let location = location_matrix(a.axis, loc);
+                (location, location.inverse())
+            }
+        }
+    }
+
     /// The transform of rotary factor `a`: `(L·R·E·L⁻¹)` about its point.
-    #[inline]
+    #[inline(always)]
     fn rotary(&self, a: &ChainAxis) -> Affine {
         let rot = Affine {
             m: self.rotation_of(a),
@@ -566,13 +748,9 @@ impl<'a> Evaluation<'a> {
         if self.nominal {
             return rot.about(a.point);
         }
-        let location = location_matrix(a.axis, self.location(a).0);
+        let (location, inverse) = self.location_pair(a);
         let e = component(self.errors, self.chain.slot(a.axis).unwrap_or(4));
-        location
-            .mul(&rot)
-            .mul(&e)
-            .mul(&location.inverse())
-            .about(a.point)
+        location.mul(&rot).mul(&e).mul(&inverse).about(a.point)
     }
 
     /// The pieces of rotary factor `a` for its derivative.
@@ -589,19 +767,19 @@ impl<'a> Evaluation<'a> {
                 per_degree,
             };
         }
-        let location = location_matrix(a.axis, self.location(a).0);
+        let (location, inverse) = self.location_pair(a);
         let e = component(self.errors, self.chain.slot(a.axis).unwrap_or(4));
         RotaryParts {
             location: location.m,
             rotation: rot,
-            inner: e.mul(&location.inverse()).mul(&back),
+            inner: e.mul(&inverse).mul(&back),
             direction: a.direction,
             per_degree,
         }
     }
 
     /// The transform of linear axis `a`: `Trans(s·q·d + gauge)·E`.
-    #[inline]
+    #[inline(always)]
     fn linear(&self, a: &ChainAxis, side_sign: f64, gauge: [f64; 3]) -> Affine {
         let t = add(scale(self.travel(a, side_sign), self.q.get(a.axis)), gauge);
         match (self.nominal, self.chain.slot(a.axis)) {
@@ -617,7 +795,7 @@ impl<'a> Evaluation<'a> {
     }
 
     /// The transform `T_K` of axis `a` on the side with sign `side_sign`.
-    #[inline]
+    #[inline(always)]
     fn factor(&self, a: &ChainAxis, side_sign: f64) -> Affine {
         if a.is_rotary() {
             self.rotary(a)
@@ -633,7 +811,7 @@ impl<'a> Evaluation<'a> {
 
     /// Calls `visit(letter, factor)` for every factor of the tool side in order,
     /// `Trans(g)` included (letter `None`).
-    #[inline]
+    #[inline(always)]
     fn tool_factors(&self, mut visit: impl FnMut(Option<&ChainAxis>, Affine)) {
         let chain = self.chain;
         if chain.gauge_after == Some(0) {
@@ -648,7 +826,7 @@ impl<'a> Evaluation<'a> {
     }
 
     /// `W` and `S`.
-    #[inline]
+    #[inline(always)]
     fn products(&self) -> (Affine, Affine) {
         let mut w = Affine::IDENTITY;
         for a in self.chain.workpiece_side() {
@@ -671,6 +849,29 @@ pub fn tip_and_axis(
     nominal: bool,
 ) -> ([f64; 3], [f64; 3]) {
     let eval = Evaluation::new(chain, tool_length, q, errors, nominal);
+    tip_and_axis_of(&eval)
+}
+
+/// The actual [`tip_and_axis`] with a model's [`ChainConstants`] (the same
+/// numbers; the constants are used when they serve `errors`).
+#[inline]
+pub fn tip_and_axis_with(
+    chain: &MachineChain,
+    tool_length: f64,
+    q: &Axes,
+    errors: &ErrorValues,
+    constants: &ChainConstants,
+) -> ([f64; 3], [f64; 3]) {
+    let trig = joint_trig(chain, q);
+    let eval =
+        Evaluation::with_constants(chain, tool_length, q, errors, false, trig, Some(constants));
+    tip_and_axis_of(&eval)
+}
+
+/// The tip and axis of one evaluation.
+#[inline(always)]
+fn tip_and_axis_of(eval: &Evaluation<'_>) -> ([f64; 3], [f64; 3]) {
+    let chain = eval.chain;
     let (w, s) = eval.products();
     let w_inv = w.inverse();
     let tip = w_inv.apply_point(s.apply_point(scale(eval.gauge, -1.0)));
@@ -740,8 +941,8 @@ pub fn nominal_axis_derivatives(chain: &MachineChain, q: &Axes) -> [[f64; 3]; 2]
     let [(o1, s1), (o2, s2)] = chain.orientation();
     let (a1, a2) = (chain.axis(o1), chain.axis(o2));
     let (k1, k2) = (s1 * a1.joint_sign, s2 * a2.joint_sign);
-    let (sn2, cs2) = (k2 * q.get(o2)).to_radians().sin_cos();
-    let (sn1, cs1) = (k1 * q.get(o1)).to_radians().sin_cos();
+    let (sn2, cs2) = sin_cos((k2 * q.get(o2)).to_radians());
+    let (sn1, cs1) = sin_cos((k1 * q.get(o1)).to_radians());
     let r1 = rotation(a1.direction, sn1, cs1);
     let v = mat_vec(&rotation(a2.direction, sn2, cs2), chain.tool_axis);
     let u = mat_vec(&r1, v);
@@ -805,7 +1006,33 @@ impl<'a> ChainPose<'a> {
         errors: &'a ErrorValues,
         nominal: bool,
     ) -> ChainPose<'a> {
-        let eval = Evaluation::new(chain, tool_length, q, errors, nominal);
+        ChainPose::of(Evaluation::new(chain, tool_length, q, errors, nominal))
+    }
+
+    /// [`ChainPose::new`] with errors and a model's [`ChainConstants`] (the same
+    /// numbers; the constants are used when they serve `errors`).
+    pub fn with_constants(
+        chain: &'a MachineChain,
+        tool_length: f64,
+        q: &'a Axes,
+        errors: &'a ErrorValues,
+        constants: &'a ChainConstants,
+    ) -> ChainPose<'a> {
+        let trig = joint_trig(chain, q);
+        ChainPose::of(Evaluation::with_constants(
+            chain,
+            tool_length,
+            q,
+            errors,
+            false,
+            trig,
+            Some(constants),
+        ))
+    }
+
+    /// The pose of one evaluation.
+    fn of(eval: Evaluation<'a>) -> ChainPose<'a> {
+        let chain = eval.chain;
         let mut work = [Affine::IDENTITY; MAX_SIDE + 1];
         let mut work_factors = [Affine::IDENTITY; MAX_SIDE];
         for (k, a) in chain.workpiece_side().iter().enumerate() {
@@ -952,7 +1179,7 @@ pub fn nominal_orientation(chain: &MachineChain, q: &Axes) -> Mat3 {
     for (axis, sign) in chain.orientation() {
         let a = chain.axis(axis);
         let theta = (sign * a.joint_sign * q.get(axis)).to_radians();
-        let (s, c) = theta.sin_cos();
+        let (s, c) = sin_cos(theta);
         m = mat_mul(&m, &rotation(a.direction, s, c));
     }
     m

@@ -7,6 +7,7 @@
 //!   respect to the position-independent parameters, by central differences (see
 //!   [`PARAMETER_STEP`] for the step).
 use super::Kinematics;
+use super::chain::ChainConstants;
 use super::error_values::{COMPONENT_COUNT, ErrorValues, ParameterLayout, SQUARENESS_NAMES};
 use super::transform::{scale, sub};
 use crate::axes::{Axes, Axis};
@@ -38,7 +39,29 @@ impl Kinematics {
     /// the error values `errors` held fixed: `J[row = tip x y z][column = joint slot]`.
     /// Pass [`ErrorValues::ZERO`] for the nominal Jacobian.
     pub fn tip_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 5]; 3] {
-        let pose = self.pose(joints, errors);
+        self.tip_jacobian_of(&self.pose(joints, errors))
+    }
+
+    /// [`Kinematics::tip_jacobian`] with the [`ChainConstants`] of the values'
+    /// squareness and location computed beforehand: the same numbers.
+    pub fn tip_jacobian_with(
+        &self,
+        joints: &Axes,
+        errors: &ErrorValues,
+        constants: &ChainConstants,
+    ) -> [[f64; 5]; 3] {
+        let pose = super::chain::ChainPose::with_constants(
+            &self.chain,
+            self.tool_length,
+            joints,
+            errors,
+            constants,
+        );
+        self.tip_jacobian_of(&pose)
+    }
+
+    /// The tip Jacobian of an evaluated pose.
+    fn tip_jacobian_of(&self, pose: &super::chain::ChainPose<'_>) -> [[f64; 5]; 3] {
         let [r1, r2] = self.rotary();
         let columns = [Axis::X, Axis::Y, Axis::Z, r1, r2].map(|a| pose.tip_derivative(a));
         let mut out = [[0.0; 5]; 3];

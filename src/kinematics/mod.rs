@@ -18,7 +18,7 @@ pub(crate) mod jacobian;
 pub(crate) mod transform;
 
 use crate::axes::{Axes, Axis};
-pub use chain::{ChainAxis, ChainError, MachineChain, Side};
+pub use chain::{ChainAxis, ChainConstants, ChainError, MachineChain, Side};
 pub use error_values::{
     COMPONENT_NAMES, ErrorValues, LOCATION_NAMES, PARAMETER_COUNT, PARAMETER_NAMES,
     ParameterLayout, SQUARENESS_NAMES, UnknownParameter,
@@ -450,7 +450,7 @@ impl Kinematics {
         let [(outer, _), (inner, sign)] = self.chain.orientation();
         let (e1, a2) = (self.chain.axis(outer).direction, self.chain.axis(inner));
         let theta = (sign * a2.joint_sign * joints.get(inner)).to_radians();
-        let (s, c) = theta.sin_cos();
+        let (s, c) = chain::sin_cos(theta);
         let v = transform::mat_vec(&chain::rotation(a2.direction, s, c), self.chain.tool_axis());
         transform::dot(v, e1).abs().min(1.0).acos().to_degrees()
     }
@@ -464,6 +464,20 @@ impl Kinematics {
     #[inline]
     pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {
         let (tip, axis) = chain::tip_and_axis(&self.chain, self.tool_length, joints, errors, false);
+        TipAndAxis { tip, axis }
+    }
+
+    /// [`Kinematics::actual_tip_and_axis`] with the [`ChainConstants`] of the
+    /// values' squareness and location computed beforehand: the same numbers.
+    #[inline]
+    pub fn actual_tip_and_axis_with(
+        &self,
+        joints: &Axes,
+        errors: &ErrorValues,
+        constants: &ChainConstants,
+    ) -> TipAndAxis {
+        let (tip, axis) =
+            chain::tip_and_axis_with(&self.chain, self.tool_length, joints, errors, constants);
         TipAndAxis { tip, axis }
     }
 

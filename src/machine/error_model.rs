@@ -18,7 +18,7 @@ use super::reversal::{Approach, AxisPlay, DirectionTracker};
 use super::table::ErrorTable;
 use crate::axes::{Axes, Axis};
 use crate::kinematics::error_values::PARAMETER_COUNT;
-use crate::kinematics::{ErrorValues, Kinematics, VolumetricError};
+use crate::kinematics::{ChainConstants, ErrorValues, Kinematics, TipAndAxis, VolumetricError};
 use crate::nurbs::{
     FitError, FitOptions, ParameterFit, ParameterKind, SmemCurve, SmemModelFile, fnv1a64,
 };
@@ -199,6 +199,9 @@ pub struct ErrorModel {
     kinematics: Kinematics,
     axes: [Option<AxisCurves>; 5],
     scalars: ErrorValues,
+    /// What the chain computes from the scalars alone, once
+    /// ([`ErrorModel::actual_tip_and_axis`]).
+    constants: ChainConstants,
     /// Per joint slot, its reversal ([`super::reversal`]); all `None` on a
     /// machine without one, whose lookups are then exactly the direction-free ones.
     reversal: [Option<SlotReversal>; 5],
@@ -217,6 +220,7 @@ impl Clone for ErrorModel {
             kinematics: self.kinematics,
             axes: self.axes.clone(),
             scalars: self.scalars,
+            constants: self.constants,
             reversal: self.reversal.clone(),
             policy: self.policy,
             held: Arc::new(AtomicU64::new(self.held.load(Ordering::Relaxed))),
@@ -451,10 +455,13 @@ impl ErrorModel {
             });
         }
         let reversal = Self::reversals(machine);
+        let kinematics = machine.kinematics_model();
+        let scalars = machine.scalar_errors();
         ErrorModel {
-            kinematics: machine.kinematics_model(),
+            constants: ChainConstants::new(&kinematics.chain, &scalars),
+            kinematics,
             axes,
-            scalars: machine.scalar_errors(),
+            scalars,
             reversal,
             policy: options.extrapolation,
             held: Arc::new(AtomicU64::new(0)),
@@ -580,6 +587,7 @@ impl ErrorModel {
         values.squareness = scalars.squareness;
         values.location = scalars.location;
         ErrorModel {
+            constants: ChainConstants::new(&kinematics.chain, &values),
             kinematics,
             axes: Default::default(),
             scalars: values,
@@ -723,15 +731,28 @@ impl ErrorModel {
 
     /// Values of all 43 parameters at `joints` (mm, degrees).
     pub fn errors_at(&self, joints: &Axes) -> Result<ErrorValues, LookupError> {
+        let mut values = ErrorValues::ZERO;
+        self.errors_at_into(joints, &mut values)?;
+        Ok(values)
+    }
+
+    /// [`Self::errors_at`] written into `values` (every parameter set: the hot
+    /// path of the solves fills one buffer instead of moving 344-byte values).
+    #[inline]
+    pub fn errors_at_into(
+        &self,
+        joints: &Axes,
+        values: &mut ErrorValues,
+    ) -> Result<(), LookupError> {
         if !joints.is_finite() {
             return Err(LookupError::NotFinite(*joints));
         }
-        let mut values = self.scalars;
+        *values = self.scalars;
         for (slot, ac) in self.axes.iter().enumerate() {
             let Some(ac) = ac else { continue };
             let p = self.table_position(ac, joints.get(ac.axis))?;
             match &ac.resampled {
-                Some(fast) => values.component[slot] = fast.eval(p),
+                Some(fast) => fast.eval_into(p, &mut values.component[slot]),
                 None => {
                     for (out, curve) in values.component[slot].iter_mut().zip(&ac.curves) {
                         if let Some(curve) = curve {
@@ -741,7 +762,23 @@ impl ErrorModel {
                 }
             }
         }
-        Ok(values)
+        Ok(())
+    }
+
+    /// The actual tool tip and axis at `joints` with `errors` (values of this
+    /// model's lookups): [`Kinematics::actual_tip_and_axis`], the same numbers,
+    /// with the chain's constants of the model's scalars computed once.
+    #[inline]
+    pub fn actual_tip_and_axis(&self, joints: &Axes, errors: &ErrorValues) -> TipAndAxis {
+        self.kinematics
+            .actual_tip_and_axis_with(joints, errors, &self.constants)
+    }
+
+    /// [`Kinematics::tip_jacobian`] with this model's chain constants (the same
+    /// numbers).
+    pub fn tip_jacobian(&self, joints: &Axes, errors: &ErrorValues) -> [[f64; 5]; 3] {
+        self.kinematics
+            .tip_jacobian_with(joints, errors, &self.constants)
     }
 
     /// [`Self::errors_at`] for a pose approached as `approach` says: each axis
@@ -753,9 +790,22 @@ impl ErrorModel {
         joints: &Axes,
         approach: &Approach,
     ) -> Result<ErrorValues, LookupError> {
-        let mut values = self.errors_at(joints)?;
-        self.add_reversal(&mut values, joints, approach);
+        let mut values = ErrorValues::ZERO;
+        self.errors_toward_into(joints, approach, &mut values)?;
         Ok(values)
+    }
+
+    /// [`Self::errors_toward`] written into `values`.
+    #[inline]
+    pub fn errors_toward_into(
+        &self,
+        joints: &Axes,
+        approach: &Approach,
+        values: &mut ErrorValues,
+    ) -> Result<(), LookupError> {
+        self.errors_at_into(joints, values)?;
+        self.add_reversal(values, joints, approach);
+        Ok(())
     }
 
     /// Add the reversal terms of `approach` at `joints` to `values`.

@@ -114,6 +114,14 @@ impl ResampledAxis {
     /// The six values at `position` (clamped to the range).
     #[inline]
     pub fn eval(&self, position: f64) -> [f64; 6] {
+        let mut out = [0.0; 6];
+        self.eval_into(position, &mut out);
+        out
+    }
+
+    /// [`Self::eval`] written into `out`.
+    #[inline]
+    pub fn eval_into(&self, position: f64, out: &mut [f64; 6]) {
         let s = ((position - self.lo) * self.inv_h).clamp(0.0, self.intervals as f64);
         let i = (s as usize).min(self.intervals - 1);
         let t = s - i as f64;
@@ -124,11 +132,9 @@ impl ResampledAxis {
         let h01 = -2.0 * t3 + 3.0 * t2;
         let h11 = t3 - t2;
         let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
-        let mut out = [0.0; 6];
         for (k, o) in out.iter_mut().enumerate() {
             *o = h00 * a[k] + h10 * a[6 + k] + h01 * b[k] + h11 * b[6 + k];
         }
-        out
     }
 
     /// Intervals of the accepted grid.

@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use volcomp::axes::{Axes, Axis, Joints};
 use volcomp::gcode::Frame;
 use volcomp::kinematics::{
-    ChainAxis, ErrorValues, Geometry, InverseOptions, Kinematics, MachineChain, PARAMETER_COUNT,
-    ParameterLayout, ToolChain,
+    ChainAxis, ChainConstants, ErrorValues, Geometry, InverseOptions, Kinematics, MachineChain,
+    PARAMETER_COUNT, ParameterLayout, ToolChain,
 };
 use volcomp::toolpath::joints_of;
 
@@ -312,6 +312,22 @@ proptest! {
                     prop_assert!((fd - want[row]).abs() < 1e-8, "{name} axis col {col}: {fd} vs {}", want[row]);
                 }
             }
+        }
+    }
+
+    /// The actual tip and axis with a model's precomputed chain constants are
+    /// the general evaluation's numbers, bit for bit (constants made for other
+    /// values are not used), on every public layout.
+    #[test]
+    fn chain_constants_give_the_same_bits_any_chain(v in pose_values(), which in 0usize..3, e in errors(), other in errors()) {
+        let (name, kin) = &public_machines()[which];
+        let j = pose(kin, v);
+        let want = kin.actual_tip_and_axis(&j, &e);
+        let bits = |t: &volcomp::kinematics::TipAndAxis| [t.tip, t.axis].map(|v| v.map(f64::to_bits));
+        for made_for in [&e, &other] {
+            let constants = ChainConstants::new(&kin.chain, made_for);
+            let got = kin.actual_tip_and_axis_with(&j, &e, &constants);
+            prop_assert_eq!(bits(&got), bits(&want), "{}", name);
         }
     }
 

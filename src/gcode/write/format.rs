@@ -1,13 +1,19 @@
 //! Number formatting of the writers: fixed decimals, exactly as `format!`
 //! prints them (a fast path where it provably agrees), no `-0`, and the
 //! value as printed.
+/// Largest scaled value of the fast path (see [`push_fixed`]): 2³².
+const FAST_LIMIT: f64 = 4_294_967_296.0;
+
 /// The fast path of [`push_number`]: integer arithmetic on `value·10^decimals`,
 /// taken only where it prints exactly what `format!("{:.*}")` prints. That is when
-/// the scaled value is below 1e8 (so its rounding error, under 1.5e-8, cannot move
-/// it across a half) and not within 1e-6 of a half (where the exact decimal
-/// expansion of the double decides, which `format!` does and this does not).
-/// The printed value `n / 10^d` is the correctly rounded double of the printed
-/// decimal, as parsing it would give.
+/// the scaled value is below 2³² (so its rounding error, at most half an ulp,
+/// 2⁻²² < 2.4e-7, cannot move it across a half) and not within 1e-6 of a half
+/// (where the exact decimal expansion of the double decides, which `format!` does
+/// and this does not). A wrong floor needs the exact product within 2.4e-7 of an
+/// integer, where both sides round to that integer. The printed value `n / 10^d`
+/// (`n` < 2³², exact) is the correctly rounded double of the printed decimal, as
+/// parsing it would give. (Below 1e8 only, rotary words past 10,000° took the
+/// slow path: a long program's C words.)
 pub(super) fn push_fixed(out: &mut String, value: f64, decimals: u8) -> Option<f64> {
     const POW10: [u64; 10] = [
         1,
@@ -23,7 +29,7 @@ pub(super) fn push_fixed(out: &mut String, value: f64, decimals: u8) -> Option<f
     ];
     let p = *POW10.get(decimals as usize)?;
     let scaled = value.abs() * p as f64;
-    if !(scaled < 1e8) {
+    if !(scaled < FAST_LIMIT) {
         return None;
     }
     let floor = scaled.floor();
@@ -108,6 +114,7 @@ mod fixed_tests {
             value in -20_000.0f64..20_000.0,
             decimals in 0u8..8,
         ) {
+            let value = value * if decimals <= 4 { 20.0 } else { 1.0 };
             let mut fast = String::new();
             let printed = push_number(&mut fast, value, decimals);
             let expected = std_number(value, decimals);
@@ -125,6 +132,9 @@ mod fixed_tests {
             (1.00005, 4),
             (-3.14158, 3),
             (0.0, 4),
+            (200_129.123_45, 4),
+            (-200_129.5, 0),
+            (429_496.729_55, 4),
         ] {
             let mut fast = String::new();
             push_number(&mut fast, v, d);

@@ -364,7 +364,7 @@ impl Rewriter {
                 // this block's correction on top of its own).
                 self.edits.clear();
                 self.text.clear();
-                let o = event.origin;
+                let o = &event.origin;
                 let (emitted, nominal) = (o.to_program(&self.emitted), o.to_program(&event.start));
                 let ctx = Context::new(block, event);
                 for axis in self.options.axes.iter() {
@@ -402,7 +402,7 @@ impl Rewriter {
         // Everything below works in the block's program coordinates (its
         // words' coordinates): targets and positions come in machine
         // coordinates and go back at the end.
-        let origin = event.origin;
+        let origin = &event.origin;
         let mut via_program = std::mem::take(&mut self.via_program);
         via_program.clear();
         via_program.extend(via.iter().map(|v| origin.to_program(v)));
@@ -428,7 +428,7 @@ impl Rewriter {
         end: Axes,
         out: &mut dyn Write,
     ) -> Result<Emitted, RewriteError> {
-        let origin = event.origin;
+        let origin = &event.origin;
         let motion = &Motion {
             start: origin.to_program(&motion.start),
             end: origin.to_program(&motion.end),
@@ -671,7 +671,7 @@ impl Rewriter {
         if !changed {
             return true;
         }
-        let origin = event.origin;
+        let origin = &event.origin;
         let axis = solver.axis_of(&origin.to_machine(&end));
         let mut v = match &origin.frame {
             Some(f) => {
