@@ -127,6 +127,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         ReferenceRefuses,
         "the reference does not read orientation vectors `A3= B3= C3=` (line 10: \"expected a comment (;...), or a statement\"); volcomp turns them into ref-trt's rotary joints on its chain (tests/it/sinumerik.rs checks the closed loop)",
     ),
+    (
+        "orivect-turn.mpf",
+        &["--machine", "machines/ref-trt.toml"],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read orientation vectors `A3= B3= C3=` (line 9); volcomp splits the blocks whose tool turns on a great circle (`ORIVECT`) into pieces on it (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",

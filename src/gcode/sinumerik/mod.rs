@@ -36,6 +36,7 @@
 //!   `docs/dialects.md` as not read are located errors naming the feature.
 //! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
 //!   out into the centre form and handed on flat.
+pub(crate) mod orientation;
 pub(crate) mod syntax;
 pub(crate) mod values;
 
@@ -420,6 +421,9 @@ pub(crate) struct SinumerikFront {
     line_buf: Vec<u8>,
     /// The words buffer of the block handed on before (reused by the next line).
     spare_words: Vec<Word>,
+    /// Flat pieces of the line just handed on, handed on next (a block
+    /// split on the great circle, `orientation`).
+    pending: std::collections::VecDeque<Block>,
 }
 
 impl SinumerikFront {
@@ -501,6 +505,7 @@ impl SinumerikFront {
             text: String::new(),
             line_buf: Vec::new(),
             spare_words: Vec::new(),
+            pending: std::collections::VecDeque::new(),
         }
     }
 
@@ -575,6 +580,18 @@ impl SinumerikFront {
         }
         if self.finished || self.ended || self.returned {
             return None;
+        }
+        if let Some(mut piece) = self.pending.pop_front() {
+            // The next piece of the line just handed on (same line, flat).
+            piece.line = self.block.line;
+            piece.offset = self.block.offset;
+            piece.ending = match self.block.ending {
+                LineEnding::None => LineEnding::Lf,
+                e => e,
+            };
+            self.block = piece;
+            self.executed.literal = false;
+            return Some(Ok(()));
         }
         if !self.motion_set {
             // The 840D sl starts in G0 (its reset G codes: G0 G17 G90 G94 G71).
@@ -669,7 +686,7 @@ impl SinumerikFront {
         if handed {
             self.block.line = k + 1;
             self.block.offset = s as u64;
-            self.block.ending = if first_reading {
+            self.block.ending = if first_reading && self.pending.is_empty() {
                 ending
             } else if ending == LineEnding::None {
                 LineEnding::Lf
@@ -912,8 +929,12 @@ impl SinumerikFront {
                     let w = out.words[k];
                     if out.synthetic.contains(&k) {
                         // A word the front worked out (a CIP/CT/AR= arc's
-                        // G code, centre or end): written as LETTERvalue.
-                        b.raw.push(w.letter);
+                        // G code, centre or end; a split piece's
+                        // orientation): written as LETTERvalue.
+                        match orientation::word_name(w.letter) {
+                            Some(name) => b.raw.extend_from_slice(name.as_bytes()),
+                            None => b.raw.push(w.letter),
+                        }
                         if w.letter == b'G' {
                             b.raw.extend_from_slice(format!("{}", w.value).as_bytes());
                         } else {
@@ -1631,6 +1652,7 @@ impl SinumerikFront {
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
+        let mut turned = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2083,7 +2105,7 @@ impl SinumerikFront {
         }
         self.tool_length(&mut out, tool_edge);
         if orientation.given() {
-            self.orientation_words(line, &orientation, &mut out, interpreter)?;
+            turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
             axis_words = true;
         }
         // The modal CIP / CT: a block with G0–G3 ends it.
@@ -2113,6 +2135,13 @@ impl SinumerikFront {
                 self.arc(line, &arc, &mut out, interpreter, start)?;
             }
             self.last_move = self.move_of(&out, interpreter, start);
+            if let Some(end) = turned
+                && !arc_words
+                && self.great_circle_mode()
+                && self.arc_context(&out, interpreter).2.is_none()
+            {
+                self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
+            }
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -2148,7 +2177,7 @@ impl SinumerikFront {
         o: &Orientation,
         out: &mut Out,
         interpreter: &mut Interpreter,
-    ) -> Result<(), GcodeError> {
+    ) -> Result<orientation::OrientationEnd, GcodeError> {
         let (start, end) = o.span();
         let by_vector = o.vector.iter().any(Option::is_some);
         if by_vector && o.angles.iter().any(Option::is_some) {
@@ -2249,7 +2278,11 @@ impl SinumerikFront {
                 out.words.push(word(letters[k], value, s, e, 4, true, true));
             }
         }
-        Ok(())
+        Ok(orientation::OrientationEnd {
+            joints,
+            axis,
+            at: (start, end),
+        })
     }
 
     /// The tool length compensation: on the 840D sl a tool change (`M6`)
