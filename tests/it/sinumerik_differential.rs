@@ -134,6 +134,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         ReferenceRefuses,
         "the reference does not read orientation vectors `A3= B3= C3=` (line 9); volcomp splits the blocks whose tool turns on a great circle (`ORIVECT`) into pieces on it (tests/it/sinumerik_five_axis.rs checks them by hand)",
     ),
+    (
+        "tilted-arcs.mpf",
+        &[],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `CIP … I1= J1= K1=` (line 15); before it, under `ROT Y30`, volcomp hands the circles of the tilted plane on as chords in that plane (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",

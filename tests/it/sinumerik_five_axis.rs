@@ -191,3 +191,108 @@ fn orivect_split_closed_loop_on_two_machines() {
         .unwrap();
     assert_success(&out);
 }
+
+/// tests/data/sinumerik/tilted-arcs.mpf: under `ROT Y30` a `G3` with a
+/// centre, a `G2` with `CR=` and a `CT` after it (whose tangent comes from
+/// the `CR=` circle's centre), then a `CIP` through three points in the
+/// plane x = z; each is a circle of radius 10 about the workpiece origin.
+/// By hand, every row (`--frame part`) lies 10 mm from the origin, in the
+/// plane `Ry(30°)·XY` (normal (sin 30°, 0, cos 30°)) or x = z, and the
+/// chords stay within 0.5 µm of the circle; the `CT` ends at (0, −10, 0);
+/// the space circle passes (7.071068, 0, 7.071068). Written flat (`G1`
+/// pieces with `; volcomp: line N`), compensated, and read back.
+#[test]
+fn circles_in_a_tilted_plane_and_in_space_are_handed_on_as_chords() {
+    let rows = joint_rows(&[
+        "check",
+        "tests/data/sinumerik/tilted-arcs.mpf",
+        "--frame",
+        "part",
+        "--targets",
+        "-",
+    ]);
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let tilted = [s, 0.0, c];
+    let space = [0.5f64.sqrt(), 0.0, -(0.5f64.sqrt())];
+    let norm = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    for (line, normal) in [(11, tilted), (12, tilted), (13, tilted), (15, space)] {
+        let pts: Vec<[f64; 3]> = rows.iter().filter(|r| r.0 == line).map(|r| r.1).collect();
+        assert!(pts.len() > 70, "line {line}: {}", pts.len());
+        for w in pts.windows(2) {
+            for p in w {
+                assert!((norm(*p) - 10.0).abs() < 2e-6, "line {line}: {p:?}");
+                assert!(dot(*p, normal).abs() < 2e-6, "line {line}: {p:?}");
+            }
+            let mid = [0, 1, 2].map(|k| 0.5 * (w[0][k] + w[1][k]));
+            assert!(10.0 - norm(mid) <= 0.0005 + 2e-6, "line {line}: sagitta");
+        }
+    }
+    let ct_end = rows.iter().filter(|r| r.0 == 13).last().unwrap().1;
+    assert!(
+        norm([ct_end[0], ct_end[1] + 10.0, ct_end[2]]) < 1e-6,
+        "{ct_end:?}"
+    );
+    assert!(
+        rows.iter()
+            .any(|r| r.0 == 15 && norm([r.1[0] - 7.071068, r.1[1], r.1[2] - 7.071068]) < 0.15)
+    );
+    // Flat and compensated, and read back.
+    let dir = tempfile::tempdir().unwrap();
+    let compensated = dir.path().join("c.mpf");
+    let out = volcomp()
+        .args([
+            "compensate",
+            "machines/ref-trt.toml",
+            "tests/data/sinumerik/tilted-arcs.mpf",
+            "-o",
+        ])
+        .arg(&compensated)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&compensated).unwrap();
+    for (n, line) in [
+        ("N60 G1 X", 11),
+        ("N70 G1 X", 12),
+        ("N80 G1 X", 13),
+        ("N100 G1 X", 15),
+    ] {
+        let tag = format!("; volcomp: line {line}");
+        assert!(
+            text.lines().any(|l| l.starts_with(n) && l.ends_with(&tag)),
+            "{n}\n{text}"
+        );
+        assert!(text.lines().filter(|l| l.ends_with(&tag)).count() > 70);
+    }
+    for l in text.lines().filter(|l| !l.starts_with(';')) {
+        assert!(
+            !l.contains("CR=") && !l.contains("CIP") && !l.contains("CT "),
+            "{l}"
+        );
+    }
+    let again = joint_rows(&["check", compensated.to_str().unwrap(), "--targets", "-"]);
+    // (compensate may split a long move where its correction bends.)
+    assert!(again.len() >= rows.len(), "{} {}", again.len(), rows.len());
+}
+
+/// A circle given by `CR=` in a plane whose frame scales it unevenly is
+/// refused, located at its line.
+#[test]
+fn a_circle_under_an_uneven_scale_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s.mpf");
+    std::fs::write(
+        &p,
+        "G0 X0 Y0 Z5\nSCALE X2 Y1\nG1 X10 F100\nG3 X0 Y10 CR=10\nM30\n",
+    )
+    .unwrap();
+    let out = volcomp().arg("check").arg(&p).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("unevenly") && err.contains("s.mpf:4:"),
+        "{err}"
+    );
+}

@@ -36,6 +36,7 @@
 //!   `docs/dialects.md` as not read are located errors naming the feature.
 //! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
 //!   out into the centre form and handed on flat.
+pub(crate) mod circles;
 pub(crate) mod orientation;
 pub(crate) mod syntax;
 pub(crate) mod values;
@@ -424,6 +425,11 @@ pub(crate) struct SinumerikFront {
     /// Flat pieces of the line just handed on, handed on next (a block
     /// split on the great circle, `orientation`).
     pending: std::collections::VecDeque<Block>,
+    /// A circle handed on as chords left the control in `G2`/`G3`: the
+    /// next motion block without a motion word gets it back (`circles`).
+    restore_arc: Option<f64>,
+    /// This line's circle was handed on as chords.
+    chorded: bool,
 }
 
 impl SinumerikFront {
@@ -506,6 +512,8 @@ impl SinumerikFront {
             line_buf: Vec::new(),
             spare_words: Vec::new(),
             pending: std::collections::VecDeque::new(),
+            restore_arc: None,
+            chorded: false,
         }
     }
 
@@ -2122,8 +2130,24 @@ impl SinumerikFront {
             arc.form = self.arc_form;
         }
         let arc_words = arc.form.is_some() || arc.angle.is_some() || arc.turns.is_some();
+        if let Some(g) = self.restore_arc
+            && (axis_words || arc_words || out.words.iter().any(|w| w.letter == b'G'))
+        {
+            // The circle before was handed on as chords (G1): the control
+            // still runs G2/G3 here.
+            self.restore_arc = None;
+            let motion = out
+                .words
+                .iter()
+                .any(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3));
+            if !motion && arc.form.is_none() && axis_words {
+                out.synthetic.push(out.words.len());
+                out.words.push(word(b'G', g, 0, 0, 0, false, false));
+                out.flat = true;
+            }
+        }
+        self.chorded = false;
         if axis_words || arc_words {
-            self.check_arc_frame(line, &out, interpreter)?;
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
@@ -2134,7 +2158,18 @@ impl SinumerikFront {
             if arc_words {
                 self.arc(line, &arc, &mut out, interpreter, start)?;
             }
+            // After `arc`: a CIP/CT circle has its G2/G3 now.
+            let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
             self.last_move = self.move_of(&out, interpreter, start);
+            if self.chorded {
+                // A circle in space (CIP): CT has no tangent in the plane.
+                self.last_move = Some(LastMove {
+                    start,
+                    kind: LastKind::Unknown,
+                });
+            } else if chords {
+                self.circle_as_chords(line, &mut out, interpreter, start)?;
+            }
             if let Some(end) = turned
                 && !arc_words
                 && self.great_circle_mode()
@@ -2420,12 +2455,32 @@ impl SinumerikFront {
                     };
                 }
                 if (end[iw] - start[iw]).abs() > 1e-6 || (inter[iw] - start[iw]).abs() > 1e-6 {
-                    return Err(self.feature(
+                    // A circle in space: chords (`circles`).
+                    if has_radius || has_centre {
+                        return Err(self.refused(
+                            line,
+                            "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    let done = self.space_circle_as_chords(
                         line,
-                        "CIP through points not in a plane parallel to the working plane (a circle in space)",
-                        at.0,
-                        at.1,
-                    ));
+                        out,
+                        interpreter,
+                        [start, inter, end],
+                        incremental,
+                    )?;
+                    if done.is_none() {
+                        return Err(self.refused(
+                            line,
+                            "CIP: the start, the intermediate point (I1 J1 K1) and the end lie on one line: no circle passes through them".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    self.chorded = true;
+                    return Ok(());
                 }
                 let m2 = u(inter);
                 let Some(c) = circumcentre(s2, m2, e2) else {
@@ -2642,7 +2697,7 @@ impl SinumerikFront {
             _ => {
                 return Err(self.feature(
                     line,
-                    "CT after a circle given by CR= or in another plane",
+                    "CT after a circle in space (CIP out of the working plane) or in another plane",
                     at.0,
                     at.1,
                 ));
@@ -2656,10 +2711,29 @@ impl SinumerikFront {
     /// whose centre the block gives (I J K) or the front worked out, the
     /// centre, sense and plane.
     fn move_of(&self, out: &Out, interpreter: &Interpreter, start: [f64; 3]) -> Option<LastMove> {
-        let ([iu, iv, _], plane, sense, _) = self.arc_context(out, interpreter);
+        let ([iu, iv, _], plane, sense, incremental) = self.arc_context(out, interpreter);
         let kind = match sense {
             None => LastKind::Straight,
-            Some(_) if out.words.iter().any(|w| w.letter == b'R') => LastKind::Unknown,
+            Some(cw) if let Some(r) = out.words.iter().rev().find(|w| w.letter == b'R') => {
+                // `CR=`: the centre on the side its sign and the sense give
+                // (*Fundamentals*, "Circular interpolation with radius").
+                let end = circles::block_end(out, start, incremental);
+                let p = |q: [f64; 3]| [q[iu], q[iv], 0.0];
+                match crate::gcode::heidenhain::machine::radius_centre(
+                    p(start),
+                    p(end),
+                    r.value,
+                    cw,
+                ) {
+                    Some(c) => {
+                        let mut centre = start;
+                        centre[iu] = c[0];
+                        centre[iv] = c[1];
+                        LastKind::Arc { centre, cw, plane }
+                    }
+                    None => LastKind::Unknown,
+                }
+            }
             Some(cw) => {
                 let mut centre = start;
                 for k in [iu, iv] {
@@ -2691,10 +2765,10 @@ impl SinumerikFront {
         line: &LineRun,
         out: &Out,
         interpreter: &Interpreter,
-    ) -> Result<(), GcodeError> {
+    ) -> Result<bool, GcodeError> {
         use crate::gcode::machine::modal::MotionMode;
         let Some(f) = interpreter.origin().frame else {
-            return Ok(());
+            return Ok(false);
         };
         let mut arc = matches!(
             interpreter.modal().motion,
@@ -2714,7 +2788,7 @@ impl SinumerikFront {
             }
         }
         if !arc {
-            return Ok(());
+            return Ok(false);
         }
         let n = match plane {
             crate::gcode::Plane::XY => [0.0, 0.0, 1.0],
@@ -2726,21 +2800,24 @@ impl SinumerikFront {
             - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
         let scale = det.cbrt();
-        let mut ok = det > 0.0;
+        let mut similar = true;
         for i in 0..3 {
             for j in 0..3 {
                 let dot: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum::<f64>() / (scale * scale);
-                ok &= (dot - f64::from(u8::from(i == j))).abs() < 1e-9;
+                similar &= (dot - f64::from(u8::from(i == j))).abs() < 1e-9;
             }
         }
         let mn = f.apply_vector(n);
-        ok &= (0..3).all(|k| (mn[k] / scale - n[k]).abs() < 1e-9);
-        if ok {
-            Ok(())
+        let kept = det > 0.0 && (0..3).all(|k| (mn[k] / scale - n[k]).abs() < 1e-9);
+        if similar && kept {
+            Ok(false)
+        } else if similar {
+            // The circle lies in the frame's plane: chords (`circles`).
+            Ok(true)
         } else {
             Err(self.feature(
                 line,
-                "G2/G3 under a frame that turns, mirrors or unevenly scales the arc's plane",
+                "G2/G3 under a frame that scales the arc's plane unevenly",
                 0,
                 line.raw.len(),
             ))
