@@ -121,10 +121,13 @@ impl SinumerikFront {
         points: &[[f64; 3]],
         incremental: bool,
     ) -> Result<(), GcodeError> {
-        if let Some(w) = out.words.iter().find(|w| {
-            Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
-                || crate::gcode::ORIENTATION_VECTOR_LETTERS.contains(&w.letter)
-        }) {
+        let turns_tool = |w: &&crate::gcode::syntax::block::Word| {
+            super::orientation::word_name(w.letter).is_some()
+                || Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
+        };
+        let mut tool_words: Vec<_> = out.words.iter().filter(turns_tool).collect();
+        tool_words.sort_by_key(|w| w.start);
+        if let Some(w) = tool_words.first() {
             return Err(self.feature(
                 line,
                 "a circle in a tilted plane or in space that also turns the tool",
