@@ -296,3 +296,68 @@ fn a_circle_under_an_uneven_scale_is_refused() {
         "{err}"
     );
 }
+
+/// tests/data/sinumerik/cycle800-modes.mpf (`check --frame part`): a
+/// projection angle alone (`_MODE` 185: Xα, Yα, Zβ) gives the plane of the
+/// axis-by-axis rotation about that axis (`_MODE` 57), tip and tool axis;
+/// the solid angle α 90° β 30° (`_MODE` 64) is `Rz(90°)·Ry(30°)`: the
+/// point (10, 5, 2) of the plane at (−5, 9.660254, −3.267949) by hand, the
+/// tool along (0, 1/2, √3/2), on ref-trt.
+#[test]
+fn cycle800_projection_and_solid_angle_modes() {
+    let out = volcomp()
+        .args([
+            "check",
+            "--machine",
+            "machines/ref-trt.toml",
+            "tests/data/sinumerik/cycle800-modes.mpf",
+            "--frame",
+            "part",
+            "--targets",
+            "-",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let rows: Vec<Vec<f64>> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').filter_map(|f| f.parse().ok()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    for (a, b) in [(0, 1), (2, 3)] {
+        for k in 1..rows[a].len() {
+            assert!((rows[a][k] - rows[b][k]).abs() < 1e-9, "{rows:?}");
+        }
+    }
+    let want = [18.0, -5.0, 9.660254, -3.267949, 0.0, 0.5, 0.866025];
+    for (k, w) in want.iter().enumerate() {
+        assert!((rows[4][k] - w).abs() < 2e-6, "{:?}", rows[4]);
+    }
+}
+
+/// Closed loop of a `CYCLE800` 3+2 raster on a plane given by solid angle
+/// (tests/data/sinumerik/plane-solid-angle.mpf) on ref-trt: the tip error
+/// is cut by ≥ 90 %.
+#[test]
+fn cycle800_solid_angle_closed_loop() {
+    let original = read("tests/data/sinumerik/plane-solid-angle.mpf");
+    let rig = ref_trt();
+    let (text, report) = compensate_on(
+        rig,
+        &original,
+        Frame::Joint,
+        CompensateOptions::default().tolerance_um,
+        true,
+    );
+    assert!(report.blocks_changed >= 25, "{}", report.blocks_changed);
+    let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+    eprintln!(
+        "ref-trt/plane-solid-angle.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+        before.max_um, after.max_um, before.rms_um, after.rms_um
+    );
+    assert!(before.max_um > 5.0);
+    assert!(after.max_um <= 0.1 * before.max_um);
+}

@@ -2983,26 +2983,77 @@ impl SinumerikFront {
             };
         }
         let mode = v[3] as i64;
-        if mode & 0xC0 != 0 {
-            return Err(self.feature(
-                line,
-                "CYCLE800 swivel modes other than axis by axis (_MODE bits 6-7)",
-                at.0,
-                at.1,
-            ));
-        }
         let additive = (v[2] as i64) % 10 == 1;
         let mut r = FrameTransform::IDENTITY;
-        for k in 0..3 {
-            let angle = v[7 + k];
-            let m = match (mode >> (2 * k)) & 3 {
-                1 => rpy(angle, 0.0, 0.0),
-                2 => rpy(0.0, angle, 0.0),
-                3 => rpy(0.0, 0.0, angle),
-                _ => continue,
-            };
-            if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
-                r = r.after(&piece);
+        // `_MODE` bits 6-7 (*Job planning* / *Cycles*, CYCLE800 parameters:
+        // "Swivel mode"): 00 axis by axis, 01 solid angle, 10 projection
+        // angle, 11 direct (rotary axis positions).
+        match mode & 0xC0 {
+            0x00 => {
+                for k in 0..3 {
+                    let angle = v[7 + k];
+                    let m = match (mode >> (2 * k)) & 3 {
+                        1 => rpy(angle, 0.0, 0.0),
+                        2 => rpy(0.0, angle, 0.0),
+                        3 => rpy(0.0, 0.0, angle),
+                        _ => continue,
+                    };
+                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                        r = r.after(&piece);
+                    }
+                }
+            }
+            0x40 => {
+                // Solid angle: about Z by α (`_A`, in the XY plane), then
+                // about the turned Y by β (`_B`): the tool axis
+                // (sin β cos α, sin β sin α, cos β).
+                if v[9] != 0.0 {
+                    return Err(self.feature(
+                        line,
+                        "CYCLE800 by solid angle with a third angle (_C)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                for m in [rpy(0.0, 0.0, v[7]), rpy(0.0, v[8], 0.0)] {
+                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                        r = r.after(&piece);
+                    }
+                }
+            }
+            0x80 => {
+                // Projection angles Xα (`_A`), Yα (`_B`), then Zβ (`_C`)
+                // about the new Z: the new X lies in the old ZX plane, as
+                // Klartext's `PLANE PROJECTED` (its PROMIN, PROPR, ROT).
+                if mode & 0x3F != 57 {
+                    return Err(self.feature(
+                        line,
+                        "CYCLE800 projection angles other than Xα Yα Zβ (_MODE bits 0-5 = 57)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let Some(m) = crate::gcode::heidenhain::geometry::projected(v[8], v[7], v[9])
+                else {
+                    return Err(self.refused(
+                        line,
+                        "CYCLE800 projection angles of ±90°: the plane's traces are not defined"
+                            .into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                    r = piece;
+                }
+            }
+            _ => {
+                return Err(self.feature(
+                    line,
+                    "CYCLE800 direct mode (the plane from rotary axis positions, _MODE bits 6-7 = 11)",
+                    at.0,
+                    at.1,
+                ));
             }
         }
         let shift = |t: [f64; 3]| FrameTransform {
