@@ -228,7 +228,7 @@ fn circles_in_a_tilted_plane_and_in_space_are_handed_on_as_chords() {
             assert!(10.0 - norm(mid) <= 0.0005 + 2e-6, "line {line}: sagitta");
         }
     }
-    let ct_end = rows.iter().filter(|r| r.0 == 13).last().unwrap().1;
+    let ct_end = rows.iter().rfind(|r| r.0 == 13).unwrap().1;
     assert!(
         norm([ct_end[0], ct_end[1] + 10.0, ct_end[2]]) < 1e-6,
         "{ct_end:?}"
