@@ -288,9 +288,9 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
 mod tests {
     use super::*;
 
-    /// The circle through (10, 0, 0), (0, 10, 0)·cos45… in space: the
-    /// quarter points of a circle of radius 10 about (1, 2, 3) in the
-    /// plane x = y tilted: found again.
+    /// Three points (at 0°, 90° and 200°) of a circle of radius 10 about
+    /// (1, 2, 3) in a tilted plane: its centre and normal are found again;
+    /// the points the other way round flip the normal.
     #[test]
     fn the_circle_through_three_points_in_space() {
         let c = [1.0, 2.0, 3.0];
