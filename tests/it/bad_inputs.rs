@@ -375,6 +375,30 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "SINUMERIK program",
+            "a tool turned by 180° in one block under `ORIVECT` (no great circle)",
+            vec![(
+                "bad.mpf",
+                text("TRAORI\nG1 X0 Y0 Z10 A3=0 B3=1 C3=0 F100\nG1 X1 A3=0 B3=-1 C3=0\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["turns by 180° in one block", "{d}/bad.mpf:3:7"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a circle in a tilted plane (`ROT Y30`) that also turns the tool",
+            vec![(
+                "bad.mpf",
+                text(
+                    "TRAORI\nROT Y30\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\nG3 X0 Y10 I-10 J0 A3=0 B3=0.1 C3=1\nM30\n",
+                ),
+            )],
+            SINUMERIK,
+            1,
+            &["also turns the tool", "{d}/bad.mpf:4:19"],
+        ),
+        case(
+            "SINUMERIK program",
             "a circle of opening angle 0 (`AR=0`)",
             vec![("bad.mpf", text("G0 X0 Y0 Z10\nG2 X10 Y0 AR=0 F100\nM30\n"))],
             SINUMERIK,

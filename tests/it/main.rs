@@ -37,6 +37,7 @@ mod safety;
 mod sample;
 mod sinumerik;
 mod sinumerik_differential;
+mod sinumerik_five_axis;
 mod support;
 mod toolpath;
 mod tools;

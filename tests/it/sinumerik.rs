@@ -287,11 +287,13 @@ fn traori_vector_closed_loop_on_two_machines() {
             "{name}: {}",
             report.blocks_changed
         );
-        for (o, c) in original
-            .lines()
-            .filter(|l| l.contains("A3="))
-            .zip(text.lines().filter(|l| l.contains("A3=")))
-        {
+        // A block whose tool turns too far for the linear joints to follow
+        // the great circle is written as its flat pieces (`; volcomp: line
+        // N`, tests/it/sinumerik_five_axis.rs); the others keep their place.
+        for (o, c) in original.lines().filter(|l| l.contains("A3=")).zip(
+            text.lines()
+                .filter(|l| l.contains("A3=") && (l.starts_with('N') || !l.contains("; volcomp:"))),
+        ) {
             assert_eq!(o.split(' ').next(), c.split(' ').next(), "{name}: {c}");
             assert!(
                 c.contains(" B3=")

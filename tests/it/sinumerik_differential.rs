@@ -145,6 +145,34 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         ReferenceRefuses,
         "the reference does not read section repeats `REPEAT label [label2] P=n` (it takes `REPEAT` for the opener of `REPEAT … UNTIL`: \"REPEAT is never closed\" at line 15), nor runs calls (`STEPDOWN` with `VAR` parameters), tools by name or `G505`–`G599`; volcomp's reading is checked by hand, move for move, in tests/it/sinumerik.rs",
     ),
+    (
+        "orivect-turn.mpf",
+        &["--machine", "machines/ref-trt.toml"],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read orientation vectors `A3= B3= C3=` (line 9); volcomp splits the blocks whose tool turns on a great circle (`ORIVECT`) into pieces on it (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
+    (
+        "tilted-arcs.mpf",
+        &[],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `CIP … I1= J1= K1=` (line 15); before it, under `ROT Y30`, volcomp hands the circles of the tilted plane on as chords in that plane (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
+    (
+        "cycle800-modes.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "read here without `--machine`: volcomp solves `CYCLE800` on the machine's chain and refuses it without one (line 9); the reference passes `CYCLE800` over (as for plane-3plus2.mpf). tests/it/sinumerik_five_axis.rs checks the projection and solid-angle planes by hand",
+    ),
+    (
+        "plane-solid-angle.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "as cycle800-modes.mpf: `CYCLE800` (solid angle) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",

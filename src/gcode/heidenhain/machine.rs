@@ -2180,7 +2180,7 @@ fn plane_normal_letter(plane: Plane) -> &'static str {
 
 /// The centre of a `CR` arc: radius `r` (R+ the short way, R− the long
 /// way, TNC 640 "Circular path CR"), `clockwise` for DR−.
-fn radius_centre(s: [f64; 3], e: [f64; 3], r: f64, clockwise: bool) -> Option<[f64; 2]> {
+pub(crate) fn radius_centre(s: [f64; 3], e: [f64; 3], r: f64, clockwise: bool) -> Option<[f64; 2]> {
     let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
     let chord = dx.hypot(dy);
     let ra = r.abs();

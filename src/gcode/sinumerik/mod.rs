@@ -36,6 +36,8 @@
 //!   `docs/dialects.md` as not read are located errors naming the feature.
 //! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
 //!   out into the centre form and handed on flat.
+pub(crate) mod circles;
+pub(crate) mod orientation;
 pub(crate) mod syntax;
 pub(crate) mod values;
 
@@ -465,6 +467,14 @@ pub(crate) struct SinumerikFront {
     spare_words: Vec<Word>,
     /// The words of a plain line (reused).
     plain: Vec<syntax::PlainWord>,
+    /// Flat pieces of the line just handed on, handed on next (a block
+    /// split on the great circle, `orientation`).
+    pending: std::collections::VecDeque<Block>,
+    /// A circle handed on as chords left the control in `G2`/`G3`: the
+    /// next motion block without a motion word gets it back (`circles`).
+    restore_arc: Option<f64>,
+    /// This line's circle was handed on as chords.
+    chorded: bool,
 }
 
 impl SinumerikFront {
@@ -550,6 +560,9 @@ impl SinumerikFront {
             line_buf: Vec::new(),
             spare_words: Vec::new(),
             plain: Vec::new(),
+            pending: std::collections::VecDeque::new(),
+            restore_arc: None,
+            chorded: false,
         }
     }
 
@@ -624,6 +637,18 @@ impl SinumerikFront {
         }
         if self.finished || self.ended || self.returned {
             return None;
+        }
+        if let Some(mut piece) = self.pending.pop_front() {
+            // The next piece of the line just handed on (same line, flat).
+            piece.line = self.block.line;
+            piece.offset = self.block.offset;
+            piece.ending = match self.block.ending {
+                LineEnding::None => LineEnding::Lf,
+                e => e,
+            };
+            self.block = piece;
+            self.executed.literal = false;
+            return Some(Ok(()));
         }
         if !self.motion_set {
             // The 840D sl starts in G0 (its reset G codes: G0 G17 G90 G94 G71).
@@ -735,7 +760,7 @@ impl SinumerikFront {
         if handed {
             self.block.line = k + 1;
             self.block.offset = s as u64;
-            self.block.ending = if first_reading {
+            self.block.ending = if first_reading && self.pending.is_empty() {
                 ending
             } else if ending == LineEnding::None {
                 LineEnding::Lf
@@ -1041,8 +1066,12 @@ impl SinumerikFront {
                     let w = out.words[k];
                     if out.synthetic.contains(&k) {
                         // A word the front worked out (a CIP/CT/AR= arc's
-                        // G code, centre or end): written as LETTERvalue.
-                        b.raw.push(w.letter);
+                        // G code, centre or end; a split piece's
+                        // orientation): written as LETTERvalue.
+                        match orientation::word_name(w.letter) {
+                            Some(name) => b.raw.extend_from_slice(name.as_bytes()),
+                            None => b.raw.push(w.letter),
+                        }
                         if w.letter == b'G' {
                             b.raw.extend_from_slice(format!("{}", w.value).as_bytes());
                         } else {
@@ -1988,6 +2017,7 @@ impl SinumerikFront {
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
+        let mut turned = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2479,7 +2509,7 @@ impl SinumerikFront {
         }
         self.tool_length(&mut out, tool_edge);
         if orientation.given() {
-            self.orientation_words(line, &orientation, &mut out, interpreter)?;
+            turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
             axis_words = true;
         }
         // The modal CIP / CT: a block with G0–G3 ends it.
@@ -2496,8 +2526,24 @@ impl SinumerikFront {
             arc.form = self.arc_form;
         }
         let arc_words = arc.form.is_some() || arc.angle.is_some() || arc.turns.is_some();
+        if let Some(g) = self.restore_arc
+            && (axis_words || arc_words || out.words.iter().any(|w| w.letter == b'G'))
+        {
+            // The circle before was handed on as chords (G1): the control
+            // still runs G2/G3 here.
+            self.restore_arc = None;
+            let motion = out
+                .words
+                .iter()
+                .any(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3));
+            if !motion && arc.form.is_none() && axis_words {
+                out.synthetic.push(out.words.len());
+                out.words.push(word(b'G', g, 0, 0, 0, false, false));
+                out.flat = true;
+            }
+        }
+        self.chorded = false;
         if axis_words || arc_words {
-            self.check_arc_frame(line, &out, interpreter)?;
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
@@ -2508,7 +2554,25 @@ impl SinumerikFront {
             if arc_words {
                 self.arc(line, &arc, &mut out, interpreter, start)?;
             }
+            // After `arc`: a CIP/CT circle has its G2/G3 now.
+            let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
             self.last_move = self.move_of(&out, interpreter, start);
+            if self.chorded {
+                // A circle in space (CIP): CT has no tangent in the plane.
+                self.last_move = Some(LastMove {
+                    start,
+                    kind: LastKind::Unknown,
+                });
+            } else if chords {
+                self.circle_as_chords(line, &mut out, interpreter, start)?;
+            }
+            if let Some(end) = turned
+                && !arc_words
+                && self.great_circle_mode()
+                && self.arc_context(&out, interpreter).2.is_none()
+            {
+                self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
+            }
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -2544,7 +2608,7 @@ impl SinumerikFront {
         o: &Orientation,
         out: &mut Out,
         interpreter: &mut Interpreter,
-    ) -> Result<(), GcodeError> {
+    ) -> Result<orientation::OrientationEnd, GcodeError> {
         let (start, end) = o.span();
         let by_vector = o.vector.iter().any(Option::is_some);
         if by_vector && o.angles.iter().any(Option::is_some) {
@@ -2645,7 +2709,11 @@ impl SinumerikFront {
                 out.words.push(word(letters[k], value, s, e, 4, true, true));
             }
         }
-        Ok(())
+        Ok(orientation::OrientationEnd {
+            joints,
+            axis,
+            at: (start, end),
+        })
     }
 
     /// `T="name"`: the tool managed by name (*Fundamentals*, "Tool change",
@@ -2822,12 +2890,32 @@ impl SinumerikFront {
                     };
                 }
                 if (end[iw] - start[iw]).abs() > 1e-6 || (inter[iw] - start[iw]).abs() > 1e-6 {
-                    return Err(self.feature(
+                    // A circle in space: chords (`circles`).
+                    if has_radius || has_centre {
+                        return Err(self.refused(
+                            line,
+                            "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    let done = self.space_circle_as_chords(
                         line,
-                        "CIP through points not in a plane parallel to the working plane (a circle in space)",
-                        at.0,
-                        at.1,
-                    ));
+                        out,
+                        interpreter,
+                        [start, inter, end],
+                        incremental,
+                    )?;
+                    if done.is_none() {
+                        return Err(self.refused(
+                            line,
+                            "CIP: the start, the intermediate point (I1 J1 K1) and the end lie on one line: no circle passes through them".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    self.chorded = true;
+                    return Ok(());
                 }
                 let m2 = u(inter);
                 let Some(c) = circumcentre(s2, m2, e2) else {
@@ -3044,7 +3132,7 @@ impl SinumerikFront {
             _ => {
                 return Err(self.feature(
                     line,
-                    "CT after a circle given by CR= or in another plane",
+                    "CT after a circle in space (CIP out of the working plane) or in another plane",
                     at.0,
                     at.1,
                 ));
@@ -3058,10 +3146,29 @@ impl SinumerikFront {
     /// whose centre the block gives (I J K) or the front worked out, the
     /// centre, sense and plane.
     fn move_of(&self, out: &Out, interpreter: &Interpreter, start: [f64; 3]) -> Option<LastMove> {
-        let ([iu, iv, _], plane, sense, _) = self.arc_context(out, interpreter);
+        let ([iu, iv, _], plane, sense, incremental) = self.arc_context(out, interpreter);
         let kind = match sense {
             None => LastKind::Straight,
-            Some(_) if out.words.iter().any(|w| w.letter == b'R') => LastKind::Unknown,
+            Some(cw) if let Some(r) = out.words.iter().rev().find(|w| w.letter == b'R') => {
+                // `CR=`: the centre on the side its sign and the sense give
+                // (*Fundamentals*, "Circular interpolation with radius").
+                let end = circles::block_end(out, start, incremental);
+                let p = |q: [f64; 3]| [q[iu], q[iv], 0.0];
+                match crate::gcode::heidenhain::machine::radius_centre(
+                    p(start),
+                    p(end),
+                    r.value,
+                    cw,
+                ) {
+                    Some(c) => {
+                        let mut centre = start;
+                        centre[iu] = c[0];
+                        centre[iv] = c[1];
+                        LastKind::Arc { centre, cw, plane }
+                    }
+                    None => LastKind::Unknown,
+                }
+            }
             Some(cw) => {
                 let mut centre = start;
                 for k in [iu, iv] {
@@ -3093,10 +3200,10 @@ impl SinumerikFront {
         line: &LineRun,
         out: &Out,
         interpreter: &Interpreter,
-    ) -> Result<(), GcodeError> {
+    ) -> Result<bool, GcodeError> {
         use crate::gcode::machine::modal::MotionMode;
         let Some(f) = interpreter.origin().frame else {
-            return Ok(());
+            return Ok(false);
         };
         let mut arc = matches!(
             interpreter.modal().motion,
@@ -3116,7 +3223,7 @@ impl SinumerikFront {
             }
         }
         if !arc {
-            return Ok(());
+            return Ok(false);
         }
         let n = match plane {
             crate::gcode::Plane::XY => [0.0, 0.0, 1.0],
@@ -3128,21 +3235,24 @@ impl SinumerikFront {
             - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
         let scale = det.cbrt();
-        let mut ok = det > 0.0;
+        let mut similar = true;
         for i in 0..3 {
             for j in 0..3 {
                 let dot: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum::<f64>() / (scale * scale);
-                ok &= (dot - f64::from(u8::from(i == j))).abs() < 1e-9;
+                similar &= (dot - f64::from(u8::from(i == j))).abs() < 1e-9;
             }
         }
         let mn = f.apply_vector(n);
-        ok &= (0..3).all(|k| (mn[k] / scale - n[k]).abs() < 1e-9);
-        if ok {
-            Ok(())
+        let kept = det > 0.0 && (0..3).all(|k| (mn[k] / scale - n[k]).abs() < 1e-9);
+        if similar && kept {
+            Ok(false)
+        } else if similar {
+            // The circle lies in the frame's plane: chords (`circles`).
+            Ok(true)
         } else {
             Err(self.feature(
                 line,
-                "G2/G3 under a frame that turns, mirrors or unevenly scales the arc's plane",
+                "G2/G3 under a frame that scales the arc's plane unevenly",
                 0,
                 line.raw.len(),
             ))
@@ -3308,26 +3418,77 @@ impl SinumerikFront {
             };
         }
         let mode = v[3] as i64;
-        if mode & 0xC0 != 0 {
-            return Err(self.feature(
-                line,
-                "CYCLE800 swivel modes other than axis by axis (_MODE bits 6-7)",
-                at.0,
-                at.1,
-            ));
-        }
         let additive = (v[2] as i64) % 10 == 1;
         let mut r = FrameTransform::IDENTITY;
-        for k in 0..3 {
-            let angle = v[7 + k];
-            let m = match (mode >> (2 * k)) & 3 {
-                1 => rpy(angle, 0.0, 0.0),
-                2 => rpy(0.0, angle, 0.0),
-                3 => rpy(0.0, 0.0, angle),
-                _ => continue,
-            };
-            if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
-                r = r.after(&piece);
+        // `_MODE` bits 6-7 (*Job planning* / *Cycles*, CYCLE800 parameters:
+        // "Swivel mode"): 00 axis by axis, 01 solid angle, 10 projection
+        // angle, 11 direct (rotary axis positions).
+        match mode & 0xC0 {
+            0x00 => {
+                for k in 0..3 {
+                    let angle = v[7 + k];
+                    let m = match (mode >> (2 * k)) & 3 {
+                        1 => rpy(angle, 0.0, 0.0),
+                        2 => rpy(0.0, angle, 0.0),
+                        3 => rpy(0.0, 0.0, angle),
+                        _ => continue,
+                    };
+                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                        r = r.after(&piece);
+                    }
+                }
+            }
+            0x40 => {
+                // Solid angle: about Z by α (`_A`, in the XY plane), then
+                // about the turned Y by β (`_B`): the tool axis
+                // (sin β cos α, sin β sin α, cos β).
+                if v[9] != 0.0 {
+                    return Err(self.feature(
+                        line,
+                        "CYCLE800 by solid angle with a third angle (_C)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                for m in [rpy(0.0, 0.0, v[7]), rpy(0.0, v[8], 0.0)] {
+                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                        r = r.after(&piece);
+                    }
+                }
+            }
+            0x80 => {
+                // Projection angles Xα (`_A`), Yα (`_B`), then Zβ (`_C`)
+                // about the new Z: the new X lies in the old ZX plane, as
+                // Klartext's `PLANE PROJECTED` (its PROMIN, PROPR, ROT).
+                if mode & 0x3F != 57 {
+                    return Err(self.feature(
+                        line,
+                        "CYCLE800 projection angles other than Xα Yα Zβ (_MODE bits 0-5 = 57)",
+                        at.0,
+                        at.1,
+                    ));
+                }
+                let Some(m) = crate::gcode::heidenhain::geometry::projected(v[8], v[7], v[9])
+                else {
+                    return Err(self.refused(
+                        line,
+                        "CYCLE800 projection angles of ±90°: the plane's traces are not defined"
+                            .into(),
+                        at.0,
+                        at.1,
+                    ));
+                };
+                if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
+                    r = piece;
+                }
+            }
+            _ => {
+                return Err(self.feature(
+                    line,
+                    "CYCLE800 direct mode (the plane from rotary axis positions, _MODE bits 6-7 = 11)",
+                    at.0,
+                    at.1,
+                ));
             }
         }
         let shift = |t: [f64; 3]| FrameTransform {

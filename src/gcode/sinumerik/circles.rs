@@ -1,0 +1,314 @@
+//! Circles the seam cannot carry as one arc (*Fundamentals*, "Circular
+//! interpolation"; "Frames"): a circle in the working plane of a frame that
+//! tilts it out of G17/G18/G19 (`ROT`/`AROT` about an axis in the plane, a
+//! `CYCLE800` plane, a `MIRROR`), which the control runs in that plane, and
+//! a `CIP` circle through three points that are not in a plane parallel to
+//! the working plane (a circle in space). The machine-state layer's arcs lie
+//! in its G17/G18/G19 planes, so these are handed on as chords within
+//! [`CHORD_TOLERANCE_MM`] (0.5 µm, the Heidenhain front's tolerance for its
+//! tilted-plane arcs, with its chord code
+//! [`crate::gcode::heidenhain::geometry::arc_chords`]), as flat `G1` pieces
+//! in program coordinates: the block itself becomes the first (its other
+//! words with it), the others follow it, `; volcomp: line N` each.
+use crate::axes::Axis;
+use crate::gcode::error::GcodeError;
+use crate::gcode::heidenhain::geometry::{arc_chords, cross, dot};
+use crate::gcode::heidenhain::machine::{CHORD_TOLERANCE_MM, radius_centre};
+use crate::gcode::machine::interpret::Interpreter;
+
+use super::{LineRun, Out, SinumerikFront, word};
+
+impl SinumerikFront {
+    /// The circle of this block (centre form after `arc`: `G2`/`G3` with
+    /// `I J K` increments from `start` or `CR=`, `P` for `TURN=`), in the
+    /// working plane of the program coordinates, as chords.
+    pub(super) fn circle_as_chords(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        start: [f64; 3],
+    ) -> Result<(), GcodeError> {
+        let ([iu, iv, iw], _, sense, incremental) = self.arc_context(out, interpreter);
+        let Some(cw) = sense else {
+            return Ok(());
+        };
+        let end = block_end(out, start, incremental);
+        let find = |letter: u8| out.words.iter().rev().find(|w| w.letter == letter);
+        let s = [start[iu], start[iv], start[iw]];
+        let e = [end[iu], end[iv], end[iw]];
+        let centre = match find(b'R') {
+            Some(r) => radius_centre(s, e, r.value, cw).ok_or_else(|| {
+                self.refused(
+                    line,
+                    format!(
+                        "CR={}: no circle of that radius joins the start and the end",
+                        r.value
+                    ),
+                    r.start,
+                    r.end,
+                )
+            })?,
+            None => {
+                let c = |k: usize| find(b"IJK"[k]).map_or(0.0, |w| w.value);
+                [s[0] + c(iu), s[1] + c(iv)]
+            }
+        };
+        let turns = find(b'P').map_or(0, |w| (w.value - 1.0).max(0.0) as u32);
+        let points: Vec<[f64; 3]> = arc_chords(centre, s, e, cw, turns, CHORD_TOLERANCE_MM)
+            .into_iter()
+            .map(|p| {
+                let mut q = [0.0; 3];
+                q[iu] = p[0];
+                q[iv] = p[1];
+                q[iw] = p[2];
+                q
+            })
+            .collect();
+        self.hand_on_chords(line, out, interpreter, start, &points, incremental)
+    }
+
+    /// `CIP` through `start`, `inter` and `end` (program coordinates) not in
+    /// a plane parallel to the working plane: the circle through the three
+    /// points, from the start through the intermediate point to the end,
+    /// as chords. `None` when the points lie on one line.
+    pub(super) fn space_circle_as_chords(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        [start, inter, end]: [[f64; 3]; 3],
+        incremental: bool,
+    ) -> Result<Option<()>, GcodeError> {
+        let Some((centre, normal)) = space_circle(start, inter, end) else {
+            return Ok(None);
+        };
+        // A right-handed frame (e1, e2, normal) about the centre: the
+        // circle runs counter-clockwise in it.
+        let e1 = unit(sub(start, centre));
+        let e2 = cross(normal, e1);
+        let local = |p: [f64; 3]| {
+            let d = sub(p, centre);
+            [dot(d, e1), dot(d, e2), dot(d, normal)]
+        };
+        let points: Vec<[f64; 3]> = arc_chords(
+            [0.0, 0.0],
+            local(start),
+            local(end),
+            false,
+            0,
+            CHORD_TOLERANCE_MM,
+        )
+        .into_iter()
+        .map(|p| [0, 1, 2].map(|k| centre[k] + p[0] * e1[k] + p[1] * e2[k] + p[2] * normal[k]))
+        .collect();
+        self.hand_on_chords(line, out, interpreter, start, &points, incremental)?;
+        Ok(Some(()))
+    }
+
+    /// Hand the block on as straight pieces through `points` (program
+    /// coordinates, the last the block's end): the block itself, its circle
+    /// words dropped and `G1` in place of its circle, ends at the first; the
+    /// others are queued flat. A circle given by `G2`/`G3` stays the modal
+    /// motion for the blocks after it (the next motion block without a
+    /// motion word gets it back, flat).
+    fn hand_on_chords(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        start: [f64; 3],
+        points: &[[f64; 3]],
+        incremental: bool,
+    ) -> Result<(), GcodeError> {
+        let turns_tool = |w: &&crate::gcode::syntax::block::Word| {
+            super::orientation::word_name(w.letter).is_some()
+                || Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
+        };
+        let mut tool_words: Vec<_> = out.words.iter().filter(turns_tool).collect();
+        tool_words.sort_by_key(|w| w.start);
+        if let Some(w) = tool_words.first() {
+            return Err(self.feature(
+                line,
+                "a circle in a tilted plane or in space that also turns the tool",
+                w.start,
+                w.end.max(w.start + 1).min(line.raw.len()),
+            ));
+        }
+        let Some(&first) = points.first() else {
+            return Ok(());
+        };
+        let moved: Vec<bool> = (0..3)
+            .map(|k| points.iter().any(|p| (p[k] - start[k]).abs() > 1e-12))
+            .collect();
+        let delta = |now: f64, before: f64| if incremental { now - before } else { now };
+        let mut previous = first;
+        for p in &points[1..] {
+            let mut piece = Out::new(0);
+            piece.flat = true;
+            for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+                if moved[k] {
+                    piece.synthetic.push(piece.words.len());
+                    piece
+                        .words
+                        .push(word(letter, delta(p[k], previous[k]), 0, 0, 4, true, false));
+                }
+            }
+            previous = *p;
+            if self.hand_on(line, piece, line.raw, false)? {
+                self.pending.push_back(std::mem::take(&mut self.block));
+            }
+        }
+        // The block: its circle's words go, G1 to the first point.
+        let modal_arc = matches!(
+            interpreter.modal().motion,
+            crate::gcode::machine::modal::MotionMode::ArcCw
+                | crate::gcode::machine::modal::MotionMode::ArcCcw
+        );
+        let mut arc_code = modal_arc.then(|| {
+            if interpreter.modal().motion == crate::gcode::machine::modal::MotionMode::ArcCw {
+                2.0
+            } else {
+                3.0
+            }
+        });
+        let mut has_motion = false;
+        for (i, w) in out.words.iter_mut().enumerate() {
+            if w.letter == b'G' && matches!(w.value as i64, 2 | 3) && w.value.fract() == 0.0 {
+                if !out.synthetic.contains(&i) {
+                    arc_code = Some(w.value);
+                }
+                w.value = 1.0;
+                out.substituted.push(i);
+                has_motion = true;
+            } else if w.letter == b'G' && matches!(w.value as i64, 0 | 1) {
+                has_motion = true;
+            }
+        }
+        retain_words(out, |w| {
+            !matches!(w.letter, b'I' | b'J' | b'K' | b'R' | b'P')
+        });
+        let anchor = out.words.iter().map(|w| w.end).max().unwrap_or(0);
+        for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            let value = delta(first[k], start[k]);
+            match out.words.iter().rposition(|w| w.letter == letter) {
+                Some(i) => {
+                    out.words[i].value = value;
+                    out.substituted.push(i);
+                }
+                None if moved[k] => {
+                    out.synthetic.push(out.words.len());
+                    out.words
+                        .push(word(letter, value, anchor, anchor, 4, true, false));
+                }
+                None => {}
+            }
+        }
+        if !has_motion {
+            out.synthetic.push(out.words.len());
+            out.words.push(word(b'G', 1.0, 0, 0, 0, false, false));
+        }
+        // The control's modal motion after the block is still the circle
+        // (`CIP`/`CT` stay modal in the front itself).
+        self.restore_arc = if self.arc_form.is_none() {
+            arc_code
+        } else {
+            None
+        };
+        out.flat = true;
+        Ok(())
+    }
+}
+
+/// The block's end in program coordinates: its X Y Z words (absolute, or
+/// increments from `start`), `start` where it has none.
+pub(super) fn block_end(out: &Out, start: [f64; 3], incremental: bool) -> [f64; 3] {
+    let mut end = start;
+    for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+        if let Some(w) = out.words.iter().rev().find(|w| w.letter == letter) {
+            end[k] = if incremental {
+                start[k] + w.value
+            } else {
+                w.value
+            };
+        }
+    }
+    end
+}
+
+/// Keep the words `keep` says, the index lists following them.
+fn retain_words(out: &mut Out, keep: impl Fn(&crate::gcode::syntax::block::Word) -> bool) {
+    let mut at = vec![None; out.words.len()];
+    let mut n = 0;
+    for (i, w) in out.words.iter().enumerate() {
+        if keep(w) {
+            at[i] = Some(n);
+            n += 1;
+        }
+    }
+    out.words.retain(|w| keep(w));
+    for list in [
+        &mut out.absolute,
+        &mut out.relative,
+        &mut out.substituted,
+        &mut out.synthetic,
+    ] {
+        *list = list.iter().filter_map(|&i| at[i]).collect();
+    }
+}
+
+/// The centre of the circle through `a`, `b`, `c` and its unit normal, the
+/// circle running counter-clockwise about it from `a` through `b` to `c`;
+/// `None` when the points lie on one line.
+pub(crate) fn space_circle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
+    let (ab, ac) = (sub(b, a), sub(c, a));
+    let n = cross(ab, ac);
+    let nn = dot(n, n);
+    let size = dot(ab, ab).max(dot(ac, ac));
+    if !(nn > 1e-18 * size * size) || size < 1e-18 {
+        return None;
+    }
+    // a + (|ac|² (n × ab) + |ab|² (ac × n)) / (2 |n|²)
+    let (u, v) = (cross(n, ab), cross(ac, n));
+    let (lab, lac) = (dot(ab, ab), dot(ac, ac));
+    let centre = [0, 1, 2].map(|k| a[k] + (lac * u[k] + lab * v[k]) / (2.0 * nn));
+    Some((centre, unit(n)))
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = dot(v, v).sqrt();
+    v.map(|c| c / n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three points (at 0°, 90° and 200°) of a circle of radius 10 about
+    /// (1, 2, 3) in a tilted plane: its centre and normal are found again;
+    /// the points the other way round flip the normal.
+    #[test]
+    fn the_circle_through_three_points_in_space() {
+        let c = [1.0, 2.0, 3.0];
+        let r2 = 0.5f64.sqrt();
+        let (e1, e2) = ([r2, -r2, 0.0], [0.5, 0.5, r2]);
+        let at = |deg: f64| {
+            let (s, co) = deg.to_radians().sin_cos();
+            [0, 1, 2].map(|k| c[k] + 10.0 * (co * e1[k] + s * e2[k]))
+        };
+        let (centre, n) = space_circle(at(0.0), at(90.0), at(200.0)).unwrap();
+        let want_n = cross(e1, e2);
+        for k in 0..3 {
+            assert!((centre[k] - c[k]).abs() < 1e-9, "{centre:?}");
+            assert!((n[k] - want_n[k]).abs() < 1e-9, "{n:?}");
+        }
+        // The other way round: the normal flips.
+        let (_, back) = space_circle(at(200.0), at(90.0), at(0.0)).unwrap();
+        assert!((back[2] + want_n[2]).abs() < 1e-9);
+        assert!(space_circle(at(0.0), at(0.0), at(90.0)).is_none());
+    }
+}
