@@ -500,6 +500,50 @@ fn closed_loop_plane_turn_and_cycl19_arcs_on_two_machines() {
     insta::assert_snapshot!("heidenhain_closed_loop_tilted", summary);
 }
 
+/// Rotary-axis correction in 3+2 (issue 35; dialects.md "Writing back":
+/// under a tilted plane the tip is corrected, and the tool axis where the
+/// program commands the rotary axes itself): after `PLANE … STAY` and
+/// `CYCL DEF 19` the program turns the axes with `L B+Q121 C+Q122`; that
+/// block is corrected in tip and tool axis (its `Q` words written as
+/// numbers), and the blocks the plane then holds run at those corrected
+/// axes. On two machines the replayed tip error and the tool-axis error at
+/// the cutting block ends are cut by ≥ 90 %.
+#[test]
+fn closed_loop_stay_rotary_block_corrects_the_tool_axis() {
+    let file = "tests/data/heidenhain/plane-stay-rotary-block.h";
+    let mut summary = closed_loop_rows(&[("head-table", file), ("bc-trt", file)]);
+    let original = std::fs::read_to_string(root().join(file)).unwrap();
+    for machine in ["head-table", "bc-trt"] {
+        let rig = rig(machine);
+        // Block ends only (no split pieces), so that blocks pair by line.
+        let (text, _) = compensate_on(rig, &original, Frame::Joint, 1e3, true);
+        assert_eq!(text.lines().count(), original.lines().count());
+        let rotary_block = text.lines().nth(11).unwrap();
+        assert!(
+            rotary_block.starts_with("11 L X") && rotary_block.contains(" B-39.99"),
+            "{rotary_block}"
+        );
+        assert!(!rotary_block.contains('Q'), "{rotary_block}");
+        let (axis_before, _, n) = replayed_axis_error_on(rig, &original, &original, Frame::Joint);
+        let (axis_after, axis_rms_after, m) =
+            replayed_axis_error_on(rig, &original, &text, Frame::Joint);
+        assert_eq!(n, m);
+        assert!(axis_before > 10.0, "{machine}: {axis_before}");
+        // The axes are held over the whole plane, so the part of the axis
+        // error that varies with X Y Z over the cut (the linear axes'
+        // angular errors: 32–45 µrad before along the first plane's passes
+        // on head-table) stays; the rotary block takes out the rest.
+        assert!(
+            axis_after <= 0.25 * axis_before,
+            "{machine}: tool axis {axis_before} -> {axis_after} µrad"
+        );
+        summary += &format!(
+            "{machine}: tool axis max {axis_before:.1} -> {axis_after:.2} µrad (rms after {axis_rms_after:.2}), {n} cutting block ends\n"
+        );
+    }
+    insta::assert_snapshot!("heidenhain_closed_loop_stay_rotary", summary);
+}
+
 /// `APPR LT` and `DEP LT` with `R0` (TNC 640 user's manual, "Approaching
 /// and departing a contour": with R0 the control computes the path for a
 /// tool of radius 0): the approach reaches the first contour point X+10
