@@ -268,6 +268,7 @@ impl KlartextWriter {
     ///   the correction at its middle, the tool-axis travel in proportion),
     ///   so that the equidistant pole is taken on an arc of 90°–270°, where
     ///   it is well defined.
+    ///
     /// Returns the blocks added.
     #[allow(clippy::too_many_arguments)]
     fn emit_polar(
