@@ -13,6 +13,7 @@
 //! (bounded channels, so memory does not grow with the program): reading and
 //! interpreting; solving and planning, in parallel within a chunk (rayon); and
 //! writing in order through `gcode::rewrite`. Nothing is printed here.
+mod held_rotary;
 pub(crate) mod solve;
 pub use solve::{RESIDUAL_MM, RESIDUAL_URAD, WarmStart, solve_joints, solve_pose_from};
 
@@ -1121,8 +1122,10 @@ fn solve_chunks(
     // The directions of the axes with a reversal (empty without one).
     let mut directions = models.get(&ToolInUse::DEFAULT).direction_tracker();
     let tracking = !directions.is_empty();
+    // The rotary joints held under a swivelled plane, from an earlier chunk.
+    let mut held: Option<held_rotary::HeldRotary> = None;
     for chunk in chunks {
-        let chunk = match chunk {
+        let mut chunk = match chunk {
             Ok(chunk) => chunk,
             Err(e) => {
                 let _ = solved.send(Err(e.into()));
@@ -1157,6 +1160,10 @@ fn solve_chunks(
             }
         }
         offsets.push(approaches.len());
+        // 0b. Held moves at the corrected rotary joints the program wrote.
+        let held_solves =
+            held_rotary::hold_corrected_rotary(&mut chunk, held, models, options, &approaches);
+        let presolved = &held_solves.presolved;
         // 1. Compensated end of every motion, in parallel over pieces of the chunk;
         //    within a piece each solve starts from the previous correction.
         //    Flat over the chunk's moves, in order.
@@ -1179,6 +1186,9 @@ fn solve_chunks(
                     .map(|(model, m, held)| {
                         let approach = approaches[k];
                         k += 1;
+                        if let Some(c) = presolved.get(&(k - 1)) {
+                            return Ok(*c);
+                        }
                         compensate_target(
                             model,
                             &m.end_pose(),
@@ -1195,6 +1205,7 @@ fn solve_chunks(
         let mut resolved: Vec<Option<(Axes, f64)>> = Vec::with_capacity(chunk.len());
         let mut cycles: Vec<Option<SolvedCycle>> = Vec::with_capacity(chunk.len());
         let mut ends = ends.into_iter();
+        let (mut flat, mut held_end) = (0usize, None);
         for (block, event) in chunk.iter() {
             let moves = compensated_moves(event);
             // A motion's end, or a cycle's ends (only a cycle allocates).
@@ -1202,8 +1213,12 @@ fn solve_chunks(
             let mut first = None;
             let mut mine = Vec::new();
             for _ in moves {
+                flat += 1;
                 match ends.next() {
                     Some(Ok(c)) => {
+                        if held_solves.pending_move() == Some(flat - 1) {
+                            held_end = Some(c.target.axes());
+                        }
                         axes.max_residual_nm = axes.max_residual_nm.max(c.residual_mm * 1e6);
                         if let Some(a) = c.orientation {
                             axes.record_axis(block.line, a);
@@ -1242,6 +1257,7 @@ fn solve_chunks(
                 }));
             }
         }
+        held = held_solves.carry(held_end);
         // 2. Compensated start of every motion: the previous motion's compensated end.
         let mut starts: Vec<Option<Axes>> = Vec::with_capacity(chunk.len());
         for (((_, event), end), cycle) in chunk.iter().zip(&resolved).zip(&cycles) {

@@ -95,6 +95,9 @@ struct State {
     corner: Option<Result<PendingCorner, String>>,
     time_min: f64,
     begun: bool,
+    /// This block programs a rotary axis itself (`L B+Q121 C+Q122` after
+    /// `PLANE … STAY`): a tilted plane does not hold the axes for it.
+    commands_rotary: bool,
 }
 
 impl State {
@@ -192,6 +195,7 @@ impl KlMachine {
                 corner: None,
                 time_min: 0.0,
                 begun: false,
+                commands_rotary: false,
             },
             setup,
             ahead: None,
@@ -323,6 +327,7 @@ impl KlMachine {
         self.fill(event, line);
         let mut s = self.state.clone();
         s.assigned.clear();
+        s.commands_rotary = false;
         if !block.tokens.is_empty() && !matches!(block.address(0), "RND" | "CHF") {
             s.corner = None;
         }
@@ -348,6 +353,13 @@ impl KlMachine {
         }
         event.modal = self.modal();
         event.origin = self.origin();
+        if self.state.commands_rotary
+            && let Some(f) = &mut event.origin.frame
+        {
+            // The program turns the rotary axes itself: its words are
+            // corrected (tool axis too), dialects.md "Writing back".
+            f.holds_rotary = false;
+        }
         event.tool = self.state.tool;
         event.program_end = statement == Statement::End;
         Ok(statement)
@@ -675,6 +687,7 @@ impl KlMachine {
                 ));
             }
             if rotary {
+                s.commands_rotary = true;
                 let base = if inc { rot[slot] } else { 0.0 };
                 rot[slot] = if !inc && s.shortest {
                     nearest_turn(v, rot[slot])

@@ -14,7 +14,7 @@ use super::syntax::{KlBlock, parse_block};
 use crate::axes::Axes;
 use crate::gcode::machine::interpret::{BlockEvent, Moves};
 use crate::gcode::machine::modal::Units;
-use crate::gcode::machine::motion::{Feed, MotionKind};
+use crate::gcode::machine::motion::{Feed, MotionKind, to_plane};
 use crate::gcode::syntax::block::Block;
 use crate::gcode::write::format::{half_ulp, push_number};
 use crate::gcode::write::rewrite::{Emitted, RewriteError, RewriteOptions, Target};
@@ -102,6 +102,13 @@ impl KlartextWriter {
                     self.emitted = Some(m.end);
                 }
             }
+            (Target::Move(end), Some(m)) if self.polar_moved(options, &parsed, event, m, &end) => {
+                let start = self.emitted.unwrap_or(m.start);
+                emitted.rewritten = true;
+                emitted.pieces +=
+                    self.emit_polar(options, block, &parsed, event, m, start, &end, out)?;
+                self.emitted = Some(end);
+            }
             (Target::Move(end), Some(m)) => {
                 let edits = self.edits(options, block, &parsed, event, &end)?;
                 emitted.rewritten = !edits.is_empty();
@@ -130,6 +137,10 @@ impl KlartextWriter {
                         block,
                         out,
                     )?;
+                } else if parsed.address(0) == "LP" {
+                    let start = self.emitted.unwrap_or(m.start);
+                    emitted.pieces +=
+                        self.emit_polar(options, block, &parsed, event, m, start, &end, out)?;
                 } else {
                     let edits = self.edits(options, block, &parsed, event, &end)?;
                     self.write_numbered(block, &parsed, Some(&edits), out)?;
@@ -213,6 +224,309 @@ impl KlartextWriter {
         }
         s.push_str(&format!(" ; volcomp: line {line}"));
         s
+    }
+
+    /// Whether a polar block (`LP`, `CP`) must be written anew: its end
+    /// moved, or its start did (a `CP` keeps the radius of its start, an
+    /// incremental `IPR`/`IPA` is counted from it).
+    fn polar_moved(
+        &self,
+        options: &RewriteOptions,
+        parsed: &KlBlock,
+        event: &BlockEvent,
+        m: &crate::gcode::Motion,
+        end: &Axes,
+    ) -> bool {
+        if !matches!(parsed.address(0), "LP" | "CP") {
+            return false;
+        }
+        let d = if event.modal.units == Units::Inch {
+            options.min_decimals_inch
+        } else {
+            options.min_decimals_mm
+        };
+        let limit = half_ulp(d);
+        let start = self.emitted.unwrap_or(m.start);
+        (0..3).any(|k| {
+            (slot_value(end, k) - slot_value(&m.end, k)).abs() >= limit
+                || (slot_value(&start, k) - slot_value(&m.start, k)).abs() > 1e-9
+        })
+    }
+
+    /// A polar block whose start or end the correction moved, written so
+    /// that the control lands on the corrected end from the corrected
+    /// start (docs/dialects.md "Writing back", polar blocks):
+    /// - `LP` becomes the straight line `L X… Y… Z…` to the corrected end
+    ///   (its other words kept), after a `; volcomp:` note naming the
+    ///   original: the polar form has no word for the tool-axis coordinate.
+    /// - `CP` keeps its form: a `CP` keeps the radius of its start about the
+    ///   pole, so the pole is moved for it (`CC` before, the program's pole
+    ///   restored by a `CC` after) to the point nearest the program's pole
+    ///   equidistant from the corrected start and end; its `PA`/`IPA` and
+    ///   `IZ`/`Z` are rewritten. A helix of more than 270° first turns its
+    ///   half turns (`CP IPA±180 IZ…` pieces, each about the pole moved by
+    ///   the correction at its middle, the tool-axis travel in proportion),
+    ///   so that the equidistant pole is taken on an arc of 90°–270°, where
+    ///   it is well defined.
+    ///
+    /// Returns the blocks added.
+    #[allow(clippy::too_many_arguments)]
+    fn emit_polar(
+        &mut self,
+        options: &RewriteOptions,
+        block: &Block,
+        parsed: &KlBlock,
+        event: &BlockEvent,
+        m: &crate::gcode::Motion,
+        start: Axes,
+        end: &Axes,
+        out: &mut dyn Write,
+    ) -> Result<usize, RewriteError> {
+        if !end.is_finite() || !start.is_finite() {
+            return Err(RewriteError::NonFinite { line: block.line });
+        }
+        let inch = event.modal.units == Units::Inch;
+        let d = if inch {
+            options.min_decimals_inch
+        } else {
+            options.min_decimals_mm
+        };
+        let unit = if inch { 25.4 } else { 1.0 };
+        let prog = |a: &Axes| event.origin.to_program(a).xyz().map(|v| v / unit);
+        let code = parsed.code.trim().to_string();
+        let (new_end, new_start) = (prog(end), prog(&start));
+        let MotionKind::Arc {
+            clockwise,
+            centre,
+            plane,
+            turns,
+        } = m.kind
+        else {
+            // LP → L X Y Z.
+            self.write_fresh(
+                &format!(
+                    " ; volcomp: line {} written as L (its corrected end): {code}",
+                    block.line
+                ),
+                block,
+                out,
+            )?;
+            let mut edits = Vec::new();
+            let first = &parsed.tokens[0];
+            edits.push((first.span.clone(), "L".to_string()));
+            let mut xyz = String::new();
+            for (k, letter) in ["X", "Y", "Z"].into_iter().enumerate() {
+                xyz.push(' ');
+                xyz.push_str(letter);
+                xyz.push_str(&signed_number(new_end[k], d));
+            }
+            edits.push((first.span.end..first.span.end, xyz));
+            let polar_words = ["PR", "IPR", "PA", "IPA", "X", "Y", "Z", "IX", "IY", "IZ"];
+            edits.extend(removals(block, parsed, &polar_words));
+            edits.sort_by_key(|e| e.0.start);
+            self.write_numbered(block, parsed, Some(&edits), out)?;
+            return Ok(1);
+        };
+        // CP, in the plane's coordinates (program frame, program units).
+        let plane_of = |p: [f64; 3]| to_plane(plane, p);
+        let c_prog = prog(&Axes {
+            x: centre[0],
+            y: centre[1],
+            z: centre[2],
+            ..m.end
+        });
+        let c = plane_of(c_prog);
+        let (s0, e0) = (plane_of(prog(&m.start)), plane_of(prog(&m.end)));
+        let (s1, e1) = (plane_of(new_start), plane_of(new_end));
+        let angle = |p: [f64; 3], o: [f64; 3]| (p[1] - o[1]).atan2(p[0] - o[0]).to_degrees();
+        let sigma = if clockwise { -1.0 } else { 1.0 };
+        let wrap = |a: f64| (a + 180.0).rem_euclid(360.0) - 180.0;
+        let mut directed = (sigma * (angle(e0, c) - angle(s0, c))).rem_euclid(360.0);
+        if directed < 1e-7 {
+            directed = 360.0;
+        }
+        let sweep0 = directed + 360.0 * f64::from(turns);
+        let sweep =
+            sweep0 + sigma * wrap((angle(e1, c) - angle(e0, c)) - (angle(s1, c) - angle(s0, c)));
+        // The last part, 90°–270° (or the whole arc when shorter).
+        let r = sweep.rem_euclid(360.0);
+        let mut last = if r < 90.0 {
+            r + 180.0
+        } else if r > 270.0 {
+            r - 180.0
+        } else {
+            r
+        };
+        if last > sweep {
+            last = sweep;
+        }
+        let before = sweep - last;
+        let letters = plane_letters(plane);
+        let feed = parsed
+            .tokens
+            .iter()
+            .find(|t| t.address == "F" || t.address == "FMAX")
+            .map(|t| String::from_utf8_lossy(&block.raw[t.span.clone()]).into_owned());
+        let dr = if clockwise { "DR-" } else { "DR+" };
+        let mut added = 0;
+        self.write_fresh(
+            &format!(
+                " ; volcomp: line {} written to its corrected end (the pole moved for it): {code}",
+                block.line
+            ),
+            block,
+            out,
+        )?;
+        added += 1;
+        // The corrections of the start and the end, in the plane: the
+        // compensated circle is the program's translated by them (the
+        // errors vary little over an arc the compensator did not split).
+        let ds = [s1[0] - s0[0], s1[1] - s0[1]];
+        let de = [e1[0] - e0[0], e1[1] - e0[1]];
+        let rounded = |v: f64| signed_short(v).parse::<f64>().unwrap_or(v);
+        let mut current = [c[0], c[1]];
+        let mut moved = false;
+        let mut set_pole = |w: &mut Self, p: [f64; 2], out: &mut dyn Write| {
+            let p = [rounded(p[0]), rounded(p[1])];
+            if p == current {
+                return Ok::<_, RewriteError>((p, 0));
+            }
+            current = p;
+            moved = true;
+            let text = format!(
+                " CC {}{} {}{} ; volcomp: line {}",
+                letters[0],
+                signed_short(p[0]),
+                letters[1],
+                signed_short(p[1]),
+                block.line
+            );
+            w.write_fresh(&text, block, out)?;
+            Ok((p, 1))
+        };
+        // The correction at the fraction `t` of the arc (the compensator's
+        // straight interpolation of the end corrections).
+        let at = |t: f64| [ds[0] + t * (de[0] - ds[0]), ds[1] + t * (de[1] - ds[1])];
+        let mut from = s1;
+        let mut done = 0.0;
+        let (r0, a0) = ((s0[0] - c[0]).hypot(s0[1] - c[1]), angle(s0, c));
+        while before - done > 1e-9 {
+            // Half turns first, each on the circle through where the last
+            // one ended and its own corrected end (the program's point
+            // there plus the interpolated correction), about the pole on
+            // their bisector nearest the program's pole moved by the
+            // correction at its middle.
+            let step = (before - done).min(180.0);
+            let t = (done + step) / sweep;
+            let mid = at((done + step / 2.0) / sweep);
+            let a = (a0 + sigma * (done + step) * sweep0 / sweep).to_radians();
+            let corr = at(t);
+            let target = [
+                c[0] + r0 * a.cos() + corr[0],
+                c[1] + r0 * a.sin() + corr[1],
+                s1[2] + (e1[2] - s1[2]) * t,
+            ];
+            let guess = [c[0] + mid[0], c[1] + mid[1], 0.0];
+            let (p, n) = set_pole(self, equidistant_pole(guess, from, target), out)?;
+            added += n;
+            let p3 = [p[0], p[1], 0.0];
+            let mut turn = (sigma * (angle(target, p3) - angle(from, p3))).rem_euclid(360.0);
+            turn += 360.0 * ((step - turn) / 360.0).round();
+            let written: f64 = signed_number(sigma * turn, d)
+                .parse()
+                .unwrap_or(sigma * turn);
+            let dz: f64 = signed_number(target[2] - from[2], d)
+                .parse()
+                .unwrap_or(target[2] - from[2]);
+            let mut text = format!(
+                " CP IPA{} I{}{} {dr}",
+                signed_number(written, d),
+                letters[2],
+                signed_number(dz, d)
+            );
+            if let Some(f) = &feed {
+                text.push(' ');
+                text.push_str(f);
+            }
+            text.push_str(&format!(" ; volcomp: line {}", block.line));
+            self.write_fresh(&text, block, out)?;
+            added += 1;
+            // Where the control ends it: the start's radius, the written angle.
+            let radius = (from[0] - p[0]).hypot(from[1] - p[1]);
+            let a = (angle(from, p3) + written).to_radians();
+            from = [
+                p[0] + radius * a.cos(),
+                p[1] + radius * a.sin(),
+                from[2] + dz,
+            ];
+            done += step;
+        }
+        let ds = at(done / sweep);
+        // The pole for the rest: equidistant from its start and the end,
+        // nearest the program's pole moved by the mean correction.
+        let guess = [
+            c[0] + (ds[0] + de[0]) / 2.0,
+            c[1] + (ds[1] + de[1]) / 2.0,
+            0.0,
+        ];
+        let (p, n) = set_pole(self, equidistant_pole(guess, from, e1), out)?;
+        added += n;
+        let pole = [p[0], p[1], 0.0];
+        let mut rest = (sigma * (angle(e1, pole) - angle(from, pole))).rem_euclid(360.0);
+        rest += 360.0 * ((last - rest) / 360.0).round();
+        let mut edits = Vec::new();
+        let mut after_angle = parsed.tokens[0].span.end;
+        let mut axis_written = false;
+        for t in &parsed.tokens[1..] {
+            let value = match t.address.as_str() {
+                "PA" => {
+                    after_angle = t.span.end;
+                    Some(signed_number(angle(e1, pole), d.max(t.decimals)))
+                }
+                "IPA" => {
+                    after_angle = t.span.end;
+                    Some(signed_number(sigma * rest, d.max(t.decimals)))
+                }
+                a if a == letters[2] => {
+                    axis_written = true;
+                    Some(signed_number(e1[2], d.max(t.decimals)))
+                }
+                a if a.len() == 2 && a.starts_with('I') && &a[1..] == letters[2] => {
+                    axis_written = true;
+                    Some(signed_number(e1[2] - from[2], d.max(t.decimals)))
+                }
+                _ => None,
+            };
+            if let Some(mut v) = value
+                && !t.value_span.is_empty()
+            {
+                if !t.signed && !v.starts_with('-') {
+                    v.remove(0);
+                }
+                edits.push((t.value_span.clone(), v));
+            }
+        }
+        if !axis_written && (e1[2] - from[2]).abs() >= half_ulp(d) {
+            edits.push((
+                after_angle..after_angle,
+                format!(" I{}{}", letters[2], signed_number(e1[2] - from[2], d)),
+            ));
+        }
+        edits.sort_by_key(|e| e.0.start);
+        self.write_numbered(block, parsed, Some(&edits), out)?;
+        if moved {
+            let text = format!(
+                " CC {}{} {}{} ; volcomp: the pole of line {} again",
+                letters[0],
+                signed_short(c[0]),
+                letters[1],
+                signed_short(c[1]),
+                block.line
+            );
+            self.write_fresh(&text, block, out)?;
+            added += 1;
+        }
+        Ok(added)
     }
 
     /// The word edits that move `block` to `end` (event frame).
@@ -464,6 +778,64 @@ impl KlartextWriter {
         out.write_all(ending)?;
         Ok(())
     }
+}
+
+/// Decimals of a pole written for a rewritten `CP` (and of the program's
+/// pole restored after it): 1e-6 mm.
+const POLE_DECIMALS: u8 = 6;
+
+/// `v` signed, with at most [`POLE_DECIMALS`] decimals and no trailing zeros.
+fn signed_short(v: f64) -> String {
+    let s = signed_number(v, POLE_DECIMALS);
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+/// The letters of the plane's first and second axes and its normal.
+fn plane_letters(plane: crate::gcode::motion::Plane) -> [&'static str; 3] {
+    match plane {
+        crate::gcode::motion::Plane::XY => ["X", "Y", "Z"],
+        crate::gcode::motion::Plane::ZX => ["Z", "X", "Y"],
+        crate::gcode::motion::Plane::YZ => ["Y", "Z", "X"],
+    }
+}
+
+/// The point nearest `c` (plane coordinates) equidistant from `s` and `e`:
+/// on their bisector (`c` when they coincide).
+fn equidistant_pole(c: [f64; 3], s: [f64; 3], e: [f64; 3]) -> [f64; 2] {
+    let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
+    let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
+    let len = dx.hypot(dy);
+    if len < 1e-9 {
+        return [c[0], c[1]];
+    }
+    let (nx, ny) = (-dy / len, dx / len);
+    let t = (c[0] - mx) * nx + (c[1] - my) * ny;
+    [mx + t * nx, my + t * ny]
+}
+
+/// Edits removing the tokens named `names` (after the first), each with
+/// the blanks before it (only the token where a comment or `~` lies between).
+fn removals(
+    block: &Block,
+    parsed: &KlBlock,
+    names: &[&str],
+) -> Vec<(std::ops::Range<usize>, String)> {
+    let mut out = Vec::new();
+    for (k, t) in parsed.tokens.iter().enumerate().skip(1) {
+        if !names.contains(&t.address.as_str()) {
+            continue;
+        }
+        let from = parsed.tokens[k - 1].span.end;
+        let gap = &block.raw[from..t.span.start];
+        let range = if gap.iter().all(|b| b.is_ascii_whitespace()) {
+            from..t.span.end
+        } else {
+            t.span.clone()
+        };
+        out.push((range, String::new()));
+    }
+    out
 }
 
 /// A feed as the shortest decimal that reads back the same (at most 4 decimals).
