@@ -514,8 +514,8 @@ mod tests {
         assert_eq!(described.named("ball end R3"), NamedTool::None);
         assert!(!described.names_tools());
         // A LinuxCNC table's comments are its names; one name, one tool.
-        let tbl = ToolTable::parse("T1 Z10 ;DRILL 8.5\nT2 Z20 ;MILL\nT3 Z30 ;MILL\n", "t.tbl")
-            .unwrap();
+        let tbl =
+            ToolTable::parse("T1 Z10 ;DRILL 8.5\nT2 Z20 ;MILL\nT3 Z30 ;MILL\n", "t.tbl").unwrap();
         assert_eq!(tbl.named("DRILL 8.5"), NamedTool::One(tbl.get(1).unwrap()));
         assert_eq!(tbl.named("MILL"), NamedTool::Two(2, 3));
         assert_eq!(tbl.named("drill 8.5"), NamedTool::None);

@@ -44,12 +44,12 @@ pub(crate) mod values;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use crate::gcode::NamedTool;
 use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::Interpreter;
 use crate::gcode::machine::origin::FrameTransform;
 use crate::gcode::syntax::block::{Block, Keyword, KeywordWord, LineEnding, Word};
-use crate::gcode::NamedTool;
 use syntax::{Cursor, Expr, Tok, Token};
 use values::{R_COUNT, Scope, VarType, Variable};
 
