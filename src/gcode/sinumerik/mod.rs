@@ -2032,17 +2032,7 @@ impl SinumerikFront {
             // `ADDR=expr`, `VAR=expr`, `R1=expr`.
             if cur.eat_sym("=") {
                 let vstart = cur.here();
-                if name == "T"
-                    && let Some(Token {
-                        tok: Tok::Str(tool),
-                        end,
-                        ..
-                    }) = cur.peek()
-                {
-                    let (tool, end) = (tool.clone(), *end);
-                    cur.pos += 1;
-                    let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
-                    out.words.push(word(b'T', number, ts, end, 0, false, false));
+                if name == "T" && self.named_tool_word(line, cur, interpreter, ts, &mut out)? {
                     continue;
                 }
                 let (e, mode) =
@@ -2187,16 +2177,8 @@ impl SinumerikFront {
                 }) = cur.peek()
                 else {
                     if letter == b'T'
-                        && let Some(Token {
-                            tok: Tok::Str(tool),
-                            end,
-                            ..
-                        }) = cur.peek()
+                        && self.named_tool_word(line, cur, interpreter, ts, &mut out)?
                     {
-                        let (tool, end) = (tool.clone(), *end);
-                        cur.pos += 1;
-                        let number = self.tool_by_name(line, &tool, interpreter, (ts, end))?;
-                        out.words.push(word(b'T', number, ts, end, 0, false, false));
                         continue;
                     }
                     return Err(self.refused(
@@ -2714,6 +2696,33 @@ impl SinumerikFront {
             axis,
             at: (start, end),
         })
+    }
+
+    /// `T="name"` / `T"name"` at the cursor (after `T=` or `T`): the `T`
+    /// word of the tool of that name ([`Self::tool_by_name`]) handed on,
+    /// the string consumed; `false` (nothing consumed) when no string
+    /// follows.
+    fn named_tool_word(
+        &self,
+        line: &LineRun,
+        cur: &mut Cursor<'_>,
+        interpreter: &Interpreter,
+        start: usize,
+        out: &mut Out,
+    ) -> Result<bool, GcodeError> {
+        let Some(Token {
+            tok: Tok::Str(tool),
+            end,
+            ..
+        }) = cur.peek()
+        else {
+            return Ok(false);
+        };
+        cur.pos += 1;
+        let number = self.tool_by_name(line, tool, interpreter, (start, *end))?;
+        out.words
+            .push(word(b'T', number, start, *end, 0, false, false));
+        Ok(true)
     }
 
     /// `T="name"`: the tool managed by name (*Fundamentals*, "Tool change",
