@@ -280,6 +280,23 @@ impl<'a> Expander<'a> {
         if f > 0.0 { f } else { fallback }
     }
 
+    /// The deepened starting point Q379 (below the surface, mm; at most
+    /// the depth; 0 when absent).
+    fn deepened_start(&self, g: &Geometry) -> f64 {
+        (self.optional(379).abs() * self.scale).min(g.depth)
+    }
+
+    /// FMAX to the set-up clearance; with a deepened starting point, at
+    /// Q253 on to the set-up clearance above it (cycles 205 and 241).
+    fn approach_deepened(&mut self, g: &Geometry, deepened: f64) -> Result<(), CycleError> {
+        self.rapid_to(g.above(g.clearance));
+        if deepened > 0.0 {
+            let pre = self.feed(253, "feed rate for pre-positioning")?;
+            self.feed_to(g.below(deepened - g.clearance), pre);
+        }
+        Ok(())
+    }
+
     /// The tool-axis geometry of a 2xx cycle: the surface, the direction of
     /// depth (the sign of Q201) and the depth (positive, mm).
     fn geometry(&self) -> Result<Geometry, CycleError> {
@@ -505,7 +522,7 @@ impl<'a> Expander<'a> {
         let lower = self.def.get(259).map_or(upper, |v| v.abs() * self.scale);
         let chip = self.optional(257).abs() * self.scale;
         let retract = self.optional(256).abs() * self.scale;
-        let deepened = (self.optional(379).abs() * self.scale).min(g.depth);
+        let deepened = self.deepened_start(&g);
         let back = self.retraction(feed);
         // The plunges (their depths), to know the last one's stop distance.
         let mut plunges = Vec::new();
@@ -516,11 +533,7 @@ impl<'a> Expander<'a> {
             plunges.push(reached);
             step = shorter(step, decrement, minimum);
         }
-        self.rapid_to(g.above(g.clearance));
-        if deepened > 0.0 {
-            let pre = self.feed(253, "feed rate for pre-positioning")?;
-            self.feed_to(g.below(deepened - g.clearance), pre);
-        }
+        self.approach_deepened(&g, deepened)?;
         let mut from = deepened;
         let n = plunges.len();
         for (k, &to) in plunges.iter().enumerate() {
@@ -714,13 +727,9 @@ impl<'a> Expander<'a> {
         if g.depth == 0.0 {
             return Ok(());
         }
-        let deepened = (self.optional(379).abs() * self.scale).min(g.depth);
+        let deepened = self.deepened_start(&g);
         let back = self.retraction(feed);
-        self.rapid_to(g.above(g.clearance));
-        if deepened > 0.0 {
-            let pre = self.feed(253, "feed rate for pre-positioning")?;
-            self.feed_to(g.below(deepened - g.clearance), pre);
-        }
+        self.approach_deepened(&g, deepened)?;
         self.feed_to(g.below(g.depth), feed);
         self.dwell(self.optional(211));
         self.leave(&g, Some(back));

@@ -1706,32 +1706,16 @@ impl SinumerikFront {
             if cur.eat_sym("=") {
                 let mut init = Vec::new();
                 let set = cur.eat_name("SET");
-                if set || cur.eat_sym("(") {
-                    if set {
-                        cur.expect_sym("(")
-                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                    }
-                    loop {
-                        // An empty place (`SET(0,,,9)`) leaves its element 0.
-                        let e = if matches!(
-                            cur.peek(),
-                            Some(Token {
-                                tok: Tok::Sym("," | ")"),
-                                ..
-                            })
-                        ) {
-                            Expr::Num(0.0)
-                        } else {
-                            cur.expr()
-                                .map_err(|e| self.refused(line, e.message, e.start, e.end))?
-                        };
-                        init.push(e);
-                        if cur.eat_sym(")") {
-                            break;
-                        }
-                        cur.expect_sym(",")
-                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                    }
+                let open = cur.at_sym("(");
+                if set && !open {
+                    cur.expect_sym("(")
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                }
+                if set || open {
+                    // An empty place (`SET(0,,,9)`) leaves its element 0.
+                    init = argument_list(cur)
+                        .map_err(|e| self.refused(line, e.message, e.start, e.end))?
+                        .0;
                 } else if ty != VarType::Other {
                     init.push(
                         cur.expr()
@@ -2224,38 +2208,14 @@ impl SinumerikFront {
                         // whose PROC takes parameters (*Job planning*,
                         // "Subprogram call": the name is L and a number).
                         let n = &raw[ts + 1..end];
-                        let mut args = Vec::new();
-                        let mut call_end = end;
-                        if cur.eat_sym("(") && !cur.eat_sym(")") {
-                            loop {
-                                let e = if matches!(
-                                    cur.peek(),
-                                    Some(Token {
-                                        tok: Tok::Sym("," | ")"),
-                                        ..
-                                    })
-                                ) {
-                                    Expr::Num(0.0)
-                                } else {
-                                    cur.expr().map_err(|e| {
-                                        self.refused(line, e.message, e.start, e.end)
-                                    })?
-                                };
-                                let v = self.eval(line, &e, (ts, end))?;
-                                args.push((v, self.target_of(line, &e, (ts, end))?));
-                                if cur.eat_sym(")") {
-                                    break;
-                                }
-                                cur.expect_sym(",")
-                                    .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                            }
-                            call_end = cur.last_end();
-                        } else if cur
-                            .tokens
-                            .get(cur.pos.wrapping_sub(1))
-                            .is_some_and(|t| t.tok == Tok::Sym(")"))
-                        {
-                            call_end = cur.last_end();
+                        let open = cur.at_sym("(");
+                        let (list, last) = argument_list(cur)
+                            .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
+                        let call_end = if open { last } else { end };
+                        let mut args = Vec::with_capacity(list.len());
+                        for e in &list {
+                            let v = self.eval(line, e, (ts, end))?;
+                            args.push((v, self.target_of(line, e, (ts, end))?));
                         }
                         call = Some((
                             format!("L{}", String::from_utf8_lossy(n)),
@@ -2295,37 +2255,13 @@ impl SinumerikFront {
                 continue;
             }
             // Named statements.
-            let args_span = |cur: &mut Cursor| -> Result<(Vec<Expr>, usize), syntax::SyntaxError> {
-                let mut args = Vec::new();
-                if cur.eat_sym("(") && !cur.eat_sym(")") {
-                    loop {
-                        // An empty argument (`CYCLE800(1,,0)`) is 0.
-                        if matches!(
-                            cur.peek(),
-                            Some(Token {
-                                tok: Tok::Sym("," | ")"),
-                                ..
-                            })
-                        ) {
-                            args.push(Expr::Num(0.0));
-                        } else {
-                            args.push(cur.expr()?);
-                        }
-                        if cur.eat_sym(")") {
-                            break;
-                        }
-                        cur.expect_sym(",")?;
-                    }
-                }
-                Ok((args, cur.last_end()))
-            };
             match name.as_ref() {
                 "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                     frame_op = Some((name.to_string(), (ts, te)));
                     out.statements.push(ts..te);
                 }
                 "TRAORI" => {
-                    let (_, end) = args_span(cur)
+                    let (_, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.traori = true;
                     out.keywords.push(KeywordWord {
@@ -2347,7 +2283,7 @@ impl SinumerikFront {
                     out.words.push(word(b'G', 53.0, ts, te, 0, false, false));
                 }
                 "CYCLE800" => {
-                    let (args, end) = args_span(cur)
+                    let (args, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
@@ -2394,7 +2330,7 @@ impl SinumerikFront {
                 | "WALIMOF" | "LIMS" | "TOFFON" | "TOFFOF" | "TCARR" | "TCOABS" | "TCOFR"
                 | "PAROT" | "PAROTOF" | "TOROT" | "TOROTOF" | "TOFRAME" | "EXTCALL" | "G64"
                 | "G642" | "G645" => {
-                    let (_, end) = args_span(cur)
+                    let (_, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     if matches!(
                         name.as_ref(),
@@ -2410,7 +2346,7 @@ impl SinumerikFront {
                     || name.starts_with("HOLES")
                     || name.starts_with("LONGHOLE") =>
                 {
-                    let (_, end) = args_span(cur)
+                    let (_, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     return Err(self.feature(line, &format!("machining cycle {name}"), ts, end));
                 }
@@ -2424,7 +2360,7 @@ impl SinumerikFront {
                 }
                 _ => {
                     // A subprogram call by name, with arguments.
-                    let (args, end) = args_span(cur)
+                    let (args, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     let mut values = Vec::with_capacity(args.len());
                     for a in &args {
@@ -3589,12 +3525,7 @@ impl SinumerikFront {
             interpreter.origin()
         };
         let here = origin.to_program(&interpreter.position());
-        let incremental = out
-            .words
-            .iter()
-            .rev()
-            .find(|w| w.letter == b'G' && (w.value == 90.0 || w.value == 91.0))
-            .map_or(self.incremental, |w| w.value == 91.0);
+        let incremental = out.incremental(self.incremental);
         let current = |letter: u8| -> f64 {
             crate::axes::Axis::from_letter(letter as char).map_or(0.0, |a| here.get(a))
         };
@@ -3877,6 +3808,16 @@ struct Out {
 }
 
 impl Out {
+    /// Whether the block's axis words are increments: its own last `G90`/
+    /// `G91`, else the modal setting `modal`.
+    fn incremental(&self, modal: bool) -> bool {
+        self.words
+            .iter()
+            .rev()
+            .find(|w| w.letter == b'G' && (w.value == 90.0 || w.value == 91.0))
+            .map_or(modal, |w| w.value == 91.0)
+    }
+
     /// The words in the order of the line (the ones the front worked out
     /// at their place), the index lists following them.
     fn sort_words(&mut self) {
@@ -4027,6 +3968,33 @@ enum Mode {
     Plain,
     Ac,
     Ic,
+}
+
+/// An argument list `(a, b, …)` at the cursor, when one follows (none:
+/// no arguments), and the end of the last token read. An empty place
+/// (`CYCLE800(1,,0)`, `SET(0,,,9)`) is 0.
+fn argument_list(cur: &mut Cursor) -> Result<(Vec<Expr>, usize), syntax::SyntaxError> {
+    let mut args = Vec::new();
+    if cur.eat_sym("(") && !cur.eat_sym(")") {
+        loop {
+            if matches!(
+                cur.peek(),
+                Some(Token {
+                    tok: Tok::Sym("," | ")"),
+                    ..
+                })
+            ) {
+                args.push(Expr::Num(0.0));
+            } else {
+                args.push(cur.expr()?);
+            }
+            if cur.eat_sym(")") {
+                break;
+            }
+            cur.expect_sym(",")?;
+        }
+    }
+    Ok((args, cur.last_end()))
 }
 
 fn value_expr(cur: &mut Cursor) -> Result<(Expr, Mode), syntax::SyntaxError> {

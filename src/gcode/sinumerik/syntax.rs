@@ -444,9 +444,14 @@ impl<'a> Cursor<'a> {
         self.peek().map_or(self.line_len, |t| t.start)
     }
 
+    /// Whether the next token is the symbol `s` (not consumed).
+    pub fn at_sym(&self, s: &str) -> bool {
+        matches!(self.peek(), Some(Token { tok: Tok::Sym(x), .. }) if *x == s)
+    }
+
     /// Whether the next token is the symbol `s`; consumed if so.
     pub fn eat_sym(&mut self, s: &str) -> bool {
-        if matches!(self.peek(), Some(Token { tok: Tok::Sym(x), .. }) if *x == s) {
+        if self.at_sym(s) {
             self.pos += 1;
             true
         } else {
