@@ -4,7 +4,7 @@
 //! and stale tables for the wrong-model rows), diagnosed blind; prints every
 //! row against its target and the diagnosis time.
 //!
-//!     cargo run --release --example robustness [-- verbose [notes]]
+//!     cargo run --release --example robustness [-- verbose [notes]] [seed=N]...
 #![allow(clippy::type_complexity)]
 use std::time::Instant;
 use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part, score};
@@ -15,7 +15,15 @@ fn main() {
     let part = part();
     let duration = volcomp::toolpath::last_time_min(&part.contexts);
     let options = RobustnessOptions::default();
-    let all = cases(&part, &options);
+    // `seed=N` (repeatable): only the cases of those seeds (the table then
+    // counts those only).
+    let seeds: Vec<u64> = std::env::args()
+        .filter_map(|a| a.strip_prefix("seed=").and_then(|v| v.parse().ok()))
+        .collect();
+    let all: Vec<_> = cases(&part, &options)
+        .into_iter()
+        .filter(|c| seeds.is_empty() || seeds.contains(&c.seed))
+        .collect();
     let mut rows: Vec<(
         CaseClass,
         f64,

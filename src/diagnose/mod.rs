@@ -325,7 +325,23 @@ impl<'a> Problem<'a> {
             patches: &self.patches,
             fitted: BTreeMap::new(),
             progress: None,
+            anomalous: self,
         }
+    }
+
+    /// The rows inside a local anomaly of the measurement's residual
+    /// `r_rows` (one value per row; a follow-up row is never inside).
+    fn anomalous_rows(&self, r_rows: &[f64]) -> Vec<bool> {
+        let n0 = self.r0.len();
+        let anomalies = localization::local_anomalies(
+            &self.used,
+            &r_rows[..n0.min(r_rows.len())],
+            self.floor,
+            self.model_u,
+        );
+        let mut inside = inside_anomalies(&self.used, &anomalies);
+        inside.resize(r_rows.len(), false);
+        inside
     }
 
     fn new(
@@ -445,6 +461,12 @@ impl<'a> Problem<'a> {
     }
 }
 
+impl selection::AnomalousRows for Problem<'_> {
+    fn anomalous_rows(&self, r_rows: &[f64]) -> Vec<bool> {
+        Problem::anomalous_rows(self, r_rows)
+    }
+}
+
 /// One catalogue effect fitted alone (stage 3).
 struct Candidate {
     kind: EffectKind,
@@ -499,9 +521,18 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
     let max_factor = |t: &selection::Terms| -> bool {
         let fit = p.fit(&t.kinds, true);
         let offset: usize = t.kinds.iter().map(|k| k.linear_count()).sum();
-        fit.linear.coefs[offset..]
+        let factors = &fit.linear.coefs[offset..];
+        // A table turned over (its scale below −MODEL_FACTOR_MIN) is no
+        // error of the model's tables (a stale or missing table scales by
+        // about 0, a scaled one by more): the factors then fit an effect's
+        // shape. The position-independent rest (squareness and location
+        // values) is not a table and is not judged so.
+        let reversed = p
+            .named_cols
             .iter()
-            .any(|b| b.abs() >= MODEL_FACTOR_MIN)
+            .zip(factors)
+            .any(|((name, _), b)| name != POSITION_INDEPENDENT && 1.0 + b < -MODEL_FACTOR_MIN);
+        factors.iter().any(|b| b.abs() >= MODEL_FACTOR_MIN) && !reversed
     };
     let cache = candidates
         .iter()
@@ -1287,26 +1318,33 @@ fn remaining_outside(
     r_after: &[f64],
     anomalies: &[report::LocalAnomaly],
 ) -> f64 {
-    let inside = |c: &PointContext| {
-        anomalies.iter().any(|a| {
-            (0..3)
-                .map(|k| (c.point[k] - a.centre[k]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-                <= a.radius_mm
-        })
-    };
-    let rest: Vec<f64> = used
+    let inside = inside_anomalies(used, anomalies);
+    let rest: Vec<f64> = r_after
         .iter()
-        .zip(r_after)
-        .filter(|(c, _)| !inside(c))
-        .map(|(_, v)| *v)
+        .zip(&inside)
+        .filter(|(_, inside)| !**inside)
+        .map(|(v, _)| *v)
         .collect();
     if rest.len() >= 10 {
         rms(&rest)
     } else {
         rms(r_after)
     }
+}
+
+/// Whether each of the `used` points lies within one of the local `anomalies`.
+fn inside_anomalies(used: &[&PointContext], anomalies: &[report::LocalAnomaly]) -> Vec<bool> {
+    used.iter()
+        .map(|c| {
+            anomalies.iter().any(|a| {
+                (0..3)
+                    .map(|k| (c.point[k] - a.centre[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    <= a.radius_mm
+            })
+        })
+        .collect()
 }
 
 /// The summary sentence of a local anomaly.

@@ -115,6 +115,15 @@ pub(crate) struct Scorer<'a> {
     pub fitted: BTreeMap<Terms, Vec<f64>>,
     /// Counts each set cross-validated (the selection's progress), if given.
     pub progress: Option<&'a crate::progress::WorkCounter>,
+    /// The rows inside a local anomaly of a residual (the tie's fits leave
+    /// them out).
+    pub anomalous: &'a dyn AnomalousRows,
+}
+
+/// The rows of a residual (one value per row) that lie inside a local
+/// anomaly of the part (localization.rs).
+pub(crate) trait AnomalousRows {
+    fn anomalous_rows(&self, r_rows: &[f64]) -> Vec<bool>;
 }
 
 impl Scorer<'_> {
@@ -251,23 +260,51 @@ impl Scorer<'_> {
             .collect()
     }
 
-    /// Mean square of the residual after the set's fit on all rows (the
-    /// mean square before when it was not fitted).
-    fn fitted_mse(&self, t: &Terms) -> f64 {
-        self.fitted.get(t).map_or(self.mse_before, |c| {
-            self.r
-                .iter()
-                .zip(c)
-                .map(|(a, b)| (a - b).powi(2))
-                .sum::<f64>()
-                / self.n()
-        })
+    /// Mean square of the residual after the set's fit on all rows, over
+    /// the rows not `left_out`, and their number.
+    fn fitted_mse_outside(&self, t: &Terms, left_out: &[bool]) -> (f64, usize) {
+        let (mut sse, mut n) = (0.0, 0usize);
+        for (i, r) in self.r.iter().enumerate() {
+            if left_out.get(i).copied().unwrap_or(false) {
+                continue;
+            }
+            let c = self
+                .fitted
+                .get(t)
+                .and_then(|c| c.get(i))
+                .copied()
+                .unwrap_or(0.0);
+            sse += (r - c).powi(2);
+            n += 1;
+        }
+        (sse / n.max(1) as f64, n)
     }
 
-    /// `n·ln(MSE) + p·ln n` of the set's fit on all rows.
-    fn fitted_bic(&self, t: &Terms) -> f64 {
-        let n = self.n();
-        n * self.fitted_mse(t).max(1e-300).ln() + self.params(t) as f64 * n.ln()
+    /// `n·ln(MSE) + p·ln n` of the set's fit on all rows, over the rows not
+    /// `left_out` (`n` of them).
+    fn fitted_bic(&self, t: &Terms, left_out: &[bool]) -> f64 {
+        let (mse, n) = self.fitted_mse_outside(t, left_out);
+        let n = n.max(1) as f64;
+        n * mse.max(1e-300).ln() + self.params(t) as f64 * n.ln()
+    }
+
+    /// The rows inside a local anomaly of what the set's fit on all rows
+    /// leaves.
+    fn anomalous_after(&self, t: &Terms) -> Vec<bool> {
+        let after: Vec<f64> = self
+            .r
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                r - self
+                    .fitted
+                    .get(t)
+                    .and_then(|c| c.get(i))
+                    .copied()
+                    .unwrap_or(0.0)
+            })
+            .collect();
+        self.anomalous.anomalous_rows(&after)
     }
 
     fn bic(&self, t: &Terms) -> f64 {
@@ -415,6 +452,13 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
         // drift) more still; the test has already guarded both against
         // over-fitting. Not beside the model's factors (as above).
         if let Some(b) = best.filter(|b| !b.model && level == 1) {
+            // A local anomaly (a defect, a clamp) is no catalogue effect:
+            // the likelihood on all points leaves out what lies inside one
+            // after the headline's fit, else the set with more parameters
+            // takes part of it.
+            let left_out = scorer.anomalous_after(b);
+            let fitted_bic = |t: &Terms| scorer.fitted_bic(t, &left_out);
+            let kept = left_out.iter().filter(|x| !**x).count();
             let tied = better
                 .iter()
                 .filter(|t| {
@@ -423,24 +467,24 @@ pub(crate) fn select(scorer: &mut Scorer, singles: &[EffectKind]) -> Selection {
                         && scorer.z(t, b) < s.threshold
                         && scorer.z(b, t) < s.threshold
                 })
-                .min_by(|x, y| {
-                    scorer
-                        .fitted_bic(x)
-                        .total_cmp(&scorer.fitted_bic(y))
-                        .then(x.cmp(y))
-                });
-            if let Some(t) = tied.filter(|t| scorer.fitted_bic(t) < scorer.fitted_bic(b)) {
+                .min_by(|x, y| fitted_bic(x).total_cmp(&fitted_bic(y)).then(x.cmp(y)));
+            if let Some(t) = tied.filter(|t| fitted_bic(t) < fitted_bic(b)) {
                 notes.push(format!(
-                    "{} and {} cannot be told apart on held-out points (z = {:.1} and {:.1} < {:.0}); on all points {} fits with the lower BIC (RMS {:.3} µm, {} parameters, against {:.3} µm, {}): named first",
+                    "{} and {} cannot be told apart on held-out points (z = {:.1} and {:.1} < {:.0}); on all points{} {} fits with the lower BIC (RMS {:.3} µm, {} parameters, against {:.3} µm, {}): named first",
                     t.label(),
                     b.label(),
                     scorer.z(b, t),
                     scorer.z(t, b),
                     s.threshold,
+                    if kept < left_out.len() {
+                        format!(" ({} inside a local anomaly left out)", left_out.len() - kept)
+                    } else {
+                        String::new()
+                    },
                     t.label(),
-                    scorer.fitted_mse(t).sqrt(),
+                    scorer.fitted_mse_outside(t, &left_out).0.sqrt(),
                     scorer.params(t),
-                    scorer.fitted_mse(b).sqrt(),
+                    scorer.fitted_mse_outside(b, &left_out).0.sqrt(),
                     scorer.params(b)
                 ));
                 best = Some(t);
