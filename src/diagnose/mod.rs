@@ -521,18 +521,9 @@ fn select_terms(p: &Problem, candidates: &[Candidate], options: &DiagnoseOptions
     let max_factor = |t: &selection::Terms| -> bool {
         let fit = p.fit(&t.kinds, true);
         let offset: usize = t.kinds.iter().map(|k| k.linear_count()).sum();
-        let factors = &fit.linear.coefs[offset..];
-        // A table turned over (its scale below −MODEL_FACTOR_MIN) is no
-        // error of the model's tables (a stale or missing table scales by
-        // about 0, a scaled one by more): the factors then fit an effect's
-        // shape. The position-independent rest (squareness and location
-        // values) is not a table and is not judged so.
-        let reversed = p
-            .named_cols
+        fit.linear.coefs[offset..]
             .iter()
-            .zip(factors)
-            .any(|((name, _), b)| name != POSITION_INDEPENDENT && 1.0 + b < -MODEL_FACTOR_MIN);
-        factors.iter().any(|b| b.abs() >= MODEL_FACTOR_MIN) && !reversed
+            .any(|b| b.abs() >= MODEL_FACTOR_MIN)
     };
     let cache = candidates
         .iter()
