@@ -482,9 +482,10 @@ impl<'a> Expander<'a> {
     /// set-up clearance below the underside; displaced again; FMAX to the
     /// set-up clearance and the 2nd; back over the centre.
     ///
-    /// The cycle run's text was not returned by `search` here: the feeds
-    /// of the in-plane moves and of the way back down (Q253), and the
-    /// final return to the centre (as cycle 202), are volcomp's readings
+    /// The cycle run's text was not returned by `search` here: its order
+    /// of steps is as recalled from the TNC 640 manual, and the feeds of
+    /// the in-plane moves and of the way back down (Q253), and the final
+    /// return to the centre (as cycle 202), are volcomp's readings
     /// (docs/dialects.md). The workpiece is taken with its surface Q203
     /// on the positive side of the tool axis (the cycle has no Q201 to
     /// give the direction); Q249 < 0 is refused.
@@ -900,7 +901,7 @@ impl<'a> Expander<'a> {
 
     /// Cycle 262 THREAD MILLING (TNC 640 Cycle Programming, "THREAD
     /// MILLING (Cycle 262)" and "Fundamentals of thread milling"; the
-    /// parameters as the TNC 426/430 User's Manual, 8.3, gives them: Q335
+    /// parameters as the TNC 426/430 User's Manual, 8.3, pp. 247/251, gives them: Q335
     /// nominal diameter, Q239 pitch, its sign the hand (+ right, − left),
     /// Q201 thread depth, Q355 threads per step (0: one 360° helix to the
     /// depth, 1: one continuous helix over the thread's length, > 1: several
@@ -916,8 +917,10 @@ impl<'a> Expander<'a> {
     /// (Z+ for a hole in −Z); the other two into it. Climb (Q351 = +1, 0
     /// or absent, as 208) is counter-clockwise about the tool axis.
     ///
-    /// The cycle run's own text was not returned by `search` here, so these
-    /// details are volcomp's readings (docs/dialects.md): the starting
+    /// The cycle run's own text and the fundamentals' table were not
+    /// returned by `search` here (the order of the run above and the table
+    /// are as recalled from the TNC 640 manual), so these details are
+    /// volcomp's readings (docs/dialects.md): the starting
     /// plane is the depth when working out of the hole, the surface (Q355
     /// = 1) or one pitch above the depth (Q355 = 0) when working into it;
     /// with Q355 = k > 1 each helix is one turn, the helices one k × pitch
