@@ -1019,6 +1019,9 @@ impl<'a> Expander<'a> {
         // helix's lead over a semicircle of half its radius).
         let quarter = lead / 4.0;
         for (from, to) in helices {
+            if self.steps.len() > MAX_STEPS {
+                break;
+            }
             let down = if to > from { 1.0 } else { -1.0 };
             self.feed_to(g.below(from), pre);
             self.feed_to(g.below(from - down * quarter), pre);
@@ -1062,6 +1065,9 @@ impl<'a> Expander<'a> {
         let whole = (turns + 1e-9).floor();
         let mut at = from;
         for k in 1..=whole as u64 {
+            if self.steps.len() > MAX_STEPS {
+                return at;
+            }
             let to = [from[0], from[1], from[2] + rate * k as f64];
             self.arc_in_plane(centre, at, to, !ccw, 0, feed);
             at = to;
@@ -1559,6 +1565,36 @@ mod tests {
         })
         .unwrap();
         assert_eq!(d.q, vec![(200, 3.0), (201, -48.0), (239, 2.0)]);
+    }
+
+    #[test]
+    fn thread_milling_works_out_of_the_hole_for_right_climb_and_left_up_cut() {
+        // The fundamentals' table: the first two moves after FMAX to Z+2
+        // (Q253 to the starting plane, the quarter-pitch compensation).
+        for (pitch, climb, want) in [
+            (2.0, 1.0, [-8.0, -8.5]),
+            (-2.0, -1.0, [-8.0, -8.5]),
+            (2.0, -1.0, [0.0, 0.5]),
+            (-2.0, 1.0, [0.0, 0.5]),
+        ] {
+            let d = def(
+                262,
+                &[
+                    (335, 24.0),
+                    (239, pitch),
+                    (201, -8.0),
+                    (355, 1.0),
+                    (253, 500.0),
+                    (351, climb),
+                    (200, 2.0),
+                    (203, 0.0),
+                    (204, 50.0),
+                    (207, 300.0),
+                ],
+            );
+            let z = z_path(&expand(&d, &call()).unwrap());
+            assert_eq!(z[..3], [('r', 2.0), ('f', want[0]), ('f', want[1])]);
+        }
     }
 
     #[test]
