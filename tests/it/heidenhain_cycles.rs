@@ -1,5 +1,8 @@
 //! Klartext machining cycles expanded at their call (issue 35 item 4):
-//! 208 BORE MILLING (a helix on the circle of Q335/2 − the tool radius, the
+//! 262 THREAD MILLING (a helix of the pitch Q239 on the circle of Q335/2 −
+//! the tool radius, its working direction from the hand and Q351), 204
+//! BACK BORING (down through the hole displaced by Q251 in the direction
+//! Q214, counterbored upwards from the underside), 208 BORE MILLING (a helix on the circle of Q335/2 − the tool radius, the
 //! tool called by name from the machine file's `[[tools]] name`), 241
 //! SINGLE-LIP DEEP-HOLE DRILLING, 209 TAPPING WITH CHIP BREAKING and 206
 //! TAPPING, each path worked out by hand from the cycle run of the TNC 640
@@ -16,6 +19,7 @@ use volcomp::gcode::{Feed, Frame, Motion, MotionKind};
 use volcomp::machine::{ErrorModel, LoadOptions, Machine, ModelOptions};
 
 const FIXTURE: &str = "tests/data/heidenhain/cycles-bore-tap-deep.h";
+const THREADS: &str = "tests/data/heidenhain/cycles-thread-backbore.h";
 
 /// bc-trt with the fixture's tools by name (the TNC tool table's NAME
 /// column as the machine file's `[[tools]] name`).
@@ -28,6 +32,8 @@ fn rig() -> &'static Rig {
             (11, "MILL_D8", 80.0, 4.0),
             (12, "DEEP_D6", 150.0, 3.0),
             (13, "TAP_M10", 90.0, 5.0),
+            (14, "THREAD_M24", 70.0, 8.0),
+            (15, "BACKBORE", 120.0, 2.0),
         ] {
             text.push_str(&format!(
                 "\n[[tools]]\nnumber = {number}\nname = \"{name}\"\nlength = {length}\nradius = {radius}\n"
@@ -275,16 +281,17 @@ fn deep_hole_241_and_tapping_209_206() {
 
 /// The cycles whose path the manual's text (as read here) does not give
 /// exactly are refused at their call, naming the cycle, the line of its
-/// definition and the missing detail: 204 back boring, the 25x pockets,
-/// slots and studs, 262 thread milling.
+/// definition and the missing detail: the 25x pockets, slots and studs,
+/// 263–267 thread milling with countersinking, drilling or outside.
 #[test]
 fn unexpanded_cycles_name_the_missing_detail() {
     for (cycle, detail) in [
-        ("204 BACK BORING", "tool's edge geometry"),
-        ("251 RECTANGULAR POCKET", "stepover from Q370"),
-        ("252 CIRCULAR POCKET", "stepover from Q370"),
-        ("256 RECTANGULAR STUD", "stepover from Q370"),
-        ("262 THREAD MILLING", "tangential helical approach"),
+        ("251 RECTANGULAR POCKET", "stepovers of at most Q370"),
+        ("252 CIRCULAR POCKET", "plunge of Q366"),
+        ("256 RECTANGULAR STUD", "finishing passes"),
+        ("263 THREAD MILLING/CNTSNKG", "path of the countersinking"),
+        ("265 HEL. THREAD DRLG/MLG", "path of the countersinking"),
+        ("267 OUTSIDE THREAD MILLING", "outside approach"),
     ] {
         let text = format!(
             "0 BEGIN PGM R MM\n1 TOOL CALL 1 Z S1000\n2 L X+0 Y+0 Z+50 R0 FMAX\n3 CYCL DEF {cycle} ~\n  Q200=+2 ~\n  Q201=-10 ~\n  Q203=+0 ~\n  Q204=+50\n4 L X+10 R0 FMAX M99\n5 END PGM R MM\n"
@@ -332,6 +339,262 @@ fn compensate_writes_expanded_cycles_flat() {
         .count();
     let before = motions(&text, Some(&rig.0)).unwrap();
     assert_eq!(flat, of(&before, 18).len());
+    let after = motions(&out, None).unwrap();
+    assert_eq!(after.len(), before.len());
+    for ((_, a), (_, b)) in before.iter().zip(&after) {
+        let (p, q) = (end(a), end(b));
+        let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+        assert!(d < 0.05, "{p:?} -> {q:?}");
+    }
+}
+
+fn threads() -> String {
+    std::fs::read_to_string(root().join(THREADS)).unwrap()
+}
+
+/// Checks that `moves`, from `from`, run on the circle of `radius` about
+/// `centre` (x, y) in the sense `ccw`, as chords within 0.5 µm, with Z
+/// linear in the swept angle (`rise` mm per radian); returns the angle
+/// swept (radians, positive).
+fn on_helix(
+    moves: &[Motion],
+    from: [f64; 3],
+    centre: [f64; 2],
+    radius: f64,
+    ccw: bool,
+    rise: f64,
+) -> f64 {
+    let angle_of = |p: [f64; 3]| (p[1] - centre[1]).atan2(p[0] - centre[0]);
+    let mut last = from;
+    let mut swept = 0.0;
+    for c in moves {
+        let p = end(c);
+        assert_abs_diff_eq!(
+            (p[0] - centre[0]).hypot(p[1] - centre[1]),
+            radius,
+            epsilon = 1e-9
+        );
+        let mut step = (angle_of(p) - angle_of(last)).rem_euclid(std::f64::consts::TAU);
+        if !ccw {
+            step = std::f64::consts::TAU - step;
+        }
+        assert!(step > 0.0 && radius * (1.0 - (step / 2.0).cos()) <= 0.5e-3 + 1e-12);
+        swept += step;
+        assert_abs_diff_eq!(p[2], from[2] + rise * swept, epsilon = 1e-9);
+        last = p;
+    }
+    swept
+}
+
+/// Cycle 262 with "THREAD_M24" (R 8), an M24 × 2 right-hand thread 8 deep
+/// (Q335 = 24, Q239 = +2, Q201 = -8), climb (Q351 = +1), Q355 = 1, called
+/// at (10, 20) from Z+100. By hand: the helix radius is 12 − 8 = 4; right
+/// hand and climb work out of the hole (the fundamentals' Z+), so the
+/// starting plane is the depth: FMAX to Z+2, at Q253 (500) to Z-8, the
+/// compensating move a quarter pitch (0.5) lower to Z-8.5; the approach
+/// semicircle about (12, 20), radius 2, counter-clockwise (through y = 18),
+/// rising 0.5 to (14, 20, -8); the helix counter-clockwise about (10, 20),
+/// 2 per turn, 8 / 2 = 4 turns to (14, 20, 0); the departure semicircle
+/// about (12, 20) (through y = 22) rising 0.5 to the centre (10, 20, +0.5);
+/// FMAX to Z+2 and Z+50. Milling at Q207 at the tool centre: 300 × 4 / 12
+/// = 100 mm/min.
+#[test]
+fn thread_milling_262_climbs_a_right_hand_thread_out_of_the_hole() {
+    let rig = rig();
+    let m = motions(&threads(), Some(&rig.0)).unwrap();
+    let call = of(&m, 19);
+    let n = call.len();
+    assert_eq!(zs(&call[..3]), vec![2.0, -8.0, -8.5]);
+    assert_eq!(call[0].kind, MotionKind::Rapid);
+    assert_at(end(&call[2]), [10.0, 20.0, -8.5]);
+    assert_eq!(feed(&call[1]), Some(500.0));
+    assert_eq!(feed(&call[2]), Some(500.0));
+    assert_eq!(zs(&call[n - 2..]), vec![2.0, 50.0]);
+    assert!(call[n - 2..].iter().all(|c| c.kind == MotionKind::Rapid));
+    assert_at(end(&call[n - 1]), [10.0, 20.0, 50.0]);
+    let cutting = &call[3..n - 2];
+    assert!(cutting.iter().all(|c| feed(c) == Some(100.0)));
+    let at = |p: [f64; 3]| {
+        cutting
+            .iter()
+            .position(|c| {
+                let q = end(c);
+                (0..3).all(|k| (q[k] - p[k]).abs() < 1e-9)
+            })
+            .unwrap()
+    };
+    let (a, h) = (at([14.0, 20.0, -8.0]), at([14.0, 20.0, 0.0]));
+    let pi = std::f64::consts::PI;
+    // The approach: half a turn about (12, 20), through y = 18.
+    let swept = on_helix(
+        &cutting[..=a],
+        [10.0, 20.0, -8.5],
+        [12.0, 20.0],
+        2.0,
+        true,
+        0.5 / pi,
+    );
+    assert_abs_diff_eq!(swept, pi, epsilon = 1e-9);
+    assert!(cutting[..a].iter().any(|c| end(c)[1] < 18.01));
+    // The helix: 4 turns about (10, 20), 2 mm per turn.
+    let swept = on_helix(
+        &cutting[a + 1..=h],
+        [14.0, 20.0, -8.0],
+        [10.0, 20.0],
+        4.0,
+        true,
+        2.0 / (2.0 * pi),
+    );
+    assert_abs_diff_eq!(swept, 4.0 * 2.0 * pi, epsilon = 1e-9);
+    // The departure: half a turn about (12, 20) to the centre, through y = 22.
+    let swept = on_helix(
+        &cutting[h + 1..],
+        [14.0, 20.0, 0.0],
+        [12.0, 20.0],
+        2.0,
+        true,
+        0.5 / pi,
+    );
+    assert_abs_diff_eq!(swept, pi, epsilon = 1e-9);
+    assert!(cutting[h + 1..].iter().any(|c| end(c)[1] > 21.99));
+    assert_at(end(cutting.last().unwrap()), [10.0, 20.0, 0.5]);
+}
+
+/// The other readings of cycle 262, by hand. Left hand (Q239 = -2) and
+/// climb works into the hole: from the surface (Z0; compensating move to
+/// Z+0.5) counter-clockwise down 4 turns to (14, 20, -8), departure to
+/// (10, 20, -8.5). Up-cut (Q351 = -1) with the right hand also works into
+/// the hole, clockwise (the approach through y = 22). Q355 = 0: one turn,
+/// Z-8 to Z-6 (departure to -5.5). Q355 = 3 (offset 3 × 2 = 6): helices of
+/// one turn from Z-8 and from Z-2 (ceil(8 / 6) = 2), each after its own
+/// pre-positioning at Q253 (Z-8, -8.5; Z-2, -2.5). Refused at the call:
+/// no tool radius, a tool as wide as the thread.
+#[test]
+fn thread_milling_262_senses_steps_and_refusals() {
+    let rig = rig();
+    let text = threads();
+    let left = of(
+        &motions(&text.replace("Q239=+2", "Q239=-2"), Some(&rig.0)).unwrap(),
+        19,
+    );
+    assert_eq!(zs(&left[..3]), vec![2.0, 0.0, 0.5]);
+    let n = left.len();
+    assert_at(end(&left[n - 3]), [10.0, 20.0, -8.5]);
+    let find = |z: f64| {
+        left.iter()
+            .position(|c| {
+                let p = end(c);
+                (p[0] - 14.0).abs() < 1e-9 && (p[1] - 20.0).abs() < 1e-9 && (p[2] - z).abs() < 1e-9
+            })
+            .expect("the helix start and end")
+    };
+    let (top, bottom) = (find(0.0), find(-8.0));
+    let swept = on_helix(
+        &left[top + 1..=bottom],
+        [14.0, 20.0, 0.0],
+        [10.0, 20.0],
+        4.0,
+        true,
+        -1.0 / std::f64::consts::PI,
+    );
+    assert_abs_diff_eq!(swept, 8.0 * std::f64::consts::PI, epsilon = 1e-9);
+    let upcut = of(
+        &motions(&text.replace("Q351=+1", "Q351=-1"), Some(&rig.0)).unwrap(),
+        19,
+    );
+    assert_eq!(zs(&upcut[..3]), vec![2.0, 0.0, 0.5]);
+    assert!(end(&upcut[3])[1] > 20.0, "clockwise: through +Y");
+    let one = of(
+        &motions(&text.replace("Q355=+1", "Q355=+0"), Some(&rig.0)).unwrap(),
+        19,
+    );
+    let n = one.len();
+    assert_eq!(zs(&one[..3]), vec![2.0, -8.0, -8.5]);
+    assert_at(end(&one[n - 3]), [10.0, 20.0, -5.5]);
+    let z_one: Vec<f64> = zs(&one);
+    assert!(z_one.iter().all(|z| (-8.5..=50.0).contains(z)));
+    assert!(z_one[3..n - 3].iter().all(|z| *z <= -5.5 + 1e-9));
+    let three = of(
+        &motions(&text.replace("Q355=+1", "Q355=+3"), Some(&rig.0)).unwrap(),
+        19,
+    );
+    let pre: Vec<f64> = three
+        .iter()
+        .filter(|c| feed(c) == Some(500.0))
+        .map(|c| (end(c)[2] * 1e9).round() / 1e9)
+        .collect();
+    assert_eq!(pre, vec![-8.0, -8.5, -2.0, -2.5]);
+    let n = three.len();
+    assert_at(end(&three[n - 3]), [10.0, 20.0, 0.5]);
+    let e = motions(&text, None).unwrap_err();
+    assert!(
+        e.contains("CYCL DEF 262") && e.contains("tool radius") && e.contains("t.h:19:"),
+        "{e}"
+    );
+    let e = motions(&text.replace("Q335=+24", "Q335=+16"), Some(&rig.0)).unwrap_err();
+    assert!(e.contains("not smaller than the nominal diameter"), "{e}");
+}
+
+/// Cycle 204 called by M99 at (30, 0) from (0, 0, 50), by hand: surface
+/// Z0, material 20 thick (underside Z-20), boring bar 3.5 off centre,
+/// tooth 15 above the tool's tip, counterbore 5 deep, Q214 = 1 (−X):
+/// FMAX to Z+2; FMAX aside to X26.5; at Q253 (400) down until the tooth is
+/// the set-up clearance below the underside (tooth Z-22, tip Z-37); at
+/// Q253 back over the centre (30, 0, -37); at Q254 (100) up until the
+/// tooth is 5 above the underside (tooth Z-15, tip Z-30); dwell; at Q253
+/// back down to Z-37; FMAX aside, up to Z+2 and Z+50, back over the
+/// centre. Q214 = 4 displaces to +Y; Q249 < 0 is refused.
+#[test]
+fn back_boring_204_goes_through_the_hole_off_centre() {
+    let rig = rig();
+    let text = threads();
+    let m = motions(&text, Some(&rig.0)).unwrap();
+    let call = of(&m, 35);
+    let want = [
+        ([30.0, 0.0, 50.0], None),
+        ([30.0, 0.0, 2.0], None),
+        ([26.5, 0.0, 2.0], None),
+        ([26.5, 0.0, -37.0], Some(400.0)),
+        ([30.0, 0.0, -37.0], Some(400.0)),
+        ([30.0, 0.0, -30.0], Some(100.0)),
+        ([30.0, 0.0, -37.0], Some(400.0)),
+        ([26.5, 0.0, -37.0], None),
+        ([26.5, 0.0, 2.0], None),
+        ([26.5, 0.0, 50.0], None),
+        ([30.0, 0.0, 50.0], None),
+    ];
+    assert_eq!(call.len(), want.len());
+    for (c, (p, f)) in call.iter().zip(want) {
+        assert_at(end(c), p);
+        assert_eq!(feed(c), f, "{p:?}");
+    }
+    let plus_y = of(
+        &motions(&text.replace("Q214=+1", "Q214=+4"), Some(&rig.0)).unwrap(),
+        35,
+    );
+    assert_at(end(&plus_y[2]), [30.0, 3.5, 2.0]);
+    let e = motions(&text.replace("Q249=+5", "Q249=-5"), Some(&rig.0)).unwrap_err();
+    assert!(
+        e.contains("CYCL DEF 204") && e.contains("Q249") && e.contains("t.h:35:"),
+        "{e}"
+    );
+}
+
+/// `compensate` of the thread and back boring fixture on bc-trt: both
+/// calls written flat, the output reads back (no tool table: the cycles
+/// are no longer called) to the same moves within the correction.
+#[test]
+fn compensate_writes_thread_and_back_boring_flat() {
+    let rig = rig();
+    let text = threads();
+    let (out, _) = compensate_on(rig, &text, Frame::Joint, 0.5, true);
+    for (line, call) in [(19, "CYCL CALL"), (35, "L X+30 Y+0 R0 FMAX M99")] {
+        assert!(
+            out.contains(&format!("; volcomp: line {line} written flat: {call}\n")),
+            "{line}"
+        );
+    }
+    let before = motions(&text, Some(&rig.0)).unwrap();
     let after = motions(&out, None).unwrap();
     assert_eq!(after.len(), before.len());
     for ((_, a), (_, b)) in before.iter().zip(&after) {

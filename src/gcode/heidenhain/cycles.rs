@@ -4,11 +4,11 @@
 //! patterns of `PATTERN DEF`, and each cycle expanded into the moves the
 //! control makes, in program coordinates, as the TNC's cycle programming
 //! manuals define them. A cycle this module does not expand is refused at
-//! its call, naming it (204, 251–257 and 262–267 also name the detail of
+//! its call, naming it (251–257 and 263–267 also name the detail of
 //! their motion the manual's text as read here does not give); cycles that
 //! do not move pass through. Where `search` did not return the manual's
-//! text of a cycle run (206, 208, 209, 241), the cycle's doc comment says
-//! so and docs/dialects.md lists the readings volcomp made.
+//! text of a cycle run (204, 206, 208, 209, 241, 262), the cycle's doc
+//! comment says so and docs/dialects.md lists the readings volcomp made.
 //!
 //! Semantics (the manuals are the contract, cited per cycle): HEIDENHAIN
 //! *TNC 640 User's Manual Cycle Programming* (NC software 34059x), chapter
@@ -94,7 +94,9 @@ pub(crate) enum CycleError {
 }
 
 /// The cycles [`expand`] expands.
-pub(crate) const EXPANDED: [u32; 12] = [1, 200, 201, 202, 203, 205, 206, 207, 208, 209, 240, 241];
+pub(crate) const EXPANDED: [u32; 14] = [
+    1, 200, 201, 202, 203, 204, 205, 206, 207, 208, 209, 240, 241, 262,
+];
 
 /// Cycles that do not move the tool and do not change where later blocks
 /// go: passed through, counted. 9 (dwell, the dwell counted at its
@@ -184,6 +186,7 @@ pub(crate) fn expand(def: &CycleDef, call: &Call) -> Result<Vec<Step>, CycleErro
         201 => x.reaming()?,
         202 => x.boring()?,
         203 => x.universal_drilling()?,
+        204 => x.back_boring()?,
         205 => x.universal_pecking()?,
         206 => x.tapping()?,
         207 => x.rigid_tapping()?,
@@ -191,6 +194,7 @@ pub(crate) fn expand(def: &CycleDef, call: &Call) -> Result<Vec<Step>, CycleErro
         209 => x.tapping_chip_breaking()?,
         240 => x.centering()?,
         241 => x.single_lip_drilling()?,
+        262 => x.thread_milling()?,
         n if not_expanded(n).is_some() => {
             return Err(CycleError::Unread(format!(
                 "CYCL DEF {n} (defined on line {}) called here: {}",
@@ -416,27 +420,13 @@ impl<'a> Expander<'a> {
         if g.depth == 0.0 {
             return Ok(());
         }
-        let direction = self.optional(214);
-        let (du, dv) = match direction as i64 {
-            _ if direction.fract() != 0.0 => (f64::NAN, 0.0),
-            0 => (0.0, 0.0),
-            1 => (-0.2, 0.0),
-            2 => (0.0, -0.2),
-            3 => (0.2, 0.0),
-            4 => (0.0, 0.2),
-            _ => (f64::NAN, 0.0),
-        };
-        if du.is_nan() {
-            return Err(CycleError::Refused(format!(
-                "CYCL DEF 202: Q214 (disengaging direction) must be 0 to 4, not {direction}"
-            )));
-        }
+        let [du, dv] = self.disengaging(0.2 * self.scale)?;
         self.rapid_to(g.above(g.clearance));
         self.feed_to(g.below(g.depth), feed);
         self.dwell(self.optional(211));
         let centre = self.at;
         if du != 0.0 || dv != 0.0 {
-            let d = from_plane(self.call.plane, [du * self.scale, dv * self.scale, 0.0]);
+            let d = from_plane(self.call.plane, [du, dv, 0.0]);
             let p = [centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]];
             self.push(Step::Rapid(p));
         }
@@ -447,6 +437,104 @@ impl<'a> Expander<'a> {
             p[self.axis] = self.at[self.axis];
             self.push(Step::Rapid(p));
         }
+        Ok(())
+    }
+
+    /// The displacement (u, v) of `distance` (mm, already scaled) in the
+    /// disengaging direction Q214 (cycles 202 and 204): 1 −, 2 − minor,
+    /// 3 +, 4 + minor axis of the working plane, 0 none.
+    fn disengaging(&self, distance: f64) -> Result<[f64; 2], CycleError> {
+        let direction = self.optional(214);
+        let d = distance;
+        let v = match direction as i64 {
+            _ if direction.fract() != 0.0 => None,
+            0 => Some([0.0, 0.0]),
+            1 => Some([-d, 0.0]),
+            2 => Some([0.0, -d]),
+            3 => Some([d, 0.0]),
+            4 => Some([0.0, d]),
+            _ => None,
+        };
+        v.ok_or_else(|| {
+            CycleError::Refused(format!(
+                "CYCL DEF {}: Q214 (disengaging direction) must be 0 to 4, not {direction}",
+                self.def.number
+            ))
+        })
+    }
+
+    /// Cycle 204 BACK BORING (TNC 640 Cycle Programming, "BACK BORING
+    /// (Cycle 204)"; its parameters as the TNC 426 User's Manual, 8.2, gives
+    /// them: Q249 depth of counterbore, from the underside of the workpiece,
+    /// positive in the positive spindle axis direction; Q250 material
+    /// thickness; Q251 off-centre distance of the boring bar; Q252 tool
+    /// edge height, from the underside of the bar (the tool's length
+    /// reference) to the cutting tooth; Q253 pre-positioning feed; Q254
+    /// counterboring feed; Q255 dwell at the top of the counterbore; Q214
+    /// "the direction in which the TNC displaces the tool by the
+    /// off-center distance (after spindle orientation)": 1 −, 2 − minor,
+    /// 3 +, 4 + minor axis): FMAX to the set-up clearance over the centre;
+    /// the spindle oriented (Q336: no axis moves) and the tool displaced
+    /// by Q251 in the direction Q214; at Q253 down through the hole until
+    /// the tooth is the set-up clearance below the underside; back over
+    /// the centre; at Q254 up until the tooth is at the counterbore depth
+    /// Q249 above the underside; dwell Q255; back down to the tooth's
+    /// set-up clearance below the underside; displaced again; FMAX to the
+    /// set-up clearance and the 2nd; back over the centre.
+    ///
+    /// The cycle run's text was not returned by `search` here: its order
+    /// of steps is as recalled from the TNC 640 manual, and the feeds of
+    /// the in-plane moves and of the way back down (Q253), and the final
+    /// return to the centre (as cycle 202), are volcomp's readings
+    /// (docs/dialects.md). The workpiece is taken with its surface Q203
+    /// on the positive side of the tool axis (the cycle has no Q201 to
+    /// give the direction); Q249 < 0 is refused.
+    fn back_boring(&mut self) -> Result<(), CycleError> {
+        let surface = self.length(203, "surface coordinate")? + self.call.surface_shift;
+        let clearance = self.length(200, "set-up clearance")?.abs();
+        let second = self.optional(204).abs() * self.scale;
+        let depth = self.length(249, "depth of counterbore")?;
+        let thickness = self.length(250, "material thickness")?.abs();
+        let off = self.length(251, "off-centre distance")?.abs();
+        let edge = self.length(252, "tool edge height")?.abs();
+        let pre = self.feed(253, "feed rate for pre-positioning")?;
+        let bore = self.feed(254, "feed rate for counterboring")?;
+        if depth < 0.0 {
+            return Err(CycleError::Unread(format!(
+                "CYCL DEF 204 (line {}) with a negative depth of counterbore Q249 (towards the negative spindle axis)",
+                self.def.line
+            )));
+        }
+        if depth == 0.0 {
+            return Ok(());
+        }
+        let [du, dv] = self.disengaging(off)?;
+        let g = Geometry {
+            surface,
+            dir: -1.0,
+            depth: thickness,
+            clearance,
+            second,
+        };
+        self.rapid_to(g.above(g.clearance));
+        let centre = self.at;
+        let d = from_plane(self.call.plane, [du, dv, 0.0]);
+        let aside = |p: [f64; 3]| [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
+        self.push(Step::Rapid(aside(centre)));
+        // The tip: the tooth is `edge` above it.
+        let low = g.below(thickness + clearance + edge);
+        self.feed_to(low, pre);
+        let mut under = centre;
+        under[self.axis] = low;
+        self.push(Step::Feed(under, pre));
+        self.feed_to(g.below(thickness - depth + edge), bore);
+        self.dwell(self.optional(255));
+        self.feed_to(low, pre);
+        self.push(Step::Rapid(aside(self.at)));
+        self.leave(&g, None);
+        let mut back = centre;
+        back[self.axis] = self.at[self.axis];
+        self.push(Step::Rapid(back));
         Ok(())
     }
 
@@ -791,43 +879,210 @@ impl<'a> Expander<'a> {
         let c = to_plane(self.call.plane, centre);
         let w_top = c[2];
         let w_bottom = to_plane(self.call.plane, self.point(g.below(g.depth)))[2];
-        let sense = if ccw { 1.0 } else { -1.0 };
         // The approach: a semicircle of diameter r from the centre to (u + r, v).
         let half = [c[0] + r / 2.0, c[1]];
         let first = [c[0] + r, c[1], w_top];
         self.arc_in_plane(half, [c[0], c[1], w_top], first, !ccw, 0, feed);
-        // The helix: (travel / Q334) turns from the set-up clearance, turn
-        // by turn (each turn's chords within the tolerance).
-        let tau = std::f64::consts::TAU;
+        // The helix: (travel / Q334) turns from the set-up clearance.
         let turns = (w_top - w_bottom).abs() / per_turn;
         if turns > MAX_STEPS as f64 {
             return Err(CycleError::Refused(format!(
                 "CYCL DEF 208: more than {MAX_STEPS} helix turns"
             )));
         }
-        let drop = (w_bottom - w_top) / turns;
-        let whole = (turns + 1e-9).floor();
-        let mut from = first;
-        for k in 1..=whole as u64 {
-            let to = [first[0], first[1], w_top + drop * k as f64];
-            self.arc_in_plane([c[0], c[1]], from, to, !ccw, 0, feed);
-            from = to;
-        }
-        let rest = turns - whole;
-        let end = if rest > 1e-9 {
-            let a = sense * rest * tau;
-            let to = [c[0] + r * a.cos(), c[1] + r * a.sin(), w_bottom];
-            self.arc_in_plane([c[0], c[1]], from, to, !ccw, 0, feed);
-            to
-        } else {
-            from
-        };
+        let end = self.helix([c[0], c[1]], first, w_bottom, turns, ccw, feed);
         // One more full circle at the depth, then back to the centre.
         self.arc_in_plane([c[0], c[1]], end, end, !ccw, 0, feed);
         let bottom_centre = from_plane(self.call.plane, [c[0], c[1], w_bottom]);
         self.push(Step::Feed(bottom_centre, feed));
         self.leave(&g, None);
         Ok(())
+    }
+
+    /// Cycle 262 THREAD MILLING (TNC 640 Cycle Programming, "THREAD
+    /// MILLING (Cycle 262)" and "Fundamentals of thread milling"; the
+    /// parameters as the TNC 426/430 User's Manual, 8.3, pp. 247/251, gives them: Q335
+    /// nominal diameter, Q239 pitch, its sign the hand (+ right, − left),
+    /// Q201 thread depth, Q355 threads per step (0: one 360° helix to the
+    /// depth, 1: one continuous helix over the thread's length, > 1: several
+    /// helices with approach and departure, offset by Q355 × the pitch),
+    /// Q253 pre-positioning feed, Q351 +1 climb / −1 up-cut with M3, Q207
+    /// milling feed): FMAX to the set-up clearance over the centre; at Q253
+    /// to the starting plane, then the compensating move in the tool axis
+    /// that makes the helical approach arrive at it; the approach, the
+    /// helix on the circle of radius Q335/2 − the tool radius (tool table
+    /// R + DR), the departure to the centre; FMAX to the set-up clearance
+    /// and the 2nd. The working direction is the fundamentals' table:
+    /// right-hand and climb, or left-hand and up-cut, out of the hole
+    /// (Z+ for a hole in −Z); the other two into it. Climb (Q351 = +1, 0
+    /// or absent, as 208) is counter-clockwise about the tool axis.
+    ///
+    /// The cycle run's own text and the fundamentals' table were not
+    /// returned by `search` here (the order of the run above and the table
+    /// are as recalled from the TNC 640 manual), so these details are
+    /// volcomp's readings (docs/dialects.md): the starting
+    /// plane is the depth when working out of the hole, the surface (Q355
+    /// = 1) or one pitch above the depth (Q355 = 0) when working into it;
+    /// with Q355 = k > 1 each helix is one turn, the helices one k × pitch
+    /// apart from the depth upwards (taken from the top down when working
+    /// into the hole), as many as cover the depth; the approach is a
+    /// semicircle of diameter (helix radius) from the centre to the helix
+    /// start on the working plane's first axis (+u), tangent to the helix
+    /// and rising at its lead (a quarter pitch), the departure the same
+    /// from the helix end back to the centre; approach, helix and
+    /// departure at Q207 scaled to the tool centre (Q207 × helix radius /
+    /// thread radius: the fundamentals say the feed refers to the cutting
+    /// edge); the moves between helices at Q253.
+    fn thread_milling(&mut self) -> Result<(), CycleError> {
+        let g = self.geometry()?;
+        let diameter = self.length(335, "nominal diameter")?.abs();
+        let pitch = self.length(239, "thread pitch")?;
+        let pre = self.feed(253, "feed rate for pre-positioning")?;
+        let milling = self.feed(207, "feed rate for milling")?;
+        let per_step = self.optional(355);
+        let line = self.def.line;
+        if per_step < 0.0 || per_step.fract() != 0.0 || per_step > 1e6 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 262 (line {line}): Q355 (threads per step) must be a whole number from 0, not {per_step}"
+            )));
+        }
+        if pitch == 0.0 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 262 (line {line}): the thread pitch Q239 must not be 0"
+            )));
+        }
+        let Some(tool) = self.call.tool_radius else {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 262 (line {line}) needs the tool radius: the tool in the spindle is not in the tool table (a tool called by name needs `name` in the machine file's [[tools]])"
+            )));
+        };
+        let r = diameter / 2.0 - tool;
+        if r <= 1e-9 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 262 (line {line}): the tool ({} mm) is not smaller than the nominal diameter Q335 ({diameter} mm)",
+                2.0 * tool
+            )));
+        }
+        if g.depth == 0.0 {
+            return Ok(());
+        }
+        let ccw = self.optional(351) >= 0.0;
+        let lead = pitch.abs();
+        // Out of the hole (towards the surface) or into it.
+        let out = (pitch > 0.0) == ccw;
+        // Each helix as (start, end) depths below the surface.
+        let mut helices: Vec<(f64, f64)> = Vec::new();
+        match per_step as u64 {
+            1 => helices.push((g.depth, 0.0)),
+            0 => helices.push((g.depth, g.depth - lead)),
+            k => {
+                let offset = k as f64 * lead;
+                let n = (g.depth / offset - 1e-9).ceil().max(1.0);
+                if n > MAX_STEPS as f64 {
+                    return Err(CycleError::Refused(format!(
+                        "CYCL DEF 262: more than {MAX_STEPS} helices"
+                    )));
+                }
+                for j in 0..n as u64 {
+                    let b = g.depth - j as f64 * offset;
+                    helices.push((b, b - lead));
+                }
+            }
+        }
+        if !out {
+            helices.reverse();
+            for h in &mut helices {
+                *h = (h.1, h.0);
+            }
+        }
+        let turns = helices
+            .iter()
+            .map(|(a, b)| (a - b).abs() / lead)
+            .sum::<f64>();
+        if turns > MAX_STEPS as f64 {
+            return Err(CycleError::Refused(format!(
+                "CYCL DEF 262: more than {MAX_STEPS} helix turns"
+            )));
+        }
+        let feed = milling * r / (diameter / 2.0);
+        self.rapid_to(g.above(g.clearance));
+        let centre = self.at;
+        let plane = self.call.plane;
+        let axis = self.axis;
+        let w_at = |b: f64| {
+            let mut p = centre;
+            p[axis] = g.below(b);
+            to_plane(plane, p)[2]
+        };
+        let c = to_plane(plane, centre);
+        // The approach and the departure each travel a quarter pitch (the
+        // helix's lead over a semicircle of half its radius).
+        let quarter = lead / 4.0;
+        for (from, to) in helices {
+            if self.steps.len() > MAX_STEPS {
+                break;
+            }
+            let down = if to > from { 1.0 } else { -1.0 };
+            self.feed_to(g.below(from), pre);
+            self.feed_to(g.below(from - down * quarter), pre);
+            let start = [c[0], c[1], w_at(from - down * quarter)];
+            let first = [c[0] + r, c[1], w_at(from)];
+            self.arc_in_plane([c[0] + r / 2.0, c[1]], start, first, !ccw, 0, feed);
+            let end = self.helix(
+                [c[0], c[1]],
+                first,
+                w_at(to),
+                (to - from).abs() / lead,
+                ccw,
+                feed,
+            );
+            let half = [(c[0] + end[0]) / 2.0, (c[1] + end[1]) / 2.0];
+            let back = [c[0], c[1], w_at(to + down * quarter)];
+            self.arc_in_plane(half, end, back, !ccw, 0, feed);
+        }
+        self.leave(&g, None);
+        Ok(())
+    }
+
+    /// A helix about `centre` (u, v) from `from` (u, v, w; on the circle)
+    /// through `turns` turns (counter-clockwise when `ccw`) to the tool-axis
+    /// coordinate `w_end`, turn by turn (each turn's chords within the
+    /// tolerance); returns its end (u, v, w).
+    fn helix(
+        &mut self,
+        centre: [f64; 2],
+        from: [f64; 3],
+        w_end: f64,
+        turns: f64,
+        ccw: bool,
+        feed: f64,
+    ) -> [f64; 3] {
+        let rate = if turns > 0.0 {
+            (w_end - from[2]) / turns
+        } else {
+            0.0
+        };
+        let whole = (turns + 1e-9).floor();
+        let mut at = from;
+        for k in 1..=whole as u64 {
+            if self.steps.len() > MAX_STEPS {
+                return at;
+            }
+            let to = [from[0], from[1], from[2] + rate * k as f64];
+            self.arc_in_plane(centre, at, to, !ccw, 0, feed);
+            at = to;
+        }
+        let rest = turns - whole;
+        if rest <= 1e-9 {
+            return at;
+        }
+        let sense = if ccw { 1.0 } else { -1.0 };
+        let a0 = (from[1] - centre[1]).atan2(from[0] - centre[0]);
+        let r = (from[0] - centre[0]).hypot(from[1] - centre[1]);
+        let a = a0 + sense * rest * std::f64::consts::TAU;
+        let to = [centre[0] + r * a.cos(), centre[1] + r * a.sin(), w_end];
+        self.arc_in_plane(centre, at, to, !ccw, 0, feed);
+        to
     }
 
     /// An arc (or helix) in the working plane about `centre` (u, v) from
@@ -911,14 +1166,11 @@ impl<'a> Expander<'a> {
 /// its motion the manual's text (as read here) does not give exactly.
 fn not_expanded(number: u32) -> Option<&'static str> {
     Some(match number {
-        204 => {
-            "BACK BORING is not expanded: the off-centre move through the hole depends on the tool's edge geometry (Q250-Q252) and the spindle orientation, which volcomp does not read"
-        }
         251 | 252 | 253 | 254 | 256 | 257 => {
-            "the pocket, slot and stud cycles (251-257) are not expanded: their roughing path (the stepover from Q370, the plunging strategy Q366, the finishing passes) is not given exactly enough by the manual's text as read here"
+            "the pocket, slot and stud cycles (251-257) are not expanded: the manual's cycle run (TNC 640 34059x-01, 5.6, read for 256) gives the order of the passes, not the path: how many stepovers of at most Q370 x the tool radius and where each lies (TNC 620 340 56x-02, 5.6: \"the TNC always calculates a constant stepover\"), the helical or reciprocating plunge of Q366 (its angle is the TNC tool table's ANGLE column, which volcomp's tool table does not have), and the finishing passes (Q338 infeed, Q385 feed) and their approach"
         }
-        262..=267 => {
-            "thread milling (262-267) is not expanded: the starting plane (from the pitch's sign, Q351 and Q355) and the tangential helical approach are not given exactly enough by the manual's text as read here"
+        263 | 264 | 265 | 267 => {
+            "thread milling with countersinking or drilling (263 thread milling/countersinking, 264 thread drilling/milling, 265 helical thread drilling/milling, 267 outside thread milling) is not expanded: the manual's text as read here gives their parameters (Q356 countersinking or hole depth, Q357 clearance to the side, Q358/Q359 countersinking at the front, Q360 before or after the thread, Q202/Q257/Q256 drilling, Q376 the outside start angle) but not the path of the countersinking, drilling and outside approach moves; cycle 262 is expanded"
         }
         _ => return None,
     })
@@ -1316,8 +1568,38 @@ mod tests {
     }
 
     #[test]
+    fn thread_milling_works_out_of_the_hole_for_right_climb_and_left_up_cut() {
+        // The fundamentals' table: the first two moves after FMAX to Z+2
+        // (Q253 to the starting plane, the quarter-pitch compensation).
+        for (pitch, climb, want) in [
+            (2.0, 1.0, [-8.0, -8.5]),
+            (-2.0, -1.0, [-8.0, -8.5]),
+            (2.0, -1.0, [0.0, 0.5]),
+            (-2.0, 1.0, [0.0, 0.5]),
+        ] {
+            let d = def(
+                262,
+                &[
+                    (335, 24.0),
+                    (239, pitch),
+                    (201, -8.0),
+                    (355, 1.0),
+                    (253, 500.0),
+                    (351, climb),
+                    (200, 2.0),
+                    (203, 0.0),
+                    (204, 50.0),
+                    (207, 300.0),
+                ],
+            );
+            let z = z_path(&expand(&d, &call()).unwrap());
+            assert_eq!(z[..3], [('r', 2.0), ('f', want[0]), ('f', want[1])]);
+        }
+    }
+
+    #[test]
     fn unexpanded_cycles_are_named() {
-        let e = expand(&def(262, &[]), &call()).unwrap_err();
-        assert!(matches!(e, CycleError::Unread(m) if m.contains("CYCL DEF 262")));
+        let e = expand(&def(263, &[]), &call()).unwrap_err();
+        assert!(matches!(e, CycleError::Unread(m) if m.contains("CYCL DEF 263")));
     }
 }
