@@ -49,6 +49,8 @@ const SINUMERIK_TOOLS: &str =
     "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json --tools {d}/named.tbl";
 const SINUMERIK_OFFSET: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G600=1,2,3";
+const SINUMERIK_SYSVAR: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --sysvar AA_IW=1";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -465,6 +467,29 @@ fn cases() -> Vec<Case> {
             SINUMERIK_OFFSET,
             2,
             &["`G600` is not a work coordinate system"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a system variable the control knows only at run time (`$AA_IW[X]`), not given",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nR1=$AA_IW[X]\nG1 X=R1 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "system variable `$AA_IW[X]` has no value offline",
+                "--sysvar '$AA_IW[X]=VALUE'",
+                "{d}/bad.mpf:2:4",
+            ],
+        ),
+        case(
+            "SINUMERIK system variable",
+            "`--sysvar AA_IW=1` (no `$`)",
+            vec![],
+            SINUMERIK_SYSVAR,
+            2,
+            &["a system variable's name starts with `$`"],
         ),
         case(
             "program",

@@ -43,3 +43,4 @@ mod toolpath;
 mod tools;
 mod work_frame;
 mod workpiece_targets;
+mod sinumerik_system_variables;

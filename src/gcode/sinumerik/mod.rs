@@ -475,6 +475,14 @@ pub(crate) struct SinumerikFront {
     restore_arc: Option<f64>,
     /// This line's circle was handed on as chords.
     chorded: bool,
+    /// System variables given a value (`--sysvar`), by their normalised text.
+    system_variables: std::collections::BTreeMap<String, f64>,
+    /// The active tool's number once the program changed tools (`$P_TOOLNO`).
+    state_tool: Option<f64>,
+    /// The active cutting edge once the program chose one (`$P_TOOL`).
+    state_edge: Option<f64>,
+    /// The tool the last `T` preselected (made active by `M6`).
+    preselected_tool: Option<f64>,
 }
 
 impl SinumerikFront {
@@ -563,6 +571,10 @@ impl SinumerikFront {
             pending: std::collections::VecDeque::new(),
             restore_arc: None,
             chorded: false,
+            system_variables: setup.system_variables.clone(),
+            state_tool: None,
+            state_edge: None,
+            preselected_tool: None,
         }
     }
 
@@ -796,13 +808,42 @@ impl SinumerikFront {
 
     fn eval(&self, line: &LineRun, e: &Expr, at: (usize, usize)) -> Result<f64, GcodeError> {
         let scope = &self.levels.last().expect("a level").scope;
-        values::eval(e, &self.r, scope).map_err(|err| {
+        let system = |name: &str, at: std::ops::Range<usize>| self.system_value(line, name, at);
+        values::eval(e, &self.r, scope, &system).map_err(|err| {
             let (s, t) = err.at.map_or(at, |r| (r.start, r.end));
-            self.error(
-                line,
-                ErrorKind::DialectRefused(err.message),
-                s,
-                t.max(s + 1),
+            let kind = if err.unknown_system {
+                ErrorKind::SystemVariableUnknown(err.message)
+            } else {
+                ErrorKind::DialectRefused(err.message)
+            };
+            self.error(line, kind, s, t.max(s + 1))
+        })
+    }
+
+    /// The value of the system variable `name` written at `at` in the line:
+    /// the execution state's where the program itself set it (`$P_TOOLNO`
+    /// after a tool change, `$P_TOOL` after `D` or `M6`), else the value
+    /// `--sysvar` gives its text (indices included), else an error saying
+    /// how to give it.
+    fn system_value(
+        &self,
+        line: &LineRun,
+        name: &str,
+        at: std::ops::Range<usize>,
+    ) -> Result<f64, String> {
+        let state = match name {
+            "$P_TOOLNO" => self.state_tool,
+            "$P_TOOL" => self.state_edge,
+            _ => None,
+        };
+        let text = line.raw.get(at).map(String::from_utf8_lossy).unwrap_or_default();
+        let key = crate::gcode::normalise_system_variable(&text);
+        if let Some(v) = state.filter(|_| key == name) {
+            return Ok(v);
+        }
+        self.system_variables.get(&key).copied().ok_or_else(|| {
+            format!(
+                "system variable `{key}` has no value offline (the control knows it at run time); give it one with --sysvar '{key}=VALUE'"
             )
         })
     }
@@ -2425,6 +2466,7 @@ impl SinumerikFront {
         if let Some(origin) = flags.settable {
             interpreter.set_work_origin(origin);
         }
+        self.tool_state(&out, tool_edge);
         self.tool_length(&mut out, tool_edge);
         if orientation.given() {
             turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
@@ -2697,6 +2739,23 @@ impl SinumerikFront {
                 at.0,
                 at.1,
             )),
+        }
+    }
+
+    /// The execution state `$P_TOOLNO` and `$P_TOOL` read after this block:
+    /// `T` preselects, `M6` makes the preselected tool active with its first
+    /// edge (`D1`), `D` chooses the edge (*Fundamentals*, "Tool change with
+    /// M6").
+    fn tool_state(&mut self, out: &Out, edge: Option<(f64, usize)>) {
+        if let Some(t) = out.words.iter().rev().find(|w| w.letter == b'T') {
+            self.preselected_tool = Some(t.value);
+        }
+        if out.words.iter().any(|w| w.letter == b'M' && w.value == 6.0) {
+            self.state_tool = self.preselected_tool;
+            self.state_edge = Some(1.0);
+        }
+        if let Some((d, _)) = edge {
+            self.state_edge = Some(d);
         }
     }
 
