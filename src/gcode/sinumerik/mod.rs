@@ -38,6 +38,7 @@
 //!   out into the centre form and handed on flat.
 pub(crate) mod circles;
 pub(crate) mod orientation;
+pub(crate) mod splines;
 pub(crate) mod syntax;
 pub(crate) mod values;
 
@@ -483,6 +484,12 @@ pub(crate) struct SinumerikFront {
     state_edge: Option<f64>,
     /// The tool the last `T` preselected (made active by `M6`).
     preselected_tool: Option<f64>,
+    /// The open `BSPLINE` section (`splines`).
+    spline: Option<splines::SplineSection>,
+    /// The B spline's degree (`SD=`, 3 at reset).
+    spline_degree: usize,
+    /// The blocks of a closed section, handed on next.
+    spline_out: std::collections::VecDeque<(Block, Executed)>,
 }
 
 impl SinumerikFront {
@@ -575,6 +582,9 @@ impl SinumerikFront {
             state_tool: None,
             state_edge: None,
             preselected_tool: None,
+            spline: None,
+            spline_degree: 3,
+            spline_out: std::collections::VecDeque::new(),
         }
     }
 
@@ -647,6 +657,9 @@ impl SinumerikFront {
             self.finished = true;
             return Some(Err(e));
         }
+        if self.next_spline_block() {
+            return Some(Ok(()));
+        }
         if self.finished || self.ended || self.returned {
             return None;
         }
@@ -683,7 +696,20 @@ impl SinumerikFront {
         loop {
             match self.step(interpreter) {
                 Ok(Some(true)) => return Some(Ok(())),
+                Ok(Some(false)) if self.next_spline_block() => return Some(Ok(())),
                 Ok(Some(false)) => continue,
+                Ok(None) if self.spline.is_some() => {
+                    // The program ends in a BSPLINE section.
+                    if let Err(e) = self.close_spline(interpreter) {
+                        self.finished = true;
+                        return Some(Err(e));
+                    }
+                    if self.next_spline_block() {
+                        return Some(Ok(()));
+                    }
+                    self.finished = true;
+                    return None;
+                }
                 Ok(None) => {
                     self.finished = true;
                     return None;
@@ -757,6 +783,17 @@ impl SinumerikFront {
             }
         }
         let (s, e, ending) = self.files[file].line(k);
+        if self.spline.is_some() && self.line_ends_spline(file, s, e) {
+            // Close the section first; the line runs again after it.
+            self.levels[depth].next = k;
+            if first_reading {
+                self.frontier = k;
+            } else {
+                self.loop_lines -= 1;
+            }
+            self.close_spline(interpreter)?;
+            return Ok(Some(false));
+        }
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
         raw.extend_from_slice(&self.files[file].text[s..e]);
@@ -785,8 +822,21 @@ impl SinumerikFront {
                 literal: self.executed.literal,
                 passed: false,
             };
+            if self.hold_in_spline() {
+                return Ok(Some(false));
+            }
         }
         Ok(Some(handed))
+    }
+
+    /// Whether the line at `s..e` of `file` ends the open `BSPLINE`
+    /// section ([`splines::ends_section`]).
+    fn line_ends_spline(&mut self, file: usize, s: usize, e: usize) -> bool {
+        let mut tokens = std::mem::take(&mut self.tokens);
+        let ends = syntax::tokenize(&self.files[file].text[s..e], &mut tokens).is_ok()
+            && splines::ends_section(&tokens);
+        self.tokens = tokens;
+        ends
     }
 
     fn error(&self, line: &LineRun, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
@@ -836,7 +886,11 @@ impl SinumerikFront {
             "$P_TOOL" => self.state_edge,
             _ => None,
         };
-        let text = line.raw.get(at).map(String::from_utf8_lossy).unwrap_or_default();
+        let text = line
+            .raw
+            .get(at)
+            .map(String::from_utf8_lossy)
+            .unwrap_or_default();
         let key = crate::gcode::normalise_system_variable(&text);
         if let Some(v) = state.filter(|_| key == name) {
             return Ok(v);
@@ -2043,6 +2097,8 @@ impl SinumerikFront {
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
         let mut turned = None;
+        let mut spline_words = splines::SplineWords::default();
+        let mut bspline = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2098,6 +2154,9 @@ impl SinumerikFront {
                         repeats = v as u64;
                     }
                     Some(Address::RotPlane) => rpl = Some(v),
+                    Some(Address::Spline(b'D')) => spline_words.degree = Some((v, (ts, vend))),
+                    Some(Address::Spline(b'L')) => spline_words.interval = Some((v, (ts, vend))),
+                    Some(Address::Spline(_)) => spline_words.weight = Some((v, (ts, vend))),
                     Some(Address::Vector(k)) => {
                         orientation.vector[k] = Some((v, ts, vend));
                         out.computed = true;
@@ -2328,6 +2387,7 @@ impl SinumerikFront {
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
+                "BSPLINE" => bspline = Some((ts, te)),
                 "CIP" | "CT" => {
                     arc.form = Some(if name == "CIP" {
                         ArcForm::Intermediate
@@ -2336,9 +2396,9 @@ impl SinumerikFront {
                     });
                     arc.at = (ts, te);
                 }
-                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON"
-                | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG"
-                | "PRESETON" | "CFINE" | "MCALL"
+                "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON" | "ORICONCW"
+                | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG" | "PRESETON"
+                | "CFINE" | "MCALL"
                     if name != "MCALL"
                         || matches!(
                             cur.peek(),
@@ -2412,6 +2472,24 @@ impl SinumerikFront {
                 }
             }
         }
+        if self.spline.is_some() {
+            let offsets = flags.suppress
+                || flags.settable_off
+                || flags.settable.is_some()
+                || self.flush_frame_later;
+            let framed = frame_op
+                .as_ref()
+                .map(|f| f.1)
+                .or(offsets.then_some((0, raw.len())));
+            if let Some((s, e)) = framed {
+                return Err(self.feature(
+                    line,
+                    "a frame, work offset or SUPA inside a BSPLINE section",
+                    s,
+                    e,
+                ));
+            }
+        }
         if let Some((name, args, at)) = call {
             if out.words.iter().any(|w| is_axis(w.letter)) {
                 return Err(self.feature(
@@ -2471,6 +2549,43 @@ impl SinumerikFront {
         if orientation.given() {
             turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
             axis_words = true;
+        }
+        if bspline.is_some()
+            && let Some(w) = out
+                .words
+                .iter()
+                .find(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3))
+        {
+            return Err(self.refused(
+                line,
+                "BSPLINE and G0–G3 in one block (one motion group)".into(),
+                w.start,
+                w.end,
+            ));
+        }
+        match self.spline_block(
+            line,
+            &mut out,
+            bspline,
+            &spline_words,
+            axis_words,
+            interpreter,
+        )? {
+            Some(handed) => return Ok(handed),
+            None if self.spline.is_none() => {
+                // SD=, PL=, PW= outside a spline: passed through, as before.
+                for (_, (s, e)) in [
+                    spline_words.degree,
+                    spline_words.interval,
+                    spline_words.weight,
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    out.statements.push(s..e);
+                }
+            }
+            None => {}
         }
         // The modal CIP / CT: a block with G0–G3 ends it.
         if out
@@ -3973,6 +4088,9 @@ enum Address {
     Pass,
     /// `P=`: runs of a subprogram.
     Repeat,
+    /// `SD=` (`b'D'`), `PL=` (`b'L'`), `PW=` (`b'W'`): a B spline's degree,
+    /// parameter interval and point weight (`splines`).
+    Spline(u8),
     /// `RPL=`: rotation in the plane.
     RotPlane,
     /// A component of the orientation vector `A3= B3= C3=`.
@@ -4009,9 +4127,11 @@ fn address(name: &str) -> Option<Address> {
         "C2" => Address::Angle(2),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
         "TURN" => Address::Turns,
+        "SD" => Address::Spline(b'D'),
+        "PL" => Address::Spline(b'L'),
+        "PW" => Address::Spline(b'W'),
         "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
-        | "SD" | "PL" | "PW" | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF"
-        | "FFWON" | "G" => Address::Pass,
+        | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF" | "FFWON" | "G" => Address::Pass,
         _ if name.len() == 2 && name.as_bytes()[1].is_ascii_digit() && !name.starts_with('R') => {
             Address::Pass
         }
