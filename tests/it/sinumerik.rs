@@ -9,7 +9,7 @@ use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::{Dialect, Frame, InterpretOptions, Program, ProgramSetup};
 
 /// The move ends (line, x, y, z) of the language fixture, read by `check`.
-fn targets(args: &[&str]) -> Vec<(usize, [f64; 3])> {
+pub fn targets(args: &[&str]) -> Vec<(usize, [f64; 3])> {
     let out = volcomp().args(args).current_dir(root()).output().unwrap();
     assert_success(&out);
     String::from_utf8(out.stdout)

@@ -3,22 +3,10 @@
 //! known offline; the value `--sysvar` gives (its text, indices included,
 //! case and spaces aside); `$P_TOOLNO` and `$P_TOOL` from the program's own
 //! `T`/`M6`/`D` once it has set them.
-use crate::support::{assert_success, volcomp};
+use crate::sinumerik::targets;
+use crate::support::volcomp;
 
 const PROGRAM: &str = "G0 X0 Y0 Z5\nR1=$AA_IW[X]\nR2=$P_TOOLNO\nG1 X=R1 Y=R2 F100\nT3\nM6\nG1 Y=$P_TOOLNO D2\nG1 Z=$P_TOOL\nM30\n";
-
-fn rows(stdout: &[u8]) -> Vec<(usize, [f64; 3])> {
-    String::from_utf8(stdout.to_vec())
-        .unwrap()
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let n = |k: usize| f[k].parse::<f64>().unwrap();
-            (f[0].parse().unwrap(), [n(2), n(3), n(4)])
-        })
-        .collect()
-}
 
 #[test]
 fn a_system_variable_is_given_with_sysvar_or_comes_from_the_tool_state() {
@@ -40,21 +28,16 @@ fn a_system_variable_is_given_with_sysvar_or_comes_from_the_tool_state() {
     // Given (other case and spaces): $AA_IW[X] = 7; $P_TOOLNO is the given
     // 9 before the program's own tool change, 3 after `T3 M6`; `$P_TOOL`
     // is the edge `D2` chose.
-    let out = volcomp()
-        .args([
-            "check",
-            path,
-            "--targets",
-            "-",
-            "--sysvar",
-            "$aa_iw[ x ]=7",
-            "--sysvar",
-            "$P_TOOLNO=9",
-        ])
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let got = rows(&out.stdout);
+    let got = targets(&[
+        "check",
+        path,
+        "--targets",
+        "-",
+        "--sysvar",
+        "$aa_iw[ x ]=7",
+        "--sysvar",
+        "$P_TOOLNO=9",
+    ]);
     let want = [
         (1, [0.0, 0.0, 5.0]),
         (4, [7.0, 9.0, 5.0]),
