@@ -2859,8 +2859,8 @@ impl SinumerikFront {
 
     /// The execution state `$P_TOOLNO` and `$P_TOOL` read after this block:
     /// `T` preselects, `M6` makes the preselected tool active with its first
-    /// edge (`D1`), `D` chooses the edge (*Fundamentals*, "Tool change with
-    /// M6").
+    /// edge (`D1`), `D` chooses the edge (*Fundamentals*, "Tool offsets", as
+    /// [`Self::tool_length`] reads them).
     fn tool_state(&mut self, out: &Out, edge: Option<(f64, usize)>) {
         if let Some(t) = out.words.iter().rev().find(|w| w.letter == b'T') {
             self.preselected_tool = Some(t.value);
