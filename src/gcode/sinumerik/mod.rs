@@ -397,6 +397,8 @@ type Call = (String, Vec<(f64, Option<Target>)>, (usize, usize));
 enum Target {
     R(usize),
     Var(String, usize),
+    /// A whole array of the caller (a `VAR` array parameter).
+    Array(String),
 }
 
 /// A program section `REPEAT label [label2] P=n` / `REPEATB label P=n` runs
@@ -1880,10 +1882,19 @@ impl SinumerikFront {
         let done = self.levels.pop().expect("a subprogram level");
         // `VAR` parameters: the caller's variables take their last values.
         for (param, target) in &done.by_ref {
-            let Some(v) = done.scope.vars.get(param).map(|v| v.values[0]) else {
+            let Some(var) = done.scope.vars.get(param) else {
                 continue;
             };
+            let v = var.values[0];
             match target {
+                Target::Array(name) => {
+                    let caller = self.levels.last_mut().expect("the caller's level");
+                    if let Some(into) = caller.scope.vars.get_mut(name) {
+                        for (to, from) in into.values.iter_mut().zip(&var.values) {
+                            *to = into.ty.store(*from);
+                        }
+                    }
+                }
                 Target::R(k) => self.r[*k] = v,
                 Target::Var(name, k) => {
                     let caller = self.levels.last_mut().expect("the caller's level");
@@ -1894,6 +1905,63 @@ impl SinumerikFront {
             }
         }
         Ok(())
+    }
+
+    /// A `VAR` array parameter (`VAR REAL A[3]`, `VAR REAL M[,4]`: an
+    /// empty first dimension takes the caller's; *Job planning*, "Subprograms
+    /// with parameter transfer (PROC, VAR)": arrays are passed by
+    /// reference only) bound to the caller's whole array `arg`: a copy of
+    /// it, written back on return. The number of dimensions and each given
+    /// size must be the caller's.
+    #[allow(clippy::too_many_arguments)]
+    fn bind_array(
+        &self,
+        line: &LineRun,
+        name: &str,
+        param: &str,
+        ty: VarType,
+        dims: &[Option<usize>],
+        arg: Option<&(f64, Option<Target>)>,
+        at: (usize, usize),
+    ) -> Result<Variable, GcodeError> {
+        let Some((_, Some(Target::Array(array)))) = arg else {
+            return Err(self.refused(
+                line,
+                format!(
+                    "`{param}` of {name} is a VAR array parameter: the call must pass an array (its name)"
+                ),
+                at.0,
+                at.1,
+            ));
+        };
+        let scope = &self.levels.last().expect("a level").scope;
+        let caller = &scope.vars[array];
+        let fits = caller.dims.len() == dims.len()
+            && dims
+                .iter()
+                .zip(&caller.dims)
+                .all(|(d, c)| d.is_none_or(|d| d == *c));
+        if !fits {
+            let given: Vec<String> = dims
+                .iter()
+                .map(|d| d.map_or(String::new(), |d| d.to_string()))
+                .collect();
+            return Err(self.refused(
+                line,
+                format!(
+                    "`{array}` has dimensions {:?}; `{param}` of {name} takes [{}]",
+                    caller.dims,
+                    given.join(",")
+                ),
+                at.0,
+                at.1,
+            ));
+        }
+        let mut var = Variable::new(ty, caller.dims.clone());
+        for (to, from) in var.values.iter_mut().zip(&caller.values) {
+            *to = ty.store(*from);
+        }
+        Ok(var)
     }
 
     /// Call a subprogram by name: its file on the search path, its `PROC`
@@ -1974,13 +2042,14 @@ impl SinumerikFront {
                         // *Job planning*, "Subprograms with parameter
                         // transfer (PROC, VAR)": the call passes a variable,
                         // whose value the subprogram's writes change.
-                        if param.array {
-                            return Err(self.feature(
-                                line,
-                                &format!("VAR array parameter `{}` of {name}", param.name),
-                                at.0,
-                                at.1,
-                            ));
+                        if let Some(dims) = &param.array {
+                            let var =
+                                self.bind_array(line, name, &param.name, param.ty, dims, arg, at)?;
+                            if let Some((_, Some(target))) = arg {
+                                by_ref.push((param.name.clone(), target.clone()));
+                            }
+                            scope.vars.insert(param.name, var);
+                            continue;
                         }
                         let Some((_, Some(target))) = arg else {
                             return Err(self.refused(
@@ -1993,7 +2062,28 @@ impl SinumerikFront {
                                 at.1,
                             ));
                         };
+                        if matches!(target, Target::Array(_)) {
+                            return Err(self.refused(
+                                line,
+                                format!(
+                                    "`{}` of {name} is not an array: pass one element (`A[i]`)",
+                                    param.name
+                                ),
+                                at.0,
+                                at.1,
+                            ));
+                        }
                         by_ref.push((param.name.clone(), target.clone()));
+                    } else if param.array.is_some() {
+                        return Err(self.refused(
+                            line,
+                            format!(
+                                "array parameter `{}` of {name} without VAR: an array is passed by reference only (VAR)",
+                                param.name
+                            ),
+                            at.0,
+                            at.1,
+                        ));
                     }
                     let mut var = Variable::new(param.ty, Vec::new());
                     var.values[0] = param.ty.store(arg.map_or(0.0, |a| a.0));
@@ -2024,6 +2114,27 @@ impl SinumerikFront {
         Ok(())
     }
 
+    /// The arguments of a call: each one's value and the variable it names
+    /// ([`Self::target_of`]); a whole array (for a `VAR` array parameter)
+    /// has no value of its own (0).
+    fn call_arguments(
+        &self,
+        line: &LineRun,
+        args: &[Expr],
+        at: (usize, usize),
+    ) -> Result<Vec<(f64, Option<Target>)>, GcodeError> {
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            let target = self.target_of(line, a, at)?;
+            let v = match target {
+                Some(Target::Array(_)) => 0.0,
+                _ => self.eval(line, a, at)?,
+            };
+            values.push((v, target));
+        }
+        Ok(values)
+    }
+
     /// The variable an argument names (for a `VAR` parameter): `R12`,
     /// `R[expr]`, `NAME`, `NAME[i, j]`; `None` for any other expression.
     fn target_of(
@@ -2044,6 +2155,9 @@ impl SinumerikFront {
                 let Some(var) = scope.vars.get(name) else {
                     return Ok(None);
                 };
+                if index.is_empty() && !var.dims.is_empty() {
+                    return Ok(Some(Target::Array(name.clone())));
+                }
                 let mut idx = Vec::with_capacity(index.len());
                 for i in index {
                     idx.push(self.eval(line, i, at)?);
@@ -2312,11 +2426,7 @@ impl SinumerikFront {
                         let (list, last) = argument_list(cur)
                             .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                         let call_end = if open { last } else { end };
-                        let mut args = Vec::with_capacity(list.len());
-                        for e in &list {
-                            let v = self.eval(line, e, (ts, end))?;
-                            args.push((v, self.target_of(line, e, (ts, end))?));
-                        }
+                        let args = self.call_arguments(line, &list, (ts, end))?;
                         call = Some((
                             format!("L{}", String::from_utf8_lossy(n)),
                             args,
@@ -2463,11 +2573,7 @@ impl SinumerikFront {
                     // A subprogram call by name, with arguments.
                     let (args, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                    let mut values = Vec::with_capacity(args.len());
-                    for a in &args {
-                        let v = self.eval(line, a, (ts, end))?;
-                        values.push((v, self.target_of(line, a, (ts, end))?));
-                    }
+                    let values = self.call_arguments(line, &args, (ts, end))?;
                     call = Some((name.to_string(), values, (ts, end)));
                 }
             }
@@ -4208,8 +4314,9 @@ struct ProcParam {
     name: String,
     /// `VAR`: by reference.
     by_ref: bool,
-    /// An array (`VAR REAL A[]`).
-    array: bool,
+    /// An array (`VAR REAL A[3, 4]`): its dimensions, `None` where left
+    /// open (`A[,4]`).
+    array: Option<Vec<Option<usize>>>,
 }
 
 fn proc_params(rest: &[u8]) -> Vec<ProcParam> {
@@ -4218,19 +4325,41 @@ fn proc_params(rest: &[u8]) -> Vec<ProcParam> {
         return Vec::new();
     };
     let close = text[open..].find(')').map_or(text.len(), |c| open + c);
-    text[open + 1..close]
-        .split(',')
+    // Split at the commas outside brackets (`VAR REAL A[3, 4], INT N`).
+    let mut params = Vec::new();
+    let (mut depth, mut from) = (0usize, open + 1);
+    for (i, c) in text[open + 1..close].char_indices() {
+        match c {
+            '[' => depth += 1,
+            ']' => depth = depth.saturating_sub(1),
+            ',' if depth == 0 => {
+                params.push(&text[from..open + 1 + i]);
+                from = open + 2 + i;
+            }
+            _ => {}
+        }
+    }
+    params.push(&text[from..close]);
+    params
+        .into_iter()
         .filter_map(|p| {
             let by_ref = p.split_whitespace().next() == Some("VAR");
             let mut parts = p.split_whitespace().filter(|w| *w != "VAR");
             let ty = VarType::from_name(parts.next()?.split('[').next()?)?;
             let word = parts.next()?;
             let name = word.split('[').next()?.to_string();
+            let array = p.find('[').map(|b| {
+                let e = p[b..].find(']').map_or(p.len(), |e| b + e);
+                p[b + 1..e]
+                    .split(',')
+                    .map(|d| d.trim().parse::<usize>().ok())
+                    .collect()
+            });
             Some(ProcParam {
                 ty,
                 name,
                 by_ref,
-                array: p.contains('['),
+                array,
             })
         })
         .collect()
