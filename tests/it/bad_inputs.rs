@@ -484,6 +484,37 @@ fn cases() -> Vec<Case> {
             ],
         ),
         case(
+            "SINUMERIK program",
+            "a B spline point weight out of the manual's range (`PW=4`)",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nG1 X0 F100\nBSPLINE X10 Y5 PW=4\nX20 Y0\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "PW=4: a point weight is more than 0 and at most 3",
+                "{d}/bad.mpf:3:16",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a `VAR` array parameter given an array of another size",
+            vec![
+                (
+                    "bad.mpf",
+                    text("DEF REAL V[4]\nG0 X0 Y0 Z10\nFILL(V)\nM30\n"),
+                ),
+                (
+                    "FILL.SPF",
+                    text("PROC FILL(VAR REAL A[3])\nA[0]=1\nRET\n"),
+                ),
+            ],
+            SINUMERIK,
+            1,
+            &["`V` has dimensions [4]; `A` of FILL takes [3]", "{d}/bad.mpf:3:1"],
+        ),
+        case(
             "SINUMERIK system variable",
             "`--sysvar AA_IW=1` (no `$`)",
             vec![],
