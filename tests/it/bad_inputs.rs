@@ -505,14 +505,14 @@ fn cases() -> Vec<Case> {
                     "bad.mpf",
                     text("DEF REAL V[4]\nG0 X0 Y0 Z10\nFILL(V)\nM30\n"),
                 ),
-                (
-                    "FILL.SPF",
-                    text("PROC FILL(VAR REAL A[3])\nA[0]=1\nRET\n"),
-                ),
+                ("FILL.SPF", text("PROC FILL(VAR REAL A[3])\nA[0]=1\nRET\n")),
             ],
             SINUMERIK,
             1,
-            &["`V` has dimensions [4]; `A` of FILL takes [3]", "{d}/bad.mpf:3:1"],
+            &[
+                "`V` has dimensions [4]; `A` of FILL takes [3]",
+                "{d}/bad.mpf:3:1",
+            ],
         ),
         case(
             "SINUMERIK system variable",

@@ -199,7 +199,9 @@ pub fn chords_over<const D: usize>(
     let mut out = Vec::new();
     let tol = tolerance_mm.max(1e-9);
     let finite = |p: &[f64; D]| p.iter().all(|v| v.is_finite());
-    let mut stack: Vec<(f64, f64, Option<[f64; D]>, Option<[f64; D]>)> = Vec::new();
+    // (from, to, the curve's point at each end when known).
+    type Piece<const D: usize> = (f64, f64, Option<[f64; D]>, Option<[f64; D]>);
+    let mut stack: Vec<Piece<D>> = Vec::new();
     let mut a = at(u0);
     if !finite(&a) {
         return Err(SplineError::NonFinite);

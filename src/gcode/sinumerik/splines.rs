@@ -83,7 +83,7 @@ struct ControlBlock {
 
 enum Held {
     /// A block handed on in the section (no motion), in its order.
-    Block(Block, Executed),
+    Block(Box<(Block, Executed)>),
     /// The control point of that index.
     Point(usize),
 }
@@ -248,18 +248,20 @@ impl SinumerikFront {
         let executed = self.executed.clone();
         let block = std::mem::take(&mut self.block);
         let (line, offset) = (block.line, block.offset);
-        section.held.push(Held::Block(block, executed.clone()));
+        section
+            .held
+            .push(Held::Block(Box::new((block, executed.clone()))));
         while let Some(mut piece) = self.pending.pop_front() {
             piece.line = line;
             piece.offset = offset;
             piece.ending = LineEnding::Lf;
-            section.held.push(Held::Block(
+            section.held.push(Held::Block(Box::new((
                 piece,
                 Executed {
                     literal: false,
                     ..executed.clone()
                 },
-            ));
+            ))));
         }
         true
     }
@@ -302,8 +304,8 @@ impl SinumerikFront {
             section.points.into_iter().map(Some).collect();
         for held in section.held {
             let k = match held {
-                Held::Block(block, executed) => {
-                    self.spline_out.push_back((block, executed));
+                Held::Block(held) => {
+                    self.spline_out.push_back(*held);
                     continue;
                 }
                 Held::Point(k) => k,
