@@ -327,6 +327,36 @@ pub struct ProgramArgs {
     /// anything else LinuxCNC).
     #[arg(long, value_name = "linuxcnc|sinumerik|heidenhain", value_parser = parse_dialect)]
     pub dialect: Option<crate::gcode::Dialect>,
+    /// The value of a SINUMERIK system variable the program reads and that
+    /// cannot be known offline, e.g. `--sysvar '$AA_IW[X]=12.5'` or
+    /// `--sysvar '$P_UIFR[1,X,TR]=100'` (the name as the program writes
+    /// it, indices included; case and spaces do not matter); repeatable.
+    /// `$P_TOOLNO` and `$P_TOOL` come from the program's own `T`/`M6`/`D`
+    /// once it has set them (docs/dialects.md).
+    #[arg(long, value_name = "$NAME=VALUE", value_parser = parse_sysvar)]
+    pub sysvar: Vec<(String, f64)>,
+}
+
+/// A `--sysvar` value: `$NAME[indices]=number`.
+fn parse_sysvar(text: &str) -> Result<(String, f64), String> {
+    let Some((name, value)) = text.split_once('=') else {
+        return Err(format!(
+            "`{text}`: expected $NAME=VALUE, e.g. --sysvar '$AA_IW[X]=12.5'"
+        ));
+    };
+    let key = crate::gcode::normalise_system_variable(name);
+    if !key.starts_with('$') || key.len() < 2 {
+        return Err(format!(
+            "`{text}`: a system variable's name starts with `$` (e.g. $P_UIFR[1,X,TR])"
+        ));
+    }
+    let v = value
+        .trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{text}`: `{}` is not a finite number", value.trim()))?;
+    Ok((key, v))
 }
 
 /// A `--dialect` value.
@@ -549,6 +579,14 @@ impl ProgramArgs {
         }
         setup.language.subroutine_path = self.subroutine_path.clone();
         setup.dialect = self.dialect;
+        for (key, v) in &self.sysvar {
+            if setup.system_variables.insert(key.clone(), *v).is_some() {
+                return Err(super::UsageError(format!(
+                    "--sysvar `{key}` is given twice; give each system variable once"
+                ))
+                .into());
+            }
+        }
         setup.language.max_loop_lines = Some(self.max_loop_lines);
         setup.language.max_generated_moves = Some(self.max_moves);
         Ok(setup)

@@ -207,6 +207,10 @@ pub enum ErrorKind {
     /// them).
     #[error("{0}")]
     DialectRefused(String),
+    /// A system variable the program reads whose value cannot be known
+    /// offline and was not given (`--sysvar`).
+    #[error("{0}")]
+    SystemVariableUnknown(String),
     /// A block whose reading needs the machine's kinematics, read without
     /// `--machine` (what it needs it for).
     #[error("{0} needs the machine's kinematics")]
@@ -348,6 +352,9 @@ impl ErrorKind {
             }
             ErrorKind::DialectRefused(_) => {
                 "the control refuses this too (docs/dialects.md cites its manual); correct the program"
+            }
+            ErrorKind::SystemVariableUnknown(_) => {
+                "give the value the control would have with --sysvar '$NAME=VALUE' (repeatable; docs/dialects.md, \"System variables\")"
             }
             ErrorKind::MachineNeeded(_) => "give the machine file with --machine MACHINE.toml",
             ErrorKind::ProgramErrorStop(_) => {

@@ -59,6 +59,21 @@ pub struct ProgramSetup {
     /// their G number: X Y Z and rotary offsets, mm and degrees. `G54`–`G57`
     /// are LinuxCNC's systems 1–4 in [`Self::parameters`].
     pub settable_frames: std::collections::BTreeMap<u16, Axes>,
+    /// Values of SINUMERIK system variables the program reads that cannot
+    /// be known offline (`--sysvar '$P_UIFR[1,X,TR]=5'`), by their text
+    /// upper-cased without spaces, indices included
+    /// ([`normalise_system_variable`]).
+    pub system_variables: std::collections::BTreeMap<String, f64>,
+}
+
+/// The key of a system variable's text in
+/// [`ProgramSetup::system_variables`]: upper case, no spaces (`$p_uifr[1, x,
+/// tr]` → `$P_UIFR[1,X,TR]`).
+pub fn normalise_system_variable(text: &str) -> String {
+    text.chars()
+        .filter(|c| !c.is_whitespace())
+        .map(|c| c.to_ascii_uppercase())
+        .collect()
 }
 
 /// The dialect of a program: `setup`'s `--dialect`, else detected from its

@@ -63,7 +63,7 @@ pub(crate) use syntax::block;
 pub use block::{Block, Keyword, KeywordWord, LineEnding, ORIENTATION_VECTOR_LETTERS, Word};
 pub use dialect::{Branch, Dialect, DialectChoice, OrientationSolver, detect as detect_dialect};
 pub use error::{ErrorKind, GcodeError};
-pub use execution::{Execution, Program, ProgramSetup};
+pub use execution::{Execution, Program, ProgramSetup, normalise_system_variable};
 pub(crate) use heidenhain::write::KlartextStamp;
 pub use interpret::{
     BlockEvent, InterpretOptions, Interpreter, Moves, Warning, WarningKind, duration_from_lengths,

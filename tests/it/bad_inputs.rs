@@ -49,6 +49,8 @@ const SINUMERIK_TOOLS: &str =
     "compensate {d}/ok.toml {d}/bad.mpf -o {d}/out.mpf --model {d}/fit.json --tools {d}/named.tbl";
 const SINUMERIK_OFFSET: &str =
     "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --offset G600=1,2,3";
+const SINUMERIK_SYSVAR: &str =
+    "compensate {d}/ok.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json --sysvar AA_IW=1";
 const MACHINE: &str = "compensate {d}/bad.toml {d}/ok.nc -o {d}/out.nc --model {d}/fit.json";
 const TABLE: &str = "compensate {d}/table.toml {d}/ok.nc -o {d}/out.nc";
 const PLAN: &str =
@@ -465,6 +467,60 @@ fn cases() -> Vec<Case> {
             SINUMERIK_OFFSET,
             2,
             &["`G600` is not a work coordinate system"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a system variable the control knows only at run time (`$AA_IW[X]`), not given",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nR1=$AA_IW[X]\nG1 X=R1 F100\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "system variable `$AA_IW[X]` has no value offline",
+                "--sysvar '$AA_IW[X]=VALUE'",
+                "{d}/bad.mpf:2:4",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a B spline point weight out of the manual's range (`PW=4`)",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nG1 X0 F100\nBSPLINE X10 Y5 PW=4\nX20 Y0\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &[
+                "PW=4: a point weight is more than 0 and at most 3",
+                "{d}/bad.mpf:3:16",
+            ],
+        ),
+        case(
+            "SINUMERIK program",
+            "a `VAR` array parameter given an array of another size",
+            vec![
+                (
+                    "bad.mpf",
+                    text("DEF REAL V[4]\nG0 X0 Y0 Z10\nFILL(V)\nM30\n"),
+                ),
+                ("FILL.SPF", text("PROC FILL(VAR REAL A[3])\nA[0]=1\nRET\n")),
+            ],
+            SINUMERIK,
+            1,
+            &[
+                "`V` has dimensions [4]; `A` of FILL takes [3]",
+                "{d}/bad.mpf:3:1",
+            ],
+        ),
+        case(
+            "SINUMERIK system variable",
+            "`--sysvar AA_IW=1` (no `$`)",
+            vec![],
+            SINUMERIK_SYSVAR,
+            2,
+            &["a system variable's name starts with `$`"],
         ),
         case(
             "program",

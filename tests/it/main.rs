@@ -38,6 +38,8 @@ mod sample;
 mod sinumerik;
 mod sinumerik_differential;
 mod sinumerik_five_axis;
+mod sinumerik_splines;
+mod sinumerik_system_variables;
 mod support;
 mod toolpath;
 mod tools;

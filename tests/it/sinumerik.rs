@@ -9,7 +9,7 @@ use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::{Dialect, Frame, InterpretOptions, Program, ProgramSetup};
 
 /// The move ends (line, x, y, z) of the language fixture, read by `check`.
-fn targets(args: &[&str]) -> Vec<(usize, [f64; 3])> {
+pub fn targets(args: &[&str]) -> Vec<(usize, [f64; 3])> {
     let out = volcomp().args(args).current_dir(root()).output().unwrap();
     assert_success(&out);
     String::from_utf8(out.stdout)
@@ -754,5 +754,61 @@ fn an_l_program_takes_arguments() {
     for (g, w) in got.iter().zip(&want) {
         assert_eq!(g.0, w.0, "{got:?}");
         assert!((0..3).all(|k| (g.1[k] - w.1[k]).abs() < 1e-9), "{got:?}");
+    }
+}
+
+/// `VAR` array parameters (*Job planning*, "Subprograms with parameter
+/// transfer (PROC, VAR)"): the subprogram works on the caller's array,
+/// which has its values on return; an open first dimension (`M[,2]`)
+/// takes the caller's. Worked by hand: `FILL` makes V = (2, 8, 9) and
+/// moves to X9; `GRID` sets G[1,1] = G[0,0] + G[1,0] = 1 + 7. A size that
+/// differs, or a variable that is not an array, is refused at the call.
+#[test]
+fn var_array_parameters_are_passed_by_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("FILL.SPF"),
+        "PROC FILL(VAR REAL A[3], REAL S)\nA[1]=A[0]*S\nA[2]=A[1]+1\nG1 X=A[2] F100\nRET\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("GRID.SPF"),
+        "PROC GRID(VAR INT M[,2])\nM[1,1]=M[0,0]+M[1,0]\nRET\n",
+    )
+    .unwrap();
+    let main = dir.path().join("main.mpf");
+    std::fs::write(
+        &main,
+        "DEF REAL V[3]=SET(2,0,0)\nDEF INT G[2,2]=SET(1,0,7,0)\nG0 X0 Y0 Z5\nFILL(V, 4)\nG1 Y=V[1] Z=V[2]\nGRID(G)\nG1 X=G[1,1]\nM30\n",
+    )
+    .unwrap();
+    let got = targets(&["check", main.to_str().unwrap(), "--targets", "-"]);
+    let want = [
+        [0.0, 0.0, 5.0],
+        [9.0, 0.0, 5.0],
+        [9.0, 8.0, 9.0],
+        [8.0, 8.0, 9.0],
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert!((0..3).all(|k| (g.1[k] - w[k]).abs() < 1e-9), "{got:?}");
+    }
+    for (program, says, at) in [
+        (
+            "DEF REAL V[4]\nG0 X0 Y0 Z5\nFILL(V, 4)\nM30\n",
+            "`V` has dimensions [4]; `A` of FILL takes [3]",
+            "main.mpf:3:1",
+        ),
+        (
+            "G0 X0 Y0 Z5\nFILL(R1, 4)\nM30\n",
+            "the call must pass an array",
+            "main.mpf:2:1",
+        ),
+    ] {
+        std::fs::write(&main, program).unwrap();
+        let out = volcomp().arg("check").arg(&main).output().unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says) && err.contains(at), "{err}");
     }
 }

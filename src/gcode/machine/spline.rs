@@ -73,38 +73,87 @@ impl Nurbs {
     }
 
     fn point_with(&self, knots: &[f64], u: f64) -> [f64; 2] {
-        let k = self.order;
-        let n = self.points.len() - 1;
-        let p = k - 1; // degree
         let u = u.clamp(0.0, self.u_max());
-        // The span: knots[s] <= u < knots[s + 1], s in p ..= n.
-        let mut s = p;
-        while s < n && u >= knots[s + 1] {
-            s += 1;
-        }
-        let mut d: Vec<[f64; 3]> = (0..=p)
-            .map(|j| {
-                let c = self.points[s - p + j];
-                [c.x * c.w, c.y * c.w, c.w]
-            })
-            .collect();
-        for r in 1..=p {
-            for j in (r..=p).rev() {
-                let i = s - p + j;
-                let denom = knots[i + k - r] - knots[i];
-                let a = if denom == 0.0 {
-                    0.0
-                } else {
-                    (u - knots[i]) / denom
-                };
-                for c in 0..3 {
-                    d[j][c] = (1.0 - a) * d[j - 1][c] + a * d[j][c];
-                }
-            }
-        }
-        let [x, y, w] = d[p];
-        [x / w, y / w]
+        de_boor(
+            |i| {
+                let c = self.points[i];
+                ([c.x, c.y], c.w)
+            },
+            self.points.len(),
+            self.order - 1,
+            knots,
+            u,
+        )
     }
+}
+
+/// A rational B-spline (NURBS) curve in `D` dimensions: control points,
+/// their weights, the degree and a clamped knot vector of
+/// `points.len() + degree + 1` knots; the parameter runs from
+/// `knots[degree]` to `knots[points.len()]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RationalCurve<const D: usize> {
+    pub points: Vec<[f64; D]>,
+    pub weights: Vec<f64>,
+    pub degree: usize,
+    pub knots: Vec<f64>,
+}
+
+impl<const D: usize> RationalCurve<D> {
+    /// The point at parameter `u` (clamped to the curve's range).
+    pub fn point(&self, u: f64) -> [f64; D] {
+        let n = self.points.len();
+        let u = u.clamp(self.knots[self.degree], self.knots[n]);
+        de_boor(
+            |i| (self.points[i], self.weights[i]),
+            n,
+            self.degree,
+            &self.knots,
+            u,
+        )
+    }
+}
+
+/// De Boor's algorithm on the weighted points (homogeneous coordinates):
+/// the point at `u` of the rational B-spline of `count` control points
+/// (`point(i)`: the point and its weight), `degree` and `knots`.
+fn de_boor<const D: usize>(
+    point: impl Fn(usize) -> ([f64; D], f64),
+    count: usize,
+    degree: usize,
+    knots: &[f64],
+    u: f64,
+) -> [f64; D] {
+    let n = count - 1;
+    let p = degree;
+    // The span: knots[s] <= u < knots[s + 1], s in p ..= n.
+    let mut s = p;
+    while s < n && u >= knots[s + 1] {
+        s += 1;
+    }
+    let mut d: Vec<([f64; D], f64)> = (0..=p)
+        .map(|j| {
+            let (c, w) = point(s - p + j);
+            (c.map(|v| v * w), w)
+        })
+        .collect();
+    for r in 1..=p {
+        for j in (r..=p).rev() {
+            let i = s - p + j;
+            let denom = knots[i + p + 1 - r] - knots[i];
+            let a = if denom == 0.0 {
+                0.0
+            } else {
+                (u - knots[i]) / denom
+            };
+            for c in 0..D {
+                d[j].0[c] = (1.0 - a) * d[j - 1].0[c] + a * d[j].0[c];
+            }
+            d[j].1 = (1.0 - a) * d[j - 1].1 + a * d[j].1;
+        }
+    }
+    let (x, w) = d[p];
+    x.map(|v| v / w)
 }
 
 /// Straight pieces that follow `curve` within `tolerance_mm`: the ends of the
@@ -116,45 +165,74 @@ pub fn chords(
     max_pieces: usize,
 ) -> Result<Vec<[f64; 2]>, SplineError> {
     let knots = curve.knots();
-    let u_max = curve.u_max();
     let at = |u: f64| curve.point_with(&knots, u);
-    // Start from four pieces per control point (LinuxCNC's own division),
-    // then halve where a piece leaves the curve.
-    let first = 4 * curve.points.len();
+    // Start from four pieces per control point (LinuxCNC's own division).
+    let mut out = chords_over(
+        &at,
+        (0.0, curve.u_max()),
+        4 * curve.points.len(),
+        tolerance_mm,
+        max_pieces,
+    )?;
+    // The last point is the last control point exactly (clamped knots).
+    if let (Some(last), Some(end)) = (out.last_mut(), curve.points.last()) {
+        *last = [end.x, end.y];
+    }
+    Ok(out)
+}
+
+/// Straight pieces that follow the curve `at` from parameter `u0` to `u1`
+/// within `tolerance_mm`: the ends of the pieces (the curve's points at
+/// increasing parameters, `at(u1)` last, `at(u0)` not), at most
+/// `max_pieces`. It starts from `first` equal pieces and halves a piece
+/// while one of three points inside it (a quarter, half, three quarters)
+/// is farther from it than the tolerance.
+pub fn chords_over<const D: usize>(
+    at: &dyn Fn(f64) -> [f64; D],
+    (u0, u1): (f64, f64),
+    first: usize,
+    tolerance_mm: f64,
+    max_pieces: usize,
+) -> Result<Vec<[f64; D]>, SplineError> {
+    let span = u1 - u0;
+    let first = first.max(1);
     let mut out = Vec::new();
     let tol = tolerance_mm.max(1e-9);
-    let mut stack: Vec<(f64, f64, [f64; 2], [f64; 2])> = Vec::new();
-    let mut a = at(0.0);
-    if !a.iter().all(|v| v.is_finite()) {
+    let finite = |p: &[f64; D]| p.iter().all(|v| v.is_finite());
+    // (from, to, the curve's point at each end when known).
+    type Piece<const D: usize> = (f64, f64, Option<[f64; D]>, Option<[f64; D]>);
+    let mut stack: Vec<Piece<D>> = Vec::new();
+    let mut a = at(u0);
+    if !finite(&a) {
         return Err(SplineError::NonFinite);
     }
     for i in (1..=first).rev() {
-        let (u0, u1) = (
-            u_max * (i - 1) as f64 / first as f64,
-            u_max * i as f64 / first as f64,
+        let (v0, v1) = (
+            u0 + span * (i - 1) as f64 / first as f64,
+            u0 + span * i as f64 / first as f64,
         );
-        stack.push((u0, u1, [f64::NAN; 2], [f64::NAN; 2]));
+        stack.push((v0, v1, None, None));
     }
-    while let Some((u0, u1, p0, p1)) = stack.pop() {
-        let p0 = if p0[0].is_nan() { a } else { p0 };
-        let p1 = if p1[0].is_nan() { at(u1) } else { p1 };
-        if !p1.iter().all(|v| v.is_finite()) {
+    while let Some((v0, v1, p0, p1)) = stack.pop() {
+        let p0 = p0.unwrap_or(a);
+        let p1 = p1.unwrap_or_else(|| at(v1));
+        if !finite(&p1) {
             return Err(SplineError::NonFinite);
         }
         let mut worst = 0.0f64;
         for f in [0.25, 0.5, 0.75] {
-            let q = at(u0 + f * (u1 - u0));
-            if !q.iter().all(|v| v.is_finite()) {
+            let q = at(v0 + f * (v1 - v0));
+            if !finite(&q) {
                 return Err(SplineError::NonFinite);
             }
             worst = worst.max(distance_to_segment(q, p0, p1));
         }
         // A piece shorter than a nanometre in parameter is not split again.
-        if worst > tol && (u1 - u0) > 1e-12 * u_max.max(1.0) {
-            let um = 0.5 * (u0 + u1);
-            let pm = at(um);
-            stack.push((um, u1, pm, p1));
-            stack.push((u0, um, p0, pm));
+        if worst > tol && (v1 - v0) > 1e-12 * span.max(1.0) {
+            let vm = 0.5 * (v0 + v1);
+            let pm = at(vm);
+            stack.push((vm, v1, Some(pm), Some(p1)));
+            stack.push((v0, vm, Some(p0), Some(pm)));
             if out.len() + stack.len() > max_pieces {
                 return Err(SplineError::TooManyPieces(max_pieces));
             }
@@ -166,22 +244,29 @@ pub fn chords(
             return Err(SplineError::TooManyPieces(max_pieces));
         }
     }
-    // The last point is the last control point exactly (clamped knots).
-    if let (Some(last), Some(end)) = (out.last_mut(), curve.points.last()) {
-        *last = [end.x, end.y];
-    }
     Ok(out)
 }
 
-fn distance_to_segment(q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let len2 = dx * dx + dy * dy;
+/// The distance of `q` from the segment `a`–`b`.
+pub fn distance_to_segment<const D: usize>(q: [f64; D], a: [f64; D], b: [f64; D]) -> f64 {
+    let mut len2 = 0.0;
+    let mut along = 0.0;
+    for k in 0..D {
+        let d = b[k] - a[k];
+        len2 += d * d;
+        along += (q[k] - a[k]) * d;
+    }
     let t = if len2 > 0.0 {
-        (((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        (along / len2).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    (q[0] - a[0] - t * dx).hypot(q[1] - a[1] - t * dy)
+    let e: [f64; D] = std::array::from_fn(|k| q[k] - a[k] - t * (b[k] - a[k]));
+    if D == 2 {
+        e[0].hypot(e[1])
+    } else {
+        e.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
 }
 
 #[cfg(test)]

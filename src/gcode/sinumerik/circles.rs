@@ -112,7 +112,7 @@ impl SinumerikFront {
     /// others are queued flat. A circle given by `G2`/`G3` stays the modal
     /// motion for the blocks after it (the next motion block without a
     /// motion word gets it back, flat).
-    fn hand_on_chords(
+    pub(super) fn hand_on_chords(
         &mut self,
         line: &LineRun,
         out: &mut Out,

@@ -38,6 +38,7 @@
 //!   out into the centre form and handed on flat.
 pub(crate) mod circles;
 pub(crate) mod orientation;
+pub(crate) mod splines;
 pub(crate) mod syntax;
 pub(crate) mod values;
 
@@ -396,6 +397,8 @@ type Call = (String, Vec<(f64, Option<Target>)>, (usize, usize));
 enum Target {
     R(usize),
     Var(String, usize),
+    /// A whole array of the caller (a `VAR` array parameter).
+    Array(String),
 }
 
 /// A program section `REPEAT label [label2] P=n` / `REPEATB label P=n` runs
@@ -475,6 +478,20 @@ pub(crate) struct SinumerikFront {
     restore_arc: Option<f64>,
     /// This line's circle was handed on as chords.
     chorded: bool,
+    /// System variables given a value (`--sysvar`), by their normalised text.
+    system_variables: std::collections::BTreeMap<String, f64>,
+    /// The active tool's number once the program changed tools (`$P_TOOLNO`).
+    state_tool: Option<f64>,
+    /// The active cutting edge once the program chose one (`$P_TOOL`).
+    state_edge: Option<f64>,
+    /// The tool the last `T` preselected (made active by `M6`).
+    preselected_tool: Option<f64>,
+    /// The open `BSPLINE` section (`splines`).
+    spline: Option<splines::SplineSection>,
+    /// The B spline's degree (`SD=`, 3 at reset).
+    spline_degree: usize,
+    /// The blocks of a closed section, handed on next.
+    spline_out: std::collections::VecDeque<(Block, Executed)>,
 }
 
 impl SinumerikFront {
@@ -563,6 +580,13 @@ impl SinumerikFront {
             pending: std::collections::VecDeque::new(),
             restore_arc: None,
             chorded: false,
+            system_variables: setup.system_variables.clone(),
+            state_tool: None,
+            state_edge: None,
+            preselected_tool: None,
+            spline: None,
+            spline_degree: 3,
+            spline_out: std::collections::VecDeque::new(),
         }
     }
 
@@ -635,6 +659,9 @@ impl SinumerikFront {
             self.finished = true;
             return Some(Err(e));
         }
+        if self.next_spline_block() {
+            return Some(Ok(()));
+        }
         if self.finished || self.ended || self.returned {
             return None;
         }
@@ -671,7 +698,20 @@ impl SinumerikFront {
         loop {
             match self.step(interpreter) {
                 Ok(Some(true)) => return Some(Ok(())),
+                Ok(Some(false)) if self.next_spline_block() => return Some(Ok(())),
                 Ok(Some(false)) => continue,
+                Ok(None) if self.spline.is_some() => {
+                    // The program ends in a BSPLINE section.
+                    if let Err(e) = self.close_spline(interpreter) {
+                        self.finished = true;
+                        return Some(Err(e));
+                    }
+                    if self.next_spline_block() {
+                        return Some(Ok(()));
+                    }
+                    self.finished = true;
+                    return None;
+                }
                 Ok(None) => {
                     self.finished = true;
                     return None;
@@ -745,6 +785,17 @@ impl SinumerikFront {
             }
         }
         let (s, e, ending) = self.files[file].line(k);
+        if self.spline.is_some() && self.line_ends_spline(file, s, e) {
+            // Close the section first; the line runs again after it.
+            self.levels[depth].next = k;
+            if first_reading {
+                self.frontier = k;
+            } else {
+                self.loop_lines -= 1;
+            }
+            self.close_spline(interpreter)?;
+            return Ok(Some(false));
+        }
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
         raw.extend_from_slice(&self.files[file].text[s..e]);
@@ -773,8 +824,21 @@ impl SinumerikFront {
                 literal: self.executed.literal,
                 passed: false,
             };
+            if self.hold_in_spline() {
+                return Ok(Some(false));
+            }
         }
         Ok(Some(handed))
+    }
+
+    /// Whether the line at `s..e` of `file` ends the open `BSPLINE`
+    /// section ([`splines::ends_section`]).
+    fn line_ends_spline(&mut self, file: usize, s: usize, e: usize) -> bool {
+        let mut tokens = std::mem::take(&mut self.tokens);
+        let ends = syntax::tokenize(&self.files[file].text[s..e], &mut tokens).is_ok()
+            && splines::ends_section(&tokens);
+        self.tokens = tokens;
+        ends
     }
 
     fn error(&self, line: &LineRun, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
@@ -796,13 +860,46 @@ impl SinumerikFront {
 
     fn eval(&self, line: &LineRun, e: &Expr, at: (usize, usize)) -> Result<f64, GcodeError> {
         let scope = &self.levels.last().expect("a level").scope;
-        values::eval(e, &self.r, scope).map_err(|err| {
+        let system = |name: &str, at: std::ops::Range<usize>| self.system_value(line, name, at);
+        values::eval(e, &self.r, scope, &system).map_err(|err| {
             let (s, t) = err.at.map_or(at, |r| (r.start, r.end));
-            self.error(
-                line,
-                ErrorKind::DialectRefused(err.message),
-                s,
-                t.max(s + 1),
+            let kind = if err.unknown_system {
+                ErrorKind::SystemVariableUnknown(err.message)
+            } else {
+                ErrorKind::DialectRefused(err.message)
+            };
+            self.error(line, kind, s, t.max(s + 1))
+        })
+    }
+
+    /// The value of the system variable `name` written at `at` in the line:
+    /// the execution state's where the program itself set it (`$P_TOOLNO`
+    /// after a tool change, `$P_TOOL` after `D` or `M6`), else the value
+    /// `--sysvar` gives its text (indices included), else an error saying
+    /// how to give it.
+    fn system_value(
+        &self,
+        line: &LineRun,
+        name: &str,
+        at: std::ops::Range<usize>,
+    ) -> Result<f64, String> {
+        let state = match name {
+            "$P_TOOLNO" => self.state_tool,
+            "$P_TOOL" => self.state_edge,
+            _ => None,
+        };
+        let text = line
+            .raw
+            .get(at)
+            .map(String::from_utf8_lossy)
+            .unwrap_or_default();
+        let key = crate::gcode::normalise_system_variable(&text);
+        if let Some(v) = state.filter(|_| key == name) {
+            return Ok(v);
+        }
+        self.system_variables.get(&key).copied().ok_or_else(|| {
+            format!(
+                "system variable `{key}` has no value offline (the control knows it at run time); give it one with --sysvar '{key}=VALUE'"
             )
         })
     }
@@ -1785,10 +1882,19 @@ impl SinumerikFront {
         let done = self.levels.pop().expect("a subprogram level");
         // `VAR` parameters: the caller's variables take their last values.
         for (param, target) in &done.by_ref {
-            let Some(v) = done.scope.vars.get(param).map(|v| v.values[0]) else {
+            let Some(var) = done.scope.vars.get(param) else {
                 continue;
             };
+            let v = var.values[0];
             match target {
+                Target::Array(name) => {
+                    let caller = self.levels.last_mut().expect("the caller's level");
+                    if let Some(into) = caller.scope.vars.get_mut(name) {
+                        for (to, from) in into.values.iter_mut().zip(&var.values) {
+                            *to = into.ty.store(*from);
+                        }
+                    }
+                }
                 Target::R(k) => self.r[*k] = v,
                 Target::Var(name, k) => {
                     let caller = self.levels.last_mut().expect("the caller's level");
@@ -1799,6 +1905,63 @@ impl SinumerikFront {
             }
         }
         Ok(())
+    }
+
+    /// A `VAR` array parameter (`VAR REAL A[3]`, `VAR REAL M[,4]`: an
+    /// empty first dimension takes the caller's; *Job planning*, "Subprograms
+    /// with parameter transfer (PROC, VAR)": arrays are passed by
+    /// reference only) bound to the caller's whole array `arg`: a copy of
+    /// it, written back on return. The number of dimensions and each given
+    /// size must be the caller's.
+    #[allow(clippy::too_many_arguments)]
+    fn bind_array(
+        &self,
+        line: &LineRun,
+        name: &str,
+        param: &str,
+        ty: VarType,
+        dims: &[Option<usize>],
+        arg: Option<&(f64, Option<Target>)>,
+        at: (usize, usize),
+    ) -> Result<Variable, GcodeError> {
+        let Some((_, Some(Target::Array(array)))) = arg else {
+            return Err(self.refused(
+                line,
+                format!(
+                    "`{param}` of {name} is a VAR array parameter: the call must pass an array (its name)"
+                ),
+                at.0,
+                at.1,
+            ));
+        };
+        let scope = &self.levels.last().expect("a level").scope;
+        let caller = &scope.vars[array];
+        let fits = caller.dims.len() == dims.len()
+            && dims
+                .iter()
+                .zip(&caller.dims)
+                .all(|(d, c)| d.is_none_or(|d| d == *c));
+        if !fits {
+            let given: Vec<String> = dims
+                .iter()
+                .map(|d| d.map_or(String::new(), |d| d.to_string()))
+                .collect();
+            return Err(self.refused(
+                line,
+                format!(
+                    "`{array}` has dimensions {:?}; `{param}` of {name} takes [{}]",
+                    caller.dims,
+                    given.join(",")
+                ),
+                at.0,
+                at.1,
+            ));
+        }
+        let mut var = Variable::new(ty, caller.dims.clone());
+        for (to, from) in var.values.iter_mut().zip(&caller.values) {
+            *to = ty.store(*from);
+        }
+        Ok(var)
     }
 
     /// Call a subprogram by name: its file on the search path, its `PROC`
@@ -1879,13 +2042,14 @@ impl SinumerikFront {
                         // *Job planning*, "Subprograms with parameter
                         // transfer (PROC, VAR)": the call passes a variable,
                         // whose value the subprogram's writes change.
-                        if param.array {
-                            return Err(self.feature(
-                                line,
-                                &format!("VAR array parameter `{}` of {name}", param.name),
-                                at.0,
-                                at.1,
-                            ));
+                        if let Some(dims) = &param.array {
+                            let var =
+                                self.bind_array(line, name, &param.name, param.ty, dims, arg, at)?;
+                            if let Some((_, Some(target))) = arg {
+                                by_ref.push((param.name.clone(), target.clone()));
+                            }
+                            scope.vars.insert(param.name, var);
+                            continue;
                         }
                         let Some((_, Some(target))) = arg else {
                             return Err(self.refused(
@@ -1898,7 +2062,28 @@ impl SinumerikFront {
                                 at.1,
                             ));
                         };
+                        if matches!(target, Target::Array(_)) {
+                            return Err(self.refused(
+                                line,
+                                format!(
+                                    "`{}` of {name} is not an array: pass one element (`A[i]`)",
+                                    param.name
+                                ),
+                                at.0,
+                                at.1,
+                            ));
+                        }
                         by_ref.push((param.name.clone(), target.clone()));
+                    } else if param.array.is_some() {
+                        return Err(self.refused(
+                            line,
+                            format!(
+                                "array parameter `{}` of {name} without VAR: an array is passed by reference only (VAR)",
+                                param.name
+                            ),
+                            at.0,
+                            at.1,
+                        ));
                     }
                     let mut var = Variable::new(param.ty, Vec::new());
                     var.values[0] = param.ty.store(arg.map_or(0.0, |a| a.0));
@@ -1929,6 +2114,27 @@ impl SinumerikFront {
         Ok(())
     }
 
+    /// The arguments of a call: each one's value and the variable it names
+    /// ([`Self::target_of`]); a whole array (for a `VAR` array parameter)
+    /// has no value of its own (0).
+    fn call_arguments(
+        &self,
+        line: &LineRun,
+        args: &[Expr],
+        at: (usize, usize),
+    ) -> Result<Vec<(f64, Option<Target>)>, GcodeError> {
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            let target = self.target_of(line, a, at)?;
+            let v = match target {
+                Some(Target::Array(_)) => 0.0,
+                _ => self.eval(line, a, at)?,
+            };
+            values.push((v, target));
+        }
+        Ok(values)
+    }
+
     /// The variable an argument names (for a `VAR` parameter): `R12`,
     /// `R[expr]`, `NAME`, `NAME[i, j]`; `None` for any other expression.
     fn target_of(
@@ -1949,6 +2155,9 @@ impl SinumerikFront {
                 let Some(var) = scope.vars.get(name) else {
                     return Ok(None);
                 };
+                if index.is_empty() && !var.dims.is_empty() {
+                    return Ok(Some(Target::Array(name.clone())));
+                }
                 let mut idx = Vec::with_capacity(index.len());
                 for i in index {
                     idx.push(self.eval(line, i, at)?);
@@ -2002,6 +2211,8 @@ impl SinumerikFront {
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
         let mut turned = None;
+        let mut spline_words = splines::SplineWords::default();
+        let mut bspline = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2057,6 +2268,9 @@ impl SinumerikFront {
                         repeats = v as u64;
                     }
                     Some(Address::RotPlane) => rpl = Some(v),
+                    Some(Address::Spline(b'D')) => spline_words.degree = Some((v, (ts, vend))),
+                    Some(Address::Spline(b'L')) => spline_words.interval = Some((v, (ts, vend))),
+                    Some(Address::Spline(_)) => spline_words.weight = Some((v, (ts, vend))),
                     Some(Address::Vector(k)) => {
                         orientation.vector[k] = Some((v, ts, vend));
                         out.computed = true;
@@ -2212,11 +2426,7 @@ impl SinumerikFront {
                         let (list, last) = argument_list(cur)
                             .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                         let call_end = if open { last } else { end };
-                        let mut args = Vec::with_capacity(list.len());
-                        for e in &list {
-                            let v = self.eval(line, e, (ts, end))?;
-                            args.push((v, self.target_of(line, e, (ts, end))?));
-                        }
+                        let args = self.call_arguments(line, &list, (ts, end))?;
                         call = Some((
                             format!("L{}", String::from_utf8_lossy(n)),
                             args,
@@ -2287,6 +2497,7 @@ impl SinumerikFront {
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
                     self.cycle800(line, &args, (ts, end), interpreter, &mut out)?;
                 }
+                "BSPLINE" => bspline = Some((ts, te)),
                 "CIP" | "CT" => {
                     arc.form = Some(if name == "CIP" {
                         ArcForm::Intermediate
@@ -2295,9 +2506,9 @@ impl SinumerikFront {
                     });
                     arc.at = (ts, te);
                 }
-                "BSPLINE" | "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON"
-                | "ORICONCW" | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG"
-                | "PRESETON" | "CFINE" | "MCALL"
+                "ASPLINE" | "CSPLINE" | "POLY" | "G33" | "OFFN" | "COMPON" | "ORICONCW"
+                | "ORICONCCW" | "ORICURVE" | "TRANSMIT" | "TRACYL" | "TRAANG" | "PRESETON"
+                | "CFINE" | "MCALL"
                     if name != "MCALL"
                         || matches!(
                             cur.peek(),
@@ -2362,13 +2573,27 @@ impl SinumerikFront {
                     // A subprogram call by name, with arguments.
                     let (args, end) = argument_list(cur)
                         .map_err(|e| self.refused(line, e.message, e.start, e.end))?;
-                    let mut values = Vec::with_capacity(args.len());
-                    for a in &args {
-                        let v = self.eval(line, a, (ts, end))?;
-                        values.push((v, self.target_of(line, a, (ts, end))?));
-                    }
+                    let values = self.call_arguments(line, &args, (ts, end))?;
                     call = Some((name.to_string(), values, (ts, end)));
                 }
+            }
+        }
+        if self.spline.is_some() {
+            let offsets = flags.suppress
+                || flags.settable_off
+                || flags.settable.is_some()
+                || self.flush_frame_later;
+            let framed = frame_op
+                .as_ref()
+                .map(|f| f.1)
+                .or(offsets.then_some((0, raw.len())));
+            if let Some((s, e)) = framed {
+                return Err(self.feature(
+                    line,
+                    "a frame, work offset or SUPA inside a BSPLINE section",
+                    s,
+                    e,
+                ));
             }
         }
         if let Some((name, args, at)) = call {
@@ -2425,10 +2650,48 @@ impl SinumerikFront {
         if let Some(origin) = flags.settable {
             interpreter.set_work_origin(origin);
         }
+        self.tool_state(&out, tool_edge);
         self.tool_length(&mut out, tool_edge);
         if orientation.given() {
             turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
             axis_words = true;
+        }
+        if bspline.is_some()
+            && let Some(w) = out
+                .words
+                .iter()
+                .find(|w| w.letter == b'G' && matches!(w.value as i64, 0..=3))
+        {
+            return Err(self.refused(
+                line,
+                "BSPLINE and G0–G3 in one block (one motion group)".into(),
+                w.start,
+                w.end,
+            ));
+        }
+        match self.spline_block(
+            line,
+            &mut out,
+            bspline,
+            &spline_words,
+            axis_words,
+            interpreter,
+        )? {
+            Some(handed) => return Ok(handed),
+            None if self.spline.is_none() => {
+                // SD=, PL=, PW= outside a spline: passed through, as before.
+                for (_, (s, e)) in [
+                    spline_words.degree,
+                    spline_words.interval,
+                    spline_words.weight,
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    out.statements.push(s..e);
+                }
+            }
+            None => {}
         }
         // The modal CIP / CT: a block with G0–G3 ends it.
         if out
@@ -2697,6 +2960,23 @@ impl SinumerikFront {
                 at.0,
                 at.1,
             )),
+        }
+    }
+
+    /// The execution state `$P_TOOLNO` and `$P_TOOL` read after this block:
+    /// `T` preselects, `M6` makes the preselected tool active with its first
+    /// edge (`D1`), `D` chooses the edge (*Fundamentals*, "Tool offsets", as
+    /// [`Self::tool_length`] reads them).
+    fn tool_state(&mut self, out: &Out, edge: Option<(f64, usize)>) {
+        if let Some(t) = out.words.iter().rev().find(|w| w.letter == b'T') {
+            self.preselected_tool = Some(t.value);
+        }
+        if out.words.iter().any(|w| w.letter == b'M' && w.value == 6.0) {
+            self.state_tool = self.preselected_tool;
+            self.state_edge = Some(1.0);
+        }
+        if let Some((d, _)) = edge {
+            self.state_edge = Some(d);
         }
     }
 
@@ -3914,6 +4194,9 @@ enum Address {
     Pass,
     /// `P=`: runs of a subprogram.
     Repeat,
+    /// `SD=` (`b'D'`), `PL=` (`b'L'`), `PW=` (`b'W'`): a B spline's degree,
+    /// parameter interval and point weight (`splines`).
+    Spline(u8),
     /// `RPL=`: rotation in the plane.
     RotPlane,
     /// A component of the orientation vector `A3= B3= C3=`.
@@ -3950,9 +4233,11 @@ fn address(name: &str) -> Option<Address> {
         "C2" => Address::Angle(2),
         "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
         "TURN" => Address::Turns,
+        "SD" => Address::Spline(b'D'),
+        "PL" => Address::Spline(b'L'),
+        "PW" => Address::Spline(b'W'),
         "D" | "H" | "M" | "SPOS" | "SPOSA" | "S1" | "S2" | "M1" | "M2" | "FA" | "ACC" | "OVR"
-        | "SD" | "PL" | "PW" | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF"
-        | "FFWON" | "G" => Address::Pass,
+        | "OFFN" | "ADIS" | "ADISPOS" | "CTOL" | "OTOL" | "STOLF" | "FFWON" | "G" => Address::Pass,
         _ if name.len() == 2 && name.as_bytes()[1].is_ascii_digit() && !name.starts_with('R') => {
             Address::Pass
         }
@@ -4029,8 +4314,9 @@ struct ProcParam {
     name: String,
     /// `VAR`: by reference.
     by_ref: bool,
-    /// An array (`VAR REAL A[]`).
-    array: bool,
+    /// An array (`VAR REAL A[3, 4]`): its dimensions, `None` where left
+    /// open (`A[,4]`).
+    array: Option<Vec<Option<usize>>>,
 }
 
 fn proc_params(rest: &[u8]) -> Vec<ProcParam> {
@@ -4039,19 +4325,41 @@ fn proc_params(rest: &[u8]) -> Vec<ProcParam> {
         return Vec::new();
     };
     let close = text[open..].find(')').map_or(text.len(), |c| open + c);
-    text[open + 1..close]
-        .split(',')
+    // Split at the commas outside brackets (`VAR REAL A[3, 4], INT N`).
+    let mut params = Vec::new();
+    let (mut depth, mut from) = (0usize, open + 1);
+    for (i, c) in text[open + 1..close].char_indices() {
+        match c {
+            '[' => depth += 1,
+            ']' => depth = depth.saturating_sub(1),
+            ',' if depth == 0 => {
+                params.push(&text[from..open + 1 + i]);
+                from = open + 2 + i;
+            }
+            _ => {}
+        }
+    }
+    params.push(&text[from..close]);
+    params
+        .into_iter()
         .filter_map(|p| {
             let by_ref = p.split_whitespace().next() == Some("VAR");
             let mut parts = p.split_whitespace().filter(|w| *w != "VAR");
             let ty = VarType::from_name(parts.next()?.split('[').next()?)?;
             let word = parts.next()?;
             let name = word.split('[').next()?.to_string();
+            let array = p.find('[').map(|b| {
+                let e = p[b..].find(']').map_or(p.len(), |e| b + e);
+                p[b + 1..e]
+                    .split(',')
+                    .map(|d| d.trim().parse::<usize>().ok())
+                    .collect()
+            });
             Some(ProcParam {
                 ty,
                 name,
                 by_ref,
-                array: p.contains('['),
+                array,
             })
         })
         .collect()

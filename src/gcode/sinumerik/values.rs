@@ -7,8 +7,10 @@
 //! manual writes them); `INT` variables round on assignment; `BOOL` is 0 or
 //! 1; `TRUNC` cuts towards zero and `ROUND` rounds half away from zero;
 //! `STRING`, `AXIS` and `FRAME` variables are declared but not read in
-//! arithmetic (a located error when a value is needed); system variables
-//! (`$…`) cannot be known offline and are a located error.
+//! arithmetic (a located error when a value is needed); a system variable
+//! (`$…`) has the value the run gives it ([`SystemValues`]: `--sysvar`, or
+//! the execution state where the program itself sets it), else it cannot be
+//! known offline and is a located error.
 use std::collections::HashMap;
 
 use super::syntax::{BinOp, Expr};
@@ -96,12 +98,15 @@ pub(crate) struct Scope {
 pub(crate) struct EvalError {
     pub message: String,
     pub at: Option<std::ops::Range<usize>>,
+    /// A system variable without a value (given none, not in the state).
+    pub unknown_system: bool,
 }
 
 fn fail<T>(message: impl Into<String>, at: Option<std::ops::Range<usize>>) -> Result<T, EvalError> {
     Err(EvalError {
         message: message.into(),
         at,
+        unknown_system: false,
     })
 }
 
@@ -109,13 +114,24 @@ pub(crate) fn round_half_away(v: f64) -> f64 {
     v.round()
 }
 
-/// Evaluate `e` with the `R` parameters `r` and the variables `scope`.
-pub(crate) fn eval(e: &Expr, r: &[f64], scope: &Scope) -> Result<f64, EvalError> {
+/// The value of a system variable: given its upper-cased name and the byte
+/// range of its text (name and indices) in the line, the value, or the
+/// message saying why it has none.
+pub(crate) type SystemValues<'a> = &'a dyn Fn(&str, std::ops::Range<usize>) -> Result<f64, String>;
+
+/// Evaluate `e` with the `R` parameters `r`, the variables `scope` and the
+/// system variables `system`.
+pub(crate) fn eval(
+    e: &Expr,
+    r: &[f64],
+    scope: &Scope,
+    system: SystemValues,
+) -> Result<f64, EvalError> {
     let v = match e {
         Expr::Num(v) => *v,
         Expr::Str(_) => return fail("a string where a number is needed", None),
         Expr::R(i) => {
-            let n = eval(i, r, scope)?;
+            let n = eval(i, r, scope, system)?;
             let k = round_half_away(n);
             if !(0.0..R_COUNT as f64).contains(&k) {
                 return fail(format!("R{n} does not exist (R0 … R{})", R_COUNT - 1), None);
@@ -139,7 +155,7 @@ pub(crate) fn eval(e: &Expr, r: &[f64], scope: &Scope) -> Result<f64, EvalError>
             }
             let mut idx = Vec::with_capacity(index.len());
             for i in index {
-                idx.push(eval(i, r, scope)?);
+                idx.push(eval(i, r, scope, system)?);
             }
             match var.flat(&idx) {
                 Some(k) => var.values[k],
@@ -151,18 +167,15 @@ pub(crate) fn eval(e: &Expr, r: &[f64], scope: &Scope) -> Result<f64, EvalError>
                 }
             }
         }
-        Expr::System(name, at) => {
-            return fail(
-                format!(
-                    "system variable `{name}` has no value offline (the control knows it at run time)"
-                ),
-                Some(at.clone()),
-            );
-        }
-        Expr::Neg(a) => -eval(a, r, scope)?,
-        Expr::Not(a) => f64::from(eval(a, r, scope)? == 0.0),
+        Expr::System(name, at) => system(name, at.clone()).map_err(|message| EvalError {
+            message,
+            at: Some(at.clone()),
+            unknown_system: true,
+        })?,
+        Expr::Neg(a) => -eval(a, r, scope, system)?,
+        Expr::Not(a) => f64::from(eval(a, r, scope, system)? == 0.0),
         Expr::Bin(op, a, b) => {
-            let (x, y) = (eval(a, r, scope)?, eval(b, r, scope)?);
+            let (x, y) = (eval(a, r, scope, system)?, eval(b, r, scope, system)?);
             match op {
                 BinOp::Add => x + y,
                 BinOp::Sub => x - y,
@@ -200,11 +213,12 @@ pub(crate) fn eval(e: &Expr, r: &[f64], scope: &Scope) -> Result<f64, EvalError>
         Expr::Call(name, args, at) => {
             let mut v = Vec::with_capacity(args.len());
             for a in args {
-                v.push(eval(a, r, scope)?);
+                v.push(eval(a, r, scope, system)?);
             }
             function(name, &v).map_err(|m| EvalError {
                 message: m,
                 at: Some(at.clone()),
+                unknown_system: false,
             })?
         }
     };
