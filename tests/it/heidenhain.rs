@@ -679,8 +679,8 @@ fn nutating_head_and_iso_table_solve_planes_as_the_cam_comments_say() {
 /// tool of radius 0): the approach reaches the first contour point X+10
 /// Y+0 from the auxiliary point LEN 5 before it on the first element's
 /// line (X+5 Y+0); the departure goes on LEN 4 along the last element
-/// (from X+30 Y+0 to X+34 Y+0). `APPR LN` and the other forms are refused,
-/// naming the form; `RL` as on any move.
+/// (from X+30 Y+0 to X+34 Y+0). The polar forms (`APPR PLT` …) are
+/// refused, naming the form; `RL` as on any move.
 #[test]
 fn appr_and_dep_lt() {
     let text = "0 BEGIN PGM A MM\n1 TOOL CALL 1 Z\n2 L X-10 Y+20 Z+0 R0 FMAX\n3 APPR LT X+10 Y+0 LEN5 R0 F300\n4 L X+30\n5 DEP LT LEN4 F600\n6 END PGM A MM\n";
@@ -692,10 +692,119 @@ fn appr_and_dep_lt() {
     assert_point(xyz(&approach[1].end), [10.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).start), [30.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).end), [34.0, 0.0, 0.0]);
-    let e = motions(&text.replace("APPR LT", "APPR LN"), None).unwrap_err();
-    assert!(e.contains("t.h:4:") && e.contains("APPR LN"), "{e}");
+    let e = motions(&text.replace("APPR LT X+10 Y+0", "APPR PLT PR+10 PA+0"), None).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("APPR PLT"), "{e}");
     let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
     assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
+}
+
+/// `APPR`/`DEP` `LN`, `CT`, `LCT` with `R0` (`appr-dep-ln-ct-lct.h`; TNC7
+/// user's manual 81762x-16/-18, "Approach function APPR LN | CT | LCT";
+/// TNC 640 DIN/ISO user's manual 1/2015 pp. 213 ff.), worked by hand. Every
+/// contour runs along +X with the start below it (-Y): the tool is on the
+/// right, so the arcs turn clockwise.
+/// - `APPR LN X+10 Y+0 Z-2 LEN5`: from X+0 Y-20 (rapid: the block before
+///   is FMAX) to PH = PA + 5·(0, -1) = X+10 Y-5 Z-2, then to PA.
+/// - `DEP CT CCA90 R+4` at X+40 Y+30 going +Y: centre 4 to the right,
+///   X+44 Y+30; a clockwise quarter from the west point ends at the north
+///   point X+44 Y+34.
+/// - `APPR CT X+50 Y+0 CCA90 R+4`: centre X+50 Y-4, PH 90° back (clockwise
+///   arc) at the west point X+46 Y-4.
+/// - `DEP LN LEN5` at X+80 Y+0: to X+80 Y-5.
+/// - `APPR LCT X+100 Y+0 R4` from X+100 Y-16: centre C = X+100 Y-4; the
+///   tangent point H from P satisfies (H−C)·(P−C) = R², |H−C| = R: with
+///   P−C = (0, −12), (H−C)_y = −16/12 = −4/3 and (H−C)_x = −√(16 − 16/9)
+///   = −4√8/3 (the clockwise arc must pass the west point to arrive
+///   moving +X): H = X+96.228764 Y-5.333333; the line at F300 (the APPR
+///   block's feed for LCT).
+/// - `DEP LCT X+140 Y-10 Z+5 R4` at X+130 Y+0: centre X+130 Y-4, N−C =
+///   (10, −6): 10x − 6y = 16, x² + y² = 16 → 1.36y² + 1.92y − 13.44 = 0,
+///   y = (−1.92 + √76.8)/2.72 (the clockwise arc from the north point
+///   goes to the east side): H = C + (1.6 + 0.6y, y); then the line to
+///   X+140 Y-10 at Z-2, then up to Z+5.
+#[test]
+fn appr_dep_ln_ct_lct_by_hand() {
+    let m = fixture_motions("appr-dep-ln-ct-lct.h", None);
+    let of = |line: usize| -> Vec<Motion> {
+        m.iter()
+            .filter(|(l, _)| *l == line)
+            .map(|(_, m)| *m)
+            .collect()
+    };
+    let on_circle = |mv: &[Motion], c: [f64; 2]| {
+        for x in mv {
+            assert_abs_diff_eq!((x.end.x - c[0]).hypot(x.end.y - c[1]), 4.0, epsilon = 1e-9);
+        }
+    };
+    let a = of(6);
+    assert_eq!(a.len(), 2);
+    assert_eq!(a[0].kind, MotionKind::Rapid);
+    assert_point(xyz(&a[0].end), [10.0, -5.0, -2.0]);
+    assert_point(xyz(&a[1].end), [10.0, 0.0, -2.0]);
+    let d = of(9);
+    assert!(d.len() > 10);
+    on_circle(&d, [44.0, 30.0]);
+    assert_point(xyz(&d[0].start), [40.0, 30.0, -2.0]);
+    assert_point(xyz(&d.last().unwrap().end), [44.0, 34.0, -2.0]);
+    assert!(d.iter().all(|x| x.end.x <= 44.0 + 1e-9 && x.end.y >= 30.0 - 1e-9));
+    let a = of(12);
+    assert_point(xyz(&a[0].end), [46.0, -4.0, -2.0]);
+    on_circle(&a[1..], [50.0, -4.0]);
+    assert!(a[1..].iter().all(|x| x.end.x <= 50.0 + 1e-9 && x.end.y >= -4.0 - 1e-9));
+    assert_point(xyz(&a.last().unwrap().end), [50.0, 0.0, -2.0]);
+    assert_point(xyz(&last_of(&m, 14).end), [80.0, -5.0, -2.0]);
+    let a = of(17);
+    let h = [100.0 - 4.0 * 8f64.sqrt() / 3.0, -4.0 - 4.0 / 3.0, -2.0];
+    assert_point(xyz(&a[0].start), [100.0, -16.0, 5.0]);
+    assert_point(xyz(&a[0].end), h);
+    assert_eq!(a[0].feed, volcomp::gcode::Feed::PerMinute(300.0));
+    on_circle(&a[1..], [100.0, -4.0]);
+    assert_point(xyz(&a.last().unwrap().end), [100.0, 0.0, -2.0]);
+    let d = of(19);
+    let y = (-1.92 + 76.8f64.sqrt()) / 2.72;
+    let h = [130.0 + 1.6 + 0.6 * y, -4.0 + y, -2.0];
+    let n = d.len();
+    on_circle(&d[..n - 2], [130.0, -4.0]);
+    assert_point(xyz(&d[n - 3].end), h);
+    assert_point(xyz(&d[n - 2].end), [140.0, -10.0, -2.0]);
+    assert_point(xyz(&d[n - 1].end), [140.0, -10.0, 5.0]);
+    // The side comes from the start: one on the contour's line gives none.
+    let text = std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let e = motions(&text.replace("4 L X+0 Y-20", "4 L X+0 Y+0"), None).unwrap_err();
+    assert!(e.contains("t.h:6:") && e.contains("no side"), "{e}");
+    // A departure with no approach before it has no side.
+    let e = motions(
+        "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+0 R0 F100\n2 L X+10\n3 DEP LN LEN5\n4 END PGM D MM\n",
+        None,
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("no side"), "{e}");
+    let e = motions(&text.replace("R4 R0 F300", "R4 RR F300"), None).unwrap_err();
+    assert!(e.contains("t.h:17:") && e.contains("RR"), "{e}");
+}
+
+/// The approach and departure program compensated on head-table and
+/// bc-trt: every block reads back, the tip error is cut by at least 90 %.
+#[test]
+fn closed_loop_appr_dep() {
+    let original = std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let mut summary = String::new();
+    for machine in ["head-table", "bc-trt"] {
+        let rig = rig(machine);
+        let (text, _) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
+        motions(&text, Some(&rig.0)).unwrap();
+        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+        assert!(before.max_um > 3.0, "{machine}: nothing to compensate?");
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{machine}: {before:?} -> {after:?}"
+        );
+        summary += &format!(
+            "{machine}: tip max {:.2} -> {:.3} µm, rms {:.2} -> {:.3} µm\n",
+            before.max_um, after.max_um, before.rms_um, after.rms_um
+        );
+    }
+    println!("{summary}");
 }
 
 /// What `compensate` writes for the new forms (dialects.md "Writing back"):

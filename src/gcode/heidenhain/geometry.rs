@@ -258,6 +258,108 @@ impl Corner {
     }
 }
 
+/// `v` turned by `deg` degrees (counter-clockwise for positive) in the plane.
+fn turned(v: [f64; 2], deg: f64) -> [f64; 2] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+}
+
+/// Where the tool meets or leaves a contour in `APPR`/`DEP` (working-plane
+/// coordinates): the contour point, the unit direction of travel along the
+/// contour there, and the side of the contour the tool is on (left of the
+/// travel direction, as `RL`, or right, as `RR`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContourContact {
+    /// The first contour point `PA` (approach) or the last `PE` (departure).
+    pub point: [f64; 2],
+    /// The unit direction of travel along the contour at `point`.
+    pub direction: [f64; 2],
+    /// The tool is on the left of the contour (looking along `direction`).
+    pub left: bool,
+}
+
+/// An arc of the approach or departure: its centre, its sense, and its end
+/// away from the contour (`PH` of `APPR CT`/`LCT`, `PN` of `DEP CT`, the
+/// tangent point of `DEP LCT`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactArc {
+    /// The arc's centre.
+    pub centre: [f64; 2],
+    /// The arc turns clockwise (in the direction of travel).
+    pub clockwise: bool,
+    /// The arc's end away from the contour point.
+    pub away: [f64; 2],
+}
+
+impl ContourContact {
+    /// The unit normal pointing to the tool's side.
+    fn normal(&self) -> [f64; 2] {
+        let [u, v] = self.direction;
+        if self.left { [-v, u] } else { [v, -u] }
+    }
+
+    /// The side of the contour's line through `point` that `p` lies on:
+    /// `Some(true)` left, `Some(false)` right, `None` on the line.
+    pub fn side_of(point: [f64; 2], direction: [f64; 2], p: [f64; 2]) -> Option<bool> {
+        let cross = direction[0] * (p[1] - point[1]) - direction[1] * (p[0] - point[0]);
+        (cross.abs() > 1e-9).then_some(cross > 0.0)
+    }
+
+    /// `APPR LN` / `DEP LN`: the point `len` from the contour point on the
+    /// perpendicular to the contour, on the tool's side.
+    pub fn perpendicular(&self, len: f64) -> [f64; 2] {
+        let n = self.normal();
+        [self.point[0] + len * n[0], self.point[1] + len * n[1]]
+    }
+
+    /// `APPR CT` / `DEP CT`: the arc of radius `r` and centre angle
+    /// `cca_deg` tangent to the contour at its point, its centre on the
+    /// tool's side (so that the whole arc is there), turning with the
+    /// contour; `arriving`: it ends at the contour point (approach), else
+    /// it starts there (departure).
+    pub fn tangent_arc(&self, r: f64, cca_deg: f64, arriving: bool) -> ContactArc {
+        let n = self.normal();
+        let r = r.abs();
+        let centre = [self.point[0] + r * n[0], self.point[1] + r * n[1]];
+        // Centre on the left of travel: counter-clockwise.
+        let clockwise = !self.left;
+        let sense = if clockwise { -1.0 } else { 1.0 };
+        let back = if arriving { -1.0 } else { 1.0 };
+        let radius = [self.point[0] - centre[0], self.point[1] - centre[1]];
+        let q = turned(radius, sense * back * cca_deg);
+        ContactArc {
+            centre,
+            clockwise,
+            away: [centre[0] + q[0], centre[1] + q[1]],
+        }
+    }
+
+    /// `APPR LCT` / `DEP LCT`: the arc of radius `r` tangent to the contour
+    /// at its point (centre on the tool's side) and the straight line from
+    /// `other` (the start `PS` when `arriving`, else the end `PN`) tangent
+    /// to it; `away` is where line and arc meet. `None` when `other` lies
+    /// within the arc's circle (no tangent).
+    pub fn line_and_arc(&self, r: f64, other: [f64; 2], arriving: bool) -> Option<ContactArc> {
+        let arc = self.tangent_arc(r, 0.0, arriving);
+        let r = r.abs();
+        let to = [other[0] - arc.centre[0], other[1] - arc.centre[1]];
+        let d = to[0].hypot(to[1]);
+        if d <= r + 1e-9 {
+            return None;
+        }
+        let beta = (r / d).acos().to_degrees();
+        // Arriving on a counter-clockwise arc, the line touches it ahead of
+        // the direction to `other` (β further round); leaving, behind it.
+        let ccw = !arc.clockwise;
+        let turn = if ccw == arriving { beta } else { -beta };
+        let u = turned([to[0] / d * r, to[1] / d * r], turn);
+        Some(ContactArc {
+            away: [arc.centre[0] + u[0], arc.centre[1] + u[1]],
+            ..arc
+        })
+    }
+}
+
 /// Points along the arc about `centre` from `from` to `to` (in-plane),
 /// `clockwise` or not, `turns` extra full turns, the third coordinate going
 /// linearly from `w0` to `w1`: chords whose sagitta is at most `tolerance`
@@ -321,6 +423,36 @@ mod tests {
 
     fn column(m: &Mat3, k: usize) -> [f64; 3] {
         [m[0][k], m[1][k], m[2][k]]
+    }
+
+    /// Approach and departure worked by hand: the contour along +X from
+    /// (10, 0), the tool on its right (below it, -Y).
+    #[test]
+    fn approach_and_departure_paths() {
+        let c = ContourContact {
+            point: [10.0, 0.0],
+            direction: [1.0, 0.0],
+            left: false,
+        };
+        let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+        assert_eq!(ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, -3.0]), Some(false));
+        assert_eq!(ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, 0.0]), None);
+        assert!(close(c.perpendicular(5.0), [10.0, -5.0]));
+        // A quarter arc of radius 4 arriving at (10, 0) moving +X: centre
+        // (10, -4), clockwise, from (6, -4).
+        let a = c.tangent_arc(4.0, 90.0, true);
+        assert!(a.clockwise && close(a.centre, [10.0, -4.0]) && close(a.away, [6.0, -4.0]), "{a:?}");
+        // Leaving (10, 0) by a half turn: to (10, -8).
+        let d = c.tangent_arc(4.0, 180.0, false);
+        assert!(close(d.away, [10.0, -8.0]), "{d:?}");
+        // From (6, -12) straight up to the circle about (10, -4), r 4: it
+        // touches at (6, -4), then the clockwise quarter to (10, 0).
+        let l = c.line_and_arc(4.0, [6.0, -12.0], true).unwrap();
+        assert!(close(l.away, [6.0, -4.0]), "{l:?}");
+        // Leaving: the clockwise quarter to (14, -4), then down to (14, -12).
+        let l = c.line_and_arc(4.0, [14.0, -12.0], false).unwrap();
+        assert!(close(l.away, [14.0, -4.0]), "{l:?}");
+        assert!(c.line_and_arc(4.0, [10.0, -5.0], true).is_none());
     }
 
     #[test]

@@ -98,6 +98,12 @@ struct State {
     /// This block programs a rotary axis itself (`L B+Q121 C+Q122` after
     /// `PLANE … STAY`): a tilted plane does not hold the axes for it.
     commands_rotary: bool,
+    /// The last block that moved ended with a rapid move (`APPR`'s way to
+    /// its auxiliary point).
+    last_rapid: bool,
+    /// The side of the contour the last `APPR` came from (left of the
+    /// travel direction: `true`), for `DEP LN | CT | LCT` with `R0`.
+    contour_left: Option<bool>,
 }
 
 impl State {
@@ -196,6 +202,8 @@ impl KlMachine {
                 time_min: 0.0,
                 begun: false,
                 commands_rotary: false,
+                last_rapid: false,
+                contour_left: None,
             },
             setup,
             ahead: None,
@@ -343,6 +351,7 @@ impl KlMachine {
         }
         if let Some(m) = event.moves.all().last() {
             s.position = m.end;
+            s.last_rapid = m.kind == MotionKind::Rapid;
         }
         event.position = s.position;
         event.time_min = s.time_min;
@@ -901,15 +910,45 @@ impl KlMachine {
         Ok((t1, PendingCorner { points, tangent }))
     }
 
-    /// `APPR LT` / `DEP LT` (TNC 640 user's manual, "Approaching and
-    /// departing a contour"): `APPR LT X Y LEN` moves on a straight line to
-    /// the auxiliary point `LEN` before the first contour point `X Y`, on
-    /// the line tangent to the first contour element, then to that point;
-    /// `DEP LT LEN` moves `LEN` on in the direction of the last contour
-    /// element. With `R0` the control computes them for a tool of radius 0
-    /// (as does volcomp); `RL`/`RR` are refused as on every move. The other
-    /// forms (LN, CT, LCT, the polar PLT, PLN, PCT, PLCT) are refused naming
-    /// the form: not read yet.
+    /// `APPR`/`DEP` `LT`, `LN`, `CT`, `LCT` with `R0` (the control's
+    /// "Approaching and departing a contour": TNC 640 DIN/ISO user's manual
+    /// 1/2015 pp. 213 ff. for the positions PS, PH, PA, PE, PN and the
+    /// feeds; TNC7 user's manual 81762x-16/-18, "Approach function APPR
+    /// LN | CT | LCT", for each path; iTNC 530 user's manual 340 49x-03
+    /// p. 230):
+    /// - `APPR LT X Y LEN`: a straight line to the auxiliary point `PH`,
+    ///   `LEN` before the first contour point `PA` on the line of the first
+    ///   contour element, then to `PA`; `DEP LT LEN`: `LEN` on along the
+    ///   last element.
+    /// - `APPR LN X Y LEN`: `PH` is `LEN` from `PA` on the perpendicular to
+    ///   the first element; `DEP LN LEN`: to the point `LEN` from the last
+    ///   contour point `PE` on the perpendicular.
+    /// - `APPR CT X Y CCA R`: to `PH`, then on the arc of radius `R` and
+    ///   centre angle `CCA` tangent to the first element at `PA`; a negative
+    ///   `R` puts the arc on the other side; `DEP CT CCA R` likewise from
+    ///   `PE`, tangent to the last element.
+    /// - `APPR LCT X Y R`: a straight line tangent to the arc of radius `R`
+    ///   that is tangent to the first element at `PA`, then that arc;
+    ///   `DEP LCT X Y R`: the arc tangent to the last element, then the
+    ///   straight line tangent to it to the end point `PN`.
+    ///
+    /// The side of the contour (which the manual takes from `RL`/`RR`, and
+    /// with it the arcs' sense) is, with `R0`, volcomp's reading: for an
+    /// approach the side the starting point `PS` lies on (relative to the
+    /// first element's line; on the line: an error), for a departure the
+    /// side of the last approach (`RL`/`RR`, which would give it, also move
+    /// the path by the tool radius: refused as on every move). The TNC 640
+    /// and TNC7 stop `APPR CT` with `R0` with an error; the iTNC 530 runs
+    /// it: volcomp reads it as the iTNC 530. `PS` → `PH` runs at the feed
+    /// last programmed (at `FMAX` when the block before was rapid) for
+    /// `LT`, `LN`, `CT`, at the block's feed for `LCT` (iTNC 530 p. 230);
+    /// the rest at the block's feed. A tool-axis word in `APPR` is reached
+    /// on the way to `PH` (TNC7 "APPR LCT": "simultaneously in three axes";
+    /// the TNC 640 1/2015 text moves in the plane first: not followed,
+    /// kept as `APPR LT` read it before); `DEP LCT`'s tool-axis word is
+    /// reached after `PN` in the plane (TNC 640 1/2015 p. 213). The first
+    /// contour element after an `APPR` must be a straight line `L`. The
+    /// polar forms (`PLT`, `PLN`, `PCT`, `PLCT`) are refused, naming them.
     fn approach_departure(
         &self,
         c: &Ctx<'_>,
@@ -917,68 +956,234 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let b = c.block;
-        let what = format!("{} {}", b.address(0), b.address(1));
-        if b.address(1) != "LT" {
+        let form = b.address(1);
+        let what = format!("{} {}", b.address(0), form);
+        if !matches!(form, "LT" | "LN" | "CT" | "LCT") {
             return Err(c.unread(&what, Some(1)));
         }
+        let approach = b.address(0) == "APPR";
+        // The feed and rapid of the block before (PS → PH).
+        let (feed_before, rapid_before) = (s.feed, s.last_rapid);
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 2)?;
         self.refuse_compensation(c, s)?;
         let scale = if s.inch { 25.4 } else { 1.0 };
-        let len = b
+        let word = |name: &str| {
+            b.tokens
+                .iter()
+                .position(|t| t.address == name && t.value.is_some())
+                .map(|k| c.value(k))
+                .transpose()
+        };
+        let needed = |name: &str, v: Option<f64>| {
+            v.ok_or_else(|| c.error(&format!("{what} without its {name}"), Some(0)))
+        };
+        // `R…` the radius (not the `R0` of the compensation).
+        let radius = b
             .tokens
             .iter()
-            .position(|t| t.address == "LEN")
-            .map(|k| c.value(k))
+            .enumerate()
+            .find(|(_, t)| {
+                t.address == "R" && t.value.is_some() && !(t.number() == Some(0.0) && t.value_span.len() == 1)
+            })
+            .map(|(k, _)| c.value(k))
             .transpose()?
-            .ok_or_else(|| c.error(&format!("{what} without its length LEN"), Some(0)))?
-            .abs()
-            * scale;
-        let unit = |d: [f64; 3]| {
-            let n = dot(d, d).sqrt();
-            (n > 1e-12).then(|| d.map(|x| x / n))
+            .map(|r| r * scale);
+        let len = match form {
+            "LT" | "LN" => Some(needed("length LEN", word("LEN")?)?.abs() * scale),
+            _ => None,
         };
-        let points = if b.address(0) == "APPR" {
+        let unit2 = |d: [f64; 3]| {
+            let n = d[0].hypot(d[1]);
+            (n > 1e-12).then(|| [d[0] / n, d[1] / n])
+        };
+        let plane = s.plane;
+        let at = |uv: [f64; 2], w: f64| from_plane(plane, [uv[0], uv[1], w]);
+        let block_feed = feed;
+        let before = if rapid_before {
+            Feed::Rapid
+        } else {
+            Feed::PerMinute(feed_before)
+        };
+        // (point, feed) in program coordinates, in order.
+        let mut path: Vec<([f64; 3], Feed)> = Vec::new();
+        let arc_points = |centre: [f64; 2], from: [f64; 2], to: [f64; 2], clockwise: bool, w: f64| {
+            arc_chords(centre, [from[0], from[1], w], [to[0], to[1], w], clockwise, 0, CHORD_TOLERANCE_MM)
+                .into_iter()
+                .map(|q| from_plane(plane, q))
+                .collect::<Vec<_>>()
+        };
+        if approach {
             let first = xyz_words(c, s.pos, scale, 2)?;
             // The first contour element: a straight line after the APPR block.
-            let direction = self
+            let end = self
                 .ahead
                 .as_ref()
                 .filter(|(_, next)| next.address(0) == "L")
-                .and_then(|(_, next)| {
-                    let end = xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok()?;
-                    unit([end[0] - first[0], end[1] - first[1], end[2] - first[2]])
-                })
+                .and_then(|(_, next)| xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok());
+            let pa = to_plane(plane, first);
+            let direction = end
+                .map(|e| to_plane(plane, e))
+                .and_then(|e| unit2([e[0] - pa[0], e[1] - pa[1], 0.0]))
                 .ok_or_else(|| {
                     c.unread(
-                        &format!(
-                            "{what} before anything but a straight line (L) in the working plane"
-                        ),
+                        &format!("{what} before anything but a straight line (L) in the working plane"),
                         Some(0),
                     )
                 })?;
-            let helper = [
-                first[0] - len * direction[0],
-                first[1] - len * direction[1],
-                first[2] - len * direction[2],
-            ];
-            s.tangent = Some(direction);
-            vec![helper, first]
+            let ps = to_plane(plane, s.pos);
+            let side = geometry::ContourContact::side_of([pa[0], pa[1]], direction, [ps[0], ps[1]]);
+            let contact = |left: bool| geometry::ContourContact {
+                point: [pa[0], pa[1]],
+                direction,
+                left,
+            };
+            let side_needed = || {
+                side.ok_or_else(|| {
+                    c.error(
+                        &format!(
+                            "{what} with R0: the starting point lies on the first contour element's line, so it gives no side of the contour"
+                        ),
+                        Some(0),
+                    )
+                })
+            };
+            match form {
+                "LT" => {
+                    let len = len.unwrap_or(0.0);
+                    let h = [pa[0] - len * direction[0], pa[1] - len * direction[1]];
+                    path.push((at(h, pa[2]), before));
+                    path.push((first, block_feed));
+                    s.contour_left = side;
+                }
+                "LN" => {
+                    let left = side_needed()?;
+                    let h = contact(left).perpendicular(len.unwrap_or(0.0));
+                    path.push((at(h, pa[2]), before));
+                    path.push((first, block_feed));
+                    s.contour_left = Some(left);
+                }
+                "CT" => {
+                    let left = side_needed()?;
+                    let r = needed("radius R", radius)?;
+                    let cca = needed("centre angle CCA", word("CCA")?)?;
+                    if !(cca > 0.0 && cca <= 360.0) {
+                        return Err(c.error(&format!("{what}: the centre angle CCA must be above 0 and at most 360"), Some(0)));
+                    }
+                    // A negative R: the arc on the other side.
+                    let arc = contact(left != (r < 0.0)).tangent_arc(r, cca, true);
+                    path.push((at(arc.away, pa[2]), before));
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2]) {
+                        path.push((p, block_feed));
+                    }
+                    s.contour_left = Some(left);
+                }
+                _ => {
+                    let left = side_needed()?;
+                    let r = needed("radius R", radius)?;
+                    let arc = contact(left)
+                        .line_and_arc(r, [ps[0], ps[1]], true)
+                        .ok_or_else(|| {
+                            c.error(&format!("{what}: the starting point lies within the arc's circle (no tangent line)"), Some(0))
+                        })?;
+                    path.push((at(arc.away, pa[2]), block_feed));
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2]) {
+                        path.push((p, block_feed));
+                    }
+                    s.contour_left = Some(left);
+                }
+            }
+            s.tangent = Some(at(direction, 0.0));
         } else {
-            let direction = s.tangent.and_then(unit).ok_or_else(|| {
+            let direction = s.tangent.map(|t| to_plane(plane, t)).and_then(unit2).ok_or_else(|| {
                 c.error(
                     &format!("{what} needs a contour element before it (its direction)"),
                     Some(0),
                 )
             })?;
-            vec![[
-                s.pos[0] + len * direction[0],
-                s.pos[1] + len * direction[1],
-                s.pos[2] + len * direction[2],
-            ]]
-        };
-        event.moves = self.pieces(c, s, s.position, &points, feed)?;
-        s.pos = points[points.len() - 1];
+            let pe = to_plane(plane, s.pos);
+            let left = || {
+                s.contour_left.ok_or_else(|| {
+                    c.error(
+                        &format!(
+                            "{what} with R0: no side of the contour (volcomp takes it from an APPR LN, CT or LCT before; RL/RR would give it)"
+                        ),
+                        Some(0),
+                    )
+                })
+            };
+            let contact = |left: bool| geometry::ContourContact {
+                point: [pe[0], pe[1]],
+                direction,
+                left,
+            };
+            match form {
+                "LT" => {
+                    let len = len.unwrap_or(0.0);
+                    path.push((at([pe[0] + len * direction[0], pe[1] + len * direction[1]], pe[2]), block_feed));
+                }
+                "LN" => {
+                    let n = contact(left()?).perpendicular(len.unwrap_or(0.0));
+                    path.push((at(n, pe[2]), block_feed));
+                }
+                "CT" => {
+                    let r = needed("radius R", radius)?;
+                    let cca = needed("centre angle CCA", word("CCA")?)?;
+                    if !(cca > 0.0 && cca <= 360.0) {
+                        return Err(c.error(&format!("{what}: the centre angle CCA must be above 0 and at most 360"), Some(0)));
+                    }
+                    let arc = contact(left()? != (r < 0.0)).tangent_arc(r, cca, false);
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2]) {
+                        path.push((p, block_feed));
+                    }
+                }
+                _ => {
+                    let r = needed("radius R", radius)?;
+                    let pn = to_plane(plane, xyz_words(c, s.pos, scale, 2)?);
+                    let arc = contact(left()?)
+                        .line_and_arc(r, [pn[0], pn[1]], false)
+                        .ok_or_else(|| {
+                            c.error(&format!("{what}: the end point lies within the arc's circle (no tangent line)"), Some(0))
+                        })?;
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2]) {
+                        path.push((p, block_feed));
+                    }
+                    path.push((at([pn[0], pn[1]], pe[2]), block_feed));
+                    if (pn[2] - pe[2]).abs() > 0.0 {
+                        path.push((at([pn[0], pn[1]], pn[2]), block_feed));
+                    }
+                }
+            }
+            if let [.., a, b] = path.as_slice() {
+                let d = [b.0[0] - a.0[0], b.0[1] - a.0[1], b.0[2] - a.0[2]];
+                if dot(d, d) > 0.0 {
+                    s.tangent = Some(d);
+                }
+            } else if let Some((p, _)) = path.first() {
+                let d = [p[0] - s.pos[0], p[1] - s.pos[1], p[2] - s.pos[2]];
+                if dot(d, d) > 0.0 {
+                    s.tangent = Some(d);
+                }
+            }
+        }
+        let mut moves = Vec::with_capacity(path.len());
+        let mut steps = Vec::with_capacity(path.len());
+        let mut start = s.position;
+        for (p, f) in &path {
+            if let Feed::PerMinute(v) = f
+                && *v <= 0.0
+            {
+                return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+            }
+            let (motion, step) = self.piece(c, s, start, *p, *f)?;
+            start = motion.end;
+            moves.push(motion);
+            steps.push(step);
+        }
+        event.moves = Moves::Cycle { moves, steps };
+        if let Some((p, _)) = path.last() {
+            s.pos = *p;
+        }
         self.m_codes(c, s, event, Some(2))
     }
 
