@@ -415,6 +415,58 @@ fn plane_move_stay_and_cycl_def_19_position_the_axes() {
     assert!(e.contains("--machine") && e.contains("t.h:10:"), "{e}");
 }
 
+/// `PLANE … MB` (TNC 620 conversational user's manual 10/2017 p. 556: the
+/// retraction MB "is effective incrementally from the current tool position
+/// in the active tool axis direction that the control approaches before
+/// tilting"), worked by hand on head-table. From X+0 Y+0 Z+10 with no plane
+/// active, `MB+40` first lifts the tool along Z to Z+50 (a leg of the
+/// control, like the turn: in the block's `Home` legs, not compensated),
+/// then `MOVE DIST+50` tilts about the point 50 below that tip: tip
+/// = (0, 0, 50) + 50·((sin 30°, 0, cos 30°) − (0, 0, 1)) = X+25 Z+43.3013.
+/// After `L Z+10` (the tip at Ry(30°)·(0, 0, 10) = X+5 Z+8.6603),
+/// `PLANE RESET TURN MB+20` retracts along the tilted tool axis: X+15
+/// Z+25.9808, before the axes turn back. `MB MAX` (to the software limit
+/// switch: no travel limits are read) and `MB` with `STAY` are refused.
+#[test]
+fn plane_mb_retracts_before_tilting() {
+    let (machine, _) = rig("head-table");
+    let head = "0 BEGIN PGM MB MM\n1 TOOL CALL 1 Z S1000\n2 L X+0 Y+0 Z+10 R0 FMAX\n";
+    let text = format!(
+        "{head}3 PLANE SPATIAL SPA+0 SPB+30 SPC+0 MOVE DIST+50 MB+40 F2000\n4 L Z+10 F500\n5 PLANE RESET TURN MB+20 FMAX\n6 END PGM MB MM\n"
+    );
+    let program = program(&text, Some(machine));
+    let mut run = program.run(interpret_options_on(machine, Frame::Joint));
+    let mut legs = Vec::new();
+    while let Some(step) = run.next() {
+        let (_, event, executed) = step.unwrap();
+        if matches!(executed.line, 4 | 6) {
+            match &event.moves {
+                volcomp::gcode::Moves::Home(m) => legs.push(m.clone()),
+                other => panic!("line {}: {other:?}", executed.line),
+            }
+        }
+    }
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let [first, second] = &legs[..] else {
+        panic!("{legs:?}")
+    };
+    assert_eq!(first.len(), 2);
+    assert_eq!(first[0].frame, Frame::Joint);
+    assert_point(xyz(&first[0].start), [0.0, 0.0, 10.0]);
+    assert_point(xyz(&first[0].end), [0.0, 0.0, 50.0]);
+    assert_abs_diff_eq!(first[0].end.b, 0.0, epsilon = 1e-12);
+    assert_near(xyz(&first[1].end), [25.0, 0.0, 50.0 * c], 1e-9);
+    assert_abs_diff_eq!(first[1].end.b, 30.0, epsilon = 1e-6);
+    assert_eq!(second[0].frame, Frame::Part);
+    assert_near(xyz(&second[0].start), [10.0 * s, 0.0, 10.0 * c], 1e-6);
+    assert_near(xyz(&second[0].end), [30.0 * s, 0.0, 30.0 * c], 1e-6);
+    assert_abs_diff_eq!(second[1].end.b, 0.0, epsilon = 1e-9);
+    let e = motions(&text.replace("MB+20", "MB MAX"), Some(machine)).unwrap_err();
+    assert!(e.contains("t.h:6:") && e.contains("MB MAX"), "{e}");
+    let e = motions(&text.replace("MOVE DIST+50", "STAY"), Some(machine)).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("STAY with MB"), "{e}");
+}
+
 /// A plane the machine cannot reach (head-table's B travels ±100°; SPA+120
 /// needs 120°), TABLE ROT where the table would take the rotation about
 /// the tool axis (refused, naming it), COORD ROT (the table stays, the

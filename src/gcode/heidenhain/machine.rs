@@ -2063,16 +2063,28 @@ impl KlMachine {
         } else {
             PlaneMode::Turn
         };
-        if let Some(k) = has("MB")
-            && b.tokens[k].value.is_some()
-            && c.value(k)? != 0.0
-        {
-            return Err(c.unread("PLANE … MB (a retraction before tilting)", Some(k)));
-        }
-        if let Some(k) = has("MB")
-            && b.address(k + 1) == "MAX"
-        {
-            return Err(c.unread("PLANE … MB MAX (a retraction before tilting)", Some(k)));
+        // `MB`: the retraction before tilting (TNC 620 conversational
+        // user's manual 10/2017 p. 556: "effective incrementally from the
+        // current tool position in the active tool axis direction that the
+        // control approaches before tilting"; asked for with MOVE and TURN).
+        let mut retract = None;
+        if let Some(k) = has("MB") {
+            if b.address(k + 1) == "MAX" {
+                return Err(c.unread(
+                    "PLANE … MB MAX (a retraction to just before the software limit switch: the machine's travel limits are not read for Klartext)",
+                    Some(k),
+                ));
+            }
+            let d = c.value(k)? * scale;
+            if d != 0.0 {
+                if mode == PlaneMode::Stay {
+                    return Err(c.unread(
+                        "PLANE … STAY with MB (the retraction belongs to MOVE or TURN positioning)",
+                        Some(k),
+                    ));
+                }
+                retract = Some(d);
+            }
         }
         let seq = match b
             .tokens
@@ -2104,6 +2116,7 @@ impl KlMachine {
         let _ = axial;
         Ok(Positioning {
             mode,
+            retract,
             seq,
             table_rot: table_rot.then(|| has("TABLE").unwrap_or(0)),
             feed,
@@ -2190,7 +2203,25 @@ impl KlMachine {
     ) -> Result<(), GcodeError> {
         let pre = self.setup.preset;
         let tilt = tilt.filter(|r| *r != IDENTITY);
-        let here = s.position;
+        let mut here = s.position;
+        // `MB`: the control first retracts along the tool axis active
+        // before tilting (the tilted plane's, else the TOOL CALL's axis: for
+        // a head turned without a plane this is the machine's axis, not the
+        // spindle's). A positioning leg of the control, as `TURN`'s: not
+        // compensated, reported with it (dialects.md, Heidenhain "Positions").
+        let mut legs = Vec::new();
+        if let Some(d) = how.retract {
+            let n = from_plane(s.plane, [0.0, 0.0, 1.0]);
+            let axis = s.tilt.map_or(n, |r| mat_vec(&r, n));
+            let end = Axes {
+                x: here.x + d * axis[0],
+                y: here.y + d * axis[1],
+                z: here.z + d * axis[2],
+                ..here
+            };
+            legs.push(self.straight(self.frame_of(s), false, here, end, how.feed));
+            here = end;
+        }
         let mut tip = here.xyz();
         s.tilt = tilt;
         if tilt.is_none() {
@@ -2232,12 +2263,14 @@ impl KlMachine {
                         c: j.c,
                         ..here
                     };
-                    let m = self.straight(frame, false, here, end, how.feed);
-                    event.moves = Moves::Home(vec![m]);
+                    legs.push(self.straight(frame, false, here, end, how.feed));
                     s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
                 }
                 _ => {}
             }
+        }
+        if !legs.is_empty() {
+            event.moves = Moves::Home(legs);
         }
         // The program position in the new frame: where the tip is.
         let base = [
@@ -2294,6 +2327,7 @@ impl KlMachine {
             }
         }
         let how = Positioning {
+            retract: None,
             mode: if feed.is_some() {
                 PlaneMode::Turn
             } else {
@@ -2349,6 +2383,8 @@ enum PlaneMode {
 #[derive(Clone, Copy, Debug)]
 struct Positioning {
     mode: PlaneMode,
+    /// `MB`: the retraction along the active tool axis before tilting, mm.
+    retract: Option<f64>,
     seq: Branch,
     /// `TABLE ROT` given: its token.
     table_rot: Option<usize>,
