@@ -326,7 +326,8 @@ fn last_of(m: &[(usize, Motion)], line: usize) -> Motion {
 /// the line before ends where the rounding or chamfer begins, the arc is
 /// tangent to both lines (chords within 0.5 µm), the chamfer side length is
 /// measured from the corner; a rounding too large for its corner and one
-/// after a circle are located errors.
+/// between an arc and the line going on tangentially from it are located
+/// errors.
 #[test]
 fn rnd_and_chf_between_straight_lines() {
     let m = fixture_motions("rnd-chf-corners.h", None);
@@ -351,12 +352,91 @@ fn rnd_and_chf_between_straight_lines() {
     )
     .unwrap_err();
     assert!(e.contains("t.h:5:") && e.contains("too large"), "{e}");
+    // After an arc that the line goes on from tangentially: no corner.
     let e = motions(
         &format!("{head}3 CC X+10 Y+0\n4 C X+20 Y+0 DR+\n5 RND R2\n6 L Y+20\n7 END PGM R MM\n"),
         None,
     )
     .unwrap_err();
-    assert!(e.contains("t.h:6:") && e.contains("straight line"), "{e}");
+    assert!(e.contains("t.h:6:") && e.contains("no corner"), "{e}");
+}
+
+/// `RND` next to arcs (`rnd-next-to-arcs.h`; TNC 620 Klartext user's
+/// manual 01/2022 p. 157: "a circular arc with tangential connection to the
+/// preceding and subsequent contour elements"), worked by hand (the same
+/// construction as `geometry::tests::round_line_and_arc_and_two_arcs`):
+/// - the line along +X to the corner X+10 Y+0, then `C X+30 Y+0 DR+`
+///   about CC X+20 Y+0 (leaving the corner along -Y: a right turn),
+///   `RND R2`: its centre m₁ is 2 below the line and 10 + 2 from the
+///   pole: m₁ = (20 − √140, −2); the line ends at (20 − √140, 0); the
+///   arc starts at (20, 0) + 10·(m₁ − (20, 0))/12;
+/// - the arc arrives at X+30 Y+0 along +Y, the line to X+40 Y+10 leaves
+///   along (1, 1)/√2 (a right turn), `RND R1`: m₂ is 1 to the right of
+///   that line, p = (30, 0) + (1, −1)/√2 + t·d, and 10 + 1 from the pole:
+///   t² + 2t(d·w) + |w|² − 121 = 0 with w = p₀ − (20, 0), the root
+///   nearest the corner; the arc ends at (20, 0) + 10·(m₂ − (20, 0))/11,
+///   the line starts at (30, 0) + t·d.
+/// The arc before a rounding is handed on as chords (written back flat,
+/// as the line before one); `CHF` next to an arc is the control's refusal
+/// (a chamfer only between two straight lines, p. 154).
+#[test]
+fn rnd_next_to_arcs_by_hand() {
+    let m = fixture_motions("rnd-next-to-arcs.h", None);
+    let of = |line: usize| -> Vec<Motion> {
+        m.iter()
+            .filter(|(l, _)| *l == line)
+            .map(|(_, m)| *m)
+            .collect()
+    };
+    let r140 = 140f64.sqrt();
+    let m1 = [20.0 - r140, -2.0];
+    assert_point(xyz(&last_of(&m, 7).end), [20.0 - r140, 0.0, 0.0]);
+    let round1 = of(8);
+    for x in &round1 {
+        assert_abs_diff_eq!((x.end.x - m1[0]).hypot(x.end.y - m1[1]), 2.0, epsilon = 1e-9);
+    }
+    let t2 = [20.0 + 10.0 * (m1[0] - 20.0) / 12.0, 10.0 * m1[1] / 12.0, 0.0];
+    assert_point(xyz(&round1.last().unwrap().end), t2);
+    // The arc: from the rounding's end, on the circle about the pole.
+    let arc = of(9);
+    assert_point(xyz(&arc[0].start), t2);
+    for x in &arc {
+        assert_abs_diff_eq!((x.end.x - 20.0).hypot(x.end.y), 10.0, epsilon = 1e-9);
+        assert!(x.end.y <= 1e-9, "{:?}", x.end);
+    }
+    let d = [0.5f64.sqrt(), 0.5f64.sqrt()];
+    let p0 = [30.0 + d[0], -d[1]];
+    let w = [p0[0] - 20.0, p0[1]];
+    let b = d[0] * w[0] + d[1] * w[1];
+    let t = -b + (b * b - (w[0] * w[0] + w[1] * w[1] - 121.0)).sqrt();
+    let m2 = [p0[0] + t * d[0], p0[1] + t * d[1]];
+    let t1 = [20.0 + 10.0 * (m2[0] - 20.0) / 11.0, 10.0 * m2[1] / 11.0, 0.0];
+    assert_point(xyz(&arc.last().unwrap().end), t1);
+    let round2 = of(10);
+    for x in &round2 {
+        assert_abs_diff_eq!((x.end.x - m2[0]).hypot(x.end.y - m2[1]), 1.0, epsilon = 1e-9);
+    }
+    let start = [30.0 + t * d[0], t * d[1], 0.0];
+    assert_point(xyz(&round2.last().unwrap().end), start);
+    assert_point(xyz(&last_of(&m, 11).start), start);
+    assert_point(xyz(&last_of(&m, 11).end), [40.0, 10.0, 0.0]);
+    let text = std::fs::read_to_string(root().join("tests/data/heidenhain/rnd-next-to-arcs.h")).unwrap();
+    let e = motions(&text.replace("9 RND R1", "9 CHF 1"), None).unwrap_err();
+    assert!(e.contains("t.h:10:") && e.contains("two straight lines"), "{e}");
+    // R20 at the first corner: its tangent point on the line would be at
+    // x = 20 − √(30² − 20²) = −2.36, before the line's start.
+    let e = motions(&text.replace("7 RND R2", "7 RND R20"), None).unwrap_err();
+    assert!(e.contains("t.h:8:") && e.contains("too large"), "{e}");
+    // Compensated on head-table: it reads back and the tip error is cut.
+    let rig = rig("head-table");
+    let (out, _) = compensate_on(rig, &text, Frame::Joint, 0.5, true);
+    motions(&out, Some(&rig.0)).unwrap();
+    let (before, after) = closed_loop_on(rig, &text, &out, Frame::Joint);
+    assert!(after.max_um <= 0.1 * before.max_um, "{before:?} -> {after:?}");
+    println!(
+        "rnd-next-to-arcs head-table: tip max {:.2} -> {:.3} µm",
+        before.max_um, after.max_um
+    );
 }
 
 /// PLANE PROJECTED, EULER, POINTS and RELATIVE (TNC 640 user's manual,

@@ -258,6 +258,229 @@ impl Corner {
     }
 }
 
+/// A contour element meeting a corner (working-plane coordinates): a
+/// straight line or a circular arc, and its other end (where the element
+/// before the corner starts, or where the one after it ends).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Element {
+    /// A straight line.
+    Line {
+        /// Its end away from the corner.
+        other: [f64; 2],
+    },
+    /// A circular arc.
+    Arc {
+        /// Its centre.
+        centre: [f64; 2],
+        /// It turns clockwise (in the direction of travel).
+        clockwise: bool,
+        /// Its end away from the corner.
+        other: [f64; 2],
+    },
+}
+
+impl Element {
+    /// The unit direction of travel at the corner; `before`: the element
+    /// ends there, else it starts there.
+    fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
+        let d = match *self {
+            Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
+            Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],
+            Element::Arc { centre, clockwise, .. } => {
+                let r = [corner[0] - centre[0], corner[1] - centre[1]];
+                if clockwise { [r[1], -r[0]] } else { [-r[1], r[0]] }
+            }
+        };
+        let n = d[0].hypot(d[1]);
+        (n > 1e-9).then(|| [d[0] / n, d[1] / n])
+    }
+
+    /// Where the element touches the circle about `m` of radius `r`
+    /// that is tangent to it: the foot of `m` on the line, or the point of
+    /// the arc's circle towards `m`.
+    fn touch(&self, corner: [f64; 2], direction: [f64; 2], m: [f64; 2]) -> [f64; 2] {
+        match *self {
+            Element::Line { .. } => {
+                let t = (m[0] - corner[0]) * direction[0] + (m[1] - corner[1]) * direction[1];
+                [corner[0] + t * direction[0], corner[1] + t * direction[1]]
+            }
+            Element::Arc { centre, .. } => {
+                let rho = (corner[0] - centre[0]).hypot(corner[1] - centre[1]);
+                let d = [m[0] - centre[0], m[1] - centre[1]];
+                let n = d[0].hypot(d[1]).max(1e-300);
+                [centre[0] + rho * d[0] / n, centre[1] + rho * d[1] / n]
+            }
+        }
+    }
+
+    /// `p` lies on the part of the element between the corner and its
+    /// other end (`before`: the element runs from `other` to the corner).
+    fn holds(&self, corner: [f64; 2], p: [f64; 2], before: bool) -> bool {
+        let (from, to) = match *self {
+            Element::Line { other } | Element::Arc { other, .. } if before => (other, corner),
+            Element::Line { other } | Element::Arc { other, .. } => (corner, other),
+        };
+        match *self {
+            Element::Line { .. } => {
+                let d = [to[0] - from[0], to[1] - from[1]];
+                let l2 = d[0] * d[0] + d[1] * d[1];
+                let t = ((p[0] - from[0]) * d[0] + (p[1] - from[1]) * d[1]) / l2.max(1e-300);
+                (-1e-9..=1.0 + 1e-9).contains(&t)
+            }
+            Element::Arc { centre, clockwise, .. } => {
+                let angle = |q: [f64; 2]| (q[1] - centre[1]).atan2(q[0] - centre[0]);
+                let sweep = |a: f64, b: f64| {
+                    let d = if clockwise { a - b } else { b - a };
+                    d.rem_euclid(std::f64::consts::TAU)
+                };
+                let whole = sweep(angle(from), angle(to));
+                let whole = if whole < 1e-12 { std::f64::consts::TAU } else { whole };
+                sweep(angle(from), angle(p)) <= whole + 1e-9
+            }
+        }
+    }
+}
+
+/// `RND R` between two contour elements of which at least one is an arc
+/// (TNC 620 Klartext user's manual 01/2022, "Corner rounding RND" p. 157:
+/// "a circular arc with tangential connection to the preceding and
+/// subsequent contour elements"): the centre of the rounding lies `r` from
+/// both elements on the inside of the turn (the elements offset by `r`,
+/// intersected: the intersection nearest the corner), its tangent points
+/// are where it touches them. Both tangent points must lie on the
+/// elements (else too large); elements meeting tangentially make no corner.
+pub fn round_elements(
+    first: Element,
+    corner: [f64; 2],
+    second: Element,
+    r: f64,
+) -> Result<Inserted, CornerError> {
+    let r = r.abs();
+    let (Some(u), Some(v)) = (first.direction_at(corner, true), second.direction_at(corner, false))
+    else {
+        return Err(CornerError::ZeroLength);
+    };
+    let turn = u[0] * v[1] - u[1] * v[0];
+    let along = u[0] * v[0] + u[1] * v[1];
+    if turn.abs() < 1e-9 || turn.atan2(along).abs() > std::f64::consts::PI - 1e-9 {
+        return Err(CornerError::Straight);
+    }
+    let left = turn > 0.0;
+    // Each element offset by r towards the inside of the turn: a line
+    // (point, direction) or a circle (centre, radius).
+    enum Offset {
+        Line([f64; 2], [f64; 2]),
+        Circle([f64; 2], f64),
+    }
+    let offset = |e: &Element, d: [f64; 2]| -> Result<Offset, CornerError> {
+        let side = if left { 1.0 } else { -1.0 };
+        match *e {
+            Element::Line { .. } => Ok(Offset::Line(
+                [corner[0] - side * r * d[1], corner[1] + side * r * d[0]],
+                d,
+            )),
+            Element::Arc { centre, clockwise, .. } => {
+                let rho = (corner[0] - centre[0]).hypot(corner[1] - centre[1]);
+                // The centre is on the left of travel when counter-clockwise.
+                let inner = (!clockwise) == left;
+                let rr = if inner { rho - r } else { rho + r };
+                if rr <= 1e-9 {
+                    return Err(CornerError::TooLarge {
+                        needed: r,
+                        available: rho,
+                    });
+                }
+                Ok(Offset::Circle(centre, rr))
+            }
+        }
+    };
+    let (a, b) = (offset(&first, u)?, offset(&second, v)?);
+    let line_circle = |p: [f64; 2], d: [f64; 2], o: [f64; 2], rr: f64| -> Vec<[f64; 2]> {
+        let w = [p[0] - o[0], p[1] - o[1]];
+        let bq = d[0] * w[0] + d[1] * w[1];
+        let cq = w[0] * w[0] + w[1] * w[1] - rr * rr;
+        let disc = bq * bq - cq;
+        if disc < 0.0 {
+            return Vec::new();
+        }
+        let sq = disc.sqrt();
+        [-bq - sq, -bq + sq]
+            .iter()
+            .map(|t| [p[0] + t * d[0], p[1] + t * d[1]])
+            .collect()
+    };
+    let candidates: Vec<[f64; 2]> = match (&a, &b) {
+        (Offset::Line(p, d), Offset::Circle(o, rr)) | (Offset::Circle(o, rr), Offset::Line(p, d)) => {
+            line_circle(*p, *d, *o, *rr)
+        }
+        (Offset::Circle(o1, r1), Offset::Circle(o2, r2)) => {
+            let d = [o2[0] - o1[0], o2[1] - o1[1]];
+            let l = d[0].hypot(d[1]);
+            if l < 1e-12 {
+                Vec::new()
+            } else {
+                let x = (l * l + r1 * r1 - r2 * r2) / (2.0 * l);
+                let h2 = r1 * r1 - x * x;
+                if h2 < 0.0 {
+                    Vec::new()
+                } else {
+                    let h = h2.sqrt();
+                    let (e, n) = ([d[0] / l, d[1] / l], [-d[1] / l, d[0] / l]);
+                    [h, -h]
+                        .iter()
+                        .map(|s| [o1[0] + x * e[0] + s * n[0], o1[1] + x * e[1] + s * n[1]])
+                        .collect()
+                }
+            }
+        }
+        (Offset::Line(..), Offset::Line(..)) => {
+            // Two straight lines: `Corner::round`.
+            return Corner {
+                start: match first {
+                    Element::Line { other } => other,
+                    Element::Arc { other, .. } => other,
+                },
+                corner,
+                end: match second {
+                    Element::Line { other } => other,
+                    Element::Arc { other, .. } => other,
+                },
+            }
+            .round(r);
+        }
+    };
+    let distance = |p: [f64; 2]| (p[0] - corner[0]).hypot(p[1] - corner[1]);
+    let m = candidates
+        .into_iter()
+        .min_by(|p, q| distance(*p).total_cmp(&distance(*q)))
+        .ok_or(CornerError::TooLarge {
+            needed: r,
+            available: 0.0,
+        })?;
+    let from = first.touch(corner, u, m);
+    let to = second.touch(corner, v, m);
+    let size = |e: &Element| match *e {
+        Element::Line { other } | Element::Arc { other, .. } => distance(other),
+    };
+    if !first.holds(corner, from, true) {
+        return Err(CornerError::TooLarge {
+            needed: distance(from),
+            available: size(&first),
+        });
+    }
+    if !second.holds(corner, to, false) {
+        return Err(CornerError::TooLarge {
+            needed: distance(to),
+            available: size(&second),
+        });
+    }
+    Ok(Inserted {
+        from,
+        to,
+        arc: Some((m, !left)),
+    })
+}
+
 /// `v` turned by `deg` degrees (counter-clockwise for positive) in the plane.
 fn turned(v: [f64; 2], deg: f64) -> [f64; 2] {
     let (s, c) = deg.to_radians().sin_cos();
@@ -423,6 +646,50 @@ mod tests {
 
     fn column(m: &Mat3, k: usize) -> [f64; 3] {
         [m[0][k], m[1][k], m[2][k]]
+    }
+
+    /// A rounding between a line and an arc and between two arcs, worked by
+    /// hand. The line along +X to (10, 0); an arc about (10, 10) leaving
+    /// (10, 0) counter-clockwise goes on along +X (tangent: no corner). The
+    /// arc about (20, 0), counter-clockwise from (10, 0), leaves along -Y:
+    /// a right turn, the rounding on the right. R2: its centre is 2 below
+    /// the line (y = -2) and 10 + 2 = 12 from (20, 0) (outside that
+    /// circle), nearest the corner: x = 20 - √(144 - 4); the tangent points
+    /// (x, 0) and (20, 0) + 10·(m - (20, 0))/12; it turns clockwise.
+    /// Two arcs: clockwise about (0, -10) arriving at (0, 0) along +X, then
+    /// counter-clockwise about (10, 0) leaving along -Y (a right turn): the
+    /// rounding's centre is 10 - 1 from (0, -10) (inside the first circle)
+    /// and 10 + 1 from (10, 0) (outside the second), near the corner.
+    #[test]
+    fn round_line_and_arc_and_two_arcs() {
+        let first = Element::Line { other: [0.0, 0.0] };
+        let second = Element::Arc {
+            centre: [20.0, 0.0],
+            clockwise: false,
+            other: [30.0, 0.0],
+        };
+        assert_eq!(
+            round_elements(first, [10.0, 0.0], Element::Arc { centre: [10.0, 10.0], clockwise: false, other: [20.0, 10.0] }, 2.0),
+            Err(CornerError::Straight)
+        );
+        let got = round_elements(first, [10.0, 0.0], second, 2.0).unwrap();
+        let x = 20.0 - 140f64.sqrt();
+        let m = [x, -2.0];
+        let (centre, clockwise) = got.arc.unwrap();
+        assert!(clockwise);
+        assert!((centre[0] - m[0]).abs() < 1e-9 && (centre[1] - m[1]).abs() < 1e-9, "{got:?}");
+        assert!((got.from[0] - x).abs() < 1e-9 && got.from[1].abs() < 1e-9, "{got:?}");
+        let to = [20.0 + 10.0 * (m[0] - 20.0) / 12.0, 10.0 * m[1] / 12.0];
+        assert!((got.to[0] - to[0]).abs() < 1e-9 && (got.to[1] - to[1]).abs() < 1e-9, "{got:?}");
+        let a = Element::Arc { centre: [0.0, -10.0], clockwise: true, other: [-10.0, -10.0] };
+        let b = Element::Arc { centre: [10.0, 0.0], clockwise: false, other: [10.0, -10.0] };
+        let got = round_elements(a, [0.0, 0.0], b, 1.0).unwrap();
+        let (m, _) = got.arc.unwrap();
+        assert!(((m[0] - 0.0).hypot(m[1] + 10.0) - 9.0).abs() < 1e-9);
+        assert!(((m[0] - 10.0).hypot(m[1]) - 11.0).abs() < 1e-9);
+        assert!(m[0].hypot(m[1]) < 2.0, "{m:?}");
+        // Too large for the arc after it.
+        assert!(matches!(round_elements(first, [10.0, 0.0], second, 40.0), Err(CornerError::TooLarge { .. })));
     }
 
     /// Approach and departure worked by hand: the contour along +X from

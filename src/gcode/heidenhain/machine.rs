@@ -785,7 +785,9 @@ impl KlMachine {
         if let Some((corner, next)) = &self.ahead
             && !ln
         {
-            let planned = self.plan_corner(c, s, corner, next, from, turned);
+            let a = to_plane(s.plane, from);
+            let line = geometry::Element::Line { other: [a[0], a[1]] };
+            let planned = self.plan_corner(c, s, corner, next, line, a[2], turned);
             if let Ok((t1, _)) = &planned {
                 // The line ends where the rounding or chamfer begins.
                 let end = self.to_frame(s, *t1, rot);
@@ -805,28 +807,35 @@ impl KlMachine {
         self.m_codes(c, s, event, Some(1))
     }
 
-    /// The corner at the end of the straight line `from → s.pos` that the
-    /// `RND`/`CHF` block `corner` asks for, with the straight line `next`
-    /// after it: where the line now ends, and what follows (TNC 620
-    /// Klartext user's manual 01/2022, "Corner rounding RND" p. 157: an arc
-    /// tangent to the element before and after; "Chamfer CHF" p. 156: a
-    /// chamfer between two straight lines, its side length from the
-    /// corner). Both lines must lie in the working plane.
+    /// The corner at the end of the element `first` (a straight line or an
+    /// arc ending at `s.pos`, starting at the tool-axis coordinate
+    /// `first_w`) that the `RND`/`CHF` block `corner` asks for, with the
+    /// element `next` after it: where `first` now ends, and what follows
+    /// (TNC 620 Klartext user's manual 01/2022, "Corner rounding RND"
+    /// p. 157: an arc tangent to the element before and after; "Chamfer
+    /// CHF" p. 156 and the overview p. 154: a chamfer between two straight
+    /// lines, its side length from the corner). `RND` is read between
+    /// straight lines `L` and arcs `C`, `CR`, `CT`, `CP` before it, `L`,
+    /// `C`, `CR` after it (a `CT` after it would be tangent to the
+    /// element before the corner: no corner); all in the working plane.
+    #[allow(clippy::too_many_arguments)]
     fn plan_corner(
         &self,
         c: &Ctx<'_>,
         s: &State,
         corner: &KlBlock,
         next: &KlBlock,
-        from: [f64; 3],
+        first: geometry::Element,
+        first_w: f64,
         turned: bool,
     ) -> Result<([f64; 3], PendingCorner), String> {
         let what = corner.address(0).to_string();
-        let lines_only = format!(
-            "{what}: volcomp reads {what} between two straight lines (L) in the working plane"
+        let unread = format!(
+            "{what}: volcomp reads {what} between straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
         );
-        if turned || next.address(0) != "L" {
-            return Err(lines_only);
+        let kind = next.address(0);
+        if turned || !matches!(kind, "L" | "C" | "CR") {
+            return Err(unread);
         }
         let scale = if s.inch { 25.4 } else { 1.0 };
         let ctx = Ctx {
@@ -839,22 +848,52 @@ impl KlMachine {
             t.value.is_some() && matches!(t.address.as_str(), "A" | "B" | "C" | "IA" | "IB" | "IC")
         });
         if rotary {
-            return Err(lines_only);
+            return Err(unread);
         }
         let end = xyz_words(&ctx, s.pos, scale, 1).map_err(|e| e.to_string())?;
-        let (a, p, e) = (
-            to_plane(s.plane, from),
-            to_plane(s.plane, s.pos),
-            to_plane(s.plane, end),
-        );
-        if (a[2] - p[2]).abs() > 1e-9 || (e[2] - p[2]).abs() > 1e-9 {
-            return Err(lines_only);
+        let (p, e) = (to_plane(s.plane, s.pos), to_plane(s.plane, end));
+        if (first_w - p[2]).abs() > 1e-9 || (e[2] - p[2]).abs() > 1e-9 {
+            return Err(unread);
         }
-        let geometry = Corner {
-            start: [a[0], a[1]],
-            corner: [p[0], p[1]],
-            end: [e[0], e[1]],
+        let value = |name: &str| {
+            next.tokens
+                .iter()
+                .position(|t| t.address == name && t.value.is_some())
+                .map(|k| ctx.value(k).map_err(|e| e.to_string()))
+                .transpose()
         };
+        let dr = || -> Result<bool, String> {
+            value("DR")?
+                .map(|d| d < 0.0)
+                .ok_or_else(|| format!("{kind} needs its direction DR+ or DR-"))
+        };
+        let second = match kind {
+            "L" => geometry::Element::Line { other: [e[0], e[1]] },
+            "C" => geometry::Element::Arc {
+                centre: s.pole.ok_or("no circle centre: program CC before C, CP or LP")?,
+                clockwise: dr()?,
+                other: [e[0], e[1]],
+            },
+            _ => {
+                let r = value("R")?.ok_or("CR needs its radius R")? * scale;
+                let clockwise = dr()?;
+                let centre = radius_centre(p, e, r, clockwise)
+                    .ok_or("CR: the end point is farther than the diameter from the start")?;
+                geometry::Element::Arc {
+                    centre,
+                    clockwise,
+                    other: [e[0], e[1]],
+                }
+            }
+        };
+        let lines = matches!(first, geometry::Element::Line { .. })
+            && matches!(second, geometry::Element::Line { .. });
+        if what == "CHF" && !lines {
+            return Err(
+                "CHF: the control chamfers only between two straight lines (TNC 620 Klartext user's manual 01/2022 p. 154)"
+                    .to_string(),
+            );
+        }
         let size = corner
             .tokens
             .iter()
@@ -881,21 +920,37 @@ impl KlMachine {
                 }
             })?
             * scale;
-        let inserted = if what == "RND" {
-            geometry.round(size)
-        } else {
-            geometry.chamfer(size)
+        let corner_uv = [p[0], p[1]];
+        let inserted = match (what.as_str(), first, second) {
+            ("RND", geometry::Element::Line { other: a }, geometry::Element::Line { other: b }) => {
+                Corner { start: a, corner: corner_uv, end: b }.round(size)
+            }
+            ("RND", _, _) => geometry::round_elements(first, corner_uv, second, size),
+            (_, geometry::Element::Line { other: a }, geometry::Element::Line { other: b }) => {
+                Corner { start: a, corner: corner_uv, end: b }.chamfer(size)
+            }
+            _ => Err(CornerError::Straight),
         }
         .map_err(|e| match e {
-            CornerError::ZeroLength => format!("{what}: a straight line of zero length meets the corner"),
-            CornerError::Straight => format!("{what}: the two lines make no corner"),
+            CornerError::ZeroLength => format!("{what}: a contour element of zero length meets the corner"),
+            CornerError::Straight => format!("{what}: the two elements make no corner (they meet tangentially)"),
             CornerError::TooLarge { needed, available } => format!(
-                "{what} {size}: too large for the corner (it needs {needed:.4} mm along each line; the shorter line is {available:.4} mm)"
+                "{what} {size}: too large for the corner (it needs {needed:.4} mm from the corner; the element is {available:.4} mm)"
             ),
         })?;
         let at = |uv: [f64; 2]| from_plane(s.plane, [uv[0], uv[1], p[2]]);
         let t1 = at(inserted.from);
         let t2 = at(inserted.to);
+        if let ("CR", geometry::Element::Arc { centre, clockwise, .. }) = (kind, second) {
+            // Written back, the CR starts where the rounding ends; the
+            // control computes its centre from there: it must be the same.
+            let again = radius_centre(to_plane(s.plane, t2), e, value("R")?.unwrap_or(0.0) * scale, clockwise);
+            if again.is_none_or(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > 1e-6) {
+                return Err(format!(
+                    "{what} before CR: from the rounding's end the CR's radius R picks another centre (its sign decides the arc's side of 180°)"
+                ));
+            }
+        }
         let points = match inserted.arc {
             Some((centre, clockwise)) => {
                 let (f, t) = (to_plane(s.plane, t1), to_plane(s.plane, t2));
@@ -906,7 +961,14 @@ impl KlMachine {
             }
             None => vec![t2],
         };
-        let tangent = [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]];
+        let tangent = match second {
+            geometry::Element::Line { .. } => [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]],
+            geometry::Element::Arc { centre, clockwise, .. } => {
+                let r = [inserted.to[0] - centre[0], inserted.to[1] - centre[1]];
+                let t = if clockwise { [r[1], -r[0], 0.0] } else { [-r[1], r[0], 0.0] };
+                from_plane(s.plane, t)
+            }
+        };
         Ok((t1, PendingCorner { points, tangent }))
     }
 
@@ -1257,7 +1319,7 @@ impl KlMachine {
             Some(Err(why)) => return Err(c.error(&why, Some(0))),
             None => {
                 return Err(c.error(
-                    &format!("{what} must follow a straight line (L) in the working plane"),
+                    &format!("{what} must follow a straight line (L) or an arc in the working plane"),
                     Some(0),
                 ));
             }
@@ -1614,19 +1676,6 @@ impl KlMachine {
         let feed = self.block_feed(c, s, 1)?;
         self.refuse_compensation(c, s)?;
         let target = from_plane(s.plane, end);
-        if tilted {
-            let feed = if feed == Feed::Rapid {
-                Feed::PerMinute(self.setup.rapid_mm_per_min)
-            } else {
-                feed
-            };
-            let points: Vec<[f64; 3]> =
-                arc_chords(centre, cur, end, clockwise, turns, CHORD_TOLERANCE_MM)
-                    .into_iter()
-                    .map(|q| from_plane(s.plane, q))
-                    .collect();
-            event.moves = self.pieces(c, s, s.position, &points, feed)?;
-        }
         let centre_prog = from_plane(s.plane, [centre[0], centre[1], cur[2]]);
         let start = s.position;
         let end_axes = self.to_frame(s, target, s.rot);
@@ -1640,8 +1689,54 @@ impl KlMachine {
         };
         s.tangent = Some(from_plane(s.plane, tan));
         s.pos = target;
-        if tilted {
+        // A rounding next (`RND`, read after an arc of less than a full
+        // turn in the working plane): the arc ends at its tangent point.
+        let planned = match &self.ahead {
+            Some((corner, next)) if matches!(corner.address(0), "RND" | "CHF") => {
+                Some(if turns > 0 || (end[2] - cur[2]).abs() > 1e-9 {
+                    Err(format!(
+                        "{}: volcomp reads it after an arc of less than a full turn in the working plane (not after a helix)",
+                        corner.address(0)
+                    ))
+                } else {
+                    let first = geometry::Element::Arc {
+                        centre,
+                        clockwise,
+                        other: [cur[0], cur[1]],
+                    };
+                    self.plan_corner(c, s, corner, next, first, cur[2], false)
+                })
+            }
+            _ => None,
+        };
+        let arc_end = planned
+            .as_ref()
+            .and_then(|p| p.as_ref().ok())
+            .map(|(t1, _)| to_plane(s.plane, *t1));
+        if let Some(p) = planned {
+            s.corner = Some(p.map(|(_, q)| q));
+        }
+        if tilted || arc_end.is_some() {
+            // As chords (in a tilted plane the arc lies in it; an arc ended
+            // early is written back flat, as the line before a rounding).
             let _ = end_axes;
+            let feed = if feed == Feed::Rapid {
+                Feed::PerMinute(self.setup.rapid_mm_per_min)
+            } else {
+                feed
+            };
+            let points: Vec<[f64; 3]> = arc_chords(
+                centre,
+                cur,
+                arc_end.unwrap_or(end),
+                clockwise,
+                turns,
+                CHORD_TOLERANCE_MM,
+            )
+            .into_iter()
+            .map(|q| from_plane(s.plane, q))
+            .collect();
+            event.moves = self.pieces(c, s, start, &points, feed)?;
             return self.m_codes(c, s, event, Some(1));
         }
         let kind = MotionKind::Arc {
