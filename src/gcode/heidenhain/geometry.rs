@@ -1,9 +1,11 @@
 //! The geometry of Klartext working planes and contour corners, as pure
 //! functions (no state): the rotation each `PLANE` form defines (TNC 640
 //! user's manual, "Multiple-axis machining › The PLANE function"), and the
-//! rounding arc `RND` and chamfer `CHF` the control inserts between two
-//! straight lines ("Path contours – Cartesian coordinates › Corner rounding
-//! RND", "› Chamfer CHF"; TNC 620 Klartext user's manual 01/2022 pp. 156–157).
+//! rounding arc `RND` the control inserts between straight lines and arcs
+//! and the chamfer `CHF` between two straight lines ("Path contours –
+//! Cartesian coordinates › Corner rounding RND", "› Chamfer CHF"; TNC 620
+//! Klartext user's manual 01/2022 pp. 154–157), and the paths of
+//! `APPR`/`DEP` `LN`, `CT`, `LCT` ([`ContourContact`]).
 //!
 //! Rotations are 3×3 matrices, rows, mapping the tilted (program) frame's
 //! coordinates to the workpiece frame's: their columns are the tilted X, Y

@@ -7,7 +7,7 @@
 //! - `language`: Q parameters, `FN` functions and jumps, labels, `CALL LBL`
 //!   repeats and subprograms, `CALL PGM` → executed blocks in order;
 //! - `geometry`: the rotation of each `PLANE` form, `RND`/`CHF` corners,
-//!   arcs as chords (pure functions);
+//!   `APPR`/`DEP` paths, arcs as chords (pure functions);
 //! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
 //!   tool-tip control, tools, the defined cycle) → [`BlockEvent`]s;
 //! - `cycles`: machining cycles (`CYCL DEF 200 …`, `PATTERN DEF`) expanded
