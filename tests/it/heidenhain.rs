@@ -376,6 +376,7 @@ fn rnd_and_chf_between_straight_lines() {
 ///   t² + 2t(d·w) + |w|² − 121 = 0 with w = p₀ − (20, 0), the root
 ///   nearest the corner; the arc ends at (20, 0) + 10·(m₂ − (20, 0))/11,
 ///   the line starts at (30, 0) + t·d.
+///
 /// The arc before a rounding is handed on as chords (written back flat,
 /// as the line before one); `CHF` next to an arc is the control's refusal
 /// (a chamfer only between two straight lines, p. 154).
@@ -393,9 +394,17 @@ fn rnd_next_to_arcs_by_hand() {
     assert_point(xyz(&last_of(&m, 7).end), [20.0 - r140, 0.0, 0.0]);
     let round1 = of(8);
     for x in &round1 {
-        assert_abs_diff_eq!((x.end.x - m1[0]).hypot(x.end.y - m1[1]), 2.0, epsilon = 1e-9);
+        assert_abs_diff_eq!(
+            (x.end.x - m1[0]).hypot(x.end.y - m1[1]),
+            2.0,
+            epsilon = 1e-9
+        );
     }
-    let t2 = [20.0 + 10.0 * (m1[0] - 20.0) / 12.0, 10.0 * m1[1] / 12.0, 0.0];
+    let t2 = [
+        20.0 + 10.0 * (m1[0] - 20.0) / 12.0,
+        10.0 * m1[1] / 12.0,
+        0.0,
+    ];
     assert_point(xyz(&round1.last().unwrap().end), t2);
     // The arc: from the rounding's end, on the circle about the pole.
     let arc = of(9);
@@ -410,19 +419,31 @@ fn rnd_next_to_arcs_by_hand() {
     let b = d[0] * w[0] + d[1] * w[1];
     let t = -b + (b * b - (w[0] * w[0] + w[1] * w[1] - 121.0)).sqrt();
     let m2 = [p0[0] + t * d[0], p0[1] + t * d[1]];
-    let t1 = [20.0 + 10.0 * (m2[0] - 20.0) / 11.0, 10.0 * m2[1] / 11.0, 0.0];
+    let t1 = [
+        20.0 + 10.0 * (m2[0] - 20.0) / 11.0,
+        10.0 * m2[1] / 11.0,
+        0.0,
+    ];
     assert_point(xyz(&arc.last().unwrap().end), t1);
     let round2 = of(10);
     for x in &round2 {
-        assert_abs_diff_eq!((x.end.x - m2[0]).hypot(x.end.y - m2[1]), 1.0, epsilon = 1e-9);
+        assert_abs_diff_eq!(
+            (x.end.x - m2[0]).hypot(x.end.y - m2[1]),
+            1.0,
+            epsilon = 1e-9
+        );
     }
     let start = [30.0 + t * d[0], t * d[1], 0.0];
     assert_point(xyz(&round2.last().unwrap().end), start);
     assert_point(xyz(&last_of(&m, 11).start), start);
     assert_point(xyz(&last_of(&m, 11).end), [40.0, 10.0, 0.0]);
-    let text = std::fs::read_to_string(root().join("tests/data/heidenhain/rnd-next-to-arcs.h")).unwrap();
+    let text =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/rnd-next-to-arcs.h")).unwrap();
     let e = motions(&text.replace("9 RND R1", "9 CHF 1"), None).unwrap_err();
-    assert!(e.contains("t.h:10:") && e.contains("two straight lines"), "{e}");
+    assert!(
+        e.contains("t.h:10:") && e.contains("two straight lines"),
+        "{e}"
+    );
     // R20 at the first corner: its tangent point on the line would be at
     // x = 20 − √(30² − 20²) = −2.36, before the line's start.
     let e = motions(&text.replace("7 RND R2", "7 RND R20"), None).unwrap_err();
@@ -432,7 +453,10 @@ fn rnd_next_to_arcs_by_hand() {
     let (out, _) = compensate_on(rig, &text, Frame::Joint, 0.5, true);
     motions(&out, Some(&rig.0)).unwrap();
     let (before, after) = closed_loop_on(rig, &text, &out, Frame::Joint);
-    assert!(after.max_um <= 0.1 * before.max_um, "{before:?} -> {after:?}");
+    assert!(
+        after.max_um <= 0.1 * before.max_um,
+        "{before:?} -> {after:?}"
+    );
     println!(
         "rnd-next-to-arcs head-table: tip max {:.2} -> {:.3} µm",
         before.max_um, after.max_um
@@ -824,7 +848,11 @@ fn appr_and_dep_lt() {
     assert_point(xyz(&approach[1].end), [10.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).start), [30.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).end), [34.0, 0.0, 0.0]);
-    let e = motions(&text.replace("APPR LT X+10 Y+0", "APPR PLT PR+10 PA+0"), None).unwrap_err();
+    let e = motions(
+        &text.replace("APPR LT X+10 Y+0", "APPR PLT PR+10 PA+0"),
+        None,
+    )
+    .unwrap_err();
     assert!(e.contains("t.h:4:") && e.contains("APPR PLT"), "{e}");
     let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
     assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
@@ -878,11 +906,18 @@ fn appr_dep_ln_ct_lct_by_hand() {
     on_circle(&d, [44.0, 30.0]);
     assert_point(xyz(&d[0].start), [40.0, 30.0, -2.0]);
     assert_point(xyz(&d.last().unwrap().end), [44.0, 34.0, -2.0]);
-    assert!(d.iter().all(|x| x.end.x <= 44.0 + 1e-9 && x.end.y >= 30.0 - 1e-9));
+    assert!(
+        d.iter()
+            .all(|x| x.end.x <= 44.0 + 1e-9 && x.end.y >= 30.0 - 1e-9)
+    );
     let a = of(12);
     assert_point(xyz(&a[0].end), [46.0, -4.0, -2.0]);
     on_circle(&a[1..], [50.0, -4.0]);
-    assert!(a[1..].iter().all(|x| x.end.x <= 50.0 + 1e-9 && x.end.y >= -4.0 - 1e-9));
+    assert!(
+        a[1..]
+            .iter()
+            .all(|x| x.end.x <= 50.0 + 1e-9 && x.end.y >= -4.0 - 1e-9)
+    );
     assert_point(xyz(&a.last().unwrap().end), [50.0, 0.0, -2.0]);
     assert_point(xyz(&last_of(&m, 14).end), [80.0, -5.0, -2.0]);
     let a = of(17);
@@ -901,7 +936,8 @@ fn appr_dep_ln_ct_lct_by_hand() {
     assert_point(xyz(&d[n - 2].end), [140.0, -10.0, -2.0]);
     assert_point(xyz(&d[n - 1].end), [140.0, -10.0, 5.0]);
     // The side comes from the start: one on the contour's line gives none.
-    let text = std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let text =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
     let e = motions(&text.replace("4 L X+0 Y-20", "4 L X+0 Y+0"), None).unwrap_err();
     assert!(e.contains("t.h:6:") && e.contains("no side"), "{e}");
     // A departure with no approach before it has no side.
@@ -919,7 +955,8 @@ fn appr_dep_ln_ct_lct_by_hand() {
 /// bc-trt: every block reads back, the tip error is cut by at least 90 %.
 #[test]
 fn closed_loop_appr_dep() {
-    let original = std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let original =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
     let mut summary = String::new();
     for machine in ["head-table", "bc-trt"] {
         let rig = rig(machine);

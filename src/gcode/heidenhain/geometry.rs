@@ -288,9 +288,15 @@ impl Element {
         let d = match *self {
             Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
             Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],
-            Element::Arc { centre, clockwise, .. } => {
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
                 let r = [corner[0] - centre[0], corner[1] - centre[1]];
-                if clockwise { [r[1], -r[0]] } else { [-r[1], r[0]] }
+                if clockwise {
+                    [r[1], -r[0]]
+                } else {
+                    [-r[1], r[0]]
+                }
             }
         };
         let n = d[0].hypot(d[1]);
@@ -329,14 +335,20 @@ impl Element {
                 let t = ((p[0] - from[0]) * d[0] + (p[1] - from[1]) * d[1]) / l2.max(1e-300);
                 (-1e-9..=1.0 + 1e-9).contains(&t)
             }
-            Element::Arc { centre, clockwise, .. } => {
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
                 let angle = |q: [f64; 2]| (q[1] - centre[1]).atan2(q[0] - centre[0]);
                 let sweep = |a: f64, b: f64| {
                     let d = if clockwise { a - b } else { b - a };
                     d.rem_euclid(std::f64::consts::TAU)
                 };
                 let whole = sweep(angle(from), angle(to));
-                let whole = if whole < 1e-12 { std::f64::consts::TAU } else { whole };
+                let whole = if whole < 1e-12 {
+                    std::f64::consts::TAU
+                } else {
+                    whole
+                };
                 sweep(angle(from), angle(p)) <= whole + 1e-9
             }
         }
@@ -358,8 +370,10 @@ pub fn round_elements(
     r: f64,
 ) -> Result<Inserted, CornerError> {
     let r = r.abs();
-    let (Some(u), Some(v)) = (first.direction_at(corner, true), second.direction_at(corner, false))
-    else {
+    let (Some(u), Some(v)) = (
+        first.direction_at(corner, true),
+        second.direction_at(corner, false),
+    ) else {
         return Err(CornerError::ZeroLength);
     };
     let turn = u[0] * v[1] - u[1] * v[0];
@@ -381,10 +395,12 @@ pub fn round_elements(
                 [corner[0] - side * r * d[1], corner[1] + side * r * d[0]],
                 d,
             )),
-            Element::Arc { centre, clockwise, .. } => {
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
                 let rho = (corner[0] - centre[0]).hypot(corner[1] - centre[1]);
                 // The centre is on the left of travel when counter-clockwise.
-                let inner = (!clockwise) == left;
+                let inner = clockwise != left;
                 let rr = if inner { rho - r } else { rho + r };
                 if rr <= 1e-9 {
                     return Err(CornerError::TooLarge {
@@ -412,9 +428,8 @@ pub fn round_elements(
             .collect()
     };
     let candidates: Vec<[f64; 2]> = match (&a, &b) {
-        (Offset::Line(p, d), Offset::Circle(o, rr)) | (Offset::Circle(o, rr), Offset::Line(p, d)) => {
-            line_circle(*p, *d, *o, *rr)
-        }
+        (Offset::Line(p, d), Offset::Circle(o, rr))
+        | (Offset::Circle(o, rr), Offset::Line(p, d)) => line_circle(*p, *d, *o, *rr),
         (Offset::Circle(o1, r1), Offset::Circle(o2, r2)) => {
             let d = [o2[0] - o1[0], o2[1] - o1[1]];
             let l = d[0].hypot(d[1]);
@@ -671,7 +686,16 @@ mod tests {
             other: [30.0, 0.0],
         };
         assert_eq!(
-            round_elements(first, [10.0, 0.0], Element::Arc { centre: [10.0, 10.0], clockwise: false, other: [20.0, 10.0] }, 2.0),
+            round_elements(
+                first,
+                [10.0, 0.0],
+                Element::Arc {
+                    centre: [10.0, 10.0],
+                    clockwise: false,
+                    other: [20.0, 10.0]
+                },
+                2.0
+            ),
             Err(CornerError::Straight)
         );
         let got = round_elements(first, [10.0, 0.0], second, 2.0).unwrap();
@@ -679,19 +703,39 @@ mod tests {
         let m = [x, -2.0];
         let (centre, clockwise) = got.arc.unwrap();
         assert!(clockwise);
-        assert!((centre[0] - m[0]).abs() < 1e-9 && (centre[1] - m[1]).abs() < 1e-9, "{got:?}");
-        assert!((got.from[0] - x).abs() < 1e-9 && got.from[1].abs() < 1e-9, "{got:?}");
+        assert!(
+            (centre[0] - m[0]).abs() < 1e-9 && (centre[1] - m[1]).abs() < 1e-9,
+            "{got:?}"
+        );
+        assert!(
+            (got.from[0] - x).abs() < 1e-9 && got.from[1].abs() < 1e-9,
+            "{got:?}"
+        );
         let to = [20.0 + 10.0 * (m[0] - 20.0) / 12.0, 10.0 * m[1] / 12.0];
-        assert!((got.to[0] - to[0]).abs() < 1e-9 && (got.to[1] - to[1]).abs() < 1e-9, "{got:?}");
-        let a = Element::Arc { centre: [0.0, -10.0], clockwise: true, other: [-10.0, -10.0] };
-        let b = Element::Arc { centre: [10.0, 0.0], clockwise: false, other: [10.0, -10.0] };
+        assert!(
+            (got.to[0] - to[0]).abs() < 1e-9 && (got.to[1] - to[1]).abs() < 1e-9,
+            "{got:?}"
+        );
+        let a = Element::Arc {
+            centre: [0.0, -10.0],
+            clockwise: true,
+            other: [-10.0, -10.0],
+        };
+        let b = Element::Arc {
+            centre: [10.0, 0.0],
+            clockwise: false,
+            other: [10.0, -10.0],
+        };
         let got = round_elements(a, [0.0, 0.0], b, 1.0).unwrap();
         let (m, _) = got.arc.unwrap();
         assert!(((m[0] - 0.0).hypot(m[1] + 10.0) - 9.0).abs() < 1e-9);
         assert!(((m[0] - 10.0).hypot(m[1]) - 11.0).abs() < 1e-9);
         assert!(m[0].hypot(m[1]) < 2.0, "{m:?}");
         // Too large for the arc after it.
-        assert!(matches!(round_elements(first, [10.0, 0.0], second, 40.0), Err(CornerError::TooLarge { .. })));
+        assert!(matches!(
+            round_elements(first, [10.0, 0.0], second, 40.0),
+            Err(CornerError::TooLarge { .. })
+        ));
     }
 
     /// Approach and departure worked by hand: the contour along +X from
@@ -703,14 +747,24 @@ mod tests {
             direction: [1.0, 0.0],
             left: false,
         };
-        let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
-        assert_eq!(ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, -3.0]), Some(false));
-        assert_eq!(ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, 0.0]), None);
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+        assert_eq!(
+            ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, -3.0]),
+            Some(false)
+        );
+        assert_eq!(
+            ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, 0.0]),
+            None
+        );
         assert!(close(c.perpendicular(5.0), [10.0, -5.0]));
         // A quarter arc of radius 4 arriving at (10, 0) moving +X: centre
         // (10, -4), clockwise, from (6, -4).
         let a = c.tangent_arc(4.0, 90.0, true);
-        assert!(a.clockwise && close(a.centre, [10.0, -4.0]) && close(a.away, [6.0, -4.0]), "{a:?}");
+        assert!(
+            a.clockwise && close(a.centre, [10.0, -4.0]) && close(a.away, [6.0, -4.0]),
+            "{a:?}"
+        );
         // Leaving (10, 0) by a half turn: to (10, -8).
         let d = c.tangent_arc(4.0, 180.0, false);
         assert!(close(d.away, [10.0, -8.0]), "{d:?}");

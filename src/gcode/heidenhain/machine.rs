@@ -786,7 +786,9 @@ impl KlMachine {
             && !ln
         {
             let a = to_plane(s.plane, from);
-            let line = geometry::Element::Line { other: [a[0], a[1]] };
+            let line = geometry::Element::Line {
+                other: [a[0], a[1]],
+            };
             let planned = self.plan_corner(c, s, corner, next, line, a[2], turned);
             if let Ok((t1, _)) = &planned {
                 // The line ends where the rounding or chamfer begins.
@@ -868,9 +870,13 @@ impl KlMachine {
                 .ok_or_else(|| format!("{kind} needs its direction DR+ or DR-"))
         };
         let second = match kind {
-            "L" => geometry::Element::Line { other: [e[0], e[1]] },
+            "L" => geometry::Element::Line {
+                other: [e[0], e[1]],
+            },
             "C" => geometry::Element::Arc {
-                centre: s.pole.ok_or("no circle centre: program CC before C, CP or LP")?,
+                centre: s
+                    .pole
+                    .ok_or("no circle centre: program CC before C, CP or LP")?,
                 clockwise: dr()?,
                 other: [e[0], e[1]],
             },
@@ -941,10 +947,21 @@ impl KlMachine {
         let at = |uv: [f64; 2]| from_plane(s.plane, [uv[0], uv[1], p[2]]);
         let t1 = at(inserted.from);
         let t2 = at(inserted.to);
-        if let ("CR", geometry::Element::Arc { centre, clockwise, .. }) = (kind, second) {
+        if let (
+            "CR",
+            geometry::Element::Arc {
+                centre, clockwise, ..
+            },
+        ) = (kind, second)
+        {
             // Written back, the CR starts where the rounding ends; the
             // control computes its centre from there: it must be the same.
-            let again = radius_centre(to_plane(s.plane, t2), e, value("R")?.unwrap_or(0.0) * scale, clockwise);
+            let again = radius_centre(
+                to_plane(s.plane, t2),
+                e,
+                value("R")?.unwrap_or(0.0) * scale,
+                clockwise,
+            );
             if again.is_none_or(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > 1e-6) {
                 return Err(format!(
                     "{what} before CR: from the rounding's end the CR's radius R picks another centre (its sign decides the arc's side of 180°)"
@@ -962,10 +979,18 @@ impl KlMachine {
             None => vec![t2],
         };
         let tangent = match second {
-            geometry::Element::Line { .. } => [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]],
-            geometry::Element::Arc { centre, clockwise, .. } => {
+            geometry::Element::Line { .. } => {
+                [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]]
+            }
+            geometry::Element::Arc {
+                centre, clockwise, ..
+            } => {
                 let r = [inserted.to[0] - centre[0], inserted.to[1] - centre[1]];
-                let t = if clockwise { [r[1], -r[0], 0.0] } else { [-r[1], r[0], 0.0] };
+                let t = if clockwise {
+                    [r[1], -r[0], 0.0]
+                } else {
+                    [-r[1], r[0], 0.0]
+                };
                 from_plane(s.plane, t)
             }
         };
@@ -1046,7 +1071,9 @@ impl KlMachine {
             .iter()
             .enumerate()
             .find(|(_, t)| {
-                t.address == "R" && t.value.is_some() && !(t.number() == Some(0.0) && t.value_span.len() == 1)
+                t.address == "R"
+                    && t.value.is_some()
+                    && !(t.number() == Some(0.0) && t.value_span.len() == 1)
             })
             .map(|(k, _)| c.value(k))
             .transpose()?
@@ -1069,12 +1096,20 @@ impl KlMachine {
         };
         // (point, feed) in program coordinates, in order.
         let mut path: Vec<([f64; 3], Feed)> = Vec::new();
-        let arc_points = |centre: [f64; 2], from: [f64; 2], to: [f64; 2], clockwise: bool, w: f64| {
-            arc_chords(centre, [from[0], from[1], w], [to[0], to[1], w], clockwise, 0, CHORD_TOLERANCE_MM)
+        let arc_points =
+            |centre: [f64; 2], from: [f64; 2], to: [f64; 2], clockwise: bool, w: f64| {
+                arc_chords(
+                    centre,
+                    [from[0], from[1], w],
+                    [to[0], to[1], w],
+                    clockwise,
+                    0,
+                    CHORD_TOLERANCE_MM,
+                )
                 .into_iter()
                 .map(|q| from_plane(plane, q))
                 .collect::<Vec<_>>()
-        };
+            };
         if approach {
             let first = xyz_words(c, s.pos, scale, 2)?;
             // The first contour element: a straight line after the APPR block.
@@ -1089,7 +1124,9 @@ impl KlMachine {
                 .and_then(|e| unit2([e[0] - pa[0], e[1] - pa[1], 0.0]))
                 .ok_or_else(|| {
                     c.unread(
-                        &format!("{what} before anything but a straight line (L) in the working plane"),
+                        &format!(
+                            "{what} before anything but a straight line (L) in the working plane"
+                        ),
                         Some(0),
                     )
                 })?;
@@ -1130,12 +1167,18 @@ impl KlMachine {
                     let r = needed("radius R", radius)?;
                     let cca = needed("centre angle CCA", word("CCA")?)?;
                     if !(cca > 0.0 && cca <= 360.0) {
-                        return Err(c.error(&format!("{what}: the centre angle CCA must be above 0 and at most 360"), Some(0)));
+                        return Err(c.error(
+                            &format!(
+                                "{what}: the centre angle CCA must be above 0 and at most 360"
+                            ),
+                            Some(0),
+                        ));
                     }
                     // A negative R: the arc on the other side.
                     let arc = contact(left != (r < 0.0)).tangent_arc(r, cca, true);
                     path.push((at(arc.away, pa[2]), before));
-                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2]) {
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2])
+                    {
                         path.push((p, block_feed));
                     }
                     s.contour_left = Some(left);
@@ -1149,7 +1192,8 @@ impl KlMachine {
                             c.error(&format!("{what}: the starting point lies within the arc's circle (no tangent line)"), Some(0))
                         })?;
                     path.push((at(arc.away, pa[2]), block_feed));
-                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2]) {
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2])
+                    {
                         path.push((p, block_feed));
                     }
                     s.contour_left = Some(left);
@@ -1157,12 +1201,16 @@ impl KlMachine {
             }
             s.tangent = Some(at(direction, 0.0));
         } else {
-            let direction = s.tangent.map(|t| to_plane(plane, t)).and_then(unit2).ok_or_else(|| {
-                c.error(
-                    &format!("{what} needs a contour element before it (its direction)"),
-                    Some(0),
-                )
-            })?;
+            let direction = s
+                .tangent
+                .map(|t| to_plane(plane, t))
+                .and_then(unit2)
+                .ok_or_else(|| {
+                    c.error(
+                        &format!("{what} needs a contour element before it (its direction)"),
+                        Some(0),
+                    )
+                })?;
             let pe = to_plane(plane, s.pos);
             let left = || {
                 s.contour_left.ok_or_else(|| {
@@ -1182,7 +1230,13 @@ impl KlMachine {
             match form {
                 "LT" => {
                     let len = len.unwrap_or(0.0);
-                    path.push((at([pe[0] + len * direction[0], pe[1] + len * direction[1]], pe[2]), block_feed));
+                    path.push((
+                        at(
+                            [pe[0] + len * direction[0], pe[1] + len * direction[1]],
+                            pe[2],
+                        ),
+                        block_feed,
+                    ));
                 }
                 "LN" => {
                     let n = contact(left()?).perpendicular(len.unwrap_or(0.0));
@@ -1192,10 +1246,16 @@ impl KlMachine {
                     let r = needed("radius R", radius)?;
                     let cca = needed("centre angle CCA", word("CCA")?)?;
                     if !(cca > 0.0 && cca <= 360.0) {
-                        return Err(c.error(&format!("{what}: the centre angle CCA must be above 0 and at most 360"), Some(0)));
+                        return Err(c.error(
+                            &format!(
+                                "{what}: the centre angle CCA must be above 0 and at most 360"
+                            ),
+                            Some(0),
+                        ));
                     }
                     let arc = contact(left()? != (r < 0.0)).tangent_arc(r, cca, false);
-                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2]) {
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2])
+                    {
                         path.push((p, block_feed));
                     }
                 }
@@ -1207,7 +1267,8 @@ impl KlMachine {
                         .ok_or_else(|| {
                             c.error(&format!("{what}: the end point lies within the arc's circle (no tangent line)"), Some(0))
                         })?;
-                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2]) {
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2])
+                    {
                         path.push((p, block_feed));
                     }
                     path.push((at([pn[0], pn[1]], pe[2]), block_feed));
@@ -1319,7 +1380,9 @@ impl KlMachine {
             Some(Err(why)) => return Err(c.error(&why, Some(0))),
             None => {
                 return Err(c.error(
-                    &format!("{what} must follow a straight line (L) or an arc in the working plane"),
+                    &format!(
+                        "{what} must follow a straight line (L) or an arc in the working plane"
+                    ),
                     Some(0),
                 ));
             }
