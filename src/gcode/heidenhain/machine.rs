@@ -940,6 +940,9 @@ impl KlMachine {
         .map_err(|e| match e {
             CornerError::ZeroLength => format!("{what}: a contour element of zero length meets the corner"),
             CornerError::Straight => format!("{what}: the two elements make no corner (they meet tangentially)"),
+            CornerError::TooLarge { needed, available } if lines => format!(
+                "{what} {size}: too large for the corner (it needs {needed:.4} mm along each line; the shorter line is {available:.4} mm)"
+            ),
             CornerError::TooLarge { needed, available } => format!(
                 "{what} {size}: too large for the corner (it needs {needed:.4} mm from the corner; the element is {available:.4} mm)"
             ),
