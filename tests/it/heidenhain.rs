@@ -326,7 +326,8 @@ fn last_of(m: &[(usize, Motion)], line: usize) -> Motion {
 /// the line before ends where the rounding or chamfer begins, the arc is
 /// tangent to both lines (chords within 0.5 µm), the chamfer side length is
 /// measured from the corner; a rounding too large for its corner and one
-/// after a circle are located errors.
+/// between an arc and the line going on tangentially from it are located
+/// errors.
 #[test]
 fn rnd_and_chf_between_straight_lines() {
     let m = fixture_motions("rnd-chf-corners.h", None);
@@ -351,12 +352,115 @@ fn rnd_and_chf_between_straight_lines() {
     )
     .unwrap_err();
     assert!(e.contains("t.h:5:") && e.contains("too large"), "{e}");
+    // After an arc that the line goes on from tangentially: no corner.
     let e = motions(
         &format!("{head}3 CC X+10 Y+0\n4 C X+20 Y+0 DR+\n5 RND R2\n6 L Y+20\n7 END PGM R MM\n"),
         None,
     )
     .unwrap_err();
-    assert!(e.contains("t.h:6:") && e.contains("straight line"), "{e}");
+    assert!(e.contains("t.h:6:") && e.contains("no corner"), "{e}");
+}
+
+/// `RND` next to arcs (`rnd-next-to-arcs.h`; TNC 620 Klartext user's
+/// manual 01/2022 p. 157: "a circular arc with tangential connection to the
+/// preceding and subsequent contour elements"), worked by hand (the same
+/// construction as `geometry::tests::round_line_and_arc_and_two_arcs`):
+/// - the line along +X to the corner X+10 Y+0, then `C X+30 Y+0 DR+`
+///   about CC X+20 Y+0 (leaving the corner along -Y: a right turn),
+///   `RND R2`: its centre m₁ is 2 below the line and 10 + 2 from the
+///   pole: m₁ = (20 − √140, −2); the line ends at (20 − √140, 0); the
+///   arc starts at (20, 0) + 10·(m₁ − (20, 0))/12;
+/// - the arc arrives at X+30 Y+0 along +Y, the line to X+40 Y+10 leaves
+///   along (1, 1)/√2 (a right turn), `RND R1`: m₂ is 1 to the right of
+///   that line, p = (30, 0) + (1, −1)/√2 + t·d, and 10 + 1 from the pole:
+///   t² + 2t(d·w) + |w|² − 121 = 0 with w = p₀ − (20, 0), the root
+///   nearest the corner; the arc ends at (20, 0) + 10·(m₂ − (20, 0))/11,
+///   the line starts at (30, 0) + t·d.
+///
+/// The arc before a rounding is handed on as chords (written back flat,
+/// as the line before one); `CHF` next to an arc is the control's refusal
+/// (a chamfer only between two straight lines, p. 154).
+#[test]
+fn rnd_next_to_arcs_by_hand() {
+    let m = fixture_motions("rnd-next-to-arcs.h", None);
+    let of = |line: usize| -> Vec<Motion> {
+        m.iter()
+            .filter(|(l, _)| *l == line)
+            .map(|(_, m)| *m)
+            .collect()
+    };
+    let r140 = 140f64.sqrt();
+    let m1 = [20.0 - r140, -2.0];
+    assert_point(xyz(&last_of(&m, 7).end), [20.0 - r140, 0.0, 0.0]);
+    let round1 = of(8);
+    for x in &round1 {
+        assert_abs_diff_eq!(
+            (x.end.x - m1[0]).hypot(x.end.y - m1[1]),
+            2.0,
+            epsilon = 1e-9
+        );
+    }
+    let t2 = [
+        20.0 + 10.0 * (m1[0] - 20.0) / 12.0,
+        10.0 * m1[1] / 12.0,
+        0.0,
+    ];
+    assert_point(xyz(&round1.last().unwrap().end), t2);
+    // The arc: from the rounding's end, on the circle about the pole.
+    let arc = of(9);
+    assert_point(xyz(&arc[0].start), t2);
+    for x in &arc {
+        assert_abs_diff_eq!((x.end.x - 20.0).hypot(x.end.y), 10.0, epsilon = 1e-9);
+        assert!(x.end.y <= 1e-9, "{:?}", x.end);
+    }
+    let d = [0.5f64.sqrt(), 0.5f64.sqrt()];
+    let p0 = [30.0 + d[0], -d[1]];
+    let w = [p0[0] - 20.0, p0[1]];
+    let b = d[0] * w[0] + d[1] * w[1];
+    let t = -b + (b * b - (w[0] * w[0] + w[1] * w[1] - 121.0)).sqrt();
+    let m2 = [p0[0] + t * d[0], p0[1] + t * d[1]];
+    let t1 = [
+        20.0 + 10.0 * (m2[0] - 20.0) / 11.0,
+        10.0 * m2[1] / 11.0,
+        0.0,
+    ];
+    assert_point(xyz(&arc.last().unwrap().end), t1);
+    let round2 = of(10);
+    for x in &round2 {
+        assert_abs_diff_eq!(
+            (x.end.x - m2[0]).hypot(x.end.y - m2[1]),
+            1.0,
+            epsilon = 1e-9
+        );
+    }
+    let start = [30.0 + t * d[0], t * d[1], 0.0];
+    assert_point(xyz(&round2.last().unwrap().end), start);
+    assert_point(xyz(&last_of(&m, 11).start), start);
+    assert_point(xyz(&last_of(&m, 11).end), [40.0, 10.0, 0.0]);
+    let text =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/rnd-next-to-arcs.h")).unwrap();
+    let e = motions(&text.replace("9 RND R1", "9 CHF 1"), None).unwrap_err();
+    assert!(
+        e.contains("t.h:10:") && e.contains("two straight lines"),
+        "{e}"
+    );
+    // R20 at the first corner: its tangent point on the line would be at
+    // x = 20 − √(30² − 20²) = −2.36, before the line's start.
+    let e = motions(&text.replace("7 RND R2", "7 RND R20"), None).unwrap_err();
+    assert!(e.contains("t.h:8:") && e.contains("too large"), "{e}");
+    // Compensated on head-table: it reads back and the tip error is cut.
+    let rig = rig("head-table");
+    let (out, _) = compensate_on(rig, &text, Frame::Joint, 0.5, true);
+    motions(&out, Some(&rig.0)).unwrap();
+    let (before, after) = closed_loop_on(rig, &text, &out, Frame::Joint);
+    assert!(
+        after.max_um <= 0.1 * before.max_um,
+        "{before:?} -> {after:?}"
+    );
+    println!(
+        "rnd-next-to-arcs head-table: tip max {:.2} -> {:.3} µm",
+        before.max_um, after.max_um
+    );
 }
 
 /// PLANE PROJECTED, EULER, POINTS and RELATIVE (TNC 640 user's manual,
@@ -413,6 +517,58 @@ fn plane_move_stay_and_cycl_def_19_position_the_axes() {
             .unwrap();
     let e = motions(&text, None).unwrap_err();
     assert!(e.contains("--machine") && e.contains("t.h:10:"), "{e}");
+}
+
+/// `PLANE … MB` (TNC 620 conversational user's manual 10/2017 p. 556: the
+/// retraction MB "is effective incrementally from the current tool position
+/// in the active tool axis direction that the control approaches before
+/// tilting"), worked by hand on head-table. From X+0 Y+0 Z+10 with no plane
+/// active, `MB+40` first lifts the tool along Z to Z+50 (a leg of the
+/// control, like the turn: in the block's `Home` legs, not compensated),
+/// then `MOVE DIST+50` tilts about the point 50 below that tip: tip
+/// = (0, 0, 50) + 50·((sin 30°, 0, cos 30°) − (0, 0, 1)) = X+25 Z+43.3013.
+/// After `L Z+10` (the tip at Ry(30°)·(0, 0, 10) = X+5 Z+8.6603),
+/// `PLANE RESET TURN MB+20` retracts along the tilted tool axis: X+15
+/// Z+25.9808, before the axes turn back. `MB MAX` (to the software limit
+/// switch: no travel limits are read) and `MB` with `STAY` are refused.
+#[test]
+fn plane_mb_retracts_before_tilting() {
+    let (machine, _) = rig("head-table");
+    let head = "0 BEGIN PGM MB MM\n1 TOOL CALL 1 Z S1000\n2 L X+0 Y+0 Z+10 R0 FMAX\n";
+    let text = format!(
+        "{head}3 PLANE SPATIAL SPA+0 SPB+30 SPC+0 MOVE DIST+50 MB+40 F2000\n4 L Z+10 F500\n5 PLANE RESET TURN MB+20 FMAX\n6 END PGM MB MM\n"
+    );
+    let program = program(&text, Some(machine));
+    let mut run = program.run(interpret_options_on(machine, Frame::Joint));
+    let mut legs = Vec::new();
+    while let Some(step) = run.next() {
+        let (_, event, executed) = step.unwrap();
+        if matches!(executed.line, 4 | 6) {
+            match &event.moves {
+                volcomp::gcode::Moves::Home(m) => legs.push(m.clone()),
+                other => panic!("line {}: {other:?}", executed.line),
+            }
+        }
+    }
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let [first, second] = &legs[..] else {
+        panic!("{legs:?}")
+    };
+    assert_eq!(first.len(), 2);
+    assert_eq!(first[0].frame, Frame::Joint);
+    assert_point(xyz(&first[0].start), [0.0, 0.0, 10.0]);
+    assert_point(xyz(&first[0].end), [0.0, 0.0, 50.0]);
+    assert_abs_diff_eq!(first[0].end.b, 0.0, epsilon = 1e-12);
+    assert_near(xyz(&first[1].end), [25.0, 0.0, 50.0 * c], 1e-9);
+    assert_abs_diff_eq!(first[1].end.b, 30.0, epsilon = 1e-6);
+    assert_eq!(second[0].frame, Frame::Part);
+    assert_near(xyz(&second[0].start), [10.0 * s, 0.0, 10.0 * c], 1e-6);
+    assert_near(xyz(&second[0].end), [30.0 * s, 0.0, 30.0 * c], 1e-6);
+    assert_abs_diff_eq!(second[1].end.b, 0.0, epsilon = 1e-9);
+    let e = motions(&text.replace("MB+20", "MB MAX"), Some(machine)).unwrap_err();
+    assert!(e.contains("t.h:6:") && e.contains("MB MAX"), "{e}");
+    let e = motions(&text.replace("MOVE DIST+50", "STAY"), Some(machine)).unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("STAY with MB"), "{e}");
 }
 
 /// A plane the machine cannot reach (head-table's B travels ±100°; SPA+120
@@ -679,8 +835,8 @@ fn nutating_head_and_iso_table_solve_planes_as_the_cam_comments_say() {
 /// tool of radius 0): the approach reaches the first contour point X+10
 /// Y+0 from the auxiliary point LEN 5 before it on the first element's
 /// line (X+5 Y+0); the departure goes on LEN 4 along the last element
-/// (from X+30 Y+0 to X+34 Y+0). `APPR LN` and the other forms are refused,
-/// naming the form; `RL` as on any move.
+/// (from X+30 Y+0 to X+34 Y+0). The polar forms (`APPR PLT` …) are
+/// refused, naming the form; `RL` as on any move.
 #[test]
 fn appr_and_dep_lt() {
     let text = "0 BEGIN PGM A MM\n1 TOOL CALL 1 Z\n2 L X-10 Y+20 Z+0 R0 FMAX\n3 APPR LT X+10 Y+0 LEN5 R0 F300\n4 L X+30\n5 DEP LT LEN4 F600\n6 END PGM A MM\n";
@@ -692,10 +848,132 @@ fn appr_and_dep_lt() {
     assert_point(xyz(&approach[1].end), [10.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).start), [30.0, 0.0, 0.0]);
     assert_point(xyz(&last_of(&m, 6).end), [34.0, 0.0, 0.0]);
-    let e = motions(&text.replace("APPR LT", "APPR LN"), None).unwrap_err();
-    assert!(e.contains("t.h:4:") && e.contains("APPR LN"), "{e}");
+    let e = motions(
+        &text.replace("APPR LT X+10 Y+0", "APPR PLT PR+10 PA+0"),
+        None,
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("APPR PLT"), "{e}");
     let e = motions(&text.replace("LEN5 R0", "LEN5 RL"), None).unwrap_err();
     assert!(e.contains("t.h:4:") && e.contains("RL"), "{e}");
+}
+
+/// `APPR`/`DEP` `LN`, `CT`, `LCT` with `R0` (`appr-dep-ln-ct-lct.h`; TNC7
+/// user's manual 81762x-16/-18, "Approach function APPR LN | CT | LCT";
+/// TNC 640 DIN/ISO user's manual 1/2015 pp. 213 ff.), worked by hand. Every
+/// contour runs along +X with the start below it (-Y): the tool is on the
+/// right, so the arcs turn clockwise.
+/// - `APPR LN X+10 Y+0 Z-2 LEN5`: from X+0 Y-20 (rapid: the block before
+///   is FMAX) to PH = PA + 5·(0, -1) = X+10 Y-5 Z-2, then to PA.
+/// - `DEP CT CCA90 R+4` at X+40 Y+30 going +Y: centre 4 to the right,
+///   X+44 Y+30; a clockwise quarter from the west point ends at the north
+///   point X+44 Y+34.
+/// - `APPR CT X+50 Y+0 CCA90 R+4`: centre X+50 Y-4, PH 90° back (clockwise
+///   arc) at the west point X+46 Y-4.
+/// - `DEP LN LEN5` at X+80 Y+0: to X+80 Y-5.
+/// - `APPR LCT X+100 Y+0 R4` from X+100 Y-16: centre C = X+100 Y-4; the
+///   tangent point H from P satisfies (H−C)·(P−C) = R², |H−C| = R: with
+///   P−C = (0, −12), (H−C)_y = −16/12 = −4/3 and (H−C)_x = −√(16 − 16/9)
+///   = −4√8/3 (the clockwise arc must pass the west point to arrive
+///   moving +X): H = X+96.228764 Y-5.333333; the line at F300 (the APPR
+///   block's feed for LCT).
+/// - `DEP LCT X+140 Y-10 Z+5 R4` at X+130 Y+0: centre X+130 Y-4, N−C =
+///   (10, −6): 10x − 6y = 16, x² + y² = 16 → 1.36y² + 1.92y − 13.44 = 0,
+///   y = (−1.92 + √76.8)/2.72 (the clockwise arc from the north point
+///   goes to the east side): H = C + (1.6 + 0.6y, y); then the line to
+///   X+140 Y-10 at Z-2, then up to Z+5.
+#[test]
+fn appr_dep_ln_ct_lct_by_hand() {
+    let m = fixture_motions("appr-dep-ln-ct-lct.h", None);
+    let of = |line: usize| -> Vec<Motion> {
+        m.iter()
+            .filter(|(l, _)| *l == line)
+            .map(|(_, m)| *m)
+            .collect()
+    };
+    let on_circle = |mv: &[Motion], c: [f64; 2]| {
+        for x in mv {
+            assert_abs_diff_eq!((x.end.x - c[0]).hypot(x.end.y - c[1]), 4.0, epsilon = 1e-9);
+        }
+    };
+    let a = of(6);
+    assert_eq!(a.len(), 2);
+    assert_eq!(a[0].kind, MotionKind::Rapid);
+    assert_point(xyz(&a[0].end), [10.0, -5.0, -2.0]);
+    assert_point(xyz(&a[1].end), [10.0, 0.0, -2.0]);
+    let d = of(9);
+    assert!(d.len() > 10);
+    on_circle(&d, [44.0, 30.0]);
+    assert_point(xyz(&d[0].start), [40.0, 30.0, -2.0]);
+    assert_point(xyz(&d.last().unwrap().end), [44.0, 34.0, -2.0]);
+    assert!(
+        d.iter()
+            .all(|x| x.end.x <= 44.0 + 1e-9 && x.end.y >= 30.0 - 1e-9)
+    );
+    let a = of(12);
+    assert_point(xyz(&a[0].end), [46.0, -4.0, -2.0]);
+    on_circle(&a[1..], [50.0, -4.0]);
+    assert!(
+        a[1..]
+            .iter()
+            .all(|x| x.end.x <= 50.0 + 1e-9 && x.end.y >= -4.0 - 1e-9)
+    );
+    assert_point(xyz(&a.last().unwrap().end), [50.0, 0.0, -2.0]);
+    assert_point(xyz(&last_of(&m, 14).end), [80.0, -5.0, -2.0]);
+    let a = of(17);
+    let h = [100.0 - 4.0 * 8f64.sqrt() / 3.0, -4.0 - 4.0 / 3.0, -2.0];
+    assert_point(xyz(&a[0].start), [100.0, -16.0, 5.0]);
+    assert_point(xyz(&a[0].end), h);
+    assert_eq!(a[0].feed, volcomp::gcode::Feed::PerMinute(300.0));
+    on_circle(&a[1..], [100.0, -4.0]);
+    assert_point(xyz(&a.last().unwrap().end), [100.0, 0.0, -2.0]);
+    let d = of(19);
+    let y = (-1.92 + 76.8f64.sqrt()) / 2.72;
+    let h = [130.0 + 1.6 + 0.6 * y, -4.0 + y, -2.0];
+    let n = d.len();
+    on_circle(&d[..n - 2], [130.0, -4.0]);
+    assert_point(xyz(&d[n - 3].end), h);
+    assert_point(xyz(&d[n - 2].end), [140.0, -10.0, -2.0]);
+    assert_point(xyz(&d[n - 1].end), [140.0, -10.0, 5.0]);
+    // The side comes from the start: one on the contour's line gives none.
+    let text =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let e = motions(&text.replace("4 L X+0 Y-20", "4 L X+0 Y+0"), None).unwrap_err();
+    assert!(e.contains("t.h:6:") && e.contains("no side"), "{e}");
+    // A departure with no approach before it has no side.
+    let e = motions(
+        "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+0 R0 F100\n2 L X+10\n3 DEP LN LEN5\n4 END PGM D MM\n",
+        None,
+    )
+    .unwrap_err();
+    assert!(e.contains("t.h:4:") && e.contains("no side"), "{e}");
+    let e = motions(&text.replace("R4 R0 F300", "R4 RR F300"), None).unwrap_err();
+    assert!(e.contains("t.h:17:") && e.contains("RR"), "{e}");
+}
+
+/// The approach and departure program compensated on head-table and
+/// bc-trt: every block reads back, the tip error is cut by at least 90 %.
+#[test]
+fn closed_loop_appr_dep() {
+    let original =
+        std::fs::read_to_string(root().join("tests/data/heidenhain/appr-dep-ln-ct-lct.h")).unwrap();
+    let mut summary = String::new();
+    for machine in ["head-table", "bc-trt"] {
+        let rig = rig(machine);
+        let (text, _) = compensate_on(rig, &original, Frame::Joint, 0.5, true);
+        motions(&text, Some(&rig.0)).unwrap();
+        let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+        assert!(before.max_um > 3.0, "{machine}: nothing to compensate?");
+        assert!(
+            after.max_um <= 0.1 * before.max_um,
+            "{machine}: {before:?} -> {after:?}"
+        );
+        summary += &format!(
+            "{machine}: tip max {:.2} -> {:.3} µm, rms {:.2} -> {:.3} µm\n",
+            before.max_um, after.max_um, before.rms_um, after.rms_um
+        );
+    }
+    println!("{summary}");
 }
 
 /// What `compensate` writes for the new forms (dialects.md "Writing back"):

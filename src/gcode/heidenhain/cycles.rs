@@ -159,14 +159,9 @@ pub(crate) fn define(
         let Some(p) = read_param(&t.address) else {
             continue;
         };
+        // `Q201= -48` (hyperMILL pads the value) is one token: the tokeniser's.
         if t.value.is_some() {
             q.push((p.number, value(k)));
-        } else if let Some(next) = block.tokens.get(k + 1)
-            && next.address.is_empty()
-            && next.value.is_some()
-        {
-            // `Q201= -48`: the value after spaces (hyperMILL pads them).
-            q.push((p.number, value(k + 1)));
         }
     }
     Ok(CycleDef {

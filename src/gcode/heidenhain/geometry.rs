@@ -1,9 +1,11 @@
 //! The geometry of Klartext working planes and contour corners, as pure
 //! functions (no state): the rotation each `PLANE` form defines (TNC 640
 //! user's manual, "Multiple-axis machining › The PLANE function"), and the
-//! rounding arc `RND` and chamfer `CHF` the control inserts between two
-//! straight lines ("Path contours – Cartesian coordinates › Corner rounding
-//! RND", "› Chamfer CHF"; TNC 620 Klartext user's manual 01/2022 pp. 156–157).
+//! rounding arc `RND` the control inserts between straight lines and arcs
+//! and the chamfer `CHF` between two straight lines ("Path contours –
+//! Cartesian coordinates › Corner rounding RND", "› Chamfer CHF"; TNC 620
+//! Klartext user's manual 01/2022 pp. 154–157), and the paths of
+//! `APPR`/`DEP` `LN`, `CT`, `LCT` ([`ContourContact`]).
 //!
 //! Rotations are 3×3 matrices, rows, mapping the tilted (program) frame's
 //! coordinates to the workpiece frame's: their columns are the tilted X, Y
@@ -258,6 +260,346 @@ impl Corner {
     }
 }
 
+/// A contour element meeting a corner (working-plane coordinates): a
+/// straight line or a circular arc, and its other end (where the element
+/// before the corner starts, or where the one after it ends).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Element {
+    /// A straight line.
+    Line {
+        /// Its end away from the corner.
+        other: [f64; 2],
+    },
+    /// A circular arc.
+    Arc {
+        /// Its centre.
+        centre: [f64; 2],
+        /// It turns clockwise (in the direction of travel).
+        clockwise: bool,
+        /// Its end away from the corner.
+        other: [f64; 2],
+    },
+}
+
+impl Element {
+    /// The unit direction of travel at the corner; `before`: the element
+    /// ends there, else it starts there.
+    fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
+        let d = match *self {
+            Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
+            Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
+                let r = [corner[0] - centre[0], corner[1] - centre[1]];
+                if clockwise {
+                    [r[1], -r[0]]
+                } else {
+                    [-r[1], r[0]]
+                }
+            }
+        };
+        let n = d[0].hypot(d[1]);
+        (n > 1e-9).then(|| [d[0] / n, d[1] / n])
+    }
+
+    /// Where the element touches the circle about `m` of radius `r`
+    /// that is tangent to it: the foot of `m` on the line, or the point of
+    /// the arc's circle towards `m`.
+    fn touch(&self, corner: [f64; 2], direction: [f64; 2], m: [f64; 2]) -> [f64; 2] {
+        match *self {
+            Element::Line { .. } => {
+                let t = (m[0] - corner[0]) * direction[0] + (m[1] - corner[1]) * direction[1];
+                [corner[0] + t * direction[0], corner[1] + t * direction[1]]
+            }
+            Element::Arc { centre, .. } => {
+                let rho = (corner[0] - centre[0]).hypot(corner[1] - centre[1]);
+                let d = [m[0] - centre[0], m[1] - centre[1]];
+                let n = d[0].hypot(d[1]).max(1e-300);
+                [centre[0] + rho * d[0] / n, centre[1] + rho * d[1] / n]
+            }
+        }
+    }
+
+    /// `p` lies on the part of the element between the corner and its
+    /// other end (`before`: the element runs from `other` to the corner).
+    fn holds(&self, corner: [f64; 2], p: [f64; 2], before: bool) -> bool {
+        let (from, to) = match *self {
+            Element::Line { other } | Element::Arc { other, .. } if before => (other, corner),
+            Element::Line { other } | Element::Arc { other, .. } => (corner, other),
+        };
+        match *self {
+            Element::Line { .. } => {
+                let d = [to[0] - from[0], to[1] - from[1]];
+                let l2 = d[0] * d[0] + d[1] * d[1];
+                let t = ((p[0] - from[0]) * d[0] + (p[1] - from[1]) * d[1]) / l2.max(1e-300);
+                (-1e-9..=1.0 + 1e-9).contains(&t)
+            }
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
+                let angle = |q: [f64; 2]| (q[1] - centre[1]).atan2(q[0] - centre[0]);
+                let sweep = |a: f64, b: f64| {
+                    let d = if clockwise { a - b } else { b - a };
+                    d.rem_euclid(std::f64::consts::TAU)
+                };
+                let whole = sweep(angle(from), angle(to));
+                let whole = if whole < 1e-12 {
+                    std::f64::consts::TAU
+                } else {
+                    whole
+                };
+                sweep(angle(from), angle(p)) <= whole + 1e-9
+            }
+        }
+    }
+}
+
+/// `RND R` between two contour elements of which at least one is an arc
+/// (TNC 620 Klartext user's manual 01/2022, "Corner rounding RND" p. 157:
+/// "a circular arc with tangential connection to the preceding and
+/// subsequent contour elements"): the centre of the rounding lies `r` from
+/// both elements on the inside of the turn (the elements offset by `r`,
+/// intersected: the intersection nearest the corner), its tangent points
+/// are where it touches them. Both tangent points must lie on the
+/// elements (else too large); elements meeting tangentially make no corner.
+pub fn round_elements(
+    first: Element,
+    corner: [f64; 2],
+    second: Element,
+    r: f64,
+) -> Result<Inserted, CornerError> {
+    let r = r.abs();
+    let (Some(u), Some(v)) = (
+        first.direction_at(corner, true),
+        second.direction_at(corner, false),
+    ) else {
+        return Err(CornerError::ZeroLength);
+    };
+    let turn = u[0] * v[1] - u[1] * v[0];
+    let along = u[0] * v[0] + u[1] * v[1];
+    if turn.abs() < 1e-9 || turn.atan2(along).abs() > std::f64::consts::PI - 1e-9 {
+        return Err(CornerError::Straight);
+    }
+    let left = turn > 0.0;
+    // Each element offset by r towards the inside of the turn: a line
+    // (point, direction) or a circle (centre, radius).
+    enum Offset {
+        Line([f64; 2], [f64; 2]),
+        Circle([f64; 2], f64),
+    }
+    let offset = |e: &Element, d: [f64; 2]| -> Result<Offset, CornerError> {
+        let side = if left { 1.0 } else { -1.0 };
+        match *e {
+            Element::Line { .. } => Ok(Offset::Line(
+                [corner[0] - side * r * d[1], corner[1] + side * r * d[0]],
+                d,
+            )),
+            Element::Arc {
+                centre, clockwise, ..
+            } => {
+                let rho = (corner[0] - centre[0]).hypot(corner[1] - centre[1]);
+                // The centre is on the left of travel when counter-clockwise.
+                let inner = clockwise != left;
+                let rr = if inner { rho - r } else { rho + r };
+                if rr <= 1e-9 {
+                    return Err(CornerError::TooLarge {
+                        needed: r,
+                        available: rho,
+                    });
+                }
+                Ok(Offset::Circle(centre, rr))
+            }
+        }
+    };
+    let (a, b) = (offset(&first, u)?, offset(&second, v)?);
+    let line_circle = |p: [f64; 2], d: [f64; 2], o: [f64; 2], rr: f64| -> Vec<[f64; 2]> {
+        let w = [p[0] - o[0], p[1] - o[1]];
+        let bq = d[0] * w[0] + d[1] * w[1];
+        let cq = w[0] * w[0] + w[1] * w[1] - rr * rr;
+        let disc = bq * bq - cq;
+        if disc < 0.0 {
+            return Vec::new();
+        }
+        let sq = disc.sqrt();
+        [-bq - sq, -bq + sq]
+            .iter()
+            .map(|t| [p[0] + t * d[0], p[1] + t * d[1]])
+            .collect()
+    };
+    let candidates: Vec<[f64; 2]> = match (&a, &b) {
+        (Offset::Line(p, d), Offset::Circle(o, rr))
+        | (Offset::Circle(o, rr), Offset::Line(p, d)) => line_circle(*p, *d, *o, *rr),
+        (Offset::Circle(o1, r1), Offset::Circle(o2, r2)) => {
+            let d = [o2[0] - o1[0], o2[1] - o1[1]];
+            let l = d[0].hypot(d[1]);
+            if l < 1e-12 {
+                Vec::new()
+            } else {
+                let x = (l * l + r1 * r1 - r2 * r2) / (2.0 * l);
+                let h2 = r1 * r1 - x * x;
+                if h2 < 0.0 {
+                    Vec::new()
+                } else {
+                    let h = h2.sqrt();
+                    let (e, n) = ([d[0] / l, d[1] / l], [-d[1] / l, d[0] / l]);
+                    [h, -h]
+                        .iter()
+                        .map(|s| [o1[0] + x * e[0] + s * n[0], o1[1] + x * e[1] + s * n[1]])
+                        .collect()
+                }
+            }
+        }
+        (Offset::Line(..), Offset::Line(..)) => {
+            // Two straight lines: `Corner::round`.
+            return Corner {
+                start: match first {
+                    Element::Line { other } => other,
+                    Element::Arc { other, .. } => other,
+                },
+                corner,
+                end: match second {
+                    Element::Line { other } => other,
+                    Element::Arc { other, .. } => other,
+                },
+            }
+            .round(r);
+        }
+    };
+    let distance = |p: [f64; 2]| (p[0] - corner[0]).hypot(p[1] - corner[1]);
+    let m = candidates
+        .into_iter()
+        .min_by(|p, q| distance(*p).total_cmp(&distance(*q)))
+        .ok_or(CornerError::TooLarge {
+            needed: r,
+            available: 0.0,
+        })?;
+    let from = first.touch(corner, u, m);
+    let to = second.touch(corner, v, m);
+    let size = |e: &Element| match *e {
+        Element::Line { other } | Element::Arc { other, .. } => distance(other),
+    };
+    if !first.holds(corner, from, true) {
+        return Err(CornerError::TooLarge {
+            needed: distance(from),
+            available: size(&first),
+        });
+    }
+    if !second.holds(corner, to, false) {
+        return Err(CornerError::TooLarge {
+            needed: distance(to),
+            available: size(&second),
+        });
+    }
+    Ok(Inserted {
+        from,
+        to,
+        arc: Some((m, !left)),
+    })
+}
+
+/// `v` turned by `deg` degrees (counter-clockwise for positive) in the plane.
+fn turned(v: [f64; 2], deg: f64) -> [f64; 2] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+}
+
+/// Where the tool meets or leaves a contour in `APPR`/`DEP` (working-plane
+/// coordinates): the contour point, the unit direction of travel along the
+/// contour there, and the side of the contour the tool is on (left of the
+/// travel direction, as `RL`, or right, as `RR`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContourContact {
+    /// The first contour point `PA` (approach) or the last `PE` (departure).
+    pub point: [f64; 2],
+    /// The unit direction of travel along the contour at `point`.
+    pub direction: [f64; 2],
+    /// The tool is on the left of the contour (looking along `direction`).
+    pub left: bool,
+}
+
+/// An arc of the approach or departure: its centre, its sense, and its end
+/// away from the contour (`PH` of `APPR CT`/`LCT`, `PN` of `DEP CT`, the
+/// tangent point of `DEP LCT`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactArc {
+    /// The arc's centre.
+    pub centre: [f64; 2],
+    /// The arc turns clockwise (in the direction of travel).
+    pub clockwise: bool,
+    /// The arc's end away from the contour point.
+    pub away: [f64; 2],
+}
+
+impl ContourContact {
+    /// The unit normal pointing to the tool's side.
+    fn normal(&self) -> [f64; 2] {
+        let [u, v] = self.direction;
+        if self.left { [-v, u] } else { [v, -u] }
+    }
+
+    /// The side of the contour's line through `point` that `p` lies on:
+    /// `Some(true)` left, `Some(false)` right, `None` on the line.
+    pub fn side_of(point: [f64; 2], direction: [f64; 2], p: [f64; 2]) -> Option<bool> {
+        let cross = direction[0] * (p[1] - point[1]) - direction[1] * (p[0] - point[0]);
+        (cross.abs() > 1e-9).then_some(cross > 0.0)
+    }
+
+    /// `APPR LN` / `DEP LN`: the point `len` from the contour point on the
+    /// perpendicular to the contour, on the tool's side.
+    pub fn perpendicular(&self, len: f64) -> [f64; 2] {
+        let n = self.normal();
+        [self.point[0] + len * n[0], self.point[1] + len * n[1]]
+    }
+
+    /// `APPR CT` / `DEP CT`: the arc of radius `r` and centre angle
+    /// `cca_deg` tangent to the contour at its point, its centre on the
+    /// tool's side (so that the whole arc is there), turning with the
+    /// contour; `arriving`: it ends at the contour point (approach), else
+    /// it starts there (departure).
+    pub fn tangent_arc(&self, r: f64, cca_deg: f64, arriving: bool) -> ContactArc {
+        let n = self.normal();
+        let r = r.abs();
+        let centre = [self.point[0] + r * n[0], self.point[1] + r * n[1]];
+        // Centre on the left of travel: counter-clockwise.
+        let clockwise = !self.left;
+        let sense = if clockwise { -1.0 } else { 1.0 };
+        let back = if arriving { -1.0 } else { 1.0 };
+        let radius = [self.point[0] - centre[0], self.point[1] - centre[1]];
+        let q = turned(radius, sense * back * cca_deg);
+        ContactArc {
+            centre,
+            clockwise,
+            away: [centre[0] + q[0], centre[1] + q[1]],
+        }
+    }
+
+    /// `APPR LCT` / `DEP LCT`: the arc of radius `r` tangent to the contour
+    /// at its point (centre on the tool's side) and the straight line from
+    /// `other` (the start `PS` when `arriving`, else the end `PN`) tangent
+    /// to it; `away` is where line and arc meet. `None` when `other` lies
+    /// within the arc's circle (no tangent).
+    pub fn line_and_arc(&self, r: f64, other: [f64; 2], arriving: bool) -> Option<ContactArc> {
+        let arc = self.tangent_arc(r, 0.0, arriving);
+        let r = r.abs();
+        let to = [other[0] - arc.centre[0], other[1] - arc.centre[1]];
+        let d = to[0].hypot(to[1]);
+        if d <= r + 1e-9 {
+            return None;
+        }
+        let beta = (r / d).acos().to_degrees();
+        // Arriving on a counter-clockwise arc, the line touches it ahead of
+        // the direction to `other` (β further round); leaving, behind it.
+        let ccw = !arc.clockwise;
+        let turn = if ccw == arriving { beta } else { -beta };
+        let u = turned([to[0] / d * r, to[1] / d * r], turn);
+        Some(ContactArc {
+            away: [arc.centre[0] + u[0], arc.centre[1] + u[1]],
+            ..arc
+        })
+    }
+}
+
 /// Points along the arc about `centre` from `from` to `to` (in-plane),
 /// `clockwise` or not, `turns` extra full turns, the third coordinate going
 /// linearly from `w0` to `w1`: chords whose sagitta is at most `tolerance`
@@ -321,6 +663,119 @@ mod tests {
 
     fn column(m: &Mat3, k: usize) -> [f64; 3] {
         [m[0][k], m[1][k], m[2][k]]
+    }
+
+    /// A rounding between a line and an arc and between two arcs, worked by
+    /// hand. The line along +X to (10, 0); an arc about (10, 10) leaving
+    /// (10, 0) counter-clockwise goes on along +X (tangent: no corner). The
+    /// arc about (20, 0), counter-clockwise from (10, 0), leaves along -Y:
+    /// a right turn, the rounding on the right. R2: its centre is 2 below
+    /// the line (y = -2) and 10 + 2 = 12 from (20, 0) (outside that
+    /// circle), nearest the corner: x = 20 - √(144 - 4); the tangent points
+    /// (x, 0) and (20, 0) + 10·(m - (20, 0))/12; it turns clockwise.
+    /// Two arcs: clockwise about (0, -10) arriving at (0, 0) along +X, then
+    /// counter-clockwise about (10, 0) leaving along -Y (a right turn): the
+    /// rounding's centre is 10 - 1 from (0, -10) (inside the first circle)
+    /// and 10 + 1 from (10, 0) (outside the second), near the corner.
+    #[test]
+    fn round_line_and_arc_and_two_arcs() {
+        let first = Element::Line { other: [0.0, 0.0] };
+        let second = Element::Arc {
+            centre: [20.0, 0.0],
+            clockwise: false,
+            other: [30.0, 0.0],
+        };
+        assert_eq!(
+            round_elements(
+                first,
+                [10.0, 0.0],
+                Element::Arc {
+                    centre: [10.0, 10.0],
+                    clockwise: false,
+                    other: [20.0, 10.0]
+                },
+                2.0
+            ),
+            Err(CornerError::Straight)
+        );
+        let got = round_elements(first, [10.0, 0.0], second, 2.0).unwrap();
+        let x = 20.0 - 140f64.sqrt();
+        let m = [x, -2.0];
+        let (centre, clockwise) = got.arc.unwrap();
+        assert!(clockwise);
+        assert!(
+            (centre[0] - m[0]).abs() < 1e-9 && (centre[1] - m[1]).abs() < 1e-9,
+            "{got:?}"
+        );
+        assert!(
+            (got.from[0] - x).abs() < 1e-9 && got.from[1].abs() < 1e-9,
+            "{got:?}"
+        );
+        let to = [20.0 + 10.0 * (m[0] - 20.0) / 12.0, 10.0 * m[1] / 12.0];
+        assert!(
+            (got.to[0] - to[0]).abs() < 1e-9 && (got.to[1] - to[1]).abs() < 1e-9,
+            "{got:?}"
+        );
+        let a = Element::Arc {
+            centre: [0.0, -10.0],
+            clockwise: true,
+            other: [-10.0, -10.0],
+        };
+        let b = Element::Arc {
+            centre: [10.0, 0.0],
+            clockwise: false,
+            other: [10.0, -10.0],
+        };
+        let got = round_elements(a, [0.0, 0.0], b, 1.0).unwrap();
+        let (m, _) = got.arc.unwrap();
+        assert!(((m[0] - 0.0).hypot(m[1] + 10.0) - 9.0).abs() < 1e-9);
+        assert!(((m[0] - 10.0).hypot(m[1]) - 11.0).abs() < 1e-9);
+        assert!(m[0].hypot(m[1]) < 2.0, "{m:?}");
+        // Too large for the arc after it.
+        assert!(matches!(
+            round_elements(first, [10.0, 0.0], second, 40.0),
+            Err(CornerError::TooLarge { .. })
+        ));
+    }
+
+    /// Approach and departure worked by hand: the contour along +X from
+    /// (10, 0), the tool on its right (below it, -Y).
+    #[test]
+    fn approach_and_departure_paths() {
+        let c = ContourContact {
+            point: [10.0, 0.0],
+            direction: [1.0, 0.0],
+            left: false,
+        };
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+        assert_eq!(
+            ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, -3.0]),
+            Some(false)
+        );
+        assert_eq!(
+            ContourContact::side_of([10.0, 0.0], [1.0, 0.0], [0.0, 0.0]),
+            None
+        );
+        assert!(close(c.perpendicular(5.0), [10.0, -5.0]));
+        // A quarter arc of radius 4 arriving at (10, 0) moving +X: centre
+        // (10, -4), clockwise, from (6, -4).
+        let a = c.tangent_arc(4.0, 90.0, true);
+        assert!(
+            a.clockwise && close(a.centre, [10.0, -4.0]) && close(a.away, [6.0, -4.0]),
+            "{a:?}"
+        );
+        // Leaving (10, 0) by a half turn: to (10, -8).
+        let d = c.tangent_arc(4.0, 180.0, false);
+        assert!(close(d.away, [10.0, -8.0]), "{d:?}");
+        // From (6, -12) straight up to the circle about (10, -4), r 4: it
+        // touches at (6, -4), then the clockwise quarter to (10, 0).
+        let l = c.line_and_arc(4.0, [6.0, -12.0], true).unwrap();
+        assert!(close(l.away, [6.0, -4.0]), "{l:?}");
+        // Leaving: the clockwise quarter to (14, -4), then down to (14, -12).
+        let l = c.line_and_arc(4.0, [14.0, -12.0], false).unwrap();
+        assert!(close(l.away, [14.0, -4.0]), "{l:?}");
+        assert!(c.line_and_arc(4.0, [10.0, -5.0], true).is_none());
     }
 
     #[test]

@@ -98,6 +98,12 @@ struct State {
     /// This block programs a rotary axis itself (`L B+Q121 C+Q122` after
     /// `PLANE … STAY`): a tilted plane does not hold the axes for it.
     commands_rotary: bool,
+    /// The last block that moved ended with a rapid move (`APPR`'s way to
+    /// its auxiliary point).
+    last_rapid: bool,
+    /// The side of the contour the last `APPR` came from (left of the
+    /// travel direction: `true`), for `DEP LN | CT | LCT` with `R0`.
+    contour_left: Option<bool>,
 }
 
 impl State {
@@ -196,6 +202,8 @@ impl KlMachine {
                 time_min: 0.0,
                 begun: false,
                 commands_rotary: false,
+                last_rapid: false,
+                contour_left: None,
             },
             setup,
             ahead: None,
@@ -343,6 +351,7 @@ impl KlMachine {
         }
         if let Some(m) = event.moves.all().last() {
             s.position = m.end;
+            s.last_rapid = m.kind == MotionKind::Rapid;
         }
         event.position = s.position;
         event.time_min = s.time_min;
@@ -776,7 +785,11 @@ impl KlMachine {
         if let Some((corner, next)) = &self.ahead
             && !ln
         {
-            let planned = self.plan_corner(c, s, corner, next, from, turned);
+            let a = to_plane(s.plane, from);
+            let line = geometry::Element::Line {
+                other: [a[0], a[1]],
+            };
+            let planned = self.plan_corner(c, s, corner, next, line, a[2], turned);
             if let Ok((t1, _)) = &planned {
                 // The line ends where the rounding or chamfer begins.
                 let end = self.to_frame(s, *t1, rot);
@@ -796,28 +809,35 @@ impl KlMachine {
         self.m_codes(c, s, event, Some(1))
     }
 
-    /// The corner at the end of the straight line `from → s.pos` that the
-    /// `RND`/`CHF` block `corner` asks for, with the straight line `next`
-    /// after it: where the line now ends, and what follows (TNC 620
-    /// Klartext user's manual 01/2022, "Corner rounding RND" p. 157: an arc
-    /// tangent to the element before and after; "Chamfer CHF" p. 156: a
-    /// chamfer between two straight lines, its side length from the
-    /// corner). Both lines must lie in the working plane.
+    /// The corner at the end of the element `first` (a straight line or an
+    /// arc ending at `s.pos`, starting at the tool-axis coordinate
+    /// `first_w`) that the `RND`/`CHF` block `corner` asks for, with the
+    /// element `next` after it: where `first` now ends, and what follows
+    /// (TNC 620 Klartext user's manual 01/2022, "Corner rounding RND"
+    /// p. 157: an arc tangent to the element before and after; "Chamfer
+    /// CHF" p. 156 and the overview p. 154: a chamfer between two straight
+    /// lines, its side length from the corner). `RND` is read between
+    /// straight lines `L` and arcs `C`, `CR`, `CT`, `CP` before it, `L`,
+    /// `C`, `CR` after it (a `CT` after it would be tangent to the
+    /// element before the corner: no corner); all in the working plane.
+    #[allow(clippy::too_many_arguments)]
     fn plan_corner(
         &self,
         c: &Ctx<'_>,
         s: &State,
         corner: &KlBlock,
         next: &KlBlock,
-        from: [f64; 3],
+        first: geometry::Element,
+        first_w: f64,
         turned: bool,
     ) -> Result<([f64; 3], PendingCorner), String> {
         let what = corner.address(0).to_string();
-        let lines_only = format!(
-            "{what}: volcomp reads {what} between two straight lines (L) in the working plane"
+        let unread = format!(
+            "{what}: volcomp reads {what} between straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
         );
-        if turned || next.address(0) != "L" {
-            return Err(lines_only);
+        let kind = next.address(0);
+        if turned || !matches!(kind, "L" | "C" | "CR") {
+            return Err(unread);
         }
         let scale = if s.inch { 25.4 } else { 1.0 };
         let ctx = Ctx {
@@ -830,22 +850,56 @@ impl KlMachine {
             t.value.is_some() && matches!(t.address.as_str(), "A" | "B" | "C" | "IA" | "IB" | "IC")
         });
         if rotary {
-            return Err(lines_only);
+            return Err(unread);
         }
         let end = xyz_words(&ctx, s.pos, scale, 1).map_err(|e| e.to_string())?;
-        let (a, p, e) = (
-            to_plane(s.plane, from),
-            to_plane(s.plane, s.pos),
-            to_plane(s.plane, end),
-        );
-        if (a[2] - p[2]).abs() > 1e-9 || (e[2] - p[2]).abs() > 1e-9 {
-            return Err(lines_only);
+        let (p, e) = (to_plane(s.plane, s.pos), to_plane(s.plane, end));
+        if (first_w - p[2]).abs() > 1e-9 || (e[2] - p[2]).abs() > 1e-9 {
+            return Err(unread);
         }
-        let geometry = Corner {
-            start: [a[0], a[1]],
-            corner: [p[0], p[1]],
-            end: [e[0], e[1]],
+        let value = |name: &str| {
+            next.tokens
+                .iter()
+                .position(|t| t.address == name && t.value.is_some())
+                .map(|k| ctx.value(k).map_err(|e| e.to_string()))
+                .transpose()
         };
+        let dr = || -> Result<bool, String> {
+            value("DR")?
+                .map(|d| d < 0.0)
+                .ok_or_else(|| format!("{kind} needs its direction DR+ or DR-"))
+        };
+        let second = match kind {
+            "L" => geometry::Element::Line {
+                other: [e[0], e[1]],
+            },
+            "C" => geometry::Element::Arc {
+                centre: s
+                    .pole
+                    .ok_or("no circle centre: program CC before C, CP or LP")?,
+                clockwise: dr()?,
+                other: [e[0], e[1]],
+            },
+            _ => {
+                let r = value("R")?.ok_or("CR needs its radius R")? * scale;
+                let clockwise = dr()?;
+                let centre = radius_centre(p, e, r, clockwise)
+                    .ok_or("CR: the end point is farther than the diameter from the start")?;
+                geometry::Element::Arc {
+                    centre,
+                    clockwise,
+                    other: [e[0], e[1]],
+                }
+            }
+        };
+        let lines = matches!(first, geometry::Element::Line { .. })
+            && matches!(second, geometry::Element::Line { .. });
+        if what == "CHF" && !lines {
+            return Err(
+                "CHF: the control chamfers only between two straight lines (TNC 620 Klartext user's manual 01/2022 p. 154)"
+                    .to_string(),
+            );
+        }
         let size = corner
             .tokens
             .iter()
@@ -872,21 +926,51 @@ impl KlMachine {
                 }
             })?
             * scale;
-        let inserted = if what == "RND" {
-            geometry.round(size)
-        } else {
-            geometry.chamfer(size)
+        let corner_uv = [p[0], p[1]];
+        let inserted = match (what.as_str(), first, second) {
+            ("RND", geometry::Element::Line { other: a }, geometry::Element::Line { other: b }) => {
+                Corner { start: a, corner: corner_uv, end: b }.round(size)
+            }
+            ("RND", _, _) => geometry::round_elements(first, corner_uv, second, size),
+            (_, geometry::Element::Line { other: a }, geometry::Element::Line { other: b }) => {
+                Corner { start: a, corner: corner_uv, end: b }.chamfer(size)
+            }
+            _ => Err(CornerError::Straight),
         }
         .map_err(|e| match e {
-            CornerError::ZeroLength => format!("{what}: a straight line of zero length meets the corner"),
-            CornerError::Straight => format!("{what}: the two lines make no corner"),
-            CornerError::TooLarge { needed, available } => format!(
+            CornerError::ZeroLength => format!("{what}: a contour element of zero length meets the corner"),
+            CornerError::Straight => format!("{what}: the two elements make no corner (they meet tangentially)"),
+            CornerError::TooLarge { needed, available } if lines => format!(
                 "{what} {size}: too large for the corner (it needs {needed:.4} mm along each line; the shorter line is {available:.4} mm)"
+            ),
+            CornerError::TooLarge { needed, available } => format!(
+                "{what} {size}: too large for the corner (it needs {needed:.4} mm from the corner; the element is {available:.4} mm)"
             ),
         })?;
         let at = |uv: [f64; 2]| from_plane(s.plane, [uv[0], uv[1], p[2]]);
         let t1 = at(inserted.from);
         let t2 = at(inserted.to);
+        if let (
+            "CR",
+            geometry::Element::Arc {
+                centre, clockwise, ..
+            },
+        ) = (kind, second)
+        {
+            // Written back, the CR starts where the rounding ends; the
+            // control computes its centre from there: it must be the same.
+            let again = radius_centre(
+                to_plane(s.plane, t2),
+                e,
+                value("R")?.unwrap_or(0.0) * scale,
+                clockwise,
+            );
+            if again.is_none_or(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > 1e-6) {
+                return Err(format!(
+                    "{what} before CR: from the rounding's end the CR's radius R picks another centre (its sign decides the arc's side of 180°)"
+                ));
+            }
+        }
         let points = match inserted.arc {
             Some((centre, clockwise)) => {
                 let (f, t) = (to_plane(s.plane, t1), to_plane(s.plane, t2));
@@ -897,19 +981,64 @@ impl KlMachine {
             }
             None => vec![t2],
         };
-        let tangent = [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]];
+        let tangent = match second {
+            geometry::Element::Line { .. } => {
+                [end[0] - s.pos[0], end[1] - s.pos[1], end[2] - s.pos[2]]
+            }
+            geometry::Element::Arc {
+                centre, clockwise, ..
+            } => {
+                let r = [inserted.to[0] - centre[0], inserted.to[1] - centre[1]];
+                let t = if clockwise {
+                    [r[1], -r[0], 0.0]
+                } else {
+                    [-r[1], r[0], 0.0]
+                };
+                from_plane(s.plane, t)
+            }
+        };
         Ok((t1, PendingCorner { points, tangent }))
     }
 
-    /// `APPR LT` / `DEP LT` (TNC 640 user's manual, "Approaching and
-    /// departing a contour"): `APPR LT X Y LEN` moves on a straight line to
-    /// the auxiliary point `LEN` before the first contour point `X Y`, on
-    /// the line tangent to the first contour element, then to that point;
-    /// `DEP LT LEN` moves `LEN` on in the direction of the last contour
-    /// element. With `R0` the control computes them for a tool of radius 0
-    /// (as does volcomp); `RL`/`RR` are refused as on every move. The other
-    /// forms (LN, CT, LCT, the polar PLT, PLN, PCT, PLCT) are refused naming
-    /// the form: not read yet.
+    /// `APPR`/`DEP` `LT`, `LN`, `CT`, `LCT` with `R0` (the control's
+    /// "Approaching and departing a contour": TNC 640 DIN/ISO user's manual
+    /// 1/2015 pp. 213 ff. for the positions PS, PH, PA, PE, PN and the
+    /// feeds; TNC7 user's manual 81762x-16/-18, "Approach function APPR
+    /// LN | CT | LCT", for each path; iTNC 530 user's manual 340 49x-03
+    /// p. 230):
+    /// - `APPR LT X Y LEN`: a straight line to the auxiliary point `PH`,
+    ///   `LEN` before the first contour point `PA` on the line of the first
+    ///   contour element, then to `PA`; `DEP LT LEN`: `LEN` on along the
+    ///   last element.
+    /// - `APPR LN X Y LEN`: `PH` is `LEN` from `PA` on the perpendicular to
+    ///   the first element; `DEP LN LEN`: to the point `LEN` from the last
+    ///   contour point `PE` on the perpendicular.
+    /// - `APPR CT X Y CCA R`: to `PH`, then on the arc of radius `R` and
+    ///   centre angle `CCA` tangent to the first element at `PA`; a negative
+    ///   `R` puts the arc on the other side; `DEP CT CCA R` likewise from
+    ///   `PE`, tangent to the last element.
+    /// - `APPR LCT X Y R`: a straight line tangent to the arc of radius `R`
+    ///   that is tangent to the first element at `PA`, then that arc;
+    ///   `DEP LCT X Y R`: the arc tangent to the last element, then the
+    ///   straight line tangent to it to the end point `PN`.
+    ///
+    /// The side of the contour (which the manual takes from `RL`/`RR`, and
+    /// with it the arcs' sense) is, with `R0`, volcomp's reading: for an
+    /// approach the side the starting point `PS` lies on (relative to the
+    /// first element's line; on the line: an error), for a departure the
+    /// side of the last approach (`RL`/`RR`, which would give it, also move
+    /// the path by the tool radius: refused as on every move). The TNC 640
+    /// and TNC7 stop `APPR CT` with `R0` with an error; the iTNC 530 runs
+    /// it: volcomp reads it as the iTNC 530. `PS` → `PH` runs at the feed
+    /// last programmed (at `FMAX` when the block before was rapid) for
+    /// `LT`, `LN`, `CT`, at the block's feed for `LCT` (iTNC 530 p. 230);
+    /// the rest at the block's feed. A tool-axis word in `APPR` is reached
+    /// on the way to `PH` (TNC7 "APPR LCT": "simultaneously in three axes";
+    /// the TNC 640 1/2015 text moves in the plane first: not followed,
+    /// kept as `APPR LT` read it before); `DEP LCT`'s tool-axis word is
+    /// reached after `PN` in the plane (TNC 640 1/2015 p. 213). The first
+    /// contour element after an `APPR` must be a straight line `L`. The
+    /// polar forms (`PLT`, `PLN`, `PCT`, `PLCT`) are refused, naming them.
     fn approach_departure(
         &self,
         c: &Ctx<'_>,
@@ -917,38 +1046,85 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let b = c.block;
-        let what = format!("{} {}", b.address(0), b.address(1));
-        if b.address(1) != "LT" {
+        let form = b.address(1);
+        let what = format!("{} {}", b.address(0), form);
+        if !matches!(form, "LT" | "LN" | "CT" | "LCT") {
             return Err(c.unread(&what, Some(1)));
         }
+        let approach = b.address(0) == "APPR";
+        // The feed and rapid of the block before (PS → PH).
+        let (feed_before, rapid_before) = (s.feed, s.last_rapid);
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 2)?;
         self.refuse_compensation(c, s)?;
         let scale = if s.inch { 25.4 } else { 1.0 };
-        let len = b
+        let word = |name: &str| {
+            b.tokens
+                .iter()
+                .position(|t| t.address == name && t.value.is_some())
+                .map(|k| c.value(k))
+                .transpose()
+        };
+        let needed = |name: &str, v: Option<f64>| {
+            v.ok_or_else(|| c.error(&format!("{what} without its {name}"), Some(0)))
+        };
+        // `R…` the radius (not the `R0` of the compensation).
+        let radius = b
             .tokens
             .iter()
-            .position(|t| t.address == "LEN")
-            .map(|k| c.value(k))
+            .enumerate()
+            .find(|(_, t)| {
+                t.address == "R"
+                    && t.value.is_some()
+                    && !(t.number() == Some(0.0) && t.value_span.len() == 1)
+            })
+            .map(|(k, _)| c.value(k))
             .transpose()?
-            .ok_or_else(|| c.error(&format!("{what} without its length LEN"), Some(0)))?
-            .abs()
-            * scale;
-        let unit = |d: [f64; 3]| {
-            let n = dot(d, d).sqrt();
-            (n > 1e-12).then(|| d.map(|x| x / n))
+            .map(|r| r * scale);
+        let len = match form {
+            "LT" | "LN" => Some(needed("length LEN", word("LEN")?)?.abs() * scale),
+            _ => None,
         };
-        let points = if b.address(0) == "APPR" {
+        let unit2 = |d: [f64; 3]| {
+            let n = d[0].hypot(d[1]);
+            (n > 1e-12).then(|| [d[0] / n, d[1] / n])
+        };
+        let plane = s.plane;
+        let at = |uv: [f64; 2], w: f64| from_plane(plane, [uv[0], uv[1], w]);
+        let block_feed = feed;
+        let before = if rapid_before {
+            Feed::Rapid
+        } else {
+            Feed::PerMinute(feed_before)
+        };
+        // (point, feed) in program coordinates, in order.
+        let mut path: Vec<([f64; 3], Feed)> = Vec::new();
+        let arc_points =
+            |centre: [f64; 2], from: [f64; 2], to: [f64; 2], clockwise: bool, w: f64| {
+                arc_chords(
+                    centre,
+                    [from[0], from[1], w],
+                    [to[0], to[1], w],
+                    clockwise,
+                    0,
+                    CHORD_TOLERANCE_MM,
+                )
+                .into_iter()
+                .map(|q| from_plane(plane, q))
+                .collect::<Vec<_>>()
+            };
+        if approach {
             let first = xyz_words(c, s.pos, scale, 2)?;
             // The first contour element: a straight line after the APPR block.
-            let direction = self
+            let end = self
                 .ahead
                 .as_ref()
                 .filter(|(_, next)| next.address(0) == "L")
-                .and_then(|(_, next)| {
-                    let end = xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok()?;
-                    unit([end[0] - first[0], end[1] - first[1], end[2] - first[2]])
-                })
+                .and_then(|(_, next)| xyz_words(&Ctx { block: next, ..*c }, first, scale, 1).ok());
+            let pa = to_plane(plane, first);
+            let direction = end
+                .map(|e| to_plane(plane, e))
+                .and_then(|e| unit2([e[0] - pa[0], e[1] - pa[1], 0.0]))
                 .ok_or_else(|| {
                     c.unread(
                         &format!(
@@ -957,28 +1133,183 @@ impl KlMachine {
                         Some(0),
                     )
                 })?;
-            let helper = [
-                first[0] - len * direction[0],
-                first[1] - len * direction[1],
-                first[2] - len * direction[2],
-            ];
-            s.tangent = Some(direction);
-            vec![helper, first]
+            let ps = to_plane(plane, s.pos);
+            let side = geometry::ContourContact::side_of([pa[0], pa[1]], direction, [ps[0], ps[1]]);
+            let contact = |left: bool| geometry::ContourContact {
+                point: [pa[0], pa[1]],
+                direction,
+                left,
+            };
+            let side_needed = || {
+                side.ok_or_else(|| {
+                    c.error(
+                        &format!(
+                            "{what} with R0: the starting point lies on the first contour element's line, so it gives no side of the contour"
+                        ),
+                        Some(0),
+                    )
+                })
+            };
+            match form {
+                "LT" => {
+                    let len = len.unwrap_or(0.0);
+                    let h = [pa[0] - len * direction[0], pa[1] - len * direction[1]];
+                    path.push((at(h, pa[2]), before));
+                    path.push((first, block_feed));
+                    s.contour_left = side;
+                }
+                "LN" => {
+                    let left = side_needed()?;
+                    let h = contact(left).perpendicular(len.unwrap_or(0.0));
+                    path.push((at(h, pa[2]), before));
+                    path.push((first, block_feed));
+                    s.contour_left = Some(left);
+                }
+                "CT" => {
+                    let left = side_needed()?;
+                    let r = needed("radius R", radius)?;
+                    let cca = needed("centre angle CCA", word("CCA")?)?;
+                    if !(cca > 0.0 && cca <= 360.0) {
+                        return Err(c.error(
+                            &format!(
+                                "{what}: the centre angle CCA must be above 0 and at most 360"
+                            ),
+                            Some(0),
+                        ));
+                    }
+                    // A negative R: the arc on the other side.
+                    let arc = contact(left != (r < 0.0)).tangent_arc(r, cca, true);
+                    path.push((at(arc.away, pa[2]), before));
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2])
+                    {
+                        path.push((p, block_feed));
+                    }
+                    s.contour_left = Some(left);
+                }
+                _ => {
+                    let left = side_needed()?;
+                    let r = needed("radius R", radius)?;
+                    let arc = contact(left)
+                        .line_and_arc(r, [ps[0], ps[1]], true)
+                        .ok_or_else(|| {
+                            c.error(&format!("{what}: the starting point lies within the arc's circle (no tangent line)"), Some(0))
+                        })?;
+                    path.push((at(arc.away, pa[2]), block_feed));
+                    for p in arc_points(arc.centre, arc.away, [pa[0], pa[1]], arc.clockwise, pa[2])
+                    {
+                        path.push((p, block_feed));
+                    }
+                    s.contour_left = Some(left);
+                }
+            }
+            s.tangent = Some(at(direction, 0.0));
         } else {
-            let direction = s.tangent.and_then(unit).ok_or_else(|| {
-                c.error(
-                    &format!("{what} needs a contour element before it (its direction)"),
-                    Some(0),
-                )
-            })?;
-            vec![[
-                s.pos[0] + len * direction[0],
-                s.pos[1] + len * direction[1],
-                s.pos[2] + len * direction[2],
-            ]]
-        };
-        event.moves = self.pieces(c, s, s.position, &points, feed)?;
-        s.pos = points[points.len() - 1];
+            let direction = s
+                .tangent
+                .map(|t| to_plane(plane, t))
+                .and_then(unit2)
+                .ok_or_else(|| {
+                    c.error(
+                        &format!("{what} needs a contour element before it (its direction)"),
+                        Some(0),
+                    )
+                })?;
+            let pe = to_plane(plane, s.pos);
+            let left = || {
+                s.contour_left.ok_or_else(|| {
+                    c.error(
+                        &format!(
+                            "{what} with R0: no side of the contour (volcomp takes it from an APPR LN, CT or LCT before; RL/RR would give it)"
+                        ),
+                        Some(0),
+                    )
+                })
+            };
+            let contact = |left: bool| geometry::ContourContact {
+                point: [pe[0], pe[1]],
+                direction,
+                left,
+            };
+            match form {
+                "LT" => {
+                    let len = len.unwrap_or(0.0);
+                    path.push((
+                        at(
+                            [pe[0] + len * direction[0], pe[1] + len * direction[1]],
+                            pe[2],
+                        ),
+                        block_feed,
+                    ));
+                }
+                "LN" => {
+                    let n = contact(left()?).perpendicular(len.unwrap_or(0.0));
+                    path.push((at(n, pe[2]), block_feed));
+                }
+                "CT" => {
+                    let r = needed("radius R", radius)?;
+                    let cca = needed("centre angle CCA", word("CCA")?)?;
+                    if !(cca > 0.0 && cca <= 360.0) {
+                        return Err(c.error(
+                            &format!(
+                                "{what}: the centre angle CCA must be above 0 and at most 360"
+                            ),
+                            Some(0),
+                        ));
+                    }
+                    let arc = contact(left()? != (r < 0.0)).tangent_arc(r, cca, false);
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2])
+                    {
+                        path.push((p, block_feed));
+                    }
+                }
+                _ => {
+                    let r = needed("radius R", radius)?;
+                    let pn = to_plane(plane, xyz_words(c, s.pos, scale, 2)?);
+                    let arc = contact(left()?)
+                        .line_and_arc(r, [pn[0], pn[1]], false)
+                        .ok_or_else(|| {
+                            c.error(&format!("{what}: the end point lies within the arc's circle (no tangent line)"), Some(0))
+                        })?;
+                    for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2])
+                    {
+                        path.push((p, block_feed));
+                    }
+                    path.push((at([pn[0], pn[1]], pe[2]), block_feed));
+                    if (pn[2] - pe[2]).abs() > 0.0 {
+                        path.push((at([pn[0], pn[1]], pn[2]), block_feed));
+                    }
+                }
+            }
+            if let [.., a, b] = path.as_slice() {
+                let d = [b.0[0] - a.0[0], b.0[1] - a.0[1], b.0[2] - a.0[2]];
+                if dot(d, d) > 0.0 {
+                    s.tangent = Some(d);
+                }
+            } else if let Some((p, _)) = path.first() {
+                let d = [p[0] - s.pos[0], p[1] - s.pos[1], p[2] - s.pos[2]];
+                if dot(d, d) > 0.0 {
+                    s.tangent = Some(d);
+                }
+            }
+        }
+        let mut moves = Vec::with_capacity(path.len());
+        let mut steps = Vec::with_capacity(path.len());
+        let mut start = s.position;
+        for (p, f) in &path {
+            if let Feed::PerMinute(v) = f
+                && *v <= 0.0
+            {
+                return Err(c.error("a feed move without a feed rate (F)", Some(0)));
+            }
+            let (motion, step) = self.piece(c, s, start, *p, *f)?;
+            start = motion.end;
+            moves.push(motion);
+            steps.push(step);
+        }
+        event.moves = Moves::Cycle { moves, steps };
+        if let Some((p, _)) = path.last() {
+            s.pos = *p;
+        }
         self.m_codes(c, s, event, Some(2))
     }
 
@@ -1052,7 +1383,9 @@ impl KlMachine {
             Some(Err(why)) => return Err(c.error(&why, Some(0))),
             None => {
                 return Err(c.error(
-                    &format!("{what} must follow a straight line (L) in the working plane"),
+                    &format!(
+                        "{what} must follow a straight line (L) or an arc in the working plane"
+                    ),
                     Some(0),
                 ));
             }
@@ -1409,19 +1742,6 @@ impl KlMachine {
         let feed = self.block_feed(c, s, 1)?;
         self.refuse_compensation(c, s)?;
         let target = from_plane(s.plane, end);
-        if tilted {
-            let feed = if feed == Feed::Rapid {
-                Feed::PerMinute(self.setup.rapid_mm_per_min)
-            } else {
-                feed
-            };
-            let points: Vec<[f64; 3]> =
-                arc_chords(centre, cur, end, clockwise, turns, CHORD_TOLERANCE_MM)
-                    .into_iter()
-                    .map(|q| from_plane(s.plane, q))
-                    .collect();
-            event.moves = self.pieces(c, s, s.position, &points, feed)?;
-        }
         let centre_prog = from_plane(s.plane, [centre[0], centre[1], cur[2]]);
         let start = s.position;
         let end_axes = self.to_frame(s, target, s.rot);
@@ -1435,8 +1755,54 @@ impl KlMachine {
         };
         s.tangent = Some(from_plane(s.plane, tan));
         s.pos = target;
-        if tilted {
+        // A rounding next (`RND`, read after an arc of less than a full
+        // turn in the working plane): the arc ends at its tangent point.
+        let planned = match &self.ahead {
+            Some((corner, next)) if matches!(corner.address(0), "RND" | "CHF") => {
+                Some(if turns > 0 || (end[2] - cur[2]).abs() > 1e-9 {
+                    Err(format!(
+                        "{}: volcomp reads it after an arc of less than a full turn in the working plane (not after a helix)",
+                        corner.address(0)
+                    ))
+                } else {
+                    let first = geometry::Element::Arc {
+                        centre,
+                        clockwise,
+                        other: [cur[0], cur[1]],
+                    };
+                    self.plan_corner(c, s, corner, next, first, cur[2], false)
+                })
+            }
+            _ => None,
+        };
+        let arc_end = planned
+            .as_ref()
+            .and_then(|p| p.as_ref().ok())
+            .map(|(t1, _)| to_plane(s.plane, *t1));
+        if let Some(p) = planned {
+            s.corner = Some(p.map(|(_, q)| q));
+        }
+        if tilted || arc_end.is_some() {
+            // As chords (in a tilted plane the arc lies in it; an arc ended
+            // early is written back flat, as the line before a rounding).
             let _ = end_axes;
+            let feed = if feed == Feed::Rapid {
+                Feed::PerMinute(self.setup.rapid_mm_per_min)
+            } else {
+                feed
+            };
+            let points: Vec<[f64; 3]> = arc_chords(
+                centre,
+                cur,
+                arc_end.unwrap_or(end),
+                clockwise,
+                turns,
+                CHORD_TOLERANCE_MM,
+            )
+            .into_iter()
+            .map(|q| from_plane(s.plane, q))
+            .collect();
+            event.moves = self.pieces(c, s, start, &points, feed)?;
             return self.m_codes(c, s, event, Some(1));
         }
         let kind = MotionKind::Arc {
@@ -1858,16 +2224,28 @@ impl KlMachine {
         } else {
             PlaneMode::Turn
         };
-        if let Some(k) = has("MB")
-            && b.tokens[k].value.is_some()
-            && c.value(k)? != 0.0
-        {
-            return Err(c.unread("PLANE … MB (a retraction before tilting)", Some(k)));
-        }
-        if let Some(k) = has("MB")
-            && b.address(k + 1) == "MAX"
-        {
-            return Err(c.unread("PLANE … MB MAX (a retraction before tilting)", Some(k)));
+        // `MB`: the retraction before tilting (TNC 620 conversational
+        // user's manual 10/2017 p. 556: "effective incrementally from the
+        // current tool position in the active tool axis direction that the
+        // control approaches before tilting"; asked for with MOVE and TURN).
+        let mut retract = None;
+        if let Some(k) = has("MB") {
+            if b.address(k + 1) == "MAX" {
+                return Err(c.unread(
+                    "PLANE … MB MAX (a retraction to just before the software limit switch: the machine's travel limits are not read for Klartext)",
+                    Some(k),
+                ));
+            }
+            let d = c.value(k)? * scale;
+            if d != 0.0 {
+                if mode == PlaneMode::Stay {
+                    return Err(c.unread(
+                        "PLANE … STAY with MB (the retraction belongs to MOVE or TURN positioning)",
+                        Some(k),
+                    ));
+                }
+                retract = Some(d);
+            }
         }
         let seq = match b
             .tokens
@@ -1899,6 +2277,7 @@ impl KlMachine {
         let _ = axial;
         Ok(Positioning {
             mode,
+            retract,
             seq,
             table_rot: table_rot.then(|| has("TABLE").unwrap_or(0)),
             feed,
@@ -1985,7 +2364,25 @@ impl KlMachine {
     ) -> Result<(), GcodeError> {
         let pre = self.setup.preset;
         let tilt = tilt.filter(|r| *r != IDENTITY);
-        let here = s.position;
+        let mut here = s.position;
+        // `MB`: the control first retracts along the tool axis active
+        // before tilting (the tilted plane's, else the TOOL CALL's axis: for
+        // a head turned without a plane this is the machine's axis, not the
+        // spindle's). A positioning leg of the control, as `TURN`'s: not
+        // compensated, reported with it (dialects.md, Heidenhain "Positions").
+        let mut legs = Vec::new();
+        if let Some(d) = how.retract {
+            let n = from_plane(s.plane, [0.0, 0.0, 1.0]);
+            let axis = s.tilt.map_or(n, |r| mat_vec(&r, n));
+            let end = Axes {
+                x: here.x + d * axis[0],
+                y: here.y + d * axis[1],
+                z: here.z + d * axis[2],
+                ..here
+            };
+            legs.push(self.straight(self.frame_of(s), false, here, end, how.feed));
+            here = end;
+        }
         let mut tip = here.xyz();
         s.tilt = tilt;
         if tilt.is_none() {
@@ -2027,12 +2424,14 @@ impl KlMachine {
                         c: j.c,
                         ..here
                     };
-                    let m = self.straight(frame, false, here, end, how.feed);
-                    event.moves = Moves::Home(vec![m]);
+                    legs.push(self.straight(frame, false, here, end, how.feed));
                     s.rot = [j.a - pre.a, j.b - pre.b, j.c - pre.c];
                 }
                 _ => {}
             }
+        }
+        if !legs.is_empty() {
+            event.moves = Moves::Home(legs);
         }
         // The program position in the new frame: where the tip is.
         let base = [
@@ -2089,6 +2488,7 @@ impl KlMachine {
             }
         }
         let how = Positioning {
+            retract: None,
             mode: if feed.is_some() {
                 PlaneMode::Turn
             } else {
@@ -2144,6 +2544,8 @@ enum PlaneMode {
 #[derive(Clone, Copy, Debug)]
 struct Positioning {
     mode: PlaneMode,
+    /// `MB`: the retraction along the active tool axis before tilting, mm.
+    retract: Option<f64>,
     seq: Branch,
     /// `TABLE ROT` given: its token.
     table_rot: Option<usize>,

@@ -7,7 +7,7 @@
 //! - `language`: Q parameters, `FN` functions and jumps, labels, `CALL LBL`
 //!   repeats and subprograms, `CALL PGM` → executed blocks in order;
 //! - `geometry`: the rotation of each `PLANE` form, `RND`/`CHF` corners,
-//!   arcs as chords (pure functions);
+//!   `APPR`/`DEP` paths, arcs as chords (pure functions);
 //! - `machine`: the TNC's state (pole, feeds, datum shift, working plane,
 //!   tool-tip control, tools, the defined cycle) → [`BlockEvent`]s;
 //! - `cycles`: machining cycles (`CYCL DEF 200 …`, `PATTERN DEF`) expanded
@@ -340,12 +340,12 @@ impl KlartextFront {
         }
     }
 
-    /// After a straight line `L` at `index`: the `RND`/`CHF` block right
-    /// after it and the block after that (the corner the control inserts
-    /// needs both lines).
+    /// After a straight line `L` or an arc at `index`: the `RND`/`CHF`
+    /// block right after it and the block after that (the corner the
+    /// control inserts needs both elements).
     fn corner_ahead(&self, file: usize, index: usize) -> Option<(KlBlock, KlBlock)> {
         let first = self.parsed.address(0);
-        if first != "L" && first != "APPR" {
+        if !matches!(first, "L" | "APPR" | "C" | "CR" | "CT" | "CP") {
             return None;
         }
         let source = &self.language.files[file];

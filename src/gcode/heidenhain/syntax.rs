@@ -356,6 +356,20 @@ fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
             }
             k += 1;
         }
+        // `Q201= -48` (hyperMILL pads a cycle parameter's value): the
+        // parameter and the number after the spaces are one word.
+        if bytes[k - 1] == b'=' && k - start > 1 && read_param(&code[start..k - 1]).is_some() {
+            let mut j = k;
+            while j < bytes.len() && bytes[j] == b' ' {
+                j += 1;
+            }
+            if j > k && j < bytes.len() && matches!(bytes[j], b'+' | b'-' | b'.' | b'0'..=b'9') {
+                k = j;
+                while k < bytes.len() && bytes[k] != b' ' {
+                    k += 1;
+                }
+            }
+        }
         // `DR+F2777`, `DR+FQ1`: a direction sign with the feed written on
         // (hyperMILL writes it so): two words, `DR+` and `F…`.
         let w = &bytes[start..k];
@@ -420,8 +434,10 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
     let mut v = &text[k..];
     let mut v_at = at + k;
     if let Some(s) = v.strip_prefix('=') {
-        v = s;
-        v_at += 1;
+        // After spaces (`Q201= -48`: one word, see `tokenize`).
+        let value = s.trim_start_matches(' ');
+        v_at += 1 + s.len() - value.len();
+        v = value;
     }
     let value_span = if v.is_empty() {
         raw_end..raw_end
@@ -932,6 +948,35 @@ mod tests {
     }
 
     use super::*;
+
+    /// `Q201= -48` (hyperMILL pads a cycle parameter's value): one token,
+    /// the parameter with its value, spanning the number; a Q formula's
+    /// `Q1 = Q2` and a `=` before a word are left as they were.
+    #[test]
+    fn padded_parameter_value_is_one_token() {
+        let b = parse_block(b"7 CYCL DEF 209 X~\n Q200=  3 ;A~\n Q201= -48 ;B~\n Q239=+2");
+        let q: Vec<(String, Option<f64>)> = b.tokens[3..]
+            .iter()
+            .filter(|t| t.address.starts_with('Q'))
+            .map(|t| (t.address.to_string(), t.number()))
+            .collect();
+        assert_eq!(
+            q,
+            vec![
+                ("Q200".into(), Some(3.0)),
+                ("Q201".into(), Some(-48.0)),
+                ("Q239".into(), Some(2.0))
+            ]
+        );
+        let raw = b"7 CYCL DEF 209 X~\n Q200=  3 ;A~\n Q201= -48 ;B~\n Q239=+2";
+        let t = b.tokens.iter().find(|t| t.address == "Q201").unwrap();
+        assert_eq!(&raw[t.value_span.clone()], b"-48");
+        assert_eq!(b.tokens.len(), 7);
+        let f = parse_block(b"8 Q1 = Q2 + 3");
+        assert_eq!(f.tokens.len(), 5);
+        let f = parse_block(b"8 Q1= SIN(30)");
+        assert_eq!(f.tokens.len(), 2);
+    }
 
     #[test]
     fn linear_block_tokens() {
