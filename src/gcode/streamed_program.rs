@@ -14,12 +14,13 @@ use crate::gcode::language::ProgramInput;
 use crate::gcode::syntax::block::LineEnding;
 
 /// Read `input` from its position to its end, a line at a time (without
-/// its `\n`; a `\r` before it kept), calling `each` on every line: the
+/// its `\n`; a `\r` before it kept), calling `each` on every line and
+/// whether a `\n` ended it: the
 /// number of lines (as the held fronts split a text: a last line without
 /// `\n` counts), or `None` as soon as `each` returns `false`.
 pub(crate) fn scan_lines(
     input: &mut dyn BufRead,
-    mut each: impl FnMut(&[u8]) -> bool,
+    mut each: impl FnMut(&[u8], bool) -> bool,
 ) -> io::Result<Option<usize>> {
     let mut count = 0usize;
     // A line that runs over the input's buffer, gathered here.
@@ -33,7 +34,7 @@ pub(crate) fn scan_lines(
         if buf.is_empty() {
             if !partial.is_empty() {
                 count += 1;
-                if !each(&partial) {
+                if !each(&partial, false) {
                     return Ok(None);
                 }
             }
@@ -45,10 +46,10 @@ pub(crate) fn scan_lines(
             let line = &buf[at..at + k];
             count += 1;
             let go_on = if partial.is_empty() {
-                each(line)
+                each(line, true)
             } else {
                 partial.extend_from_slice(line);
-                let go_on = each(&partial);
+                let go_on = each(&partial, true);
                 partial.clear();
                 go_on
             };
@@ -97,6 +98,30 @@ impl LineStream {
         }
     }
 
+    /// Whether the input has no byte after the lines read.
+    pub(crate) fn at_end(&mut self) -> io::Result<bool> {
+        loop {
+            match self.input.fill_buf() {
+                Ok(b) => return Ok(b.is_empty()),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    /// The index of the next line [`LineStream::read_line`] reads in order.
+    pub(crate) fn next_index(&self) -> usize {
+        self.next_index
+    }
+
+    /// Read from the first line again.
+    pub(crate) fn restart(&mut self) -> io::Result<()> {
+        self.input.seek(SeekFrom::Start(self.start))?;
+        self.next_offset = 0;
+        self.next_index = 0;
+        Ok(())
+    }
+
     /// Line `index` into `buf` (replacing it; its ending included): the
     /// next line in order, or, for any other line, read again from the
     /// start. `None` past the end.
@@ -106,13 +131,11 @@ impl LineStream {
         buf: &mut Vec<u8>,
     ) -> io::Result<Option<StreamedLine>> {
         if index < self.next_index {
-            self.input.seek(SeekFrom::Start(self.start))?;
-            self.next_offset = 0;
-            self.next_index = 0;
+            self.restart()?;
         }
         loop {
             buf.clear();
-            let n = self.input.read_until(b'\n', buf)?;
+            let n = read_until_newline(&mut *self.input, buf)?;
             if n == 0 {
                 return Ok(None);
             }
@@ -146,6 +169,33 @@ impl LineStream {
     }
 }
 
+/// `BufRead::read_until(b'\n', buf)`, its search vectorised.
+fn read_until_newline(input: &mut dyn BufRead, buf: &mut Vec<u8>) -> io::Result<usize> {
+    let mut read = 0;
+    loop {
+        let available = match input.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        let (done, used) = match memchr::memchr(b'\n', available) {
+            Some(k) => {
+                buf.extend_from_slice(&available[..=k]);
+                (true, k + 1)
+            }
+            None => {
+                buf.extend_from_slice(available);
+                (available.is_empty(), available.len())
+            }
+        };
+        input.consume(used);
+        read += used;
+        if done {
+            return Ok(read);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,7 +203,7 @@ mod tests {
     fn lines(text: &[u8]) -> Vec<Vec<u8>> {
         let mut out = Vec::new();
         let mut input = io::BufReader::with_capacity(4, text);
-        let count = scan_lines(&mut input, |l| {
+        let count = scan_lines(&mut input, |l, _| {
             out.push(l.to_vec());
             true
         })

@@ -295,7 +295,7 @@ impl SourceFile {
         let Ok(start) = input.stream_position() else {
             return Err(input);
         };
-        let scan = crate::gcode::streamed_program::scan_lines(&mut input, |raw| {
+        let scan = crate::gcode::streamed_program::scan_lines(&mut input, |raw, _| {
             !may_leave_the_sequence(raw)
         });
         // Back to the start: read again as it runs, or whole (where an
