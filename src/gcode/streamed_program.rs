@@ -130,11 +130,23 @@ impl LineStream {
         index: usize,
         buf: &mut Vec<u8>,
     ) -> io::Result<Option<StreamedLine>> {
+        buf.clear();
+        self.append_line(index, buf)
+    }
+
+    /// [`LineStream::read_line`], the line appended to `buf` (its
+    /// [`StreamedLine::len`] counted from where it starts there).
+    pub(crate) fn append_line(
+        &mut self,
+        index: usize,
+        buf: &mut Vec<u8>,
+    ) -> io::Result<Option<StreamedLine>> {
         if index < self.next_index {
             self.restart()?;
         }
+        let at = buf.len();
         loop {
-            buf.clear();
+            buf.truncate(at);
             let n = read_until_newline(&mut *self.input, buf)?;
             if n == 0 {
                 return Ok(None);
@@ -150,15 +162,16 @@ impl LineStream {
             if line.index < index {
                 continue;
             }
-            let (len, ending) = if buf.last() == Some(&b'\n') {
-                let eol = buf.len() - 1;
-                if eol > 0 && buf[eol - 1] == b'\r' {
+            let line_bytes = &buf[at..];
+            let (len, ending) = if line_bytes.last() == Some(&b'\n') {
+                let eol = line_bytes.len() - 1;
+                if eol > 0 && line_bytes[eol - 1] == b'\r' {
                     (eol - 1, LineEnding::CrLf)
                 } else {
                     (eol, LineEnding::Lf)
                 }
             } else {
-                (buf.len(), LineEnding::None)
+                (line_bytes.len(), LineEnding::None)
             };
             return Ok(Some(StreamedLine {
                 len,

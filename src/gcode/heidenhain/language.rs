@@ -208,7 +208,13 @@ impl Source {
     pub fn fill(&mut self, from: usize, to: usize) -> Result<(), GcodeError> {
         match &mut self.window {
             Some(w) => w.fill(from, to).map_err(|e| {
-                GcodeError::at(ErrorKind::Io(e.to_string()), w.last_line().unwrap_or(1), b"", 0, 0)
+                GcodeError::at(
+                    ErrorKind::Io(e.to_string()),
+                    w.last_line().unwrap_or(1),
+                    b"",
+                    0,
+                    0,
+                )
             }),
             None => Ok(()),
         }

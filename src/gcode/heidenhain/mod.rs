@@ -148,7 +148,11 @@ impl KlartextFront {
         let (file, pc) = (lang.file, lang.pc);
         // A streamed program: this block, the ones passed over before it,
         // and the corner look-ahead's (`corner_ahead`: up to 32 after).
-        let from = if file == 0 { pc.min(lang.next_literal) } else { pc };
+        let from = if file == 0 {
+            pc.min(lang.next_literal)
+        } else {
+            pc
+        };
         lang.files[file].fill(from, pc + CORNER_AHEAD)?;
         let count = lang.files[file].len();
         if pc >= count {
@@ -432,9 +436,8 @@ fn streamed_main(
         return Err(input);
     };
     let mut numbers = NumberCheck::default();
-    let window = streamed_source::Window::scan(input, start, |raw, line| {
-        numbers.block(raw, line).is_ok()
-    })?;
+    let window =
+        streamed_source::Window::scan(input, start, |raw, line| numbers.block(raw, line).is_ok())?;
     Ok(Source {
         name: name.to_string(),
         path: Some(path.to_path_buf()),

@@ -17,7 +17,6 @@ use crate::gcode::syntax::block::LineEnding;
 /// Logical blocks (a line and its `~` continuation lines) read in order.
 struct BlockStream {
     lines: LineStream,
-    line_buf: Vec<u8>,
 }
 
 impl BlockStream {
@@ -29,12 +28,12 @@ impl BlockStream {
         let mut first: Option<(u64, usize)> = None;
         loop {
             let k = self.lines.next_index();
-            let Some(l) = self.lines.read_line(k, &mut self.line_buf)? else {
+            let content_at = text.len();
+            let Some(l) = self.lines.append_line(k, text)? else {
+                text.truncate(at);
                 return Ok(None);
             };
             let (start, line) = *first.get_or_insert((l.offset, k + 1));
-            let content_at = text.len();
-            text.extend_from_slice(&self.line_buf);
             let content_end = content_at + l.len;
             // `Source::new`: a line ending in `~` continues, unless no byte follows it.
             let continues = text[at..content_end].trim_ascii_end().ends_with(b"~")
@@ -149,7 +148,6 @@ impl Window {
         Ok(Window {
             blocks: BlockStream {
                 lines: LineStream::new(input, start),
-                line_buf: Vec::new(),
             },
             count,
             last_line,
@@ -223,5 +221,60 @@ impl Window {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::heidenhain::language::Source;
+    use std::io::Read;
+
+    fn window(text: &[u8]) -> Result<Window, Box<dyn ProgramInput>> {
+        let input = Box::new(io::BufReader::with_capacity(
+            8,
+            io::Cursor::new(text.to_vec()),
+        ));
+        Window::scan(input, 0, |_, _| true)
+    }
+
+    #[test]
+    fn streamed_blocks_are_the_held_ones() {
+        for text in [
+            &b"0 BEGIN PGM T MM\r\n1 L X+1 ~\r\n  Y+2 F100\r\n2 L X+3 ~\r\n3 END PGM T MM ~\r\n"[..],
+            b"0 BEGIN PGM T MM\n1 L X+1 ~\n\n2 L Y+2\n3 END PGM T MM",
+            b"0 BEGIN PGM T MM\n1 L X+1 ~",
+            b"",
+        ] {
+            let held = Source::new("t".into(), None, text.to_vec()).unwrap();
+            let mut w = window(text).ok().unwrap();
+            assert_eq!(w.len(), held.blocks.len());
+            assert_eq!(w.last_line(), held.blocks.last().map(|b| b.line));
+            for k in 0..held.blocks.len() {
+                w.fill(k, k + 2).unwrap();
+                let (a, b) = (w.block(k).unwrap(), held.blocks[k]);
+                assert_eq!(
+                    (a.start, a.end, a.ending, a.line),
+                    (b.start, b.end, b.ending, b.line)
+                );
+                assert_eq!(w.raw(k), held.raw(k));
+            }
+            // Back before the window: read from the start again.
+            w.fill(0, 1).unwrap();
+            assert_eq!(w.raw(0), held.raw(0));
+        }
+    }
+
+    #[test]
+    fn a_program_with_a_label_or_a_refused_block_is_held() {
+        assert!(window(b"0 BEGIN PGM T MM\n1 lbl 1\n2 END PGM T MM\n").is_err());
+        let input = Box::new(io::Cursor::new(b"0 BEGIN PGM T MM\n".to_vec()));
+        let mut input = match Window::scan(input, 0, |_, _| false) {
+            Ok(_) => panic!("a block the caller refused"),
+            Err(input) => input,
+        };
+        let mut all = Vec::new();
+        input.read_to_end(&mut all).unwrap();
+        assert_eq!(all, b"0 BEGIN PGM T MM\n");
     }
 }

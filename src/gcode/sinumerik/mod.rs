@@ -131,9 +131,9 @@ fn may_leave_the_sequence(raw: &[u8]) -> bool {
         matches!(
             code[i].to_ascii_uppercase(),
             b'G' | b'C' | b'R' | b'I' | b'E' | b'W' | b'F' | b'U' | b'L'
-        ) && NAMES.iter().any(|n| {
-            code.len() - i >= n.len() && code[i..i + n.len()].eq_ignore_ascii_case(n)
-        })
+        ) && NAMES
+            .iter()
+            .any(|n| code.len() - i >= n.len() && code[i..i + n.len()].eq_ignore_ascii_case(n))
     })
 }
 
@@ -306,17 +306,17 @@ impl SourceFile {
         };
         let lines = crate::gcode::streamed_program::LineStream::new(input, start);
         Ok(SourceFile {
-                name: name.to_string(),
-                called_as: String::new(),
-                text: Vec::new(),
-                lines: Vec::new(),
-                partner: HashMap::new(),
-                labels: HashMap::new(),
-                stream: Some(Box::new(MainStream {
-                    lines,
-                    count,
-                    loaded: None,
-                })),
+            name: name.to_string(),
+            called_as: String::new(),
+            text: Vec::new(),
+            lines: Vec::new(),
+            partner: HashMap::new(),
+            labels: HashMap::new(),
+            stream: Some(Box::new(MainStream {
+                lines,
+                count,
+                loaded: None,
+            })),
         })
     }
 
@@ -343,7 +343,13 @@ impl SourceFile {
                 s.loaded = line;
                 Ok(())
             }
-            Err(e) => Err(GcodeError::at(ErrorKind::Io(e.to_string()), k + 1, b"", 0, 0)),
+            Err(e) => Err(GcodeError::at(
+                ErrorKind::Io(e.to_string()),
+                k + 1,
+                b"",
+                0,
+                0,
+            )),
         }
     }
 
@@ -503,6 +509,34 @@ fn opener_name(s: Structure) -> &'static str {
         Structure::Repeat => "REPEAT",
         Structure::Loop => "LOOP",
         _ => "?",
+    }
+}
+
+#[cfg(test)]
+mod streaming_tests {
+    #[test]
+    fn lines_that_may_leave_the_sequence_are_found() {
+        use super::may_leave_the_sequence as leaves;
+        for line in [
+            "N10 G1 X1 Y2 Z3 A0 C0 F800",
+            "G0 X0 Y0 Z20 ; a comment",
+            "T1 M6 S1000 M3",
+            "R1=R1+1",
+        ] {
+            assert!(!leaves(line.as_bytes()), "{line}");
+        }
+        for line in [
+            "N10 gotob start",
+            "START: G1 X1",
+            "IF R1>2",
+            "endwhile",
+            "N20 REPEATB A P=2",
+            "CASE R1 OF 1 GOTOF A DEFAULT GOTOF B",
+            "LOOP",
+            "MSG(\"a;\") GOTOF A",
+        ] {
+            assert!(leaves(line.as_bytes()), "{line}");
+        }
     }
 }
 
@@ -899,7 +933,14 @@ impl SinumerikFront {
         let offset = self.files[file].offset(k);
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
-        raw.extend_from_slice(&self.files[file].text[s..e]);
+        let streamed = self.files[file].stream.is_some();
+        if streamed {
+            // The line read is the file's text: run it there, no copy.
+            std::mem::swap(&mut raw, &mut self.files[file].text);
+            raw.truncate(e);
+        } else {
+            raw.extend_from_slice(&self.files[file].text[s..e]);
+        }
         let mut line = LineRun {
             raw: &raw,
             line: k + 1,
@@ -907,6 +948,10 @@ impl SinumerikFront {
             first_reading,
         };
         let handed = self.run_line(&mut line, interpreter);
+        if streamed {
+            // Back (without its ending, which `line` no longer reads).
+            std::mem::swap(&mut raw, &mut self.files[file].text);
+        }
         self.line_buf = raw;
         let handed = handed?;
         if handed {
