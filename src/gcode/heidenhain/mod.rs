@@ -16,7 +16,8 @@
 //!   style).
 //!
 //! The front ([`KlartextFront`]) reads the whole program into memory (a
-//! Klartext program's jumps and labels go both ways) and hands on one
+//! Klartext program's jumps and labels go both ways; one without labels
+//! is read as it runs: `streamed_source`) and hands on one
 //! block at a time: the main program's blocks read once in sequence as
 //! written (`literal`), blocks run again or from a call as flat copies
 //! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
