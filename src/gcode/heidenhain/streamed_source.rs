@@ -261,7 +261,9 @@ mod tests {
             }
             // Back before the window: read from the start again.
             w.fill(0, 1).unwrap();
-            assert_eq!(w.raw(0), held.raw(0));
+            if !held.blocks.is_empty() {
+                assert_eq!(w.raw(0), held.raw(0));
+            }
         }
     }
 
