@@ -50,6 +50,7 @@ pub(crate) mod heidenhain;
 pub(crate) mod language;
 pub(crate) mod machine;
 pub(crate) mod sinumerik;
+pub(crate) mod streamed_program;
 pub(crate) mod summary;
 pub(crate) mod syntax;
 pub(crate) mod write;

@@ -91,6 +91,10 @@ pub(crate) struct Source {
     pub text: Vec<u8>,
     pub blocks: Vec<BlockRef>,
     pub labels: HashMap<Label, usize>,
+    /// A main program without labels read as it runs
+    /// ([`super::streamed_source`]): `text` and `blocks` are then empty
+    /// and this holds the blocks around the one running.
+    pub window: Option<Box<super::streamed_source::Window>>,
 }
 
 impl Source {
@@ -159,12 +163,61 @@ impl Source {
             text,
             blocks,
             labels,
+            window: None,
         })
     }
 
     pub fn raw(&self, index: usize) -> &[u8] {
+        if let Some(w) = &self.window {
+            return w.raw(index);
+        }
         let b = &self.blocks[index];
         &self.text[b.start..b.end]
+    }
+
+    /// Its number of blocks.
+    pub fn len(&self) -> usize {
+        match &self.window {
+            Some(w) => w.len(),
+            None => self.blocks.len(),
+        }
+    }
+
+    /// Block `index` (of a streamed program: one held, else an empty one).
+    pub fn block(&self, index: usize) -> BlockRef {
+        match &self.window {
+            Some(w) => w.block(index).unwrap_or(BlockRef {
+                start: 0,
+                end: 0,
+                ending: LineEnding::None,
+                line: 0,
+            }),
+            None => self.blocks[index],
+        }
+    }
+
+    /// The line of its last block.
+    pub fn last_line(&self) -> Option<usize> {
+        match &self.window {
+            Some(w) => w.last_line(),
+            None => self.blocks.last().map(|b| b.line),
+        }
+    }
+
+    /// Make blocks `from..to` readable (a streamed program reads them).
+    pub fn fill(&mut self, from: usize, to: usize) -> Result<(), GcodeError> {
+        match &mut self.window {
+            Some(w) => w.fill(from, to).map_err(|e| {
+                GcodeError::at(
+                    ErrorKind::Io(e.to_string()),
+                    w.last_line().unwrap_or(1),
+                    b"",
+                    0,
+                    0,
+                )
+            }),
+            None => Ok(()),
+        }
     }
 }
 
@@ -279,7 +332,7 @@ impl Language {
             let raw = source.raw(pc);
             return Err(GcodeError::at(
                 ErrorKind::EndlessProgram(self.max_executed),
-                source.blocks[pc].line,
+                source.block(pc).line,
                 raw,
                 0,
                 raw.len(),
@@ -299,7 +352,7 @@ impl Language {
 
     fn error(&self, message: String, block: &KlBlock) -> GcodeError {
         let source = &self.files[self.file];
-        let r = source.blocks[self.pc];
+        let r = source.block(self.pc);
         let raw = source.raw(self.pc);
         let span = block
             .tokens

@@ -16,7 +16,8 @@
 //!   style).
 //!
 //! The front ([`KlartextFront`]) reads the whole program into memory (a
-//! Klartext program's jumps and labels go both ways) and hands on one
+//! Klartext program's jumps and labels go both ways; one without labels
+//! is read as it runs: `streamed_source`) and hands on one
 //! block at a time: the main program's blocks read once in sequence as
 //! written (`literal`), blocks run again or from a call as flat copies
 //! (`; volcomp: line N`), a taken jump or call as a `; volcomp:` comment
@@ -25,6 +26,7 @@ pub(crate) mod cycles;
 pub(crate) mod geometry;
 pub(crate) mod language;
 pub(crate) mod machine;
+pub(crate) mod streamed_source;
 pub(crate) mod syntax;
 pub(crate) mod write;
 
@@ -38,6 +40,10 @@ use crate::gcode::error::{ErrorKind, GcodeError};
 use crate::gcode::language::{Executed, LanguageOptions, ProgramInput};
 use crate::gcode::machine::interpret::{BlockEvent, InterpretOptions};
 use crate::gcode::syntax::block::{Block, LineEnding, Word};
+
+/// The blocks after a straight line that [`KlartextFront::corner_ahead`]
+/// may read (two searches of 16), and the block itself.
+const CORNER_AHEAD: usize = 33;
 
 /// The Klartext front of a run.
 pub(crate) struct KlartextFront {
@@ -64,34 +70,20 @@ pub(crate) struct KlartextFront {
 impl KlartextFront {
     /// Read `input` (named `path`) whole and prepare the run.
     pub(crate) fn new(
-        mut input: Box<dyn ProgramInput>,
+        input: Box<dyn ProgramInput>,
         path: &Path,
         language: &LanguageOptions,
         options: &InterpretOptions,
         setup: &crate::gcode::ProgramSetup,
     ) -> Self {
-        let mut text = Vec::new();
-        let read = std::io::Read::read_to_end(&mut input, &mut text);
         let name = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let (source, mut failed) = match read {
-            Err(e) => (
-                None,
-                Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0)),
-            ),
-            Ok(_) => match Source::new(name.clone(), Some(path.to_path_buf()), text) {
-                Ok(s) => (Some(s), None),
-                Err(e) => (None, Some(e)),
-            },
+        let (source, failed) = match streamed_main(&name, path, input) {
+            Ok(source) => (source, None),
+            Err(input) => held_main(name, path, input),
         };
-        let source = source.unwrap_or_else(|| {
-            Source::new(name, None, Vec::new()).unwrap_or_else(|_| unreachable_source())
-        });
-        if failed.is_none() {
-            failed = check_numbers(&source).err();
-        }
         let preset = {
             let p = &setup.parameters;
             let get = |k| p.get(crate::gcode::language::parameters::numbers::coord(1, k));
@@ -155,10 +147,18 @@ impl KlartextFront {
     fn step(&mut self) -> Result<(), GcodeError> {
         let lang = &mut self.language;
         let (file, pc) = (lang.file, lang.pc);
-        let count = lang.files[file].blocks.len();
+        // A streamed program: this block, the ones passed over before it,
+        // and the corner look-ahead's (`corner_ahead`: up to 32 after).
+        let from = if file == 0 {
+            pc.min(lang.next_literal)
+        } else {
+            pc
+        };
+        lang.files[file].fill(from, pc + CORNER_AHEAD)?;
+        let count = lang.files[file].len();
         if pc >= count {
             let source = &lang.files[file];
-            let line = source.blocks.last().map_or(1, |b| b.line);
+            let line = source.last_line().unwrap_or(1);
             return Err(GcodeError::at(
                 ErrorKind::DialectRefused(format!(
                     "the program {} ends without END PGM",
@@ -183,7 +183,7 @@ impl KlartextFront {
             lang.next_literal = pc + 1;
         }
         lang.count(file, pc)?;
-        let r = lang.files[file].blocks[pc];
+        let r = lang.files[file].block(pc);
         let raw = lang.files[file].raw(pc);
         parse_block_into(raw, &mut self.parsed);
         if self.parsed.deleted && self.skip_deleted {
@@ -285,7 +285,7 @@ impl KlartextFront {
     fn emit_passed(&mut self, k: usize) {
         self.current = (0, k);
         let source = &self.language.files[0];
-        let r = source.blocks[k];
+        let r = source.block(k);
         self.block.reset(r.line, r.start as u64);
         self.block.raw.extend_from_slice(source.raw(k));
         self.block.ending = r.ending;
@@ -360,7 +360,7 @@ impl KlartextFront {
             &raw[at..]
         };
         let after = |from: usize| {
-            (from..source.blocks.len().min(from + 16)).find(|&k| {
+            (from..source.len().min(from + 16)).find(|&k| {
                 let c = code(k);
                 !c.is_empty() && c[0] != b';'
             })
@@ -386,7 +386,10 @@ impl KlartextFront {
     /// After the end: the main program's blocks not handed on yet.
     pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
         let k = self.language.next_literal;
-        if k >= self.language.files[0].blocks.len() {
+        if let Err(e) = self.language.files[0].fill(k, k + 1) {
+            return Some(Err(e));
+        }
+        if k >= self.language.files[0].len() {
             return None;
         }
         self.language.next_literal += 1;
@@ -414,12 +417,63 @@ impl KlartextFront {
     }
 
     pub(crate) fn lines_read(&self) -> usize {
-        self.language.files[0].blocks.last().map_or(0, |b| b.line)
+        self.language.files[0].last_line().unwrap_or(0)
     }
 
     pub(crate) fn in_call(&self) -> bool {
         self.language.in_call()
     }
+}
+
+/// The main program read as it runs, when no block has a label and every
+/// block passes [`NumberCheck`] (a first pass: [`streamed_source`]); `Err`:
+/// the input back at its start, to be read whole.
+fn streamed_main(
+    name: &str,
+    path: &Path,
+    mut input: Box<dyn ProgramInput>,
+) -> Result<Source, Box<dyn ProgramInput>> {
+    let Ok(start) = std::io::Seek::stream_position(&mut input) else {
+        return Err(input);
+    };
+    let mut numbers = NumberCheck::default();
+    let window =
+        streamed_source::Window::scan(input, start, |raw, line| numbers.block(raw, line).is_ok())?;
+    Ok(Source {
+        name: name.to_string(),
+        path: Some(path.to_path_buf()),
+        text: Vec::new(),
+        blocks: Vec::new(),
+        labels: Default::default(),
+        window: Some(Box::new(window)),
+    })
+}
+
+/// The main program read whole, and the error to hand on first.
+fn held_main(
+    name: String,
+    path: &Path,
+    mut input: Box<dyn ProgramInput>,
+) -> (Source, Option<GcodeError>) {
+    let mut text = Vec::new();
+    let read = std::io::Read::read_to_end(&mut input, &mut text);
+    let (source, mut failed) = match read {
+        Err(e) => (
+            None,
+            Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0)),
+        ),
+        Ok(_) => match Source::new(name.clone(), Some(path.to_path_buf()), text) {
+            Ok(s) => (Some(s), None),
+            Err(e) => (None, Some(e)),
+        },
+    };
+    let source = source.unwrap_or_else(|| {
+        Source::new(name, None, Vec::new()).unwrap_or_else(|_| unreachable_source())
+    });
+    if failed.is_none() {
+        failed = check_numbers(&source).err();
+    }
+    (source, failed)
 }
 
 fn unreachable_source() -> Source {
@@ -429,6 +483,7 @@ fn unreachable_source() -> Source {
         text: Vec::new(),
         blocks: Vec::new(),
         labels: Default::default(),
+        window: None,
     }
 }
 
@@ -449,12 +504,25 @@ fn number_word(n: u64, span: std::ops::Range<usize>) -> Word {
 /// has one or none does (a file written by hand, numbered by the control on
 /// loading).
 fn check_numbers(source: &Source) -> Result<(), GcodeError> {
-    let mut previous: Option<u64> = None;
-    let mut numbered: Option<bool> = None;
-    for k in 0..source.blocks.len() {
-        let raw = source.raw(k);
+    let mut numbers = NumberCheck::default();
+    for k in 0..source.len() {
+        numbers.block(source.raw(k), source.block(k).line)?;
+    }
+    Ok(())
+}
+
+/// [`check_numbers`] a block at a time.
+#[derive(Default)]
+struct NumberCheck {
+    previous: Option<u64>,
+    numbered: Option<bool>,
+}
+
+impl NumberCheck {
+    /// The next block, `raw` at `line`.
+    fn block(&mut self, raw: &[u8], line: usize) -> Result<(), GcodeError> {
         if raw.iter().all(|b| b.is_ascii_whitespace()) {
-            continue;
+            return Ok(());
         }
         let mut lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
         // A block-skip `/` before the number (`/81 M30`).
@@ -465,9 +533,8 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
             .iter()
             .take_while(|b| b.is_ascii_digit())
             .count();
-        let line = source.blocks[k].line;
         let has = digits > 0;
-        if *numbered.get_or_insert(has) != has {
+        if *self.numbered.get_or_insert(has) != has {
             return Err(GcodeError::at(
                 ErrorKind::DialectRefused(
                     "a block without its block number among numbered blocks".into(),
@@ -479,8 +546,8 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
             ));
         }
         let n = syntax::digits_u64(&raw[lead..lead + digits]);
-        let Some(n) = n else { continue };
-        if let Some(p) = previous
+        let Some(n) = n else { return Ok(()) };
+        if let Some(p) = self.previous
             && n <= p
         {
             return Err(GcodeError::at(
@@ -493,9 +560,9 @@ fn check_numbers(source: &Source) -> Result<(), GcodeError> {
                 lead + digits,
             ));
         }
-        previous = Some(n);
+        self.previous = Some(n);
+        Ok(())
     }
-    Ok(())
 }
 
 /// The block with its parameter values written as numbers (a flat copy),

@@ -252,7 +252,12 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
         // The code runs to a `;` outside quotes.
         let mut cut = content_end;
         let mut in_quote = false;
-        for (k, &b) in raw[from..content_end].iter().enumerate() {
+        // Most blocks have neither a quote nor a comment: no byte loop.
+        let plain = memchr::memchr2(b'"', b';', &raw[from..content_end]).is_none();
+        for (k, &b) in raw[from..if plain { from } else { content_end }]
+            .iter()
+            .enumerate()
+        {
             if b == b'"' {
                 in_quote = !in_quote;
             } else if b == b';' && !in_quote {

@@ -43,6 +43,7 @@ pub(crate) mod syntax;
 pub(crate) mod values;
 
 use std::collections::HashMap;
+use std::io::Seek;
 use std::path::{Path, PathBuf};
 
 use crate::gcode::NamedTool;
@@ -76,6 +77,65 @@ struct SourceFile {
     partner: HashMap<usize, usize>,
     /// Labels (`NAME:`) by name, upper-cased → line index.
     labels: HashMap<String, usize>,
+    /// A main program read as it runs ([`SourceFile::streamed`]): `text`
+    /// then holds the line read last, `lines` nothing.
+    stream: Option<Box<MainStream>>,
+}
+
+/// The reading of a streamed main program.
+struct MainStream {
+    lines: crate::gcode::streamed_program::LineStream,
+    /// Its number of lines.
+    count: usize,
+    /// The line in `text`.
+    loaded: Option<crate::gcode::streamed_program::StreamedLine>,
+}
+
+/// Whether a line may move the run to another line of its file, or need
+/// the whole file's structure: a label or main block number (`:`), a
+/// structured statement, a jump, `CASE`, a section repeat (any of their
+/// names anywhere in the line's code, in any case: a line this cannot tell
+/// is taken as one).
+fn may_leave_the_sequence(raw: &[u8]) -> bool {
+    // Each name below has an O, I, S or P; a label a `:`; a string a `"`.
+    // Most lines of moves have none (one pass over the bytes, no early
+    // exit, so that it runs as vector compares).
+    let flag = |b: u8| {
+        let l = b | 0x20;
+        u8::from(l == b'o')
+            | u8::from(l == b'i')
+            | u8::from(l == b's')
+            | u8::from(l == b'p')
+            | u8::from(b == b':')
+            | u8::from(b == b'"')
+    };
+    let mut chunks = raw.chunks_exact(32);
+    let mut flagged = 0u8;
+    for chunk in &mut chunks {
+        flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
+    }
+    flagged |= chunks.remainder().iter().fold(0u8, |f, &b| f | flag(b));
+    if flagged == 0 {
+        return false;
+    }
+    let code = match memchr::memchr(b';', raw) {
+        Some(c) if !raw[..c].contains(&b'"') => &raw[..c],
+        _ => raw,
+    };
+    if memchr::memchr(b':', code).is_some() {
+        return true;
+    }
+    const NAMES: [&[u8]; 9] = [
+        b"GOTO", b"CASE", b"REPEAT", b"IF", b"ELSE", b"WHILE", b"FOR", b"UNTIL", b"LOOP",
+    ];
+    (0..code.len()).any(|i| {
+        matches!(
+            code[i].to_ascii_uppercase(),
+            b'G' | b'C' | b'R' | b'I' | b'E' | b'W' | b'F' | b'U' | b'L'
+        ) && NAMES
+            .iter()
+            .any(|n| code.len() - i >= n.len() && code[i..i + n.len()].eq_ignore_ascii_case(n))
+    })
 }
 
 /// The kind of a structured statement (the line's first name).
@@ -218,13 +278,100 @@ impl SourceFile {
             lines,
             text,
             labels: HashMap::new(),
+            stream: None,
         };
         f.scan()?;
         Ok(f)
     }
 
-    /// Line `k`: its start, its end (without its ending) and its ending.
+    /// The main program read from `input` as it runs, when no line of it
+    /// may leave the sequence ([`may_leave_the_sequence`]: no labels, no
+    /// structures, so nothing to match): what [`SourceFile::new`] would
+    /// give, line by line. `Err`: the input, back where it was, to be read
+    /// whole.
+    fn streamed(
+        name: &str,
+        mut input: Box<dyn ProgramInput>,
+    ) -> Result<SourceFile, Box<dyn ProgramInput>> {
+        let Ok(start) = input.stream_position() else {
+            return Err(input);
+        };
+        let scan = crate::gcode::streamed_program::scan_lines(&mut input, |raw, _| {
+            !may_leave_the_sequence(raw)
+        });
+        // Back to the start: read again as it runs, or whole (where an
+        // error of the input is the held path's).
+        let back = input.seek(std::io::SeekFrom::Start(start));
+        let (Ok(Some(count)), Ok(_)) = (scan, back) else {
+            return Err(input);
+        };
+        let lines = crate::gcode::streamed_program::LineStream::new(input, start);
+        Ok(SourceFile {
+            name: name.to_string(),
+            called_as: String::new(),
+            text: Vec::new(),
+            lines: Vec::new(),
+            partner: HashMap::new(),
+            labels: HashMap::new(),
+            stream: Some(Box::new(MainStream {
+                lines,
+                count,
+                loaded: None,
+            })),
+        })
+    }
+
+    /// Its number of lines.
+    fn count(&self) -> usize {
+        match &self.stream {
+            Some(s) => s.count,
+            None => self.lines.len(),
+        }
+    }
+
+    /// Make line `k` readable ([`SourceFile::line`]): a streamed file reads
+    /// it (the next line, or from the start again).
+    fn load(&mut self, k: usize) -> Result<(), GcodeError> {
+        let Some(s) = &mut self.stream else {
+            return Ok(());
+        };
+        if s.loaded.is_some_and(|l| l.index == k) {
+            return Ok(());
+        }
+        s.loaded = None;
+        match s.lines.read_line(k, &mut self.text) {
+            Ok(line) => {
+                s.loaded = line;
+                Ok(())
+            }
+            Err(e) => Err(GcodeError::at(
+                ErrorKind::Io(e.to_string()),
+                k + 1,
+                b"",
+                0,
+                0,
+            )),
+        }
+    }
+
+    /// Where line `k` starts in the file.
+    fn offset(&self, k: usize) -> u64 {
+        match &self.stream {
+            Some(s) => s.loaded.map_or(0, |l| l.offset),
+            None => self.lines[k] as u64,
+        }
+    }
+
+    /// Line `k`: its start, its end (without its ending) and its ending
+    /// in `text` (a streamed file: the line [`SourceFile::load`] read, empty
+    /// for any other).
     fn line(&self, k: usize) -> (usize, usize, LineEnding) {
+        if let Some(s) = &self.stream {
+            return match s.loaded {
+                Some(l) if l.index == k => (0, l.len, l.ending),
+                _ => (0, 0, LineEnding::None),
+            };
+        }
         let start = self.lines[k];
         let next = self.lines.get(k + 1).copied().unwrap_or(self.text.len());
         if next > start && self.text[next - 1] == b'\n' {
@@ -366,6 +513,34 @@ fn opener_name(s: Structure) -> &'static str {
     }
 }
 
+#[cfg(test)]
+mod streaming_tests {
+    #[test]
+    fn lines_that_may_leave_the_sequence_are_found() {
+        use super::may_leave_the_sequence as leaves;
+        for line in [
+            "N10 G1 X1 Y2 Z3 A0 C0 F800",
+            "G0 X0 Y0 Z20 ; a comment",
+            "T1 M6 S1000 M3",
+            "R1=R1+1",
+        ] {
+            assert!(!leaves(line.as_bytes()), "{line}");
+        }
+        for line in [
+            "N10 gotob start",
+            "START: G1 X1",
+            "IF R1>2",
+            "endwhile",
+            "N20 REPEATB A P=2",
+            "CASE R1 OF 1 GOTOF A DEFAULT GOTOF B",
+            "LOOP",
+            "MSG(\"a;\") GOTOF A",
+        ] {
+            assert!(leaves(line.as_bytes()), "{line}");
+        }
+    }
+}
+
 /// One program level: a file being run, where, its variables, its repeats.
 struct Level {
     file: usize,
@@ -497,28 +672,34 @@ pub(crate) struct SinumerikFront {
 impl SinumerikFront {
     /// The front for the main program read from `input`.
     pub(crate) fn new(
-        mut input: Box<dyn ProgramInput>,
+        input: Box<dyn ProgramInput>,
         path: &Path,
         language: LanguageOptions,
         setup: &crate::gcode::ProgramSetup,
     ) -> SinumerikFront {
-        let mut text = Vec::new();
-        let mut load_error = None;
-        if let Err(e) = input.read_to_end(&mut text) {
-            load_error = Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0));
-        }
         let name = path.display().to_string();
-        let main = match SourceFile::new(name.clone(), text) {
+        let mut load_error = None;
+        let main = match SourceFile::streamed(&name, input) {
             Ok(f) => f,
-            Err(e) => {
-                load_error.get_or_insert(e);
-                SourceFile {
-                    name,
-                    called_as: String::new(),
-                    text: Vec::new(),
-                    lines: Vec::new(),
-                    partner: HashMap::new(),
-                    labels: HashMap::new(),
+            Err(mut input) => {
+                let mut text = Vec::new();
+                if let Err(e) = input.read_to_end(&mut text) {
+                    load_error = Some(GcodeError::at(ErrorKind::Io(e.to_string()), 1, b"", 0, 0));
+                }
+                match SourceFile::new(name.clone(), text) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        load_error.get_or_insert(e);
+                        SourceFile {
+                            name,
+                            called_as: String::new(),
+                            text: Vec::new(),
+                            lines: Vec::new(),
+                            partner: HashMap::new(),
+                            labels: HashMap::new(),
+                            stream: None,
+                        }
+                    }
                 }
             }
         };
@@ -631,14 +812,17 @@ impl SinumerikFront {
 
     /// After the end: the main file's next line, as written.
     pub(crate) fn next_tail_line(&mut self) -> Option<Result<(), GcodeError>> {
-        let main = &self.files[0];
-        if self.tail >= main.lines.len() {
+        if self.tail >= self.files[0].count() {
             return None;
         }
         let k = self.tail;
         self.tail += 1;
+        if let Err(e) = self.files[0].load(k) {
+            return Some(Err(e));
+        }
+        let main = &self.files[0];
         let (s, e, ending) = main.line(k);
-        self.block.reset(k + 1, s as u64);
+        self.block.reset(k + 1, main.offset(k));
         self.block.raw.extend_from_slice(&main.text[s..e]);
         self.block.ending = ending;
         self.executed = Executed {
@@ -755,7 +939,7 @@ impl SinumerikFront {
             let l = &self.levels[depth];
             (l.file, l.next)
         };
-        if k >= self.files[file].lines.len() {
+        if k >= self.files[file].count() {
             if depth == 0 {
                 return Ok(None);
             }
@@ -763,6 +947,7 @@ impl SinumerikFront {
             return Ok(Some(false));
         }
         self.levels[depth].next = k + 1;
+        self.files[file].load(k)?;
         let first_reading = file == 0 && depth == 0 && k >= self.frontier;
         if first_reading {
             self.frontier = k + 1;
@@ -796,9 +981,17 @@ impl SinumerikFront {
             self.close_spline(interpreter)?;
             return Ok(Some(false));
         }
+        let offset = self.files[file].offset(k);
         let mut raw = std::mem::take(&mut self.line_buf);
         raw.clear();
-        raw.extend_from_slice(&self.files[file].text[s..e]);
+        let streamed = self.files[file].stream.is_some();
+        if streamed {
+            // The line read is the file's text: run it there, no copy.
+            std::mem::swap(&mut raw, &mut self.files[file].text);
+            raw.truncate(e);
+        } else {
+            raw.extend_from_slice(&self.files[file].text[s..e]);
+        }
         let mut line = LineRun {
             raw: &raw,
             line: k + 1,
@@ -806,11 +999,15 @@ impl SinumerikFront {
             first_reading,
         };
         let handed = self.run_line(&mut line, interpreter);
+        if streamed {
+            // Back (without its ending, which `line` no longer reads).
+            std::mem::swap(&mut raw, &mut self.files[file].text);
+        }
         self.line_buf = raw;
         let handed = handed?;
         if handed {
             self.block.line = k + 1;
-            self.block.offset = s as u64;
+            self.block.offset = offset;
             self.block.ending = if first_reading && self.pending.is_empty() {
                 ending
             } else if ending == LineEnding::None {
@@ -1494,7 +1691,7 @@ impl SinumerikFront {
                 }
             };
             if forward {
-                (here + 1..file.lines.len()).find(|&k| matches(k))
+                (here + 1..file.count()).find(|&k| matches(k))
             } else {
                 (0..here).rev().find(|&k| matches(k))
             }
@@ -1609,7 +1806,7 @@ impl SinumerikFront {
             (0..from)
                 .rev()
                 .find(|&k| matches(k))
-                .or_else(|| (from + 1..file.lines.len()).find(|&k| matches(k)))
+                .or_else(|| (from + 1..file.count()).find(|&k| matches(k)))
         };
         let missing = |name: &str, s: usize, e: usize| {
             self.refused(
@@ -1624,7 +1821,7 @@ impl SinumerikFront {
         let end = if single {
             start
         } else if let Some((second, ss, se)) = names.get(1) {
-            (start..file.lines.len())
+            (start..file.count())
                 .find(|&k| line_head(file.raw(k)).label.as_deref() == Some(second.as_str()))
                 .ok_or_else(|| {
                     self.refused(
@@ -1635,7 +1832,7 @@ impl SinumerikFront {
                     )
                 })?
         } else {
-            let endlabel = (start..file.lines.len())
+            let endlabel = (start..file.count())
                 .find(|&k| line_head(file.raw(k)).label.as_deref() == Some("ENDLABEL"));
             match endlabel {
                 Some(e) if start > here || e < here => e,
@@ -1870,7 +2067,7 @@ impl SinumerikFront {
         let depth = self.levels.len() - 1;
         if depth == 0 {
             self.returned = true;
-            self.levels[0].next = self.files[0].lines.len();
+            self.levels[0].next = self.files[0].count();
             return Ok(());
         }
         let level = &mut self.levels[depth];
@@ -2029,7 +2226,7 @@ impl SinumerikFront {
         };
         let mut start = 0;
         let mut by_ref = Vec::new();
-        for k in 0..self.files[file].lines.len() {
+        for k in 0..self.files[file].count() {
             let raw = self.files[file].raw(k).to_vec();
             let head = line_head(&raw);
             let Some(first) = head.first else { continue };

@@ -290,22 +290,53 @@ pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Opti
             }
             _ => false,
         };
+        // `digits [. digits]` scanned and converted in one pass (what
+        // `scan_digits` and `parse_number` give).
         let digits = i;
-        let (end, point, decimals) = scan_digits(raw, i);
-        i = end;
+        let mut mantissa = 0u64;
+        let mut ndigits = 0usize;
+        while i < n && raw[i].is_ascii_digit() {
+            mantissa = mantissa
+                .wrapping_mul(10)
+                .wrapping_add(u64::from(raw[i] - b'0'));
+            ndigits += 1;
+            i += 1;
+        }
+        let mut point = false;
+        let mut decimals = 0usize;
+        if i < n && raw[i] == b'.' {
+            point = true;
+            i += 1;
+            while i < n && raw[i].is_ascii_digit() {
+                mantissa = mantissa
+                    .wrapping_mul(10)
+                    .wrapping_add(u64::from(raw[i] - b'0'));
+                ndigits += 1;
+                decimals += 1;
+                i += 1;
+            }
+        }
         // A number has a digit (what follows it is read as the next word:
         // a name, an exponent `EX`, `=` or `[` are not plain).
-        if !raw[digits..i].iter().any(u8::is_ascii_digit) {
+        if ndigits == 0 {
             return None;
         }
-        let v = parse_number(&raw[digits..i]);
+        let v = if decimals == 0 && ndigits <= 15 {
+            // A whole number (`N10`, `G1`, `F800`): exact, no division by 1.
+            mantissa as f64
+        } else {
+            match crate::gcode::syntax::parser::exact_from_parts(mantissa, ndigits, decimals) {
+                Some(v) => v,
+                None => parse_number(&raw[digits..i]),
+            }
+        };
         if !v.is_finite() {
             return None;
         }
         words.push(PlainWord {
             letter,
             value: if negative { -v } else { v },
-            decimals,
+            decimals: u8::try_from(decimals).unwrap_or(u8::MAX),
             point,
             start,
             end: i,

@@ -77,6 +77,13 @@ pub(crate) fn exact_decimal(text: &[u8]) -> Option<f64> {
             return None;
         }
     }
+    exact_from_parts(mantissa, ndigits, decimals)
+}
+
+/// [`exact_decimal`] of a number already scanned: its digits as one
+/// (wrapping) `mantissa`, how many there are and how many follow the point.
+#[inline]
+pub(crate) fn exact_from_parts(mantissa: u64, ndigits: usize, decimals: usize) -> Option<f64> {
     (ndigits > 0 && ndigits <= 19 && mantissa < (1u64 << 53) && decimals < POW10.len())
         .then(|| mantissa as f64 / POW10[decimals])
 }
