@@ -361,3 +361,135 @@ fn cycle800_solid_angle_closed_loop() {
     assert!(before.max_um > 5.0);
     assert!(after.max_um <= 0.1 * before.max_um);
 }
+
+/// tests/data/sinumerik/cycle800-more-modes.mpf on ref-trt (`check
+/// --frame part`), each block at the point (10, 5, 2) of its plane, the
+/// rotations multiplied out by hand here:
+/// - `_MODE` 27 (ZYX), Z 90° then Y 30°: `Rz(90)·Ry(30)·p` = (−5,
+///   9.660254, −3.267949), tool (0, 1/2, √3/2);
+/// - 39 (ZXY), Z 90° then X −30°: `Rx(−30)·p` = (10, 5.330127,
+///   −0.767949), then `Rz(90)`: (−5.330127, 10, −0.767949), tool (−1/2, 0,
+///   √3/2);
+/// - 64 solid angle α 90° β 30° with `_C` 90°: `Rz(90)·Ry(30)·Rz(90)·p` =
+///   (−10, −3.330127, 4.232051), tool (0, 1/2, √3/2);
+/// - 128 + 55 projection Zα 20° Xα 35°: the operating manual's rule for
+///   the pair ZX (the new Z in the old YZ plane) with the plane's traces
+///   `Rz(20)·X` and `Rx(35)·Z`: Z' = Rx(35)·Z, Y' ⟂ both traces, X' = Y' × Z';
+/// - 192 direct, A 30° C 90° (rotary axis 1 = A, the table carrying C):
+///   the tool (sin A sin C, sin A cos C, cos A) = (1/2, 0, √3/2) and the
+///   plane the table's turn, `Rz(−90)·Rx(−30)·p` = (5.330127, −10,
+///   −0.767949), the joints A 30 C 90.
+#[test]
+fn cycle800_axis_orders_solid_angle_c_projection_orders_and_direct_mode() {
+    let file = "tests/data/sinumerik/cycle800-more-modes.mpf";
+    let args = |frame: bool| {
+        let mut a = vec!["check", "--machine", "machines/ref-trt.toml", file];
+        if frame {
+            a.extend(["--frame", "part"]);
+        }
+        a.extend(["--targets", "-"]);
+        a
+    };
+    let out = volcomp()
+        .args(args(true))
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let rows: Vec<Vec<f64>> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(2).map(|f| f.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    let r3 = 3f64.sqrt() / 2.0;
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let (s20, c20) = 20f64.to_radians().sin_cos();
+    let (s35, c35) = 35f64.to_radians().sin_cos();
+    let (trace, z) = ([c20, s20, 0.0], [0.0, -s35, c35]);
+    let y = cross(z, trace);
+    let n = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+    let y = y.map(|c| c / n);
+    let x = cross(y, z);
+    let projected: Vec<f64> = (0..3)
+        .map(|k| 10.0 * x[k] + 5.0 * y[k] + 2.0 * z[k])
+        .chain(z)
+        .collect();
+    let want: [Vec<f64>; 5] = [
+        vec![-5.0, 9.660254, -3.267949, 0.0, 0.5, r3],
+        vec![-5.330127, 10.0, -0.767949, -0.5, 0.0, r3],
+        vec![-10.0, -3.330127, 4.232051, 0.0, 0.5, r3],
+        projected,
+        vec![5.330127, -10.0, -0.767949, 0.5, 0.0, r3],
+    ];
+    for (row, w) in rows.iter().zip(&want) {
+        for k in 0..6 {
+            assert!((row[k] - w[k]).abs() < 2e-6, "{row:?} vs {w:?}");
+        }
+    }
+    let joints = joint_rows(&args(false));
+    assert!((joints[4].2[0] - 30.0).abs() < 1e-9 && (joints[4].2[2] - 90.0).abs() < 1e-9);
+}
+
+/// `_MODE` values the control does not define are refused at the
+/// `CYCLE800` line, naming the bits.
+#[test]
+fn cycle800_modes_the_control_lacks_are_located_refusals() {
+    let dir = tempfile::tempdir().unwrap();
+    for (mode, angles, says) in [
+        (21, "10,10,10", "X comes twice"),
+        (133, "10,10,0", "XX name no projection position"),
+        (249, "30,90,0", "direct mode, _MODE 249: bits 0–5 = 57"),
+        (121, "30,20,0", "solid angle, _MODE 121: bits 0–5 = 57"),
+    ] {
+        let p = dir.path().join("m.mpf");
+        std::fs::write(
+            &p,
+            format!("G0 X0 Y0 Z50\nCYCLE800(1,\"T\",0,{mode},0,0,0,{angles},0,0,0,1,100,1)\nG1 X1 F100\nM30\n"),
+        )
+        .unwrap();
+        let out = volcomp()
+            .args(["check", "--machine", "machines/ref-trt.toml"])
+            .arg(&p)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{mode}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(says) && err.contains("m.mpf:2:"),
+            "{mode}: {err}"
+        );
+    }
+}
+
+/// Closed loop of a `CYCLE800` 3+2 raster on a plane set by rotary axis
+/// positions (direct mode, tests/data/sinumerik/plane-direct.mpf: A 30° C
+/// 90°) on ref-trt: the tip error is cut by ≥ 90 %.
+#[test]
+fn cycle800_direct_mode_closed_loop() {
+    let original = read("tests/data/sinumerik/plane-direct.mpf");
+    let rig = ref_trt();
+    let (text, report) = compensate_on(
+        rig,
+        &original,
+        Frame::Joint,
+        CompensateOptions::default().tolerance_um,
+        true,
+    );
+    assert!(report.blocks_changed >= 25, "{}", report.blocks_changed);
+    let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+    eprintln!(
+        "ref-trt/plane-direct.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+        before.max_um, after.max_um, before.rms_um, after.rms_um
+    );
+    assert!(before.max_um > 5.0);
+    assert!(after.max_um <= 0.1 * before.max_um);
+}

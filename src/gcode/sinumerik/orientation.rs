@@ -498,6 +498,21 @@ mod tests {
             let (sc, cc) = j.c.to_radians().sin_cos();
             [sa * sc, sa * cc, ca]
         }
+
+        /// `Rz(−C)·Rx(−A)` (the table turns the part the other way).
+        fn frame_of(&self, j: &Axes) -> [[f64; 3]; 3] {
+            let (sa, ca) = j.a.to_radians().sin_cos();
+            let (sc, cc) = j.c.to_radians().sin_cos();
+            [
+                [cc, sc * ca, sc * sa],
+                [-sc, cc * ca, cc * sa],
+                [0.0, -sa, ca],
+            ]
+        }
+
+        fn swivel_order(&self) -> [Axis; 2] {
+            [Axis::A, Axis::C]
+        }
     }
 
     #[test]
