@@ -476,6 +476,9 @@ pub(crate) struct SinumerikFront {
     restore_arc: Option<f64>,
     /// This line's circle was handed on as chords.
     chorded: bool,
+    /// Where this line's orientation words turn the tool (`circles` hands a
+    /// circle that turns it on in pieces).
+    turn_end: Option<orientation::OrientationEnd>,
 }
 
 impl SinumerikFront {
@@ -564,6 +567,7 @@ impl SinumerikFront {
             pending: std::collections::VecDeque::new(),
             restore_arc: None,
             chorded: false,
+            turn_end: None,
         }
     }
 
@@ -2462,6 +2466,7 @@ impl SinumerikFront {
             }
         }
         self.chorded = false;
+        self.turn_end = turned;
         if axis_words || arc_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
@@ -2482,7 +2487,13 @@ impl SinumerikFront {
                     start,
                     kind: LastKind::Unknown,
                 });
-            } else if chords {
+            } else if chords
+                || (turned.is_some()
+                    && self.great_circle_mode()
+                    && self.arc_context(&out, interpreter).2.is_some())
+            {
+                // A circle in a tilted plane, or one whose tool turns on
+                // the great circle: pieces.
                 self.circle_as_chords(line, &mut out, interpreter, start)?;
             }
             if let Some(end) = turned
