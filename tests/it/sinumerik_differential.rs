@@ -173,6 +173,27 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         VolcompRefuses,
         "as cycle800-modes.mpf: `CYCLE800` (solid angle) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
     ),
+    (
+        "cycle800-more-modes.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "as cycle800-modes.mpf: `CYCLE800` (axis sequences 27 and 39, solid angle with `_C`, projection Zα Xα, direct mode) needs the machine (line 9); the reference passes it over. tests/it/sinumerik_five_axis.rs checks every plane by hand",
+    ),
+    (
+        "plane-direct.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "as cycle800-modes.mpf: `CYCLE800` in direct mode (rotary axis positions) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
+    ),
+    (
+        "circle-turning-tool.mpf",
+        &["--machine", "machines/ref-trt.toml"],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `TRAORI ORIWKS ORIVECT` on one line (line 10) nor orientation vectors; volcomp hands the circles that turn the tool on as pieces, the tool on the great circle or the rotary axes linear in the path (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",

@@ -2488,15 +2488,19 @@ impl SinumerikFront {
                     kind: LastKind::Unknown,
                 });
             } else if chords
-                || (turned.is_some()
-                    && self.great_circle_mode()
-                    && self.arc_context(&out, interpreter).2.is_some())
+                || (self.traori
+                    && self.arc_context(&out, interpreter).2.is_some()
+                    && (turned.is_some()
+                        || out.words.iter().any(|w| {
+                            crate::axes::Axis::from_letter(w.letter as char)
+                                .is_some_and(|a| a.is_rotary())
+                        })))
             {
-                // A circle in a tilted plane, or one whose tool turns on
-                // the great circle: pieces.
+                // A circle in a tilted plane, or one that turns the tool
+                // under TRAORI: pieces.
                 self.circle_as_chords(line, &mut out, interpreter, start)?;
             }
-            if let Some(end) = turned
+            if let Some(end) = self.turn_end
                 && !arc_words
                 && self.great_circle_mode()
                 && self.arc_context(&out, interpreter).2.is_none()

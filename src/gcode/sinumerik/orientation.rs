@@ -461,6 +461,11 @@ impl SinumerikFront {
                 }
             }
             for &r in &rotary {
+                // Machine-axis words are the piece's own text; with an
+                // orientation the writer says the joints in its words.
+                if form.is_none() {
+                    piece.synthetic.push(piece.words.len());
+                }
                 piece.words.push(super::word(
                     r.letter() as u8,
                     delta(e.joints.get(r), previous.1.get(r)),
