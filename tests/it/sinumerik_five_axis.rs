@@ -493,3 +493,109 @@ fn cycle800_direct_mode_closed_loop() {
     assert!(before.max_um > 5.0);
     assert!(after.max_um <= 0.1 * before.max_um);
 }
+
+/// tests/data/sinumerik/circle-turning-tool.mpf on ref-trt: circles of
+/// radius 20 about the origin that also turn the tool, handed on as
+/// pieces. By hand:
+/// - N60 (`ORIWKS ORIVECT`, a quarter from (20, 0) to (0, 20)): the tool on
+///   the great circle from v0 = (0, 1/2, √3/2) to v1 = (1/2, 0, √3/2), the
+///   angle proportional to the path: at the tip's polar angle θ the axis
+///   is slerp(v0, v1, θ/90°); half way the tip is at (14.142136,
+///   14.142136) and the axis (1/2, 1/2, √3)/√3.5 = A 22.2077° C 45°
+///   (linear joints would stand at A 30° there); the end A 30° C 90°.
+/// - N80 (`ORIAXES`, back from (0, 20) to (20, 0)): the rotary axes linear
+///   in the path, C from 90° to 0° with A 30°: C equals θ at every end.
+/// - N110 (`ROT Y30`, a rotary axis word `C90`): the tip on `Ry(30°)` of
+///   the quarter circle, C = θ (linear), A 30°.
+///
+/// Then compensated (pieces written with their orientation words or rotary
+/// words), read back, and the closed loop cuts the tip error by ≥ 90 %.
+#[test]
+fn circles_that_turn_the_tool_are_handed_on_as_pieces() {
+    let file = "tests/data/sinumerik/circle-turning-tool.mpf";
+    let machine = ["check", "--machine", "machines/ref-trt.toml", file];
+    let part = joint_rows(&[&machine[..], &["--frame", "part", "--targets", "-"]].concat());
+    let joints = joint_rows(&[&machine[..], &["--targets", "-"]].concat());
+    assert_eq!(part.len(), joints.len());
+    let r3 = 3f64.sqrt();
+    let (v0, v1) = ([0.0, 0.5, r3 / 2.0], [0.5, 0.0, r3 / 2.0]);
+    let rows = |line: usize| -> Vec<(usize, [f64; 3], [f64; 3], [f64; 3])> {
+        part.iter()
+            .zip(&joints)
+            .filter(|(p, _)| p.0 == line)
+            .map(|(p, j)| (p.0, p.1, p.2, j.2))
+            .collect()
+    };
+    // The part rows carry i j k in the "rotary" slots of joint_rows.
+    let (n60, n80, n110) = (rows(12), rows(14), rows(17));
+    for set in [&n60, &n80, &n110] {
+        assert!(set.len() > 100, "{}", set.len());
+    }
+    for (_, tip, axis, j) in &n60 {
+        assert!((tip[0].hypot(tip[1]) - 20.0).abs() < 1e-3 && tip[2].abs() < 1e-9);
+        let t = tip[1].atan2(tip[0]) / std::f64::consts::FRAC_PI_2;
+        assert!(angle(*axis, slerp(v0, v1, t)) < 2e-6, "{tip:?} {axis:?}");
+        assert!(angle(*axis, ac_axis(j[0], j[2])) < 1e-6);
+    }
+    let half = n60
+        .iter()
+        .find(|r| (r.1[0] - 14.142136).abs() < 1e-6 && (r.1[1] - 14.142136).abs() < 1e-6)
+        .expect("a piece ends half way");
+    let s = 3.5f64.sqrt();
+    assert!(angle(half.2, [0.5 / s, 0.5 / s, r3 / s]) < 1e-6);
+    assert!((half.3[0] - 22.2077).abs() < 1e-4 && (half.3[2] - 45.0).abs() < 1e-6);
+    let end = n60.last().unwrap();
+    assert!((end.1[1] - 20.0).abs() < 1e-9 && (end.3[0] - 30.0).abs() < 1e-4);
+    assert!((end.3[2] - 90.0).abs() < 1e-6);
+    for (_, tip, _, j) in &n80 {
+        let theta = tip[1].atan2(tip[0]).to_degrees();
+        assert!((j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4, "{tip:?} {j:?}");
+    }
+    let (sy, cy) = 30f64.to_radians().sin_cos();
+    for (_, tip, _, j) in &n110 {
+        // Back through Ry(30°): the point of the quarter circle.
+        let flat = [cy * tip[0] - sy * tip[2], tip[1], sy * tip[0] + cy * tip[2]];
+        assert!((flat[0].hypot(flat[1]) - 20.0).abs() < 1e-3 && flat[2].abs() < 1e-6);
+        let theta = flat[1].atan2(flat[0]).to_degrees();
+        assert!((j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4, "{flat:?} {j:?}");
+    }
+    // Compensated, written back and read back; the closed loop.
+    let original = read(file);
+    let rig = ref_trt();
+    let (text, _) = compensate_on(
+        rig,
+        &original,
+        Frame::Joint,
+        CompensateOptions::default().tolerance_um,
+        true,
+    );
+    let n60_out: Vec<&str> = text
+        .lines()
+        .filter(|l| l.ends_with("; volcomp: line 12"))
+        .collect();
+    assert!(n60_out.len() > 100 && n60_out.iter().all(|l| l.contains(" A3=")));
+    assert!(
+        text.lines()
+            .filter(|l| l.ends_with("; volcomp: line 17"))
+            .all(|l| l.contains(" C"))
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let back = dir.path().join("c.mpf");
+    std::fs::write(&back, &text).unwrap();
+    let again = joint_rows(&[
+        "check",
+        "--machine",
+        "machines/ref-trt.toml",
+        back.to_str().unwrap(),
+        "--targets",
+        "-",
+    ]);
+    assert!(again.len() >= joints.len());
+    let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+    eprintln!(
+        "ref-trt/circle-turning-tool.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+        before.max_um, after.max_um, before.rms_um, after.rms_um
+    );
+    assert!(before.max_um > 5.0);
+    assert!(after.max_um <= 0.1 * before.max_um);
+}
