@@ -188,6 +188,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         "as cycle800-modes.mpf: `CYCLE800` in direct mode (rotary axis positions) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
     ),
     (
+        "ct-after-space-cip.mpf",
+        &[],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `CIP … I1= J1= K1=` (line 9); volcomp hands the circle in space and the `CT` after it (the circle in space leaving its end tangentially) on as chords (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
+    (
         "circle-turning-tool.mpf",
         &["--machine", "machines/ref-trt.toml"],
         AsWritten,

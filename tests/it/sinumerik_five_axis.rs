@@ -266,7 +266,10 @@ fn circles_in_a_tilted_plane_and_in_space_are_handed_on_as_chords() {
         );
         assert!(text.lines().filter(|l| l.ends_with(&tag)).count() > 70);
     }
-    for l in text.lines().filter(|l| !l.starts_with(';')) {
+    for l in text
+        .lines()
+        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
+    {
         assert!(
             !l.contains("CR=") && !l.contains("CIP") && !l.contains("CT "),
             "{l}"
@@ -549,7 +552,10 @@ fn circles_that_turn_the_tool_are_handed_on_as_pieces() {
     assert!((end.3[2] - 90.0).abs() < 1e-6);
     for (_, tip, _, j) in &n80 {
         let theta = tip[1].atan2(tip[0]).to_degrees();
-        assert!((j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4, "{tip:?} {j:?}");
+        assert!(
+            (j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4,
+            "{tip:?} {j:?}"
+        );
     }
     let (sy, cy) = 30f64.to_radians().sin_cos();
     for (_, tip, _, j) in &n110 {
@@ -557,7 +563,10 @@ fn circles_that_turn_the_tool_are_handed_on_as_pieces() {
         let flat = [cy * tip[0] - sy * tip[2], tip[1], sy * tip[0] + cy * tip[2]];
         assert!((flat[0].hypot(flat[1]) - 20.0).abs() < 1e-3 && flat[2].abs() < 1e-6);
         let theta = flat[1].atan2(flat[0]).to_degrees();
-        assert!((j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4, "{flat:?} {j:?}");
+        assert!(
+            (j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4,
+            "{flat:?} {j:?}"
+        );
     }
     // Compensated, written back and read back; the closed loop.
     let original = read(file);
@@ -598,4 +607,57 @@ fn circles_that_turn_the_tool_are_handed_on_as_pieces() {
     );
     assert!(before.max_um > 5.0);
     assert!(after.max_um <= 0.1 * before.max_um);
+}
+
+/// tests/data/sinumerik/ct-after-space-cip.mpf (`check --frame part`): the
+/// `CIP` half circle about the origin in y = 0 ends at (−10, 0, 0) running
+/// along −Z; the `CT` after it is, by hand, the half circle about (−5, −5,
+/// 0) of radius √50 in the plane x + y = −10 leaving along −Z and ending at
+/// (0, −10, 0), lowest at z = −√50. Every row lies on it; written flat,
+/// compensated and read back.
+#[test]
+fn ct_after_a_circle_in_space_continues_tangentially() {
+    let file = "tests/data/sinumerik/ct-after-space-cip.mpf";
+    let rows = joint_rows(&["check", file, "--frame", "part", "--targets", "-"]);
+    let ct: Vec<[f64; 3]> = rows.iter().filter(|r| r.0 == 11).map(|r| r.1).collect();
+    assert!(ct.len() > 70, "{}", ct.len());
+    let r = 50f64.sqrt();
+    for p in &ct {
+        let d = ((p[0] + 5.0).powi(2) + (p[1] + 5.0).powi(2) + p[2] * p[2]).sqrt();
+        assert!(
+            (d - r).abs() < 2e-6 && (p[0] + p[1] + 10.0).abs() < 2e-6,
+            "{p:?}"
+        );
+    }
+    let first = ct[0];
+    let dir = [first[0] + 10.0, first[1], first[2]];
+    let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    // The first chord leaves within half its own turn of −Z.
+    assert!(-dir[2] / len > 0.999, "{dir:?}");
+    let last = ct.last().unwrap();
+    assert!(last[0].abs() < 1e-9 && (last[1] + 10.0).abs() < 1e-9 && last[2].abs() < 1e-9);
+    let lowest = ct.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
+    assert!(lowest < -7.07 && lowest > -r - 1e-6, "{lowest}");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("c.mpf");
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml", file, "-o"])
+        .arg(&out_path)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("N60 G1 X") && l.ends_with("; volcomp: line 11"))
+    );
+    for l in text
+        .lines()
+        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
+    {
+        assert!(!l.contains("CT ") && !l.contains("CIP"), "{l}");
+    }
+    let again = joint_rows(&["check", out_path.to_str().unwrap(), "--targets", "-"]);
+    assert!(again.len() >= rows.len());
 }

@@ -108,6 +108,7 @@ impl SinumerikFront {
         .map(|p| [0, 1, 2].map(|k| centre[k] + p[0] * e1[k] + p[1] * e2[k] + p[2] * normal[k]))
         .collect();
         self.hand_on_chords(line, out, interpreter, start, &points, incremental)?;
+        self.space_arc = Some((centre, normal));
         Ok(Some(()))
     }
 
@@ -375,6 +376,43 @@ pub(crate) fn space_circle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Option<([f6
     Some((centre, unit(n)))
 }
 
+/// The unit tangent at `p` of the circle about `centre` running
+/// counter-clockwise about the unit `normal`: `normal × (p − centre)`.
+pub(super) fn space_tangent(centre: [f64; 3], normal: [f64; 3], p: [f64; 3]) -> [f64; 3] {
+    unit(cross(normal, sub(p, centre)))
+}
+
+/// `CT` in space: the point half way along the circle that leaves `p`
+/// along the unit `tangent` and reaches `e` (it lies in the plane of the
+/// tangent and the chord; its centre is `p + s·u`, `u` the unit square to
+/// the tangent towards `e`, `s = |e − p|² / (2 (e − p)·u)`); `None` when
+/// `e` lies on the tangent's line.
+pub(super) fn tangent_circle_midpoint(
+    p: [f64; 3],
+    tangent: [f64; 3],
+    e: [f64; 3],
+) -> Option<[f64; 3]> {
+    let d = sub(e, p);
+    let dd = dot(d, d);
+    let n = cross(tangent, d);
+    if !(dot(n, n).sqrt() > 1e-9 * dd.sqrt().max(1e-9)) {
+        return None;
+    }
+    let n = unit(n);
+    let u = cross(n, tangent);
+    let s = dd / (2.0 * dot(d, u));
+    let c = [0, 1, 2].map(|k| p[k] + s * u[k]);
+    // Counter-clockwise about n from p to e: the angle, then half of it.
+    let (rp, re) = (sub(p, c), sub(e, c));
+    let mut sweep = dot(n, cross(rp, re)).atan2(dot(rp, re));
+    if sweep <= 0.0 {
+        sweep += std::f64::consts::TAU;
+    }
+    let (sh, ch) = (0.5 * sweep).sin_cos();
+    let w = cross(n, rp);
+    Some([0, 1, 2].map(|k| c[k] + ch * rp[k] + sh * w[k]))
+}
+
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -410,5 +448,27 @@ mod tests {
         let (_, back) = space_circle(at(200.0), at(90.0), at(0.0)).unwrap();
         assert!((back[2] + want_n[2]).abs() < 1e-9);
         assert!(space_circle(at(0.0), at(0.0), at(90.0)).is_none());
+    }
+
+    /// `CT` in space: leaving (10, 0, 0) along +Y towards (0, 10, 0) is
+    /// the quarter circle about the origin in z = 0 (half way at 45°);
+    /// leaving it along +Z towards (0, 0, 10)... towards (−10, 0, 0) along
+    /// +Z is the half circle about the origin in y = 0, through (0, 0, 10).
+    #[test]
+    fn a_tangent_circle_in_space() {
+        let m =
+            tangent_circle_midpoint([10.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 10.0, 0.0]).unwrap();
+        let h = 10.0 * 0.5f64.sqrt();
+        assert!((m[0] - h).abs() < 1e-12 && (m[1] - h).abs() < 1e-12 && m[2].abs() < 1e-12);
+        let m =
+            tangent_circle_midpoint([10.0, 0.0, 0.0], [0.0, 0.0, 1.0], [-10.0, 0.0, 0.0]).unwrap();
+        assert!(
+            m[0].abs() < 1e-9 && m[1].abs() < 1e-12 && (m[2] - 10.0).abs() < 1e-9,
+            "{m:?}"
+        );
+        assert!(tangent_circle_midpoint([0.0; 3], [1.0, 0.0, 0.0], [5.0, 0.0, 0.0]).is_none());
+        // The tangent of a circle about Z at (10, 0, 0) is +Y.
+        let t = space_tangent([0.0; 3], [0.0, 0.0, 1.0], [10.0, 0.0, 0.0]);
+        assert!((t[1] - 1.0).abs() < 1e-12);
     }
 }

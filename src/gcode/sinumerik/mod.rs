@@ -476,6 +476,8 @@ pub(crate) struct SinumerikFront {
     restore_arc: Option<f64>,
     /// This line's circle was handed on as chords.
     chorded: bool,
+    /// The circle in space this line handed on: its centre and normal.
+    space_arc: Option<([f64; 3], [f64; 3])>,
     /// Where this line's orientation words turn the tool (`circles` hands a
     /// circle that turns it on in pieces).
     turn_end: Option<orientation::OrientationEnd>,
@@ -567,6 +569,7 @@ impl SinumerikFront {
             pending: std::collections::VecDeque::new(),
             restore_arc: None,
             chorded: false,
+            space_arc: None,
             turn_end: None,
         }
     }
@@ -2482,11 +2485,16 @@ impl SinumerikFront {
             let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
             self.last_move = self.move_of(&out, interpreter, start);
             if self.chorded {
-                // A circle in space (CIP): CT has no tangent in the plane.
-                self.last_move = Some(LastMove {
-                    start,
-                    kind: LastKind::Unknown,
-                });
+                // A circle in space (CIP, or CT after one): CT goes on from
+                // its tangent (`circles::space_tangent`).
+                self.last_move =
+                    Some(LastMove {
+                        start,
+                        kind: self.space_arc.take().map_or(
+                            LastKind::Unknown,
+                            |(centre, normal)| LastKind::Space { centre, normal },
+                        ),
+                    });
             } else if chords
                 || (self.traori
                     && self.arc_context(&out, interpreter).2.is_some()
@@ -2891,6 +2899,50 @@ impl SinumerikFront {
                 (cross < 0.0, c)
             }
             Some(ArcForm::Tangential) => {
+                if let Some(LastMove {
+                    kind: LastKind::Space { centre, normal },
+                    ..
+                }) = self.last_move
+                {
+                    // After a circle in space: the circle in space leaving
+                    // its end tangentially to it (`circles`).
+                    if has_radius || has_centre {
+                        return Err(self.refused(
+                            line,
+                            "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    let tangent = circles::space_tangent(centre, normal, start);
+                    let Some(inter) = circles::tangent_circle_midpoint(start, tangent, end) else {
+                        return Err(self.refused(
+                            line,
+                            "CT: the end lies on the tangent of the circle before (or is the start): no circle leaves tangentially to it".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    };
+                    if self
+                        .space_circle_as_chords(
+                            line,
+                            out,
+                            interpreter,
+                            [start, inter, end],
+                            incremental,
+                        )?
+                        .is_none()
+                    {
+                        return Err(self.refused(
+                            line,
+                            "CT: no circle leaves tangentially to the circle before and reaches the end".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    self.chorded = true;
+                    return Ok(());
+                }
                 let Some(t) = self.tangent(line, plane, start, at)? else {
                     return Err(self.refused(
                         line,
@@ -3093,7 +3145,7 @@ impl SinumerikFront {
             _ => {
                 return Err(self.feature(
                     line,
-                    "CT after a circle in space (CIP out of the working plane) or in another plane",
+                    "CT after a circle in another working plane (G17/G18/G19 changed between them)",
                     at.0,
                     at.1,
                 ));
@@ -3479,6 +3531,12 @@ enum LastKind {
     },
     /// A circle by `CR=`: its centre is the machine-state layer's.
     Unknown,
+    /// A circle in space (`CIP` out of the working plane, or a `CT` after
+    /// one): its centre and the unit normal it runs counter-clockwise about.
+    Space {
+        centre: [f64; 3],
+        normal: [f64; 3],
+    },
 }
 
 /// The centre of the circle through `a`, `b`, `c` (2-D); `None` when they
