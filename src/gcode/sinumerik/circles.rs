@@ -17,7 +17,7 @@ use crate::gcode::heidenhain::machine::{CHORD_TOLERANCE_MM, radius_centre};
 use crate::gcode::machine::interpret::Interpreter;
 
 use super::orientation::{
-    HandedEnd, ORIENTATION_TOLERANCE_RAD, angle_between, great_circle, great_circle_pieces,
+    HandedEnd, ORIENTATION_TOLERANCE_RAD, Pieces, angle_between, great_circle, great_circle_pieces,
     rotary_axes,
 };
 use super::{LineRun, Out, SinumerikFront, word};
@@ -177,7 +177,17 @@ impl SinumerikFront {
             None
         };
         let _ = incremental;
-        self.hand_on_pieces(line, out, interpreter, start, &ends, form.as_ref(), 1.0)
+        self.hand_on_pieces(
+            line,
+            out,
+            interpreter,
+            Pieces {
+                start,
+                ends: &ends,
+                form: form.as_ref(),
+                unit_mm: 1.0,
+            },
+        )
     }
 
     /// The piece ends of a circle through `points` (evenly spaced along

@@ -316,7 +316,17 @@ impl SinumerikFront {
             })
             .collect();
         let form = self.orientation_form(out, end.at);
-        self.hand_on_pieces(line, out, interpreter, start, &ends, form.as_ref(), unit_mm)
+        self.hand_on_pieces(
+            line,
+            out,
+            interpreter,
+            Pieces {
+                start,
+                ends: &ends,
+                form: form.as_ref(),
+                unit_mm,
+            },
+        )
     }
 
     /// A turn of 180° in one block has no great circle.
@@ -394,11 +404,14 @@ impl SinumerikFront {
         line: &LineRun,
         out: &mut Out,
         interpreter: &Interpreter,
-        start: [f64; 3],
-        ends: &[HandedEnd],
-        form: Option<&OrientationForm>,
-        unit_mm: f64,
+        pieces: Pieces<'_>,
     ) -> Result<(), GcodeError> {
+        let Pieces {
+            start,
+            ends,
+            form,
+            unit_mm,
+        } = pieces;
         let Some(first) = ends.first() else {
             return Ok(());
         };
@@ -541,6 +554,17 @@ impl SinumerikFront {
         out.flat = true;
         Ok(())
     }
+}
+
+/// A block's pieces for [`SinumerikFront::hand_on_pieces`]: the block's
+/// start (program coordinates, mm), the piece ends (the last the block's
+/// end), the orientation words they carry, mm per program unit.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pieces<'a> {
+    pub start: [f64; 3],
+    pub ends: &'a [HandedEnd],
+    pub form: Option<&'a OrientationForm>,
+    pub unit_mm: f64,
 }
 
 /// One end of a piece handed on: the tool tip (program coordinates, mm),
