@@ -176,7 +176,6 @@ impl SinumerikFront {
         } else {
             None
         };
-        let _ = incremental;
         self.hand_on_pieces(
             line,
             out,
