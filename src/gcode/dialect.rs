@@ -167,6 +167,20 @@ pub trait OrientationSolver: Send + Sync + std::fmt::Debug {
 
     /// The tool axis (unit, workpiece frame) at `joints`' rotary positions.
     fn axis_of(&self, joints: &Axes) -> [f64; 3];
+
+    /// The rotation (row-major, workpiece frame) that the rotary joints at
+    /// `joints` put between the workpiece and the tool: its columns are the
+    /// machine's X, Y, Z directions as the tool carries them, seen from
+    /// the workpiece (at home, the identity). A plane set by rotary axis
+    /// positions (Sinumerik `CYCLE800` direct mode) is this frame.
+    fn frame_of(&self, joints: &Axes) -> [[f64; 3]; 3];
+
+    /// The machine's rotary axes in Siemens' swivel order (*SINUMERIK
+    /// Operate commissioning*, CYCLE800 checklist: "rotary axis 2 is based
+    /// on rotary axis 1; with mixed kinematics, rotary axis 1 is always
+    /// the axis for the tool orientation"): the head's axes from the bed
+    /// towards the spindle, then the table's from the bed towards the part.
+    fn swivel_order(&self) -> [crate::axes::Axis; 2];
 }
 
 #[cfg(test)]

@@ -396,6 +396,21 @@ impl Kinematics {
         transform::mat_vec(&r, self.chain.tool_axis())
     }
 
+    /// The nominal rotation part → tool of the rotary joints at `joints`:
+    /// `u = R·u₀` (its columns the tool's home axes seen from the part).
+    pub fn nominal_orientation(&self, joints: &Axes) -> Mat3 {
+        chain::nominal_orientation(&self.chain, joints)
+    }
+
+    /// The two rotary letters in Siemens' swivel order: the tool side's
+    /// from the bed towards the spindle, then the workpiece side's from the
+    /// bed towards the part (rotary axis 2 is carried by rotary axis 1, and
+    /// on a mixed machine rotary axis 1 is the head's).
+    pub fn swivel_order(&self) -> [Axis; 2] {
+        let [(a, sa), (b, sb)] = self.chain.orientation();
+        if sa > 0.0 && sb > 0.0 { [a, b] } else { [b, a] }
+    }
+
     /// The nominal rotation of machine (bed) directions into part coordinates at
     /// `joints` (the rotation part of `W⁻¹`).
     pub fn machine_to_part_rotation(&self, joints: &Axes) -> Mat3 {

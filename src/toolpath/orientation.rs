@@ -70,4 +70,12 @@ impl OrientationSolver for ChainOrientation {
     fn axis_of(&self, joints: &Axes) -> [f64; 3] {
         self.kinematics.nominal_tool_axis(joints)
     }
+
+    fn frame_of(&self, joints: &Axes) -> [[f64; 3]; 3] {
+        self.kinematics.nominal_orientation(joints)
+    }
+
+    fn swivel_order(&self) -> [Axis; 2] {
+        self.kinematics.swivel_order()
+    }
 }

@@ -388,16 +388,14 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "SINUMERIK program",
-            "a circle in a tilted plane (`ROT Y30`) that also turns the tool",
+            "a circle in a tilted plane (`ROT Y30`) that also turns the tool without TRAORI",
             vec![(
                 "bad.mpf",
-                text(
-                    "TRAORI\nROT Y30\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\nG3 X0 Y10 I-10 J0 A3=0 B3=0.1 C3=1\nM30\n",
-                ),
+                text("ROT Y30\nG1 X10 Y0 Z0 F100\nG3 X0 Y10 I-10 J0 C10\nM30\n"),
             )],
             SINUMERIK,
             1,
-            &["also turns the tool", "{d}/bad.mpf:4:19"],
+            &["also turns the tool without TRAORI", "{d}/bad.mpf:3:19"],
         ),
         case(
             "SINUMERIK program",

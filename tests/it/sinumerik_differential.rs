@@ -180,6 +180,34 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         VolcompRefuses,
         "as cycle800-modes.mpf: `CYCLE800` (solid angle) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
     ),
+    (
+        "cycle800-more-modes.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "as cycle800-modes.mpf: `CYCLE800` (axis sequences 27 and 39, solid angle with `_C`, projection Zα Xα, direct mode) needs the machine (line 9); the reference passes it over. tests/it/sinumerik_five_axis.rs checks every plane by hand",
+    ),
+    (
+        "plane-direct.mpf",
+        &[],
+        AsWritten,
+        VolcompRefuses,
+        "as cycle800-modes.mpf: `CYCLE800` in direct mode (rotary axis positions) needs the machine (line 8); the reference passes it over. The closed loop is in tests/it/sinumerik_five_axis.rs",
+    ),
+    (
+        "ct-after-space-cip.mpf",
+        &[],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `CIP … I1= J1= K1=` (line 9); volcomp hands the circle in space and the `CT` after it (the circle in space leaving its end tangentially) on as chords (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
+    (
+        "circle-turning-tool.mpf",
+        &["--machine", "machines/ref-trt.toml"],
+        AsWritten,
+        ReferenceRefuses,
+        "the reference does not read `TRAORI ORIWKS ORIVECT` on one line (line 10) nor orientation vectors; volcomp hands the circles that turn the tool on as pieces, the tool on the great circle or the rotary axes linear in the path (tests/it/sinumerik_five_axis.rs checks them by hand)",
+    ),
     // CEAD's example programs.
     (
         "real/cead/actual_position.mpf",

@@ -266,7 +266,10 @@ fn circles_in_a_tilted_plane_and_in_space_are_handed_on_as_chords() {
         );
         assert!(text.lines().filter(|l| l.ends_with(&tag)).count() > 70);
     }
-    for l in text.lines().filter(|l| !l.starts_with(';')) {
+    for l in text
+        .lines()
+        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
+    {
         assert!(
             !l.contains("CR=") && !l.contains("CIP") && !l.contains("CT "),
             "{l}"
@@ -360,4 +363,301 @@ fn cycle800_solid_angle_closed_loop() {
     );
     assert!(before.max_um > 5.0);
     assert!(after.max_um <= 0.1 * before.max_um);
+}
+
+/// tests/data/sinumerik/cycle800-more-modes.mpf on ref-trt (`check
+/// --frame part`), each block at the point (10, 5, 2) of its plane, the
+/// rotations multiplied out by hand here:
+/// - `_MODE` 27 (ZYX), Z 90° then Y 30°: `Rz(90)·Ry(30)·p` = (−5,
+///   9.660254, −3.267949), tool (0, 1/2, √3/2);
+/// - 39 (ZXY), Z 90° then X −30°: `Rx(−30)·p` = (10, 5.330127,
+///   −0.767949), then `Rz(90)`: (−5.330127, 10, −0.767949), tool (−1/2, 0,
+///   √3/2);
+/// - 64 solid angle α 90° β 30° with `_C` 90°: `Rz(90)·Ry(30)·Rz(90)·p` =
+///   (−10, −3.330127, 4.232051), tool (0, 1/2, √3/2);
+/// - 128 + 55 projection Zα 20° Xα 35°: the operating manual's rule for
+///   the pair ZX (the new Z in the old YZ plane) with the plane's traces
+///   `Rz(20)·X` and `Rx(35)·Z`: Z' = Rx(35)·Z, Y' ⟂ both traces, X' = Y' × Z';
+/// - 192 direct, A 30° C 90° (rotary axis 1 = A, the table carrying C):
+///   the tool (sin A sin C, sin A cos C, cos A) = (1/2, 0, √3/2) and the
+///   plane the table's turn, `Rz(−90)·Rx(−30)·p` = (5.330127, −10,
+///   −0.767949), the joints A 30 C 90.
+#[test]
+fn cycle800_axis_orders_solid_angle_c_projection_orders_and_direct_mode() {
+    let file = "tests/data/sinumerik/cycle800-more-modes.mpf";
+    let args = |frame: bool| {
+        let mut a = vec!["check", "--machine", "machines/ref-trt.toml", file];
+        if frame {
+            a.extend(["--frame", "part"]);
+        }
+        a.extend(["--targets", "-"]);
+        a
+    };
+    let out = volcomp()
+        .args(args(true))
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let rows: Vec<Vec<f64>> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(2).map(|f| f.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    let r3 = 3f64.sqrt() / 2.0;
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let (s20, c20) = 20f64.to_radians().sin_cos();
+    let (s35, c35) = 35f64.to_radians().sin_cos();
+    let (trace, z) = ([c20, s20, 0.0], [0.0, -s35, c35]);
+    let y = cross(z, trace);
+    let n = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+    let y = y.map(|c| c / n);
+    let x = cross(y, z);
+    let projected: Vec<f64> = (0..3)
+        .map(|k| 10.0 * x[k] + 5.0 * y[k] + 2.0 * z[k])
+        .chain(z)
+        .collect();
+    let want: [Vec<f64>; 5] = [
+        vec![-5.0, 9.660254, -3.267949, 0.0, 0.5, r3],
+        vec![-5.330127, 10.0, -0.767949, -0.5, 0.0, r3],
+        vec![-10.0, -3.330127, 4.232051, 0.0, 0.5, r3],
+        projected,
+        vec![5.330127, -10.0, -0.767949, 0.5, 0.0, r3],
+    ];
+    for (row, w) in rows.iter().zip(&want) {
+        for k in 0..6 {
+            assert!((row[k] - w[k]).abs() < 2e-6, "{row:?} vs {w:?}");
+        }
+    }
+    let joints = joint_rows(&args(false));
+    assert!((joints[4].2[0] - 30.0).abs() < 1e-9 && (joints[4].2[2] - 90.0).abs() < 1e-9);
+}
+
+/// `_MODE` values the control does not define are refused at the
+/// `CYCLE800` line, naming the bits.
+#[test]
+fn cycle800_modes_the_control_lacks_are_located_refusals() {
+    let dir = tempfile::tempdir().unwrap();
+    for (mode, angles, says) in [
+        (21, "10,10,10", "X comes twice"),
+        (133, "10,10,0", "XX name no projection position"),
+        (249, "30,90,0", "direct mode, _MODE 249: bits 0–5 = 57"),
+        (121, "30,20,0", "solid angle, _MODE 121: bits 0–5 = 57"),
+    ] {
+        let p = dir.path().join("m.mpf");
+        std::fs::write(
+            &p,
+            format!("G0 X0 Y0 Z50\nCYCLE800(1,\"T\",0,{mode},0,0,0,{angles},0,0,0,1,100,1)\nG1 X1 F100\nM30\n"),
+        )
+        .unwrap();
+        let out = volcomp()
+            .args(["check", "--machine", "machines/ref-trt.toml"])
+            .arg(&p)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{mode}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(says) && err.contains("m.mpf:2:"),
+            "{mode}: {err}"
+        );
+    }
+}
+
+/// Closed loop of a `CYCLE800` 3+2 raster on a plane set by rotary axis
+/// positions (direct mode, tests/data/sinumerik/plane-direct.mpf: A 30° C
+/// 90°) on ref-trt: the tip error is cut by ≥ 90 %.
+#[test]
+fn cycle800_direct_mode_closed_loop() {
+    let original = read("tests/data/sinumerik/plane-direct.mpf");
+    let rig = ref_trt();
+    let (text, report) = compensate_on(
+        rig,
+        &original,
+        Frame::Joint,
+        CompensateOptions::default().tolerance_um,
+        true,
+    );
+    assert!(report.blocks_changed >= 25, "{}", report.blocks_changed);
+    let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+    eprintln!(
+        "ref-trt/plane-direct.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+        before.max_um, after.max_um, before.rms_um, after.rms_um
+    );
+    assert!(before.max_um > 5.0);
+    assert!(after.max_um <= 0.1 * before.max_um);
+}
+
+/// tests/data/sinumerik/circle-turning-tool.mpf on ref-trt: circles of
+/// radius 20 about the origin that also turn the tool, handed on as
+/// pieces. By hand:
+/// - N60 (`ORIWKS ORIVECT`, a quarter from (20, 0) to (0, 20)): the tool on
+///   the great circle from v0 = (0, 1/2, √3/2) to v1 = (1/2, 0, √3/2), the
+///   angle proportional to the path: at the tip's polar angle θ the axis
+///   is slerp(v0, v1, θ/90°); half way the tip is at (14.142136,
+///   14.142136) and the axis (1/2, 1/2, √3)/√3.5 = A 22.2077° C 45°
+///   (linear joints would stand at A 30° there); the end A 30° C 90°.
+/// - N80 (`ORIAXES`, back from (0, 20) to (20, 0)): the rotary axes linear
+///   in the path, C from 90° to 0° with A 30°: C equals θ at every end.
+/// - N110 (`ROT Y30`, a rotary axis word `C90`): the tip on `Ry(30°)` of
+///   the quarter circle, C = θ (linear), A 30°.
+///
+/// Then compensated (pieces written with their orientation words or rotary
+/// words), read back, and the closed loop cuts the tip error by ≥ 90 %.
+#[test]
+fn circles_that_turn_the_tool_are_handed_on_as_pieces() {
+    let file = "tests/data/sinumerik/circle-turning-tool.mpf";
+    let machine = ["check", "--machine", "machines/ref-trt.toml", file];
+    let part = joint_rows(&[&machine[..], &["--frame", "part", "--targets", "-"]].concat());
+    let joints = joint_rows(&[&machine[..], &["--targets", "-"]].concat());
+    assert_eq!(part.len(), joints.len());
+    let r3 = 3f64.sqrt();
+    let (v0, v1) = ([0.0, 0.5, r3 / 2.0], [0.5, 0.0, r3 / 2.0]);
+    let rows = |line: usize| -> Vec<(usize, [f64; 3], [f64; 3], [f64; 3])> {
+        part.iter()
+            .zip(&joints)
+            .filter(|(p, _)| p.0 == line)
+            .map(|(p, j)| (p.0, p.1, p.2, j.2))
+            .collect()
+    };
+    // The part rows carry i j k in the "rotary" slots of joint_rows.
+    let (n60, n80, n110) = (rows(12), rows(14), rows(17));
+    for set in [&n60, &n80, &n110] {
+        assert!(set.len() > 100, "{}", set.len());
+    }
+    for (_, tip, axis, j) in &n60 {
+        assert!((tip[0].hypot(tip[1]) - 20.0).abs() < 1e-3 && tip[2].abs() < 1e-9);
+        let t = tip[1].atan2(tip[0]) / std::f64::consts::FRAC_PI_2;
+        assert!(angle(*axis, slerp(v0, v1, t)) < 2e-6, "{tip:?} {axis:?}");
+        assert!(angle(*axis, ac_axis(j[0], j[2])) < 1e-6);
+    }
+    let half = n60
+        .iter()
+        .find(|r| (r.1[0] - 14.142136).abs() < 1e-6 && (r.1[1] - 14.142136).abs() < 1e-6)
+        .expect("a piece ends half way");
+    let s = 3.5f64.sqrt();
+    assert!(angle(half.2, [0.5 / s, 0.5 / s, r3 / s]) < 1e-6);
+    assert!((half.3[0] - 22.2077).abs() < 1e-4 && (half.3[2] - 45.0).abs() < 1e-6);
+    let end = n60.last().unwrap();
+    assert!((end.1[1] - 20.0).abs() < 1e-9 && (end.3[0] - 30.0).abs() < 1e-4);
+    assert!((end.3[2] - 90.0).abs() < 1e-6);
+    for (_, tip, _, j) in &n80 {
+        let theta = tip[1].atan2(tip[0]).to_degrees();
+        assert!(
+            (j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4,
+            "{tip:?} {j:?}"
+        );
+    }
+    let (sy, cy) = 30f64.to_radians().sin_cos();
+    for (_, tip, _, j) in &n110 {
+        // Back through Ry(30°): the point of the quarter circle.
+        let flat = [cy * tip[0] - sy * tip[2], tip[1], sy * tip[0] + cy * tip[2]];
+        assert!((flat[0].hypot(flat[1]) - 20.0).abs() < 1e-3 && flat[2].abs() < 1e-6);
+        let theta = flat[1].atan2(flat[0]).to_degrees();
+        assert!(
+            (j[2] - theta).abs() < 1e-5 && (j[0] - 30.0).abs() < 1e-4,
+            "{flat:?} {j:?}"
+        );
+    }
+    // Compensated, written back and read back; the closed loop.
+    let original = read(file);
+    let rig = ref_trt();
+    let (text, _) = compensate_on(
+        rig,
+        &original,
+        Frame::Joint,
+        CompensateOptions::default().tolerance_um,
+        true,
+    );
+    let n60_out: Vec<&str> = text
+        .lines()
+        .filter(|l| l.ends_with("; volcomp: line 12"))
+        .collect();
+    assert!(n60_out.len() > 100 && n60_out.iter().all(|l| l.contains(" A3=")));
+    assert!(
+        text.lines()
+            .filter(|l| l.ends_with("; volcomp: line 17"))
+            .all(|l| l.contains(" C"))
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let back = dir.path().join("c.mpf");
+    std::fs::write(&back, &text).unwrap();
+    let again = joint_rows(&[
+        "check",
+        "--machine",
+        "machines/ref-trt.toml",
+        back.to_str().unwrap(),
+        "--targets",
+        "-",
+    ]);
+    assert!(again.len() >= joints.len());
+    let (before, after) = closed_loop_on(rig, &original, &text, Frame::Joint);
+    eprintln!(
+        "ref-trt/circle-turning-tool.mpf: tip max {:.3} -> {:.4} µm, RMS {:.3} -> {:.4} µm",
+        before.max_um, after.max_um, before.rms_um, after.rms_um
+    );
+    assert!(before.max_um > 5.0);
+    assert!(after.max_um <= 0.1 * before.max_um);
+}
+
+/// tests/data/sinumerik/ct-after-space-cip.mpf (`check --frame part`): the
+/// `CIP` half circle about the origin in y = 0 ends at (−10, 0, 0) running
+/// along −Z; the `CT` after it is, by hand, the half circle about (−5, −5,
+/// 0) of radius √50 in the plane x + y = −10 leaving along −Z and ending at
+/// (0, −10, 0), lowest at z = −√50. Every row lies on it; written flat,
+/// compensated and read back.
+#[test]
+fn ct_after_a_circle_in_space_continues_tangentially() {
+    let file = "tests/data/sinumerik/ct-after-space-cip.mpf";
+    let rows = joint_rows(&["check", file, "--frame", "part", "--targets", "-"]);
+    let ct: Vec<[f64; 3]> = rows.iter().filter(|r| r.0 == 11).map(|r| r.1).collect();
+    assert!(ct.len() > 70, "{}", ct.len());
+    let r = 50f64.sqrt();
+    for p in &ct {
+        let d = ((p[0] + 5.0).powi(2) + (p[1] + 5.0).powi(2) + p[2] * p[2]).sqrt();
+        assert!(
+            (d - r).abs() < 2e-6 && (p[0] + p[1] + 10.0).abs() < 2e-6,
+            "{p:?}"
+        );
+    }
+    let first = ct[0];
+    let dir = [first[0] + 10.0, first[1], first[2]];
+    let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    // The first chord leaves within half its own turn of −Z.
+    assert!(-dir[2] / len > 0.999, "{dir:?}");
+    let last = ct.last().unwrap();
+    assert!(last[0].abs() < 1e-9 && (last[1] + 10.0).abs() < 1e-9 && last[2].abs() < 1e-9);
+    let lowest = ct.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
+    assert!(lowest < -7.07 && lowest > -r - 1e-6, "{lowest}");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("c.mpf");
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml", file, "-o"])
+        .arg(&out_path)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("N60 G1 X") && l.ends_with("; volcomp: line 11"))
+    );
+    for l in text
+        .lines()
+        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
+    {
+        assert!(!l.contains("CT ") && !l.contains("CIP"), "{l}");
+    }
+    let again = joint_rows(&["check", out_path.to_str().unwrap(), "--targets", "-"]);
+    assert!(again.len() >= rows.len());
 }

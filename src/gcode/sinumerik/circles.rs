@@ -16,7 +16,12 @@ use crate::gcode::heidenhain::geometry::{arc_chords, cross, dot};
 use crate::gcode::heidenhain::machine::{CHORD_TOLERANCE_MM, radius_centre};
 use crate::gcode::machine::interpret::Interpreter;
 
+use super::orientation::{
+    HandedEnd, ORIENTATION_TOLERANCE_RAD, Pieces, angle_between, great_circle, great_circle_pieces,
+    rotary_axes,
+};
 use super::{LineRun, Out, SinumerikFront, word};
+use crate::gcode::Branch;
 
 impl SinumerikFront {
     /// The circle of this block (centre form after `arc`: `G2`/`G3` with
@@ -103,13 +108,17 @@ impl SinumerikFront {
         .map(|p| [0, 1, 2].map(|k| centre[k] + p[0] * e1[k] + p[1] * e2[k] + p[2] * normal[k]))
         .collect();
         self.hand_on_chords(line, out, interpreter, start, &points, incremental)?;
+        self.space_arc = Some((centre, normal));
         Ok(Some(()))
     }
 
     /// Hand the block on as straight pieces through `points` (program
-    /// coordinates, the last the block's end): the block itself, its circle
-    /// words dropped and `G1` in place of its circle, ends at the first; the
-    /// others are queued flat. A circle given by `G2`/`G3` stays the modal
+    /// coordinates, the last the block's end, evenly spaced along the
+    /// path): the block itself, its circle words dropped and `G1` in place
+    /// of its circle, ends at the first; the others are queued flat
+    /// ([`Self::hand_on_pieces`]). A circle that also turns the tool
+    /// (under `TRAORI`) turns it as the control does
+    /// ([`Self::circle_turn`]). A circle given by `G2`/`G3` stays the modal
     /// motion for the blocks after it (the next motion block without a
     /// motion word gets it back, flat).
     pub(super) fn hand_on_chords(
@@ -121,44 +130,12 @@ impl SinumerikFront {
         points: &[[f64; 3]],
         incremental: bool,
     ) -> Result<(), GcodeError> {
-        let turns_tool = |w: &&crate::gcode::syntax::block::Word| {
-            super::orientation::word_name(w.letter).is_some()
-                || Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
-        };
-        let mut tool_words: Vec<_> = out.words.iter().filter(turns_tool).collect();
-        tool_words.sort_by_key(|w| w.start);
-        if let Some(w) = tool_words.first() {
-            return Err(self.feature(
-                line,
-                "a circle in a tilted plane or in space that also turns the tool",
-                w.start,
-                w.end.max(w.start + 1).min(line.raw.len()),
-            ));
-        }
-        let Some(&first) = points.first() else {
-            return Ok(());
-        };
-        let moved: Vec<bool> = (0..3)
-            .map(|k| points.iter().any(|p| (p[k] - start[k]).abs() > 1e-12))
-            .collect();
-        let delta = |now: f64, before: f64| if incremental { now - before } else { now };
-        let mut previous = first;
-        for p in &points[1..] {
-            let mut piece = Out::new(0);
-            piece.flat = true;
-            for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
-                if moved[k] {
-                    piece.synthetic.push(piece.words.len());
-                    piece
-                        .words
-                        .push(word(letter, delta(p[k], previous[k]), 0, 0, 4, true, false));
-                }
-            }
-            previous = *p;
-            if self.hand_on(line, piece, line.raw, false)? {
-                self.pending.push_back(std::mem::take(&mut self.block));
-            }
-        }
+        let ends = self.circle_turn(line, out, interpreter, start, points, incremental)?;
+        // The orientation is handed on with the pieces (not split again).
+        let form = self
+            .turn_end
+            .take()
+            .and_then(|e| self.orientation_form(out, e.at));
         // The block: its circle's words go, G1 to the first point.
         let modal_arc = matches!(
             interpreter.modal().motion,
@@ -188,22 +165,6 @@ impl SinumerikFront {
         retain_words(out, |w| {
             !matches!(w.letter, b'I' | b'J' | b'K' | b'R' | b'P')
         });
-        let anchor = out.words.iter().map(|w| w.end).max().unwrap_or(0);
-        for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
-            let value = delta(first[k], start[k]);
-            match out.words.iter().rposition(|w| w.letter == letter) {
-                Some(i) => {
-                    out.words[i].value = value;
-                    out.substituted.push(i);
-                }
-                None if moved[k] => {
-                    out.synthetic.push(out.words.len());
-                    out.words
-                        .push(word(letter, value, anchor, anchor, 4, true, false));
-                }
-                None => {}
-            }
-        }
         if !has_motion {
             out.synthetic.push(out.words.len());
             out.words.push(word(b'G', 1.0, 0, 0, 0, false, false));
@@ -215,8 +176,157 @@ impl SinumerikFront {
         } else {
             None
         };
-        out.flat = true;
-        Ok(())
+        self.hand_on_pieces(
+            line,
+            out,
+            interpreter,
+            Pieces {
+                start,
+                ends: &ends,
+                form: form.as_ref(),
+                unit_mm: 1.0,
+            },
+        )
+    }
+
+    /// The piece ends of a circle through `points` (evenly spaced along
+    /// the path, the last its end) and how its tool turns: not at all (the
+    /// joints stay); under `TRAORI` with rotary axis words, or with an
+    /// orientation under `ORIMKS`/`ORIAXES`, the rotary axes linearly in the
+    /// path; with an orientation under `ORIWKS` + `ORIVECT` on the great
+    /// circle from the start's tool axis to the end's, the angle
+    /// proportional to the path (*Job planning*, "Orientation axis
+    /// reference (ORIWKS, ORIMKS)", as for straight blocks), each chord
+    /// split further where the linear joints would leave the great circle
+    /// ([`super::orientation::great_circle_pieces`]; a piece end inside a
+    /// chord lies on the chord). A circle that turns the tool without
+    /// `TRAORI` is refused (its rotary words would be machine joints).
+    fn circle_turn(
+        &self,
+        line: &LineRun,
+        out: &Out,
+        interpreter: &Interpreter,
+        start: [f64; 3],
+        points: &[[f64; 3]],
+        incremental: bool,
+    ) -> Result<Vec<HandedEnd>, GcodeError> {
+        let origin = interpreter.origin();
+        let j0 = interpreter.position();
+        let rotary = rotary_axes(interpreter);
+        let mut tool_words: Vec<_> = out
+            .words
+            .iter()
+            .filter(|w| {
+                super::orientation::word_name(w.letter).is_some()
+                    || Axis::from_letter(w.letter as char).is_some_and(|a| a.is_rotary())
+            })
+            .collect();
+        tool_words.sort_by_key(|w| w.start);
+        let still = |points: &[[f64; 3]]| {
+            let joints = origin.to_program(&j0);
+            points
+                .iter()
+                .map(|&tip| HandedEnd {
+                    tip,
+                    joints,
+                    axis: [0.0, 0.0, 1.0],
+                })
+                .collect()
+        };
+        let Some(w) = tool_words.first() else {
+            return Ok(still(points));
+        };
+        let at = (w.start, w.end.max(w.start + 1).min(line.raw.len()));
+        if !self.traori {
+            return Err(self.feature(
+                line,
+                "a circle in a tilted plane or in space that also turns the tool without TRAORI",
+                at.0,
+                at.1,
+            ));
+        }
+        let Some(solver) = self.orientation.clone() else {
+            return Err(self.feature(
+                line,
+                "a circle that also turns the tool without the machine (give --machine: the orientation comes from its chain)",
+                at.0,
+                at.1,
+            ));
+        };
+        let n = points.len();
+        let chord = |k: usize| if k == 0 { start } else { points[k - 1] };
+        match self.turn_end {
+            Some(end) if self.great_circle_mode() => {
+                let v0 = unit(solver.axis_of(&j0));
+                let v1 = end.axis;
+                self.refuse_half_turn(line, angle_between(v0, v1), end.at)?;
+                let mut ends = Vec::new();
+                let mut ja = j0;
+                for k in 0..n {
+                    let (ta, tb) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+                    let (va, vb) = (great_circle(v0, v1, ta), great_circle(v0, v1, tb));
+                    let (a, b) = (chord(k), points[k]);
+                    let jb = solver
+                        .joints_for_axis(vb, Branch::Nearest, &ja)
+                        .ok_or_else(|| self.unreachable_circle(line, end.at))?;
+                    let (pieces, _capped) = great_circle_pieces(
+                        solver.as_ref(),
+                        &rotary,
+                        &ja,
+                        &jb,
+                        [va, vb],
+                        ORIENTATION_TOLERANCE_RAD,
+                    )
+                    .ok_or_else(|| self.unreachable_circle(line, end.at))?;
+                    for p in &pieces {
+                        ends.push(HandedEnd {
+                            tip: [0, 1, 2].map(|i| a[i] + p.t * (b[i] - a[i])),
+                            joints: origin.to_program(&p.joints),
+                            axis: great_circle(v0, v1, ta + p.t * (tb - ta)),
+                        });
+                    }
+                    ja = pieces.last().map_or(jb, |p| p.joints);
+                }
+                Ok(ends)
+            }
+            _ => {
+                // The rotary axes linearly in the path.
+                let j1 = match self.turn_end {
+                    Some(end) => end.joints,
+                    None => {
+                        let mut program = origin.to_program(&j0);
+                        for w in &tool_words {
+                            if let Some(r) = Axis::from_letter(w.letter as char) {
+                                let before = program.get(r);
+                                program.set(
+                                    r,
+                                    if incremental {
+                                        before + w.value
+                                    } else {
+                                        w.value
+                                    },
+                                );
+                            }
+                        }
+                        origin.to_machine(&program)
+                    }
+                };
+                Ok((0..n)
+                    .map(|k| {
+                        let t = (k + 1) as f64 / n as f64;
+                        let mut j = j0;
+                        for &r in &rotary {
+                            j.set(r, j0.get(r) + t * (j1.get(r) - j0.get(r)));
+                        }
+                        HandedEnd {
+                            tip: points[k],
+                            joints: origin.to_program(&j),
+                            axis: solver.axis_of(&j),
+                        }
+                    })
+                    .collect())
+            }
+        }
     }
 }
 
@@ -275,6 +385,43 @@ pub(crate) fn space_circle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Option<([f6
     Some((centre, unit(n)))
 }
 
+/// The unit tangent at `p` of the circle about `centre` running
+/// counter-clockwise about the unit `normal`: `normal × (p − centre)`.
+pub(super) fn space_tangent(centre: [f64; 3], normal: [f64; 3], p: [f64; 3]) -> [f64; 3] {
+    unit(cross(normal, sub(p, centre)))
+}
+
+/// `CT` in space: the point half way along the circle that leaves `p`
+/// along the unit `tangent` and reaches `e` (it lies in the plane of the
+/// tangent and the chord; its centre is `p + s·u`, `u` the unit square to
+/// the tangent towards `e`, `s = |e − p|² / (2 (e − p)·u)`); `None` when
+/// `e` lies on the tangent's line.
+pub(super) fn tangent_circle_midpoint(
+    p: [f64; 3],
+    tangent: [f64; 3],
+    e: [f64; 3],
+) -> Option<[f64; 3]> {
+    let d = sub(e, p);
+    let dd = dot(d, d);
+    let n = cross(tangent, d);
+    if !(dot(n, n).sqrt() > 1e-9 * dd.sqrt().max(1e-9)) {
+        return None;
+    }
+    let n = unit(n);
+    let u = cross(n, tangent);
+    let s = dd / (2.0 * dot(d, u));
+    let c = [0, 1, 2].map(|k| p[k] + s * u[k]);
+    // Counter-clockwise about n from p to e: the angle, then half of it.
+    let (rp, re) = (sub(p, c), sub(e, c));
+    let mut sweep = dot(n, cross(rp, re)).atan2(dot(rp, re));
+    if sweep <= 0.0 {
+        sweep += std::f64::consts::TAU;
+    }
+    let (sh, ch) = (0.5 * sweep).sin_cos();
+    let w = cross(n, rp);
+    Some([0, 1, 2].map(|k| c[k] + ch * rp[k] + sh * w[k]))
+}
+
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -310,5 +457,27 @@ mod tests {
         let (_, back) = space_circle(at(200.0), at(90.0), at(0.0)).unwrap();
         assert!((back[2] + want_n[2]).abs() < 1e-9);
         assert!(space_circle(at(0.0), at(0.0), at(90.0)).is_none());
+    }
+
+    /// `CT` in space: leaving (10, 0, 0) along +Y towards (0, 10, 0) is
+    /// the quarter circle about the origin in z = 0 (half way at 45°);
+    /// leaving it along +Z towards (0, 0, 10)... towards (−10, 0, 0) along
+    /// +Z is the half circle about the origin in y = 0, through (0, 0, 10).
+    #[test]
+    fn a_tangent_circle_in_space() {
+        let m =
+            tangent_circle_midpoint([10.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 10.0, 0.0]).unwrap();
+        let h = 10.0 * 0.5f64.sqrt();
+        assert!((m[0] - h).abs() < 1e-12 && (m[1] - h).abs() < 1e-12 && m[2].abs() < 1e-12);
+        let m =
+            tangent_circle_midpoint([10.0, 0.0, 0.0], [0.0, 0.0, 1.0], [-10.0, 0.0, 0.0]).unwrap();
+        assert!(
+            m[0].abs() < 1e-9 && m[1].abs() < 1e-12 && (m[2] - 10.0).abs() < 1e-9,
+            "{m:?}"
+        );
+        assert!(tangent_circle_midpoint([0.0; 3], [1.0, 0.0, 0.0], [5.0, 0.0, 0.0]).is_none());
+        // The tangent of a circle about Z at (10, 0, 0) is +Y.
+        let t = space_tangent([0.0; 3], [0.0, 0.0, 1.0], [10.0, 0.0, 0.0]);
+        assert!((t[1] - 1.0).abs() < 1e-12);
     }
 }

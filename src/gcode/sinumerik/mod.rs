@@ -37,6 +37,7 @@
 //! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
 //!   out into the centre form and handed on flat.
 pub(crate) mod circles;
+pub(crate) mod cycle800;
 pub(crate) mod orientation;
 pub(crate) mod splines;
 pub(crate) mod syntax;
@@ -667,6 +668,11 @@ pub(crate) struct SinumerikFront {
     spline_degree: usize,
     /// The blocks of a closed section, handed on next.
     spline_out: std::collections::VecDeque<(Block, Executed)>,
+    /// The circle in space this line handed on: its centre and normal.
+    space_arc: Option<([f64; 3], [f64; 3])>,
+    /// Where this line's orientation words turn the tool (`circles` hands a
+    /// circle that turns it on in pieces).
+    turn_end: Option<orientation::OrientationEnd>,
 }
 
 impl SinumerikFront {
@@ -768,6 +774,8 @@ impl SinumerikFront {
             spline: None,
             spline_degree: 3,
             spline_out: std::collections::VecDeque::new(),
+            space_arc: None,
+            turn_end: None,
         }
     }
 
@@ -2921,6 +2929,7 @@ impl SinumerikFront {
             }
         }
         self.chorded = false;
+        self.turn_end = turned;
         if axis_words || arc_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
@@ -2936,15 +2945,30 @@ impl SinumerikFront {
             let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
             self.last_move = self.move_of(&out, interpreter, start);
             if self.chorded {
-                // A circle in space (CIP): CT has no tangent in the plane.
-                self.last_move = Some(LastMove {
-                    start,
-                    kind: LastKind::Unknown,
-                });
-            } else if chords {
+                // A circle in space (CIP, or CT after one): CT goes on from
+                // its tangent (`circles::space_tangent`).
+                self.last_move =
+                    Some(LastMove {
+                        start,
+                        kind: self.space_arc.take().map_or(
+                            LastKind::Unknown,
+                            |(centre, normal)| LastKind::Space { centre, normal },
+                        ),
+                    });
+            } else if chords
+                || (self.traori
+                    && self.arc_context(&out, interpreter).2.is_some()
+                    && (turned.is_some()
+                        || out.words.iter().any(|w| {
+                            crate::axes::Axis::from_letter(w.letter as char)
+                                .is_some_and(|a| a.is_rotary())
+                        })))
+            {
+                // A circle in a tilted plane, or one that turns the tool
+                // under TRAORI: pieces.
                 self.circle_as_chords(line, &mut out, interpreter, start)?;
             }
-            if let Some(end) = turned
+            if let Some(end) = self.turn_end
                 && !arc_words
                 && self.great_circle_mode()
                 && self.arc_context(&out, interpreter).2.is_none()
@@ -3352,6 +3376,50 @@ impl SinumerikFront {
                 (cross < 0.0, c)
             }
             Some(ArcForm::Tangential) => {
+                if let Some(LastMove {
+                    kind: LastKind::Space { centre, normal },
+                    ..
+                }) = self.last_move
+                {
+                    // After a circle in space: the circle in space leaving
+                    // its end tangentially to it (`circles`).
+                    if has_radius || has_centre {
+                        return Err(self.refused(
+                            line,
+                            "CIP/CT/AR= with I J K or CR=: the circle is over-determined".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    let tangent = circles::space_tangent(centre, normal, start);
+                    let Some(inter) = circles::tangent_circle_midpoint(start, tangent, end) else {
+                        return Err(self.refused(
+                            line,
+                            "CT: the end lies on the tangent of the circle before (or is the start): no circle leaves tangentially to it".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    };
+                    if self
+                        .space_circle_as_chords(
+                            line,
+                            out,
+                            interpreter,
+                            [start, inter, end],
+                            incremental,
+                        )?
+                        .is_none()
+                    {
+                        return Err(self.refused(
+                            line,
+                            "CT: no circle leaves tangentially to the circle before and reaches the end".into(),
+                            at.0,
+                            at.1,
+                        ));
+                    }
+                    self.chorded = true;
+                    return Ok(());
+                }
                 let Some(t) = self.tangent(line, plane, start, at)? else {
                     return Err(self.refused(
                         line,
@@ -3554,7 +3622,7 @@ impl SinumerikFront {
             _ => {
                 return Err(self.feature(
                     line,
-                    "CT after a circle in space (CIP out of the working plane) or in another plane",
+                    "CT after a circle in another working plane (G17/G18/G19 changed between them)",
                     at.0,
                     at.1,
                 ));
@@ -3798,190 +3866,6 @@ impl SinumerikFront {
         Ok(())
     }
 
-    /// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1,
-    /// _Y1, _Z1, _DIR, …)`: a swivelled working plane (Siemens, *Job
-    /// planning* / *Milling cycles*, "Swivel plane CYCLE800"). Read: a new
-    /// plane (`_ST` units digit 0) or an additive one (1), axis by axis (`_MODE` bits 6–7 = 0;
-    /// bits 0–5 the order, two bits a rotation: 01 X, 10 Y, 11 Z, the first
-    /// rotation in the low bits with angle `_A`, then `_B`, `_C`, each about
-    /// the axis as the previous rotations left it). The plane's frame is
-    /// `p ↦ X0 + R·(X1 + p)`; the tool is turned along `R·Z` by the
-    /// machine's chain (`ProgramSetup::orientation`), `_DIR` +1/−1 picking
-    /// the solution whose first rotary axis (letter order) is ≥ 0 / ≤ 0, and
-    /// 0 leaving the rotary axes where they are; positions are then tool-tip
-    /// positions in the part frame, as under `TRAORI`. `_ST` units digit 1
-    /// (additive) swivels on from the plane already active. `CYCLE800()`
-    /// removes the plane (the rotary axes stay).
-    fn cycle800(
-        &mut self,
-        line: &LineRun,
-        args: &[Expr],
-        at: (usize, usize),
-        interpreter: &mut Interpreter,
-        out: &mut Out,
-    ) -> Result<(), GcodeError> {
-        out.statements.push(at.0..at.1);
-        self.flush_frame_later = true;
-        if args.is_empty() {
-            if self.frames.swivel.take().is_some() && !self.traori {
-                out.keywords.push(KeywordWord {
-                    keyword: Keyword::TraFoof,
-                    start: at.0,
-                    end: at.1,
-                });
-            }
-            return Ok(());
-        }
-        let mut v = [0.0f64; 16];
-        for (k, a) in args.iter().enumerate().take(16) {
-            v[k] = match a {
-                Expr::Str(_) => 0.0,
-                e => self.eval(line, e, at)?,
-            };
-        }
-        let mode = v[3] as i64;
-        let additive = (v[2] as i64) % 10 == 1;
-        let mut r = FrameTransform::IDENTITY;
-        // `_MODE` bits 6-7 (*Job planning* / *Cycles*, CYCLE800 parameters:
-        // "Swivel mode"): 00 axis by axis, 01 solid angle, 10 projection
-        // angle, 11 direct (rotary axis positions).
-        match mode & 0xC0 {
-            0x00 => {
-                for k in 0..3 {
-                    let angle = v[7 + k];
-                    let m = match (mode >> (2 * k)) & 3 {
-                        1 => rpy(angle, 0.0, 0.0),
-                        2 => rpy(0.0, angle, 0.0),
-                        3 => rpy(0.0, 0.0, angle),
-                        _ => continue,
-                    };
-                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
-                        r = r.after(&piece);
-                    }
-                }
-            }
-            0x40 => {
-                // Solid angle: about Z by α (`_A`, in the XY plane), then
-                // about the turned Y by β (`_B`): the tool axis
-                // (sin β cos α, sin β sin α, cos β).
-                if v[9] != 0.0 {
-                    return Err(self.feature(
-                        line,
-                        "CYCLE800 by solid angle with a third angle (_C)",
-                        at.0,
-                        at.1,
-                    ));
-                }
-                for m in [rpy(0.0, 0.0, v[7]), rpy(0.0, v[8], 0.0)] {
-                    if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
-                        r = r.after(&piece);
-                    }
-                }
-            }
-            0x80 => {
-                // Projection angles Xα (`_A`), Yα (`_B`), then Zβ (`_C`)
-                // about the new Z: the new X lies in the old ZX plane, as
-                // Klartext's `PLANE PROJECTED` (its PROMIN, PROPR, ROT).
-                if mode & 0x3F != 57 {
-                    return Err(self.feature(
-                        line,
-                        "CYCLE800 projection angles other than Xα Yα Zβ (_MODE bits 0-5 = 57)",
-                        at.0,
-                        at.1,
-                    ));
-                }
-                let Some(m) = crate::gcode::heidenhain::geometry::projected(v[8], v[7], v[9])
-                else {
-                    return Err(self.refused(
-                        line,
-                        "CYCLE800 projection angles of ±90°: the plane's traces are not defined"
-                            .into(),
-                        at.0,
-                        at.1,
-                    ));
-                };
-                if let Some(piece) = FrameTransform::new(m, [0.0; 3]) {
-                    r = piece;
-                }
-            }
-            _ => {
-                return Err(self.feature(
-                    line,
-                    "CYCLE800 direct mode (the plane from rotary axis positions, _MODE bits 6-7 = 11)",
-                    at.0,
-                    at.1,
-                ));
-            }
-        }
-        let shift = |t: [f64; 3]| FrameTransform {
-            shift: t,
-            ..FrameTransform::IDENTITY
-        };
-        let mut plane = shift([v[4], v[5], v[6]])
-            .after(&r)
-            .after(&shift([v[10], v[11], v[12]]));
-        // Additive (`_ST` units digit 1): the new swivel acts in the plane
-        // the previous one left (its shifts and rotations in that frame).
-        if additive && let Some(old) = self.frames.swivel {
-            plane = old.after(&plane);
-            r = FrameTransform {
-                shift: [0.0; 3],
-                ..old
-            }
-            .after(&r);
-        }
-        plane.holds_rotary = true;
-        let dir = v[13];
-        if dir != 0.0 {
-            let Some(solver) = self.orientation.clone() else {
-                return Err(self.feature(
-                    line,
-                    "CYCLE800 without the machine (give --machine: the plane is solved with its chain)",
-                    at.0,
-                    at.1,
-                ));
-            };
-            let axis = r.apply_vector([0.0, 0.0, 1.0]);
-            let branch = if dir > 0.0 {
-                crate::gcode::Branch::Plus
-            } else {
-                crate::gcode::Branch::Minus
-            };
-            let mut position = interpreter.position();
-            let Some(joints) = solver.joints_for_axis(axis, branch, &position) else {
-                return Err(self.refused(
-                    line,
-                    format!(
-                        "the machine cannot turn the tool along the plane's normal [{:.4}, {:.4}, {:.4}] on the {} branch",
-                        axis[0],
-                        axis[1],
-                        axis[2],
-                        if dir > 0.0 { "+" } else { "-" }
-                    ),
-                    at.0,
-                    at.1,
-                ));
-            };
-            for a in [
-                crate::axes::Axis::A,
-                crate::axes::Axis::B,
-                crate::axes::Axis::C,
-            ] {
-                position.set(a, joints.get(a));
-            }
-            interpreter.set_position(position);
-        }
-        if self.frames.swivel.is_none() && !self.traori {
-            out.keywords.push(KeywordWord {
-                keyword: Keyword::TraOri,
-                start: at.0,
-                end: at.1,
-            });
-        }
-        self.frames.swivel = Some(plane);
-        Ok(())
-    }
-
     /// `AC()`/`IC()` values: an axis word written `=IC(…)` under G90 becomes
     /// the absolute target, `=AC(…)` under G91 the increment (*Fundamentals*,
     /// "Absolute and incremental dimensions: AC, IC"); `I=AC(…)` centres
@@ -4124,6 +4008,12 @@ enum LastKind {
     },
     /// A circle by `CR=`: its centre is the machine-state layer's.
     Unknown,
+    /// A circle in space (`CIP` out of the working plane, or a `CT` after
+    /// one): its centre and the unit normal it runs counter-clockwise about.
+    Space {
+        centre: [f64; 3],
+        normal: [f64; 3],
+    },
 }
 
 /// The centre of the circle through `a`, `b`, `c` (2-D); `None` when they
@@ -4605,6 +4495,19 @@ mod tests {
             let (sa, ca) = j.a.to_radians().sin_cos();
             let (sc, cc) = j.c.to_radians().sin_cos();
             [sa * sc, -sa * cc, ca]
+        }
+        /// `Rz(C)·Rx(A)`.
+        fn frame_of(&self, j: &Axes) -> [[f64; 3]; 3] {
+            let (sa, ca) = j.a.to_radians().sin_cos();
+            let (sc, cc) = j.c.to_radians().sin_cos();
+            [
+                [cc, -sc * ca, sc * sa],
+                [sc, cc * ca, -cc * sa],
+                [0.0, sa, ca],
+            ]
+        }
+        fn swivel_order(&self) -> [crate::axes::Axis; 2] {
+            [crate::axes::Axis::C, crate::axes::Axis::A]
         }
     }
 

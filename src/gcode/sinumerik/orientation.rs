@@ -249,7 +249,8 @@ impl SinumerikFront {
     /// piece (its other words with it), flat; the others are queued as flat
     /// blocks `X… Y… Z… A3=… B3=… C3=… ; volcomp: line N` (angles `A2= B2=`
     /// for a block given in angles), each with its joints on the machine's
-    /// chain. A block that needs no split is left as it is.
+    /// chain ([`Self::hand_on_pieces`]). A block that needs no split is left
+    /// as it is.
     pub(super) fn split_on_great_circle(
         &mut self,
         line: &LineRun,
@@ -268,20 +269,8 @@ impl SinumerikFront {
         if turn < 1e-9 {
             return Ok(());
         }
-        if turn > std::f64::consts::PI - 1e-6 {
-            return Err(self.refused(
-                line,
-                "the tool turns by 180° in one block: under ORIVECT the great circle it turns on is not defined".into(),
-                end.at.0,
-                end.at.1,
-            ));
-        }
-        let rotary: Vec<Axis> = interpreter
-            .options()
-            .axes
-            .iter()
-            .filter(|a| a.is_rotary())
-            .collect();
+        self.refuse_half_turn(line, turn, end.at)?;
+        let rotary = rotary_axes(interpreter);
         let Some((pieces, _capped)) = great_circle_pieces(
             solver.as_ref(),
             &rotary,
@@ -290,23 +279,13 @@ impl SinumerikFront {
             [v0, v1],
             ORIENTATION_TOLERANCE_RAD,
         ) else {
-            return Err(self.refused(
-                line,
-                "the tool turns on a great circle through a direction the machine cannot reach within its rotary travel".into(),
-                end.at.0,
-                end.at.1,
-            ));
+            return Err(self.unreachable_circle(line, end.at));
         };
         if pieces.len() < 2 {
             return Ok(());
         }
         // The block's end in program coordinates (mm).
-        let incremental = out
-            .words
-            .iter()
-            .rev()
-            .find(|w| w.letter == b'G' && (w.value == 90.0 || w.value == 91.0))
-            .map_or(self.incremental, |w| w.value == 91.0);
+        let incremental = out.incremental(self.incremental);
         let inch = out
             .words
             .iter()
@@ -327,43 +306,145 @@ impl SinumerikFront {
                 };
             }
         }
-        // The orientation words' form.
-        let (letters, angles) = if out
-            .words
+        let origin = interpreter.origin();
+        let ends: Vec<HandedEnd> = pieces
             .iter()
-            .any(|w| crate::gcode::ORIENTATION_VECTOR_LETTERS.contains(&w.letter))
-        {
+            .map(|p| HandedEnd {
+                tip: [0, 1, 2].map(|k| start[k] + p.t * (p1[k] - start[k])),
+                joints: origin.to_program(&p.joints),
+                axis: great_circle(v0, v1, p.t),
+            })
+            .collect();
+        let form = self.orientation_form(out, end.at);
+        self.hand_on_pieces(
+            line,
+            out,
+            interpreter,
+            Pieces {
+                start,
+                ends: &ends,
+                form: form.as_ref(),
+                unit_mm,
+            },
+        )
+    }
+
+    /// A turn of 180° in one block has no great circle.
+    pub(super) fn refuse_half_turn(
+        &self,
+        line: &LineRun,
+        turn: f64,
+        at: (usize, usize),
+    ) -> Result<(), GcodeError> {
+        if turn > std::f64::consts::PI - 1e-6 {
+            return Err(self.refused(
+                line,
+                "the tool turns by 180° in one block: under ORIVECT the great circle it turns on is not defined".into(),
+                at.0,
+                at.1,
+            ));
+        }
+        Ok(())
+    }
+
+    /// The great circle passes a direction the machine cannot reach.
+    pub(super) fn unreachable_circle(&self, line: &LineRun, at: (usize, usize)) -> GcodeError {
+        self.refused(
+            line,
+            "the tool turns on a great circle through a direction the machine cannot reach within its rotary travel".into(),
+            at.0,
+            at.1,
+        )
+    }
+
+    /// The orientation words of the block (a vector `A3= B3= C3=`, or angles
+    /// `A2= B2= C2=` as `ORIEULER`/`ORIRPY` read them) at `at`; `None` when
+    /// it has none (the tool turned by rotary axis words).
+    pub(super) fn orientation_form(
+        &self,
+        out: &Out,
+        at: (usize, usize),
+    ) -> Option<OrientationForm> {
+        let has = |letters: [u8; 3]| out.words.iter().any(|w| letters.contains(&w.letter));
+        let (letters, angles) = if has(crate::gcode::ORIENTATION_VECTOR_LETTERS) {
             (crate::gcode::ORIENTATION_VECTOR_LETTERS, None)
-        } else if self.ori.rpy {
-            (ORIENTATION_RPY_LETTERS, Some(true))
+        } else if has(ORIENTATION_RPY_LETTERS) || has(ORIENTATION_ANGLE_LETTERS) {
+            if self.ori.rpy {
+                (ORIENTATION_RPY_LETTERS, Some(true))
+            } else {
+                (ORIENTATION_ANGLE_LETTERS, Some(false))
+            }
         } else {
-            (ORIENTATION_ANGLE_LETTERS, Some(false))
+            return None;
         };
         let c2 = out
             .words
             .iter()
             .find(|w| w.letter == letters[2])
             .map_or(0.0, |w| w.value);
-        let frame = self.combined_frame();
-        let origin = interpreter.origin();
-        // Each piece end: tip, rotary words, orientation words (program).
-        let ends: Vec<([f64; 3], Axes, [f64; 3])> = pieces
-            .iter()
-            .map(|p| {
-                let tip = [0, 1, 2].map(|k| start[k] + p.t * (p1[k] - start[k]));
-                let w = great_circle(v0, v1, p.t);
-                let m = &frame.inverse;
-                let mut v = unit([0, 1, 2].map(|i| dot(m[i], w)));
-                if let Some(rpy) = angles {
-                    v = super::direction_angles(rpy, v, c2);
-                }
-                (tip, origin.to_program(&p.joints), v)
+        Some(OrientationForm {
+            letters,
+            angles,
+            c2,
+            at,
+        })
+    }
+
+    /// Hand a block on as straight pieces through `ends` (the last the
+    /// block's end; tips in program coordinates, mm, the block's start
+    /// `start`): the block itself ends at the first (its axis, rotary and
+    /// orientation words say it, flat); the others are queued as flat
+    /// blocks `X… Y… Z… [A3=… B3=… C3=…] A… C… ; volcomp: line N`, in the
+    /// block's `G90`/`G91` and units (`unit_mm` mm per program unit). The
+    /// rotary joints are written for every rotary axis that moves or that
+    /// the block names; orientation words (`form`) are the tool axis back
+    /// through the block's frame.
+    pub(super) fn hand_on_pieces(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        interpreter: &Interpreter,
+        pieces: Pieces<'_>,
+    ) -> Result<(), GcodeError> {
+        let Pieces {
+            start,
+            ends,
+            form,
+            unit_mm,
+        } = pieces;
+        let Some(first) = ends.first() else {
+            return Ok(());
+        };
+        let incremental = out.incremental(self.incremental);
+        let j_base = interpreter.origin().to_program(&interpreter.position());
+        let rotary: Vec<Axis> = rotary_axes(interpreter)
+            .into_iter()
+            .filter(|&r| {
+                out.words.iter().any(|w| w.letter == r.letter() as u8)
+                    || ends
+                        .iter()
+                        .any(|e| (e.joints.get(r) - j_base.get(r)).abs() > 1e-12)
             })
             .collect();
-        let mut previous = (ends[0].0, ends[0].1);
-        let moved: Vec<bool> = (0..3).map(|k| (p1[k] - start[k]).abs() > 1e-12).collect();
+        let frame = self.combined_frame();
+        let words_of = |axis: [f64; 3]| -> [f64; 3] {
+            let Some(form) = form else {
+                return [0.0; 3];
+            };
+            let m = &frame.inverse;
+            let v = unit([0, 1, 2].map(|i| dot(m[i], axis)));
+            match form.angles {
+                Some(rpy) => super::direction_angles(rpy, v, form.c2),
+                None => v,
+            }
+        };
+        let skip_c2 = |k: usize| form.is_some_and(|f| f.angles.is_some() && k == 2 && f.c2 == 0.0);
+        let moved: Vec<bool> = (0..3)
+            .map(|k| ends.iter().any(|e| (e.tip[k] - start[k]).abs() > 1e-12))
+            .collect();
         let delta = |now: f64, before: f64| if incremental { now - before } else { now };
-        for &(tip, joints, v) in &ends[1..] {
+        let mut previous = (first.tip, first.joints);
+        for e in &ends[1..] {
             let mut piece = Out::new(0);
             piece.flat = true;
             for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
@@ -371,7 +452,7 @@ impl SinumerikFront {
                     piece.synthetic.push(piece.words.len());
                     piece.words.push(super::word(
                         letter,
-                        delta(tip[k], previous.0[k]) / unit_mm,
+                        delta(e.tip[k], previous.0[k]) / unit_mm,
                         0,
                         0,
                         4,
@@ -380,19 +461,27 @@ impl SinumerikFront {
                     ));
                 }
             }
-            for (k, &letter) in letters.iter().enumerate() {
-                if angles.is_some() && k == 2 && c2 == 0.0 {
-                    continue;
+            if let Some(form) = form {
+                let v = words_of(e.axis);
+                for (k, &letter) in form.letters.iter().enumerate() {
+                    if skip_c2(k) {
+                        continue;
+                    }
+                    piece.synthetic.push(piece.words.len());
+                    piece
+                        .words
+                        .push(super::word(letter, v[k], 0, 0, 7, true, false));
                 }
-                piece.synthetic.push(piece.words.len());
-                piece
-                    .words
-                    .push(super::word(letter, v[k], 0, 0, 7, true, false));
             }
             for &r in &rotary {
+                // Machine-axis words are the piece's own text; with an
+                // orientation the writer says the joints in its words.
+                if form.is_none() {
+                    piece.synthetic.push(piece.words.len());
+                }
                 piece.words.push(super::word(
                     r.letter() as u8,
-                    delta(joints.get(r), previous.1.get(r)),
+                    delta(e.joints.get(r), previous.1.get(r)),
                     0,
                     0,
                     4,
@@ -400,47 +489,62 @@ impl SinumerikFront {
                     false,
                 ));
             }
-            previous = (tip, joints);
+            previous = (e.tip, e.joints);
             if self.hand_on(line, piece, line.raw, false)? {
                 self.pending.push_back(std::mem::take(&mut self.block));
             }
         }
         // The block itself is the first piece: its axis, rotary and
         // orientation words say the first end.
-        let (tip, joints, v) = ends[0];
-        let j_base = origin.to_program(&j0);
-        let at = end.at.0;
+        let anchor = out.words.iter().map(|w| w.end).max().unwrap_or(0);
+        let at = form.map_or((anchor, anchor), |f| f.at);
         let mut added = Vec::new();
         for (k, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
-            let value = delta(tip[k], start[k]) / unit_mm;
+            let value = delta(first.tip[k], start[k]) / unit_mm;
             match out.words.iter().rposition(|w| w.letter == letter) {
                 Some(i) => {
                     out.words[i].value = value;
                     out.substituted.push(i);
                 }
-                None if moved[k] => added.push(super::word(letter, value, at, at, 4, true, false)),
+                None if moved[k] => {
+                    added.push(super::word(letter, value, at.0, at.0, 4, true, false))
+                }
                 None => {}
             }
         }
-        for (k, &letter) in letters.iter().enumerate() {
-            match out.words.iter().position(|w| w.letter == letter) {
-                Some(i) => {
-                    out.words[i].value = v[k];
-                    out.substituted.push(i);
+        if let Some(form) = form {
+            let v = words_of(first.axis);
+            for (k, &letter) in form.letters.iter().enumerate() {
+                match out.words.iter().position(|w| w.letter == letter) {
+                    Some(i) => {
+                        out.words[i].value = v[k];
+                        out.substituted.push(i);
+                    }
+                    None if !skip_c2(k) => {
+                        added.push(super::word(letter, v[k], at.1, at.1, 7, true, false))
+                    }
+                    None => {}
                 }
-                None if angles.is_none() || k < 2 => added.push(super::word(
-                    letter, v[k], end.at.1, end.at.1, 7, true, false,
-                )),
-                None => {}
             }
         }
         for &r in &rotary {
-            if let Some(w) = out
-                .words
-                .iter_mut()
-                .find(|w| w.letter == r.letter() as u8 && w.start == w.end)
-            {
-                w.value = delta(joints.get(r), j_base.get(r));
+            let value = delta(first.joints.get(r), j_base.get(r));
+            match out.words.iter().position(|w| w.letter == r.letter() as u8) {
+                Some(i) => {
+                    out.words[i].value = value;
+                    if out.words[i].start != out.words[i].end {
+                        out.substituted.push(i);
+                    }
+                }
+                None => added.push(super::word(
+                    r.letter() as u8,
+                    value,
+                    at.1,
+                    at.1,
+                    4,
+                    true,
+                    false,
+                )),
             }
         }
         for w in added {
@@ -450,6 +554,49 @@ impl SinumerikFront {
         out.flat = true;
         Ok(())
     }
+}
+
+/// A block's pieces for [`SinumerikFront::hand_on_pieces`]: the block's
+/// start (program coordinates, mm), the piece ends (the last the block's
+/// end), the orientation words they carry, mm per program unit.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pieces<'a> {
+    pub start: [f64; 3],
+    pub ends: &'a [HandedEnd],
+    pub form: Option<&'a OrientationForm>,
+    pub unit_mm: f64,
+}
+
+/// One end of a piece handed on: the tool tip (program coordinates, mm),
+/// the joints (program values) and the tool axis (unit, workpiece frame).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct HandedEnd {
+    pub tip: [f64; 3],
+    pub joints: Axes,
+    pub axis: [f64; 3],
+}
+
+/// How a block gives its orientation: the words its pieces carry.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct OrientationForm {
+    /// `A3 B3 C3`, or the angle letters (`A2 B2 C2`).
+    letters: [u8; 3],
+    /// Angles: `Some(true)` under `ORIRPY`, `Some(false)` Euler; `None` a vector.
+    angles: Option<bool>,
+    /// The block's `C2` (kept: it turns about the tool).
+    c2: f64,
+    /// The orientation words' span in the line.
+    at: (usize, usize),
+}
+
+/// The interpreter's rotary axes.
+pub(super) fn rotary_axes(interpreter: &Interpreter) -> Vec<Axis> {
+    interpreter
+        .options()
+        .axes
+        .iter()
+        .filter(|a| a.is_rotary())
+        .collect()
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
@@ -497,6 +644,21 @@ mod tests {
             let (sa, ca) = j.a.to_radians().sin_cos();
             let (sc, cc) = j.c.to_radians().sin_cos();
             [sa * sc, sa * cc, ca]
+        }
+
+        /// `Rz(−C)·Rx(−A)` (the table turns the part the other way).
+        fn frame_of(&self, j: &Axes) -> [[f64; 3]; 3] {
+            let (sa, ca) = j.a.to_radians().sin_cos();
+            let (sc, cc) = j.c.to_radians().sin_cos();
+            [
+                [cc, sc * ca, sc * sa],
+                [-sc, cc * ca, cc * sa],
+                [0.0, -sa, ca],
+            ]
+        }
+
+        fn swivel_order(&self) -> [Axis; 2] {
+            [Axis::A, Axis::C]
         }
     }
 
