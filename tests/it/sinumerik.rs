@@ -812,3 +812,32 @@ fn var_array_parameters_are_passed_by_reference() {
         assert!(err.contains(says) && err.contains(at), "{err}");
     }
 }
+
+/// A frame statement after a circle that `compensate` splits: `ROT Y30` and
+/// `TRANS Y5` carry axis letters as their values, yet move nothing. They are
+/// written back byte for byte, alone in their blocks (before, the block was
+/// taken for a move and written `N60 G1 ROT Y30`, which a control refuses).
+#[test]
+fn frame_statements_after_a_split_circle_stay_alone_in_their_blocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = "tests/data/sinumerik/frame-after-split-arc.mpf";
+    let compensated = dir.path().join("out.mpf");
+    let out = volcomp()
+        .args(["compensate", "machines/ref-trt.toml", program, "-o"])
+        .arg(&compensated)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = std::fs::read_to_string(&compensated).unwrap();
+    for kept in ["N60 ROT Y30", "N80 TRANS Y5", "N100 ROT"] {
+        assert!(text.lines().any(|l| l == kept), "{kept} not kept:\n{text}");
+    }
+    // The circle was split (else the test would not test the case).
+    assert!(
+        text.lines().filter(|l| l.starts_with("G1 X")).count() > 10,
+        "{text}"
+    );
+    let out = volcomp().arg("check").arg(&compensated).output().unwrap();
+    assert_success(&out);
+}

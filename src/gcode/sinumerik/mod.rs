@@ -2828,6 +2828,9 @@ impl SinumerikFront {
                 }
             }
             out.words = kept;
+            // The values move nothing: the block is not a move (the control
+            // wants a frame statement alone in its block).
+            axis_words = false;
             self.frame_statement(line, &op, &frame_values, rpl, at, interpreter)?;
         } else if rpl.is_some() {
             return Err(self.refused(line, "RPL= belongs to ROT or AROT".into(), 0, raw.len()));
