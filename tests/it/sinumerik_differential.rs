@@ -114,6 +114,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         "the reference does not interpolate `BSPLINE`: it moves straight to each control point (15 moves); volcomp follows the rational B spline (`SD=`, `PW=`, `PL=`) as chords within 0.5 µm (417 moves), each section checked by hand in tests/it/sinumerik_splines.rs",
     ),
     (
+        "frame-after-split-arc.mpf",
+        &[],
+        AsWritten,
+        Agree,
+        "`ROT Y30` and `TRANS Y5` after a circle: both turn and shift the moves after them alike (the fixture guards that compensate writes the frame statements alone in their blocks)",
+    ),
+    (
         "saddle-traori-ac.mpf",
         &[],
         AsWritten,
