@@ -1068,6 +1068,18 @@ impl KlMachine {
         let needed = |name: &str, v: Option<f64>| {
             v.ok_or_else(|| c.error(&format!("{what} without its {name}"), Some(0)))
         };
+        // `CCA`, the centre angle of a CT arc: above 0, at most 360.
+        let centre_angle = || {
+            let cca = needed("centre angle CCA", word("CCA")?)?;
+            if cca > 0.0 && cca <= 360.0 {
+                Ok(cca)
+            } else {
+                Err(c.error(
+                    &format!("{what}: the centre angle CCA must be above 0 and at most 360"),
+                    Some(0),
+                ))
+            }
+        };
         // `R…` the radius (not the `R0` of the compensation).
         let radius = b
             .tokens
@@ -1168,15 +1180,7 @@ impl KlMachine {
                 "CT" => {
                     let left = side_needed()?;
                     let r = needed("radius R", radius)?;
-                    let cca = needed("centre angle CCA", word("CCA")?)?;
-                    if !(cca > 0.0 && cca <= 360.0) {
-                        return Err(c.error(
-                            &format!(
-                                "{what}: the centre angle CCA must be above 0 and at most 360"
-                            ),
-                            Some(0),
-                        ));
-                    }
+                    let cca = centre_angle()?;
                     // A negative R: the arc on the other side.
                     let arc = contact(left != (r < 0.0)).tangent_arc(r, cca, true);
                     path.push((at(arc.away, pa[2]), before));
@@ -1247,15 +1251,7 @@ impl KlMachine {
                 }
                 "CT" => {
                     let r = needed("radius R", radius)?;
-                    let cca = needed("centre angle CCA", word("CCA")?)?;
-                    if !(cca > 0.0 && cca <= 360.0) {
-                        return Err(c.error(
-                            &format!(
-                                "{what}: the centre angle CCA must be above 0 and at most 360"
-                            ),
-                            Some(0),
-                        ));
-                    }
+                    let cca = centre_angle()?;
                     let arc = contact(left()? != (r < 0.0)).tangent_arc(r, cca, false);
                     for p in arc_points(arc.centre, [pe[0], pe[1]], arc.away, arc.clockwise, pe[2])
                     {
