@@ -393,14 +393,7 @@ impl KlartextWriter {
             }
             current = p;
             moved = true;
-            let text = format!(
-                " CC {}{} {}{} ; volcomp: line {}",
-                letters[0],
-                signed_short(p[0]),
-                letters[1],
-                signed_short(p[1]),
-                block.line
-            );
+            let text = pole_block(letters, &p, &format!("line {}", block.line));
             w.write_fresh(&text, block, out)?;
             Ok((p, 1))
         };
@@ -515,13 +508,10 @@ impl KlartextWriter {
         edits.sort_by_key(|e| e.0.start);
         self.write_numbered(block, parsed, Some(&edits), out)?;
         if moved {
-            let text = format!(
-                " CC {}{} {}{} ; volcomp: the pole of line {} again",
-                letters[0],
-                signed_short(c[0]),
-                letters[1],
-                signed_short(c[1]),
-                block.line
+            let text = pole_block(
+                letters,
+                &c,
+                &format!("the pole of line {} again", block.line),
             );
             self.write_fresh(&text, block, out)?;
             added += 1;
@@ -789,6 +779,18 @@ fn signed_short(v: f64) -> String {
     let s = signed_number(v, POLE_DECIMALS);
     let s = s.trim_end_matches('0').trim_end_matches('.');
     s.to_string()
+}
+
+/// A `CC` block setting the pole at `p` in the plane's letters, with a
+/// `; volcomp: …` note.
+fn pole_block(letters: [&str; 3], p: &[f64], note: &str) -> String {
+    format!(
+        " CC {}{} {}{} ; volcomp: {note}",
+        letters[0],
+        signed_short(p[0]),
+        letters[1],
+        signed_short(p[1]),
+    )
 }
 
 /// The letters of the plane's first and second axes and its normal.

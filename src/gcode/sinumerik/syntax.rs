@@ -120,7 +120,13 @@ pub(crate) fn tokenize(
             continue;
         }
         if c.is_ascii_digit() || (c == b'.' && raw.get(i + 1).is_some_and(u8::is_ascii_digit)) {
-            let (j, point, decimals) = scan_digits(raw, i);
+            let Digits {
+                end: j,
+                point,
+                decimals,
+                ..
+            } = scan_digits(raw, i);
+            let decimals = u8::try_from(decimals).unwrap_or(u8::MAX);
             // Siemens' exponent `EX` (`1.5EX3`).
             if j + 2 < n + 1
                 && raw.get(j).is_some_and(|b| b.eq_ignore_ascii_case(&b'E'))
@@ -290,32 +296,16 @@ pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Opti
             }
             _ => false,
         };
-        // `digits [. digits]` scanned and converted in one pass (what
-        // `scan_digits` and `parse_number` give).
+        // `digits [. digits]` scanned and converted in one pass.
         let digits = i;
-        let mut mantissa = 0u64;
-        let mut ndigits = 0usize;
-        while i < n && raw[i].is_ascii_digit() {
-            mantissa = mantissa
-                .wrapping_mul(10)
-                .wrapping_add(u64::from(raw[i] - b'0'));
-            ndigits += 1;
-            i += 1;
-        }
-        let mut point = false;
-        let mut decimals = 0usize;
-        if i < n && raw[i] == b'.' {
-            point = true;
-            i += 1;
-            while i < n && raw[i].is_ascii_digit() {
-                mantissa = mantissa
-                    .wrapping_mul(10)
-                    .wrapping_add(u64::from(raw[i] - b'0'));
-                ndigits += 1;
-                decimals += 1;
-                i += 1;
-            }
-        }
+        let Digits {
+            end,
+            point,
+            decimals,
+            mantissa,
+            ndigits,
+        } = scan_digits(raw, i);
+        i = end;
         // A number has a digit (what follows it is read as the next word:
         // a name, an exponent `EX`, `=` or `[` are not plain).
         if ndigits == 0 {
@@ -345,25 +335,56 @@ pub(crate) fn plain_words(raw: &[u8], words: &mut Vec<PlainWord>) -> Option<Opti
     Some(comment)
 }
 
-/// The digits of a number from `i`: `digits [. digits]` (either part may
-/// be empty): its end, whether a point was written, the decimals written.
+/// The digits of a number: `digits [. digits]` (either part may be empty).
+struct Digits {
+    /// Where the digits end.
+    end: usize,
+    /// A point was written.
+    point: bool,
+    /// The decimals written.
+    decimals: usize,
+    /// The digits as one integer (wrapping past 19 digits: used only up to
+    /// 15, see `exact_from_parts`).
+    mantissa: u64,
+    /// How many digits, both parts.
+    ndigits: usize,
+}
+
+/// The digits of a number from `i`, scanned and converted in one pass (a
+/// caller that needs only the end pays nothing more once inlined).
 #[inline]
-fn scan_digits(raw: &[u8], mut i: usize) -> (usize, bool, u8) {
+fn scan_digits(raw: &[u8], mut i: usize) -> Digits {
     let n = raw.len();
+    let mut mantissa = 0u64;
+    let mut ndigits = 0usize;
     while i < n && raw[i].is_ascii_digit() {
+        mantissa = mantissa
+            .wrapping_mul(10)
+            .wrapping_add(u64::from(raw[i] - b'0'));
+        ndigits += 1;
         i += 1;
     }
     let mut point = false;
-    let mut decimals = 0u8;
+    let mut decimals = 0usize;
     if i < n && raw[i] == b'.' {
         point = true;
         i += 1;
         while i < n && raw[i].is_ascii_digit() {
+            mantissa = mantissa
+                .wrapping_mul(10)
+                .wrapping_add(u64::from(raw[i] - b'0'));
+            ndigits += 1;
+            decimals += 1;
             i += 1;
-            decimals = decimals.saturating_add(1);
         }
     }
-    (i, point, decimals)
+    Digits {
+        end: i,
+        point,
+        decimals,
+        mantissa,
+        ndigits,
+    }
 }
 
 /// The digits of a number (ASCII, `.` allowed at either end).
