@@ -521,10 +521,9 @@ struct NumberCheck {
 impl NumberCheck {
     /// The next block, `raw` at `line`.
     fn block(&mut self, raw: &[u8], line: usize) -> Result<(), GcodeError> {
-        if raw.iter().all(|b| b.is_ascii_whitespace()) {
+        let Some(mut lead) = raw.iter().position(|b| !b.is_ascii_whitespace()) else {
             return Ok(());
-        }
-        let mut lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        };
         // A block-skip `/` before the number (`/81 M30`).
         if raw.get(lead) == Some(&b'/') {
             lead += 1;
