@@ -435,6 +435,11 @@ fn tokenize(code: &str, map: &CodeMap, tokens: &mut Vec<Token>) {
             k = end;
             continue;
         }
+        if let Some((t, end)) = keyword(bytes, start, map) {
+            tokens.push(t);
+            k = end;
+            continue;
+        }
         let mut in_quote = false;
         while k < bytes.len() && (in_quote || bytes[k] != b' ') {
             if bytes[k] == b'"' {
@@ -584,6 +589,40 @@ fn signed_number_word(code: &[u8], start: usize, map: &CodeMap) -> Option<(Token
             value: Some(Value::Number(if sign == b'-' { -x } else { x })),
             decimals: decimals.min(255) as u8,
             signed: true,
+        },
+        end,
+    ))
+}
+
+/// A token of letters only (`L`, `FMAX`, `CYCL`) up to a space or the
+/// code's end, read in one pass: what [`tokenize`] and [`token`] give it
+/// (its address, no value), and where it ends; `None` for any other token.
+#[inline]
+fn keyword(code: &[u8], start: usize, map: &CodeMap) -> Option<(Token, usize)> {
+    let len = code[start..]
+        .iter()
+        .position(|&b| !b.is_ascii_alphabetic())
+        .unwrap_or(code.len() - start);
+    let end = start + len;
+    if len == 0 || code.get(end).is_some_and(|&b| b != b' ') {
+        return None;
+    }
+    let raw_start = map.get(start).unwrap_or(0);
+    let raw_end = map.get(end - 1).map_or(raw_start, |e| e + 1);
+    let mut address = Address::default();
+    for (k, b) in code[start..end].iter().take(Address::CAPACITY).enumerate() {
+        address.bytes[k] = b.to_ascii_uppercase();
+        address.len = k as u8 + 1;
+    }
+    Some((
+        Token {
+            span: raw_start..raw_end,
+            text: start..end,
+            address,
+            value: None,
+            value_span: raw_end..raw_end,
+            decimals: 0,
+            signed: false,
         },
         end,
     ))
