@@ -1124,6 +1124,32 @@ mod tests {
         assert_eq!(f.tokens.len(), 2);
     }
 
+    /// The one-pass readers of signed numbers and keywords give each token
+    /// what the general token reader gives it (spans, value, decimals), on
+    /// one-line and continued blocks, with comments, lower case, long
+    /// addresses and numbers the exact path does not convert.
+    #[test]
+    fn one_pass_tokens_are_the_general_ones() {
+        for raw in [
+            &b"3 L X+50.0000 Y-0.0500 Z+.5 A+5. C-280 R0 FMAX"[..],
+            b"12 l x+12.5 IY-3 Z+Q1 R0 F800 M3 ; rapid",
+            b"4 L X+1.2.3 Y+ Z- A+12345678901234567890 B+9007199254740993 C+1,5",
+            b"5 CYCL DEF 200 ~\r\n  Q200=+2 ;A~\r\n  Q201= -20 ;B\r\n",
+            b"6 ABCDEFGHIJKLMNOPQRSTUVWXYZABC X+1 DR+F2777 P1X+0",
+            b"  7 L  X+1   Y-2 ",
+            b"8\n L X+3 ~\n Y+4",
+            b"\n9 L X+1 Y+2",
+        ] {
+            let b = parse_block(raw);
+            assert!(!b.tokens.is_empty());
+            for t in &b.tokens {
+                let mut general = token(&b.code[t.text.clone()], &b.code_map, t.text.start);
+                general.text = t.text.clone();
+                assert_eq!(&general, t, "{}", String::from_utf8_lossy(raw));
+            }
+        }
+    }
+
     #[test]
     fn linear_block_tokens() {
         let b = parse_block(b"12 L X+12.5 IY-3 Z+Q1 R0 FMAX M3 ; rapid");
