@@ -98,22 +98,6 @@ impl LineStream {
         }
     }
 
-    /// Whether the input has no byte after the lines read.
-    pub(crate) fn at_end(&mut self) -> io::Result<bool> {
-        loop {
-            match self.input.fill_buf() {
-                Ok(b) => return Ok(b.is_empty()),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            }
-        }
-    }
-
-    /// The index of the next line [`LineStream::read_line`] reads in order.
-    pub(crate) fn next_index(&self) -> usize {
-        self.next_index
-    }
-
     /// Read from the first line again.
     pub(crate) fn restart(&mut self) -> io::Result<()> {
         self.input.seek(SeekFrom::Start(self.start))?;

@@ -167,6 +167,7 @@ impl Source {
         })
     }
 
+    #[inline]
     pub fn raw(&self, index: usize) -> &[u8] {
         if let Some(w) = &self.window {
             return w.raw(index);

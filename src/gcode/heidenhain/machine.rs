@@ -213,7 +213,10 @@ impl KlMachine {
     /// The two blocks after the next one to interpret, when the first of
     /// them is `RND`/`CHF` (the corner the next straight line ends in).
     pub fn set_lookahead(&mut self, ahead: Option<(KlBlock, KlBlock)>) {
-        self.ahead = ahead;
+        // Most blocks have none, before and after: nothing to move.
+        if ahead.is_some() || self.ahead.is_some() {
+            self.ahead = ahead;
+        }
     }
 
     /// The Q parameters the last block set (`Q120`–`Q122` after `PLANE …
@@ -230,12 +233,18 @@ impl KlMachine {
     }
 
     fn fill(&self, event: &mut BlockEvent, line: usize) {
+        self.fill_but_frames(event, line);
+        event.origin = self.origin();
+        event.modal = self.modal();
+    }
+
+    /// [`KlMachine::fill`] but the origin and modal state (which
+    /// [`KlMachine::interpret`] sets after the block).
+    fn fill_but_frames(&self, event: &mut BlockEvent, line: usize) {
         let s = &self.state;
         event.index = line.saturating_sub(1);
         event.line = line;
         event.moves = Moves::None;
-        event.origin = self.origin();
-        event.modal = self.modal();
         event.tool = s.tool;
         event.start = s.position;
         event.position = s.position;
@@ -332,7 +341,7 @@ impl KlMachine {
         q: &QParameters,
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
-        self.fill(event, line);
+        self.fill_but_frames(event, line);
         let mut s = self.state.clone();
         s.assigned.clear();
         s.commands_rotary = false;
@@ -345,7 +354,15 @@ impl KlMachine {
             line,
             q,
         };
-        let statement = self.statement(&ctx, &mut s, event)?;
+        let statement = match self.statement(&ctx, &mut s, event) {
+            Ok(statement) => statement,
+            Err(e) => {
+                // The event as `fill` leaves it.
+                event.origin = self.origin();
+                event.modal = self.modal();
+                return Err(e);
+            }
+        };
         for m in event.moves.all() {
             s.time_min += m.duration_min;
         }
@@ -585,15 +602,15 @@ impl KlMachine {
         let b = c.block;
         let mut rapid = false;
         for (k, t) in b.tokens.iter().enumerate().skip(from) {
-            match t.address.as_str() {
-                "FMAX" => rapid = true,
-                "FAUTO" => s.feed = s.tool_feed,
-                "F" if t.value.is_none() => match b.address(k + 1) {
+            match t.address.as_bytes() {
+                b"FMAX" => rapid = true,
+                b"FAUTO" => s.feed = s.tool_feed,
+                b"F" if t.value.is_none() => match b.address(k + 1) {
                     "MAX" => rapid = true,
                     "AUTO" => s.feed = s.tool_feed,
                     _ => return Err(c.error("F without a value", Some(k))),
                 },
-                "F" => s.feed = self.feed_value(c, s, k)?,
+                b"F" => s.feed = self.feed_value(c, s, k)?,
                 _ => {}
             }
         }
@@ -607,10 +624,10 @@ impl KlMachine {
     /// Radius compensation words (`R0`, `RL`, `RR`).
     fn compensation(&self, c: &Ctx<'_>, s: &mut State) {
         for t in &c.block.tokens {
-            match (t.address.as_str(), t.number()) {
-                ("R", Some(v)) if v == 0.0 && t.value_span.len() == 1 => s.comp = CutterComp::Off,
-                ("RL", None) => s.comp = CutterComp::Left,
-                ("RR", None) => s.comp = CutterComp::Right,
+            match (t.address.as_bytes(), t.number()) {
+                (b"R", Some(v)) if v == 0.0 && t.value_span.len() == 1 => s.comp = CutterComp::Off,
+                (b"RL", None) => s.comp = CutterComp::Left,
+                (b"RR", None) => s.comp = CutterComp::Right,
                 _ => {}
             }
         }

@@ -185,6 +185,9 @@ impl KlartextFront {
         lang.count(file, pc)?;
         let r = lang.files[file].block(pc);
         let raw = lang.files[file].raw(pc);
+        // The block handed on starts as written (its bytes copied once).
+        self.block.reset(r.line, r.start as u64);
+        self.block.raw.extend_from_slice(raw);
         parse_block_into(raw, &mut self.parsed);
         if self.parsed.deleted && self.skip_deleted {
             // Block skip on: not read yet (the block's language effects
@@ -231,8 +234,6 @@ impl KlartextFront {
             format!("{}:{}", self.language.files[file].name, r.line)
         };
         self.current = (file, pc);
-        let raw = self.language.files[file].raw(pc);
-        self.block.reset(r.line, r.start as u64);
         self.block.ending = r.ending;
         self.block.deleted = self.parsed.deleted;
         if control {
@@ -242,14 +243,15 @@ impl KlartextFront {
             self.block.raw =
                 format!("{}; volcomp: {origin}: {code}", number.unwrap_or_default()).into_bytes();
         } else if reach == Reach::Flat {
-            self.block.raw = flat.unwrap_or_else(|| raw.to_vec());
+            if let Some(flat) = flat {
+                self.block.raw = flat;
+            }
             let at = self.block.raw.len();
             self.block
                 .raw
                 .extend_from_slice(format!(" ; volcomp: {origin}").as_bytes());
             self.block.comments.push(at + 1..self.block.raw.len());
         } else {
-            self.block.raw.extend_from_slice(raw);
             self.block
                 .comments
                 .extend(self.parsed.comments.iter().cloned());
@@ -359,22 +361,23 @@ impl KlartextFront {
                 .unwrap_or(raw.len());
             &raw[at..]
         };
+        // The block and its code.
         let after = |from: usize| {
-            (from..source.len().min(from + 16)).find(|&k| {
+            (from..source.len().min(from + 16)).find_map(|k| {
                 let c = code(k);
-                !c.is_empty() && c[0] != b';'
+                (!c.is_empty() && c[0] != b';').then_some((k, c))
             })
         };
         if first == "APPR" {
             // The first contour element after an approach.
-            let k = after(index + 1)?;
+            let (k, _) = after(index + 1)?;
             return Some((self.parsed.clone(), parse_block(source.raw(k))));
         }
-        let k = after(index + 1)?;
-        if !(code(k).starts_with(b"RND") || code(k).starts_with(b"CHF")) {
+        let (k, corner) = after(index + 1)?;
+        if !(corner.starts_with(b"RND") || corner.starts_with(b"CHF")) {
             return None;
         }
-        let next = after(k + 1)?;
+        let (next, _) = after(k + 1)?;
         Some((parse_block(source.raw(k)), parse_block(source.raw(next))))
     }
 
@@ -521,18 +524,25 @@ struct NumberCheck {
 impl NumberCheck {
     /// The next block, `raw` at `line`.
     fn block(&mut self, raw: &[u8], line: usize) -> Result<(), GcodeError> {
-        if raw.iter().all(|b| b.is_ascii_whitespace()) {
+        let Some(mut lead) = raw.iter().position(|b| !b.is_ascii_whitespace()) else {
             return Ok(());
-        }
-        let mut lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+        };
         // A block-skip `/` before the number (`/81 M30`).
         if raw.get(lead) == Some(&b'/') {
             lead += 1;
         }
-        let digits = raw[lead..]
-            .iter()
-            .take_while(|b| b.is_ascii_digit())
-            .count();
+        // The digits counted and converted in one pass (at most 19 cannot
+        // overflow; more are converted as `str::parse` would).
+        let mut value = 0u64;
+        let mut digits = 0;
+        for &b in &raw[lead..] {
+            let d = b.wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            value = value.wrapping_mul(10).wrapping_add(u64::from(d));
+            digits += 1;
+        }
         let has = digits > 0;
         if *self.numbered.get_or_insert(has) != has {
             return Err(GcodeError::at(
@@ -545,7 +555,11 @@ impl NumberCheck {
                 lead + 1,
             ));
         }
-        let n = syntax::digits_u64(&raw[lead..lead + digits]);
+        let n = if digits <= 19 {
+            has.then_some(value)
+        } else {
+            syntax::digits_u64(&raw[lead..lead + digits])
+        };
         let Some(n) = n else { return Ok(()) };
         if let Some(p) = self.previous
             && n <= p
@@ -568,11 +582,21 @@ impl NumberCheck {
 /// The block with its parameter values written as numbers (a flat copy),
 /// `None` when it has none.
 fn substituted(block: &KlBlock, raw: &[u8], q: &language::QParameters) -> Option<Vec<u8>> {
+    let substituted =
+        |t: &&syntax::Token| !(t.address.starts_with('Q') && t.value_span.start == t.span.start);
+    // Most blocks have no parameter value: no list is built.
+    if !block
+        .tokens
+        .iter()
+        .any(|t| matches!(t.value, Some(Value::Param { .. })))
+    {
+        return None;
+    }
     let params: Vec<_> = block
         .tokens
         .iter()
         .filter(|t| matches!(t.value, Some(Value::Param { .. })))
-        .filter(|t| !(t.address.starts_with('Q') && t.value_span.start == t.span.start))
+        .filter(substituted)
         .collect();
     if params.is_empty() || block.starts_with(&["FN"]) {
         return None;

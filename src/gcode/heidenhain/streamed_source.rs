@@ -7,49 +7,140 @@
 //! corner look-ahead reads after it.
 
 use std::collections::VecDeque;
-use std::io;
+use std::io::{self, SeekFrom};
 
 use super::language::BlockRef;
 use crate::gcode::language::ProgramInput;
-use crate::gcode::streamed_program::{LineStream, scan_lines};
+use crate::gcode::streamed_program::scan_lines;
 use crate::gcode::syntax::block::LineEnding;
 
-/// Logical blocks (a line and its `~` continuation lines) read in order.
+/// Bytes before the window's first block forgotten once they reach this.
+const CHUNK: usize = 1 << 16;
+
+/// Logical blocks (a line and its `~` continuation lines) read in order,
+/// in chunks: a block's bytes are where the chunks put them (no copy a
+/// line), as [`LineStream`](crate::gcode::streamed_program::LineStream)
+/// splits them.
 struct BlockStream {
-    lines: LineStream,
+    input: Box<dyn ProgramInput>,
+    /// Where the program starts in the input.
+    start: u64,
+    /// The bytes read and kept: `text[0]` is the program's byte `offset`.
+    text: Vec<u8>,
+    offset: usize,
+    /// Where the next line starts in `text`, and its index.
+    next: usize,
+    next_line: usize,
+    /// The input has no byte after `text`.
+    eof: bool,
 }
 
 impl BlockStream {
-    /// The next block, its bytes appended to `text` (what
-    /// `Source::raw` gives: continuation lines with their endings, the
-    /// last line without), with its place in the file. `None` at the end.
-    fn read_block(&mut self, text: &mut Vec<u8>) -> io::Result<Option<BlockRef>> {
-        let at = text.len();
-        let mut first: Option<(u64, usize)> = None;
+    /// Read more of the input (what its buffer holds) into `text`:
+    /// `false` at its end.
+    fn read_more(&mut self) -> io::Result<bool> {
+        if self.eof {
+            return Ok(false);
+        }
+        let n = loop {
+            match self.input.fill_buf() {
+                Ok(b) => {
+                    self.text.extend_from_slice(b);
+                    break b.len();
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            }
+        };
+        self.input.consume(n);
+        self.eof = n == 0;
+        Ok(n > 0)
+    }
+
+    /// The next line: where it starts in `text`, its length without its
+    /// ending, and the ending. `None` at the end.
+    fn line(&mut self) -> io::Result<Option<(usize, usize, LineEnding)>> {
+        let mut searched = self.next;
         loop {
-            let k = self.lines.next_index();
-            let content_at = text.len();
-            let Some(l) = self.lines.append_line(k, text)? else {
-                text.truncate(at);
-                return Ok(None);
-            };
-            let (start, line) = *first.get_or_insert((l.offset, k + 1));
-            let content_end = content_at + l.len;
-            // `Source::new`: a line ending in `~` continues, unless no byte follows it.
-            let continues = text[at..content_end].trim_ascii_end().ends_with(b"~")
-                && l.ending != LineEnding::None
-                && !self.lines.at_end()?;
-            if !continues {
-                text.truncate(content_end);
-                let len = content_end - at;
-                return Ok(Some(BlockRef {
-                    start: start as usize,
-                    end: start as usize + len,
-                    ending: l.ending,
-                    line,
+            if let Some(k) = memchr::memchr(b'\n', &self.text[searched..]) {
+                let eol = searched + k;
+                let start = self.next;
+                self.next = eol + 1;
+                self.next_line += 1;
+                return Ok(Some(if eol > start && self.text[eol - 1] == b'\r' {
+                    (start, eol - 1 - start, LineEnding::CrLf)
+                } else {
+                    (start, eol - start, LineEnding::Lf)
                 }));
             }
+            searched = self.text.len();
+            if !self.read_more()? {
+                if self.next == self.text.len() {
+                    return Ok(None);
+                }
+                let start = self.next;
+                self.next = self.text.len();
+                self.next_line += 1;
+                return Ok(Some((start, self.text.len() - start, LineEnding::None)));
+            }
         }
+    }
+
+    /// Whether no byte follows the lines read.
+    fn at_end(&mut self) -> io::Result<bool> {
+        Ok(self.next == self.text.len() && !self.read_more()?)
+    }
+
+    /// The next block (what `Source::raw` gives: continuation lines with
+    /// their endings, the last line without) with its place in the file,
+    /// and where its bytes start in `text`. `None` at the end.
+    fn read_block(&mut self) -> io::Result<Option<(BlockRef, usize)>> {
+        let mut first: Option<(usize, usize)> = None;
+        loop {
+            let Some((at, len, ending)) = self.line()? else {
+                return Ok(None);
+            };
+            let (start, line) = *first.get_or_insert((at, self.next_line));
+            let content_end = at + len;
+            // `Source::new`: a line ending in `~` continues, unless no byte follows it.
+            let continues = self.text[start..content_end]
+                .trim_ascii_end()
+                .ends_with(b"~")
+                && ending != LineEnding::None
+                && !self.at_end()?;
+            if !continues {
+                let block_start = self.offset + start;
+                return Ok(Some((
+                    BlockRef {
+                        start: block_start,
+                        end: block_start + (content_end - start),
+                        ending,
+                        line,
+                    },
+                    start,
+                )));
+            }
+        }
+    }
+
+    /// Forget the bytes before `keep` (an offset in `text`), moving the rest
+    /// to the front; returns how far they moved.
+    fn forget_before(&mut self, keep: usize) -> usize {
+        self.text.drain(..keep);
+        self.offset += keep;
+        self.next -= keep;
+        keep
+    }
+
+    /// Read from the first line again.
+    fn restart(&mut self) -> io::Result<()> {
+        self.input.seek(SeekFrom::Start(self.start))?;
+        self.text.clear();
+        self.offset = 0;
+        self.next = 0;
+        self.next_line = 0;
+        self.eof = false;
+        Ok(())
     }
 }
 
@@ -67,9 +158,8 @@ pub(crate) struct Window {
     last_line: Option<usize>,
     /// The index of the first block held.
     first: usize,
-    /// The blocks held, each with where its bytes start in `text`.
+    /// The blocks held, each with where its bytes start in the stream's text.
     held: VecDeque<(BlockRef, usize)>,
-    text: Vec<u8>,
 }
 
 impl Window {
@@ -147,13 +237,18 @@ impl Window {
         }
         Ok(Window {
             blocks: BlockStream {
-                lines: LineStream::new(input, start),
+                input,
+                start,
+                text: Vec::new(),
+                offset: 0,
+                next: 0,
+                next_line: 0,
+                eof: false,
             },
             count,
             last_line,
             first: 0,
             held: VecDeque::new(),
-            text: Vec::new(),
         })
     }
 
@@ -166,18 +261,24 @@ impl Window {
     }
 
     /// Block `k`, if held.
+    #[inline]
     pub(crate) fn block(&self, k: usize) -> Option<BlockRef> {
         let i = k.checked_sub(self.first)?;
         self.held.get(i).map(|(b, _)| *b)
     }
 
     /// Block `k`'s bytes (empty when not held).
+    #[inline]
     pub(crate) fn raw(&self, k: usize) -> &[u8] {
         let Some(i) = k.checked_sub(self.first) else {
             return b"";
         };
         match self.held.get(i) {
-            Some((b, at)) => &self.text[*at..*at + (b.end - b.start)],
+            Some((b, at)) => self
+                .blocks
+                .text
+                .get(*at..*at + (b.end - b.start))
+                .unwrap_or_default(),
             None => b"",
         }
     }
@@ -187,36 +288,32 @@ impl Window {
         if from < self.first {
             // Back before the window (not for a program without labels):
             // from the start again.
-            self.blocks.lines.restart()?;
+            self.blocks.restart()?;
             self.held.clear();
-            self.text.clear();
             self.first = 0;
         }
         while self.first < from {
             if self.held.pop_front().is_none() {
                 // Skipped without holding.
-                let mut scratch = Vec::new();
-                if self.blocks.read_block(&mut scratch)?.is_none() {
+                if self.blocks.read_block()?.is_none() {
                     break;
                 }
             }
             self.first += 1;
         }
-        match self.held.front() {
-            None => self.text.clear(),
-            Some(&(_, at)) if at >= 1 << 16 => {
-                self.text.drain(..at);
-                for (_, a) in &mut self.held {
-                    *a -= at;
-                }
+        // The bytes before the first block held (all read, when none is)
+        // are forgotten once they pass a chunk.
+        let keep = self.held.front().map_or(self.blocks.next, |&(_, at)| at);
+        if keep >= CHUNK {
+            let moved = self.blocks.forget_before(keep);
+            for (_, a) in &mut self.held {
+                *a -= moved;
             }
-            Some(_) => {}
         }
         let to = to.min(self.count);
         while self.first + self.held.len() < to {
-            let at = self.text.len();
-            match self.blocks.read_block(&mut self.text)? {
-                Some(b) => self.held.push_back((b, at)),
+            match self.blocks.read_block()? {
+                Some(b) => self.held.push_back(b),
                 None => break,
             }
         }

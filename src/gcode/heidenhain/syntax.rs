@@ -83,6 +83,12 @@ impl Address {
         }
     }
 
+    /// Its bytes (upper-case ASCII).
+    #[inline]
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..self.len as usize]
+    }
+
     /// Whether it is `other` (the first byte compared before the rest).
     fn is(&self, other: &[u8]) -> bool {
         let n = self.len as usize;
@@ -169,8 +175,61 @@ pub struct KlBlock {
     /// The bytes of the code part after the block number (comments removed,
     /// physical lines joined by a space), for formulas and names.
     pub code: String,
-    /// Offset in `raw` of each byte of `code` (same length as `code`).
-    pub code_map: Vec<usize>,
+    /// Where each byte of `code` is in `raw`.
+    code_map: CodeMap,
+}
+
+/// Where the bytes of [`KlBlock::code`] are in the block's raw bytes: one
+/// piece a physical line (its code copied whole), each followed by the
+/// joining space, which stands for the line's end.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct CodeMap {
+    pieces: Vec<Piece>,
+}
+
+/// One physical line's code in [`CodeMap`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Piece {
+    /// Where it starts in the code and in the raw bytes, and its length.
+    code: usize,
+    raw: usize,
+    len: usize,
+    /// The raw offset the space after it stands for.
+    space: usize,
+}
+
+impl CodeMap {
+    /// The raw offset of code byte `i` (`None` past the code's end).
+    #[inline]
+    fn get(&self, i: usize) -> Option<usize> {
+        for p in &self.pieces {
+            if i < p.code + p.len {
+                return Some(p.raw + (i - p.code));
+            }
+            if i == p.code + p.len {
+                return Some(p.space);
+            }
+        }
+        None
+    }
+
+    /// The first `n` code bytes removed (the block number read on the
+    /// gathered code).
+    fn drain_front(&mut self, mut n: usize) {
+        let mut code = 0;
+        self.pieces.retain_mut(|p| {
+            if n > p.len {
+                n -= p.len + 1;
+                return false;
+            }
+            p.raw += n;
+            p.len -= n;
+            n = 0;
+            p.code = code;
+            code += p.len + 1;
+            true
+        });
+    }
 }
 
 impl KlBlock {
@@ -195,7 +254,7 @@ impl KlBlock {
 
     /// The parameter a Q formula block assigns (`Q1 = …`, `QL2=…`).
     pub fn assigned(&self) -> Option<Param> {
-        let eq = self.code.find('=')?;
+        let eq = memchr::memchr(b'=', self.code.as_bytes())?;
         read_param(self.code[..eq].trim())
     }
 }
@@ -218,7 +277,7 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
     let mut code = std::mem::take(&mut out.code);
     let mut map = std::mem::take(&mut out.code_map);
     code.clear();
-    map.clear();
+    map.pieces.clear();
     // The block number is read on the first physical line's code, before
     // the code is gathered (so the code starts after it); a first line with
     // no code (the number could come from the next line) is read on the
@@ -281,24 +340,29 @@ pub fn parse_block_into(raw: &[u8], out: &mut KlBlock) {
                     .map(|&b| if b.is_ascii() { b as char } else { '?' }),
             );
         }
-        map.extend(from..cut);
+        map.pieces.push(Piece {
+            code: code.len() - (cut - from),
+            raw: from,
+            len: cut - from,
+            space: content_end.min(raw.len().saturating_sub(1)),
+        });
         code.push(' ');
-        map.push(content_end.min(raw.len().saturating_sub(1)));
         line_start = line_end + 1;
     }
     if !prefix_done {
         let rest = block_number(code.as_bytes(), 0, out);
         if let Some((_, span)) = &mut out.number {
-            *span = map[span.start]..map[span.end - 1] + 1;
+            let at = |i| map.get(i).unwrap_or(0);
+            *span = at(span.start)..at(span.end - 1) + 1;
         }
         code.drain(..rest);
-        map.drain(..rest);
+        map.drain_front(rest);
     }
     if code.trim_start().starts_with('*') {
         out.section = true;
     }
     if !out.section {
-        tokenize(&code, &map, 0, &mut out.tokens);
+        tokenize(&code, &map, &mut out.tokens);
     }
     out.code = code;
     out.code_map = map;
@@ -336,16 +400,28 @@ pub(crate) fn digits_u64(digits: &[u8]) -> Option<u64> {
     if digits.is_empty() {
         return None;
     }
+    if digits.len() <= 19 {
+        // At most 19 digits cannot overflow.
+        let mut n = 0u64;
+        for &d in digits {
+            let d = d.wrapping_sub(b'0');
+            if d > 9 {
+                return None;
+            }
+            n = n * 10 + u64::from(d);
+        }
+        return Some(n);
+    }
     digits.iter().try_fold(0u64, |n, &d| {
         n.checked_mul(10)?
             .checked_add(u64::from(d.checked_sub(b'0').filter(|d| *d < 10)?))
     })
 }
 
-/// Split `code[from..]` into tokens at spaces (quoted names stay whole).
-fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
+/// Split `code` into tokens at spaces (quoted names stay whole).
+fn tokenize(code: &str, map: &CodeMap, tokens: &mut Vec<Token>) {
     let bytes = code.as_bytes();
-    let mut k = from;
+    let mut k = 0;
     while k < bytes.len() {
         while k < bytes.len() && bytes[k] == b' ' {
             k += 1;
@@ -354,6 +430,16 @@ fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
             break;
         }
         let start = k;
+        if let Some((t, end)) = signed_number_word(bytes, start, map) {
+            tokens.push(t);
+            k = end;
+            continue;
+        }
+        if let Some((t, end)) = keyword(bytes, start, map) {
+            tokens.push(t);
+            k = end;
+            continue;
+        }
         let mut in_quote = false;
         while k < bytes.len() && (in_quote || bytes[k] != b' ') {
             if bytes[k] == b'"' {
@@ -386,7 +472,7 @@ fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
         for (a, b) in split.map_or([(start, k), (k, k)], |m| [(start, m), (m, k)]) {
             if a < b {
                 let mut t = token(&code[a..b], map, a);
-                t.text = a - from..b - from;
+                t.text = a..b;
                 tokens.push(t);
             }
         }
@@ -394,15 +480,12 @@ fn tokenize(code: &str, map: &[usize], from: usize, tokens: &mut Vec<Token>) {
 }
 
 /// One token: the leading letters are its address, the rest its value.
-fn token(text: &str, map: &[usize], at: usize) -> Token {
-    let raw_start = map.get(at).copied().unwrap_or(0);
+fn token(text: &str, map: &CodeMap, at: usize) -> Token {
+    let raw_start = map.get(at).unwrap_or(0);
     let raw_end = map
         .get(at + text.len().saturating_sub(1))
         .map_or(raw_start, |e| e + 1);
     let bytes = text.as_bytes();
-    if let Some(t) = signed_number_word(bytes, map, at, raw_start..raw_end) {
-        return t;
-    }
     let mut k = 0;
     while k < bytes.len() && bytes[k].is_ascii_alphabetic() {
         k += 1;
@@ -447,7 +530,7 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
     let value_span = if v.is_empty() {
         raw_end..raw_end
     } else {
-        map.get(v_at).copied().unwrap_or(raw_end)..raw_end
+        map.get(v_at).unwrap_or(raw_end)..raw_end
     };
     let (value, decimals, signed) = read_value(v);
     Token {
@@ -462,29 +545,87 @@ fn token(text: &str, map: &[usize], at: usize) -> Token {
 }
 
 /// The most common token, a letter and a signed number (`X+12.5`,
-/// `C-3`), read in one pass: what [`token`]'s general path gives it (a
-/// one-letter address, the number as [`read_value`] converts it); `None`
-/// for any other token.
-fn signed_number_word(bytes: &[u8], map: &[usize], at: usize, span: Range<usize>) -> Option<Token> {
-    let (&[letter, sign], body) = bytes.split_first_chunk::<2>()?;
+/// `C-3`) up to a space or the code's end, read in one pass from
+/// `code[start..]`: what [`tokenize`] and [`token`]'s general path give it
+/// (a one-letter address, the number as [`read_value`] converts it), and
+/// where it ends; `None` for any other token.
+#[inline]
+fn signed_number_word(code: &[u8], start: usize, map: &CodeMap) -> Option<(Token, usize)> {
+    let (&[letter, sign], body) = code.get(start..)?.split_first_chunk::<2>()?;
     if !letter.is_ascii_alphabetic() || !(sign == b'+' || sign == b'-') {
         return None;
     }
-    let point = body.iter().position(|&b| b == b'.');
-    let x = crate::gcode::syntax::parser::exact_decimal(body)?;
-    let decimals = point.map_or(0, |p| (body.len() - p - 1).min(255) as u8);
+    let mut mantissa: u64 = 0;
+    let mut ndigits = 0usize;
+    let mut point: Option<usize> = None;
+    let mut len = 0;
+    for &b in body {
+        if b.is_ascii_digit() {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
+            ndigits += 1;
+        } else if b == b'.' && point.is_none() {
+            point = Some(len);
+        } else if b == b' ' {
+            break;
+        } else {
+            return None;
+        }
+        len += 1;
+    }
+    let decimals = point.map_or(0, |p| len - p - 1);
+    let x = crate::gcode::syntax::parser::exact_from_parts(mantissa, ndigits, decimals)?;
+    let end = start + 2 + len;
+    let raw_start = map.get(start).unwrap_or(0);
+    let raw_end = map.get(end - 1).map_or(raw_start, |e| e + 1);
     let mut address = Address::default();
     address.bytes[0] = letter.to_ascii_uppercase();
     address.len = 1;
-    Some(Token {
-        value_span: map.get(at + 1).copied().unwrap_or(span.end)..span.end,
-        span,
-        text: 0..0,
-        address,
-        value: Some(Value::Number(if sign == b'-' { -x } else { x })),
-        decimals,
-        signed: true,
-    })
+    Some((
+        Token {
+            value_span: map.get(start + 1).unwrap_or(raw_end)..raw_end,
+            span: raw_start..raw_end,
+            text: start..end,
+            address,
+            value: Some(Value::Number(if sign == b'-' { -x } else { x })),
+            decimals: decimals.min(255) as u8,
+            signed: true,
+        },
+        end,
+    ))
+}
+
+/// A token of letters only (`L`, `FMAX`, `CYCL`) up to a space or the
+/// code's end, read in one pass: what [`tokenize`] and [`token`] give it
+/// (its address, no value), and where it ends; `None` for any other token.
+#[inline]
+fn keyword(code: &[u8], start: usize, map: &CodeMap) -> Option<(Token, usize)> {
+    let len = code[start..]
+        .iter()
+        .position(|&b| !b.is_ascii_alphabetic())
+        .unwrap_or(code.len() - start);
+    let end = start + len;
+    if len == 0 || code.get(end).is_some_and(|&b| b != b' ') {
+        return None;
+    }
+    let raw_start = map.get(start).unwrap_or(0);
+    let raw_end = map.get(end - 1).map_or(raw_start, |e| e + 1);
+    let mut address = Address::default();
+    for (k, b) in code[start..end].iter().take(Address::CAPACITY).enumerate() {
+        address.bytes[k] = b.to_ascii_uppercase();
+        address.len = k as u8 + 1;
+    }
+    Some((
+        Token {
+            span: raw_start..raw_end,
+            text: start..end,
+            address,
+            value: None,
+            value_span: raw_end..raw_end,
+            decimals: 0,
+            signed: false,
+        },
+        end,
+    ))
 }
 
 /// A value as written: `+12.5`, `-3`, `7`, `+Q1`, `-QL3`, `+`, `-`.
@@ -981,6 +1122,32 @@ mod tests {
         assert_eq!(f.tokens.len(), 5);
         let f = parse_block(b"8 Q1= SIN(30)");
         assert_eq!(f.tokens.len(), 2);
+    }
+
+    /// The one-pass readers of signed numbers and keywords give each token
+    /// what the general token reader gives it (spans, value, decimals), on
+    /// one-line and continued blocks, with comments, lower case, long
+    /// addresses and numbers the exact path does not convert.
+    #[test]
+    fn one_pass_tokens_are_the_general_ones() {
+        for raw in [
+            &b"3 L X+50.0000 Y-0.0500 Z+.5 A+5. C-280 R0 FMAX"[..],
+            b"12 l x+12.5 IY-3 Z+Q1 R0 F800 M3 ; rapid",
+            b"4 L X+1.2.3 Y+ Z- A+12345678901234567890 B+9007199254740993 C+1,5",
+            b"5 CYCL DEF 200 ~\r\n  Q200=+2 ;A~\r\n  Q201= -20 ;B\r\n",
+            b"6 ABCDEFGHIJKLMNOPQRSTUVWXYZABC X+1 DR+F2777 P1X+0",
+            b"  7 L  X+1   Y-2 ",
+            b"8\n L X+3 ~\n Y+4",
+            b"\n9 L X+1 Y+2",
+        ] {
+            let b = parse_block(raw);
+            assert!(!b.tokens.is_empty());
+            for t in &b.tokens {
+                let mut general = token(&b.code[t.text.clone()], &b.code_map, t.text.start);
+                general.text = t.text.clone();
+                assert_eq!(&general, t, "{}", String::from_utf8_lossy(raw));
+            }
+        }
     }
 
     #[test]
