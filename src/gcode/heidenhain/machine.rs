@@ -1038,7 +1038,12 @@ impl KlMachine {
     /// kept as `APPR LT` read it before); `DEP LCT`'s tool-axis word is
     /// reached after `PN` in the plane (TNC 640 1/2015 p. 213). The first
     /// contour element after an `APPR` must be a straight line `L`. The
-    /// polar forms (`PLT`, `PLN`, `PCT`, `PLCT`) are refused, naming them.
+    /// polar forms `APPR PLT`, `PLN`, `PCT`, `PLCT` and `DEP PLCT` are the
+    /// same paths with the contour point (`DEP PLCT`: the end point `PN`)
+    /// given as `PR`/`IPR` `PA`/`IPA` about the pole `CC`, which must be
+    /// programmed before (TNC7 user's manual 81762x-16, "Approach
+    /// functions APPR CT and APPR PCT": "you must first define a pole CC");
+    /// the control has no polar `DEP LT`, `LN`, `CT` (they take no point).
     fn approach_departure(
         &self,
         c: &Ctx<'_>,
@@ -1046,12 +1051,43 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let b = c.block;
-        let form = b.address(1);
-        let what = format!("{} {}", b.address(0), form);
-        if !matches!(form, "LT" | "LN" | "CT" | "LCT") {
-            return Err(c.unread(&what, Some(1)));
-        }
         let approach = b.address(0) == "APPR";
+        let what = format!("{} {}", b.address(0), b.address(1));
+        // The polar forms: the contour point (`DEP PLCT`: the end point)
+        // in polar coordinates about the pole (TNC7 user's manual
+        // 81762x-16, "Overview of path shapes": APPR PLT, PLN, PCT, PLCT;
+        // DEP PLCT only).
+        let (form, polar) = match b.address(1) {
+            f @ ("LT" | "LN" | "CT" | "LCT") => (f, false),
+            "PLT" if approach => ("LT", true),
+            "PLN" if approach => ("LN", true),
+            "PCT" if approach => ("CT", true),
+            "PLCT" => ("LCT", true),
+            "PLT" | "PLN" | "PCT" => {
+                return Err(c.error(
+                    &format!(
+                        "{what}: the control departs in polar coordinates with DEP PLCT only (DEP LT, LN, CT take no end point)"
+                    ),
+                    Some(1),
+                ));
+            }
+            _ => return Err(c.unread(&what, Some(1))),
+        };
+        // The point the block programs: X Y Z, or PR PA (and the tool-axis
+        // word) about the pole.
+        let programmed = |s: &State| -> Result<[f64; 3], GcodeError> {
+            if polar {
+                let pole = s.pole.ok_or_else(|| {
+                    c.error(
+                        &format!("{what} without a pole: program CC before it"),
+                        Some(0),
+                    )
+                })?;
+                polar_words(c, s, pole, 2)
+            } else {
+                xyz_words(c, s.pos, if s.inch { 25.4 } else { 1.0 }, 2)
+            }
+        };
         // The feed and rapid of the block before (PS → PH).
         let (feed_before, rapid_before) = (s.feed, s.last_rapid);
         self.compensation(c, s);
@@ -1126,7 +1162,7 @@ impl KlMachine {
                 .collect::<Vec<_>>()
             };
         if approach {
-            let first = xyz_words(c, s.pos, scale, 2)?;
+            let first = programmed(s)?;
             // The first contour element: a straight line after the APPR block.
             let end = self
                 .ahead
@@ -1260,7 +1296,7 @@ impl KlMachine {
                 }
                 _ => {
                     let r = needed("radius R", radius)?;
-                    let pn = to_plane(plane, xyz_words(c, s.pos, scale, 2)?);
+                    let pn = to_plane(plane, programmed(s)?);
                     let arc = contact(left()?)
                         .line_and_arc(r, [pn[0], pn[1]], false)
                         .ok_or_else(|| {
@@ -1580,25 +1616,7 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let pole = self.require_pole(c, s)?;
-        let scale = if s.inch { 25.4 } else { 1.0 };
-        let cur = to_plane(s.plane, s.pos);
-        let (mut r, mut a) = polar_of(pole, cur);
-        let mut w = cur[2];
-        for (k, t) in c.block.tokens.iter().enumerate().skip(1) {
-            match t.address.as_str() {
-                "PR" => r = c.value(k)? * scale,
-                "IPR" => r += c.value(k)? * scale,
-                "PA" => a = c.value(k)?,
-                "IPA" => a += c.value(k)?,
-                name if plane_normal_letter(s.plane) == name => w = c.value(k)? * scale,
-                name if format!("I{}", plane_normal_letter(s.plane)) == name => {
-                    w += c.value(k)? * scale
-                }
-                _ => {}
-            }
-        }
-        let (sa, ca) = a.to_radians().sin_cos();
-        let target = from_plane(s.plane, [pole[0] + r * ca, pole[1] + r * sa, w]);
+        let target = polar_words(c, s, pole, 1)?;
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 1)?;
         self.refuse_compensation(c, s)?;
@@ -2653,6 +2671,37 @@ fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f6
         end[slot] = if inc { from[slot] + v } else { v };
     }
     Ok(end)
+}
+
+/// The point a block's polar words give (`PR`/`IPR`, `PA`/`IPA` about
+/// `pole`, the tool-axis word absolute or incremental), from the current
+/// position: what a word leaves out stays the current position's (its
+/// polar radius and angle about the pole). The block's words from `skip`.
+fn polar_words(
+    c: &Ctx<'_>,
+    s: &State,
+    pole: [f64; 2],
+    skip: usize,
+) -> Result<[f64; 3], GcodeError> {
+    let scale = if s.inch { 25.4 } else { 1.0 };
+    let cur = to_plane(s.plane, s.pos);
+    let (mut r, mut a) = polar_of(pole, cur);
+    let mut w = cur[2];
+    let normal = plane_normal_letter(s.plane);
+    for (k, t) in c.block.tokens.iter().enumerate().skip(skip) {
+        let name = t.address.as_str();
+        match name {
+            "PR" => r = c.value(k)? * scale,
+            "IPR" => r += c.value(k)? * scale,
+            "PA" => a = c.value(k)?,
+            "IPA" => a += c.value(k)?,
+            _ if name == normal => w = c.value(k)? * scale,
+            _ if name.strip_prefix('I') == Some(normal) => w += c.value(k)? * scale,
+            _ => {}
+        }
+    }
+    let (sa, ca) = a.to_radians().sin_cos();
+    Ok(from_plane(s.plane, [pole[0] + r * ca, pole[1] + r * sa, w]))
 }
 
 /// Where a cycle call runs the cycle.
