@@ -92,7 +92,7 @@ struct State {
     assigned: Vec<(u32, f64)>,
     /// A `RND`/`CHF` next: what the control inserts there, or why it
     /// cannot (reported at the `RND`/`CHF` block).
-    corner: Option<Result<PendingCorner, String>>,
+    corner: Option<Result<PendingCorner, CornerRefusal>>,
     time_min: f64,
     begun: bool,
     /// This block programs a rotary axis itself (`L B+Q121 C+Q122` after
@@ -133,6 +133,28 @@ pub(crate) struct KlMachine {
 struct PendingCorner {
     points: Vec<[f64; 3]>,
     tangent: [f64; 3],
+}
+
+/// Why no rounding or chamfer can be inserted after an element (reported
+/// at the `RND`/`CHF` block).
+#[derive(Clone, Debug)]
+enum CornerRefusal {
+    /// What the control refuses, in its words.
+    Control(String),
+    /// What volcomp does not read yet (names the feature).
+    Unread(String),
+}
+
+impl From<String> for CornerRefusal {
+    fn from(why: String) -> Self {
+        CornerRefusal::Control(why)
+    }
+}
+
+impl From<&str> for CornerRefusal {
+    fn from(why: &str) -> Self {
+        CornerRefusal::Control(why.to_string())
+    }
 }
 
 /// What a block says the language should do at the program level.
@@ -830,11 +852,11 @@ impl KlMachine {
         first: geometry::Element,
         first_w: f64,
         turned: bool,
-    ) -> Result<([f64; 3], PendingCorner), String> {
+    ) -> Result<([f64; 3], PendingCorner), CornerRefusal> {
         let what = corner.address(0).to_string();
-        let unread = format!(
-            "{what}: volcomp reads {what} between straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
-        );
+        let unread = CornerRefusal::Unread(format!(
+            "{what} next to anything but straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
+        ));
         let kind = next.address(0);
         if turned || !matches!(kind, "L" | "C" | "CR") {
             return Err(unread);
@@ -897,7 +919,7 @@ impl KlMachine {
         if what == "CHF" && !lines {
             return Err(
                 "CHF: the control chamfers only between two straight lines (TNC 620 Klartext user's manual 01/2022 p. 154)"
-                    .to_string(),
+                    .into(),
             );
         }
         let size = corner
@@ -968,7 +990,8 @@ impl KlMachine {
             if again.is_none_or(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > 1e-6) {
                 return Err(format!(
                     "{what} before CR: from the rounding's end the CR's radius R picks another centre (its sign decides the arc's side of 180°)"
-                ));
+                )
+                .into());
             }
         }
         let points = match inserted.arc {
@@ -1412,7 +1435,8 @@ impl KlMachine {
         let what = c.block.address(0);
         let pending = match s.corner.take() {
             Some(Ok(p)) => p,
-            Some(Err(why)) => return Err(c.error(&why, Some(0))),
+            Some(Err(CornerRefusal::Control(why))) => return Err(c.error(&why, Some(0))),
+            Some(Err(CornerRefusal::Unread(what))) => return Err(c.unread(&what, Some(0))),
             None => {
                 return Err(c.error(
                     &format!(
@@ -1774,10 +1798,10 @@ impl KlMachine {
         let planned = match &self.ahead {
             Some((corner, next)) if matches!(corner.address(0), "RND" | "CHF") => {
                 Some(if turns > 0 || (end[2] - cur[2]).abs() > 1e-9 {
-                    Err(format!(
-                        "{}: volcomp reads it after an arc of less than a full turn in the working plane (not after a helix)",
+                    Err(CornerRefusal::Unread(format!(
+                        "{} after a helix or a full turn",
                         corner.address(0)
-                    ))
+                    )))
                 } else {
                     let first = geometry::Element::Arc {
                         centre,
