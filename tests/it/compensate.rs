@@ -292,7 +292,21 @@ pub fn closed_loop_on(
     compensated: &str,
     frame: Frame,
 ) -> (PathError, PathError) {
-    let nominal = NominalPath::of_program_on(rig, original, frame, 0.1);
+    closed_loop_with_ruler_on(rig, original, compensated, frame, 0.1)
+}
+
+/// [`closed_loop_on`] with the nominal path sampled every `nominal_step_mm`:
+/// the ruler is a polyline whose chords lie `step² / (8 r)` inside an arc of
+/// radius `r` (0.69 µm for 0.1 mm on a 1.8 mm helix), which a program with
+/// small arcs needs finer than the default 0.1 mm.
+pub fn closed_loop_with_ruler_on(
+    rig: &Rig,
+    original: &str,
+    compensated: &str,
+    frame: Frame,
+    nominal_step_mm: f64,
+) -> (PathError, PathError) {
+    let nominal = NominalPath::of_program_on(rig, original, frame, nominal_step_mm);
     let before = actual_path_error_on(rig, original, frame, &nominal, 0.5);
     let after = actual_path_error_on(rig, compensated, frame, &nominal, 0.25);
     (before, after)

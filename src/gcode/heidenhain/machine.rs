@@ -92,7 +92,7 @@ struct State {
     assigned: Vec<(u32, f64)>,
     /// A `RND`/`CHF` next: what the control inserts there, or why it
     /// cannot (reported at the `RND`/`CHF` block).
-    corner: Option<Result<PendingCorner, String>>,
+    corner: Option<Result<PendingCorner, CornerRefusal>>,
     time_min: f64,
     begun: bool,
     /// This block programs a rotary axis itself (`L B+Q121 C+Q122` after
@@ -133,6 +133,28 @@ pub(crate) struct KlMachine {
 struct PendingCorner {
     points: Vec<[f64; 3]>,
     tangent: [f64; 3],
+}
+
+/// Why no rounding or chamfer can be inserted after an element (reported
+/// at the `RND`/`CHF` block).
+#[derive(Clone, Debug)]
+enum CornerRefusal {
+    /// What the control refuses, in its words.
+    Control(String),
+    /// What volcomp does not read yet (names the feature).
+    Unread(String),
+}
+
+impl From<String> for CornerRefusal {
+    fn from(why: String) -> Self {
+        CornerRefusal::Control(why)
+    }
+}
+
+impl From<&str> for CornerRefusal {
+    fn from(why: &str) -> Self {
+        CornerRefusal::Control(why.to_string())
+    }
 }
 
 /// What a block says the language should do at the program level.
@@ -847,11 +869,11 @@ impl KlMachine {
         first: geometry::Element,
         first_w: f64,
         turned: bool,
-    ) -> Result<([f64; 3], PendingCorner), String> {
+    ) -> Result<([f64; 3], PendingCorner), CornerRefusal> {
         let what = corner.address(0).to_string();
-        let unread = format!(
-            "{what}: volcomp reads {what} between straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
-        );
+        let unread = CornerRefusal::Unread(format!(
+            "{what} next to anything but straight lines (L) and arcs (C, CR, CT, CP before it; C, CR after it) in the working plane"
+        ));
         let kind = next.address(0);
         if turned || !matches!(kind, "L" | "C" | "CR") {
             return Err(unread);
@@ -914,7 +936,7 @@ impl KlMachine {
         if what == "CHF" && !lines {
             return Err(
                 "CHF: the control chamfers only between two straight lines (TNC 620 Klartext user's manual 01/2022 p. 154)"
-                    .to_string(),
+                    .into(),
             );
         }
         let size = corner
@@ -985,7 +1007,8 @@ impl KlMachine {
             if again.is_none_or(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > 1e-6) {
                 return Err(format!(
                     "{what} before CR: from the rounding's end the CR's radius R picks another centre (its sign decides the arc's side of 180°)"
-                ));
+                )
+                .into());
             }
         }
         let points = match inserted.arc {
@@ -1055,7 +1078,12 @@ impl KlMachine {
     /// kept as `APPR LT` read it before); `DEP LCT`'s tool-axis word is
     /// reached after `PN` in the plane (TNC 640 1/2015 p. 213). The first
     /// contour element after an `APPR` must be a straight line `L`. The
-    /// polar forms (`PLT`, `PLN`, `PCT`, `PLCT`) are refused, naming them.
+    /// polar forms `APPR PLT`, `PLN`, `PCT`, `PLCT` and `DEP PLCT` are the
+    /// same paths with the contour point (`DEP PLCT`: the end point `PN`)
+    /// given as `PR`/`IPR` `PA`/`IPA` about the pole `CC`, which must be
+    /// programmed before (TNC7 user's manual 81762x-16, "Approach
+    /// functions APPR CT and APPR PCT": "you must first define a pole CC");
+    /// the control has no polar `DEP LT`, `LN`, `CT` (they take no point).
     fn approach_departure(
         &self,
         c: &Ctx<'_>,
@@ -1063,12 +1091,43 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let b = c.block;
-        let form = b.address(1);
-        let what = format!("{} {}", b.address(0), form);
-        if !matches!(form, "LT" | "LN" | "CT" | "LCT") {
-            return Err(c.unread(&what, Some(1)));
-        }
         let approach = b.address(0) == "APPR";
+        let what = format!("{} {}", b.address(0), b.address(1));
+        // The polar forms: the contour point (`DEP PLCT`: the end point)
+        // in polar coordinates about the pole (TNC7 user's manual
+        // 81762x-16, "Overview of path shapes": APPR PLT, PLN, PCT, PLCT;
+        // DEP PLCT only).
+        let (form, polar) = match b.address(1) {
+            f @ ("LT" | "LN" | "CT" | "LCT") => (f, false),
+            "PLT" if approach => ("LT", true),
+            "PLN" if approach => ("LN", true),
+            "PCT" if approach => ("CT", true),
+            "PLCT" => ("LCT", true),
+            "PLT" | "PLN" | "PCT" => {
+                return Err(c.error(
+                    &format!(
+                        "{what}: the control departs in polar coordinates with DEP PLCT only (DEP LT, LN, CT take no end point)"
+                    ),
+                    Some(1),
+                ));
+            }
+            _ => return Err(c.unread(&what, Some(1))),
+        };
+        // The point the block programs: X Y Z, or PR PA (and the tool-axis
+        // word) about the pole.
+        let programmed = |s: &State| -> Result<[f64; 3], GcodeError> {
+            if polar {
+                let pole = s.pole.ok_or_else(|| {
+                    c.error(
+                        &format!("{what} without a pole: program CC before it"),
+                        Some(0),
+                    )
+                })?;
+                polar_words(c, s, pole, 2)
+            } else {
+                xyz_words(c, s.pos, if s.inch { 25.4 } else { 1.0 }, 2)
+            }
+        };
         // The feed and rapid of the block before (PS → PH).
         let (feed_before, rapid_before) = (s.feed, s.last_rapid);
         self.compensation(c, s);
@@ -1143,7 +1202,7 @@ impl KlMachine {
                 .collect::<Vec<_>>()
             };
         if approach {
-            let first = xyz_words(c, s.pos, scale, 2)?;
+            let first = programmed(s)?;
             // The first contour element: a straight line after the APPR block.
             let end = self
                 .ahead
@@ -1277,7 +1336,7 @@ impl KlMachine {
                 }
                 _ => {
                     let r = needed("radius R", radius)?;
-                    let pn = to_plane(plane, xyz_words(c, s.pos, scale, 2)?);
+                    let pn = to_plane(plane, programmed(s)?);
                     let arc = contact(left()?)
                         .line_and_arc(r, [pn[0], pn[1]], false)
                         .ok_or_else(|| {
@@ -1393,7 +1452,8 @@ impl KlMachine {
         let what = c.block.address(0);
         let pending = match s.corner.take() {
             Some(Ok(p)) => p,
-            Some(Err(why)) => return Err(c.error(&why, Some(0))),
+            Some(Err(CornerRefusal::Control(why))) => return Err(c.error(&why, Some(0))),
+            Some(Err(CornerRefusal::Unread(what))) => return Err(c.unread(&what, Some(0))),
             None => {
                 return Err(c.error(
                     &format!(
@@ -1597,25 +1657,7 @@ impl KlMachine {
         event: &mut BlockEvent,
     ) -> Result<Statement, GcodeError> {
         let pole = self.require_pole(c, s)?;
-        let scale = if s.inch { 25.4 } else { 1.0 };
-        let cur = to_plane(s.plane, s.pos);
-        let (mut r, mut a) = polar_of(pole, cur);
-        let mut w = cur[2];
-        for (k, t) in c.block.tokens.iter().enumerate().skip(1) {
-            match t.address.as_str() {
-                "PR" => r = c.value(k)? * scale,
-                "IPR" => r += c.value(k)? * scale,
-                "PA" => a = c.value(k)?,
-                "IPA" => a += c.value(k)?,
-                name if plane_normal_letter(s.plane) == name => w = c.value(k)? * scale,
-                name if format!("I{}", plane_normal_letter(s.plane)) == name => {
-                    w += c.value(k)? * scale
-                }
-                _ => {}
-            }
-        }
-        let (sa, ca) = a.to_radians().sin_cos();
-        let target = from_plane(s.plane, [pole[0] + r * ca, pole[1] + r * sa, w]);
+        let target = polar_words(c, s, pole, 1)?;
         self.compensation(c, s);
         let feed = self.block_feed(c, s, 1)?;
         self.refuse_compensation(c, s)?;
@@ -1773,10 +1815,10 @@ impl KlMachine {
         let planned = match &self.ahead {
             Some((corner, next)) if matches!(corner.address(0), "RND" | "CHF") => {
                 Some(if turns > 0 || (end[2] - cur[2]).abs() > 1e-9 {
-                    Err(format!(
-                        "{}: volcomp reads it after an arc of less than a full turn in the working plane (not after a helix)",
+                    Err(CornerRefusal::Unread(format!(
+                        "{} after a helix or a full turn",
                         corner.address(0)
-                    ))
+                    )))
                 } else {
                     let first = geometry::Element::Arc {
                         centre,
@@ -2670,6 +2712,37 @@ fn xyz_words(c: &Ctx<'_>, from: [f64; 3], scale: f64, skip: usize) -> Result<[f6
         end[slot] = if inc { from[slot] + v } else { v };
     }
     Ok(end)
+}
+
+/// The point a block's polar words give (`PR`/`IPR`, `PA`/`IPA` about
+/// `pole`, the tool-axis word absolute or incremental), from the current
+/// position: what a word leaves out stays the current position's (its
+/// polar radius and angle about the pole). The block's words from `skip`.
+fn polar_words(
+    c: &Ctx<'_>,
+    s: &State,
+    pole: [f64; 2],
+    skip: usize,
+) -> Result<[f64; 3], GcodeError> {
+    let scale = if s.inch { 25.4 } else { 1.0 };
+    let cur = to_plane(s.plane, s.pos);
+    let (mut r, mut a) = polar_of(pole, cur);
+    let mut w = cur[2];
+    let normal = plane_normal_letter(s.plane);
+    for (k, t) in c.block.tokens.iter().enumerate().skip(skip) {
+        let name = t.address.as_str();
+        match name {
+            "PR" => r = c.value(k)? * scale,
+            "IPR" => r += c.value(k)? * scale,
+            "PA" => a = c.value(k)?,
+            "IPA" => a += c.value(k)?,
+            _ if name == normal => w = c.value(k)? * scale,
+            _ if name.strip_prefix('I') == Some(normal) => w += c.value(k)? * scale,
+            _ => {}
+        }
+    }
+    let (sa, ca) = a.to_radians().sin_cos();
+    Ok(from_plane(s.plane, [pole[0] + r * ca, pole[1] + r * sa, w]))
 }
 
 /// Where a cycle call runs the cycle.

@@ -403,6 +403,18 @@ impl KlartextWriter {
         let mut from = s1;
         let mut done = 0.0;
         let (r0, a0) = ((s0[0] - c[0]).hypot(s0[1] - c[1]), angle(s0, c));
+        // The compensated path at the fraction `t` of the arc, in the plane:
+        // the program's point there moved by the interpolated correction
+        // (what the compensator checked against its tolerance).
+        let model_at = |t: f64| {
+            let a = (a0 + sigma * t * sweep0).to_radians();
+            let corr = at(t);
+            [
+                c[0] + r0 * a.cos() + corr[0],
+                c[1] + r0 * a.sin() + corr[1],
+                0.0,
+            ]
+        };
         while before - done > 1e-9 {
             // Half turns first, each on the circle through where the last
             // one ended and its own corrected end (the program's point
@@ -420,7 +432,11 @@ impl KlartextWriter {
                 s1[2] + (e1[2] - s1[2]) * t,
             ];
             let guess = [c[0] + mid[0], c[1] + mid[1], 0.0];
-            let (p, n) = set_pole(self, equidistant_pole(guess, from, target), out)?;
+            let (p, n) = set_pole(
+                self,
+                pole_through(guess, from, model_at((done + step / 2.0) / sweep), target),
+                out,
+            )?;
             added += n;
             let p3 = [p[0], p[1], 0.0];
             let mut turn = (sigma * (angle(target, p3) - angle(from, p3))).rem_euclid(360.0);
@@ -455,14 +471,18 @@ impl KlartextWriter {
             done += step;
         }
         let ds = at(done / sweep);
-        // The pole for the rest: equidistant from its start and the end,
-        // nearest the program's pole moved by the mean correction.
+        // The pole for the rest: on the circle through its start, the
+        // compensated path's point at its middle and the end.
         let guess = [
             c[0] + (ds[0] + de[0]) / 2.0,
             c[1] + (ds[1] + de[1]) / 2.0,
             0.0,
         ];
-        let (p, n) = set_pole(self, equidistant_pole(guess, from, e1), out)?;
+        let (p, n) = set_pole(
+            self,
+            pole_through(guess, from, model_at((done + last / 2.0) / sweep), e1),
+            out,
+        )?;
         added += n;
         let pole = [p[0], p[1], 0.0];
         let mut rest = (sigma * (angle(e1, pole) - angle(from, pole))).rem_euclid(360.0);
@@ -805,15 +825,53 @@ fn plane_letters(plane: crate::gcode::motion::Plane) -> [&'static str; 3] {
 /// The point nearest `c` (plane coordinates) equidistant from `s` and `e`:
 /// on their bisector (`c` when they coincide).
 fn equidistant_pole(c: [f64; 3], s: [f64; 3], e: [f64; 3]) -> [f64; 2] {
-    let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
+    on_bisector(s, e)
+        .map(|(m, n)| {
+            let t = (c[0] - m[0]) * n[0] + (c[1] - m[1]) * n[1];
+            [m[0] + t * n[0], m[1] + t * n[1]]
+        })
+        .unwrap_or([c[0], c[1]])
+}
+
+/// The midpoint of `s`–`e` and the unit normal of their bisector, in the
+/// plane; `None` when they coincide.
+fn on_bisector(s: [f64; 3], e: [f64; 3]) -> Option<([f64; 2], [f64; 2])> {
     let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
     let len = dx.hypot(dy);
-    if len < 1e-9 {
-        return [c[0], c[1]];
+    (len >= 1e-9).then(|| {
+        (
+            [(s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0],
+            [-dy / len, dx / len],
+        )
+    })
+}
+
+/// The centre of the circle through `s`, `m` and `e` (in the plane): the
+/// pole of a `CP` piece that passes through the compensated path's point
+/// `m` at its middle as well as through its corrected ends, so that the
+/// written arc follows the compensator's interpolated correction (a circle
+/// through the ends about the pole moved by the mean correction departs
+/// from it in radius by half the difference of the end corrections). Where
+/// the three points give no circle, the point equidistant from `s` and
+/// `e` nearest `guess`.
+fn pole_through(guess: [f64; 3], s: [f64; 3], m: [f64; 3], e: [f64; 3]) -> [f64; 2] {
+    let Some((mid, n)) = on_bisector(s, e) else {
+        return [guess[0], guess[1]];
+    };
+    // On the bisector, q = mid + t·n with |q − s| = |q − m|.
+    let dm = [m[0] - s[0], m[1] - s[1]];
+    let denominator = 2.0 * (n[0] * dm[0] + n[1] * dm[1]);
+    let to = |p: [f64; 3]| (mid[0] - p[0]).powi(2) + (mid[1] - p[1]).powi(2);
+    let t = (to(m) - to(s)) / denominator;
+    let q = [mid[0] + t * n[0], mid[1] + t * n[1]];
+    // A pole farther from the guess than the chord is long would be a
+    // near-collinear fit: keep the equidistant point there.
+    let chord = (e[0] - s[0]).hypot(e[1] - s[1]);
+    if t.is_finite() && (q[0] - guess[0]).hypot(q[1] - guess[1]) <= chord {
+        q
+    } else {
+        equidistant_pole(guess, s, e)
     }
-    let (nx, ny) = (-dy / len, dx / len);
-    let t = (c[0] - mx) * nx + (c[1] - my) * ny;
-    [mx + t * nx, my + t * ny]
 }
 
 /// Edits removing the tokens named `names` (after the first), each with
