@@ -616,10 +616,16 @@ mod tests {
             other: [10.0, 10.0],
         };
         let k = chamfer_elements(first, [10.0, 0.0], second, Chamfer::Leg(2.0)).unwrap();
-        assert!(close(k.from, [8.0, 0.0]) && close(k.to, [10.0, 2.0]), "{k:?}");
+        assert!(
+            close(k.from, [8.0, 0.0]) && close(k.to, [10.0, 2.0]),
+            "{k:?}"
+        );
         let h = 2f64.sqrt();
         let k = chamfer_elements(first, [10.0, 0.0], second, Chamfer::Length(2.0)).unwrap();
-        assert!(close(k.from, [10.0 - h, 0.0]) && close(k.to, [10.0, h]), "{k:?}");
+        assert!(
+            close(k.from, [10.0 - h, 0.0]) && close(k.to, [10.0, h]),
+            "{k:?}"
+        );
         let arc = Element::Arc {
             centre: [20.0, 0.0],
             clockwise: false,
@@ -640,9 +646,7 @@ mod tests {
             chamfer_elements(first, [10.0, 0.0], second, Chamfer::Leg(11.0)),
             Err(CornerError::TooLarge { .. })
         ));
-        let straight = Element::Line {
-            other: [20.0, 0.0],
-        };
+        let straight = Element::Line { other: [20.0, 0.0] };
         assert_eq!(
             chamfer_elements(first, [10.0, 0.0], straight, Chamfer::Leg(1.0)),
             Err(CornerError::Straight)

@@ -9,9 +9,7 @@
 //! coordinates to the workpiece frame's: their columns are the tilted X, Y
 //! and Z axes in workpiece coordinates.
 
-pub use crate::gcode::contour_corners::{
-    Corner, CornerError, Element, round_elements,
-};
+pub use crate::gcode::contour_corners::{Corner, CornerError, Element, round_elements};
 
 /// A 3×3 rotation, rows.
 pub type Mat3 = [[f64; 3]; 3];

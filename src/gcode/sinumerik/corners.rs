@@ -318,11 +318,7 @@ impl SinumerikFront {
                 self.corner_unchanged(pending, interpreter);
             } else if !in_plane {
                 if facts.moves {
-                    let w = out
-                        .words
-                        .iter()
-                        .find(|w| super::is_axis(w.letter))
-                        .copied();
+                    let w = out.words.iter().find(|w| super::is_axis(w.letter)).copied();
                     let at = w.map_or((0, line.raw.len()), |w| (w.start, w.end));
                     return Err(self.corner_feature(
                         line,
@@ -618,15 +614,11 @@ impl SinumerikFront {
         };
         let push = |out: &mut Out, letter: u8, v: f64| {
             out.synthetic.push(out.words.len());
-            out.words.push(word(letter, v, 0, 0, 4, true, true));
+            out.words.push(word(letter, v, 0, 0, 6, true, true));
         };
         push(&mut c_out, b'G', code);
         for k in [a.idx[0], a.idx[1]] {
-            let v = if a.incremental {
-                t2[k] - t1[k]
-            } else {
-                t2[k]
-            };
+            let v = if a.incremental { t2[k] - t1[k] } else { t2[k] };
             push(&mut c_out, b"XYZ"[k], v);
         }
         if let Some((m, _)) = inserted.arc {
@@ -654,9 +646,9 @@ impl SinumerikFront {
             changed = true;
         }
         let has = |out: &Out, letter: u8, motion: bool| {
-            out.words.iter().any(|w| {
-                w.letter == letter && (!motion || matches!(w.value as i64, 0..=3))
-            })
+            out.words
+                .iter()
+                .any(|w| w.letter == letter && (!motion || matches!(w.value as i64, 0..=3)))
         };
         if code != b.motion && !has(out, b'G', true) {
             out.synthetic.push(out.words.len());
@@ -811,7 +803,11 @@ fn tangent(first: &Element, corner: [f64; 2], second: &Element) -> bool {
                 centre, clockwise, ..
             } => {
                 let r = [corner[0] - centre[0], corner[1] - centre[1]];
-                if clockwise { [r[1], -r[0]] } else { [-r[1], r[0]] }
+                if clockwise {
+                    [r[1], -r[0]]
+                } else {
+                    [-r[1], r[0]]
+                }
             }
         };
         let n = t[0].hypot(t[1]);
@@ -832,7 +828,7 @@ fn set_end(out: &mut Out, e: &Ends, target: [f64; 3]) {
         } else {
             target[k]
         };
-        set_word(out, b"XYZ"[k], v, 4);
+        set_word(out, b"XYZ"[k], v, 6);
     }
 }
 
@@ -847,7 +843,7 @@ fn set_centre(out: &mut Out, e: &Ends, centre: [f64; 3], from: [f64; 3], always:
         super::circles::retain_words(out, |w| w.letter != b'R');
     }
     for k in [e.idx[0], e.idx[1]] {
-        set_word(out, b"IJK"[k], centre[k] - from[k], 4);
+        set_word(out, b"IJK"[k], centre[k] - from[k], 6);
     }
 }
 
@@ -864,7 +860,8 @@ fn set_word(out: &mut Out, letter: u8, v: f64, decimals: u8) {
             // After the block's words (a synthetic word has no text).
             let at = out.words.iter().map(|w| w.end).max().unwrap_or(0);
             out.synthetic.push(out.words.len());
-            out.words.push(word(letter, v, at, at, decimals, true, true));
+            out.words
+                .push(word(letter, v, at, at, decimals, true, true));
         }
     }
 }
