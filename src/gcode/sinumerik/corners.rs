@@ -237,6 +237,8 @@ impl SinumerikFront {
     /// circle was worked out, before it is handed on): ends a waiting
     /// corner (the next element, a block between, a plane change) and arms
     /// a new one.
+    #[inline(never)]
+    #[cold]
     pub(super) fn corner_block(
         &mut self,
         line: &LineRun,
@@ -699,6 +701,8 @@ impl SinumerikFront {
 
     /// After the block was handed on (`self.block`): hold it, or queue it
     /// after the blocks the corner queued. Returns whether it was taken.
+    #[inline(never)]
+    #[cold]
     pub(super) fn after_corner_block(
         &mut self,
         interpreter: &mut Interpreter,
@@ -765,6 +769,8 @@ impl SinumerikFront {
     /// Before the next line is read: run the held element on the
     /// interpreter (from a copy of its state), so that the line reads as
     /// the control reads it.
+    #[inline(never)]
+    #[cold]
     pub(super) fn run_held_element(
         &mut self,
         interpreter: &mut Interpreter,

@@ -2439,7 +2439,7 @@ impl SinumerikFront {
         let mut turned = None;
         let mut spline_words = splines::SplineWords::default();
         let mut bspline = None;
-        let mut corner_words = corners::CornerWords::default();
+        let mut corner_words: Option<Box<corners::CornerWords>> = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2509,7 +2509,9 @@ impl SinumerikFront {
                     Some(Address::ArcAngle) => arc.angle = Some((v, ts, vend)),
                     Some(Address::Turns) => arc.turns = Some((v, ts, vend)),
                     Some(Address::Intermediate(k)) => arc.inter[k] = Some((v, mode)),
-                    Some(Address::Corner(c)) => corner_words.set(c, v, (ts, vend)),
+                    Some(Address::Corner(c)) => {
+                        corner_words.get_or_insert_default().set(c, v, (ts, vend))
+                    }
                     None => {
                         // An assignment (R parameter or variable).
                         self.assign(line, &name, &[], v, (ts, vend))?;
@@ -2869,11 +2871,7 @@ impl SinumerikFront {
             }
             out.words = kept;
         }
-        let framed = self.flush_frame_later
-            || flags.suppress
-            || flags.settable_off
-            || flags.settable.is_some()
-            || !out.keywords.is_empty();
+        let frame_flushed = self.flush_frame_later;
         if self.flush_frame_later {
             self.flush_frame_later = false;
             let combined = self.combined_frame();
@@ -2905,7 +2903,7 @@ impl SinumerikFront {
             ));
         }
         if (bspline.is_some() || self.spline.is_some())
-            && (corner_words.any() || self.corners.active())
+            && (corner_words.is_some() || self.corners.active())
         {
             return Err(self.feature(
                 line,
@@ -3016,7 +3014,13 @@ impl SinumerikFront {
                 self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
             }
         }
-        if corner_words.any() || self.corners.active() {
+        if corner_words.is_some() || self.corners.active() {
+            let framed = frame_flushed
+                || flags.suppress
+                || flags.settable_off
+                || flags.settable.is_some()
+                || !out.keywords.is_empty();
+            let words = corner_words.map(|w| *w).unwrap_or_default();
             let facts = corners::BlockFacts {
                 moves: axis_words || arc_words,
                 arc_words,
@@ -3027,7 +3031,7 @@ impl SinumerikFront {
                     .to_program(&interpreter.position())
                     .xyz(),
             };
-            self.corner_block(line, &mut out, &corner_words, &facts, interpreter)?;
+            self.corner_block(line, &mut out, &words, &facts, interpreter)?;
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
