@@ -751,7 +751,7 @@ impl SinumerikFront {
                 let blocks = take(self);
                 let mut pending = self.corners.pending.take().expect("a held element");
                 for (block, _) in &blocks {
-                    interpreter.interpret(block)?;
+                    run_ahead(interpreter, block)?;
                 }
                 pending.between.extend(blocks);
                 if pending.between.len() > MAX_BLOCKS_BETWEEN {
@@ -780,7 +780,7 @@ impl SinumerikFront {
             && let Some((block, _)) = &p.block
         {
             p.before = Some(interpreter.clone());
-            interpreter.interpret(block)?;
+            run_ahead(interpreter, block)?;
         }
         Ok(())
     }
@@ -790,6 +790,14 @@ impl SinumerikFront {
         let p = self.corners.pending.take()?;
         Some(self.corner_error(&p, last_block_message(&p)))
     }
+}
+
+/// Run a held block on the interpreter (its event is not handed on).
+#[inline(never)]
+#[cold]
+fn run_ahead(interpreter: &mut Interpreter, block: &Block) -> Result<(), GcodeError> {
+    let mut event = crate::gcode::BlockEvent::default();
+    interpreter.interpret_into(block, &mut event)
 }
 
 fn last_block_message(p: &Pending) -> String {
