@@ -42,6 +42,7 @@
 //! assert_eq!(String::from_utf8(out).unwrap(),
 //!            "G21 G90 G93\nG1 X5.0000 F4.000000\nN10 G1 X10 Y0 Z0 A0 C0 F4.000000\n");
 //! ```
+pub(crate) mod contour_corners;
 pub(crate) mod dialect;
 pub(crate) mod error;
 pub(crate) mod execution;

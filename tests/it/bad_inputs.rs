@@ -344,6 +344,25 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "SINUMERIK program",
+            "a rounding `RND=` too large for its elements",
+            vec![(
+                "bad.mpf",
+                text("G0 X0 Y0 Z10\nG1 X10 RND=20 F100\nY10\nM30\n"),
+            )],
+            SINUMERIK,
+            1,
+            &["too large for its elements", "{d}/bad.mpf:2:8"],
+        ),
+        case(
+            "SINUMERIK program",
+            "a rounding `RND=` on the last motion block",
+            vec![("bad.mpf", text("G0 X0 Y0 Z10\nG1 X10 RND=2 F100\nM30\n"))],
+            SINUMERIK,
+            1,
+            &["on the last motion block", "{d}/bad.mpf:2:8"],
+        ),
+        case(
+            "SINUMERIK program",
             "an orientation vector of length 0 (`A3=0 B3=0 C3=0`)",
             vec![(
                 "bad.mpf",

@@ -36,6 +36,7 @@ mod rs274;
 mod safety;
 mod sample;
 mod sinumerik;
+mod sinumerik_corners;
 mod sinumerik_differential;
 mod sinumerik_five_axis;
 mod sinumerik_splines;

@@ -114,6 +114,13 @@ const EXPECTED: &[(&str, &[&str], Text, Outcome, &str)] = &[
         "the reference does not interpolate `BSPLINE`: it moves straight to each control point (15 moves); volcomp follows the rational B spline (`SD=`, `PW=`, `PL=`) as chords within 0.5 µm (417 moves), each section checked by hand in tests/it/sinumerik_splines.rs",
     ),
     (
+        "corners.mpf",
+        &[],
+        AsWritten,
+        Differ,
+        "a difference by design: the reference reads `RND=`, `RNDM=`, `CHF=`, `CHR=`, `FRC=` but inserts no corner (it moves to each programmed corner: 16 moves); volcomp rounds and chamfers them as *Fundamentals*, \"Chamfer, rounding\" defines (the corner its own move: 24 moves), every tangent point checked by hand in tests/it/sinumerik_corners.rs",
+    ),
+    (
         "frame-after-split-arc.mpf",
         &[],
         AsWritten,

@@ -347,7 +347,10 @@ pub(super) fn block_end(out: &Out, start: [f64; 3], incremental: bool) -> [f64; 
 }
 
 /// Keep the words `keep` says, the index lists following them.
-fn retain_words(out: &mut Out, keep: impl Fn(&crate::gcode::syntax::block::Word) -> bool) {
+pub(super) fn retain_words(
+    out: &mut Out,
+    keep: impl Fn(&crate::gcode::syntax::block::Word) -> bool,
+) {
     let mut at = vec![None; out.words.len()];
     let mut n = 0;
     for (i, w) in out.words.iter().enumerate() {

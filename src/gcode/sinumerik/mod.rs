@@ -37,6 +37,7 @@
 //! - **Circles** without a centre (`CIP`, `CT`, `AR=`, `TURN=`) are worked
 //!   out into the centre form and handed on flat.
 pub(crate) mod circles;
+pub(crate) mod corners;
 pub(crate) mod cycle800;
 pub(crate) mod orientation;
 pub(crate) mod splines;
@@ -673,6 +674,9 @@ pub(crate) struct SinumerikFront {
     /// Where this line's orientation words turn the tool (`circles` hands a
     /// circle that turns it on in pieces).
     turn_end: Option<orientation::OrientationEnd>,
+    /// Contour corners `RND=`/`CHF=` (`corners`): the element held for
+    /// its corner, `RNDM=`, `FRCM=`.
+    corners: corners::Corners,
 }
 
 impl SinumerikFront {
@@ -776,6 +780,7 @@ impl SinumerikFront {
             spline_out: std::collections::VecDeque::new(),
             space_arc: None,
             turn_end: None,
+            corners: corners::Corners::default(),
         }
     }
 
@@ -855,6 +860,10 @@ impl SinumerikFront {
             return Some(Ok(()));
         }
         if self.finished || self.ended || self.returned {
+            if !self.finished && self.corners.waiting() {
+                self.finished = true;
+                return self.corner_at_the_end().map(Err);
+            }
             return None;
         }
         if let Some(mut piece) = self.pending.pop_front() {
@@ -892,6 +901,10 @@ impl SinumerikFront {
                 Ok(Some(true)) => return Some(Ok(())),
                 Ok(Some(false)) if self.next_spline_block() => return Some(Ok(())),
                 Ok(Some(false)) => continue,
+                Ok(None) if self.corners.waiting() => {
+                    self.finished = true;
+                    return self.corner_at_the_end().map(Err);
+                }
                 Ok(None) if self.spline.is_some() => {
                     // The program ends in a BSPLINE section.
                     if let Err(e) = self.close_spline(interpreter) {
@@ -925,6 +938,9 @@ impl SinumerikFront {
     /// `Some(false)` when the line is not (flow, empty flat), `None` at the
     /// end of the main program.
     fn step(&mut self, interpreter: &mut Interpreter) -> Result<Option<bool>, GcodeError> {
+        if self.corners.waiting() {
+            self.run_held_element(interpreter)?;
+        }
         let depth = self.levels.len() - 1;
         // The end of a repeated section: again from its start, or on after
         // its `REPEAT`.
@@ -1029,9 +1045,14 @@ impl SinumerikFront {
                 literal: self.executed.literal,
                 passed: false,
             };
+            if self.corners.busy() && self.after_corner_block(interpreter, true)? {
+                return Ok(Some(false));
+            }
             if self.hold_in_spline() {
                 return Ok(Some(false));
             }
+        } else if self.corners.busy() {
+            self.after_corner_block(interpreter, false)?;
         }
         Ok(Some(handed))
     }
@@ -2418,6 +2439,7 @@ impl SinumerikFront {
         let mut turned = None;
         let mut spline_words = splines::SplineWords::default();
         let mut bspline = None;
+        let mut corner_words: Option<Box<corners::CornerWords>> = None;
         while let Some(t) = cur.next() {
             let (ts, te) = (t.start, t.end);
             let Tok::Name(name) = &t.tok else {
@@ -2487,7 +2509,9 @@ impl SinumerikFront {
                     Some(Address::ArcAngle) => arc.angle = Some((v, ts, vend)),
                     Some(Address::Turns) => arc.turns = Some((v, ts, vend)),
                     Some(Address::Intermediate(k)) => arc.inter[k] = Some((v, mode)),
-                    Some(Address::Feature(what)) => return Err(self.feature(line, what, ts, vend)),
+                    Some(Address::Corner(c)) => {
+                        corner_words.get_or_insert_default().set(c, v, (ts, vend))
+                    }
                     None => {
                         // An assignment (R parameter or variable).
                         self.assign(line, &name, &[], v, (ts, vend))?;
@@ -2847,6 +2871,7 @@ impl SinumerikFront {
             }
             out.words = kept;
         }
+        let frame_flushed = self.flush_frame_later;
         if self.flush_frame_later {
             self.flush_frame_later = false;
             let combined = self.combined_frame();
@@ -2875,6 +2900,16 @@ impl SinumerikFront {
                 "BSPLINE and G0–G3 in one block (one motion group)".into(),
                 w.start,
                 w.end,
+            ));
+        }
+        if (bspline.is_some() || self.spline.is_some())
+            && (corner_words.is_some() || self.corners.active())
+        {
+            return Err(self.feature(
+                line,
+                "a contour corner (RND=/RNDM=/CHF=/CHR=) next to a BSPLINE section",
+                bspline.map_or(0, |b| b.0),
+                bspline.map_or(raw.len(), |b| b.1),
             ));
         }
         match self.spline_block(
@@ -2978,6 +3013,25 @@ impl SinumerikFront {
             {
                 self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
             }
+        }
+        if corner_words.is_some() || self.corners.active() {
+            let framed = frame_flushed
+                || flags.suppress
+                || flags.settable_off
+                || flags.settable.is_some()
+                || !out.keywords.is_empty();
+            let words = corner_words.map(|w| *w).unwrap_or_default();
+            let facts = corners::BlockFacts {
+                moves: axis_words || arc_words,
+                arc_words,
+                framed,
+                turned: turned.is_some(),
+                start: interpreter
+                    .origin()
+                    .to_program(&interpreter.position())
+                    .xyz(),
+            };
+            self.corner_block(line, &mut out, &words, &facts, interpreter)?;
         }
         // Keep G90/G91 for AC/IC.
         for w in &out.words {
@@ -4156,6 +4210,7 @@ struct LineRun<'a> {
 }
 
 /// What a line hands on, in the source line's byte ranges.
+#[derive(Clone)]
 struct Out {
     words: Vec<Word>,
     keywords: Vec<KeywordWord>,
@@ -4299,8 +4354,10 @@ enum Address {
     Turns,
     /// `I1= J1= K1=`: `CIP`'s intermediate point.
     Intermediate(usize),
-    /// Not read yet (the feature).
-    Feature(&'static str),
+    /// A contour corner's word (`corners`): `RND=` (`b'R'`), `RNDM=`
+    /// (`b'M'`), `CHF=` (`b'F'`), `CHR=` (`b'C'`), `FRC=` (`b'f'`), `FRCM=`
+    /// (`b'm'`).
+    Corner(u8),
 }
 
 fn address(name: &str) -> Option<Address> {
@@ -4321,7 +4378,12 @@ fn address(name: &str) -> Option<Address> {
         "A2" => Address::Angle(0),
         "B2" => Address::Angle(1),
         "C2" => Address::Angle(2),
-        "RND" | "RNDM" | "CHF" | "CHR" => Address::Feature("contour corners RND=/CHF="),
+        "RND" => Address::Corner(b'R'),
+        "RNDM" => Address::Corner(b'M'),
+        "CHF" => Address::Corner(b'F'),
+        "CHR" => Address::Corner(b'C'),
+        "FRC" => Address::Corner(b'f'),
+        "FRCM" => Address::Corner(b'm'),
         "TURN" => Address::Turns,
         "SD" => Address::Spline(b'D'),
         "PL" => Address::Spline(b'L'),
