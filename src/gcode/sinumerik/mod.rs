@@ -110,12 +110,24 @@ fn may_leave_the_sequence(raw: &[u8]) -> bool {
             | u8::from(b == b':')
             | u8::from(b == b'"')
     };
-    let mut chunks = raw.chunks_exact(32);
+    // Whole 32-byte chunks only: the tail is the line's last 32 bytes
+    // (read twice where they overlap a chunk), a line shorter than 32
+    // bytes is padded with spaces (which no flag sees).
+    let fold32 = |chunk: &[u8; 32]| chunk.iter().fold(0u8, |f, &b| f | flag(b));
     let mut flagged = 0u8;
-    for chunk in &mut chunks {
-        flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
+    if raw.len() >= 32 {
+        let mut chunks = raw.chunks_exact(32);
+        for chunk in &mut chunks {
+            flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
+        }
+        if let Some(tail) = raw.last_chunk::<32>().filter(|_| !chunks.remainder().is_empty()) {
+            flagged |= fold32(tail);
+        }
+    } else {
+        let mut padded = [b' '; 32];
+        padded[..raw.len()].copy_from_slice(raw);
+        flagged = fold32(&padded);
     }
-    flagged |= chunks.remainder().iter().fold(0u8, |f, &b| f | flag(b));
     if flagged == 0 {
         return false;
     }
@@ -1038,6 +1050,7 @@ impl SinumerikFront {
 
     /// Whether the line at `s..e` of `file` ends the open `BSPLINE`
     /// section ([`splines::ends_section`]).
+    #[inline(never)]
     fn line_ends_spline(&mut self, file: usize, s: usize, e: usize) -> bool {
         let mut tokens = std::mem::take(&mut self.tokens);
         let ends = syntax::tokenize(&self.files[file].text[s..e], &mut tokens).is_ok()
@@ -1046,10 +1059,12 @@ impl SinumerikFront {
         ends
     }
 
+    #[cold]
     fn error(&self, line: &LineRun, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
         GcodeError::at(kind, line.line, line.raw, start, end)
     }
 
+    #[cold]
     fn feature(&self, line: &LineRun, what: &str, start: usize, end: usize) -> GcodeError {
         self.error(
             line,
@@ -1059,6 +1074,7 @@ impl SinumerikFront {
         )
     }
 
+    #[cold]
     fn refused(&self, line: &LineRun, message: String, start: usize, end: usize) -> GcodeError {
         self.error(line, ErrorKind::DialectRefused(message), start, end)
     }
@@ -1184,10 +1200,61 @@ impl SinumerikFront {
                 .push(word(w.letter, code, w.start, w.end, decimals, point, false));
         }
         self.plain = plain;
-        let mut cur = Cursor::new(&[], raw.len());
-        self.statements(line, &mut cur, out, interpreter).map(Some)
+        let axis_words = out.words.iter().any(|w| is_axis(w.letter));
+        if self.quiet(line, interpreter) {
+            return self
+                .end_quiet_block(line, &mut out, axis_words, interpreter)
+                .map(Some);
+        }
+        let mut said = Said::words_only(axis_words);
+        self.end_block(line, &mut out, &mut said, interpreter)
+            .map(Some)
     }
 
+    /// Whether a plain line read now would find none of the state
+    /// [`Self::end_block`] acts on beyond its words (no open `BSPLINE`
+    /// section, no frame to set or to check arcs against, no modal `CIP`/
+    /// `CT`, no circle to restore, no `TRAORI`), and is handed on as
+    /// written: then [`Self::end_quiet_block`] ends it, doing what
+    /// `end_block` does for such a line. A state `end_block` learns to act
+    /// on is added here.
+    fn quiet(&self, line: &LineRun, interpreter: &Interpreter) -> bool {
+        line.first_reading
+            && self.spline.is_none()
+            && !self.flush_frame_later
+            && self.arc_form.is_none()
+            && self.restore_arc.is_none()
+            && !self.traori
+            && interpreter.origin_ref().frame.is_none()
+    }
+
+    /// [`Self::end_block`] for a plain line in a quiet state
+    /// ([`Self::quiet`]): its plain words (no `T`, `M`, no `=` value, G
+    /// codes that set no flag) are in the line's order and need no mode
+    /// resolved; a move notes where it started (`CT` after it).
+    fn end_quiet_block(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        axis_words: bool,
+        interpreter: &Interpreter,
+    ) -> Result<bool, GcodeError> {
+        self.chorded = false;
+        self.turn_end = None;
+        if axis_words {
+            let level = self.levels.len() - 1;
+            self.levels[level].moved = true;
+            let start = interpreter
+                .origin_ref()
+                .to_program(&interpreter.position())
+                .xyz();
+            self.last_move = self.move_of(out, interpreter, start);
+        }
+        self.note_distance_mode(out);
+        self.hand_on(line, out, line.raw, false)
+    }
+
+    #[inline(never)]
     fn run_tokens(
         &mut self,
         line: &mut LineRun,
@@ -1210,7 +1277,7 @@ impl SinumerikFront {
                 ..
             })
         ) {
-            return self.hand_on(line, out, raw, true);
+            return self.hand_on(line, &mut out, raw, true);
         }
         // `/` block skip (*Fundamentals*, "Skip blocks").
         if cur.eat_sym("/") {
@@ -1222,7 +1289,7 @@ impl SinumerikFront {
             }
             out.deleted = true;
             if self.skip_deleted {
-                return self.hand_on(line, out, raw, true);
+                return self.hand_on(line, &mut out, raw, true);
             }
         }
         // Block number `N10` or main block `:10`.
@@ -1263,7 +1330,7 @@ impl SinumerikFront {
             cur.pos += 2;
         }
         let Some(first) = cur.peek() else {
-            return self.hand_on(line, out, raw, true);
+            return self.hand_on(line, &mut out, raw, true);
         };
         if let Tok::Name(name) = &first.tok {
             let name = name.clone();
@@ -1276,12 +1343,12 @@ impl SinumerikFront {
                     // The definition line of a program (its parameters are
                     // bound by the call).
                     return if line.file == 0 && self.levels.len() == 1 {
-                        self.hand_on(line, out, raw, true)
+                        self.hand_on(line, &mut out, raw, true)
                     } else {
                         Ok(false)
                     };
                 }
-                "EXTERN" => return self.hand_on(line, out, raw, true),
+                "EXTERN" => return self.hand_on(line, &mut out, raw, true),
                 "RET" => {
                     self.return_from_level(Some(line))?;
                     return Ok(false);
@@ -1306,7 +1373,7 @@ impl SinumerikFront {
     fn hand_on(
         &mut self,
         line: &LineRun,
-        out: Out,
+        out: &mut Out,
         raw: &[u8],
         _plain: bool,
     ) -> Result<bool, GcodeError> {
@@ -1316,10 +1383,11 @@ impl SinumerikFront {
         if literal {
             self.block.raw.extend_from_slice(raw);
             // The previous block's words buffer (cleared by reset) serves the next line.
-            self.spare_words = std::mem::replace(&mut self.block.words, out.words);
-            self.block.keywords = out.keywords;
-            self.block.comments = out.comments;
-            self.block.statements = out.statements;
+            self.spare_words =
+                std::mem::replace(&mut self.block.words, std::mem::take(&mut out.words));
+            self.block.keywords = std::mem::take(&mut out.keywords);
+            self.block.comments = std::mem::take(&mut out.comments);
+            self.block.statements = std::mem::take(&mut out.statements);
             self.executed.literal = true;
             return Ok(true);
         }
@@ -2063,7 +2131,7 @@ impl SinumerikFront {
         out.computed = true;
         // A definition is written where it stands, read in sequence; flat, dropped.
         if line.first_reading && !self.flowed {
-            self.hand_on(line, out, raw, true)
+            self.hand_on(line, &mut out, raw, true)
         } else {
             Ok(false)
         }
@@ -2171,6 +2239,7 @@ impl SinumerikFront {
 
     /// Call a subprogram by name: its file on the search path, its `PROC`
     /// parameters bound to `args` (*Job planning*, "Subprogram technique").
+    #[inline(never)]
     fn call(
         &mut self,
         line: &LineRun,
@@ -2403,19 +2472,17 @@ impl SinumerikFront {
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
         let mut frame_op: Option<(String, (usize, usize))> = None;
-        let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
         let mut rpl: Option<f64> = None;
         let mut flags = GFlags::default();
         let mut call: Option<Call> = None;
         let mut repeats: u64 = 1;
 
-        // A plain line's words come in `out` (`run_plain_line`).
+        // The words before the statements (the block number).
         let mut axis_words = out.words.iter().any(|w| is_axis(w.letter));
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
-        let mut turned = None;
         let mut spline_words = splines::SplineWords::default();
         let mut bspline = None;
         while let Some(t) = cur.next() {
@@ -2783,6 +2850,53 @@ impl SinumerikFront {
                 }
             }
         }
+        let mut said = Said {
+            frame_op,
+            rpl,
+            flags,
+            call,
+            repeats,
+            axis_words,
+            centre_abs,
+            orientation,
+            tool_edge,
+            arc,
+            spline_words,
+            bspline,
+        };
+        self.end_block(line, &mut out, &mut said, interpreter)
+    }
+
+    /// The end of an ordinary block, after its statements (`statements`;
+    /// a plain line's words come straight from `run_plain_line`): frames,
+    /// calls, tools, orientation, splines, circles, the modes; then the
+    /// block is handed on.
+    fn end_block(
+        &mut self,
+        line: &mut LineRun,
+        out: &mut Out,
+        said: &mut Said,
+        interpreter: &mut Interpreter,
+    ) -> Result<bool, GcodeError> {
+        let raw = line.raw;
+        let Said {
+            frame_op,
+            rpl,
+            flags,
+            call,
+            repeats,
+            axis_words,
+            centre_abs,
+            orientation,
+            tool_edge,
+            arc,
+            spline_words,
+            bspline,
+        } = said;
+        let (rpl, repeats, tool_edge, bspline) = (*rpl, *repeats, *tool_edge, *bspline);
+        let mut axis_words = *axis_words;
+        let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
+        let mut turned = None;
         if self.spline.is_some() {
             let offsets = flags.suppress
                 || flags.settable_off
@@ -2801,7 +2915,7 @@ impl SinumerikFront {
                 ));
             }
         }
-        if let Some((name, args, at)) = call {
+        if let Some((name, args, at)) = call.take() {
             if out.words.iter().any(|w| is_axis(w.letter)) {
                 return Err(self.feature(
                     line,
@@ -2831,7 +2945,7 @@ impl SinumerikFront {
             // The values move nothing: the block is not a move (the control
             // wants a frame statement alone in its block).
             axis_words = false;
-            self.frame_statement(line, &op, &frame_values, rpl, at, interpreter)?;
+            self.frame_statement(line, op, &frame_values, rpl, *at, interpreter)?;
         } else if rpl.is_some() {
             return Err(self.refused(line, "RPL= belongs to ROT or AROT".into(), 0, raw.len()));
         }
@@ -2858,10 +2972,10 @@ impl SinumerikFront {
         if let Some(origin) = flags.settable {
             interpreter.set_work_origin(origin);
         }
-        self.tool_state(&out, tool_edge);
-        self.tool_length(&mut out, tool_edge);
+        self.tool_state(out, tool_edge);
+        self.tool_length(out, tool_edge);
         if orientation.given() {
-            turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
+            turned = Some(self.orientation_words(line, orientation, out, interpreter)?);
             axis_words = true;
         }
         if bspline.is_some()
@@ -2879,9 +2993,9 @@ impl SinumerikFront {
         }
         match self.spline_block(
             line,
-            &mut out,
+            out,
             bspline,
-            &spline_words,
+            spline_words,
             axis_words,
             interpreter,
         )? {
@@ -2936,17 +3050,17 @@ impl SinumerikFront {
         if axis_words || arc_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
-            self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
+            self.resolve_modes(out, interpreter, flags.suppress, centre_abs);
             let start = interpreter
-                .origin()
+                .origin_ref()
                 .to_program(&interpreter.position())
                 .xyz();
             if arc_words {
-                self.arc(line, &arc, &mut out, interpreter, start)?;
+                self.arc(line, arc, out, interpreter, start)?;
             }
             // After `arc`: a CIP/CT circle has its G2/G3 now.
-            let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
-            self.last_move = self.move_of(&out, interpreter, start);
+            let chords = !self.chorded && self.check_arc_frame(line, out, interpreter)?;
+            self.last_move = self.move_of(out, interpreter, start);
             if self.chorded {
                 // A circle in space (CIP, or CT after one): CT goes on from
                 // its tangent (`circles::space_tangent`).
@@ -2960,7 +3074,7 @@ impl SinumerikFront {
                     });
             } else if chords
                 || (self.traori
-                    && self.arc_context(&out, interpreter).2.is_some()
+                    && self.arc_context(out, interpreter).2.is_some()
                     && (turned.is_some()
                         || out.words.iter().any(|w| {
                             crate::axes::Axis::from_letter(w.letter as char)
@@ -2969,17 +3083,23 @@ impl SinumerikFront {
             {
                 // A circle in a tilted plane, or one that turns the tool
                 // under TRAORI: pieces.
-                self.circle_as_chords(line, &mut out, interpreter, start)?;
+                self.circle_as_chords(line, out, interpreter, start)?;
             }
             if let Some(end) = self.turn_end
                 && !arc_words
                 && self.great_circle_mode()
-                && self.arc_context(&out, interpreter).2.is_none()
+                && self.arc_context(out, interpreter).2.is_none()
             {
-                self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
+                self.split_on_great_circle(line, out, interpreter, start, end)?;
             }
         }
-        // Keep G90/G91 for AC/IC.
+        self.note_distance_mode(out);
+        out.sort_words();
+        self.hand_on(line, out, raw, false)
+    }
+
+    /// Keep the block's G90/G91 for AC/IC.
+    fn note_distance_mode(&mut self, out: &Out) {
         for w in &out.words {
             if w.letter == b'G' {
                 if w.value == 90.0 {
@@ -2989,8 +3109,6 @@ impl SinumerikFront {
                 }
             }
         }
-        out.sort_words();
-        self.hand_on(line, out, raw, false)
     }
 
     /// `A3= B3= C3=` (the tool direction as a vector) or `A2= B2= C2=`
@@ -3007,6 +3125,7 @@ impl SinumerikFront {
     /// words, the orientation words under
     /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`] (vector) and
     /// [`ORIENTATION_ANGLE_LETTERS`] (angles) for the rewriter.
+    #[inline(never)]
     fn orientation_words(
         &mut self,
         line: &LineRun,
@@ -3274,6 +3393,7 @@ impl SinumerikFront {
     /// is written flat: `G2`/`G3` with `I J K` (incremental, as both
     /// dialects read them) and, where the end was worked out, its axis
     /// words; `TURN=` stays.
+    #[inline(never)]
     fn arc(
         &mut self,
         line: &LineRun,
@@ -3695,7 +3815,7 @@ impl SinumerikFront {
         interpreter: &Interpreter,
     ) -> Result<bool, GcodeError> {
         use crate::gcode::machine::modal::MotionMode;
-        let Some(f) = interpreter.origin().frame else {
+        let Some(f) = &interpreter.origin_ref().frame else {
             return Ok(false);
         };
         let mut arc = matches!(
@@ -3794,6 +3914,7 @@ impl SinumerikFront {
     /// `MIRROR`/`AMIRROR` (*Fundamentals*, "Coordinate transformations
     /// (frames)"): an absolute statement replaces the programmable frame,
     /// an additive one acts in the frame as it stands.
+    #[inline(never)]
     fn frame_statement(
         &mut self,
         line: &LineRun,
@@ -4145,6 +4266,50 @@ struct GFlags {
     settable_off: bool,
     /// `G505`–`G599`: this settable frame's origin.
     settable: Option<crate::axes::Axes>,
+}
+
+/// What a line's statements said besides its words ([`SinumerikFront::statements`]),
+/// read at the block's end ([`SinumerikFront::end_block`]).
+struct Said {
+    /// A frame statement (`TRANS`, `AROT`…) and where it is.
+    frame_op: Option<(String, (usize, usize))>,
+    /// `RPL=`.
+    rpl: Option<f64>,
+    flags: GFlags,
+    call: Option<Call>,
+    /// `P`: runs of the call.
+    repeats: u64,
+    /// The block has axis words.
+    axis_words: bool,
+    /// `I J K` given `AC(…)`: word index and value.
+    centre_abs: Vec<(usize, f64)>,
+    orientation: Orientation,
+    /// `D`: the cutting edge and its word's end.
+    tool_edge: Option<(f64, usize)>,
+    arc: ArcWords,
+    spline_words: splines::SplineWords,
+    /// `BSPLINE` and where it is.
+    bspline: Option<(usize, usize)>,
+}
+
+impl Said {
+    /// A plain line's: its words only.
+    fn words_only(axis_words: bool) -> Said {
+        Said {
+            frame_op: None,
+            rpl: None,
+            flags: GFlags::default(),
+            call: None,
+            repeats: 1,
+            axis_words,
+            centre_abs: Vec::new(),
+            orientation: Orientation::default(),
+            tool_edge: None,
+            arc: ArcWords::default(),
+            spline_words: splines::SplineWords::default(),
+            bspline: None,
+        }
+    }
 }
 
 /// Where a line being run comes from.
