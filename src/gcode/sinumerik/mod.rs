@@ -98,37 +98,7 @@ struct MainStream {
 /// names anywhere in the line's code, in any case: a line this cannot tell
 /// is taken as one).
 fn may_leave_the_sequence(raw: &[u8]) -> bool {
-    // Each name below has an O, I, S or P; a label a `:`; a string a `"`.
-    // Most lines of moves have none (one pass over the bytes, no early
-    // exit, so that it runs as vector compares).
-    let flag = |b: u8| {
-        let l = b | 0x20;
-        u8::from(l == b'o')
-            | u8::from(l == b'i')
-            | u8::from(l == b's')
-            | u8::from(l == b'p')
-            | u8::from(b == b':')
-            | u8::from(b == b'"')
-    };
-    // Whole 32-byte chunks only: the tail is the line's last 32 bytes
-    // (read twice where they overlap a chunk), a line shorter than 32
-    // bytes is padded with spaces (which no flag sees).
-    let fold32 = |chunk: &[u8; 32]| chunk.iter().fold(0u8, |f, &b| f | flag(b));
-    let mut flagged = 0u8;
-    if raw.len() >= 32 {
-        let mut chunks = raw.chunks_exact(32);
-        for chunk in &mut chunks {
-            flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
-        }
-        if let Some(tail) = raw.last_chunk::<32>().filter(|_| !chunks.remainder().is_empty()) {
-            flagged |= fold32(tail);
-        }
-    } else {
-        let mut padded = [b' '; 32];
-        padded[..raw.len()].copy_from_slice(raw);
-        flagged = fold32(&padded);
-    }
-    if flagged == 0 {
+    if !flagged(raw) {
         return false;
     }
     let code = match memchr::memchr(b';', raw) {
@@ -149,6 +119,45 @@ fn may_leave_the_sequence(raw: &[u8]) -> bool {
             .iter()
             .any(|n| code.len() - i >= n.len() && code[i..i + n.len()].eq_ignore_ascii_case(n))
     })
+}
+
+/// Whether `bytes` (a line, or a run of lines) has a byte that may start
+/// what [`may_leave_the_sequence`] looks for: each of its names has an O,
+/// I, S or P; a label a `:`; a string a `"`. Most lines of moves have none
+/// (one pass over the bytes, no early exit, so that it runs as vector
+/// compares).
+fn flagged(bytes: &[u8]) -> bool {
+    let flag = |b: u8| {
+        let l = b | 0x20;
+        u8::from(l == b'o')
+            | u8::from(l == b'i')
+            | u8::from(l == b's')
+            | u8::from(l == b'p')
+            | u8::from(b == b':')
+            | u8::from(b == b'"')
+    };
+    // Whole 32-byte chunks only: the tail is the line's last 32 bytes
+    // (read twice where they overlap a chunk), a line shorter than 32
+    // bytes is padded with spaces (which no flag sees).
+    let fold32 = |chunk: &[u8; 32]| chunk.iter().fold(0u8, |f, &b| f | flag(b));
+    let mut flagged = 0u8;
+    if bytes.len() >= 32 {
+        let mut chunks = bytes.chunks_exact(32);
+        for chunk in &mut chunks {
+            flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
+        }
+        if let Some(tail) = bytes
+            .last_chunk::<32>()
+            .filter(|_| !chunks.remainder().is_empty())
+        {
+            flagged |= fold32(tail);
+        }
+    } else {
+        let mut padded = [b' '; 32];
+        padded[..bytes.len()].copy_from_slice(bytes);
+        flagged = fold32(&padded);
+    }
+    flagged != 0
 }
 
 /// The kind of a structured statement (the line's first name).
@@ -309,9 +318,13 @@ impl SourceFile {
         let Ok(start) = input.stream_position() else {
             return Err(input);
         };
-        let scan = crate::gcode::streamed_program::scan_lines(&mut input, |raw, _| {
-            !may_leave_the_sequence(raw)
-        });
+        // A run of lines without a flagged byte has no line that may leave
+        // the sequence: counted at once.
+        let scan = crate::gcode::streamed_program::scan_lines_skipping(
+            &mut input,
+            |run| !flagged(run),
+            |raw, _| !may_leave_the_sequence(raw),
+        );
         // Back to the start: read again as it runs, or whole (where an
         // error of the input is the held path's).
         let back = input.seek(std::io::SeekFrom::Start(start));
@@ -2991,14 +3004,7 @@ impl SinumerikFront {
                 w.end,
             ));
         }
-        match self.spline_block(
-            line,
-            out,
-            bspline,
-            spline_words,
-            axis_words,
-            interpreter,
-        )? {
+        match self.spline_block(line, out, bspline, spline_words, axis_words, interpreter)? {
             Some(handed) => return Ok(handed),
             None if self.spline.is_none() => {
                 // SD=, PL=, PW= outside a spline: passed through, as before.
