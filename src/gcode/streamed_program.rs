@@ -20,6 +20,19 @@ use crate::gcode::syntax::block::LineEnding;
 /// `\n` counts), or `None` as soon as `each` returns `false`.
 pub(crate) fn scan_lines(
     input: &mut dyn BufRead,
+    each: impl FnMut(&[u8], bool) -> bool,
+) -> io::Result<Option<usize>> {
+    scan_lines_skipping(input, |_| false, each)
+}
+
+/// [`scan_lines`], where the caller knows of a run of whole lines at once
+/// that `each` would return `true` on every one of them (`skip` on the run,
+/// `\n`s included): such a run is only counted. Each input buffer's whole
+/// lines are offered to `skip` as one run (the lines of a CAM program's
+/// moves, looked at with vector compares instead of line by line).
+pub(crate) fn scan_lines_skipping(
+    input: &mut dyn BufRead,
+    skip: impl Fn(&[u8]) -> bool,
     mut each: impl FnMut(&[u8], bool) -> bool,
 ) -> io::Result<Option<usize>> {
     let mut count = 0usize;
@@ -42,7 +55,22 @@ pub(crate) fn scan_lines(
         }
         let n = buf.len();
         let mut at = 0;
-        while let Some(k) = memchr::memchr(b'\n', &buf[at..]) {
+        // The line that completes `partial` first; then the buffer's other
+        // whole lines as one run, when `skip` takes them.
+        let mut run_offered = false;
+        loop {
+            if partial.is_empty() && !run_offered {
+                run_offered = true;
+                if let Some(last) = memchr::memrchr(b'\n', &buf[at..])
+                    && skip(&buf[at..=at + last])
+                {
+                    count += memchr::memchr_iter(b'\n', &buf[at..=at + last]).count();
+                    at += last + 1;
+                }
+            }
+            let Some(k) = memchr::memchr(b'\n', &buf[at..]) else {
+                break;
+            };
             let line = &buf[at..at + k];
             count += 1;
             let go_on = if partial.is_empty() {
@@ -222,6 +250,32 @@ mod tests {
         );
         assert_eq!(lines(b""), Vec::<Vec<u8>>::new());
         assert_eq!(lines(b"a\n"), vec![b"a".to_vec()]);
+    }
+
+    #[test]
+    fn skipped_runs_are_counted_as_their_lines() {
+        for capacity in [1, 3, 4, 7, 64] {
+            for text in [&b"G1 X1\r\nG1 X22\n\nX3"[..], b"a\n", b"", b"\n\n\nb\nc\n"] {
+                let mut seen = 0;
+                let mut input = io::BufReader::with_capacity(capacity, text);
+                let skipped = scan_lines_skipping(
+                    &mut input,
+                    |run| !run.contains(&b'2'),
+                    |_, _| {
+                        seen += 1;
+                        true
+                    },
+                )
+                .unwrap();
+                let all = scan_lines(&mut io::BufReader::with_capacity(capacity, text), |_, _| {
+                    true
+                })
+                .unwrap();
+                assert_eq!(skipped, all, "{capacity} {text:?}");
+                // A run skipped is not seen line by line.
+                assert!(seen <= all.unwrap_or(0));
+            }
+        }
     }
 
     #[test]

@@ -1056,3 +1056,76 @@ mod interpreting {
         );
     }
 }
+
+/// `Word::code10` as it was written with `f64::round` (its rounding is now
+/// done without the library call): the reference it must equal.
+fn code10_with_round(value: f64) -> Option<i32> {
+    let t = value * 10.0;
+    let r = t.round();
+    ((t - r).abs() < 1e-6 && r.abs() < 1e9).then_some(r as i32)
+}
+
+fn code_word(value: f64) -> volcomp::gcode::Word {
+    volcomp::gcode::Word {
+        letter: b'G',
+        value,
+        start: 0,
+        end: 0,
+        decimals: 0,
+        point: false,
+        expr: None,
+    }
+}
+
+#[test]
+fn code10_rounds_halves_away_from_zero_as_round_does() {
+    let specials = [
+        0.0,
+        -0.0,
+        0.05,
+        -0.05,
+        0.15,
+        0.25,
+        -0.25,
+        1.0,
+        43.4,
+        -43.4,
+        1.25,
+        64.05,
+        99_999_999.95,
+        -99_999_999.95,
+        1e8,
+        1e9,
+        4_503_599_627_370_495.5,
+        f64::MAX,
+        f64::MIN_POSITIVE,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for v in specials {
+        assert_eq!(code_word(v).code10(), code10_with_round(v), "{v}");
+        // Just beside every special value too (one unit in the last place).
+        for w in [
+            f64::from_bits(v.to_bits().wrapping_add(1)),
+            f64::from_bits(v.to_bits().wrapping_sub(1)),
+        ] {
+            assert_eq!(code_word(w).code10(), code10_with_round(w), "{w}");
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2048))]
+
+    #[test]
+    fn code10_equals_the_rounded_code(
+        tenths in -2_000_000_000i64..2_000_000_000,
+        offset in prop_oneof![Just(0.0), Just(0.05), Just(-0.05), -0.1f64..0.1],
+        any_value in any::<f64>(),
+    ) {
+        let v = tenths as f64 / 10.0 + offset;
+        prop_assert_eq!(code_word(v).code10(), code10_with_round(v));
+        prop_assert_eq!(code_word(any_value).code10(), code10_with_round(any_value));
+    }
+}

@@ -781,6 +781,12 @@ impl Interpreter {
         self.origin
     }
 
+    /// The active origin, borrowed: a dialect front that reads it on every
+    /// block does not copy it (its frame with it).
+    pub fn origin_ref(&self) -> &Origin {
+        &self.origin
+    }
+
     /// Set a dialect's programmable frame (Sinumerik `TRANS`/`ROT`/…, a
     /// swivelled plane), applied to the X Y Z words of the next blocks
     /// before the work origin ([`Origin::frame`]); `None` clears it.

@@ -27,6 +27,7 @@ impl SinumerikFront {
     /// The circle of this block (centre form after `arc`: `G2`/`G3` with
     /// `I J K` increments from `start` or `CR=`, `P` for `TURN=`), in the
     /// working plane of the program coordinates, as chords.
+    #[inline(never)]
     pub(super) fn circle_as_chords(
         &mut self,
         line: &LineRun,

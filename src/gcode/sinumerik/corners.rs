@@ -603,7 +603,7 @@ impl SinumerikFront {
         };
         let mut queued = Vec::new();
         a_out.sort_words();
-        if self.hand_on(&a_line, a_out, &pending.raw, false)? {
+        if self.hand_on(&a_line, &mut a_out, &pending.raw, false)? {
             queued.push(std::mem::take(&mut self.block));
         }
         // The corner.
@@ -634,7 +634,7 @@ impl SinumerikFront {
             push(&mut c_out, b'F', f);
         }
         c_out.flat = true;
-        if self.hand_on(&a_line, c_out, &pending.raw, false)? {
+        if self.hand_on(&a_line, &mut c_out, &pending.raw, false)? {
             queued.push(std::mem::take(&mut self.block));
         }
         // The next element: from the second tangent point.

@@ -99,25 +99,7 @@ struct MainStream {
 /// names anywhere in the line's code, in any case: a line this cannot tell
 /// is taken as one).
 fn may_leave_the_sequence(raw: &[u8]) -> bool {
-    // Each name below has an O, I, S or P; a label a `:`; a string a `"`.
-    // Most lines of moves have none (one pass over the bytes, no early
-    // exit, so that it runs as vector compares).
-    let flag = |b: u8| {
-        let l = b | 0x20;
-        u8::from(l == b'o')
-            | u8::from(l == b'i')
-            | u8::from(l == b's')
-            | u8::from(l == b'p')
-            | u8::from(b == b':')
-            | u8::from(b == b'"')
-    };
-    let mut chunks = raw.chunks_exact(32);
-    let mut flagged = 0u8;
-    for chunk in &mut chunks {
-        flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
-    }
-    flagged |= chunks.remainder().iter().fold(0u8, |f, &b| f | flag(b));
-    if flagged == 0 {
+    if !flagged(raw) {
         return false;
     }
     let code = match memchr::memchr(b';', raw) {
@@ -138,6 +120,45 @@ fn may_leave_the_sequence(raw: &[u8]) -> bool {
             .iter()
             .any(|n| code.len() - i >= n.len() && code[i..i + n.len()].eq_ignore_ascii_case(n))
     })
+}
+
+/// Whether `bytes` (a line, or a run of lines) has a byte that may start
+/// what [`may_leave_the_sequence`] looks for: each of its names has an O,
+/// I, S or P; a label a `:`; a string a `"`. Most lines of moves have none
+/// (one pass over the bytes, no early exit, so that it runs as vector
+/// compares).
+fn flagged(bytes: &[u8]) -> bool {
+    let flag = |b: u8| {
+        let l = b | 0x20;
+        u8::from(l == b'o')
+            | u8::from(l == b'i')
+            | u8::from(l == b's')
+            | u8::from(l == b'p')
+            | u8::from(b == b':')
+            | u8::from(b == b'"')
+    };
+    // Whole 32-byte chunks only: the tail is the line's last 32 bytes
+    // (read twice where they overlap a chunk), a line shorter than 32
+    // bytes is padded with spaces (which no flag sees).
+    let fold32 = |chunk: &[u8; 32]| chunk.iter().fold(0u8, |f, &b| f | flag(b));
+    let mut flagged = 0u8;
+    if bytes.len() >= 32 {
+        let mut chunks = bytes.chunks_exact(32);
+        for chunk in &mut chunks {
+            flagged |= chunk.iter().fold(0u8, |f, &b| f | flag(b));
+        }
+        if let Some(tail) = bytes
+            .last_chunk::<32>()
+            .filter(|_| !chunks.remainder().is_empty())
+        {
+            flagged |= fold32(tail);
+        }
+    } else {
+        let mut padded = [b' '; 32];
+        padded[..bytes.len()].copy_from_slice(bytes);
+        flagged = fold32(&padded);
+    }
+    flagged != 0
 }
 
 /// The kind of a structured statement (the line's first name).
@@ -298,9 +319,13 @@ impl SourceFile {
         let Ok(start) = input.stream_position() else {
             return Err(input);
         };
-        let scan = crate::gcode::streamed_program::scan_lines(&mut input, |raw, _| {
-            !may_leave_the_sequence(raw)
-        });
+        // A run of lines without a flagged byte has no line that may leave
+        // the sequence: counted at once.
+        let scan = crate::gcode::streamed_program::scan_lines_skipping(
+            &mut input,
+            |run| !flagged(run),
+            |raw, _| !may_leave_the_sequence(raw),
+        );
         // Back to the start: read again as it runs, or whole (where an
         // error of the input is the held path's).
         let back = input.seek(std::io::SeekFrom::Start(start));
@@ -1059,6 +1084,7 @@ impl SinumerikFront {
 
     /// Whether the line at `s..e` of `file` ends the open `BSPLINE`
     /// section ([`splines::ends_section`]).
+    #[inline(never)]
     fn line_ends_spline(&mut self, file: usize, s: usize, e: usize) -> bool {
         let mut tokens = std::mem::take(&mut self.tokens);
         let ends = syntax::tokenize(&self.files[file].text[s..e], &mut tokens).is_ok()
@@ -1067,10 +1093,12 @@ impl SinumerikFront {
         ends
     }
 
+    #[cold]
     fn error(&self, line: &LineRun, kind: ErrorKind, start: usize, end: usize) -> GcodeError {
         GcodeError::at(kind, line.line, line.raw, start, end)
     }
 
+    #[cold]
     fn feature(&self, line: &LineRun, what: &str, start: usize, end: usize) -> GcodeError {
         self.error(
             line,
@@ -1080,6 +1108,7 @@ impl SinumerikFront {
         )
     }
 
+    #[cold]
     fn refused(&self, line: &LineRun, message: String, start: usize, end: usize) -> GcodeError {
         self.error(line, ErrorKind::DialectRefused(message), start, end)
     }
@@ -1205,10 +1234,63 @@ impl SinumerikFront {
                 .push(word(w.letter, code, w.start, w.end, decimals, point, false));
         }
         self.plain = plain;
-        let mut cur = Cursor::new(&[], raw.len());
-        self.statements(line, &mut cur, out, interpreter).map(Some)
+        let axis_words = out.words.iter().any(|w| is_axis(w.letter));
+        if self.quiet(line, interpreter) {
+            return self
+                .end_quiet_block(line, &mut out, axis_words, interpreter)
+                .map(Some);
+        }
+        let mut said = Said::words_only(axis_words);
+        self.end_block(line, &mut out, &mut said, interpreter)
+            .map(Some)
     }
 
+    /// Whether a plain line read now would find none of the state
+    /// [`Self::end_block`] acts on beyond its words (no open `BSPLINE`
+    /// section, no frame to set or to check arcs against, no modal `CIP`/
+    /// `CT`, no circle to restore, no `TRAORI`), and is handed on as
+    /// written: then [`Self::end_quiet_block`] ends it, doing what
+    /// `end_block` does for such a line. A state `end_block` learns to act
+    /// on is added here.
+    fn quiet(&self, line: &LineRun, interpreter: &Interpreter) -> bool {
+        line.first_reading
+            && self.spline.is_none()
+            && !self.flush_frame_later
+            && self.arc_form.is_none()
+            && self.restore_arc.is_none()
+            && !self.traori
+            && !self.corners.active()
+            && !self.corners.busy()
+            && interpreter.origin_ref().frame.is_none()
+    }
+
+    /// [`Self::end_block`] for a plain line in a quiet state
+    /// ([`Self::quiet`]): its plain words (no `T`, `M`, no `=` value, G
+    /// codes that set no flag) are in the line's order and need no mode
+    /// resolved; a move notes where it started (`CT` after it).
+    fn end_quiet_block(
+        &mut self,
+        line: &LineRun,
+        out: &mut Out,
+        axis_words: bool,
+        interpreter: &Interpreter,
+    ) -> Result<bool, GcodeError> {
+        self.chorded = false;
+        self.turn_end = None;
+        if axis_words {
+            let level = self.levels.len() - 1;
+            self.levels[level].moved = true;
+            let start = interpreter
+                .origin_ref()
+                .to_program(&interpreter.position())
+                .xyz();
+            self.last_move = self.move_of(out, interpreter, start);
+        }
+        self.note_distance_mode(out);
+        self.hand_on(line, out, line.raw, false)
+    }
+
+    #[inline(never)]
     fn run_tokens(
         &mut self,
         line: &mut LineRun,
@@ -1231,7 +1313,7 @@ impl SinumerikFront {
                 ..
             })
         ) {
-            return self.hand_on(line, out, raw, true);
+            return self.hand_on(line, &mut out, raw, true);
         }
         // `/` block skip (*Fundamentals*, "Skip blocks").
         if cur.eat_sym("/") {
@@ -1243,7 +1325,7 @@ impl SinumerikFront {
             }
             out.deleted = true;
             if self.skip_deleted {
-                return self.hand_on(line, out, raw, true);
+                return self.hand_on(line, &mut out, raw, true);
             }
         }
         // Block number `N10` or main block `:10`.
@@ -1284,7 +1366,7 @@ impl SinumerikFront {
             cur.pos += 2;
         }
         let Some(first) = cur.peek() else {
-            return self.hand_on(line, out, raw, true);
+            return self.hand_on(line, &mut out, raw, true);
         };
         if let Tok::Name(name) = &first.tok {
             let name = name.clone();
@@ -1297,12 +1379,12 @@ impl SinumerikFront {
                     // The definition line of a program (its parameters are
                     // bound by the call).
                     return if line.file == 0 && self.levels.len() == 1 {
-                        self.hand_on(line, out, raw, true)
+                        self.hand_on(line, &mut out, raw, true)
                     } else {
                         Ok(false)
                     };
                 }
-                "EXTERN" => return self.hand_on(line, out, raw, true),
+                "EXTERN" => return self.hand_on(line, &mut out, raw, true),
                 "RET" => {
                     self.return_from_level(Some(line))?;
                     return Ok(false);
@@ -1327,7 +1409,7 @@ impl SinumerikFront {
     fn hand_on(
         &mut self,
         line: &LineRun,
-        out: Out,
+        out: &mut Out,
         raw: &[u8],
         _plain: bool,
     ) -> Result<bool, GcodeError> {
@@ -1337,10 +1419,11 @@ impl SinumerikFront {
         if literal {
             self.block.raw.extend_from_slice(raw);
             // The previous block's words buffer (cleared by reset) serves the next line.
-            self.spare_words = std::mem::replace(&mut self.block.words, out.words);
-            self.block.keywords = out.keywords;
-            self.block.comments = out.comments;
-            self.block.statements = out.statements;
+            self.spare_words =
+                std::mem::replace(&mut self.block.words, std::mem::take(&mut out.words));
+            self.block.keywords = std::mem::take(&mut out.keywords);
+            self.block.comments = std::mem::take(&mut out.comments);
+            self.block.statements = std::mem::take(&mut out.statements);
             self.executed.literal = true;
             return Ok(true);
         }
@@ -2084,7 +2167,7 @@ impl SinumerikFront {
         out.computed = true;
         // A definition is written where it stands, read in sequence; flat, dropped.
         if line.first_reading && !self.flowed {
-            self.hand_on(line, out, raw, true)
+            self.hand_on(line, &mut out, raw, true)
         } else {
             Ok(false)
         }
@@ -2192,6 +2275,7 @@ impl SinumerikFront {
 
     /// Call a subprogram by name: its file on the search path, its `PROC`
     /// parameters bound to `args` (*Job planning*, "Subprogram technique").
+    #[inline(never)]
     fn call(
         &mut self,
         line: &LineRun,
@@ -2424,19 +2508,17 @@ impl SinumerikFront {
     ) -> Result<bool, GcodeError> {
         let raw = line.raw;
         let mut frame_op: Option<(String, (usize, usize))> = None;
-        let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
         let mut rpl: Option<f64> = None;
         let mut flags = GFlags::default();
         let mut call: Option<Call> = None;
         let mut repeats: u64 = 1;
 
-        // A plain line's words come in `out` (`run_plain_line`).
+        // The words before the statements (the block number).
         let mut axis_words = out.words.iter().any(|w| is_axis(w.letter));
         let mut centre_abs: Vec<(usize, f64)> = Vec::new();
         let mut orientation = Orientation::default();
         let mut tool_edge: Option<(f64, usize)> = None;
         let mut arc = ArcWords::default();
-        let mut turned = None;
         let mut spline_words = splines::SplineWords::default();
         let mut bspline = None;
         let mut corner_words: Option<Box<corners::CornerWords>> = None;
@@ -2807,6 +2889,55 @@ impl SinumerikFront {
                 }
             }
         }
+        let mut said = Said {
+            frame_op,
+            rpl,
+            flags,
+            call,
+            repeats,
+            axis_words,
+            centre_abs,
+            orientation,
+            tool_edge,
+            arc,
+            spline_words,
+            bspline,
+            corner_words,
+        };
+        self.end_block(line, &mut out, &mut said, interpreter)
+    }
+
+    /// The end of an ordinary block, after its statements (`statements`;
+    /// a plain line's words come straight from `run_plain_line`): frames,
+    /// calls, tools, orientation, splines, circles, the modes; then the
+    /// block is handed on.
+    fn end_block(
+        &mut self,
+        line: &mut LineRun,
+        out: &mut Out,
+        said: &mut Said,
+        interpreter: &mut Interpreter,
+    ) -> Result<bool, GcodeError> {
+        let raw = line.raw;
+        let Said {
+            frame_op,
+            rpl,
+            flags,
+            call,
+            repeats,
+            axis_words,
+            centre_abs,
+            orientation,
+            tool_edge,
+            arc,
+            spline_words,
+            bspline,
+            corner_words,
+        } = said;
+        let (rpl, repeats, tool_edge, bspline) = (*rpl, *repeats, *tool_edge, *bspline);
+        let mut axis_words = *axis_words;
+        let mut frame_values: Vec<(u8, f64, (usize, usize))> = Vec::new();
+        let mut turned = None;
         if self.spline.is_some() {
             let offsets = flags.suppress
                 || flags.settable_off
@@ -2825,7 +2956,7 @@ impl SinumerikFront {
                 ));
             }
         }
-        if let Some((name, args, at)) = call {
+        if let Some((name, args, at)) = call.take() {
             if out.words.iter().any(|w| is_axis(w.letter)) {
                 return Err(self.feature(
                     line,
@@ -2855,7 +2986,7 @@ impl SinumerikFront {
             // The values move nothing: the block is not a move (the control
             // wants a frame statement alone in its block).
             axis_words = false;
-            self.frame_statement(line, &op, &frame_values, rpl, at, interpreter)?;
+            self.frame_statement(line, op, &frame_values, rpl, *at, interpreter)?;
         } else if rpl.is_some() {
             return Err(self.refused(line, "RPL= belongs to ROT or AROT".into(), 0, raw.len()));
         }
@@ -2883,10 +3014,10 @@ impl SinumerikFront {
         if let Some(origin) = flags.settable {
             interpreter.set_work_origin(origin);
         }
-        self.tool_state(&out, tool_edge);
-        self.tool_length(&mut out, tool_edge);
+        self.tool_state(out, tool_edge);
+        self.tool_length(out, tool_edge);
         if orientation.given() {
-            turned = Some(self.orientation_words(line, &orientation, &mut out, interpreter)?);
+            turned = Some(self.orientation_words(line, orientation, out, interpreter)?);
             axis_words = true;
         }
         if bspline.is_some()
@@ -2912,14 +3043,7 @@ impl SinumerikFront {
                 bspline.map_or(raw.len(), |b| b.1),
             ));
         }
-        match self.spline_block(
-            line,
-            &mut out,
-            bspline,
-            &spline_words,
-            axis_words,
-            interpreter,
-        )? {
+        match self.spline_block(line, out, bspline, spline_words, axis_words, interpreter)? {
             Some(handed) => return Ok(handed),
             None if self.spline.is_none() => {
                 // SD=, PL=, PW= outside a spline: passed through, as before.
@@ -2971,17 +3095,17 @@ impl SinumerikFront {
         if axis_words || arc_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
-            self.resolve_modes(&mut out, interpreter, flags.suppress, &centre_abs);
+            self.resolve_modes(out, interpreter, flags.suppress, centre_abs);
             let start = interpreter
-                .origin()
+                .origin_ref()
                 .to_program(&interpreter.position())
                 .xyz();
             if arc_words {
-                self.arc(line, &arc, &mut out, interpreter, start)?;
+                self.arc(line, arc, out, interpreter, start)?;
             }
             // After `arc`: a CIP/CT circle has its G2/G3 now.
-            let chords = !self.chorded && self.check_arc_frame(line, &out, interpreter)?;
-            self.last_move = self.move_of(&out, interpreter, start);
+            let chords = !self.chorded && self.check_arc_frame(line, out, interpreter)?;
+            self.last_move = self.move_of(out, interpreter, start);
             if self.chorded {
                 // A circle in space (CIP, or CT after one): CT goes on from
                 // its tangent (`circles::space_tangent`).
@@ -2995,7 +3119,7 @@ impl SinumerikFront {
                     });
             } else if chords
                 || (self.traori
-                    && self.arc_context(&out, interpreter).2.is_some()
+                    && self.arc_context(out, interpreter).2.is_some()
                     && (turned.is_some()
                         || out.words.iter().any(|w| {
                             crate::axes::Axis::from_letter(w.letter as char)
@@ -3004,14 +3128,14 @@ impl SinumerikFront {
             {
                 // A circle in a tilted plane, or one that turns the tool
                 // under TRAORI: pieces.
-                self.circle_as_chords(line, &mut out, interpreter, start)?;
+                self.circle_as_chords(line, out, interpreter, start)?;
             }
             if let Some(end) = self.turn_end
                 && !arc_words
                 && self.great_circle_mode()
-                && self.arc_context(&out, interpreter).2.is_none()
+                && self.arc_context(out, interpreter).2.is_none()
             {
-                self.split_on_great_circle(line, &mut out, interpreter, start, end)?;
+                self.split_on_great_circle(line, out, interpreter, start, end)?;
             }
         }
         if corner_words.is_some() || self.corners.active() {
@@ -3020,20 +3144,26 @@ impl SinumerikFront {
                 || flags.settable_off
                 || flags.settable.is_some()
                 || !out.keywords.is_empty();
-            let words = corner_words.map(|w| *w).unwrap_or_default();
+            let words = corner_words.take().map(|w| *w).unwrap_or_default();
             let facts = corners::BlockFacts {
                 moves: axis_words || arc_words,
                 arc_words,
                 framed,
                 turned: turned.is_some(),
                 start: interpreter
-                    .origin()
+                    .origin_ref()
                     .to_program(&interpreter.position())
                     .xyz(),
             };
-            self.corner_block(line, &mut out, &words, &facts, interpreter)?;
+            self.corner_block(line, out, &words, &facts, interpreter)?;
         }
-        // Keep G90/G91 for AC/IC.
+        self.note_distance_mode(out);
+        out.sort_words();
+        self.hand_on(line, out, raw, false)
+    }
+
+    /// Keep the block's G90/G91 for AC/IC.
+    fn note_distance_mode(&mut self, out: &Out) {
         for w in &out.words {
             if w.letter == b'G' {
                 if w.value == 90.0 {
@@ -3043,8 +3173,6 @@ impl SinumerikFront {
                 }
             }
         }
-        out.sort_words();
-        self.hand_on(line, out, raw, false)
     }
 
     /// `A3= B3= C3=` (the tool direction as a vector) or `A2= B2= C2=`
@@ -3061,6 +3189,7 @@ impl SinumerikFront {
     /// words, the orientation words under
     /// [`crate::gcode::ORIENTATION_VECTOR_LETTERS`] (vector) and
     /// [`ORIENTATION_ANGLE_LETTERS`] (angles) for the rewriter.
+    #[inline(never)]
     fn orientation_words(
         &mut self,
         line: &LineRun,
@@ -3328,6 +3457,7 @@ impl SinumerikFront {
     /// is written flat: `G2`/`G3` with `I J K` (incremental, as both
     /// dialects read them) and, where the end was worked out, its axis
     /// words; `TURN=` stays.
+    #[inline(never)]
     fn arc(
         &mut self,
         line: &LineRun,
@@ -3749,7 +3879,7 @@ impl SinumerikFront {
         interpreter: &Interpreter,
     ) -> Result<bool, GcodeError> {
         use crate::gcode::machine::modal::MotionMode;
-        let Some(f) = interpreter.origin().frame else {
+        let Some(f) = &interpreter.origin_ref().frame else {
             return Ok(false);
         };
         let mut arc = matches!(
@@ -3848,6 +3978,7 @@ impl SinumerikFront {
     /// `MIRROR`/`AMIRROR` (*Fundamentals*, "Coordinate transformations
     /// (frames)"): an absolute statement replaces the programmable frame,
     /// an additive one acts in the frame as it stands.
+    #[inline(never)]
     fn frame_statement(
         &mut self,
         line: &LineRun,
@@ -4199,6 +4330,53 @@ struct GFlags {
     settable_off: bool,
     /// `G505`–`G599`: this settable frame's origin.
     settable: Option<crate::axes::Axes>,
+}
+
+/// What a line's statements said besides its words ([`SinumerikFront::statements`]),
+/// read at the block's end ([`SinumerikFront::end_block`]).
+struct Said {
+    /// A frame statement (`TRANS`, `AROT`…) and where it is.
+    frame_op: Option<(String, (usize, usize))>,
+    /// `RPL=`.
+    rpl: Option<f64>,
+    flags: GFlags,
+    call: Option<Call>,
+    /// `P`: runs of the call.
+    repeats: u64,
+    /// The block has axis words.
+    axis_words: bool,
+    /// `I J K` given `AC(…)`: word index and value.
+    centre_abs: Vec<(usize, f64)>,
+    orientation: Orientation,
+    /// `D`: the cutting edge and its word's end.
+    tool_edge: Option<(f64, usize)>,
+    arc: ArcWords,
+    spline_words: splines::SplineWords,
+    /// `BSPLINE` and where it is.
+    bspline: Option<(usize, usize)>,
+    /// `RND=`, `RNDM=`, `CHF=`, `CHR=`, `FRC=`, `FRCM=` ([`corners`]).
+    corner_words: Option<Box<corners::CornerWords>>,
+}
+
+impl Said {
+    /// A plain line's: its words only.
+    fn words_only(axis_words: bool) -> Said {
+        Said {
+            frame_op: None,
+            rpl: None,
+            flags: GFlags::default(),
+            call: None,
+            repeats: 1,
+            axis_words,
+            centre_abs: Vec::new(),
+            orientation: Orientation::default(),
+            tool_edge: None,
+            arc: ArcWords::default(),
+            spline_words: splines::SplineWords::default(),
+            bspline: None,
+            corner_words: None,
+        }
+    }
 }
 
 /// Where a line being run comes from.

@@ -251,6 +251,7 @@ impl SinumerikFront {
     /// for a block given in angles), each with its joints on the machine's
     /// chain ([`Self::hand_on_pieces`]). A block that needs no split is left
     /// as it is.
+    #[inline(never)]
     pub(super) fn split_on_great_circle(
         &mut self,
         line: &LineRun,
@@ -490,7 +491,7 @@ impl SinumerikFront {
                 ));
             }
             previous = (e.tip, e.joints);
-            if self.hand_on(line, piece, line.raw, false)? {
+            if self.hand_on(line, &mut piece, line.raw, false)? {
                 self.pending.push_back(std::mem::take(&mut self.block));
             }
         }

@@ -120,6 +120,7 @@ impl SinumerikFront {
     /// on now). `None`: the block goes on as any other (written flat when
     /// it carried spline words).
     #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
     pub(super) fn spline_block(
         &mut self,
         line: &LineRun,
@@ -268,6 +269,7 @@ impl SinumerikFront {
 
     /// End the open section: its curve as chords, with the blocks held in
     /// it, queued in order ([`Self::next_spline_block`]).
+    #[inline(never)]
     pub(super) fn close_spline(&mut self, interpreter: &Interpreter) -> Result<(), GcodeError> {
         let Some(section) = self.spline.take() else {
             return Ok(());
@@ -339,7 +341,7 @@ impl SinumerikFront {
             let mut pieces = VecDeque::new();
             if self.hand_on(
                 &line,
-                std::mem::replace(&mut c.out, Out::new(0)),
+                &mut std::mem::replace(&mut c.out, Out::new(0)),
                 &c.raw,
                 false,
             )? {

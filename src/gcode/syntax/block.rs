@@ -80,13 +80,35 @@ impl Word {
     /// (`G43.4` → 434, `G1` → 10); `None` for values such as `G1.25`.
     pub fn code10(&self) -> Option<i32> {
         let t = self.value * 10.0;
-        let r = t.round();
+        let r = round_half_away(t);
         if (t - r).abs() < 1e-6 && r.abs() < 1e9 {
             Some(r as i32)
         } else {
             None
         }
     }
+}
+
+/// `t.round()` (halves away from zero) in SSE2 arithmetic, without the
+/// library call `round` is on a target without SSE4.1: every block's G and
+/// M words come through [`Word::code10`] several times. Adding and taking
+/// away 2^52 rounds to the nearest whole number (ties to even); a tie is
+/// then moved away from zero. Not inlined: its callers keep their size.
+#[inline(never)]
+fn round_half_away(t: f64) -> f64 {
+    const TWO_52: f64 = 4_503_599_627_370_496.0;
+    // Whole already (and NaN, ±∞): as `round`.
+    if !(t.abs() < TWO_52) {
+        return t;
+    }
+    let magic = TWO_52.copysign(t);
+    let r = (t + magic) - magic;
+    let r = if (t - r).abs() == 0.5 {
+        t + 0.5f64.copysign(t)
+    } else {
+        r
+    };
+    r.copysign(t)
 }
 
 /// A parameter assignment `#1=…`, `#<name>=…` (applied after the whole line
