@@ -288,7 +288,10 @@ impl Axes {
         }
     }
 
-    /// `f` applied letter by letter to `self` and `other`.
+    /// `f` applied letter by letter to `self` and `other`. Always inlined:
+    /// it is on every block's path (origins, interpolation), and a build
+    /// that leaves it out of line reads LinuxCNC programs measurably slower.
+    #[inline(always)]
     pub fn zip_with(&self, other: &Axes, f: impl Fn(f64, f64) -> f64) -> Axes {
         let (a, b) = (self.to_array(), other.to_array());
         Axes::from_array(std::array::from_fn(|i| f(a[i], b[i])))

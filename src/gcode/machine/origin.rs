@@ -171,6 +171,7 @@ impl Origin {
     }
 
     /// Machine coordinates → program coordinates (inverse of [`Origin::to_machine`]).
+    #[inline]
     pub fn to_program(&self, m: &Axes) -> Axes {
         let (x, y) = rotate(m.x - self.work.x, m.y - self.work.y, -self.rotation_deg);
         let shifted = m.zip_with(&self.work, |v, w| v - w);
