@@ -292,7 +292,21 @@ pub fn closed_loop_on(
     compensated: &str,
     frame: Frame,
 ) -> (PathError, PathError) {
-    let nominal = NominalPath::of_program_on(rig, original, frame, 0.1);
+    closed_loop_with_ruler_on(rig, original, compensated, frame, 0.1)
+}
+
+/// [`closed_loop_on`] against the nominal path walked in chords of
+/// `ruler_mm`: a chord of length c departs from an arc of radius r by
+/// c²/(8r), 1.25 µm for the 0.1 mm chords on r = 1 mm; small arcs need a
+/// finer ruler.
+pub fn closed_loop_with_ruler_on(
+    rig: &Rig,
+    original: &str,
+    compensated: &str,
+    frame: Frame,
+    ruler_mm: f64,
+) -> (PathError, PathError) {
+    let nominal = NominalPath::of_program_on(rig, original, frame, ruler_mm);
     let before = actual_path_error_on(rig, original, frame, &nominal, 0.5);
     let after = actual_path_error_on(rig, compensated, frame, &nominal, 0.25);
     (before, after)
