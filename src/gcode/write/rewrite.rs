@@ -566,7 +566,8 @@ impl Rewriter {
             if straighten {
                 self.straighten(block, &ctx);
             } else if start_moved || end_moved {
-                self.move_arc_centre(block, &ctx, new_emitted, centre, plane);
+                let nominal = [motion.start.xyz(), motion.end.xyz()];
+                self.move_arc_centre(block, &ctx, new_emitted, centre, nominal, plane);
             }
         }
 
@@ -821,19 +822,32 @@ impl Rewriter {
         }
     }
 
-    /// Keep an arc valid after its start or end moved: centre → the nearest
-    /// point equidistant from both; rewrite I/J/K or R.
+    /// Keep an arc valid after its start or end moved: the centre moved by
+    /// the mean of the two ends' corrections (a correction that is the same
+    /// at both ends moves the whole circle), then to the nearest point
+    /// equidistant from both ends; rewrite I/J/K or R. The centre projected
+    /// without the move would leave the arc's middle off by the corrections'
+    /// component across the chord times 1 − cos(sweep/2): 0.8 µm on a
+    /// quarter circle whose ends move 2.8 µm across its chord, whatever its
+    /// radius (docs/extensions.md, "Arc centres").
     fn move_arc_centre(
         &mut self,
         block: &Block,
         ctx: &Context,
         new_end: Axes,
         centre: [f64; 3],
+        nominal: [[f64; 3]; 2],
         plane: crate::gcode::machine::motion::Plane,
     ) {
         let s = to_plane(plane, self.emitted.xyz());
         let e = to_plane(plane, new_end.xyz());
+        let (s0, e0) = (to_plane(plane, nominal[0]), to_plane(plane, nominal[1]));
         let c = to_plane(plane, centre);
+        let c = [
+            c[0] + 0.5 * ((s[0] - s0[0]) + (e[0] - e0[0])),
+            c[1] + 0.5 * ((s[1] - s0[1]) + (e[1] - e0[1])),
+            c[2],
+        ];
         let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
         let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
         let d = dx.hypot(dy);
