@@ -152,7 +152,7 @@ pub enum Element {
 impl Element {
     /// The unit direction of travel at the corner; `before`: the element
     /// ends there, else it starts there.
-    fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
+    pub(crate) fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
         let d = match *self {
             Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
             Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],

@@ -809,25 +809,10 @@ fn last_block_message(p: &Pending) -> String {
 
 /// Whether the elements meet tangentially (going on in one direction).
 fn tangent(first: &Element, corner: [f64; 2], second: &Element) -> bool {
-    let d = |e: &Element, before: bool| -> Option<[f64; 2]> {
-        let t = match *e {
-            Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
-            Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],
-            Element::Arc {
-                centre, clockwise, ..
-            } => {
-                let r = [corner[0] - centre[0], corner[1] - centre[1]];
-                if clockwise {
-                    [r[1], -r[0]]
-                } else {
-                    [-r[1], r[0]]
-                }
-            }
-        };
-        let n = t[0].hypot(t[1]);
-        (n > 1e-9).then(|| [t[0] / n, t[1] / n])
-    };
-    match (d(first, true), d(second, false)) {
+    match (
+        first.direction_at(corner, true),
+        second.direction_at(corner, false),
+    ) {
         (Some(u), Some(v)) => u[0] * v[0] + u[1] * v[1] > 0.0,
         _ => false,
     }
