@@ -152,7 +152,7 @@ pub enum Element {
 impl Element {
     /// The unit direction of travel at the corner; `before`: the element
     /// ends there, else it starts there.
-    pub(crate) fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
+    fn direction_at(&self, corner: [f64; 2], before: bool) -> Option<[f64; 2]> {
         let d = match *self {
             Element::Line { other } if before => [corner[0] - other[0], corner[1] - other[1]],
             Element::Line { other } => [other[0] - corner[0], other[1] - corner[1]],
@@ -223,6 +223,23 @@ impl Element {
     }
 }
 
+/// The unit directions of travel into the corner (`first`'s at its end)
+/// and out of it (`second`'s at its start); an element of no length there
+/// is [`CornerError::ZeroLength`].
+pub(crate) fn directions_at(
+    first: &Element,
+    corner: [f64; 2],
+    second: &Element,
+) -> Result<([f64; 2], [f64; 2]), CornerError> {
+    match (
+        first.direction_at(corner, true),
+        second.direction_at(corner, false),
+    ) {
+        (Some(u), Some(v)) => Ok((u, v)),
+        _ => Err(CornerError::ZeroLength),
+    }
+}
+
 /// `RND R` between two contour elements of which at least one is an arc
 /// (TNC 620 Klartext user's manual 01/2022, "Corner rounding RND" p. 157:
 /// "a circular arc with tangential connection to the preceding and
@@ -238,12 +255,7 @@ pub fn round_elements(
     r: f64,
 ) -> Result<Inserted, CornerError> {
     let r = r.abs();
-    let (Some(u), Some(v)) = (
-        first.direction_at(corner, true),
-        second.direction_at(corner, false),
-    ) else {
-        return Err(CornerError::ZeroLength);
-    };
+    let (u, v) = directions_at(&first, corner, &second)?;
     let turn = u[0] * v[1] - u[1] * v[0];
     let along = u[0] * v[0] + u[1] * v[1];
     if turn.abs() < 1e-9 || turn.atan2(along).abs() > std::f64::consts::PI - 1e-9 {
@@ -426,12 +438,7 @@ pub fn chamfer_elements(
     second: Element,
     size: Chamfer,
 ) -> Result<Inserted, CornerError> {
-    let (Some(u), Some(v)) = (
-        first.direction_at(corner, true),
-        second.direction_at(corner, false),
-    ) else {
-        return Err(CornerError::ZeroLength);
-    };
+    let (u, v) = directions_at(&first, corner, &second)?;
     let turn = u[0] * v[1] - u[1] * v[0];
     if turn.abs() < 1e-9 && u[0] * v[0] + u[1] * v[1] > 0.0 {
         return Err(CornerError::Straight);

@@ -313,6 +313,14 @@ fn fixture_motions(file: &str, machine: Option<&Machine>) -> Vec<(usize, Motion)
     motions(&text, machine).unwrap()
 }
 
+/// The motions of one program line, in order.
+fn motions_of_line(m: &[(usize, Motion)], line: usize) -> Vec<Motion> {
+    m.iter()
+        .filter(|(l, _)| *l == line)
+        .map(|(_, m)| *m)
+        .collect()
+}
+
 /// The last motion of source line `line`.
 fn last_of(m: &[(usize, Motion)], line: usize) -> Motion {
     m.iter()
@@ -384,12 +392,7 @@ fn rnd_and_chf_between_straight_lines() {
 #[test]
 fn rnd_next_to_arcs_by_hand() {
     let m = fixture_motions("rnd-next-to-arcs.h", None);
-    let of = |line: usize| -> Vec<Motion> {
-        m.iter()
-            .filter(|(l, _)| *l == line)
-            .map(|(_, m)| *m)
-            .collect()
-    };
+    let of = |line: usize| motions_of_line(&m, line);
     let r140 = 140f64.sqrt();
     let m1 = [20.0 - r140, -2.0];
     assert_point(xyz(&last_of(&m, 7).end), [20.0 - r140, 0.0, 0.0]);
@@ -899,12 +902,7 @@ fn appr_and_dep_lt() {
 #[test]
 fn appr_dep_ln_ct_lct_by_hand() {
     let m = fixture_motions("appr-dep-ln-ct-lct.h", None);
-    let of = |line: usize| -> Vec<Motion> {
-        m.iter()
-            .filter(|(l, _)| *l == line)
-            .map(|(_, m)| *m)
-            .collect()
-    };
+    let of = |line: usize| motions_of_line(&m, line);
     let on_circle = |mv: &[Motion], c: [f64; 2]| {
         for x in mv {
             assert_abs_diff_eq!((x.end.x - c[0]).hypot(x.end.y - c[1]), 4.0, epsilon = 1e-9);
@@ -1022,12 +1020,7 @@ fn closed_loop_appr_dep() {
 #[test]
 fn appr_dep_polar_by_hand() {
     let m = fixture_motions("appr-dep-polar.h", None);
-    let of = |line: usize| -> Vec<Motion> {
-        m.iter()
-            .filter(|(l, _)| *l == line)
-            .map(|(_, m)| *m)
-            .collect()
-    };
+    let of = |line: usize| motions_of_line(&m, line);
     let on_circle = |mv: &[Motion], c: [f64; 2]| {
         for x in mv {
             assert_abs_diff_eq!((x.end.x - c[0]).hypot(x.end.y - c[1]), 4.0, epsilon = 1e-9);

@@ -809,13 +809,8 @@ fn last_block_message(p: &Pending) -> String {
 
 /// Whether the elements meet tangentially (going on in one direction).
 fn tangent(first: &Element, corner: [f64; 2], second: &Element) -> bool {
-    match (
-        first.direction_at(corner, true),
-        second.direction_at(corner, false),
-    ) {
-        (Some(u), Some(v)) => u[0] * v[0] + u[1] * v[1] > 0.0,
-        _ => false,
-    }
+    crate::gcode::contour_corners::directions_at(first, corner, second)
+        .is_ok_and(|(u, v)| u[0] * v[0] + u[1] * v[1] > 0.0)
 }
 
 /// Set the block's end in the plane to `target` (its words in its mode;
