@@ -5,12 +5,169 @@
 //! row against its target and the diagnosis time.
 //!
 //!     cargo run --release --example robustness [-- verbose [notes]] [seed=N]...
+//!
+//! `followup` instead runs the follow-up loop (docs/diagnose.md "Issue 36,
+//! sixth pass") on the pair cases (`all`: on every case at 0.3 µm): each case
+//! whose report has rivals gets the follow-up the report designs (12 probes,
+//! `probes=N`), simulated with the case's own effects and noise
+//! (`table=UM` adds a table error that does not cancel at other poses), and
+//! is diagnosed again with it.
+//!
+//!     cargo run --release --example robustness -- followup [all] [probes=N] [table=UM] [seed=N]...
 #![allow(clippy::type_complexity)]
 use std::time::Instant;
-use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part, score};
+use volcomp::diagnose::followup::FollowupOptions;
+use volcomp::diagnose::robustness::{
+    CaseClass, FollowupRunOptions, RobustnessOptions, cases, followup_run, part, score,
+};
 use volcomp::diagnose::{DiagnoseOptions, diagnose};
 
+fn arg_value(name: &str) -> Option<f64> {
+    std::env::args().find_map(|a| a.strip_prefix(name)?.strip_prefix('=')?.parse().ok())
+}
+
+/// A set of effect names, order-free, as `a + b`.
+fn set_label(names: &[&str]) -> String {
+    let mut v: Vec<&str> = names.to_vec();
+    v.sort_unstable();
+    v.join(" + ")
+}
+
+/// The follow-up loop on the pair cases (or every case at 0.3 µm with `all`).
+fn followup_mode() {
+    let all_classes = std::env::args().any(|a| a == "all");
+    let part = part();
+    let duration = volcomp::toolpath::last_time_min(&part.contexts);
+    let options = FollowupRunOptions {
+        design: FollowupOptions {
+            probes: arg_value("probes").map_or(12, |v| v as usize),
+            ..FollowupOptions::default()
+        },
+        uncancelled_table_error_um: arg_value("table").unwrap_or(0.0),
+    };
+    let seeds: Vec<u64> = std::env::args()
+        .filter_map(|a| a.strip_prefix("seed=").and_then(|v| v.parse().ok()))
+        .collect();
+    let chosen: Vec<_> = cases(&part, &RobustnessOptions::default())
+        .into_iter()
+        .filter(|c| {
+            (c.class == CaseClass::Pair || (all_classes && c.noise_um == 0.3))
+                && (seeds.is_empty() || seeds.contains(&c.seed))
+        })
+        .collect();
+    println!(
+        "follow-up loop: {} cases, {} probes per follow-up, uncancelled table error {} µm",
+        chosen.len(),
+        options.design.probes,
+        options.uncancelled_table_error_um
+    );
+    let started = Instant::now();
+    // Per class: cases, designed, found before, found after, model before, model after.
+    let mut tally: Vec<(CaseClass, [usize; 6])> = Vec::new();
+    for c in &chosen {
+        let run = followup_run(c, &options, duration).expect("follow-up run");
+        let injected: Vec<&str> = c.injected.iter().map(|k| k.name()).collect();
+        let truth = set_label(&injected);
+        let found = |s: &volcomp::diagnose::robustness::Score| {
+            if injected.len() == 1 {
+                s.top1
+            } else {
+                s.all_found
+            }
+        };
+        let show = |r: &volcomp::diagnose::DiagnoseReport| {
+            let mut s = if r.selected.is_empty() {
+                "none".to_string()
+            } else {
+                r.selected.join("+")
+            };
+            if r.model_check.mismatch {
+                s.push_str(" [model]");
+            }
+            s
+        };
+        // The separation of the truth from the selection, when the truth is
+        // one of the design's hypotheses: expected (if the truth is true) →
+        // achieved (positive: the truth fits better).
+        let truth_separation = run.outcome.as_ref().and_then(|o| {
+            o.separations.iter().find_map(|s| {
+                let rival: Vec<&str> = s.rival.split(" + ").collect();
+                let selected: Vec<&str> = s.selected.split(" + ").collect();
+                if set_label(&rival) == truth {
+                    Some((s.if_rival_sigma, -s.achieved_sigma.unwrap_or(0.0)))
+                } else if set_label(&selected) == truth {
+                    Some((s.if_selected_sigma, s.achieved_sigma.unwrap_or(0.0)))
+                } else {
+                    None
+                }
+            })
+        });
+        println!(
+            "{:?} seed {} {truth}: before {} → after {}; rivals [{}]; expected {}; truth vs selection {}",
+            c.class,
+            c.seed,
+            show(&run.before),
+            show(&run.after),
+            run.design
+                .as_ref()
+                .map_or(String::new(), |d| d.rivals.join(", ")),
+            run.design.as_ref().map_or("—".to_string(), |d| format!(
+                "{:.1} σ (before {:.1} σ)",
+                d.expected_separation_sigma,
+                d.separations
+                    .iter()
+                    .map(|s| s.before_sigma)
+                    .fold(f64::INFINITY, f64::min)
+            )),
+            truth_separation.map_or("not a hypothesis".to_string(), |(e, a)| format!(
+                "{e:.1} σ expected → {a:.1} σ achieved"
+            )),
+        );
+        let entry = match tally.iter_mut().find(|(k, _)| *k == c.class) {
+            Some(e) => e,
+            None => {
+                tally.push((c.class, [0; 6]));
+                tally.last_mut().expect("just pushed")
+            }
+        };
+        let t = &mut entry.1;
+        t[0] += 1;
+        t[1] += usize::from(run.design.is_some());
+        t[2] += usize::from(found(&run.before_score));
+        t[3] += usize::from(found(&run.after_score));
+        t[4] += usize::from(run.before.model_check.mismatch);
+        t[5] += usize::from(run.after.model_check.mismatch);
+    }
+    println!();
+    println!(
+        "| cases | follow-ups designed | found before | found after | model verdict before → after |"
+    );
+    println!("|---|---|---|---|---|");
+    for (class, t) in &tally {
+        let what = match class {
+            CaseClass::Pair => "both selected",
+            CaseClass::Single | CaseClass::LocalisedServoLag => "top-1",
+            _ => "all injected selected",
+        };
+        println!(
+            "| {class:?} ({what}) | {}/{} | {}/{} | {}/{} | {} → {} |",
+            t[1], t[0], t[2], t[0], t[3], t[0], t[4], t[5]
+        );
+    }
+    if let Some((_, t)) = tally.iter().find(|(k, _)| *k == CaseClass::Pair) {
+        println!(
+            "\npairs, both selected after the follow-up the report designs: {}/{} (before {}/{}); model verdict on pairs {} → {}",
+            t[3], t[0], t[2], t[0], t[4], t[5]
+        );
+    }
+    println!("{:.1} s", started.elapsed().as_secs_f64());
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "followup") {
+        followup_mode();
+        return;
+    }
     let verbose = std::env::args().any(|a| a == "verbose");
     let part = part();
     let duration = volcomp::toolpath::last_time_min(&part.contexts);

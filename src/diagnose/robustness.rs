@@ -8,8 +8,10 @@
 //!
 //! Invariant: deterministic for given seeds; no I/O.
 use super::effects::{Effect, EffectKind};
+use super::followup::{self, FollowupDesign, FollowupOptions, FollowupOutcome, ProbeReading};
 use super::report::DiagnoseReport;
 use super::synthetic::{SyntheticOptions, SyntheticPart, random_effect, saddle_raster};
+use super::{DiagnoseError, DiagnoseOptions, SimulateOptions};
 use crate::toolpath::PointContext;
 use crate::vec3::dot;
 use rand::{Rng, SeedableRng};
@@ -65,6 +67,8 @@ pub struct Case {
     pub seed: u64,
     /// The effects injected (empty for no effect).
     pub injected: Vec<EffectKind>,
+    /// The injected effects with their values (the kinds of `injected`).
+    pub effects: Vec<Effect>,
     /// The bump's centre (part x, y, mm) when there is one.
     pub bump: Option<[f64; 2]>,
     /// Contexts with the (wrong) model's prediction.
@@ -104,6 +108,14 @@ fn smooth_field(contexts: &[PointContext], rms_um: f64, rng: &mut ChaCha8Rng) ->
         .collect();
     let r = super::noise::rms(&raw).max(1e-12);
     raw.iter().map(|v| v * rms_um / r).collect()
+}
+
+/// The decoy's bump centred at `centre` (part x, y, mm) at the part point
+/// `point`: 4 µm high, 20 mm wide (FWHM), µm.
+fn bump_um(centre: [f64; 2], point: [f64; 3]) -> f64 {
+    let width = 20.0 / 2.355; // FWHM 20 mm
+    let r2 = (point[0] - centre[0]).powi(2) + (point[1] - centre[1]).powi(2);
+    4.0 * (-r2 / (2.0 * width * width)).exp()
 }
 
 /// Build one case: `effects` injected on `part`, probing noise `noise_um`.
@@ -150,15 +162,13 @@ pub fn case(
     }
     let bump = with_bump.then(|| [rng.random_range(-30.0..30.0), rng.random_range(-22.0..22.0)]);
     let normal = Normal::new(0.0, noise_um.max(0.0)).unwrap_or(Normal::new(0.0, 0.0).unwrap());
-    let width = 20.0 / 2.355; // FWHM 20 mm
     let measured_um = contexts
         .iter()
         .zip(&truth)
         .map(|(c, t)| {
             let mut d = *t + effects.iter().map(|e| e.deviation_um(c)).sum::<f64>();
-            if let Some([x, y]) = bump {
-                let r2 = (c.point[0] - x).powi(2) + (c.point[1] - y).powi(2);
-                d += 4.0 * (-r2 / (2.0 * width * width)).exp();
+            if let Some(centre) = bump {
+                d += bump_um(centre, c.point);
             }
             d + normal.sample(&mut rng)
         })
@@ -168,6 +178,7 @@ pub fn case(
         noise_um,
         seed,
         injected: effects.iter().map(|e| e.kind).collect(),
+        effects: effects.to_vec(),
         bump,
         contexts,
         measured_um,
@@ -370,4 +381,174 @@ pub fn score(case: &Case, report: &DiagnoseReport, duration_min: f64) -> Score {
         }
     }
     s
+}
+
+/// Radius of the follow-up stylus on the generator's synthetic machine, mm
+/// (the `diagnose --probe-radius` default).
+pub const PROBE_RADIUS_MM: f64 = 1.0;
+
+/// Settings of [`followup_run`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FollowupRunOptions {
+    /// The design's settings (12 probes, 0.25 min each by default).
+    pub design: FollowupOptions,
+    /// A table error that does NOT cancel in a re-probe at another pose
+    /// (one σ per reading, µm; 0 by default). In the generator the model's
+    /// table error is a function of the part point, so it cancels in every
+    /// re-probe of the same point; on a machine it is a function of the
+    /// joints and changes with the pose: `√2 ×` [`MODEL_U_UM`] is the
+    /// worst case of two independent draws. Added to readings whose pose
+    /// differs from the cut's.
+    pub uncancelled_table_error_um: f64,
+}
+
+impl Default for FollowupRunOptions {
+    fn default() -> Self {
+        FollowupRunOptions {
+            design: FollowupOptions::default(),
+            uncancelled_table_error_um: 0.0,
+        }
+    }
+}
+
+/// A case diagnosed, followed up when its report has rivals, and diagnosed
+/// again with the follow-up (docs/diagnose.md "Issue 36, sixth pass").
+#[derive(Clone, Debug)]
+pub struct FollowupRun {
+    /// The diagnosis of the measurement alone.
+    pub before: DiagnoseReport,
+    /// Its score.
+    pub before_score: Score,
+    /// The follow-up designed from `before` (`None`: nothing to separate).
+    pub design: Option<FollowupDesign>,
+    /// The diagnosis of the measurement and the follow-up together (`before`
+    /// when nothing was designed).
+    pub after: DiagnoseReport,
+    /// Its score.
+    pub after_score: Score,
+    /// Expected and achieved separations of the probes taken.
+    pub outcome: Option<FollowupOutcome>,
+}
+
+/// Follow-up readings of `probes` on `case`'s machine: each probe re-reads
+/// its cut point, so the machine's own error and the model's table error
+/// (functions of the part point in this generator) cancel; the readings are
+/// the injected effects' `n·(Δ_cut − Δ_probe)` ([`super::simulate_followup`]),
+/// the decoy's bump where there is one (it is in the cut surface), the case's
+/// probing noise, and `uncancelled_um` of table error at other poses.
+fn followup_readings(
+    case: &Case,
+    probes: Vec<followup::Probe>,
+    uncancelled_um: f64,
+) -> Result<Vec<ProbeReading>, DiagnoseError> {
+    let truth: Vec<f64> = probes
+        .iter()
+        .map(|p| {
+            let cut = case.contexts.get(p.of).ok_or_else(|| {
+                DiagnoseError::BadOption(format!("probe {}: no plan point {}", p.id, p.of))
+            })?;
+            Ok(case.bump.map_or(0.0, |centre| bump_um(centre, cut.point)))
+        })
+        .collect::<Result<_, DiagnoseError>>()?;
+    let seed = case.seed ^ 0xf011_0f01;
+    let readings = super::simulate_followup(
+        &case.contexts,
+        &probes,
+        &truth,
+        &case.effects,
+        &SimulateOptions {
+            noise_um: case.noise_um,
+            seed,
+        },
+    )?;
+    if !(uncancelled_um.is_finite() && uncancelled_um >= 0.0) {
+        return Err(DiagnoseError::BadOption(format!(
+            "the uncancelled table error must be a finite number ≥ 0 µm, found {uncancelled_um}"
+        )));
+    }
+    let table = Normal::new(0.0, uncancelled_um)
+        .map_err(|e| DiagnoseError::BadOption(format!("uncancelled table error: {e}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
+    Ok(probes
+        .into_iter()
+        .zip(readings)
+        .map(|(probe, reading_um)| {
+            let moved = case.contexts.get(probe.of).is_some_and(|cut| {
+                cut.rotary.iter().any(|&axis| {
+                    (probe.context.joints.get(axis) - cut.joints.get(axis)).abs() > 1e-6
+                })
+            });
+            let extra = if moved && uncancelled_um > 0.0 {
+                table.sample(&mut rng)
+            } else {
+                0.0
+            };
+            ProbeReading {
+                probe,
+                reading_um: reading_um + extra,
+            }
+        })
+        .collect())
+}
+
+/// Diagnose `case`; when its report has rivals (a follow-up can be
+/// designed), design the follow-up (`followup::design`, the candidates every
+/// cut point in the 12 poses on the generator's synthetic machine,
+/// [`super::synthetic::probe_context`]), simulate its readings with the
+/// case's own truth ([`followup_readings`]) and diagnose the measurement and
+/// the follow-up together. `duration_min` is the program's duration (for
+/// [`score`]).
+pub fn followup_run(
+    case: &Case,
+    options: &FollowupRunOptions,
+    duration_min: f64,
+) -> Result<FollowupRun, DiagnoseError> {
+    let diagnose_options = DiagnoseOptions::default();
+    let before = super::diagnose(&case.contexts, &case.measured_um, &diagnose_options)?;
+    let before_score = score(case, &before, duration_min);
+    let end = crate::toolpath::last_time_min(&case.contexts);
+    let candidates = followup::candidates(&case.contexts, |cut, rotary| {
+        Ok::<_, DiagnoseError>(Some(super::synthetic::probe_context(
+            cut,
+            rotary,
+            end,
+            PROBE_RADIUS_MM,
+        )))
+    })?;
+    let design = followup::design(
+        &case.contexts,
+        &case.measured_um,
+        &before,
+        &candidates,
+        end,
+        &options.design,
+    )?;
+    let Some(design) = design else {
+        return Ok(FollowupRun {
+            after: before.clone(),
+            after_score: before_score.clone(),
+            before,
+            before_score,
+            design: None,
+            outcome: None,
+        });
+    };
+    let probes: Vec<followup::Probe> = design.probes.iter().map(|p| p.probe.clone()).collect();
+    let readings = followup_readings(case, probes, options.uncancelled_table_error_um)?;
+    let after = super::diagnose_with_followup(
+        &case.contexts,
+        &case.measured_um,
+        &readings,
+        &diagnose_options,
+    )?;
+    let outcome = followup::outcome(&case.contexts, &case.measured_um, &before, &readings)?;
+    let after_score = score(case, &after, duration_min);
+    Ok(FollowupRun {
+        before,
+        before_score,
+        design: Some(design),
+        after,
+        after_score,
+        outcome: Some(outcome),
+    })
 }

@@ -133,6 +133,51 @@ fn curvature(p0: [f64; 3], p1: [f64; 3], p2: [f64; 3]) -> (f64, [f64; 3]) {
     (1.0 / r, c.map(|v| v / r))
 }
 
+/// First-order squareness and rotary-location Jacobians (µm per µrad or per
+/// µm, part coordinates) of the synthetic table-tilting A/C chain at the tool
+/// tip `tip` (part coordinates, mm) in the pose `a_deg`, `c_deg` with the
+/// joints `joints`.
+fn chain_jacobians(
+    tip: [f64; 3],
+    a_deg: f64,
+    c_deg: f64,
+    joints: &Axes,
+) -> ([[f64; 3]; 3], [[f64; 3]; 8]) {
+    let (a, c) = (a_deg.to_radians(), c_deg.to_radians());
+    let to_part = |v: [f64; 3]| machine_to_part(a_deg, c_deg, v);
+    let q = [joints.x, joints.y, joints.z];
+    let squareness_jacobian = [
+        to_part([q[1] * 1e-3, 0.0, 0.0]),
+        to_part([q[2] * 1e-3, 0.0, 0.0]),
+        to_part([0.0, q[2] * 1e-3, 0.0]),
+    ];
+    // First-order rotary location errors of the TRT chain.
+    let in_a = rz(c, tip); // point in the A frame
+    let offset_a = |d: [f64; 3]| to_part(sub(d, rx(a, d)));
+    let tilt_a = |w: [f64; 3]| {
+        let lhs = cross(w, rx(a, in_a));
+        let rhs = rx(a, cross(w, in_a));
+        to_part(sub(lhs, rhs).map(|v| v * 1e-3))
+    };
+    let offset_c = |d: [f64; 3]| to_part(rx(a, sub(d, rz(c, d))));
+    let tilt_c = |w: [f64; 3]| {
+        let lhs = cross(w, rz(c, tip));
+        let rhs = rz(c, cross(w, tip));
+        to_part(rx(a, sub(lhs, rhs).map(|v| v * 1e-3)))
+    };
+    let location_jacobian = [
+        offset_a([0.0, 1.0, 0.0]),
+        offset_a([0.0, 0.0, 1.0]),
+        tilt_a([0.0, 1.0, 0.0]),
+        tilt_a([0.0, 0.0, 1.0]),
+        offset_c([1.0, 0.0, 0.0]),
+        offset_c([0.0, 1.0, 0.0]),
+        tilt_c([1.0, 0.0, 0.0]),
+        tilt_c([0.0, 1.0, 0.0]),
+    ];
+    (squareness_jacobian, location_jacobian)
+}
+
 /// Build the synthetic part.
 pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
@@ -226,38 +271,9 @@ pub fn saddle_raster(options: &SyntheticOptions) -> SyntheticPart {
             p.a_deg,
             p.c_deg,
         );
+        let (squareness_jacobian, location_jacobian) =
+            chain_jacobians(p.tip, p.a_deg, p.c_deg, &joints);
         let (a, c) = (p.a_deg.to_radians(), p.c_deg.to_radians());
-        let to_part = |v: [f64; 3]| machine_to_part(p.a_deg, p.c_deg, v);
-        let q = [joints.x, joints.y, joints.z];
-        let squareness_jacobian = [
-            to_part([q[1] * 1e-3, 0.0, 0.0]),
-            to_part([q[2] * 1e-3, 0.0, 0.0]),
-            to_part([0.0, q[2] * 1e-3, 0.0]),
-        ];
-        // First-order rotary location errors of the TRT chain.
-        let in_a = rz(c, p.tip); // point in the A frame
-        let offset_a = |d: [f64; 3]| to_part(sub(d, rx(a, d)));
-        let tilt_a = |w: [f64; 3]| {
-            let lhs = cross(w, rx(a, in_a));
-            let rhs = rx(a, cross(w, in_a));
-            to_part(sub(lhs, rhs).map(|v| v * 1e-3))
-        };
-        let offset_c = |d: [f64; 3]| to_part(rx(a, sub(d, rz(c, d))));
-        let tilt_c = |w: [f64; 3]| {
-            let lhs = cross(w, rz(c, p.tip));
-            let rhs = rz(c, cross(w, p.tip));
-            to_part(rx(a, sub(lhs, rhs).map(|v| v * 1e-3)))
-        };
-        let location_jacobian = [
-            offset_a([0.0, 1.0, 0.0]),
-            offset_a([0.0, 0.0, 1.0]),
-            tilt_a([0.0, 1.0, 0.0]),
-            tilt_a([0.0, 0.0, 1.0]),
-            offset_c([1.0, 0.0, 0.0]),
-            offset_c([0.0, 1.0, 0.0]),
-            tilt_c([1.0, 0.0, 0.0]),
-            tilt_c([0.0, 1.0, 0.0]),
-        ];
         let (x, y) = (p.contact[0], p.contact[1]);
         let e = [
             2.0 + 0.03 * x - 0.01 * y,
@@ -386,4 +402,65 @@ pub fn from_fixture(
         .map(|m| [0, 1, 2].map(|k| (m.measured[k] - m.plan.point[k]) * 1000.0))
         .collect();
     Some(SyntheticPart { contexts, truth_um })
+}
+
+/// The context of a follow-up probe (docs/diagnose.md "Follow-up") of the cut
+/// point `cut` of a [`saddle_raster`] part on its synthetic table-tilting A/C
+/// machine: a ball stylus of radius `probe_radius_mm` on the raster's tool
+/// length, at the rotary joints `rotary` (A, C in degrees), at `time_min`,
+/// approaching along −n (as `toolpath::cut::probe_context` on a real
+/// machine). Its squareness and rotary-location Jacobians are the raster's
+/// first-order chain at the probe's tip and pose.
+///
+/// The raster's machine error and its model's prediction are functions of the
+/// part point alone (the tables are written in part x, y), so the probe's
+/// `predicted_um` and `axis_deviation_um` are the cut's: the model's part of
+/// a re-probe, `n·(e(q_cut) − e(q_probe))`, is zero in every pose.
+pub fn probe_context(
+    cut: &PointContext,
+    rotary: [f64; 2],
+    time_min: f64,
+    probe_radius_mm: f64,
+) -> PointContext {
+    let [a_deg, c_deg] = rotary;
+    let (a, c) = (a_deg.to_radians(), c_deg.to_radians());
+    let (sa, ca) = a.sin_cos();
+    let tool_axis = [sa * c.sin(), sa * c.cos(), ca];
+    let (n, p) = (cut.normal, cut.point);
+    let tip = [0, 1, 2].map(|k| p[k] + probe_radius_mm * (n[k] - tool_axis[k]));
+    let machine = rx(a, rz(c, tip));
+    let joints = Axes::xyzac(
+        machine[0],
+        machine[1],
+        machine[2] + TOOL_LENGTH,
+        a_deg,
+        c_deg,
+    );
+    let (squareness_jacobian, location_jacobian) = chain_jacobians(tip, a_deg, c_deg, &joints);
+    // The approach −n in the machine frame (part → machine: Rx(a)·Rz(c)).
+    let approach = rx(a, rz(c, n.map(|v| -v)));
+    let sigma = approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() });
+    PointContext {
+        id: cut.id.clone(),
+        point: p,
+        normal: n,
+        cut: true,
+        line: 0,
+        block: 0,
+        time_min,
+        joints,
+        sigma,
+        speed_mm_s: 0.0,
+        curvature_per_mm: 0.0,
+        principal_normal: [0.0; 3],
+        tool_axis,
+        cut_length_m: 0.0,
+        predicted_um: cut.predicted_um,
+        squareness_jacobian,
+        location_jacobian,
+        axis_deviation_um: cut.axis_deviation_um,
+        model_u_um: 0.0,
+        rotary: cut.rotary,
+        machine_to_part_rotation: None,
+    }
 }
