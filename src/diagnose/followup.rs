@@ -274,8 +274,9 @@ fn label(kinds: &[EffectKind], model: bool) -> String {
 }
 
 /// The hypotheses a follow-up must separate: the selection first (with the
-/// model's factors when they are in it), then each selection with one
-/// member replaced by one of its aliases. After a model verdict
+/// model's factors when they are in it), then the sets the summary says the
+/// data cannot tell from it (`report.rivals`, whole), then each selection
+/// with one member replaced by one of its aliases. After a model verdict
 /// (`model_check.mismatch`, issue 36) also the hypotheses it cannot yet be
 /// told from: the model's factors without the effects and the effects
 /// without them; the effects beside the factors when the verdict is that
@@ -297,8 +298,15 @@ pub fn hypotheses(report: &DiagnoseReport) -> Vec<HypothesisTerms> {
     }
     let first = (selected.clone(), with_model || selected.is_empty());
     let mut out: Vec<HypothesisTerms> = vec![first.clone()];
+    // The same set in another order is the same hypothesis.
+    let sorted = |h: &HypothesisTerms| {
+        let mut kinds = h.0.clone();
+        kinds.sort();
+        (kinds, h.1)
+    };
     let push = |h: HypothesisTerms, out: &mut Vec<HypothesisTerms>| {
-        if (!h.0.is_empty() || h.1) && !out.contains(&h) {
+        let key = sorted(&h);
+        if (!h.0.is_empty() || h.1) && !out.iter().any(|o| sorted(o) == key) {
             out.push(h);
         }
     };
@@ -327,6 +335,11 @@ pub fn hypotheses(report: &DiagnoseReport) -> Vec<HypothesisTerms> {
                 .collect();
             push((kinds, true), &mut out);
         }
+    }
+    // The sets the summary says the data cannot tell from the selection,
+    // whole (a pair against one effect is no single replacement).
+    for rival in &report.rivals {
+        push((rival.effects.clone(), rival.model_factors), &mut out);
     }
     for (m, kind) in selected.iter().enumerate() {
         let Some(fit) = report.effects.iter().find(|e| e.name == kind.name()) else {

@@ -46,7 +46,7 @@ pub use effects::{Effect, EffectError, EffectKind};
 use fit::{Folds, SetFit, Signatures, cross_validate, fit_set};
 pub use machine_file::machine_update;
 use noise::rms;
-pub use report::DiagnoseReport;
+pub use report::{DiagnoseReport, RivalSet};
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
 pub use simulate::{SimulateOptions, simulate, simulate_followup};
 use std::collections::BTreeMap;
@@ -1210,6 +1210,16 @@ fn assemble(
     summary: Vec<String>,
 ) -> DiagnoseReport {
     let n0 = p.r0.len();
+    // The rivals the summary names (summary_sentences).
+    let rivals = picked
+        .rivals
+        .iter()
+        .filter(|r| !r.terms.model || picked.with_model)
+        .map(|r| report::RivalSet {
+            effects: r.terms.kinds.clone(),
+            model_factors: r.terms.model,
+        })
+        .collect();
     let predicted_after: Vec<f64> = p
         .predicted
         .iter()
@@ -1268,6 +1278,7 @@ fn assemble(
         followup_design: None,
         followup: None,
         warnings: Vec::new(),
+        rivals,
     }
 }
 

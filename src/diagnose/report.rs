@@ -54,6 +54,21 @@ pub struct DiagnoseReport {
     /// fills it).
     #[serde(default)]
     pub warnings: Vec<crate::warnings::WarningGroup>,
+    /// The sets the data cannot tell from the selection that the summary
+    /// names ("The data cannot tell … from …"), closest first: the
+    /// follow-up design separates the selection from each (in memory only:
+    /// neither written nor read back).
+    #[serde(skip)]
+    pub rivals: Vec<RivalSet>,
+}
+
+/// A set of terms the data cannot tell from the selection (issue 36).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RivalSet {
+    /// Its catalogue effects.
+    pub effects: Vec<EffectKind>,
+    /// Whether the error model's own factors are in it.
+    pub model_factors: bool,
 }
 
 /// Is the machine's error model itself off? The residual is fitted as factors
