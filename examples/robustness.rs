@@ -68,12 +68,12 @@ fn followup_mode() {
         let run = followup_run(c, &options, duration).expect("follow-up run");
         let injected: Vec<&str> = c.injected.iter().map(|k| k.name()).collect();
         let truth = set_label(&injected);
-        let found = |s: &volcomp::diagnose::robustness::Score| {
-            if injected.len() == 1 {
-                s.top1
-            } else {
-                s.all_found
-            }
+        // Found: top-1 for one effect, every injected effect selected for
+        // two, nothing selected when none was injected.
+        let found = |s: &volcomp::diagnose::robustness::Score| match injected.len() {
+            0 => !s.false_positive,
+            1 => s.top1,
+            _ => s.all_found,
         };
         let show = |r: &volcomp::diagnose::DiagnoseReport| {
             let mut s = if r.selected.is_empty() {
@@ -147,7 +147,9 @@ fn followup_mode() {
         let what = match class {
             CaseClass::Pair => "both selected",
             CaseClass::Single | CaseClass::LocalisedServoLag => "top-1",
-            _ => "all injected selected",
+            CaseClass::ScaledTables => "its drift top-1",
+            CaseClass::Decoy | CaseClass::Clean => "top-1, or nothing when none injected",
+            _ => "nothing selected",
         };
         println!(
             "| {class:?} ({what}) | {}/{} | {}/{} | {}/{} | {} → {} |",

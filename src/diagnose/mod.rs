@@ -46,8 +46,8 @@ pub use effects::{Effect, EffectError, EffectKind};
 use fit::{Folds, SetFit, Signatures, cross_validate, fit_set};
 pub use machine_file::machine_update;
 use noise::rms;
-pub use report::{DiagnoseReport, RivalSet};
 use report::{After, EffectFit, Gap, ModelCheck, PointResidual};
+pub use report::{DiagnoseReport, RivalSet};
 pub use simulate::{SimulateOptions, simulate, simulate_followup};
 use std::collections::BTreeMap;
 
