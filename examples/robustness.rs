@@ -103,7 +103,7 @@ fn followup_mode() {
             })
         });
         println!(
-            "{:?} seed {} {truth}: before {} → after {}; rivals [{}]; expected {}; truth vs selection {}",
+            "{:?} seed {} {truth}: before {} → after {}; rivals [{}]; expected {}; truth vs selection {}; {} candidates",
             c.class,
             c.seed,
             show(&run.before),
@@ -122,6 +122,7 @@ fn followup_mode() {
             truth_separation.map_or("not a hypothesis".to_string(), |(e, a)| format!(
                 "{e:.1} σ expected → {a:.1} σ achieved"
             )),
+            run.candidates,
         );
         let entry = match tally.iter_mut().find(|(k, _)| *k == c.class) {
             Some(e) => e,

@@ -419,6 +419,8 @@ pub struct FollowupRun {
     pub before: DiagnoseReport,
     /// Its score.
     pub before_score: Score,
+    /// Candidate probes the design chose from.
+    pub candidates: usize,
     /// The follow-up designed from `before` (`None`: nothing to separate).
     pub design: Option<FollowupDesign>,
     /// The diagnosis of the measurement and the follow-up together (`before`
@@ -529,6 +531,7 @@ pub fn followup_run(
             after_score: before_score.clone(),
             before,
             before_score,
+            candidates: candidates.len(),
             design: None,
             outcome: None,
         });
@@ -546,6 +549,7 @@ pub fn followup_run(
     Ok(FollowupRun {
         before,
         before_score,
+        candidates: candidates.len(),
         design: Some(design),
         after,
         after_score,
