@@ -439,7 +439,7 @@ pub fn probe_context(
     let (squareness_jacobian, location_jacobian) = chain_jacobians(tip, a_deg, c_deg, &joints);
     // The approach −n in the machine frame (part → machine: Rx(a)·Rz(c)).
     let approach = rx(a, rz(c, n.map(|v| -v)));
-    let sigma = approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() });
+    let sigma = crate::toolpath::cut::approach_signs(approach);
     PointContext {
         id: cut.id.clone(),
         point: p,

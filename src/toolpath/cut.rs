@@ -318,7 +318,7 @@ pub fn probe_context(
     // machine → part rotation; Rx(a)·Rz(c)·(−n) on an A/C table).
     let to_part = kin.machine_to_part_rotation(&joints);
     let approach = std::array::from_fn(|i| -(0..3).map(|k| to_part[k][i] * n[k]).sum::<f64>());
-    let sigma = approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() });
+    let sigma = approach_signs(approach);
     Ok(Some(PointContext {
         id: cut.id.clone(),
         point: p,
@@ -342,4 +342,11 @@ pub fn probe_context(
         rotary: kin.rotary(),
         machine_to_part_rotation: Some(to_part),
     }))
+}
+
+/// The direction each machine axis moves in along a probe's approach (one
+/// per axis: +1, −1, or 0 for an axis the approach leaves still): the
+/// reversal state `σ` of a probe's context.
+pub(crate) fn approach_signs(approach: [f64; 3]) -> [f64; 3] {
+    approach.map(|v| if v.abs() < 1e-6 { 0.0 } else { v.signum() })
 }
