@@ -8,8 +8,8 @@
 //! `only=PREFIX` runs the cases whose name starts with PREFIX (the table's
 //! row then counts those only).
 //!
-//! Defaults: `../shared/data/oracle-cases` (from the crate's root, as the
-//! project's checkouts lie) and the crate's `machines/ref-trt.toml` (the
+//! Defaults: `../shared/data/oracle-cases` (from the crate's root, or
+//! `../../shared/…` from a worktree one level down) and the crate's `machines/ref-trt.toml` (the
 //! same tables as the folder's `../ref-trt.toml`).
 use std::path::PathBuf;
 use std::time::Instant;
@@ -25,8 +25,19 @@ fn main() {
     let only: Option<String> =
         std::env::args().find_map(|a| a.strip_prefix("only=").map(String::from));
     let verbose = std::env::args().any(|a| a == "verbose");
+    // The checkout's sibling `shared/` (`../shared`), or its parent's for a
+    // worktree one level further down (`../../shared`).
     let dir = args.first().map_or_else(
-        || root_dir.join("../../shared/data/oracle-cases"),
+        || {
+            [
+                "../shared/data/oracle-cases",
+                "../../shared/data/oracle-cases",
+            ]
+            .iter()
+            .map(|d| root_dir.join(d))
+            .find(|d| d.join("index.json").is_file())
+            .unwrap_or_else(|| root_dir.join("../shared/data/oracle-cases"))
+        },
         PathBuf::from,
     );
     let machine_path = args
