@@ -1209,8 +1209,14 @@ impl SinumerikFront {
         if let Some(c) = comment {
             out.comments.push(c);
         }
+        // The letters of the line, one bit each (plain letters are A–Z).
+        let mut letters = 0u32;
         for w in &plain {
-            let code = if w.letter == b'G' {
+            letters |= 1 << (w.letter - b'A');
+            let code = if w.letter == b'G' && w.value == 1.0 {
+                // What `g_code` makes of `G1` (most G codes of a CAM program).
+                1.0
+            } else if w.letter == b'G' {
                 let mut flags = GFlags::default();
                 let code = self.g_code(line, w.value, (w.start, w.end), &mut out, &mut flags);
                 match code {
@@ -1234,10 +1240,10 @@ impl SinumerikFront {
                 .push(word(w.letter, code, w.start, w.end, decimals, point, false));
         }
         self.plain = plain;
-        let axis_words = out.words.iter().any(|w| is_axis(w.letter));
+        let axis_words = letters & AXIS_LETTERS != 0;
         if self.quiet(line, interpreter) {
             return self
-                .end_quiet_block(line, &mut out, axis_words, interpreter)
+                .end_quiet_block(line, &mut out, letters, interpreter)
                 .map(Some);
         }
         let mut said = Said::words_only(axis_words);
@@ -1272,9 +1278,10 @@ impl SinumerikFront {
         &mut self,
         line: &LineRun,
         out: &mut Out,
-        axis_words: bool,
+        letters: u32,
         interpreter: &Interpreter,
     ) -> Result<bool, GcodeError> {
+        let axis_words = letters & AXIS_LETTERS != 0;
         self.chorded = false;
         self.turn_end = None;
         if axis_words {
@@ -1287,7 +1294,30 @@ impl SinumerikFront {
             self.last_move = self.move_of(out, interpreter, start);
         }
         self.note_distance_mode(out);
-        self.hand_on(line, out, line.raw, false)
+        let inert = if axis_words && letters & NGF_LETTERS != 0 {
+            inert_words(&out.words, interpreter)
+        } else {
+            0
+        };
+        let handed = self.hand_on(line, out, line.raw, false)?;
+        if inert != 0 && handed && self.executed.literal {
+            let Block {
+                words,
+                machine_words,
+                inert_words,
+                ..
+            } = &mut self.block;
+            machine_words.clear();
+            machine_words.extend(
+                words
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| inert >> k & 1 == 0)
+                    .map(|(_, w)| *w),
+            );
+            *inert_words = true;
+        }
+        Ok(handed)
     }
 
     #[inline(never)]
@@ -4493,6 +4523,83 @@ fn word(
         point,
         expr: computed.then_some(0),
     }
+}
+
+/// The axis letters of [`is_axis`], one bit each (bit 0: `A`).
+const AXIS_LETTERS: u32 = letter_bits(b"XYZABCUVW");
+
+/// `N`, `G` and `F`, one bit each: the letters of [`inert_words`].
+const NGF_LETTERS: u32 = letter_bits(b"NGF");
+
+/// Upper-case letters as bits (bit 0: `A`).
+const fn letter_bits(letters: &[u8]) -> u32 {
+    let mut bits = 0;
+    let mut k = 0;
+    while k < letters.len() {
+        bits |= 1 << (letters[k] - b'A');
+        k += 1;
+    }
+    bits
+}
+
+/// The words of a plain line in a quiet state that change nothing in
+/// LinuxCNC's machine-state layer, one bit each (bit k: `words[k]`), which
+/// it then passes over ([`Block::machine_words`]): the block number (the
+/// line's one `N`: the layer reads none), `G1` under `G1` without cutter
+/// compensation (the line's one G code: its axis words run the same move),
+/// `F` at the feed in force (the line's one `F`, no G code but such a `G1`,
+/// not inverse time, under `G0`/`G1`). None unless the line has a word of
+/// an axis the machine has (then the move runs with or without them: no
+/// error, warning or state differs).
+#[inline]
+fn inert_words(words: &[Word], interpreter: &Interpreter) -> u32 {
+    use crate::gcode::machine::modal::{CutterComp, MotionMode};
+    if words.len() > 32 {
+        return 0;
+    }
+    let axes = interpreter.options().axes;
+    // The index of the last N, G and F word, and how many of each.
+    let mut at = [0usize; 3];
+    let mut count = [0u8; 3];
+    let mut moves = false;
+    for (k, w) in words.iter().enumerate() {
+        let slot = match w.letter {
+            b'N' => 0,
+            b'G' => 1,
+            b'F' => 2,
+            letter => {
+                moves |= crate::axes::Axis::from_letter(letter as char)
+                    .is_some_and(|axis| axes.contains(axis));
+                continue;
+            }
+        };
+        count[slot] = count[slot].saturating_add(1);
+        at[slot] = k;
+    }
+    if !moves {
+        return 0;
+    }
+    let modal = interpreter.modal();
+    let mut inert = 0u32;
+    if count[0] == 1 {
+        inert |= 1 << at[0];
+    }
+    let g1 = count[1] == 1
+        && words[at[1]].value == 1.0
+        && modal.motion == MotionMode::Linear
+        && modal.cutter_comp == CutterComp::Off;
+    if g1 {
+        inert |= 1 << at[1];
+    }
+    if count[2] == 1
+        && (count[1] == 0 || g1)
+        && !modal.inverse_time
+        && matches!(modal.motion, MotionMode::Rapid | MotionMode::Linear)
+        && words[at[2]].value * modal.units.scale() == modal.feed
+    {
+        inert |= 1 << at[2];
+    }
+    inert
 }
 
 fn is_axis(letter: u8) -> bool {
