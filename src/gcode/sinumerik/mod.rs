@@ -662,6 +662,9 @@ pub(crate) struct SinumerikFront {
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
+    /// The letters of the machine's axes, one bit each (bit 0: `A`): set
+    /// with the reset state before the first block.
+    machine_axis_letters: u32,
     /// The frames changed: set them on the interpreter before the block.
     flush_frame_later: bool,
     tokens: Vec<Token>,
@@ -787,6 +790,7 @@ impl SinumerikFront {
             incremental: false,
             skip_deleted: false,
             motion_set: false,
+            machine_axis_letters: 0,
             flush_frame_later: false,
             tokens: Vec::new(),
             text: String::new(),
@@ -906,6 +910,11 @@ impl SinumerikFront {
         if !self.motion_set {
             // The 840D sl starts in G0 (its reset G codes: G0 G17 G90 G94 G71).
             self.motion_set = true;
+            let axes = interpreter.options().axes;
+            self.machine_axis_letters = crate::axes::Axis::ALL
+                .into_iter()
+                .filter(|&axis| axes.contains(axis))
+                .fold(0, |bits, axis| bits | 1 << (axis.letter() as u8 - b'A'));
             let mut start = Block::default();
             start.words.push(Word {
                 letter: b'G',
@@ -1209,14 +1218,18 @@ impl SinumerikFront {
         if let Some(c) = comment {
             out.comments.push(c);
         }
-        // The letters of the line, one bit each (plain letters are A–Z).
-        let mut letters = 0u32;
+        let mut letters = PlainLetters::default();
         for w in &plain {
-            letters |= 1 << (w.letter - b'A');
+            // (Plain letters are A–Z.)
+            let bit = 1 << (w.letter - b'A');
+            letters.repeated |= letters.all & bit;
+            letters.all |= bit;
             let code = if w.letter == b'G' && w.value == 1.0 {
                 // What `g_code` makes of `G1` (most G codes of a CAM program).
+                letters.g1 = true;
                 1.0
             } else if w.letter == b'G' {
+                letters.other_g = true;
                 let mut flags = GFlags::default();
                 let code = self.g_code(line, w.value, (w.start, w.end), &mut out, &mut flags);
                 match code {
@@ -1240,7 +1253,7 @@ impl SinumerikFront {
                 .push(word(w.letter, code, w.start, w.end, decimals, point, false));
         }
         self.plain = plain;
-        let axis_words = letters & AXIS_LETTERS != 0;
+        let axis_words = letters.all & AXIS_LETTERS != 0;
         if self.quiet(line, interpreter) {
             return self
                 .end_quiet_block(line, &mut out, letters, interpreter)
@@ -1278,24 +1291,38 @@ impl SinumerikFront {
         &mut self,
         line: &LineRun,
         out: &mut Out,
-        letters: u32,
+        letters: PlainLetters,
         interpreter: &Interpreter,
     ) -> Result<bool, GcodeError> {
-        let axis_words = letters & AXIS_LETTERS != 0;
+        let axis_words = letters.all & AXIS_LETTERS != 0;
         self.chorded = false;
         self.turn_end = None;
+        let modal = interpreter.modal();
         if axis_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             let start = interpreter
                 .origin_ref()
-                .to_program(&interpreter.position())
-                .xyz();
-            self.last_move = self.move_of(out, interpreter, start);
+                .xyz_to_program_of(&interpreter.position());
+            // A straight move (its last G0–G3 `G1`, or none under G0/G1):
+            // what `move_of` makes of it, without reading its words again.
+            use crate::gcode::machine::modal::MotionMode;
+            let straight = !letters.other_g
+                && (letters.g1 || !matches!(modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw));
+            self.last_move = if straight {
+                Some(LastMove {
+                    start,
+                    kind: LastKind::Straight,
+                })
+            } else {
+                self.move_of(out, interpreter, start)
+            };
         }
-        self.note_distance_mode(out);
-        let inert = if axis_words && letters & NGF_LETTERS != 0 {
-            inert_words(&out.words, interpreter)
+        if letters.other_g {
+            self.note_distance_mode(out);
+        }
+        let inert = if axis_words && letters.all & NGF_LETTERS != 0 {
+            inert_letters(letters, &out.words, self.machine_axis_letters, modal)
         } else {
             0
         };
@@ -1311,9 +1338,8 @@ impl SinumerikFront {
             machine_words.extend(
                 words
                     .iter()
-                    .enumerate()
-                    .filter(|&(k, _)| inert >> k & 1 == 0)
-                    .map(|(_, w)| *w),
+                    .filter(|w| inert & 1 << (w.letter - b'A') == 0)
+                    .copied(),
             );
             *inert_words = true;
         }
@@ -4528,7 +4554,7 @@ fn word(
 /// The axis letters of [`is_axis`], one bit each (bit 0: `A`).
 const AXIS_LETTERS: u32 = letter_bits(b"XYZABCUVW");
 
-/// `N`, `G` and `F`, one bit each: the letters of [`inert_words`].
+/// `N`, `G` and `F`, one bit each: the letters of [`inert_letters`].
 const NGF_LETTERS: u32 = letter_bits(b"NGF");
 
 /// Upper-case letters as bits (bit 0: `A`).
@@ -4542,62 +4568,60 @@ const fn letter_bits(letters: &[u8]) -> u32 {
     bits
 }
 
-/// The words of a plain line in a quiet state that change nothing in
-/// LinuxCNC's machine-state layer, one bit each (bit k: `words[k]`), which
-/// it then passes over ([`Block::machine_words`]): the block number (the
-/// line's one `N`: the layer reads none), `G1` under `G1` without cutter
-/// compensation (the line's one G code: its axis words run the same move),
-/// `F` at the feed in force (the line's one `F`, no G code but such a `G1`,
-/// not inverse time, under `G0`/`G1`). None unless the line has a word of
-/// an axis the machine has (then the move runs with or without them: no
-/// error, warning or state differs).
-#[inline]
-fn inert_words(words: &[Word], interpreter: &Interpreter) -> u32 {
+/// What a plain line's letters are (one bit each, bit 0: `A`).
+#[derive(Clone, Copy, Default)]
+struct PlainLetters {
+    /// The letters written.
+    all: u32,
+    /// The letters written more than once.
+    repeated: u32,
+    /// A `G1` is written.
+    g1: bool,
+    /// A G code other than `G1` is written.
+    other_g: bool,
+}
+
+/// The letters of the words of a plain line in a quiet state that change
+/// nothing in LinuxCNC's machine-state layer, one bit each, which it then
+/// passes over ([`Block::machine_words`]): the block number (the line's one
+/// `N`: the layer reads none), `G1` under `G1` without cutter compensation
+/// (the line's one G code: its axis words run the same move), `F` at the
+/// feed in force (the line's one `F`, no G code but such a `G1`, not
+/// inverse time, under `G0`/`G1`). None unless the line has a word of an
+/// axis the machine has (`machine_axes`, its letters): then the move runs
+/// with or without them, and no error, warning or state differs.
+fn inert_letters(
+    letters: PlainLetters,
+    words: &[Word],
+    machine_axes: u32,
+    modal: &crate::gcode::ModalState,
+) -> u32 {
     use crate::gcode::machine::modal::{CutterComp, MotionMode};
-    if words.len() > 32 {
+    const N: u32 = letter_bits(b"N");
+    const G: u32 = letter_bits(b"G");
+    const F: u32 = letter_bits(b"F");
+    if letters.all & machine_axes == 0 {
         return 0;
     }
-    let axes = interpreter.options().axes;
-    // The index of the last N, G and F word, and how many of each.
-    let mut at = [0usize; 3];
-    let mut count = [0u8; 3];
-    let mut moves = false;
-    for (k, w) in words.iter().enumerate() {
-        let slot = match w.letter {
-            b'N' => 0,
-            b'G' => 1,
-            b'F' => 2,
-            letter => {
-                moves |= crate::axes::Axis::from_letter(letter as char)
-                    .is_some_and(|axis| axes.contains(axis));
-                continue;
-            }
-        };
-        count[slot] = count[slot].saturating_add(1);
-        at[slot] = k;
-    }
-    if !moves {
-        return 0;
-    }
-    let modal = interpreter.modal();
-    let mut inert = 0u32;
-    if count[0] == 1 {
-        inert |= 1 << at[0];
-    }
-    let g1 = count[1] == 1
-        && words[at[1]].value == 1.0
+    let once = letters.all & !letters.repeated;
+    let mut inert = once & N;
+    let g1 = once & G != 0
+        && letters.g1
         && modal.motion == MotionMode::Linear
         && modal.cutter_comp == CutterComp::Off;
     if g1 {
-        inert |= 1 << at[1];
+        inert |= G;
     }
-    if count[2] == 1
-        && (count[1] == 0 || g1)
+    if once & F != 0
+        && (letters.all & G == 0 || g1)
         && !modal.inverse_time
         && matches!(modal.motion, MotionMode::Rapid | MotionMode::Linear)
-        && words[at[2]].value * modal.units.scale() == modal.feed
+        && words
+            .iter()
+            .find(|w| w.letter == b'F')
+            .is_some_and(|f| f.value * modal.units.scale() == modal.feed)
     {
-        inert |= 1 << at[2];
+        inert |= F;
     }
     inert
 }
