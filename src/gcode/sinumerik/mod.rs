@@ -1335,12 +1335,11 @@ impl SinumerikFront {
                 ..
             } = &mut self.block;
             machine_words.clear();
-            machine_words.extend(
-                words
-                    .iter()
-                    .filter(|w| inert & 1 << (w.letter - b'A') == 0)
-                    .copied(),
-            );
+            for w in words.iter() {
+                if inert & 1 << (w.letter - b'A') == 0 {
+                    machine_words.push(*w);
+                }
+            }
             *inert_words = true;
         }
         Ok(handed)
