@@ -4905,6 +4905,66 @@ mod tests {
         Ok(out)
     }
 
+    /// Each block's words the machine-state layer passes over (their
+    /// letters) and each run's moves (end and feed), read in `dialect`.
+    fn inert_and_moves(
+        text: &str,
+        dialect: crate::gcode::Dialect,
+    ) -> (Vec<String>, Vec<crate::gcode::Motion>) {
+        let setup = ProgramSetup {
+            dialect: Some(dialect),
+            ..Default::default()
+        };
+        let p = Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.mpf"),
+            setup,
+        );
+        let mut run = p.run(InterpretOptions::default());
+        let (mut inert, mut moves) = (Vec::new(), Vec::new());
+        while let Some(step) = run.next() {
+            let (block, event, _) = step.expect("the program runs");
+            let read = block.machine_words();
+            inert.push(
+                block
+                    .words
+                    .iter()
+                    .filter(|w| !read.contains(w))
+                    .map(|w| w.letter as char)
+                    .collect(),
+            );
+            moves.extend(event.motions().copied());
+        }
+        (inert, moves)
+    }
+
+    #[test]
+    fn words_that_change_nothing_are_passed_over_and_the_moves_stay() {
+        let text = "G0 X0 Y0 Z0\n\
+                    N10 G1 X1 F800\n\
+                    N20 G1 X2 F800\n\
+                    N30 X3 F900\n\
+                    N40 X4 Y1 F900\n\
+                    N50 G0 X5 F900\n\
+                    N60 X6 F900\n\
+                    N70 G1 F900\n\
+                    N80 G93 G1 X9 F2\n\
+                    N90 G1 X10 F2\n\
+                    N100 G94 G1 X11 F900\n\
+                    N110 G1 X12 F900\n\
+                    M30\n";
+        let (inert, moves) = inert_and_moves(text, crate::gcode::Dialect::Sinumerik);
+        let expected = [
+            "", "N", "NGF", "N", "NF", "N", "NF", "", "N", "NG", "N", "NGF", "",
+        ];
+        assert_eq!(inert, expected);
+        // LinuxCNC's reading of the same lines reads every word.
+        let (all_read, linuxcnc) = inert_and_moves(text, crate::gcode::Dialect::LinuxCnc);
+        assert!(all_read.iter().all(String::is_empty));
+        assert_eq!(moves.len(), 11);
+        assert_eq!(moves, linuxcnc);
+    }
+
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9
     }
