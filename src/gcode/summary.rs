@@ -152,8 +152,10 @@ impl ProgramSummary {
             // orientation component (a digit letter) is not a word written
             // as such: not counted. (Only G and M words are counted by
             // their code.)
+            // (The words a front found to change nothing, `N`, `F` and
+            // motion codes, would not be counted: `Block::machine_words`.)
             for w in block
-                .words
+                .machine_words()
                 .iter()
                 .filter(|w| w.start < w.end && !w.letter.is_ascii_digit())
             {

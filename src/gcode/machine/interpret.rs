@@ -573,6 +573,8 @@ struct Decoded {
     flood: Option<bool>,
     /// Unknown letters first seen in this block (a warning each).
     unknown_letters: u32,
+    /// The upper-case letters the block holds, one bit each (bit 0: `A`).
+    letters: u32,
 }
 
 impl Decoded {
@@ -1058,15 +1060,14 @@ impl Interpreter {
                 crate::gcode::syntax::block::Keyword::TraFoof => Frame::Joint,
             });
         }
-        let other_motion = self.read_conflicts(block, event)?;
-        // Units first: every number of the block is in the block's units.
-        for w in block.words.iter().filter(|w| w.letter == b'G') {
-            if let Some(GCode::Units(u)) = w.code10().map(classify_g) {
-                d.units = Some(u);
-            }
-        }
+        // (The words a front found to change nothing are passed over:
+        // `Block::machine_words`.)
+        let words = block.machine_words();
+        // Units first (found with the conflicts): every number of the block
+        // is in the block's units.
+        let other_motion = self.read_conflicts(block, words, event, d)?;
         let scale = d.units.unwrap_or(self.modal.units).scale();
-        for w in &block.words {
+        for w in words {
             match w.letter {
                 b'G' => self.read_g(block, event, w, d, other_motion)?,
                 b'M' => self.read_m(block, event, w, d)?,
@@ -1088,19 +1089,33 @@ impl Interpreter {
     }
 
     /// Repeated words and modal-group conflicts (LinuxCNC refuses both);
-    /// whether the block holds a motion code other than G80.
-    fn read_conflicts(&self, block: &Block, event: &mut BlockEvent) -> Result<bool, GcodeError> {
+    /// whether the block holds a motion code other than G80. Sets `d`'s
+    /// units (the block's last G20/G21) and the letters it holds.
+    fn read_conflicts(
+        &self,
+        block: &Block,
+        words: &[Word],
+        event: &mut BlockEvent,
+        d: &mut Decoded,
+    ) -> Result<bool, GcodeError> {
         let mut g_groups = [false; 16];
         let mut m_groups = [false; 11];
         let mut seen_letters = 0u32;
-        for w in &block.words {
+        // G and M: their bits in `Decoded::letters`.
+        let mut codes = 0u32;
+        for w in words {
             // The error is built only for a conflict (most blocks have none).
             let (conflict, kind): (bool, fn(char) -> ErrorKind) = match w.letter {
                 b'G' => {
+                    codes |= 1 << (b'G' - b'A');
                     let Some(g) = w.code10().and_then(|code| {
+                        let g = classify_g(code);
+                        if let GCode::Units(u) = g {
+                            d.units = Some(u);
+                        }
                         // G80 with another motion code is no conflict: the
                         // other code wins (LinuxCNC's `read_g`).
-                        g_group(classify_g(code)).filter(|_| code != 800)
+                        g_group(g).filter(|_| code != 800)
                     }) else {
                         continue;
                     };
@@ -1108,6 +1123,7 @@ impl Interpreter {
                     (seen, ErrorKind::ModalGroupConflict)
                 }
                 b'M' => {
+                    codes |= 1 << (b'M' - b'A');
                     // LinuxCNC 2.9 allows no two codes of a group, M7 and
                     // M8 included (`read_m`).
                     let Some(g) = w.code10().and_then(m_group) else {
@@ -1129,6 +1145,7 @@ impl Interpreter {
                 self.fail(block, event, kind, w.start, w.end)?;
             }
         }
+        d.letters = seen_letters | codes;
         Ok(g_groups[1])
     }
 
@@ -1382,7 +1399,7 @@ impl Interpreter {
         }
         // A code volcomp does not know may use any word.
         if !d.unsupported {
-            self.check_words(block, event, &d.words, d.axis_user.is_some())?;
+            self.check_words(block, event, &d.words, d.letters, d.axis_user.is_some())?;
         }
         // G53 moves straight, in absolute coordinates (LinuxCNC's
         // `check_g_codes`; the block's own G90/G91 counts).
@@ -2013,24 +2030,20 @@ impl Interpreter {
         block: &Block,
         event: &mut BlockEvent,
         words: &Words,
+        present: u32,
         axis_user: bool,
     ) -> Result<(), GcodeError> {
+        let machine_words = block.machine_words();
         let codes = |letter: u8| {
-            block
-                .words
+            machine_words
                 .iter()
                 .filter(move |w| w.letter == letter)
                 .filter_map(|w| w.code10())
         };
-        // The letters the block holds, one bit each: most blocks hold no G
-        // or M word and none of the words checked below, and skip the scans
-        // of their codes.
+        // The letters the block holds (`present`, one bit each): most blocks
+        // hold no G or M word and none of the words checked below, and skip
+        // the scans of their codes.
         let bit = |letter: u8| 1u32 << (letter - b'A');
-        let present = block
-            .words
-            .iter()
-            .filter(|w| w.letter.is_ascii_uppercase())
-            .fold(0u32, |mask, w| mask | bit(w.letter));
         let has = |letter: u8| present & bit(letter) != 0;
         // User M codes (M100–M199) take any word; M98/M99 (refused on
         // their own) their P and L.

@@ -189,6 +189,21 @@ impl Origin {
         }
     }
 
+    /// [`Origin::to_program`]'s X Y Z of `m` (the other axes not worked out).
+    #[inline]
+    pub fn xyz_to_program_of(&self, m: &Axes) -> [f64; 3] {
+        let (x, y) = rotate(m.x - self.work.x, m.y - self.work.y, -self.rotation_deg);
+        let p = [
+            x - self.g92.x,
+            y - self.g92.y,
+            m.z - self.work.z - self.g92.z,
+        ];
+        match &self.frame {
+            None => p,
+            Some(f) => f.unapply(p),
+        }
+    }
+
     /// Machine (part-table) XYZ → the workpiece frame: the frame of the work
     /// origin itself (its shift and its XY rotation), before G92, datum
     /// shifts, programmable frames and working planes (dialects.md

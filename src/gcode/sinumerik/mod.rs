@@ -662,6 +662,9 @@ pub(crate) struct SinumerikFront {
     incremental: bool,
     skip_deleted: bool,
     motion_set: bool,
+    /// The letters of the machine's axes, one bit each (bit 0: `A`): set
+    /// with the reset state before the first block.
+    machine_axis_letters: u32,
     /// The frames changed: set them on the interpreter before the block.
     flush_frame_later: bool,
     tokens: Vec<Token>,
@@ -787,6 +790,7 @@ impl SinumerikFront {
             incremental: false,
             skip_deleted: false,
             motion_set: false,
+            machine_axis_letters: 0,
             flush_frame_later: false,
             tokens: Vec::new(),
             text: String::new(),
@@ -906,6 +910,11 @@ impl SinumerikFront {
         if !self.motion_set {
             // The 840D sl starts in G0 (its reset G codes: G0 G17 G90 G94 G71).
             self.motion_set = true;
+            let axes = interpreter.options().axes;
+            self.machine_axis_letters = crate::axes::Axis::ALL
+                .into_iter()
+                .filter(|&axis| axes.contains(axis))
+                .fold(0, |bits, axis| bits | 1 << (axis.letter() as u8 - b'A'));
             let mut start = Block::default();
             start.words.push(Word {
                 letter: b'G',
@@ -1209,8 +1218,18 @@ impl SinumerikFront {
         if let Some(c) = comment {
             out.comments.push(c);
         }
+        let mut letters = PlainLetters::default();
         for w in &plain {
-            let code = if w.letter == b'G' {
+            // (Plain letters are A–Z.)
+            let bit = 1 << (w.letter - b'A');
+            letters.repeated |= letters.all & bit;
+            letters.all |= bit;
+            let code = if w.letter == b'G' && w.value == 1.0 {
+                // What `g_code` makes of `G1` (most G codes of a CAM program).
+                letters.g1 = true;
+                1.0
+            } else if w.letter == b'G' {
+                letters.other_g = true;
                 let mut flags = GFlags::default();
                 let code = self.g_code(line, w.value, (w.start, w.end), &mut out, &mut flags);
                 match code {
@@ -1234,10 +1253,10 @@ impl SinumerikFront {
                 .push(word(w.letter, code, w.start, w.end, decimals, point, false));
         }
         self.plain = plain;
-        let axis_words = out.words.iter().any(|w| is_axis(w.letter));
+        let axis_words = letters.all & AXIS_LETTERS != 0;
         if self.quiet(line, interpreter) {
             return self
-                .end_quiet_block(line, &mut out, axis_words, interpreter)
+                .end_quiet_block(line, &mut out, letters, interpreter)
                 .map(Some);
         }
         let mut said = Said::words_only(axis_words);
@@ -1272,22 +1291,58 @@ impl SinumerikFront {
         &mut self,
         line: &LineRun,
         out: &mut Out,
-        axis_words: bool,
+        letters: PlainLetters,
         interpreter: &Interpreter,
     ) -> Result<bool, GcodeError> {
+        let axis_words = letters.all & AXIS_LETTERS != 0;
         self.chorded = false;
         self.turn_end = None;
+        let modal = interpreter.modal();
         if axis_words {
             let level = self.levels.len() - 1;
             self.levels[level].moved = true;
             let start = interpreter
                 .origin_ref()
-                .to_program(&interpreter.position())
-                .xyz();
-            self.last_move = self.move_of(out, interpreter, start);
+                .xyz_to_program_of(&interpreter.position());
+            // A straight move (its last G0–G3 `G1`, or none under G0/G1):
+            // what `move_of` makes of it, without reading its words again.
+            use crate::gcode::machine::modal::MotionMode;
+            let straight = !letters.other_g
+                && (letters.g1 || !matches!(modal.motion, MotionMode::ArcCw | MotionMode::ArcCcw));
+            self.last_move = if straight {
+                Some(LastMove {
+                    start,
+                    kind: LastKind::Straight,
+                })
+            } else {
+                self.move_of(out, interpreter, start)
+            };
         }
-        self.note_distance_mode(out);
-        self.hand_on(line, out, line.raw, false)
+        if letters.other_g {
+            self.note_distance_mode(out);
+        }
+        let inert = if axis_words && letters.all & NGF_LETTERS != 0 {
+            inert_letters(letters, &out.words, self.machine_axis_letters, modal)
+        } else {
+            0
+        };
+        let handed = self.hand_on(line, out, line.raw, false)?;
+        if inert != 0 && handed && self.executed.literal {
+            let Block {
+                words,
+                machine_words,
+                inert_words,
+                ..
+            } = &mut self.block;
+            machine_words.clear();
+            for w in words.iter() {
+                if inert & 1 << (w.letter - b'A') == 0 {
+                    machine_words.push(*w);
+                }
+            }
+            *inert_words = true;
+        }
+        Ok(handed)
     }
 
     #[inline(never)]
@@ -4495,6 +4550,81 @@ fn word(
     }
 }
 
+/// The axis letters of [`is_axis`], one bit each (bit 0: `A`).
+const AXIS_LETTERS: u32 = letter_bits(b"XYZABCUVW");
+
+/// `N`, `G` and `F`, one bit each: the letters of [`inert_letters`].
+const NGF_LETTERS: u32 = letter_bits(b"NGF");
+
+/// Upper-case letters as bits (bit 0: `A`).
+const fn letter_bits(letters: &[u8]) -> u32 {
+    let mut bits = 0;
+    let mut k = 0;
+    while k < letters.len() {
+        bits |= 1 << (letters[k] - b'A');
+        k += 1;
+    }
+    bits
+}
+
+/// What a plain line's letters are (one bit each, bit 0: `A`).
+#[derive(Clone, Copy, Default)]
+struct PlainLetters {
+    /// The letters written.
+    all: u32,
+    /// The letters written more than once.
+    repeated: u32,
+    /// A `G1` is written.
+    g1: bool,
+    /// A G code other than `G1` is written.
+    other_g: bool,
+}
+
+/// The letters of the words of a plain line in a quiet state that change
+/// nothing in LinuxCNC's machine-state layer, one bit each, which it then
+/// passes over ([`Block::machine_words`]): the block number (the line's one
+/// `N`: the layer reads none), `G1` under `G1` without cutter compensation
+/// (the line's one G code: its axis words run the same move), `F` at the
+/// feed in force (the line's one `F`, no G code but such a `G1`, not
+/// inverse time, under `G0`/`G1`). None unless the line has a word of an
+/// axis the machine has (`machine_axes`, its letters): then the move runs
+/// with or without them, and no error, warning or state differs.
+fn inert_letters(
+    letters: PlainLetters,
+    words: &[Word],
+    machine_axes: u32,
+    modal: &crate::gcode::ModalState,
+) -> u32 {
+    use crate::gcode::machine::modal::{CutterComp, MotionMode};
+    const N: u32 = letter_bits(b"N");
+    const G: u32 = letter_bits(b"G");
+    const F: u32 = letter_bits(b"F");
+    if letters.all & machine_axes == 0 {
+        return 0;
+    }
+    let once = letters.all & !letters.repeated;
+    let mut inert = once & N;
+    let g1 = once & G != 0
+        && letters.g1
+        && modal.motion == MotionMode::Linear
+        && modal.cutter_comp == CutterComp::Off;
+    if g1 {
+        inert |= G;
+    }
+    if once & F != 0
+        && (letters.all & G == 0 || g1)
+        && !modal.inverse_time
+        && matches!(modal.motion, MotionMode::Rapid | MotionMode::Linear)
+        && words
+            .iter()
+            .find(|w| w.letter == b'F')
+            .is_some_and(|f| f.value * modal.units.scale() == modal.feed)
+    {
+        inert |= F;
+    }
+    inert
+}
+
 fn is_axis(letter: u8) -> bool {
     matches!(
         letter,
@@ -4773,6 +4903,66 @@ mod tests {
             out.extend(event.motions().map(|m| m.end));
         }
         Ok(out)
+    }
+
+    /// Each block's words the machine-state layer passes over (their
+    /// letters) and each run's moves (end and feed), read in `dialect`.
+    fn inert_and_moves(
+        text: &str,
+        dialect: crate::gcode::Dialect,
+    ) -> (Vec<String>, Vec<crate::gcode::Motion>) {
+        let setup = ProgramSetup {
+            dialect: Some(dialect),
+            ..Default::default()
+        };
+        let p = Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.mpf"),
+            setup,
+        );
+        let mut run = p.run(InterpretOptions::default());
+        let (mut inert, mut moves) = (Vec::new(), Vec::new());
+        while let Some(step) = run.next() {
+            let (block, event, _) = step.expect("the program runs");
+            let read = block.machine_words();
+            inert.push(
+                block
+                    .words
+                    .iter()
+                    .filter(|w| !read.contains(w))
+                    .map(|w| w.letter as char)
+                    .collect(),
+            );
+            moves.extend(event.motions().copied());
+        }
+        (inert, moves)
+    }
+
+    #[test]
+    fn words_that_change_nothing_are_passed_over_and_the_moves_stay() {
+        let text = "G0 X0 Y0 Z0\n\
+                    N10 G1 X1 F800\n\
+                    N20 G1 X2 F800\n\
+                    N30 X3 F900\n\
+                    N40 X4 Y1 F900\n\
+                    N50 G0 X5 F900\n\
+                    N60 X6 F900\n\
+                    N70 G1 F900\n\
+                    N80 G93 G1 X9 F2\n\
+                    N90 G1 X10 F2\n\
+                    N100 G94 G1 X11 F900\n\
+                    N110 G1 X12 F900\n\
+                    M30\n";
+        let (inert, moves) = inert_and_moves(text, crate::gcode::Dialect::Sinumerik);
+        let expected = [
+            "", "N", "NGF", "N", "NF", "N", "NF", "", "N", "NG", "N", "NGF", "",
+        ];
+        assert_eq!(inert, expected);
+        // LinuxCNC's reading of the same lines reads every word.
+        let (all_read, linuxcnc) = inert_and_moves(text, crate::gcode::Dialect::LinuxCnc);
+        assert!(all_read.iter().all(String::is_empty));
+        assert_eq!(moves.len(), 11);
+        assert_eq!(moves, linuxcnc);
     }
 
     fn close(a: f64, b: f64) -> bool {

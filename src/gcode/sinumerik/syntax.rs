@@ -353,37 +353,35 @@ struct Digits {
 /// The digits of a number from `i`, scanned and converted in one pass (a
 /// caller that needs only the end pays nothing more once inlined).
 #[inline]
-fn scan_digits(raw: &[u8], mut i: usize) -> Digits {
-    let n = raw.len();
+fn scan_digits(raw: &[u8], i: usize) -> Digits {
+    let rest = raw.get(i..).unwrap_or_default();
     let mut mantissa = 0u64;
-    let mut ndigits = 0usize;
-    while i < n && raw[i].is_ascii_digit() {
-        mantissa = mantissa
-            .wrapping_mul(10)
-            .wrapping_add(u64::from(raw[i] - b'0'));
-        ndigits += 1;
-        i += 1;
-    }
-    let mut point = false;
-    let mut decimals = 0usize;
-    if i < n && raw[i] == b'.' {
-        point = true;
-        i += 1;
-        while i < n && raw[i].is_ascii_digit() {
-            mantissa = mantissa
-                .wrapping_mul(10)
-                .wrapping_add(u64::from(raw[i] - b'0'));
-            ndigits += 1;
-            decimals += 1;
-            i += 1;
+    // Each digit: its value below 10 (no separate test, count or bounds
+    // check beyond the slice's own).
+    let digits = |mut k: usize, mantissa: &mut u64| {
+        while let Some(&c) = rest.get(k) {
+            let d = c.wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            *mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            k += 1;
         }
-    }
+        k
+    };
+    let whole = digits(0, &mut mantissa);
+    let (point, end) = if rest.get(whole) == Some(&b'.') {
+        (true, digits(whole + 1, &mut mantissa))
+    } else {
+        (false, whole)
+    };
+    let decimals = if point { end - whole - 1 } else { 0 };
     Digits {
-        end: i,
+        end: i + end,
         point,
         decimals,
         mantissa,
-        ndigits,
+        ndigits: whole + decimals,
     }
 }
 

@@ -268,6 +268,13 @@ pub struct Block {
     /// Lenient reading only: the line could not be parsed; it is kept verbatim,
     /// without words, and this is why.
     pub unparsed: Option<Box<GcodeError>>,
+    /// The words the machine-state layer and the summary read when a front
+    /// found words in `words` that change nothing ([`Block::machine_words`]:
+    /// a SINUMERIK block number, a `G1` under `G1`, an `F` of the feed in
+    /// force); they stay in `words`, which writers read. Unused otherwise.
+    pub(crate) machine_words: Vec<Word>,
+    /// `machine_words` holds the words to read (a front passed over some).
+    pub(crate) inert_words: bool,
 }
 
 impl Block {
@@ -289,6 +296,17 @@ impl Block {
     /// The N block number, if any.
     pub fn block_number(&self) -> Option<f64> {
         self.word(b'N').map(|w| w.value)
+    }
+
+    /// The words the machine-state layer reads: `words` without those a
+    /// front found to change nothing (all of `words` unless it found some).
+    #[inline]
+    pub(crate) fn machine_words(&self) -> &[Word] {
+        if self.inert_words {
+            &self.machine_words
+        } else {
+            &self.words
+        }
     }
 
     /// Whether the line has neither words nor keywords, assignments or an
@@ -328,5 +346,6 @@ impl Block {
         self.comments.clear();
         self.statements.clear();
         self.unparsed = None;
+        self.inert_words = false;
     }
 }
