@@ -4884,6 +4884,15 @@ mod tests {
         }
     }
 
+    /// `text` as a program named `t.mpf`, read with `setup`.
+    fn program_of(text: &str, setup: ProgramSetup) -> Program {
+        Program::new(
+            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
+            Path::new("t.mpf"),
+            setup,
+        )
+    }
+
     /// The move ends of `text` read with the [`TiltTurn`] head.
     fn ends(text: &str) -> Result<Vec<Axes>, GcodeError> {
         let setup = ProgramSetup {
@@ -4891,12 +4900,7 @@ mod tests {
             orientation: Some(std::sync::Arc::new(TiltTurn)),
             ..Default::default()
         };
-        let p = Program::new(
-            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
-            Path::new("t.mpf"),
-            setup,
-        );
-        let mut run = p.run(InterpretOptions::default());
+        let mut run = program_of(text, setup).run(InterpretOptions::default());
         let mut out = Vec::new();
         while let Some(step) = run.next() {
             let (_, event, _) = step?;
@@ -4915,12 +4919,7 @@ mod tests {
             dialect: Some(dialect),
             ..Default::default()
         };
-        let p = Program::new(
-            Box::new(std::io::Cursor::new(text.as_bytes().to_vec())),
-            Path::new("t.mpf"),
-            setup,
-        );
-        let mut run = p.run(InterpretOptions::default());
+        let mut run = program_of(text, setup).run(InterpretOptions::default());
         let (mut inert, mut moves) = (Vec::new(), Vec::new());
         while let Some(step) = run.next() {
             let (block, event, _) = step.expect("the program runs");
