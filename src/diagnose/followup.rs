@@ -253,11 +253,12 @@ impl Hypothesis {
     }
 
     fn value(&self, row: &Row) -> f64 {
-        self.design_row(row)
-            .iter()
-            .zip(&self.coefs)
-            .map(|(g, b)| g * b)
-            .sum()
+        self.value_of(&self.design_row(row))
+    }
+
+    /// The value at a row whose design row is `design_row`.
+    fn value_of(&self, design_row: &[f64]) -> f64 {
+        design_row.iter().zip(&self.coefs).map(|(g, b)| g * b).sum()
     }
 }
 
@@ -629,6 +630,10 @@ fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
     }
 }
 
+/// Candidates scored first at each step of [`design`] (the best of the last
+/// step), so that the bar that lets the others stop early rises soon.
+const LEADING_CANDIDATES: usize = 16;
+
 /// Design the follow-up: choose `options.probes` of the `candidates` (each at
 /// the end time the caller gave; the i-th chosen is re-timed to
 /// `end + i × probe_minutes`). `Ok(None)` when there is nothing to separate
@@ -659,7 +664,13 @@ pub fn design(
     let mut sums = pair_sums(&fitted);
     let mut chosen: Vec<Probe> = Vec::new();
     let mut used = vec![false; candidates.len()];
+    // Per candidate: its score at the last step (for the order of the next)
+    // and the pair that gave it (tried first at the next step).
+    let mut last_score = vec![f64::INFINITY; candidates.len()];
+    let mut last_pair = vec![0usize; candidates.len()];
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
     use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
     for step in 0..options.probes.min(candidates.len()) {
         let time = end_min + (step + 1) as f64 * options.probe_minutes;
         let timed: Vec<PointContext> = candidates
@@ -669,29 +680,77 @@ pub fn design(
                 ..c.context.clone()
             })
             .collect();
-        let score = |i: usize| -> f64 {
+        // The pairs in ascending order of their lack of fit without a new
+        // probe: the smallest is the likeliest to stay the smallest.
+        let mut pair_order: Vec<usize> = (0..sums.len()).collect();
+        let base: Vec<f64> = sums.iter().map(|s| s.lack_of_fit_with(None)).collect();
+        pair_order.sort_by(|&a, &b| base[a].total_cmp(&base[b]).then(a.cmp(&b)));
+        // The best score so far (bits of a non-negative f64, whose order is
+        // the numbers'): a candidate whose smallest lack of fit so far is
+        // already below it cannot be chosen, so its other pairs are skipped.
+        // Exact: the chosen candidate and its tie-break are unchanged.
+        let bar = AtomicU64::new(0.0f64.to_bits());
+        let score = |i: usize| -> (f64, usize) {
             let row = Row {
                 cut: &contexts[candidates[i].of],
                 probe: Some(&timed[i]),
             };
-            sums.iter()
-                .map(|s| {
-                    let g = h[s.rival].design_row(&row);
-                    s.lack_of_fit_with(Some((&g, h[s.truth].value(&row))))
-                })
-                .fold(f64::INFINITY, f64::min)
+            let mut rows: Vec<Option<Vec<f64>>> = vec![None; h.len()];
+            let mut values: Vec<Option<f64>> = vec![None; h.len()];
+            let mut smallest = f64::INFINITY;
+            let mut smallest_pair = last_pair[i];
+            let first = last_pair[i].min(sums.len());
+            let order = (first..first + 1)
+                .filter(|&p| p < sums.len())
+                .chain(pair_order.iter().copied().filter(|&p| p != first));
+            for p in order {
+                let s = &sums[p];
+                let y = match values[s.truth] {
+                    Some(y) => y,
+                    None => {
+                        let g = rows[s.truth].get_or_insert_with(|| h[s.truth].design_row(&row));
+                        let y = h[s.truth].value_of(g);
+                        values[s.truth] = Some(y);
+                        y
+                    }
+                };
+                let g = rows[s.rival].get_or_insert_with(|| h[s.rival].design_row(&row));
+                let lack = s.lack_of_fit_with(Some((g, y)));
+                if lack < smallest {
+                    smallest = lack;
+                    smallest_pair = p;
+                }
+                if smallest < f64::from_bits(bar.load(Ordering::Relaxed)) {
+                    return (smallest, smallest_pair);
+                }
+            }
+            if smallest > 0.0 {
+                bar.fetch_max(smallest.to_bits(), Ordering::Relaxed);
+            }
+            (smallest, smallest_pair)
         };
-        let best = (0..candidates.len())
-            .into_par_iter()
-            .filter(|&i| !used[i])
-            .map(|i| (i, score(i)))
-            .reduce_with(|a, b| {
+        // The most promising candidates of the last step first, to raise the
+        // bar early.
+        let open: Vec<usize> = order.iter().copied().filter(|&i| !used[i]).collect();
+        let lead = open.len().min(LEADING_CANDIDATES);
+        let mut scored: Vec<(usize, (f64, usize))> =
+            open[..lead].par_iter().map(|&i| (i, score(i))).collect();
+        scored.par_extend(open[lead..].par_iter().map(|&i| (i, score(i))));
+        for &(i, (value, pair)) in &scored {
+            last_score[i] = value;
+            last_pair[i] = pair;
+        }
+        let best = scored
+            .into_iter()
+            .map(|(i, (value, _))| (i, value))
+            .reduce(|a, b| {
                 if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) {
                     b
                 } else {
                     a
                 }
             });
+        order.sort_by(|&a, &b| last_score[b].total_cmp(&last_score[a]).then(a.cmp(&b)));
         let Some((i, _)) = best else { break };
         used[i] = true;
         let probe = Probe {
