@@ -699,11 +699,13 @@ pub fn design(
             let mut values: Vec<Option<f64>> = vec![None; h.len()];
             let mut smallest = f64::INFINITY;
             let mut smallest_pair = last_pair[i];
-            let first = last_pair[i].min(sums.len());
-            let order = (first..first + 1)
-                .filter(|&p| p < sums.len())
+            // The pair that gave this candidate's score at the last step first.
+            let first = last_pair[i];
+            let pairs = (first < sums.len())
+                .then_some(first)
+                .into_iter()
                 .chain(pair_order.iter().copied().filter(|&p| p != first));
-            for p in order {
+            for p in pairs {
                 let s = &sums[p];
                 let y = match values[s.truth] {
                     Some(y) => y,
