@@ -630,6 +630,18 @@ fn pose_words(cut: &PointContext, probe: &PointContext) -> String {
     }
 }
 
+/// The bits of `x` as an unsigned number whose order is the numbers' order
+/// (negative ones and ±∞ included): the sign bit set on non-negative
+/// numbers, every bit flipped on negative ones; −0 is 0.
+fn ordered_bits(x: f64) -> u64 {
+    let bits = (x + 0.0).to_bits();
+    if bits >> 63 == 0 {
+        bits | (1 << 63)
+    } else {
+        !bits
+    }
+}
+
 /// Candidates scored first at each step of [`design`] (the best of the last
 /// step), so that the bar that lets the others stop early rises soon.
 const LEADING_CANDIDATES: usize = 16;
@@ -685,11 +697,13 @@ pub fn design(
         let mut pair_order: Vec<usize> = (0..sums.len()).collect();
         let base: Vec<f64> = sums.iter().map(|s| s.lack_of_fit_with(None)).collect();
         pair_order.sort_by(|&a, &b| base[a].total_cmp(&base[b]).then(a.cmp(&b)));
-        // The best score so far (bits of a non-negative f64, whose order is
-        // the numbers'): a candidate whose smallest lack of fit so far is
-        // already below it cannot be chosen, so its other pairs are skipped.
-        // Exact: the chosen candidate and its tie-break are unchanged.
-        let bar = AtomicU64::new(0.0f64.to_bits());
+        // The best score of a candidate scored in full so far (as
+        // `ordered_bits`, whose order is the numbers', negative ones
+        // included; none yet: −∞): a candidate whose smallest lack of fit
+        // so far is already below it cannot be chosen, so its other pairs
+        // are skipped. Exact: the chosen candidate and its tie-break are
+        // unchanged.
+        let bar = AtomicU64::new(ordered_bits(f64::NEG_INFINITY));
         let score = |i: usize| -> (f64, usize) {
             let row = Row {
                 cut: &contexts[candidates[i].of],
@@ -722,13 +736,11 @@ pub fn design(
                     smallest = lack;
                     smallest_pair = p;
                 }
-                if smallest < f64::from_bits(bar.load(Ordering::Relaxed)) {
+                if ordered_bits(smallest) < bar.load(Ordering::Relaxed) {
                     return (smallest, smallest_pair);
                 }
             }
-            if smallest > 0.0 {
-                bar.fetch_max(smallest.to_bits(), Ordering::Relaxed);
-            }
+            bar.fetch_max(ordered_bits(smallest), Ordering::Relaxed);
             (smallest, smallest_pair)
         };
         // The most promising candidates of the last step first, to raise the
@@ -905,4 +917,32 @@ pub fn outcome(
         separations,
         reading_rms_um,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn ordered_bits_keep_the_order_of_the_numbers() {
+        let values = [
+            f64::NEG_INFINITY,
+            -1e300,
+            -2.5,
+            -1e-300,
+            -0.0,
+            0.0,
+            1e-300,
+            3.0,
+            1e300,
+            f64::INFINITY,
+        ];
+        for a in values {
+            for b in values {
+                assert_eq!(
+                    super::ordered_bits(a).cmp(&super::ordered_bits(b)),
+                    a.partial_cmp(&b).expect("no NaN"),
+                    "{a} against {b}"
+                );
+            }
+        }
+    }
 }
