@@ -4,7 +4,7 @@
 //! `;` comments, the output reads back); the closed loop of a `TRAORI`
 //! program on two bundled machines; LinuxCNC programs keep their reading.
 use crate::compensate::{assert_closed_loop, closed_loop_on, compensate_on, read, ref_trt};
-use crate::support::{assert_success, root, volcomp};
+use crate::support::{assert_success, root, volcomp, written_by};
 use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::{Dialect, Frame, InterpretOptions, Program, ProgramSetup};
 
@@ -356,14 +356,10 @@ fn circles_without_a_centre_are_read_and_written_in_the_centre_form() {
     }
     let dir = tempfile::tempdir().unwrap();
     let flat = dir.path().join("flat.mpf");
-    let out = volcomp()
-        .args(["check", "tests/data/sinumerik/arcs.mpf", "--flatten", "-o"])
-        .arg(&flat)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let text = std::fs::read_to_string(&flat).unwrap();
+    let text = written_by(
+        &["check", "tests/data/sinumerik/arcs.mpf", "--flatten", "-o"],
+        &flat,
+    );
     for line in [
         "N30 G3 X0 Y10 I-10 J0 ; volcomp: line 7",
         "N50 G3 X-20 Y0 I0 J-10 ; volcomp: line 10",
@@ -822,14 +818,10 @@ fn frame_statements_after_a_split_circle_stay_alone_in_their_blocks() {
     let dir = tempfile::tempdir().unwrap();
     let program = "tests/data/sinumerik/frame-after-split-arc.mpf";
     let compensated = dir.path().join("out.mpf");
-    let out = volcomp()
-        .args(["compensate", "machines/ref-trt.toml", program, "-o"])
-        .arg(&compensated)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let text = std::fs::read_to_string(&compensated).unwrap();
+    let text = written_by(
+        &["compensate", "machines/ref-trt.toml", program, "-o"],
+        &compensated,
+    );
     for kept in ["N60 ROT Y30", "N80 TRANS Y5", "N100 ROT"] {
         assert!(text.lines().any(|l| l == kept), "{kept} not kept:\n{text}");
     }

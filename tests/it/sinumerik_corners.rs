@@ -5,7 +5,7 @@
 //! centre below is worked out by hand in the comments.
 use crate::compensate::{closed_loop_with_ruler_on, compensate_on, read, ref_trt};
 use crate::sinumerik::targets;
-use crate::support::{assert_success, root, volcomp};
+use crate::support::{assert_success, program_lines, volcomp, written_by};
 use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::Frame;
 
@@ -95,19 +95,8 @@ fn corners_are_where_the_manual_puts_them() {
 fn corners_are_written_flat_and_read_back() {
     let dir = tempfile::tempdir().unwrap();
     let flat = dir.path().join("flat.mpf");
-    let out = volcomp()
-        .args(["check", FIXTURE, "--flatten", "-o"])
-        .arg(&flat)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let text = std::fs::read_to_string(&flat).unwrap();
-    let body: String = text
-        .lines()
-        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
-        .collect::<Vec<_>>()
-        .join("\n");
+    let text = written_by(&["check", FIXTURE, "--flatten", "-o"], &flat);
+    let body = program_lines(&text).collect::<Vec<_>>().join("\n");
     for word in ["RND", "CHF", "CHR", "FRC"] {
         assert!(!body.contains(word), "{word}: {text}");
     }
@@ -132,14 +121,10 @@ fn corners_are_written_flat_and_read_back() {
     // compensate writes the corners flat too, and its output reads back to
     // the same moves.
     let comp = dir.path().join("comp.mpf");
-    let run = volcomp()
-        .args(["compensate", "machines/ref-trt.toml", FIXTURE, "-o"])
-        .arg(&comp)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&run);
-    let written = std::fs::read_to_string(&comp).unwrap();
+    let written = written_by(
+        &["compensate", "machines/ref-trt.toml", FIXTURE, "-o"],
+        &comp,
+    );
     assert!(!written.contains("RND=") && written.contains("; volcomp: line 9\nG3 X"));
     let c = targets(&[
         "check",

@@ -4,7 +4,7 @@
 //! solid-angle and direct modes; circles in a tilted plane; `CIP` through a
 //! circle out of the working plane; `CT` after `CR=`.
 use crate::compensate::{closed_loop_on, compensate_on, read, ref_trt};
-use crate::support::{assert_success, root, volcomp};
+use crate::support::{assert_success, program_lines, root, volcomp, written_by};
 use volcomp::compensate::CompensateOptions;
 use volcomp::gcode::Frame;
 
@@ -266,10 +266,7 @@ fn circles_in_a_tilted_plane_and_in_space_are_handed_on_as_chords() {
         );
         assert!(text.lines().filter(|l| l.ends_with(&tag)).count() > 70);
     }
-    for l in text
-        .lines()
-        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
-    {
+    for l in program_lines(&text) {
         assert!(
             !l.contains("CR=") && !l.contains("CIP") && !l.contains("CT "),
             "{l}"
@@ -640,22 +637,15 @@ fn ct_after_a_circle_in_space_continues_tangentially() {
     assert!(lowest < -7.07 && lowest > -r - 1e-6, "{lowest}");
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("c.mpf");
-    let out = volcomp()
-        .args(["compensate", "machines/ref-trt.toml", file, "-o"])
-        .arg(&out_path)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let text = std::fs::read_to_string(&out_path).unwrap();
+    let text = written_by(
+        &["compensate", "machines/ref-trt.toml", file, "-o"],
+        &out_path,
+    );
     assert!(
         text.lines()
             .any(|l| l.starts_with("N60 G1 X") && l.ends_with("; volcomp: line 11"))
     );
-    for l in text
-        .lines()
-        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
-    {
+    for l in program_lines(&text) {
         assert!(!l.contains("CT ") && !l.contains("CIP"), "{l}");
     }
     let again = joint_rows(&["check", out_path.to_str().unwrap(), "--targets", "-"]);

@@ -12,7 +12,7 @@
 //!   the values a Python script of the same recursion printed written
 //!   down; every chord within 0.5 µm of the curve.
 use crate::sinumerik::targets;
-use crate::support::{assert_success, root, volcomp};
+use crate::support::{assert_success, program_lines, root, volcomp, written_by};
 
 const FIXTURE: &str = "tests/data/sinumerik/bspline.mpf";
 
@@ -209,19 +209,8 @@ fn bspline_sections_follow_the_rational_b_spline() {
 fn bspline_is_written_flat_and_reads_back() {
     let dir = tempfile::tempdir().unwrap();
     let flat = dir.path().join("flat.mpf");
-    let out = volcomp()
-        .args(["check", FIXTURE, "--flatten", "-o"])
-        .arg(&flat)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let text = std::fs::read_to_string(&flat).unwrap();
-    let body: String = text
-        .lines()
-        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
-        .collect::<Vec<_>>()
-        .join("\n");
+    let text = written_by(&["check", FIXTURE, "--flatten", "-o"], &flat);
+    let body = program_lines(&text).collect::<Vec<_>>().join("\n");
     for word in ["BSPLINE", "SD=", "PW=", "PL="] {
         assert!(!body.contains(word), "{word}: {text}");
     }
@@ -241,14 +230,10 @@ fn bspline_is_written_flat_and_reads_back() {
     }
     // compensate writes it flat too, and the output reads back.
     let comp = dir.path().join("comp.mpf");
-    let run = volcomp()
-        .args(["compensate", "machines/ref-trt.toml", FIXTURE, "-o"])
-        .arg(&comp)
-        .current_dir(root())
-        .output()
-        .unwrap();
-    assert_success(&run);
-    let written = std::fs::read_to_string(&comp).unwrap();
+    let written = written_by(
+        &["compensate", "machines/ref-trt.toml", FIXTURE, "-o"],
+        &comp,
+    );
     assert!(!written.contains("BSPLINE X") && written.contains("; volcomp: line 19"));
     assert_success(&volcomp().arg("check").arg(&comp).output().unwrap());
 }

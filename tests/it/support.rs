@@ -41,3 +41,24 @@ pub fn assert_success(out: &Output) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Run `volcomp ARGS OUT` from the project root (`args` ends with the
+/// output option, `-o`), assert that it succeeded, and return what it wrote
+/// to `out`.
+#[track_caller]
+pub fn written_by(args: &[&str], out: &std::path::Path) -> String {
+    let run = volcomp()
+        .args(args)
+        .arg(out)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_success(&run);
+    std::fs::read_to_string(out).unwrap()
+}
+
+/// A written program's lines without its comment lines (`;`) and `%` lines.
+pub fn program_lines(text: &str) -> impl Iterator<Item = &str> {
+    text.lines()
+        .filter(|l| !l.starts_with(';') && !l.starts_with('%'))
+}
