@@ -131,6 +131,19 @@ pub struct Executed {
     pub passed: bool,
 }
 
+impl Executed {
+    /// A block volcomp made from line `line` of file `file` (a rounding, a
+    /// chamfer, a spline's chord): executed, not the line as written.
+    pub fn made_from(file: usize, line: usize) -> Executed {
+        Executed {
+            file,
+            line,
+            literal: false,
+            passed: false,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LabelKind {
     Sub,

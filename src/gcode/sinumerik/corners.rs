@@ -667,12 +667,7 @@ impl SinumerikFront {
         if changed {
             out.flat = true;
         }
-        let executed = Executed {
-            file: pending.file,
-            line: pending.line,
-            literal: false,
-            passed: false,
-        };
+        let executed = Executed::made_from(pending.file, pending.line);
         for mut block in queued {
             block.line = pending.line;
             block.ending = LineEnding::Lf;

@@ -332,12 +332,7 @@ impl SinumerikFront {
             };
             self.hand_on_chords(&line, &mut c.out, interpreter, from, &chords, c.incremental)?;
             self.restore_arc = None;
-            let executed = Executed {
-                file: c.file,
-                line: c.line,
-                literal: false,
-                passed: false,
-            };
+            let executed = Executed::made_from(c.file, c.line);
             let mut pieces = VecDeque::new();
             if self.hand_on(
                 &line,
