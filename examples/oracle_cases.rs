@@ -13,6 +13,8 @@
 //! same tables as the folder's `../ref-trt.toml`).
 use std::path::PathBuf;
 use std::time::Instant;
+use volcomp::diagnose::ideal_observer::separation;
+use volcomp::diagnose::oracle::truth_effects;
 use volcomp::diagnose::oracle::{OracleGroup, OracleMachine, read_index, score};
 use volcomp::diagnose::{DiagnoseOptions, diagnose};
 
@@ -48,6 +50,8 @@ fn main() {
     let wrong = OracleMachine::load(&dir.join("machines/x1.4.toml")).expect("x1.4");
     let mut rows: Vec<(OracleGroup, f64, bool)> = Vec::new();
     let mut total = 0.0;
+    // Pairs the ideal observer separates, and of those the pairs passed.
+    let (mut separable, mut separable_passed) = (0usize, 0usize);
     for case in cases
         .iter()
         .filter(|c| only.as_ref().is_none_or(|o| c.name.starts_with(o.as_str())))
@@ -62,6 +66,30 @@ fn main() {
         let report = diagnose(&contexts, &measured, &DiagnoseOptions::default()).expect("diagnose");
         total += started.elapsed().as_secs_f64();
         let s = score(case, &report);
+        let ideal = (case.group == OracleGroup::Pair).then(|| {
+            let truth = truth_effects(&dir, case).expect("truth.json");
+            // What the truth, as volcomp's catalogue computes it, leaves of
+            // the measurement (the noise, if both generators agree).
+            let (mut sse, mut cut) = (0.0, 0usize);
+            for (c, m) in contexts.iter().zip(&measured).filter(|(c, _)| c.cut) {
+                let e: f64 = truth.iter().map(|t| t.deviation_um(c)).sum();
+                sse += (m - c.predicted_um - e).powi(2);
+                cut += 1;
+            }
+            let left = (sse / cut.max(1) as f64).sqrt();
+            let sep = separation(
+                &contexts,
+                &truth,
+                case.noise_um,
+                &DiagnoseOptions::default(),
+            )
+            .expect("ideal observer");
+            (sep, left)
+        });
+        if let Some((id, _)) = &ideal {
+            separable += usize::from(id.separable());
+            separable_passed += usize::from(id.separable() && s.pass);
+        }
         println!(
             "{:<32} {:<4} truth {:<34} said {}",
             case.name,
@@ -73,6 +101,23 @@ fn main() {
             },
             s.said
         );
+        if let Some((id, left)) = ideal.as_ref().filter(|_| verbose) {
+            println!(
+                "    ideal observer: expected margin {:.1} over {} ({}); the truth leaves {left:.3} µm RMS of the measurement (noise {} µm)",
+                id.margin,
+                id.closest
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(" + "),
+                if id.separable() {
+                    "separable"
+                } else {
+                    "not separable"
+                },
+                case.noise_um
+            );
+        }
         if verbose {
             for note in &report.selection_notes {
                 println!("    {note}");
@@ -105,6 +150,9 @@ fn main() {
         "| {}/{} ({s3}/{n3} + {s1}/{n1}) | {l}/{nl} | {p}/{np} | {w}/{nw} | {q}/{nq} |",
         s3 + s1,
         n3 + n1
+    );
+    println!(
+        "pairs this part separates (ideal observer, expected margin ≥ the threshold): {separable}/{np}; both named of those: {separable_passed}/{separable}"
     );
     println!(
         "{} cases, {:.1} ms per diagnosis (diagnose only; machines fitted once)",

@@ -21,6 +21,8 @@
 pub(crate) mod effects;
 mod fit;
 pub mod followup;
+#[cfg(any(test, feature = "testkit"))]
+pub mod ideal_observer;
 pub(crate) mod localization;
 pub(crate) mod machine_file;
 pub(crate) mod noise;

@@ -17,6 +17,7 @@
 //!   the pair the data cannot tell apart); with no effect, the verdict alone.
 //!
 //! Only the tests, benches and examples use it (`testkit`).
+use super::effects::{Effect, EffectKind};
 use super::{DiagnoseOptions, DiagnoseReport, diagnose};
 use crate::machine::{ErrorModel, Machine, ModelOptions};
 use crate::toolpath::PointContext;
@@ -121,6 +122,37 @@ pub fn read_index(root: &Path) -> Result<Vec<OracleCase>, OracleError> {
                 effects,
                 name,
             })
+        })
+        .collect()
+}
+
+/// The effects a case injected, with their values (`truth.json`).
+pub fn truth_effects(root: &Path, case: &OracleCase) -> Result<Vec<Effect>, OracleError> {
+    let path = root.join(&case.name).join("truth.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| file_error(&path, e))?;
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| file_error(&path, e))?;
+    let list = value["effects"]
+        .as_array()
+        .ok_or_else(|| file_error(&path, "expected a list `effects`"))?;
+    list.iter()
+        .map(|e| {
+            let name = e["name"]
+                .as_str()
+                .ok_or_else(|| file_error(&path, "an effect without `name`"))?;
+            let kind = EffectKind::from_name(name)
+                .ok_or_else(|| file_error(&path, format!("`{name}` is not in the catalogue")))?;
+            let params = e["params"]
+                .as_object()
+                .ok_or_else(|| file_error(&path, format!("`{name}` without `params`")))?;
+            let pairs: Vec<(&str, f64)> = params
+                .iter()
+                .map(|(k, v)| {
+                    v.as_f64()
+                        .map(|v| (k.as_str(), v))
+                        .ok_or_else(|| file_error(&path, format!("`{name}.{k}` is not a number")))
+                })
+                .collect::<Result<_, _>>()?;
+            Effect::from_pairs(kind, &pairs).map_err(|e| file_error(&path, e))
         })
         .collect()
 }
