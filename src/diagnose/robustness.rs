@@ -497,7 +497,7 @@ fn followup_readings(
 /// designed), design the follow-up (`followup::design`, the candidates every
 /// cut point in the 12 poses on the generator's synthetic machine,
 /// [`super::synthetic::probe_context`]), simulate its readings with the
-/// case's own truth ([`followup_readings`]) and diagnose the measurement and
+/// case's own truth (`followup_readings`) and diagnose the measurement and
 /// the follow-up together. `duration_min` is the program's duration (for
 /// [`score`]).
 pub fn followup_run(
