@@ -103,18 +103,7 @@ fn main() {
         );
         if let Some((id, left)) = ideal.as_ref().filter(|_| verbose) {
             println!(
-                "    ideal observer: expected margin {:.1} over {} ({}); the truth leaves {left:.3} µm RMS of the measurement (noise {} µm)",
-                id.margin,
-                id.closest
-                    .iter()
-                    .map(|k| k.name())
-                    .collect::<Vec<_>>()
-                    .join(" + "),
-                if id.separable() {
-                    "separable"
-                } else {
-                    "not separable"
-                },
+                "    ideal observer: {id}; the truth leaves {left:.3} µm RMS of the measurement (noise {} µm)",
                 case.noise_um
             );
         }

@@ -238,20 +238,7 @@ fn main() {
                 }
             }
             if verbose {
-                println!(
-                    "  ideal observer: expected margin {:.1} over {} ({})",
-                    id.margin,
-                    id.closest
-                        .iter()
-                        .map(|k| k.name())
-                        .collect::<Vec<_>>()
-                        .join(" + "),
-                    if id.separable() {
-                        "separable"
-                    } else {
-                        "not separable"
-                    }
-                );
+                println!("  ideal observer: {id}");
             }
         }
         if c.class == CaseClass::Pair && !s.all_found {

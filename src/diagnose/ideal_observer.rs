@@ -43,6 +43,24 @@ impl Separation {
     }
 }
 
+impl std::fmt::Display for Separation {
+    /// `expected margin 29.5 over tool_wear + rotary_location (separable)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let closest: Vec<&str> = self.closest.iter().map(|k| k.name()).collect();
+        write!(
+            f,
+            "expected margin {:.1} over {} ({})",
+            self.margin,
+            closest.join(" + "),
+            if self.separable() {
+                "separable"
+            } else {
+                "not separable"
+            }
+        )
+    }
+}
+
 /// Every set of 1 to `size` distinct catalogue effects, in catalogue order.
 fn sets_up_to(size: usize) -> Vec<Vec<EffectKind>> {
     let kinds = EffectKind::ALL;
