@@ -13,11 +13,14 @@
 //! `d²(S) − (p_truth − p_S)·ln n`; the truth is *separable* when its margin
 //! over every such `S` reaches the selection's threshold.
 //!
-//! This favours the observer: it charges no extrapolation and treats the
-//! model's smooth error as white noise (a smooth error hides more than white
-//! noise of the same RMS). So a pair it does not separate is, on this part,
-//! one that no selection can separate in expectation; one it does separate
-//! may still be missed by a sound test on one draw of the noise.
+//! The observer is given the noise as white and exactly known, with the
+//! model's smooth error counted as white noise of its RMS (a smooth error
+//! hides more than that). A pair it does not separate is one whose evidence on
+//! all points stays below the threshold in expectation: a selection that names
+//! it anyway does so below its threshold (a tie-break, or a rival that
+//! extrapolates worse held out than the truth). A pair it separates may still
+//! be missed on one draw of the noise and the model's error, or where the truth
+//! extrapolates worse held out than its rival.
 //!
 //! Evaluation only: `diagnose` never calls it. Invariant: no I/O; deterministic.
 use super::effects::{Effect, EffectKind};
