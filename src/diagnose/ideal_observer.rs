@@ -1,6 +1,6 @@
-//! The ideal observer of the robustness tables (issue 36): can the injected
-//! effects be told, on this part, from every other explanation of their size,
-//! by any selection at all?
+//! The ideal observer of the robustness tables (issue 36): does the evidence
+//! on this part, in expectation, tell the injected effects from every other
+//! explanation of their size by the selection's threshold?
 //!
 //! It knows the truth: the injected effects' own deviations `e` (µm, no noise)
 //! at the measured points. For every other set `S` of at most as many
