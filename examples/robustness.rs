@@ -18,7 +18,7 @@
 //! (`table=UM` adds a table error that does not cancel at other poses), and
 //! is diagnosed again with it.
 //!
-//!     cargo run --release --example robustness -- followup [all] [probes=N] [table=UM] [seed=N]...
+//!     cargo run --release --example robustness -- followup [all] [probes=N] [table=UM] [seed=N]... [pairs=N]
 #![allow(clippy::type_complexity)]
 use std::time::Instant;
 use volcomp::diagnose::followup::FollowupOptions;
@@ -39,6 +39,15 @@ fn set_label(names: &[&str]) -> String {
     v.join(" + ")
 }
 
+/// The generator's default cases, with `pairs=N` pair runs (default 20; 36
+/// makes every pair of the catalogue once).
+fn robustness_options() -> RobustnessOptions {
+    RobustnessOptions {
+        pair_runs: arg_value("pairs").map_or(RobustnessOptions::default().pair_runs, |v| v as u64),
+        ..RobustnessOptions::default()
+    }
+}
+
 /// The follow-up loop on the pair cases (or every case at 0.3 µm with `all`).
 fn followup_mode() {
     let all_classes = std::env::args().any(|a| a == "all");
@@ -54,7 +63,7 @@ fn followup_mode() {
     let seeds: Vec<u64> = std::env::args()
         .filter_map(|a| a.strip_prefix("seed=").and_then(|v| v.parse().ok()))
         .collect();
-    let chosen: Vec<_> = cases(&part, &RobustnessOptions::default())
+    let chosen: Vec<_> = cases(&part, &robustness_options())
         .into_iter()
         .filter(|c| {
             (c.class == CaseClass::Pair || (all_classes && c.noise_um == 0.3))
@@ -180,12 +189,7 @@ fn main() {
     let verbose = std::env::args().any(|a| a == "verbose");
     let part = part();
     let duration = volcomp::toolpath::last_time_min(&part.contexts);
-    // `pairs=N`: N pair runs (default 20; 36 makes every pair of the
-    // catalogue once).
-    let options = RobustnessOptions {
-        pair_runs: arg_value("pairs").map_or(RobustnessOptions::default().pair_runs, |v| v as u64),
-        ..RobustnessOptions::default()
-    };
+    let options = robustness_options();
     // `seed=N` (repeatable): only the cases of those seeds (the table then
     // counts those only).
     let seeds: Vec<u64> = std::env::args()
