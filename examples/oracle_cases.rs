@@ -67,7 +67,7 @@ fn main() {
         total += started.elapsed().as_secs_f64();
         let s = score(case, &report);
         let ideal = (case.group == OracleGroup::Pair).then(|| {
-            let truth = truth_effects(&dir, case).expect("truth.json");
+            let truth = truth_effects(&dir.join(&case.name)).expect("truth.json");
             // What the truth, as volcomp's catalogue computes it, leaves of
             // the measurement (the noise, if both generators agree).
             let (mut sse, mut cut) = (0.0, 0usize);

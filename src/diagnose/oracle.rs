@@ -126,9 +126,10 @@ pub fn read_index(root: &Path) -> Result<Vec<OracleCase>, OracleError> {
         .collect()
 }
 
-/// The effects a case injected, with their values (`truth.json`).
-pub fn truth_effects(root: &Path, case: &OracleCase) -> Result<Vec<Effect>, OracleError> {
-    let path = root.join(&case.name).join("truth.json");
+/// The effects a case injected, with their values (`truth.json` of the
+/// case's folder).
+pub fn truth_effects(case_dir: &Path) -> Result<Vec<Effect>, OracleError> {
+    let path = case_dir.join("truth.json");
     let text = std::fs::read_to_string(&path).map_err(|e| file_error(&path, e))?;
     let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| file_error(&path, e))?;
     let list = value["effects"]
