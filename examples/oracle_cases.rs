@@ -14,8 +14,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 use volcomp::diagnose::ideal_observer::separation;
-use volcomp::diagnose::oracle::truth_effects;
 use volcomp::diagnose::oracle::{OracleGroup, OracleMachine, read_index, score};
+use volcomp::diagnose::oracle::{truth_effects, truth_residual_rms};
 use volcomp::diagnose::{DiagnoseOptions, diagnose};
 
 fn main() {
@@ -68,15 +68,7 @@ fn main() {
         let s = score(case, &report);
         let ideal = (case.group == OracleGroup::Pair).then(|| {
             let truth = truth_effects(&dir.join(&case.name)).expect("truth.json");
-            // What the truth, as volcomp's catalogue computes it, leaves of
-            // the measurement (the noise, if both generators agree).
-            let (mut sse, mut cut) = (0.0, 0usize);
-            for (c, m) in contexts.iter().zip(&measured).filter(|(c, _)| c.cut) {
-                let e: f64 = truth.iter().map(|t| t.deviation_um(c)).sum();
-                sse += (m - c.predicted_um - e).powi(2);
-                cut += 1;
-            }
-            let left = (sse / cut.max(1) as f64).sqrt();
+            let left = truth_residual_rms(&contexts, &measured, &truth);
             let sep = separation(
                 &contexts,
                 &truth,

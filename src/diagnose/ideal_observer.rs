@@ -147,11 +147,8 @@ mod tests {
     /// The robustness generator's pair runs (docs/diagnose.md "seventh pass").
     fn pair(seed: u64) -> Case {
         let options = RobustnessOptions {
-            noise_levels: &[],
             pair_runs: 20,
-            wrong_model_runs: [0, 0, 0],
-            decoy_runs: 0,
-            ..RobustnessOptions::default()
+            ..RobustnessOptions::none()
         };
         cases(&part(), &options)
             .into_iter()

@@ -158,6 +158,19 @@ pub fn truth_effects(case_dir: &Path) -> Result<Vec<Effect>, OracleError> {
         .collect()
 }
 
+/// RMS over the cut points of what `truth`, as volcomp's catalogue computes
+/// it, leaves of a measurement beyond the contexts' prediction, µm: the noise,
+/// when the two generators agree.
+pub fn truth_residual_rms(contexts: &[PointContext], measured_um: &[f64], truth: &[Effect]) -> f64 {
+    let left: Vec<f64> = contexts
+        .iter()
+        .zip(measured_um)
+        .filter(|(c, _)| c.cut)
+        .map(|(c, m)| m - c.predicted_um - truth.iter().map(|e| e.deviation_um(c)).sum::<f64>())
+        .collect();
+    crate::diagnose::noise::rms(&left)
+}
+
 /// A machine and its error model, fitted once for many cases.
 pub struct OracleMachine {
     /// The machine file.

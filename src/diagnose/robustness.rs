@@ -218,6 +218,21 @@ impl Default for RobustnessOptions {
     }
 }
 
+impl RobustnessOptions {
+    /// No case at all: set the counts wanted (`..RobustnessOptions::none()`).
+    pub fn none() -> Self {
+        RobustnessOptions {
+            seeds_per_effect: 0,
+            noise_levels: &[],
+            servo_runs: 0,
+            pair_runs: 0,
+            wrong_model_runs: [0, 0, 0],
+            none_runs: 0,
+            decoy_runs: 0,
+        }
+    }
+}
+
 /// Every case of the table, in a fixed order.
 pub fn cases(part: &SyntheticPart, options: &RobustnessOptions) -> Vec<Case> {
     let ctx = &part.contexts;

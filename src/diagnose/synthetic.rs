@@ -440,27 +440,14 @@ pub fn probe_context(
     // The approach −n in the machine frame (part → machine: Rx(a)·Rz(c)).
     let approach = rx(a, rz(c, n.map(|v| -v)));
     let sigma = crate::toolpath::cut::approach_signs(approach);
+    // `predicted_um`, `axis_deviation_um` and `rotary` stay the cut's.
     PointContext {
-        id: cut.id.clone(),
-        point: p,
-        normal: n,
-        cut: true,
-        line: 0,
-        block: 0,
-        time_min,
         joints,
         sigma,
-        speed_mm_s: 0.0,
-        curvature_per_mm: 0.0,
-        principal_normal: [0.0; 3],
         tool_axis,
-        cut_length_m: 0.0,
-        predicted_um: cut.predicted_um,
         squareness_jacobian,
         location_jacobian,
-        axis_deviation_um: cut.axis_deviation_um,
-        model_u_um: 0.0,
-        rotary: cut.rotary,
         machine_to_part_rotation: None,
+        ..cut.probe_of(time_min)
     }
 }

@@ -82,6 +82,25 @@ impl PointContext {
         }
     }
 
+    /// This cut point probed again on the machine at `time_min` (a follow-up
+    /// probe): the same id, point and normal, with a probe's motion (no
+    /// speed, curvature or cut length) and no table uncertainty. The
+    /// pose-dependent fields are still the cut's: the caller sets the probe's.
+    pub fn probe_of(&self, time_min: f64) -> PointContext {
+        PointContext {
+            cut: true,
+            line: 0,
+            block: 0,
+            time_min,
+            speed_mm_s: 0.0,
+            curvature_per_mm: 0.0,
+            principal_normal: [0.0; 3],
+            cut_length_m: 0.0,
+            model_u_um: 0.0,
+            ..self.clone()
+        }
+    }
+
     /// The letter of each joint slot: X Y Z and the two rotary axes.
     pub fn slot_letters(&self) -> [Axis; 5] {
         [Axis::X, Axis::Y, Axis::Z, self.rotary[0], self.rotary[1]]

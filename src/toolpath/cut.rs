@@ -320,27 +320,16 @@ pub fn probe_context(
     let approach = std::array::from_fn(|i| -(0..3).map(|k| to_part[k][i] * n[k]).sum::<f64>());
     let sigma = approach_signs(approach);
     Ok(Some(PointContext {
-        id: cut.id.clone(),
-        point: p,
-        normal: n,
-        cut: true,
-        line: 0,
-        block: 0,
-        time_min,
         joints: joints.axes(),
         sigma,
-        speed_mm_s: 0.0,
-        curvature_per_mm: 0.0,
-        principal_normal: [0.0; 3],
         tool_axis: u,
-        cut_length_m: 0.0,
         predicted_um: dot(n, e),
         squareness_jacobian: kin.squareness_jacobian(&joints, &errors),
         location_jacobian: kin.location_jacobian(&joints, &errors),
         axis_deviation_um,
-        model_u_um: 0.0,
         rotary: kin.rotary(),
         machine_to_part_rotation: Some(to_part),
+        ..cut.probe_of(time_min)
     }))
 }
 

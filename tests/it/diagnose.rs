@@ -1705,13 +1705,8 @@ fn a_bump_does_not_decide_a_tie_at_the_headline() {
     use volcomp::diagnose::robustness::{CaseClass, RobustnessOptions, cases, part};
     let part = part();
     let options = RobustnessOptions {
-        seeds_per_effect: 0,
-        noise_levels: &[],
-        servo_runs: 0,
-        pair_runs: 0,
-        wrong_model_runs: [0, 0, 0],
-        none_runs: 0,
         decoy_runs: 2,
+        ..RobustnessOptions::none()
     };
     let c = cases(&part, &options)
         .into_iter()
@@ -1970,7 +1965,7 @@ fn an_oracle_pair_the_measurement_cannot_name_is_named_after_its_followup() {
 fn an_oracle_pair_read_from_its_truth_is_separable_on_its_part() {
     use volcomp::diagnose::EffectKind;
     use volcomp::diagnose::ideal_observer::separation;
-    use volcomp::diagnose::oracle::{OracleMachine, read_index, truth_effects};
+    use volcomp::diagnose::oracle::{OracleMachine, read_index, truth_effects, truth_residual_rms};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = root.join("tests/data/oracle-cases");
     let case = read_index(&dir)
@@ -1987,13 +1982,7 @@ fn an_oracle_pair_read_from_its_truth_is_separable_on_its_part() {
     assert_eq!(truth[1].tau(), 3.4);
     let machine = OracleMachine::load(&root.join("machines/ref-trt.toml")).unwrap();
     let (contexts, measured) = machine.case_inputs(&dir, &case).unwrap();
-    let left: Vec<f64> = contexts
-        .iter()
-        .zip(&measured)
-        .filter(|(c, _)| c.cut)
-        .map(|(c, m)| m - c.predicted_um - truth.iter().map(|e| e.deviation_um(c)).sum::<f64>())
-        .collect();
-    let rms = (left.iter().map(|v| v * v).sum::<f64>() / left.len() as f64).sqrt();
+    let rms = truth_residual_rms(&contexts, &measured, &truth);
     // Noise 0.3 µm; what is left beyond it is the two generators' and the
     // table fit's differences (0.39 µm measured).
     assert!((0.25..0.45).contains(&rms), "{rms}");
@@ -2050,13 +2039,8 @@ fn the_followup_separates_an_alias_pair_of_the_robustness_generator() {
     let part = part();
     let duration = volcomp::toolpath::last_time_min(&part.contexts);
     let options = RobustnessOptions {
-        seeds_per_effect: 0,
-        noise_levels: &[],
-        servo_runs: 0,
         pair_runs: 4,
-        wrong_model_runs: [0, 0, 0],
-        none_runs: 0,
-        decoy_runs: 0,
+        ..RobustnessOptions::none()
     };
     let c = cases(&part, &options)
         .into_iter()
